@@ -1,0 +1,94 @@
+"""ROS message layouts carried on Drake abstract-valued ports.
+
+The field names follow the ROS 2 messages users already know
+(``sensor_msgs/JointState``, ``std_msgs/Float64MultiArray``,
+``trajectory_msgs/JointTrajectory``), with times as float seconds of
+simulation time instead of ``builtin_interfaces/Time``.
+
+A topic is a port whose value is a :class:`Publication`: the number of
+messages published on it so far and the latest one. A subscriber (a
+controller) remembers the count it has handled and treats a larger count as a
+new message, so each message is validated and acted on exactly once, as with
+a ROS subscription of queue depth 1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from pydrake.common.value import AbstractValue
+
+
+@dataclass(frozen=True)
+class JointState:
+    """sensor_msgs/JointState: one sample of named joints."""
+
+    stamp: float = 0.0  # [s] simulation time of the sample (header.stamp)
+    name: tuple[str, ...] = ()
+    position: tuple[float, ...] = ()  # [rad] or [m]
+    velocity: tuple[float, ...] = ()  # [rad/s] or [m/s]
+    effort: tuple[float, ...] = ()  # [N m] or [N]
+
+
+@dataclass(frozen=True)
+class Float64MultiArray:
+    """std_msgs/Float64MultiArray as the forward-command controllers read it."""
+
+    data: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class JointTrajectoryPoint:
+    """trajectory_msgs/JointTrajectoryPoint."""
+
+    positions: tuple[float, ...] = ()
+    velocities: tuple[float, ...] = ()
+    accelerations: tuple[float, ...] = ()
+    effort: tuple[float, ...] = ()
+    time_from_start: float = 0.0  # [s] since the trajectory's start
+
+
+@dataclass(frozen=True)
+class JointTrajectory:
+    """trajectory_msgs/JointTrajectory.
+
+    ``stamp`` is header.stamp: 0 means "start when received"; a non-zero
+    stamp is the simulation time at which the trajectory starts.
+    """
+
+    stamp: float = 0.0  # [s]
+    joint_names: tuple[str, ...] = ()
+    points: tuple[JointTrajectoryPoint, ...] = ()
+
+
+@dataclass(frozen=True)
+class Publication:
+    """The value of a topic port: how many messages so far, and the latest.
+
+    ``count == 0`` means nothing has been published yet (``message`` is None).
+    """
+
+    count: int = 0
+    message: Any = None
+    stamp: float = 0.0  # [s] simulation time at which ``message`` was published
+
+    def publish(self, message: Any, stamp: float = 0.0) -> Publication:
+        """The publication that follows this one with ``message`` as the latest."""
+        return Publication(count=self.count + 1, message=message, stamp=stamp)
+
+
+def PublicationValue(publication: Publication | None = None) -> AbstractValue:
+    """A model value for declaring a topic port."""
+    return AbstractValue.Make(Publication() if publication is None else publication)
+
+
+@dataclass
+class ControllerStatus:
+    """What a controller reports about the commands it received."""
+
+    state: str = "idle"  # idle | holding | executing | succeeded | aborted | active
+    accepted: int = 0  # messages accepted so far
+    rejected: int = 0  # messages rejected so far
+    last_error: str = ""  # reason of the latest rejection or abort, "" if none
+    detail: dict[str, Any] = field(default_factory=dict)

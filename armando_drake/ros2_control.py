@@ -1,0 +1,219 @@
+"""The ``<ros2_control>`` block of a URDF, parsed and checked as upstream does.
+
+Upstream (``hardware_interface/component_parser.cpp``) reads
+``<ros2_control name=".." type="system|actuator|sensor">`` holding one
+``<hardware>`` with a ``<plugin>`` and ``<param>``s, and ``<joint>``,
+``<sensor>``, ``<gpio>`` components with ``<command_interface>`` and
+``<state_interface>`` children. The messages here follow upstream's and name
+the tag and attribute at fault; the description file is named in front.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+
+
+class Ros2ControlError(ValueError):
+    """A ``<ros2_control>`` block that upstream would refuse."""
+
+
+@dataclass
+class InterfaceInfo:
+    """One command or state interface of a joint."""
+
+    name: str  # position | velocity | effort | acceleration | ...
+    min: float | None = None
+    max: float | None = None
+    initial_value: float | None = None
+    data_type: str = "double"
+    size: int = 1
+    parameters: dict[str, str] = field(default_factory=dict)
+
+
+@dataclass
+class ComponentInfo:
+    """A ``<joint>``, ``<sensor>`` or ``<gpio>`` of the block."""
+
+    name: str
+    type: str  # joint | sensor | gpio
+    command_interfaces: list[InterfaceInfo] = field(default_factory=list)
+    state_interfaces: list[InterfaceInfo] = field(default_factory=list)
+    parameters: dict[str, str] = field(default_factory=dict)
+
+    def command_interface(self, name: str) -> InterfaceInfo | None:
+        return next((i for i in self.command_interfaces if i.name == name), None)
+
+    def state_interface(self, name: str) -> InterfaceInfo | None:
+        return next((i for i in self.state_interfaces if i.name == name), None)
+
+
+@dataclass
+class HardwareInfo:
+    """One ``<ros2_control>`` block."""
+
+    name: str
+    type: str  # system | actuator | sensor
+    plugin: str
+    hardware_parameters: dict[str, str] = field(default_factory=dict)
+    joints: list[ComponentInfo] = field(default_factory=list)
+    sensors: list[ComponentInfo] = field(default_factory=list)
+    gpios: list[ComponentInfo] = field(default_factory=list)
+
+
+_COMPONENT_TAGS = ("joint", "sensor", "gpio")
+_TOP_TAGS = ("hardware", *_COMPONENT_TAGS, "transmission")
+_INTERFACE_TAGS = ("command_interface", "state_interface")
+
+
+def _attribute(element: ET.Element, name: str, where: str) -> str:
+    value = element.get(name)
+    if value is None:
+        raise Ros2ControlError(f"{where}no attribute '{name}' in '{element.tag}' tag")
+    return value
+
+
+def _parameters(element: ET.Element, where: str) -> dict[str, str]:
+    result = {}
+    for param in element.findall("param"):
+        name = param.get("name")
+        if name is None:
+            raise Ros2ControlError(f"{where}no attribute 'name' in 'param' tag")
+        result[name] = (param.text or "").strip()
+    return result
+
+
+def _number(text: str, what: str, where: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise Ros2ControlError(f"{where}{what}={text!r} is not a number") from None
+    return value
+
+
+def _interface(element: ET.Element, owner: str, where: str) -> InterfaceInfo:
+    name = _attribute(element, "name", where)
+    if not name.strip():
+        raise Ros2ControlError(
+            f"{where}empty interface type in '{element.tag}' of '{owner}'"
+        )
+    parameters = _parameters(element, where)
+    size_text = element.get("size", "1")
+    try:
+        size = int(size_text)
+    except ValueError:
+        raise Ros2ControlError(
+            f"{where}size={size_text!r} of {element.tag} '{name}' of '{owner}' is not an integer"
+        ) from None
+    if size < 0:
+        raise Ros2ControlError(
+            f"{where}size={size} of {element.tag} '{name}' of '{owner}' is negative"
+        )
+    info = InterfaceInfo(
+        name=name,
+        data_type=element.get("data_type", "double"),
+        size=size,
+        parameters=parameters,
+    )
+    for key in ("min", "max", "initial_value"):
+        if key in parameters:
+            label = f"{element.tag} '{name}' of '{owner}' {key}"
+            setattr(info, key, _number(parameters[key], label, where))
+    if info.min is not None and info.max is not None and info.min > info.max:
+        raise Ros2ControlError(
+            f"{where}{element.tag} '{name}' of '{owner}' has min={info.min} > max={info.max}"
+        )
+    return info
+
+
+def _component(element: ET.Element, where: str) -> ComponentInfo:
+    name = _attribute(element, "name", where)
+    component = ComponentInfo(name=name, type=element.tag, parameters=_parameters(element, where))
+    for child in element:
+        if child.tag == "command_interface":
+            component.command_interfaces.append(_interface(child, name, where))
+        elif child.tag == "state_interface":
+            component.state_interfaces.append(_interface(child, name, where))
+        elif child.tag == "param":
+            pass
+        else:
+            raise Ros2ControlError(
+                f"{where}unknown tag <{child.tag}> in <{element.tag} name='{name}'>; "
+                f"expected {', '.join(_INTERFACE_TAGS)} or param"
+            )
+    return component
+
+
+def parse_ros2_control(root: ET.Element, source: str = "") -> list[HardwareInfo]:
+    """Every ``<ros2_control>`` block of a URDF, checked against its joints.
+
+    Joints named in a block must exist in the URDF and must not be fixed.
+    """
+    where = f"{source}: " if source else ""
+    if root.tag != "robot":
+        raise Ros2ControlError(f"{where}not a URDF: the root element is <{root.tag}>")
+    urdf_joints = {j.get("name"): j.get("type") for j in root.findall("joint")}
+    blocks = []
+    for block in root.findall("ros2_control"):
+        name = _attribute(block, "name", where)
+        kind = _attribute(block, "type", where)
+        if kind not in ("system", "actuator", "sensor"):
+            raise Ros2ControlError(
+                f"{where}<ros2_control name='{name}'> has type='{kind}'; "
+                "expected system, actuator or sensor"
+            )
+        hardware = block.find("hardware")
+        plugin = None if hardware is None else hardware.find("plugin")
+        if plugin is None or not (plugin.text or "").strip():
+            raise Ros2ControlError(f"{where}Missing <plugin> tag of <hardware> element for '{name}'")
+        info = HardwareInfo(
+            name=name,
+            type=kind,
+            plugin=plugin.text.strip(),
+            hardware_parameters=_parameters(hardware, where),
+        )
+        for child in block:
+            if child.tag not in _TOP_TAGS:
+                raise Ros2ControlError(
+                    f"{where}unknown tag <{child.tag}> in <ros2_control name='{name}'>; "
+                    f"expected one of {', '.join(_TOP_TAGS)}"
+                )
+            if child.tag == "joint":
+                joint = _component(child, where)
+                if joint.name not in urdf_joints:
+                    raise Ros2ControlError(
+                        f"{where}<ros2_control name='{name}'>: Joint '{joint.name}' not found in URDF"
+                    )
+                if urdf_joints[joint.name] == "fixed":
+                    raise Ros2ControlError(
+                        f"{where}<ros2_control name='{name}'>: Joint '{joint.name}' is fixed "
+                        "and cannot be controlled"
+                    )
+                info.joints.append(joint)
+            elif child.tag == "sensor":
+                info.sensors.append(_component(child, where))
+            elif child.tag == "gpio":
+                info.gpios.append(_component(child, where))
+        blocks.append(info)
+    return blocks
+
+
+def merge_limits(
+    lower: float, upper: float, interface: InterfaceInfo | None
+) -> tuple[float, float]:
+    """URDF limits combined with an interface's ``min``/``max``: the tighter wins."""
+    if interface is not None:
+        if interface.min is not None:
+            lower = max(lower, interface.min)
+        if interface.max is not None:
+            upper = min(upper, interface.max)
+    return lower, upper
+
+
+def initial_position(lower: float, upper: float, interface: InterfaceInfo | None) -> float:
+    """``initial_value`` of a position state interface, else 0, clamped into the limits."""
+    value = 0.0 if interface is None or interface.initial_value is None else interface.initial_value
+    if not math.isfinite(value):
+        value = 0.0
+    return min(max(value, lower), upper)
