@@ -57,10 +57,8 @@ class PackageSearch:
     def resolve(self, name: str) -> Path:
         """The directory of package ``name``, or an error naming the search path."""
         if name not in self.packages:
-            raise DescriptionError(
-                f"unknown package {name!r}: not found in any of\n  "
-                + "\n  ".join(self.searched or ["(no search path)"])
-            )
+            searched = "; ".join(self.searched) or "(no search path)"
+            raise DescriptionError(f"unknown package {name!r} (searched {searched})")
         return self.packages[name]
 
 
@@ -163,7 +161,9 @@ def _xacro_error(path: Path, error: BaseException) -> DescriptionError:
 
     files = [str(f) for f in (xacro.filestack or []) if f]
     where = files[-1] if files else str(path)
-    line = getattr(error, "lineno", None)
+    from xml.parsers.expat import ExpatError
+
+    line = error.lineno if isinstance(error, ExpatError) else None
     cause = error
     while getattr(cause, "exc", None) is not None and cause.exc is not cause:
         cause = cause.exc
@@ -171,8 +171,9 @@ def _xacro_error(path: Path, error: BaseException) -> DescriptionError:
         text = str(cause)
     else:
         text = str(error)
-    if line is None:
-        line = getattr(cause, "lineno", None)
+    if line is None and isinstance(cause, ExpatError):
+        line = cause.lineno
+    text = "; ".join(part.strip() for part in text.strip().splitlines() if part.strip())
     location = f"{where}:{line}" if line else where
     chain = ""
     if len(files) > 1:
@@ -321,7 +322,9 @@ def parse_urdf(urdf: str, source: str | os.PathLike = "<string>") -> ET.Element:
     except ET.ParseError as error:
         raise DescriptionError(f"{source}: not valid XML: {error}") from None
     if root.tag != "robot":
-        raise DescriptionError(f"{source}: not a URDF: the root element is <{root.tag}>, not <robot>")
+        raise DescriptionError(
+            f"{source}: not a URDF: the root element is <{root.tag}>, not <robot>"
+        )
     return root
 
 

@@ -95,9 +95,7 @@ def _number(text: str, what: str, where: str) -> float:
 def _interface(element: ET.Element, owner: str, where: str) -> InterfaceInfo:
     name = _attribute(element, "name", where)
     if not name.strip():
-        raise Ros2ControlError(
-            f"{where}empty interface type in '{element.tag}' of '{owner}'"
-        )
+        raise Ros2ControlError(f"{where}empty interface type in '{element.tag}' of '{owner}'")
     parameters = _parameters(element, where)
     size_text = element.get("size", "1")
     try:
@@ -166,7 +164,9 @@ def parse_ros2_control(root: ET.Element, source: str = "") -> list[HardwareInfo]
         hardware = block.find("hardware")
         plugin = None if hardware is None else hardware.find("plugin")
         if plugin is None or not (plugin.text or "").strip():
-            raise Ros2ControlError(f"{where}Missing <plugin> tag of <hardware> element for '{name}'")
+            raise Ros2ControlError(
+                f"{where}Missing <plugin> tag of <hardware> element for '{name}'"
+            )
         info = HardwareInfo(
             name=name,
             type=kind,
@@ -183,7 +183,8 @@ def parse_ros2_control(root: ET.Element, source: str = "") -> list[HardwareInfo]
                 joint = _component(child, where)
                 if joint.name not in urdf_joints:
                     raise Ros2ControlError(
-                        f"{where}<ros2_control name='{name}'>: Joint '{joint.name}' not found in URDF"
+                        f"{where}<ros2_control name='{name}'>: "
+                        f"Joint '{joint.name}' not found in URDF"
                     )
                 if urdf_joints[joint.name] == "fixed":
                     raise Ros2ControlError(

@@ -1,0 +1,44 @@
+"""What the command-line entry points share: argument helpers and error reporting."""
+
+from __future__ import annotations
+
+import contextlib
+import sys
+from collections.abc import Iterable, Iterator
+
+
+class UserError(Exception):
+    """A mistake in the user's input, reported as one line without a traceback."""
+
+
+def parse_xacro_args(items: Iterable[str]) -> dict[str, str]:
+    """``["name:=value", ...]`` as a mapping; errors name the bad item."""
+    result = {}
+    for item in items:
+        name, sep, value = item.partition(":=")
+        if not sep or not name:
+            raise UserError(f"--xacro-arg {item!r} is not of the form name:=value")
+        result[name] = value
+    return result
+
+
+@contextlib.contextmanager
+def user_errors() -> Iterator[None]:
+    """Turns the project's input errors into ``error: ...`` on stderr and exit 2."""
+    from armando_drake.description import DescriptionError
+    from armando_drake.ros2_control import Ros2ControlError
+
+    errors: tuple[type[BaseException], ...] = (UserError, DescriptionError, Ros2ControlError)
+    for module, name in (
+        ("armando_drake.controller_config", "ControllerConfigError"),
+        ("armando_drake.camera", "CameraError"),
+        ("armando_drake.sequencer", "SequencerError"),
+        ("armando_drake.scenario", "ScenarioError"),
+    ):
+        with contextlib.suppress(ImportError, AttributeError):
+            errors += (getattr(__import__(module, fromlist=[name]), name),)
+    try:
+        yield
+    except errors as error:
+        print(f"error: {error}", file=sys.stderr)
+        sys.exit(2)

@@ -1,0 +1,102 @@
+"""Shared fixtures: the course package in ../shared, headless Chromium, a tiny robot."""
+
+import os
+import shutil
+import textwrap
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED = REPO.parent / "shared"
+COURSE_PACKAGE = SHARED / "upstream" / "arm_description"
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+
+
+def skip_or_fail(reason: str) -> None:
+    """Skips a test for a missing resource, but fails under CI, where it must exist."""
+    if os.environ.get("CI"):
+        pytest.fail(f"{reason} (CI is set, so this is an error)")
+    pytest.skip(reason)
+
+
+@pytest.fixture
+def course_package() -> Path:
+    """The course's arm_description package (read only, never copied)."""
+    if not (COURSE_PACKAGE / "urdf" / "arm.urdf").is_file():
+        skip_or_fail(f"the course package is not at {COURSE_PACKAGE}")
+    return COURSE_PACKAGE
+
+
+@pytest.fixture
+def chromium() -> str:
+    """Debian's headless Chromium."""
+    if not os.path.exists(CHROMIUM):
+        skip_or_fail("Debian's chromium is not installed (apt-get install chromium)")
+    return CHROMIUM
+
+
+MINI_XACRO = """\
+<?xml version="1.0"?>
+<robot name="mini" xmlns:xacro="http://www.ros.org/wiki/xacro">
+  <xacro:arg name="prefix" default=""/>
+  <xacro:property name="prefix" value="$(arg prefix)"/>
+  <xacro:include filename="$(find mini_description)/urdf/parts.xacro"/>
+  <xacro:box_link name="${prefix}base_link" size="0.1 0.1 0.05" rgba="0.2 0.2 0.2 1"/>
+  <xacro:box_link name="${prefix}upper" size="0.03 0.03 0.2" rgba="0.9 0.1 0.1 1"/>
+  <xacro:box_link name="${prefix}lower" size="0.03 0.03 0.2" rgba="0.1 0.9 0.1 1"/>
+  <joint name="${prefix}q1" type="revolute">
+    <parent link="${prefix}base_link"/><child link="${prefix}upper"/>
+    <origin xyz="0 0 0.125"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" effort="10" velocity="3"/>
+  </joint>
+  <joint name="${prefix}q2" type="revolute">
+    <parent link="${prefix}upper"/><child link="${prefix}lower"/>
+    <origin xyz="0 0 0.2"/><axis xyz="0 1 0"/>
+    <limit lower="-2.5" upper="2.5" effort="10" velocity="3"/>
+  </joint>
+  <joint name="${prefix}tip_joint" type="fixed">
+    <parent link="${prefix}lower"/><child link="${prefix}tip"/><origin xyz="0 0 0.1"/>
+  </joint>
+  <link name="${prefix}tip"/>
+  EXTRA
+</robot>
+"""
+
+MINI_PARTS = """\
+<?xml version="1.0"?>
+<robot xmlns:xacro="http://www.ros.org/wiki/xacro">
+  <xacro:macro name="box_link" params="name size rgba">
+    <link name="${name}">
+      <visual>
+        <geometry><box size="${size}"/></geometry>
+        <material name="${name}_color"><color rgba="${rgba}"/></material>
+      </visual>
+      <collision><geometry><box size="${size}"/></geometry></collision>
+      <inertial>
+        <mass value="0.1"/>
+        <inertia ixx="1e-4" iyy="1e-4" izz="1e-4" ixy="0" ixz="0" iyz="0"/>
+      </inertial>
+    </link>
+  </xacro:macro>
+</robot>
+"""
+
+
+def make_mini_package(root: Path, extra: str = "") -> Path:
+    """Writes a two-joint ROS package ``mini_description`` under ``root``; returns its dir."""
+    package = root / "mini_description"
+    (package / "urdf").mkdir(parents=True)
+    (package / "package.xml").write_text(
+        '<package format="3"><name>mini_description</name></package>\n'
+    )
+    (package / "urdf" / "parts.xacro").write_text(MINI_PARTS)
+    (package / "urdf" / "mini.urdf.xacro").write_text(
+        MINI_XACRO.replace("EXTRA", textwrap.indent(extra, "  ").strip())
+    )
+    return package
+
+
+@pytest.fixture
+def mini_package(tmp_path) -> Path:
+    return make_mini_package(tmp_path)
