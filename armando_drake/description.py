@@ -337,12 +337,15 @@ def load_robot(
     X_WB: RigidTransform | None = None,
     weld: bool = True,
     model_name: str | None = None,
+    collision: str = "auto",
 ) -> LoadedRobot:
     """Adds a robot description to ``plant`` and returns its summary.
 
     ``description`` is a ``.urdf``/``.xacro`` file, a package directory or a
     ``package://pkg/file`` URL (default: the built-in Armando). The root link is
-    welded to the world at ``X_WB`` unless ``weld`` is False.
+    welded to the world at ``X_WB`` unless ``weld`` is False. Before Drake parses
+    it, the URDF goes through :func:`armando_drake.importer.prepare_urdf` (mesh
+    conversion, ``collision`` mode, inertia repairs).
     """
     from armando_drake.camera import parse_camera_sensors
 
@@ -360,10 +363,13 @@ def load_robot(
     cameras = parse_camera_sensors(root, source=str(source))
     base_link = _root_link(root)
 
+    from armando_drake.importer import prepare_urdf
+
+    prepared = prepare_urdf(urdf, search, collision=collision, source=source)
     parser = Parser(plant, model_name) if model_name else Parser(plant)
     parser.package_map().AddMap(search.package_map())
     try:
-        (model_instance,) = parser.AddModelsFromString(urdf, "urdf")
+        (model_instance,) = parser.AddModelsFromString(prepared.urdf, "urdf")
     except Exception as error:  # Drake's parser raises RuntimeError with its diagnostic
         raise DescriptionError(f"{source}: Drake could not load the URDF: {error}") from None
     if weld:
