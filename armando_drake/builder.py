@@ -1,0 +1,482 @@
+"""The world builder: one function turns a :class:`Scenario` into a Drake diagram.
+
+Every entry point (``python -m armando_drake.world``, the notebooks, the tests)
+calls :func:`MakeWorld`; none wires systems by hand. The steps follow the
+bring-up of the course: spawn the robot in a physics world, give it a position
+hardware interface, start the ros2_control controllers from their YAML, then
+add what drives and watches them (command sequencer, joint-state logger,
+camera, Meshcat).
+
+Ports of the diagram, by name:
+
+- ``<controller>.commands`` / ``<controller>.joint_trajectory``: command
+  inputs of the active position / trajectory controllers that no sequencer
+  drives (a :class:`~armando_drake.messages.Publication`; see
+  :meth:`World.publish`);
+- ``<controller>.status``: each command controller's ControllerStatus;
+- ``joint_states``: the broadcaster's JointState;
+- ``desired_state``: [q_d; v_d] sent to the actuators, hardware joint order;
+- ``<camera>.color_image`` / ``<camera>.depth_image`` when the camera is on.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydrake.geometry import Box, Meshcat
+from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.multibody.plant import (
+    AddMultibodyPlant,
+    CoulombFriction,
+    MultibodyPlant,
+)
+from pydrake.systems.framework import Context, Diagram, DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource, MatrixGain, Multiplexer
+from pydrake.visualization import ApplyVisualizationConfig
+
+from armando_drake.controller_config import (
+    ControllerConfig,
+    ControllerManagerConfig,
+    load_controller_config,
+    parse_controller_config,
+    validate_joints,
+)
+from armando_drake.controllers import (
+    JointGroupPositionController,
+    JointStateBroadcaster,
+    JointTrajectoryController,
+)
+from armando_drake.description import LoadedRobot, load_robot
+from armando_drake.hardware import (
+    AddHardwareInterface,
+    FinishHardwareInterface,
+    GravityFeedforward,
+    HardwareInterface,
+)
+from armando_drake.messages import Publication
+from armando_drake.objects import AddSceneObjects
+from armando_drake.scenario import Scenario, ScenarioError
+
+_log = logging.getLogger("armando_drake.world")
+
+POSITION_TYPES = (
+    "position_controllers/JointGroupPositionController",
+    "forward_command_controller/ForwardCommandController",
+)
+TRAJECTORY_TYPE = "joint_trajectory_controller/JointTrajectoryController"
+BROADCASTER_TYPE = "joint_state_broadcaster/JointStateBroadcaster"
+
+
+@dataclass
+class World:
+    """The built diagram and handles to its parts."""
+
+    diagram: Diagram
+    plant: MultibodyPlant
+    scene_graph: Any
+    robot: LoadedRobot
+    hardware: HardwareInterface
+    controller_config: ControllerManagerConfig
+    update_rate: float  # [Hz] the controller manager's rate
+    controllers: dict[str, Any] = field(default_factory=dict)  # active ones, by name
+    controller_joints: dict[str, list[str]] = field(default_factory=dict)  # by name
+    broadcaster: Any = None
+    sequencer: Any = None
+    logger: Any = None
+    cameras: dict[str, Any] = field(default_factory=dict)
+    meshcat: Meshcat | None = None
+    closers: list = field(default_factory=list)  # called by close()
+
+    def publish(self, context: Context, controller: str, message: Any) -> None:
+        """Publishes ``message`` on a controller's command input, like a ROS topic."""
+        port = self.command_port(controller)
+        previous = port.Eval(context) if port.HasValue(context) else Publication()
+        port.FixValue(context, previous.publish(message, stamp=context.get_time()))
+
+    def command_port(self, controller: str):
+        for suffix in ("commands", "joint_trajectory"):
+            name = f"{controller}.{suffix}"
+            if self.diagram.HasInputPort(name):
+                return self.diagram.GetInputPort(name)
+        raise KeyError(f"no command input for controller {controller!r}")
+
+    def status(self, context: Context, controller: str):
+        return self.diagram.GetOutputPort(f"{controller}.status").Eval(context)
+
+    def joint_positions(self, context: Context) -> np.ndarray:
+        """Measured positions of the hardware joints [rad], hardware order."""
+        x = self.plant.GetPositionsAndVelocities(
+            self.plant.GetMyContextFromRoot(context), self.robot.model_instance
+        )
+        return x[self.hardware.position_index]
+
+    def close(self) -> None:
+        for closer in self.closers:
+            closer()
+        self.closers.clear()
+
+
+def _controller_config(scenario: Scenario, robot: LoadedRobot, hardware) -> ControllerManagerConfig:
+    """The controller YAML of the scenario, of the description package, or a default."""
+    path = scenario.controllers.config
+    if path:
+        return load_controller_config(Path(path))
+    package_dir = robot.source.parent.parent
+    candidates = sorted((package_dir / "config").glob("*controllers*.yaml"))
+    if candidates and (package_dir / "package.xml").is_file():
+        return load_controller_config(candidates[0])
+    data = default_controller_yaml(hardware.joint_names)
+    return parse_controller_config(data, source=f"<default controllers of {robot.name}>")
+
+
+def default_controller_yaml(joints: list[str], update_rate: int = 100) -> dict:
+    """The controller YAML a robot without one gets: broadcaster, position, trajectory."""
+    return {
+        "controller_manager": {
+            "ros__parameters": {
+                "update_rate": update_rate,
+                "joint_state_broadcaster": {"type": BROADCASTER_TYPE},
+                "position_controller": {"type": POSITION_TYPES[0]},
+                "trajectory_controller": {"type": TRAJECTORY_TYPE},
+            }
+        },
+        "position_controller": {"ros__parameters": {"joints": list(joints)}},
+        "trajectory_controller": {
+            "ros__parameters": {
+                "joints": list(joints),
+                "command_interfaces": ["position"],
+                "state_interfaces": ["position", "velocity"],
+            }
+        },
+    }
+
+
+def _add_ground(plant: MultibodyPlant) -> None:
+    """A 2 m x 2 m slab whose top face is the plane z = 0."""
+    X_WG = RigidTransform([0.0, 0.0, -0.025])
+    ground = Box(2.0, 2.0, 0.05)
+    plant.RegisterCollisionGeometry(
+        plant.world_body(), X_WG, ground, "ground", CoulombFriction(0.8, 0.8)
+    )
+    plant.RegisterVisualGeometry(
+        plant.world_body(), X_WG, ground, "ground", np.array([0.85, 0.85, 0.82, 1.0])
+    )
+
+
+def _selector(builder: DiagramBuilder, matrix: np.ndarray, name: str):
+    system = builder.AddSystem(MatrixGain(matrix))
+    system.set_name(name)
+    return system
+
+
+def MakeWorld(
+    scenario: Scenario,
+    *,
+    meshcat: Meshcat | None = None,
+    output_dir: str | os.PathLike | None = None,
+    quiet: bool = False,
+    source: str = "",
+) -> World:
+    """Builds the world diagram of ``scenario``.
+
+    ``meshcat``: draw the world there (when the scenario's visualization is on).
+    ``output_dir``: where the logger writes ``joint_states.csv`` (none: no CSV).
+    ``source``: the scenario file, named in error messages.
+    """
+    where = f"{source}: " if source else ""
+    builder = DiagramBuilder()
+    plant_config = scenario.plant_config
+    if plant_config.time_step > 0 and plant_config.discrete_contact_approximation == "tamsi":
+        raise ScenarioError(
+            f"{where}plant_config.discrete_contact_approximation='tamsi' ignores PD actuator "
+            "gains; use 'lagged', 'sap' or 'similar'"
+        )
+    from pydrake.multibody.plant import ApplyMultibodyPlantConfig
+
+    plant, scene_graph = AddMultibodyPlant(plant_config, builder)
+    ApplyMultibodyPlantConfig(plant_config, plant)
+
+    # Spawn the robot: load the description and weld its base at the spawn pose.
+    robot_config = scenario.robot
+    X_WB = RigidTransform(RollPitchYaw(robot_config.base_rpy), robot_config.base_xyz)
+    robot = load_robot(
+        plant,
+        robot_config.description or None,
+        xacro_args=robot_config.xacro_args,
+        package_paths=robot_config.package_paths,
+        X_WB=X_WB,
+        collision=robot_config.collision,
+    )
+    if scenario.ground:
+        _add_ground(plant)
+    AddSceneObjects(plant, scenario.objects)
+
+    # The hardware interface: PD actuators from <ros2_control>.
+    actuators = scenario.actuators
+    hardware = AddHardwareInterface(
+        plant, robot, kp=actuators.kp, kd=actuators.kd, gains=actuators.gains
+    )
+    plant.Finalize()
+    FinishHardwareInterface(plant, robot, hardware)
+    _log.info(
+        "hardware interface %r (%s): %s",
+        hardware.name,
+        hardware.source,
+        ", ".join(f"{j.name} [{j.lower:.2f}, {j.upper:.2f}]" for j in hardware.joints),
+    )
+
+    # The controller manager: read the YAML, then load and activate controllers.
+    config = _controller_config(scenario, robot, hardware)
+    validate_joints(config, hardware.joint_names, config.source)
+    rate = float(config.update_rate)
+    world = World(
+        diagram=None,  # set below
+        plant=plant,
+        scene_graph=scene_graph,
+        robot=robot,
+        hardware=hardware,
+        controller_config=config,
+        update_rate=rate,
+        meshcat=meshcat,
+    )
+    instance_state = plant.get_state_output_port(robot.model_instance)
+    claimed: dict[str, str] = {}
+    command_outputs = []  # (controller joints, desired_state port)
+    for name in scenario.controllers.activate:
+        if name not in config.controllers:
+            raise ScenarioError(
+                f"{where}controllers.activate names {name!r}, which {config.source} does not "
+                f"define (defined: {', '.join(config.controllers) or 'none'})"
+            )
+        controller = config.controllers[name]
+        joints = controller.joints or hardware.joint_names
+        _log.info(
+            "loaded controller %r of type %s on %s at %g Hz",
+            name,
+            controller.type,
+            ", ".join(joints),
+            rate,
+        )
+        system = _add_controller(builder, world, controller, joints, instance_state)
+        if controller.type != BROADCASTER_TYPE:
+            for joint in joints:
+                if joint in claimed:
+                    raise ScenarioError(
+                        f"{where}controllers {claimed[joint]!r} and {name!r} both command "
+                        f"joint {joint!r}; activate only one of them"
+                    )
+                claimed[joint] = name
+            command_outputs.append((joints, system.GetOutputPort("desired_state")))
+        _log.info("activated controller %r", name)
+
+    # Desired state for the actuators: controllers' outputs, unclaimed joints
+    # held at their initial positions.
+    if command_outputs:
+        desired = _assemble_desired_state(builder, world, command_outputs)
+        builder.Connect(desired, plant.get_desired_state_input_port(robot.model_instance))
+        builder.ExportOutput(desired, "desired_state")
+        if actuators.gravity_feedforward:
+            feedforward = builder.AddSystem(
+                GravityFeedforward(plant=plant, robot=robot, hardware=hardware, update_rate=rate)
+            )
+            feedforward.set_name("gravity_feedforward")
+            builder.Connect(desired, feedforward.get_input_port())
+            builder.Connect(
+                feedforward.get_output_port(),
+                plant.get_actuation_input_port(robot.model_instance),
+            )
+
+    _add_sequencer(builder, world, scenario, where)
+    _add_logger(builder, world, scenario, output_dir, quiet)
+    _add_cameras(builder, world, scenario, output_dir)
+
+    if meshcat is not None and scenario.visualization.enable_meshcat_creation:
+        ApplyVisualizationConfig(
+            scenario.visualization, builder, plant=plant, scene_graph=scene_graph, meshcat=meshcat
+        )
+        meshcat.SetProperty("/drake/proximity", "visible", False)
+
+    # Export what no system drives, for notebooks and tests.
+    for name, system in world.controllers.items():
+        for port_name in ("commands", "joint_trajectory"):
+            if system.HasInputPort(port_name):
+                port = system.GetInputPort(port_name)
+                if not _is_connected(builder, port):
+                    builder.ExportInput(port, f"{name}.{port_name}")
+        if system.HasOutputPort("status"):
+            builder.ExportOutput(system.GetOutputPort("status"), f"{name}.status")
+    world.diagram = builder.Build()
+    world.diagram.set_name("armando_world")
+    return world
+
+
+def _is_connected(builder: DiagramBuilder, port) -> bool:
+    return builder.IsConnectedOrExported(port)
+
+
+def _add_controller(builder, world: World, controller: ControllerConfig, joints, instance_state):
+    hardware = world.hardware
+    rows = hardware.find(joints)
+    lower = [hardware.joints[i].lower for i in rows]
+    upper = [hardware.joints[i].upper for i in rows]
+    initial = [hardware.joints[i].initial_position for i in rows]
+    name = controller.name
+    if controller.type == BROADCASTER_TYPE:
+        system = JointStateBroadcaster(joint_names=joints, update_rate=world.update_rate)
+    elif controller.type in POSITION_TYPES:
+        system = JointGroupPositionController(
+            joint_names=joints,
+            lower=lower,
+            upper=upper,
+            update_rate=world.update_rate,
+            initial_positions=initial,
+        )
+    elif controller.type == TRAJECTORY_TYPE:
+        system = JointTrajectoryController(
+            joint_names=joints,
+            lower=lower,
+            upper=upper,
+            update_rate=world.update_rate,
+            params=controller.params,
+            initial_positions=initial,
+        )
+    else:  # the config loader only lets supported types through
+        raise ScenarioError(f"controller {name!r} has unsupported type {controller.type!r}")
+    system.set_name(name)
+    builder.AddSystem(system)
+    world.controller_joints[name] = list(joints)
+    selector = _selector(builder, hardware.state_selector(joints), f"{name}_state")
+    builder.Connect(instance_state, selector.get_input_port())
+    builder.Connect(selector.get_output_port(), system.GetInputPort("state"))
+    if controller.type == BROADCASTER_TYPE:
+        plant = world.plant
+        effort = plant.get_net_actuation_output_port(world.robot.model_instance)
+        E = np.zeros((len(joints), len(hardware.joints)))
+        for row, i in enumerate(rows):
+            E[row, i] = 1.0
+        effort_selector = _selector(builder, E, f"{name}_effort")
+        builder.Connect(effort, effort_selector.get_input_port())
+        builder.Connect(effort_selector.get_output_port(), system.GetInputPort("effort"))
+        builder.ExportOutput(system.GetOutputPort("joint_states"), "joint_states")
+        world.broadcaster = system
+    else:
+        world.controllers[name] = system
+    return system
+
+
+def _assemble_desired_state(builder, world: World, command_outputs):
+    """[q_d; v_d] in actuator order from the controllers' outputs."""
+    hardware = world.hardware
+    n = len(hardware.joints)
+    if len(command_outputs) == 1 and command_outputs[0][0] == hardware.joint_names:
+        return command_outputs[0][1]
+    claimed = [j for joints, _ in command_outputs for j in joints]
+    free = [j for j in hardware.joint_names if j not in claimed]
+    sizes = [2 * len(joints) for joints, _ in command_outputs]
+    inputs = [port for _, port in command_outputs]
+    if free:
+        rows = hardware.find(free)
+        hold = np.concatenate(
+            [[hardware.joints[i].initial_position for i in rows], np.zeros(len(rows))]
+        )
+        source = builder.AddSystem(ConstantVectorSource(hold))
+        source.set_name("hold_unclaimed_joints")
+        sizes.append(2 * len(free))
+        inputs.append(source.get_output_port())
+    mux = builder.AddSystem(Multiplexer(sizes))
+    mux.set_name("desired_state_mux")
+    P = np.zeros((2 * n, sum(sizes)))
+    offset = 0
+    for joints in [j for j, _ in command_outputs] + ([free] if free else []):
+        k = len(joints)
+        for row, i in enumerate(hardware.find(joints)):
+            P[i, offset + row] = 1.0
+            P[n + i, offset + k + row] = 1.0
+        offset += 2 * k
+    for i, port in enumerate(inputs):
+        builder.Connect(port, mux.get_input_port(i))
+    permute = _selector(builder, P, "desired_state_order")
+    builder.Connect(mux.get_output_port(), permute.get_input_port())
+    return permute.get_output_port()
+
+
+def _add_sequencer(builder, world: World, scenario: Scenario, where: str) -> None:
+    config = scenario.sequencer
+    if config is None:
+        return
+    from armando_drake.sequencer import CommandSequencer, validate
+
+    wanted = TRAJECTORY_TYPE if config.mode == "trajectory" else POSITION_TYPES
+    targets = [
+        (name, system)
+        for name, system in world.controllers.items()
+        if world.controller_config.controllers[name].type in wanted
+    ]
+    if not targets:
+        kind = "trajectory" if config.mode == "trajectory" else "position"
+        raise ScenarioError(
+            f"{where}sequencer.mode={config.mode!r} needs an active {kind} controller; "
+            f"active: {', '.join(world.controllers) or 'none'}"
+        )
+    name, controller = targets[0]
+    joints = world.controller_joints[name]
+    rows = world.hardware.find(joints)
+    validate(
+        config,
+        joints,
+        [world.hardware.joints[i].lower for i in rows],
+        [world.hardware.joints[i].upper for i in rows],
+        source=where.rstrip(": "),
+    )
+    sequencer = builder.AddSystem(
+        CommandSequencer(config=config, joint_names=joints, controller_rate=world.update_rate)
+    )
+    sequencer.set_name("command_sequencer")
+    port = "joint_trajectory" if config.mode == "trajectory" else "commands"
+    builder.Connect(sequencer.GetOutputPort(port), controller.GetInputPort(port))
+    builder.ExportOutput(sequencer.GetOutputPort("reference"), "reference")
+    world.sequencer = sequencer
+    world.sequencer_target = name
+
+
+def _add_logger(builder, world: World, scenario: Scenario, output_dir, quiet: bool) -> None:
+    if world.broadcaster is None:
+        return
+    from armando_drake.logger import JointStateLogger
+
+    csv_path = None if output_dir is None else Path(output_dir) / "joint_states.csv"
+    console_rate = scenario.logging.console_rate
+    logger = builder.AddSystem(
+        JointStateLogger(
+            joint_names=world.controller_joints[world.broadcaster.get_name()],
+            update_rate=world.update_rate,
+            console_rate=console_rate if console_rate > 0 else 1.0,
+            csv_path=csv_path,
+            quiet=quiet or console_rate <= 0,
+        )
+    )
+    logger.set_name("joint_state_logger")
+    builder.Connect(world.broadcaster.GetOutputPort("joint_states"), logger.get_input_port())
+    world.logger = logger
+    world.closers.append(logger.close)
+
+
+def _add_cameras(builder, world: World, scenario: Scenario, output_dir) -> None:
+    if not scenario.camera.enabled or not world.robot.cameras:
+        return
+    from armando_drake.camera import AddCameraSensors
+
+    sensors = AddCameraSensors(
+        builder,
+        world.plant,
+        world.scene_graph,
+        world.robot.model_instance,
+        world.robot.cameras,
+        enable_depth=scenario.camera.depth,
+    )
+    world.cameras = dict(sensors)

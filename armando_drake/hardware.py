@@ -1,0 +1,221 @@
+"""The simulated hardware interface: what gz_ros2_control does for Gazebo.
+
+Every joint with a ``position`` command interface in the ``<ros2_control>``
+block (or, without one, every joint the description actuates) gets a Drake
+joint actuator with PD gains and the URDF effort limit. Drake integrates the
+PD law implicitly inside its discrete solver, so stiff position tracking is
+stable at millisecond steps (gz_ros2_control instead turns a position command
+into a velocity command that sags under gravity). ``min``/``max`` interface
+parameters merge with the URDF limits, the tighter winning; the position
+state interface's ``initial_value`` (0 when absent, clamped into the limits)
+is the joint's initial position.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import PdControllerGains
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+from armando_drake.description import LoadedRobot, parse_urdf
+from armando_drake.importer import actuated_joints
+from armando_drake.ros2_control import initial_position, merge_limits
+
+_log = logging.getLogger("armando_drake.hardware")
+
+
+@dataclass
+class HardwareJoint:
+    """One actuated joint of the hardware interface."""
+
+    name: str
+    lower: float  # [rad] command limit: URDF limit merged with the interface min
+    upper: float  # [rad] command limit: URDF limit merged with the interface max
+    effort: float  # [N m] effort limit of the actuator
+    initial_position: float  # [rad]
+
+
+@dataclass
+class HardwareInterface:
+    """The actuated joints, in actuator order, and where they are in the plant."""
+
+    name: str  # the ros2_control block's name, or the robot's
+    source: str  # "ros2_control", "transmission" or "all joints"
+    joints: list[HardwareJoint]
+    # Index of each joint's position in the model instance's state vector [q; v].
+    position_index: list[int]
+    # Index of each joint's velocity in the model instance's state vector [q; v].
+    velocity_index: list[int]
+    num_model_states: int  # size of the model instance's state vector
+
+    @property
+    def joint_names(self) -> list[str]:
+        return [joint.name for joint in self.joints]
+
+    def find(self, names: list[str]) -> list[int]:
+        """Indices into :attr:`joints` of ``names``."""
+        index = {name: i for i, name in enumerate(self.joint_names)}
+        return [index[name] for name in names]
+
+    def state_selector(self, names: list[str]) -> np.ndarray:
+        """Matrix taking the model state [q; v] to [q; v] of ``names`` in their order."""
+        rows = self.find(names)
+        n = len(rows)
+        S = np.zeros((2 * n, self.num_model_states))
+        for row, i in enumerate(rows):
+            S[row, self.position_index[i]] = 1.0
+            S[n + row, self.velocity_index[i]] = 1.0
+        return S
+
+
+def _actuated_joint_names(robot: LoadedRobot) -> tuple[str, str, list[str]]:
+    """(interface name, source, joint names) of the joints to actuate."""
+    names, source = actuated_joints(parse_urdf(robot.urdf, robot.source))
+    name = robot.ros2_control[0].name if source == "ros2_control" else robot.name
+    return name, source, names
+
+
+def AddHardwareInterface(
+    plant: MultibodyPlant,
+    robot: LoadedRobot,
+    *,
+    kp: float,
+    kd: float,
+    gains: dict[str, list[float]] | None = None,
+) -> HardwareInterface:
+    """Adds PD-controlled actuators to the (not yet finalized) plant.
+
+    Sets each joint's default position to its initial value. Call before
+    ``plant.Finalize()``; the state indices are filled in by
+    :func:`FinishHardwareInterface` afterwards.
+    """
+    gains = gains or {}
+    name, source, names = _actuated_joint_names(robot)
+    interfaces = {}
+    for block in robot.ros2_control:
+        for component in block.joints:
+            interfaces[component.name] = component
+    joints = []
+    for joint_name in names:
+        info = robot.joint(joint_name)
+        component = interfaces.get(joint_name)
+        command = component.command_interface("position") if component else None
+        state = component.state_interface("position") if component else None
+        lower, upper = merge_limits(info.lower, info.upper, command)
+        q0 = initial_position(lower, upper, state)
+        joint = plant.GetJointByName(joint_name, robot.model_instance)
+        joint.set_default_positions([q0])
+        existing = [
+            plant.get_joint_actuator(index)
+            for index in plant.GetJointActuatorIndices(robot.model_instance)
+            if plant.get_joint_actuator(index).joint().index() == joint.index()
+        ]
+        effort = info.effort if np.isfinite(info.effort) and info.effort > 0 else np.inf
+        actuator = (
+            existing[0]
+            if existing
+            else plant.AddJointActuator(f"{joint_name}_actuator", joint, effort)
+        )
+        joint_kp, joint_kd = gains.get(joint_name, [kp, kd])
+        if joint_kp <= 0 or joint_kd < 0:
+            raise ValueError(
+                f"gains of {joint_name}: kp={joint_kp!r} must be > 0 and kd={joint_kd!r} >= 0"
+            )
+        actuator.set_controller_gains(PdControllerGains(p=joint_kp, d=joint_kd))
+        joints.append(
+            HardwareJoint(
+                name=joint_name, lower=lower, upper=upper, effort=effort, initial_position=q0
+            )
+        )
+    return HardwareInterface(
+        name=name,
+        source=source,
+        joints=joints,
+        position_index=[],
+        velocity_index=[],
+        num_model_states=0,
+    )
+
+
+def FinishHardwareInterface(
+    plant: MultibodyPlant, robot: LoadedRobot, hardware: HardwareInterface
+) -> None:
+    """Fills in the state indices once the plant is finalized; checks actuator order."""
+    instance = robot.model_instance
+    nq = plant.num_positions(instance)
+    nv = plant.num_velocities(instance)
+    # Positions and velocities of the instance, in instance order, by joint.
+    q_start = {}
+    v_start = {}
+    q_offset = v_offset = 0
+    for index in plant.GetJointIndices(instance):
+        joint = plant.get_joint(index)
+        q_start[joint.name()] = q_offset
+        v_start[joint.name()] = nq + v_offset
+        q_offset += joint.num_positions()
+        v_offset += joint.num_velocities()
+    # The desired-state port follows increasing actuator index.
+    actuators = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices(instance)]
+    order = [actuator.joint().name() for actuator in actuators]
+    if order != hardware.joint_names:
+        raise RuntimeError(f"actuator order {order} differs from {hardware.joint_names}")
+    hardware.position_index = [q_start[name] for name in order]
+    hardware.velocity_index = [v_start[name] for name in order]
+    hardware.num_model_states = nq + nv
+
+
+class GravityFeedforward(LeafSystem):
+    """Holds the arm against gravity at the commanded position.
+
+    .. pydrake_system::
+
+        name: GravityFeedforward
+        input_ports:
+        - desired_state
+        output_ports:
+        - actuation
+
+    ``desired_state`` is [q_d; v_d] of the hardware joints in actuator order;
+    ``actuation`` the torques [N m], one per actuator, that cancel gravity at
+    q_d. It is recomputed by a discrete update at the controller rate (the
+    command only changes then), so the plant reads a stored vector each step.
+    """
+
+    def __init__(
+        self,
+        *,
+        plant: MultibodyPlant,
+        robot: LoadedRobot,
+        hardware: HardwareInterface,
+        update_rate: float,
+    ):
+        super().__init__()
+        self._plant = plant
+        self._plant_context = plant.CreateDefaultContext()
+        self._instance = robot.model_instance
+        self._hardware = hardware
+        n = len(hardware.joints)
+        # Generalized forces of the whole plant -> torques of the actuators.
+        self._B_inverse = np.linalg.pinv(plant.MakeActuationMatrix())
+        self._actuator_rows = [
+            int(index) for index in plant.GetJointActuatorIndices(robot.model_instance)
+        ]
+        self._desired_state = self.DeclareVectorInputPort("desired_state", 2 * n)
+        self._torque = self.DeclareDiscreteState(BasicVector(np.zeros(n)))
+        self.DeclareStateOutputPort("actuation", self._torque)
+        self.DeclarePeriodicDiscreteUpdateEvent(1.0 / update_rate, 0.0, self._UpdateTorque)
+        self.DeclareInitializationDiscreteUpdateEvent(self._UpdateTorque)
+
+    def _UpdateTorque(self, context, discrete_state):
+        n = len(self._hardware.joints)
+        x_d = self._desired_state.Eval(context)
+        q = self._plant.GetPositions(self._plant_context, self._instance)
+        q[self._hardware.position_index] = x_d[:n]
+        self._plant.SetPositions(self._plant_context, self._instance, q)
+        tau_g = self._plant.CalcGravityGeneralizedForces(self._plant_context)
+        u = -(self._B_inverse @ tau_g)
+        discrete_state.set_value(0, u[self._actuator_rows])
