@@ -33,7 +33,7 @@ import numpy as np
 from armando_drake.description import DescriptionError, PackageSearch
 
 # Bumped whenever the OBJ written for the same source would differ.
-CONVERTER_VERSION = 1
+CONVERTER_VERSION = 2
 # Formats converted to OBJ, by lower-case extension.
 CONVERTED_FORMATS = (".stl", ".dae")
 # Formats Drake reads itself; passed through untouched.
@@ -84,9 +84,11 @@ def _load_trimesh(path: Path):
     except Exception as error:  # trimesh raises ValueError, KeyError, ImportError...
         raise DescriptionError(f"{path}: cannot read mesh: {error}") from None
     mesh = scene.to_mesh()
-    units = str(scene.metadata.get("units", "") or "")
-    if path.suffix.lower() == ".dae" and units.endswith("* meters"):
-        mesh.apply_scale(float(units.split("*")[0]))
+    units = {str(g.metadata.get("units", "")) for g in scene.geometry.values()}
+    if path.suffix.lower() == ".dae" and len(units) == 1:
+        factor, _, unit = units.pop().partition("*")
+        if unit.strip() == "meters":
+            mesh.apply_scale(float(factor))
     if len(mesh.faces) == 0:
         raise DescriptionError(f"{path}: mesh has no triangles")
     return mesh
