@@ -68,7 +68,7 @@ def _limits(
     high = np.full(n, np.inf) if upper is None else np.asarray(upper, dtype=float)
     if low.shape != (n,) or high.shape != (n,):
         raise ValueError(f"lower={lower!r} and upper={upper!r} must each have {n} values")
-    for name, lo, hi in zip(names, low, high, strict=True):
+    for name, lo, hi in zip(names, low.tolist(), high.tolist(), strict=True):
         if np.isnan(lo) or np.isnan(hi) or lo > hi:
             raise ValueError(f"limits [{lo}, {hi}] of joint '{name}' are not an interval")
     return low, high
@@ -88,7 +88,7 @@ def _initial_positions(
             f"initial_positions={initial_positions!r} must be {len(names)} finite values"
         )
     clamped = np.clip(q0, lower, upper)
-    for name, value, inside in zip(names, q0, clamped, strict=True):
+    for name, value, inside in zip(names, q0.tolist(), clamped.tolist(), strict=True):
         if value != inside:
             _logger.warning(
                 "initial position %r of joint '%s' is outside its limits; starting at %r",
@@ -207,11 +207,14 @@ class _CommandController(LeafSystem):
         state.get_mutable_abstract_state(self._handled_index).set_value(publication.count)
         return publication.message
 
+    def _LogName(self) -> str:
+        return self.get_name() or type(self).__name__
+
     def _SetStatus(self, state, status: ControllerStatus) -> None:
         state.get_mutable_abstract_state(self._status_index).set_value(status)
 
     def _Reject(self, context, state, reason: str) -> None:
-        _logger.error("%s: %s", self.get_name(), reason)
+        _logger.error("%s: %s", self._LogName(), reason)
         status = context.get_abstract_state(self._status_index).get_value()
         self._SetStatus(
             state,
@@ -290,7 +293,12 @@ class JointGroupPositionController(_CommandController):
             f"command {value!r} for joint '{name}' is outside its limits [{lo!r}, {hi!r}]; "
             f"clamped to {clamped!r}"
             for name, value, clamped, lo, hi in zip(
-                self._names, data, command, self._lower, self._upper, strict=True
+                self._names,
+                data.tolist(),
+                command.tolist(),
+                self._lower.tolist(),
+                self._upper.tolist(),
+                strict=True,
             )
             if value != clamped
         ]
@@ -306,7 +314,7 @@ class JointGroupPositionController(_CommandController):
             self._Reject(context, state, str(rejection))
             return
         if warning:
-            _logger.warning("%s: %s", self.get_name(), warning)
+            _logger.warning("%s: %s", self._LogName(), warning)
         state.get_mutable_discrete_state(self._desired_index).SetFromVector(
             np.concatenate([command, np.zeros(self._n)])
         )
@@ -611,13 +619,13 @@ class JointTrajectoryController(_CommandController):
                     f"point positions of joint '{name}' leave its limits [{lo!r}, {hi!r}]; "
                     f"the desired position is clamped"
                     for j, (name, lo, hi) in enumerate(
-                        zip(self._names, self._lower, self._upper, strict=True)
+                        zip(self._names, self._lower.tolist(), self._upper.tolist(), strict=True)
                     )
                     if any(not lo <= knot.positions[j] <= hi for knot in knots)
                 ]
                 if outside:
                     detail["warning"] = "; ".join(outside)
-                    _logger.warning("%s: %s", self.get_name(), detail["warning"])
+                    _logger.warning("%s: %s", self._LogName(), detail["warning"])
                 status = dataclasses.replace(
                     status, state="executing", accepted=status.accepted + 1, detail=detail
                 )
@@ -642,7 +650,7 @@ class JointTrajectoryController(_CommandController):
             outcome = self._GoalOutcome(now, trajectory, q, v)
         if outcome is not None and outcome[0] == "aborted":
             q_d, v_d = q.copy(), np.zeros(n)
-            _logger.warning("%s: %s", self.get_name(), outcome[1])
+            _logger.warning("%s: %s", self._LogName(), outcome[1])
             status = dataclasses.replace(
                 status, state="aborted", last_error=outcome[1], detail=dict(status.detail)
             )
