@@ -44,9 +44,9 @@ Intrinsics
 Like Gazebo, the focal length comes from the horizontal field of view with
 square pixels: ``fx = fy = width / (2 tan(horizontal_fov / 2))``; the
 principal point is the image centre. ``<clip>`` is both the colour clipping
-range and the depth range (the depth range's far end is capped at 65.534 m,
-the most Drake's 16-bit depth image can hold; farther points read as "too
-far").
+range and the depth range (the depth range's far end is capped at 65.5 m,
+about the most Drake's 16-bit depth image can hold; farther points read as
+"too far", i.e. +inf in the 32-bit depth image).
 
 Rate
 ----

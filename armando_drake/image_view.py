@@ -3,8 +3,9 @@
 :class:`ImageViewServer` is a small HTTP server on localhost (standard library
 ``http.server`` in a background thread) serving
 
-- ``/``: a page showing every camera, refreshed at the camera rate, with the
-  camera name, image size and simulation time;
+- ``/``: a page showing every camera (colour, and depth if published),
+  refreshed at the camera rate, with the camera name, image size and
+  simulation time;
 - ``/camera/<name>.png``: the latest colour frame;
 - ``/camera/<name>/depth.png``: the latest depth frame as 8-bit grey (near =
   bright, no reading = black), scaled to the frame's own depth range;
@@ -95,7 +96,8 @@ _PAGE = """<!DOCTYPE html>
 <style>
 body {{ font-family: sans-serif; background: #222; color: #ddd; margin: 1em; }}
 .camera {{ display: inline-block; margin: 0 1em 1em 0; vertical-align: top; }}
-.camera img {{ display: block; image-rendering: pixelated; background: #000; }}
+.camera img {{ display: inline-block; margin-right: 0.5em; background: #000;
+  image-rendering: pixelated; }}
 .info {{ font-family: monospace; }}
 </style></head>
 <body>
@@ -124,9 +126,13 @@ function add(camera) {{
     info.dataset.naturalWidth = img.naturalWidth;
     info.dataset.naturalHeight = img.naturalHeight;
   }};
-  box.append(title, img, info);
+  const depth = document.createElement("img");
+  depth.id = "depth-" + camera.name;
+  depth.alt = camera.name + " depth";
+  depth.hidden = !camera.depth;
+  box.append(title, img, depth, info);
   document.getElementById("cameras").append(box);
-  shown[camera.name] = {{img: img, count: -1, time: 0}};
+  shown[camera.name] = {{img: img, depth: depth, count: -1, time: 0}};
 }}
 async function poll() {{
   let period = 1000;
@@ -141,7 +147,9 @@ async function poll() {{
       if (camera.count !== c.count) {{
         c.count = camera.count;
         c.time = camera.time;
-        c.img.src = `/camera/${{encodeURIComponent(camera.name)}}.png?frame=${{camera.count}}`;
+        const base = `/camera/${{encodeURIComponent(camera.name)}}`;
+        c.img.src = `${{base}}.png?frame=${{camera.count}}`;
+        if (camera.depth) c.depth.src = `${{base}}/depth.png?frame=${{camera.count}}`;
       }}
       period = Math.min(period, 1000 / camera.rate);
     }}

@@ -11,11 +11,11 @@ A scenario lists them in YAML, loaded with Drake's ``yaml_load_typed``::
 
 Each object is welded to the world with visual geometry (illustration and
 perception roles, so Meshcat and the cameras both see it) and, unless turned
-off, collision geometry of the same shape. Shapes follow Drake (and SDFormat):
-a box is centred on its frame, a cylinder's axis is its frame's z axis.
+off, collision geometry of the same shape. Shapes follow Drake (and
+SDFormat): a box is centred on its frame, a cylinder's axis is its frame's z
+axis. (No ``from __future__ import annotations`` here: ``yaml_load_typed``
+needs the field types as types, not strings.)
 """
-
-from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
@@ -110,6 +110,12 @@ def AddSceneObjects(plant: MultibodyPlant, objects: list[SceneObject]) -> None:
         if obj.name in names:
             raise SceneObjectError(f"object {obj.name!r} is listed twice")
         names.add(obj.name)
+    if plant.is_finalized():
+        raise SceneObjectError("AddSceneObjects: the plant is already finalized")
+    if objects and not plant.geometry_source_is_registered():
+        raise SceneObjectError(
+            "AddSceneObjects: the plant has no SceneGraph (use AddMultibodyPlantSceneGraph)"
+        )
     world = plant.world_body()
     for obj in objects:
         X_WO = obj.X_WO()
