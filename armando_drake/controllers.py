@@ -621,7 +621,7 @@ class JointTrajectoryController(_CommandController):
                     for j, (name, lo, hi) in enumerate(
                         zip(self._names, self._lower.tolist(), self._upper.tolist(), strict=True)
                     )
-                    if any(not lo <= knot.positions[j] <= hi for knot in knots)
+                    if any(not lo <= k.positions[j] <= hi for k in knots[-len(message.points) :])
                 ]
                 if outside:
                     detail["warning"] = "; ".join(outside)
