@@ -88,6 +88,7 @@ class World:
     broadcaster: Any = None
     sequencer: Any = None
     logger: Any = None
+    sequencer_target: str = ""  # the controller the sequencer drives
     cameras: dict[str, Any] = field(default_factory=dict)
     meshcat: Meshcat | None = None
     closers: list = field(default_factory=list)  # called by close()
@@ -168,6 +169,36 @@ def _add_ground(plant: MultibodyPlant) -> None:
     )
 
 
+def _filter_adjacent_collisions(plant: MultibodyPlant, scene_graph, robot: LoadedRobot) -> None:
+    """Lets links on either side of a moving joint overlap, as ROS tools assume.
+
+    Drake already ignores contact between a joint's parent and child bodies and
+    within groups of welded bodies; URDFs often put a massless link between a
+    joint and the part it moves (``dyn2 -> j1 -> dyn2_r -> f4``), so the parts
+    touching at a joint belong to different weld groups. Contact between the
+    weld group of each moving joint's parent and that of its child is ignored.
+    """
+    from pydrake.geometry import CollisionFilterDeclaration
+
+    # Weld groups restricted to the robot's own bodies (the world's group also
+    # holds the ground and the scene objects, which must keep colliding).
+    welded = {}
+    for index in plant.GetBodyIndices(robot.model_instance):
+        welded[index] = [
+            body
+            for body in plant.GetBodiesWeldedTo(plant.get_body(index))
+            if body.model_instance() == robot.model_instance
+        ]
+    manager = scene_graph.collision_filter_manager()
+    for joint_index in plant.GetJointIndices(robot.model_instance):
+        joint = plant.get_joint(joint_index)
+        if joint.num_velocities() == 0:
+            continue
+        parent = plant.CollectRegisteredGeometries(welded[joint.parent_body().index()])
+        child = plant.CollectRegisteredGeometries(welded[joint.child_body().index()])
+        manager.Apply(CollisionFilterDeclaration().ExcludeBetween(parent, child))
+
+
 def _selector(builder: DiagramBuilder, matrix: np.ndarray, name: str):
     system = builder.AddSystem(MatrixGain(matrix))
     system.set_name(name)
@@ -181,11 +212,13 @@ def MakeWorld(
     output_dir: str | os.PathLike | None = None,
     quiet: bool = False,
     source: str = "",
+    write_commands: bool = False,
 ) -> World:
     """Builds the world diagram of ``scenario``.
 
     ``meshcat``: draw the world there (when the scenario's visualization is on).
-    ``output_dir``: where the logger writes ``joint_states.csv`` (none: no CSV).
+    ``output_dir``: where the logger writes ``joint_states.csv`` (none: no CSV)
+    and, with ``write_commands``, the sequencer's ``commands.csv``.
     ``source``: the scenario file, named in error messages.
     """
     where = f"{source}: " if source else ""
@@ -222,6 +255,7 @@ def MakeWorld(
         plant, robot, kp=actuators.kp, kd=actuators.kd, gains=actuators.gains
     )
     plant.Finalize()
+    _filter_adjacent_collisions(plant, scene_graph, robot)
     FinishHardwareInterface(plant, robot, hardware)
     _log.info(
         "hardware interface %r (%s): %s",
@@ -248,6 +282,7 @@ def MakeWorld(
     claimed: dict[str, str] = {}
     command_outputs = []  # (controller joints, desired_state port)
     for name in scenario.controllers.activate:
+        name = _controller_name(name, config, where)
         if name not in config.controllers:
             raise ScenarioError(
                 f"{where}controllers.activate names {name!r}, which {config.source} does not "
@@ -291,7 +326,8 @@ def MakeWorld(
                 plant.get_actuation_input_port(robot.model_instance),
             )
 
-    _add_sequencer(builder, world, scenario, where)
+    commands_csv = Path(output_dir) / "commands.csv" if output_dir and write_commands else None
+    _add_sequencer(builder, world, scenario, where, commands_csv)
     _add_logger(builder, world, scenario, output_dir, quiet)
     _add_cameras(builder, world, scenario, output_dir)
 
@@ -313,6 +349,25 @@ def MakeWorld(
     world.diagram = builder.Build()
     world.diagram.set_name("armando_world")
     return world
+
+
+def _controller_name(entry: str, config: ControllerManagerConfig, where: str) -> str:
+    """A controller name, or for ``type:<plugin>`` the first controller of that type.
+
+    A position controller may also be a ForwardCommandController on the
+    position interface.
+    """
+    if not entry.startswith("type:"):
+        return entry
+    wanted = entry[len("type:") :]
+    types = POSITION_TYPES if wanted in POSITION_TYPES else (wanted,)
+    for name, controller in config.controllers.items():
+        if controller.type in types:
+            return name
+    raise ScenarioError(
+        f"{where}controllers.activate asks for a {wanted} controller; {config.source} "
+        f"defines none (defined: {', '.join(config.controllers) or 'none'})"
+    )
 
 
 def _is_connected(builder: DiagramBuilder, port) -> bool:
@@ -405,10 +460,11 @@ def _assemble_desired_state(builder, world: World, command_outputs):
     return permute.get_output_port()
 
 
-def _add_sequencer(builder, world: World, scenario: Scenario, where: str) -> None:
+def _add_sequencer(builder, world: World, scenario: Scenario, where: str, commands_csv) -> None:
     config = scenario.sequencer
     if config is None:
         return
+    from armando_drake.logger import CommandsCsv
     from armando_drake.sequencer import CommandSequencer, validate
 
     wanted = TRAJECTORY_TYPE if config.mode == "trajectory" else POSITION_TYPES
@@ -433,8 +489,17 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str) -> Non
         [world.hardware.joints[i].upper for i in rows],
         source=where.rstrip(": "),
     )
+    on_publish = None
+    if commands_csv is not None:
+        on_publish = CommandsCsv(commands_csv, joints)
+        world.closers.append(on_publish.close)
     sequencer = builder.AddSystem(
-        CommandSequencer(config=config, joint_names=joints, controller_rate=world.update_rate)
+        CommandSequencer(
+            config=config,
+            joint_names=joints,
+            controller_rate=world.update_rate,
+            on_publish=on_publish,
+        )
     )
     sequencer.set_name("command_sequencer")
     port = "joint_trajectory" if config.mode == "trajectory" else "commands"

@@ -24,10 +24,11 @@ bounded however long the run.
 
 from __future__ import annotations
 
+import csv
 import math
 import sys
 from pathlib import Path
-from typing import TextIO
+from typing import Any, TextIO
 
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, LeafSystem
@@ -204,3 +205,37 @@ class JointStateLogger(LeafSystem):
         stream = sys.stdout if self._stream is None else self._stream
         stream.write("\n".join(lines) + "\n")
         stream.flush()
+
+
+class CommandsCsv:
+    """Streams every published command to ``commands.csv`` (time, one column per joint).
+
+    A JointTrajectory is written as one row per point, at the time the point
+    is due (publication time + time_from_start).
+    """
+
+    def __init__(self, path: Path, joint_names: list[str]):
+        self._joint_names = list(joint_names)
+        self._file: TextIO | None = open(path, "w", buffering=1, newline="", encoding="utf-8")
+        self._writer = csv.writer(self._file)
+        self._writer.writerow(["time", *self._joint_names])
+
+    def __call__(self, time_s: float, topic: str, message: Any) -> None:
+        if self._file is None:
+            return
+        if topic == "joint_trajectory":
+            order = [list(message.joint_names).index(name) for name in self._joint_names]
+            start = message.stamp if message.stamp > 0 else time_s
+            for point in message.points:
+                values = [point.positions[i] for i in order]
+                self._row(start + point.time_from_start, values)
+        else:
+            self._row(time_s, message.data)
+
+    def _row(self, time_s: float, values) -> None:
+        self._writer.writerow([f"{time_s:.6f}", *(f"{v:.10g}" for v in values)])
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None

@@ -1,0 +1,226 @@
+"""Runs the Armando world: robot, ros2_control controllers, command sequence, logs.
+
+The project's main job, the course's arm_controller_node in Drake: loads a
+scenario from diagrams/ (default: position.yaml, the seed targets
+[0,0,0,0] [1.2,-1,1.2,0.6] [-1.2,1,-1.2,-0.6] [0.6,0,-0.6,1] [0,0,0,0]
+3 s apart through the position controller), shows it in Meshcat paced to
+real time, prints the joint positions once a second, and ends with a table
+per step: target, reached position, largest error, time to settle within
+0.01 rad. Ctrl-C stops cleanly and still writes the table and the logs.
+
+With --output DIR it writes DIR/joint_states.csv (time, then position,
+velocity, effort per joint, one row per controller tick), DIR/commands.csv
+(time and commanded positions) and DIR/summary.json.
+
+Examples:
+  python -m armando_drake.world
+  python -m armando_drake.world --controller trajectory
+  python -m armando_drake.world --controller sinusoid --duration 40
+  python -m armando_drake.world --no-meshcat --realtime-rate 0 --output out/run1
+  python -m armando_drake.world --scenario diagrams/world.yaml     # no controller: it falls
+  python -m armando_drake.world --set "actuators: {kp: 4.0}" --set "sequencer: {period: 5}"
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+
+from armando_drake.cli import UserError, user_errors
+
+CONTROLLER_TYPES = {
+    "position": "position_controllers/JointGroupPositionController",
+    "sinusoid": "position_controllers/JointGroupPositionController",
+    "trajectory": "joint_trajectory_controller/JointTrajectoryController",
+}
+SEED_TARGETS = [
+    [0.0, 0.0, 0.0, 0.0],
+    [1.2, -1.0, 1.2, 0.6],
+    [-1.2, 1.0, -1.2, -0.6],
+    [0.6, 0.0, -0.6, 1.0],
+    [0.0, 0.0, 0.0, 0.0],
+]
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m armando_drake.world",
+        description=__doc__.split("\n\n")[0],
+        epilog=__doc__.split("\n\n", 1)[1],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "--scenario",
+        default="position",
+        metavar="FILE",
+        help="scenario YAML: a path, or a name in diagrams/ (default: position)",
+    )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="YAML",
+        help='YAML merged over the scenario, e.g. "simulation: {duration: 5}" (repeatable)',
+    )
+    parser.add_argument(
+        "--controller",
+        choices=["position", "trajectory", "sinusoid", "none"],
+        help="what drives the arm: the position controller with the target sequence, "
+        "the trajectory controller with the same targets as one JointTrajectory, the "
+        "position controller with a sinusoid, or nothing (default: as the scenario says)",
+    )
+    parser.add_argument(
+        "--description",
+        metavar="PATH",
+        help="robot description: .urdf/.xacro file, package directory or package://pkg/file "
+        "(default: the scenario's, i.e. the built-in Armando)",
+    )
+    parser.add_argument(
+        "--package-path",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="a folder to search for ROS packages (repeatable)",
+    )
+    parser.add_argument(
+        "--duration",
+        type=float,
+        metavar="SECONDS",
+        help="simulated time [s] (default: one pass of the sequence)",
+    )
+    parser.add_argument(
+        "--realtime-rate",
+        type=float,
+        metavar="R",
+        help="target simulated/wall time ratio; 0 = as fast as possible (default: 1)",
+    )
+    parser.add_argument("--no-meshcat", action="store_true", help="run without the viewer")
+    parser.add_argument(
+        "--output", metavar="DIR", help="write joint_states.csv, commands.csv, summary.json"
+    )
+    parser.add_argument(
+        "--quiet", action="store_true", help="print only errors and the final table"
+    )
+    return parser
+
+
+def _apply_controller(scenario, mode: str) -> None:
+    """Points the scenario at the controller a --controller choice names."""
+    from armando_drake.sequencer import SequencerConfig
+
+    broadcasters = [n for n in scenario.controllers.activate if "broadcaster" in n]
+    if mode == "none":
+        scenario.controllers.activate = broadcasters or ["joint_state_broadcaster"]
+        scenario.sequencer = None
+        return
+    previous = scenario.sequencer
+    if previous is None:
+        previous = SequencerConfig(mode=mode, targets=SEED_TARGETS, period=3.0)
+    targets = previous.targets or SEED_TARGETS
+    scenario.sequencer = SequencerConfig(
+        mode=mode,
+        targets=targets,
+        period=previous.period,
+        cyclic=previous.cyclic,
+        start_delay=previous.start_delay,
+        amplitude=previous.amplitude,
+        frequency=previous.frequency,
+        phase=previous.phase,
+        offset=previous.offset,
+        rate=previous.rate,
+    )
+    # The first controller of the right type in the controller YAML.
+    wanted = CONTROLLER_TYPES[mode]
+    scenario.controllers.activate = (broadcasters or ["joint_state_broadcaster"]) + [
+        f"type:{wanted}"
+    ]
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    logging.basicConfig(
+        level=logging.WARNING if args.quiet else logging.INFO,
+        format="%(message)s",
+        stream=sys.stdout,
+    )
+    with user_errors():
+        from armando_drake.run import format_table, run
+        from armando_drake.scenario import load_scenario, resolve_scenario_path
+
+        path = resolve_scenario_path(args.scenario)
+        scenario = load_scenario(path)
+        for override in args.set:
+            scenario = _merge(scenario, override)
+        if args.description is not None:
+            scenario.robot.description = args.description
+        scenario.robot.package_paths += args.package_path
+        if args.duration is not None:
+            if args.duration < 0:
+                raise UserError(f"--duration {args.duration} must not be negative")
+            scenario.simulation.duration = args.duration
+            if args.duration == 0:
+                scenario.simulation.duration = 1e-9
+        if args.realtime_rate is not None:
+            if args.realtime_rate < 0:
+                raise UserError(f"--realtime-rate {args.realtime_rate} must not be negative")
+            scenario.simulation.realtime_rate = args.realtime_rate
+        if args.controller is not None:
+            _apply_controller(scenario, args.controller)
+
+        meshcat = None
+        if not args.no_meshcat:
+            from pydrake.geometry import StartMeshcat
+
+            meshcat = StartMeshcat()
+        if args.output:
+            _check_output(args.output)
+        result = run(
+            scenario,
+            scenario_name=str(path),
+            output_dir=args.output,
+            meshcat=meshcat,
+            quiet=args.quiet,
+        )
+        print(
+            f"\n{result.controller} run of {path.name}: {result.sim_time:.2f} s simulated in "
+            f"{result.wall_time:.2f} s ({result.realtime_factor:.2f}x real time)"
+            + (" [interrupted]" if result.interrupted else "")
+        )
+        if result.steps:
+            print(format_table(result.joint_names, result.steps))
+        if result.tracking_error is not None:
+            print(f"sinusoid tracking error after 1 s: {result.tracking_error:.4f} rad")
+        if args.output:
+            print(f"logs: {args.output}/joint_states.csv, commands.csv, summary.json")
+    return 130 if result.interrupted else 0
+
+
+def _merge(scenario, override: str):
+    """The scenario with a YAML override string merged over it."""
+    from pydrake.common.yaml import yaml_load_typed
+
+    from armando_drake.scenario import ScenarioError
+
+    try:
+        return yaml_load_typed(data=override, defaults=scenario)
+    except Exception as error:  # yaml_load_typed raises RuntimeError, KeyError, ...
+        text = " ".join(str(error).split())
+        raise ScenarioError(f"--set {override!r}: {text}") from None
+
+
+def _check_output(output: str) -> None:
+    from pathlib import Path
+
+    path = Path(output)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / ".write_test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as error:
+        raise UserError(f"--output {output}: cannot write there: {error.strerror}") from None
+
+
+if __name__ == "__main__":
+    sys.exit(main())
