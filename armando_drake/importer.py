@@ -309,8 +309,46 @@ class _Preparation:
                 for mesh in self.mesh_elements(link, "collision"):
                     if mesh.find("drake:declare_convex") is None:
                         ET.SubElement(mesh, "drake:declare_convex")
-        if mode == "convex" and "xmlns:drake" not in self.root.attrib:
+        if mode != "none":
+            self.filter_adjacent_collisions()
+        uses_drake = any(e.tag.startswith("drake:") for e in self.root.iter())
+        if uses_drake and "xmlns:drake" not in self.root.attrib:
             self.root.set("xmlns:drake", "http://drake.mit.edu")
+
+    def filter_adjacent_collisions(self) -> None:
+        """Links on the two sides of a moving joint, and all links welded to them, never collide.
+
+        Drake only excludes the joint's own parent and child; descriptions that
+        hang the geometry on links welded to a bare joint frame (a bracket
+        around its servo) would collide with themselves at rest. Gazebo lumps
+        welded links, and MoveIt disables adjacent pairs, so neither sees this.
+        """
+        group = {name: name for name in self.links}
+
+        def find(name: str) -> str:
+            while group.setdefault(name, name) != name:
+                name = group[name]
+            return name
+
+        joints = []
+        for joint in self.root.findall("joint"):
+            parent, child = joint.find("parent"), joint.find("child")
+            if parent is None or child is None:
+                continue
+            ends = (parent.get("link"), child.get("link"))
+            if joint.get("type") == "fixed":
+                group[find(ends[0])] = find(ends[1])
+            elif joint.get("type") in MOVING_JOINT_TYPES:
+                joints.append((joint.get("name"), ends))
+        for joint, (parent, child) in joints:
+            members = [n for n in self.links if find(n) in (find(parent), find(child))]
+            if len(members) <= 2:
+                continue  # Drake already excludes a joint's parent and child
+            name = f"adjacent_across_{joint}"
+            element = ET.SubElement(self.root, "drake:collision_filter_group", name=name)
+            for member in members:
+                ET.SubElement(element, "drake:member", link=member)
+            ET.SubElement(element, "drake:ignored_collision_filter_group", name=name)
 
     def fix_inertias(self) -> None:
         moving_children = set()

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import logging
-import os
 import re
 import struct
 import xml.etree.ElementTree as ET
@@ -12,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from conftest import COURSE_PACKAGE
 from pydrake.geometry import (
     Box,
     ClippingRange,
@@ -38,18 +38,13 @@ from armando_drake.importer import (
     prepare_urdf,
 )
 
-ARM_DESCRIPTION = Path(__file__).resolve().parents[1].parent / "shared" / "upstream"
-ARM_DESCRIPTION = ARM_DESCRIPTION / "arm_description"
-ARM_URDF = ARM_DESCRIPTION / "urdf" / "arm.urdf"
+ARM_URDF = COURSE_PACKAGE / "urdf" / "arm.urdf"
 
 
 @pytest.fixture
-def arm() -> Path:
-    if not ARM_DESCRIPTION.is_dir():
-        if os.environ.get("CI"):
-            pytest.fail(f"CI needs the course's arm_description at {ARM_DESCRIPTION}")
-        pytest.skip(f"the course's arm_description is not at {ARM_DESCRIPTION}")
-    return ARM_DESCRIPTION
+def arm(course_package) -> Path:
+    """The course's arm_description (conftest: skipped if absent, failing under CI)."""
+    return course_package
 
 
 @pytest.fixture(autouse=True)
@@ -67,8 +62,8 @@ def _plant_with(description, **kwargs):
     return builder, plant, scene_graph, robot
 
 
-def _proximity_shapes(plant, scene_graph) -> dict[str, list]:
-    """Body name -> proximity shapes registered for it."""
+def _proximity_ids(plant, scene_graph) -> dict[str, list]:
+    """Body name -> ids of the proximity geometries registered for it."""
     inspector = scene_graph.model_inspector()
     result = {}
     for index in range(plant.num_bodies()):
@@ -78,8 +73,17 @@ def _proximity_shapes(plant, scene_graph) -> dict[str, list]:
             continue
         ids = inspector.GetGeometries(frame, Role.kProximity)
         if ids:
-            result[body.name()] = [inspector.GetShape(i) for i in ids]
+            result[body.name()] = ids
     return result
+
+
+def _proximity_shapes(plant, scene_graph) -> dict[str, list]:
+    """Body name -> proximity shapes registered for it."""
+    inspector = scene_graph.model_inspector()
+    return {
+        name: [inspector.GetShape(i) for i in ids]
+        for name, ids in _proximity_ids(plant, scene_graph).items()
+    }
 
 
 # --------------------------------------------------------------------------
@@ -216,13 +220,25 @@ def test_arm_second_preparation_converts_nothing(arm, cache):
     ],
 )
 def test_arm_collision_modes(arm, mode, shape_type, per_body):
-    _, plant, scene_graph, _ = _plant_with(arm, collision=mode)
+    builder, plant, scene_graph, _ = _plant_with(arm, collision=mode)
     shapes = _proximity_shapes(plant, scene_graph)
     if per_body == 0:
         assert shapes == {}
         return
     assert len(shapes) == 13  # every link with visual geometry
     assert all(len(s) == per_body and isinstance(s[0], shape_type) for s in shapes.values())
+    # No self-contact at rest: a servo and the bracket across its joint are filtered...
+    diagram = builder.Build()
+    context = scene_graph.GetMyContextFromRoot(diagram.CreateDefaultContext())
+    query = scene_graph.get_query_output_port().Eval(context)
+    assert query.ComputePointPairPenetration() == []
+    ids = {name: found[0] for name, found in _proximity_ids(plant, scene_graph).items()}
+    inspector = scene_graph.model_inspector()
+    assert inspector.CollisionFiltered(ids["dyn2"], ids["f4"])
+    assert inspector.CollisionFiltered(ids["dyn3"], ids["f5"])
+    # ...but links further apart still collide.
+    assert not inspector.CollisionFiltered(ids["base_link"], ids["wrist"])
+    assert not inspector.CollisionFiltered(ids["dyn2"], ids["f5"])
     if mode == "boxes":
         # The base box is the base STL's bounding box (millimetres times 0.001).
         bounds = _stl_bounds(arm / "meshes" / "base_link.stl") * 0.001
