@@ -16,6 +16,9 @@ Drake parses an expanded URDF, :func:`prepare_urdf` rewrites it (XML to XML):
    - ``none``: removed;
    - ``auto``: ``boxes`` when some collision mesh is not a format Drake can
      collide with (STL, DAE, ...), else ``as-is``;
+
+   and, unless ``none``, links on the two sides of a moving joint (with every
+   link welded to them) never collide with each other;
 3. inertias: a link whose inertia is not physically valid, or whose largest
    principal moment exceeds :data:`INERTIA_RATIO_LIMIT` times that of its visual
    bounding box at its declared mass, gets the bounding box's inertia; a link on
