@@ -50,7 +50,7 @@ class ActuatorConfig:
     # Proportional gain of every actuated joint [N m/rad].
     kp: float = 8.0
     # Derivative gain of every actuated joint [N m s/rad].
-    kd: float = 0.25
+    kd: float = 0.4
     # Per-joint gains overriding kp and kd, as joint: [kp, kd].
     gains: dict[str, list[float]] = dc.field(default_factory=dict)
     # Adds the torque that holds the arm against gravity at the commanded
