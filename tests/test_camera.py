@@ -20,6 +20,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.sensors import ImageRgba8U
 
+from armando_drake import DEFAULT_DESCRIPTION
 from armando_drake.camera import (
     DEFAULT_FRAME_RATE,
     AddCameraSensors,
@@ -235,6 +236,30 @@ def test_camera_block_loaded_through_load_robot(tmp_path):
         15.0,
     )
     assert info.has_depth and str(path) in info.source
+
+
+def test_armando_camera_sees_the_arm():
+    if not DEFAULT_DESCRIPTION.is_file():
+        pytest.skip(f"the Armando description is not there yet: {DEFAULT_DESCRIPTION}")
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=0.001)
+    robot = load_robot(plant)
+    plant.Finalize()
+    (info,) = robot.cameras
+    assert (info.name, info.link, info.type) == ("camera", "camera_link", "camera")
+    cameras = AddCameraSensors(builder, plant, scene_graph, robot.model_instance, robot.cameras)
+    diagram = builder.Build()
+    context = diagram.CreateDefaultContext()
+    sensor = cameras["camera"].sensor
+    sensor_context = sensor.GetMyContextFromRoot(context)
+    color = sensor.GetOutputPort("color_image").Eval(sensor_context).data
+    depth = sensor.GetOutputPort("depth_image_32f").Eval(sensor_context).data[:, :, 0]
+    assert color.shape == (info.height, info.width, 4)
+    # Something (the arm, its base) is in view, within a metre and beyond the near plane.
+    seen = np.isfinite(depth)
+    assert 0.01 * depth.size < seen.sum() < depth.size
+    assert info.near < depth[seen].min() < 1.0
+    assert len(np.unique(color[seen].reshape(-1, 4), axis=0)) > 10
 
 
 # --------------------------------------------------------------------------
