@@ -169,36 +169,6 @@ def _add_ground(plant: MultibodyPlant) -> None:
     )
 
 
-def _filter_adjacent_collisions(plant: MultibodyPlant, scene_graph, robot: LoadedRobot) -> None:
-    """Lets links on either side of a moving joint overlap, as ROS tools assume.
-
-    Drake already ignores contact between a joint's parent and child bodies and
-    within groups of welded bodies; URDFs often put a massless link between a
-    joint and the part it moves (``dyn2 -> j1 -> dyn2_r -> f4``), so the parts
-    touching at a joint belong to different weld groups. Contact between the
-    weld group of each moving joint's parent and that of its child is ignored.
-    """
-    from pydrake.geometry import CollisionFilterDeclaration
-
-    # Weld groups restricted to the robot's own bodies (the world's group also
-    # holds the ground and the scene objects, which must keep colliding).
-    welded = {}
-    for index in plant.GetBodyIndices(robot.model_instance):
-        welded[index] = [
-            body
-            for body in plant.GetBodiesWeldedTo(plant.get_body(index))
-            if body.model_instance() == robot.model_instance
-        ]
-    manager = scene_graph.collision_filter_manager()
-    for joint_index in plant.GetJointIndices(robot.model_instance):
-        joint = plant.get_joint(joint_index)
-        if joint.num_velocities() == 0:
-            continue
-        parent = plant.CollectRegisteredGeometries(welded[joint.parent_body().index()])
-        child = plant.CollectRegisteredGeometries(welded[joint.child_body().index()])
-        manager.Apply(CollisionFilterDeclaration().ExcludeBetween(parent, child))
-
-
 def _selector(builder: DiagramBuilder, matrix: np.ndarray, name: str):
     system = builder.AddSystem(MatrixGain(matrix))
     system.set_name(name)
@@ -255,7 +225,6 @@ def MakeWorld(
         plant, robot, kp=actuators.kp, kd=actuators.kd, gains=actuators.gains
     )
     plant.Finalize()
-    _filter_adjacent_collisions(plant, scene_graph, robot)
     FinishHardwareInterface(plant, robot, hardware)
     _log.info(
         "hardware interface %r (%s): %s",
