@@ -89,7 +89,8 @@ class World:
     sequencer: Any = None
     logger: Any = None
     sequencer_target: str = ""  # the controller the sequencer drives
-    cameras: dict[str, Any] = field(default_factory=dict)
+    cameras: dict[str, Any] = field(default_factory=dict)  # AddedCamera by name
+    image_view_url: str | None = None  # the live camera view, when served
     meshcat: Meshcat | None = None
     closers: list = field(default_factory=list)  # called by close()
 
@@ -298,7 +299,7 @@ def MakeWorld(
     commands_csv = Path(output_dir) / "commands.csv" if output_dir and write_commands else None
     _add_sequencer(builder, world, scenario, where, commands_csv)
     _add_logger(builder, world, scenario, output_dir, quiet)
-    _add_cameras(builder, world, scenario, output_dir)
+    _add_cameras(builder, world, scenario, meshcat)
 
     if meshcat is not None and scenario.visualization.enable_meshcat_creation:
         ApplyVisualizationConfig(
@@ -500,17 +501,38 @@ def _add_logger(builder, world: World, scenario: Scenario, output_dir, quiet: bo
     world.closers.append(logger.close)
 
 
-def _add_cameras(builder, world: World, scenario: Scenario, output_dir) -> None:
-    if not scenario.camera.enabled or not world.robot.cameras:
+def _add_cameras(builder, world: World, scenario: Scenario, meshcat) -> None:
+    """RgbdSensors from the URDF's camera blocks, a live view and a frame saver."""
+    settings = scenario.camera
+    if not settings.enabled:
         return
-    from armando_drake.camera import AddCameraSensors
+    if not world.robot.cameras:
+        _log.warning("camera enabled, but %s describes no camera sensor", world.robot.source)
+        return
+    from armando_drake.camera import AddCameraSensors, describe
+    from armando_drake.image_view import AddFrameSaver, AddImageView
 
-    sensors = AddCameraSensors(
+    world.cameras = AddCameraSensors(
         builder,
         world.plant,
         world.scene_graph,
         world.robot.model_instance,
         world.robot.cameras,
-        enable_depth=scenario.camera.depth,
+        enable_depth=settings.depth,
+        export=True,
     )
-    world.cameras = dict(sensors)
+    for camera in world.cameras.values():
+        _log.info("camera %s", describe(camera.info))
+    if settings.live_view or meshcat is not None:
+        server = AddImageView(builder, world.cameras, depth=settings.depth)
+        world.image_view_url = server.url
+        world.closers.append(server.close)
+    if settings.save_frames:
+        for camera in world.cameras.values():
+            AddFrameSaver(
+                builder,
+                camera,
+                settings.save_frames,
+                rate=settings.save_rate or None,
+                depth=settings.depth,
+            )

@@ -256,6 +256,8 @@ def run(
     progress = None if (realtime_rate > 0 or quiet) else _Progress(duration)
     if meshcat is not None:
         print(f"Meshcat: {meshcat.web_url()}", file=stream, flush=True)
+    if world.image_view_url:
+        print(f"Camera view: {world.image_view_url}", file=stream, flush=True)
     interrupted = False
     wall_start = time.monotonic()
     with _sigterm_as_interrupt():

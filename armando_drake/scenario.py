@@ -80,8 +80,11 @@ class CameraSettings:
     depth: bool = True
     # Whether a live view of the camera is served on localhost.
     live_view: bool = False
-    # Rate at which the live view refreshes [Hz]; 0 = the camera's own rate.
-    live_view_rate: float = 0.0
+    # Folder where colour frames (PNG) and depth (16-bit PNG, millimetres) are
+    # saved; "" = not saved.
+    save_frames: str = ""
+    # Rate at which frames are saved [Hz]; 0 = the camera's own rate.
+    save_rate: float = 0.0
 
 
 @dc.dataclass

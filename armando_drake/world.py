@@ -18,6 +18,7 @@ Examples:
   python -m armando_drake.world --controller sinusoid --duration 40
   python -m armando_drake.world --no-meshcat --realtime-rate 0 --output out/run1
   python -m armando_drake.world --scenario diagrams/world.yaml     # no controller: it falls
+  python -m armando_drake.world --scenario camera --save-frames out/frames --save-rate 2
   python -m armando_drake.world --set "actuators: {kp: 4.0}" --set "sequencer: {period: 5}"
 """
 
@@ -97,6 +98,25 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--no-meshcat", action="store_true", help="run without the viewer")
     parser.add_argument(
+        "--camera",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="turn the URDF's camera sensors into Drake RgbdSensors (with Meshcat on, "
+        "their live view is served on localhost; default: as the scenario says)",
+    )
+    parser.add_argument(
+        "--save-frames",
+        metavar="DIR",
+        help="save camera frames: colour PNG and depth 16-bit PNG in millimetres (implies "
+        "--camera)",
+    )
+    parser.add_argument(
+        "--save-rate",
+        type=float,
+        metavar="HZ",
+        help="rate at which --save-frames writes frames [Hz] (default: the camera's rate)",
+    )
+    parser.add_argument(
         "--output", metavar="DIR", help="write joint_states.csv, commands.csv, summary.json"
     )
     parser.add_argument(
@@ -167,6 +187,15 @@ def main(argv: list[str] | None = None) -> int:
             scenario.simulation.realtime_rate = args.realtime_rate
         if args.controller is not None:
             _apply_controller(scenario, args.controller)
+        if args.camera is not None:
+            scenario.camera.enabled = args.camera
+        if args.save_frames:
+            scenario.camera.enabled = True
+            scenario.camera.save_frames = args.save_frames
+        if args.save_rate is not None:
+            if args.save_rate <= 0:
+                raise UserError(f"--save-rate {args.save_rate} must be positive [Hz]")
+            scenario.camera.save_rate = args.save_rate
 
         meshcat = None
         if not args.no_meshcat:
