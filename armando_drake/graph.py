@@ -1,0 +1,138 @@
+"""Draws the world diagram: its systems and their named connections (the rqt_graph step).
+
+Builds the world of a scenario with the same builder as ``python -m
+armando_drake.world`` (without Meshcat), takes Drake's Graphviz description
+of the diagram (``Diagram.GetGraphvizString``) and renders it with
+Graphviz's ``dot`` to SVG or PNG (chosen by the output's extension; ``.dot``
+writes the Graphviz source itself). Each box is a system with its named input
+ports on the left and output ports on the right; each arrow is a connection.
+
+Needs Graphviz's ``dot`` on the PATH; to install it on Debian/Ubuntu:
+``apt-get install graphviz``.
+
+Examples:
+  python -m armando_drake.graph -o world.svg
+  python -m armando_drake.graph --scenario trajectory -o trajectory.png
+  python -m armando_drake.graph --set "camera: {enabled: true}" -o camera.svg
+  python -m armando_drake.graph --max-depth 2 -o nested.svg   # open sub-diagrams too
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+from armando_drake.cli import UserError, user_errors
+
+FORMATS = {".svg": "svg", ".png": "png", ".pdf": "pdf", ".dot": None, ".gv": None}
+INSTALL_HINT = "install Graphviz (Debian/Ubuntu: apt-get install graphviz)"
+
+
+def graphviz_source(diagram, max_depth: int = 1) -> str:
+    """Drake's Graphviz (dot language) description of ``diagram``."""
+    return diagram.GetGraphvizString(max_depth=max_depth)
+
+
+def render(source: str, output: Path, dot: str | None = None) -> None:
+    """Writes ``source`` (dot language) to ``output`` in the format its extension names.
+
+    Raises UserError when the extension is unknown, ``dot`` is missing or fails.
+    """
+    suffix = output.suffix.lower()
+    if suffix not in FORMATS:
+        raise UserError(
+            f"-o {output}: unknown extension {suffix or '(none)'!r}; use one of "
+            + ", ".join(FORMATS)
+        )
+    if FORMATS[suffix] is None:
+        _write(output, source.encode())
+        return
+    dot = dot or shutil.which("dot")
+    if dot is None:
+        raise UserError(f"Graphviz's dot is not on the PATH: {INSTALL_HINT}")
+    result = subprocess.run(
+        [dot, f"-T{FORMATS[suffix]}"], input=source.encode(), capture_output=True, check=False
+    )
+    if result.returncode != 0:
+        message = " ".join(result.stderr.decode(errors="replace").split())
+        raise UserError(f"dot failed (exit {result.returncode}): {message}")
+    _write(output, result.stdout)
+
+
+def _write(output: Path, data: bytes) -> None:
+    try:
+        output.write_bytes(data)
+    except OSError as error:
+        raise UserError(f"-o {output}: cannot write there: {error.strerror}") from None
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m armando_drake.graph",
+        description=__doc__.split("\n\n")[0],
+        epilog=__doc__.split("\n\n", 1)[1],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "--scenario",
+        default="position",
+        metavar="FILE",
+        help="scenario YAML: a path, or a name in diagrams/ (default: position)",
+    )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="YAML",
+        help='YAML merged over the scenario, e.g. "camera: {enabled: true}" (repeatable)',
+    )
+    parser.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        metavar="FILE",
+        help="where to write the graph: .svg, .png, .pdf, or .dot for the Graphviz source",
+    )
+    parser.add_argument(
+        "--max-depth",
+        type=int,
+        default=1,
+        metavar="N",
+        help="how many levels of nested diagrams to open (default: 1, the world's systems)",
+    )
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    with user_errors():
+        from armando_drake.builder import MakeWorld
+        from armando_drake.scenario import load_scenario, resolve_scenario_path
+        from armando_drake.world import _merge as merge_override
+
+        output = Path(args.output)
+        if output.suffix.lower() not in FORMATS:
+            render("", output)  # raises the unknown-extension error
+        if FORMATS[output.suffix.lower()] is not None and shutil.which("dot") is None:
+            raise UserError(f"Graphviz's dot is not on the PATH: {INSTALL_HINT}")
+        if args.max_depth < 1:
+            raise UserError(f"--max-depth {args.max_depth} must be at least 1")
+        path = resolve_scenario_path(args.scenario)
+        scenario = load_scenario(path)
+        for override in args.set:
+            scenario = merge_override(scenario, override)
+        world = MakeWorld(scenario, quiet=True, source=str(path))
+        try:
+            render(graphviz_source(world.diagram, args.max_depth), output)
+        finally:
+            world.close()
+        names = [system.get_name() for system in world.diagram.GetSystems()]
+        print(f"{output}: {len(names)} systems ({', '.join(names)})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
