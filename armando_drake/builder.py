@@ -170,6 +170,17 @@ def _add_ground(plant: MultibodyPlant) -> None:
     )
 
 
+def _exclude_self_collision(plant: MultibodyPlant, scene_graph, robot: LoadedRobot) -> None:
+    """The robot's links no longer collide with each other (Gazebo's default)."""
+    from pydrake.geometry import CollisionFilterDeclaration
+
+    bodies = [plant.get_body(i) for i in plant.GetBodyIndices(robot.model_instance)]
+    geometries = plant.CollectRegisteredGeometries(bodies)
+    scene_graph.collision_filter_manager().Apply(
+        CollisionFilterDeclaration().ExcludeWithin(geometries)
+    )
+
+
 def _selector(builder: DiagramBuilder, matrix: np.ndarray, name: str):
     system = builder.AddSystem(MatrixGain(matrix))
     system.set_name(name)
@@ -226,6 +237,8 @@ def MakeWorld(
         plant, robot, kp=actuators.kp, kd=actuators.kd, gains=actuators.gains
     )
     plant.Finalize()
+    if not robot_config.self_collision:
+        _exclude_self_collision(plant, scene_graph, robot)
     FinishHardwareInterface(plant, robot, hardware)
     _log.info(
         "hardware interface %r (%s): %s",

@@ -37,6 +37,10 @@ class RobotConfig:
     package_paths: list[str] = dc.field(default_factory=list)
     # Collision geometry: auto | boxes | convex | as-is | none.
     collision: str = "auto"
+    # Whether the robot's links collide with each other. Off by default, as in
+    # Gazebo (<self_collide> false); the robot always collides with the ground
+    # and the scene objects.
+    self_collision: bool = False
     # Position of the base in the world [m]; the base is welded there.
     base_xyz: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
     # Orientation of the base in the world, roll pitch yaw [rad].

@@ -137,6 +137,19 @@ def _apply_controller(scenario, mode: str) -> None:
     previous = scenario.sequencer
     if previous is None:
         previous = SequencerConfig(mode=mode, targets=SEED_TARGETS, period=3.0)
+    if mode == "sinusoid" and previous.mode != "sinusoid":
+        # The sinusoid scenario's wave: pi/2 at 0.05 Hz, j2 in antiphase with j1.
+        from armando_drake.scenario import load_scenario
+
+        wave = load_scenario("sinusoid").sequencer
+        previous = SequencerConfig(
+            targets=previous.targets,
+            period=previous.period,
+            amplitude=wave.amplitude,
+            frequency=wave.frequency,
+            phase=wave.phase,
+            offset=wave.offset,
+        )
     targets = previous.targets or SEED_TARGETS
     scenario.sequencer = SequencerConfig(
         mode=mode,

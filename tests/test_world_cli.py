@@ -1,0 +1,183 @@
+"""`python -m armando_drake.world` run as a user would: output contract, Ctrl-C, bad input."""
+
+import csv
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+FAST = ["--no-meshcat", "--realtime-rate", "0"]
+
+
+def world(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "armando_drake.world", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
+def rows(path) -> list[list[str]]:
+    with open(path, newline="") as file:
+        return list(csv.reader(file))
+
+
+@pytest.mark.parametrize("controller", ["position", "trajectory"])
+def test_every_step_ends_within_0_01_rad(tmp_path, controller):
+    result = world(*FAST, "--controller", controller, "--output", str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["controller"] == controller
+    assert summary["scenario"].endswith("position.yaml")
+    assert len(summary["steps"]) == 5
+    for step in summary["steps"]:
+        assert step["max_abs_error"] <= 0.01, step
+        assert step["settle_time"] is not None and step["settle_time"] < 3.0
+    assert summary["sim_time"] == pytest.approx(15.0)
+    assert summary["realtime_factor"] > 0
+    # The table is printed, one line per step.
+    assert re.search(r"^\s+4\s+12\.00\s", result.stdout, re.M), result.stdout
+    # One CSV row per controller tick: duration x rate (+1), and commands.csv.
+    log = rows(tmp_path / "joint_states.csv")
+    assert log[0][:4] == ["time", "j0_position", "j0_velocity", "j0_effort"]
+    assert abs(len(log) - 1 - 15.0 * 100) <= 1
+    commands = rows(tmp_path / "commands.csv")
+    assert commands[0] == ["time", "j0", "j1", "j2", "j3"]
+    assert [float(v) for v in commands[2][1:]] == [1.2, -1.0, 1.2, 0.6]
+
+
+def test_sinusoid_tracks_its_reference(tmp_path):
+    result = world(*FAST, "--controller", "sinusoid", "--duration", "10", "--output", str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["tracking_error"] is not None
+    assert summary["tracking_error"] <= 0.05
+    # Check the reference independently of the summary: amplitude pi/2 at 0.05 Hz.
+    log = np.array([[float(v) for v in row] for row in rows(tmp_path / "joint_states.csv")[1:]])
+    t, q0 = log[:, 0], log[:, 1]
+    after = t >= 1.0
+    reference = (np.pi / 2) * np.sin(2 * np.pi * 0.05 * t[after])
+    assert np.abs(q0[after] - reference).max() <= 0.05
+    assert q0.max() > 1.5  # it really swings to pi/2 at t = 5 s
+
+
+def test_console_lines_follow_the_seed_node_format():
+    result = world(*FAST, "--duration", "2")
+    assert result.returncode == 0, result.stderr
+    headers = re.findall(r"^\[t=(\d+\.\d{3}) s\] Joint positions:$", result.stdout, re.M)
+    assert headers[:3] == ["0.000", "1.000", "2.000"]
+    joints = re.findall(r"^Joint (j\d): (-?\d+\.\d{3})$", result.stdout, re.M)
+    assert [name for name, _ in joints[:4]] == ["j0", "j1", "j2", "j3"]
+    assert "loaded controller 'position_controller'" in result.stdout
+    assert "activated controller 'position_controller'" in result.stdout
+
+
+def test_sigint_keeps_every_row_and_writes_the_summary(tmp_path):
+    process = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "armando_drake.world",
+            "--no-meshcat",
+            "--realtime-rate",
+            "1",
+            "--output",
+            str(tmp_path),
+            "--quiet",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    log = tmp_path / "joint_states.csv"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        if log.is_file() and len(log.read_text().splitlines()) > 150:
+            break
+        time.sleep(0.2)
+    process.send_signal(signal.SIGINT)
+    stdout, stderr = process.communicate(timeout=60)
+    assert process.returncode == 130, stderr
+    lines = log.read_text().splitlines()
+    assert len(lines) > 150
+    times = [float(line.split(",")[0]) for line in lines[1:]]
+    assert all(len(line.split(",")) == 13 for line in lines[1:])
+    np.testing.assert_allclose(np.diff(times), 0.01, atol=1e-6)  # no tick missing
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["interrupted"] is True
+    assert summary["sim_time"] == pytest.approx(times[-1], abs=0.02)
+    assert "interrupted" in stdout
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--set", "robot: {descripton: x}"], "--set 'robot: {descripton: x}': "),
+        (["--scenario", "nope"], "nope: scenario file not found"),
+        (["--set", "sequencer: {targets: [[0, 0, 0]]}"], "target 0 has 3 values, expected 4"),
+        (["--set", "sequencer: {targets: [[0, 3.5, 0, 0]]}"], "target 0: j1=3.5 is above"),
+        (["--set", "sequencer: {period: 0}"], "period=0.0 must be positive"),
+        (["--duration", "-1"], "--duration -1.0 must not be negative"),
+    ],
+    ids=["unknown-key", "no-file", "length", "limit", "period", "duration"],
+)
+def test_bad_input_is_one_line_without_traceback(args, message):
+    result = world(*FAST, *args)
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert "Traceback" not in result.stderr
+    assert message in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+
+
+def test_unknown_key_in_a_scenario_file_names_the_file(tmp_path):
+    scenario = tmp_path / "mine.yaml"
+    scenario.write_text("simulation: {duraton: 3}\n")
+    result = world(*FAST, "--scenario", str(scenario))
+    assert result.returncode == 2
+    assert f"error: {scenario}: " in result.stderr and "duraton" in result.stderr
+
+
+def test_unreadable_scenario(tmp_path):
+    if os.geteuid() == 0:
+        scenario = tmp_path / "folder.yaml"
+        scenario.mkdir()  # root reads any file; a folder is unreadable as a scenario
+    else:
+        scenario = tmp_path / "locked.yaml"
+        scenario.write_text("{}\n")
+        scenario.chmod(0)
+    result = world(*FAST, "--scenario", str(scenario))
+    assert result.returncode == 2
+    assert str(scenario) in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_unknown_controller_choice():
+    result = world(*FAST, "--controller", "velocity")
+    assert result.returncode == 2
+    assert "invalid choice: 'velocity'" in result.stderr
+
+
+def test_help_documents_every_option_with_examples():
+    result = world("--help")
+    assert result.returncode == 0
+    for option in [
+        "--scenario",
+        "--set",
+        "--controller",
+        "--duration",
+        "--realtime-rate",
+        "--no-meshcat",
+        "--output",
+        "--quiet",
+        "--camera",
+        "--save-frames",
+    ]:
+        assert option in result.stdout
+    assert "Examples:" in result.stdout
