@@ -302,13 +302,15 @@ def test_camera_looks_at_the_workspace_in_front_of_the_arm(armando):
     plant, context, robot = armando
     X_BC = plant.GetBodyByName("camera_link").EvalPoseInWorld(context)
     p_camera, forward = X_BC.translation(), X_BC.rotation().col(0)
-    assert 0.35 < np.linalg.norm(p_camera[:2]) < 0.5  # about 0.4 m from the base
-    assert 0.1 < p_camera[2] - TABLE_Z < 0.25  # a little above the table
+    assert 0.7 < np.linalg.norm(p_camera[:2]) < 0.8  # 0.75 m from the base
+    assert 0.2 < p_camera[2] - TABLE_Z < 0.3  # above the table
     assert X_BC.rotation().col(2)[2] > 0.9  # upright: +z up
-    assert -0.5 < forward[2] < -0.2  # pitched down a bit
-    # The optical axis meets the table 0.15 m in front of the base (-y: where j1 leans).
-    p_table = p_camera + forward * (TABLE_Z - p_camera[2]) / forward[2]
-    np.testing.assert_allclose(p_table[:2], [-0.03, -0.15], atol=0.01)
+    assert -0.2 < forward[2] < -0.05  # pitched down a little
+    # The optical axis passes through the arm's vertical axis, halfway up the arm.
+    s = -(p_camera[:2] @ forward[:2]) / (forward[:2] @ forward[:2])
+    p_axis = p_camera + s * forward
+    np.testing.assert_allclose(p_axis[:2], [0.0, 0.0], atol=0.01)
+    assert 0.12 < p_axis[2] - TABLE_Z < 0.2
     (sensor,) = ET.fromstring(robot.urdf).findall("gazebo/sensor")
     assert sensor.get("name") == "camera" and sensor.get("type") == "camera"
     values = {
