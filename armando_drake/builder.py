@@ -195,6 +195,7 @@ def MakeWorld(
     quiet: bool = False,
     source: str = "",
     write_commands: bool = False,
+    record: str | os.PathLike | None = None,
 ) -> World:
     """Builds the world diagram of ``scenario``.
 
@@ -202,6 +203,8 @@ def MakeWorld(
     ``output_dir``: where the logger writes ``joint_states.csv`` (none: no CSV)
     and, with ``write_commands``, the sequencer's ``commands.csv``.
     ``source``: the scenario file, named in error messages.
+    ``record``: an ``.mcap`` file where the run's topics are recorded as a ROS 2 bag
+    (:func:`~armando_drake.recording.AddRosbagRecorder`).
     """
     where = f"{source}: " if source else ""
     builder = DiagramBuilder()
@@ -313,6 +316,10 @@ def MakeWorld(
     _add_sequencer(builder, world, scenario, where, commands_csv)
     _add_logger(builder, world, scenario, output_dir, quiet)
     _add_cameras(builder, world, scenario, meshcat)
+    if record is not None:
+        from armando_drake.recording import AddRosbagRecorder
+
+        AddRosbagRecorder(builder, world, record)
 
     if meshcat is not None and scenario.visualization.enable_meshcat_creation:
         ApplyVisualizationConfig(
