@@ -10,10 +10,15 @@ messages published on it so far and the latest one. A subscriber (a
 controller) remembers the count it has handled and treats a larger count as a
 new message, so each message is validated and acted on exactly once, as with
 a ROS subscription of queue depth 1.
+
+Messages are immutable, so copying one returns it: Drake deep-copies every
+abstract state and port value at each update, and a field-by-field deep copy
+of a message would cost more than the controller's own work.
 """
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -30,12 +35,18 @@ class JointState:
     velocity: tuple[float, ...] = ()  # [rad/s] or [m/s]
     effort: tuple[float, ...] = ()  # [N m] or [N]
 
+    def __deepcopy__(self, memo):
+        return self  # immutable: see the module docstring
+
 
 @dataclass(frozen=True)
 class Float64MultiArray:
     """std_msgs/Float64MultiArray as the forward-command controllers read it."""
 
     data: tuple[float, ...] = ()
+
+    def __deepcopy__(self, memo):
+        return self  # immutable: see the module docstring
 
 
 @dataclass(frozen=True)
@@ -47,6 +58,9 @@ class JointTrajectoryPoint:
     accelerations: tuple[float, ...] = ()
     effort: tuple[float, ...] = ()
     time_from_start: float = 0.0  # [s] since the trajectory's start
+
+    def __deepcopy__(self, memo):
+        return self  # immutable: see the module docstring
 
 
 @dataclass(frozen=True)
@@ -61,6 +75,9 @@ class JointTrajectory:
     joint_names: tuple[str, ...] = ()
     points: tuple[JointTrajectoryPoint, ...] = ()
 
+    def __deepcopy__(self, memo):
+        return self  # immutable: see the module docstring
+
 
 @dataclass(frozen=True)
 class Publication:
@@ -72,6 +89,10 @@ class Publication:
     count: int = 0
     message: Any = None
     stamp: float = 0.0  # [s] simulation time at which ``message`` was published
+
+    def __deepcopy__(self, memo):
+        message = copy.deepcopy(self.message, memo)  # the message itself if it is ours
+        return self if message is self.message else Publication(self.count, message, self.stamp)
 
     def publish(self, message: Any, stamp: float = 0.0) -> Publication:
         """The publication that follows this one with ``message`` as the latest."""
@@ -92,3 +113,7 @@ class ControllerStatus:
     rejected: int = 0  # messages rejected so far
     last_error: str = ""  # reason of the latest rejection or abort, "" if none
     detail: dict[str, Any] = field(default_factory=dict)
+
+    def __deepcopy__(self, memo):
+        detail = copy.deepcopy(self.detail, memo) if self.detail else {}
+        return ControllerStatus(self.state, self.accepted, self.rejected, self.last_error, detail)
