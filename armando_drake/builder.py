@@ -543,7 +543,9 @@ def _add_cameras(builder, world: World, scenario: Scenario, meshcat) -> None:
     )
     for camera in world.cameras.values():
         _log.info("camera %s", describe(camera.info))
-    if settings.live_view or meshcat is not None:
+    # A Meshcat kept only to record a replay (recording_only) has no viewer to go with.
+    watched = meshcat is not None and not getattr(meshcat, "recording_only", False)
+    if settings.live_view or watched:
         server = AddImageView(builder, world.cameras, depth=settings.depth)
         world.image_view_url = server.url
         world.closers.append(server.close)

@@ -223,8 +223,16 @@ def run(
     meshcat=None,
     quiet: bool = False,
     stream: TextIO = sys.stdout,
+    replay: bool = True,
+    record: str | Path | None = None,
 ) -> RunResult:
-    """Builds and simulates ``scenario``; returns (and, with ``output_dir``, writes) results."""
+    """Builds and simulates ``scenario``; returns (and, with ``output_dir``, writes) results.
+
+    With ``output_dir`` it also writes the plots (:mod:`armando_drake.plots`)
+    and, with ``replay``, ``replay.html`` (:mod:`armando_drake.replay`;
+    without ``meshcat`` a private Meshcat records it). ``record``: an
+    ``.mcap`` file for the ROS 2 recording (:mod:`armando_drake.recording`).
+    """
     import tempfile
 
     from pydrake.systems.analysis import Simulator
@@ -241,14 +249,22 @@ def run(
     else:
         log_dir = Path(output_dir)
         log_dir.mkdir(parents=True, exist_ok=True)
+    replay_meshcat = None
+    if output_dir is not None and replay:
+        from armando_drake.replay import RecordingMeshcat, start_replay
+
+        replay_meshcat = meshcat if meshcat is not None else RecordingMeshcat()
     world = MakeWorld(
         scenario,
-        meshcat=meshcat,
+        meshcat=meshcat if replay_meshcat is None else replay_meshcat,
         output_dir=log_dir,
         quiet=quiet,
         source=scenario_name,
         write_commands=output_dir is not None,
+        record=record,
     )
+    if replay_meshcat is not None:
+        start_replay(replay_meshcat, live=replay_meshcat is meshcat)
     joint_names = world.hardware.joint_names
     simulator = Simulator(world.diagram)
     realtime_rate = scenario.simulation.realtime_rate
@@ -302,6 +318,13 @@ def run(
         temporary.cleanup()
     if output_dir is not None:
         (log_dir / "summary.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
+        from armando_drake.plots import write_plots
+
+        write_plots(log_dir)
+    if replay_meshcat is not None:
+        from armando_drake.replay import REPLAY_FILE, write_replay
+
+        write_replay(replay_meshcat, log_dir / REPLAY_FILE)
     return result
 
 

@@ -10,13 +10,24 @@ per step: target, reached position, largest error, time to settle within
 
 With --output DIR it writes DIR/joint_states.csv (time, then position,
 velocity, effort per joint, one row per controller tick), DIR/commands.csv
-(time and commanded positions) and DIR/summary.json.
+(time and commanded positions) and DIR/summary.json, plots of positions
+against commands, tracking error and efforts (positions.png,
+tracking_error.png, efforts.png), and DIR/replay.html, the run as a Meshcat
+animation that plays offline in any browser (recorded by a private Meshcat
+when --no-meshcat; --no-replay skips it).
+
+With --record FILE.mcap it records the run as a ROS 2 bag (MCAP storage,
+CDR): /joint_states, the sequencer's commands (/position_controller/commands
+or /trajectory_controller/joint_trajectory) and, with the camera on,
+/camera/image_raw and /camera/camera_info, stamped with simulation time;
+ros2 bag info/play and Foxglove open it.
 
 Examples:
   python -m armando_drake.world
   python -m armando_drake.world --controller trajectory
   python -m armando_drake.world --controller sinusoid --duration 40
   python -m armando_drake.world --no-meshcat --realtime-rate 0 --output out/run1
+  python -m armando_drake.world --no-meshcat --realtime-rate 0 --record out/run1.mcap
   python -m armando_drake.world --scenario diagrams/world.yaml     # no controller: it falls
   python -m armando_drake.world --scenario camera --save-frames out/frames --save-rate 2
   python -m armando_drake.world --set "actuators: {kp: 4.0}" --set "sequencer: {period: 5}"
@@ -120,6 +131,16 @@ def _parser() -> argparse.ArgumentParser:
         "--output", metavar="DIR", help="write joint_states.csv, commands.csv, summary.json"
     )
     parser.add_argument(
+        "--no-replay",
+        action="store_true",
+        help="with --output, do not write replay.html (saves the recording's cost)",
+    )
+    parser.add_argument(
+        "--record",
+        metavar="FILE.mcap",
+        help="record the run's topics as a ROS 2 bag (MCAP) for ros2 bag and Foxglove",
+    )
+    parser.add_argument(
         "--quiet", action="store_true", help="print only errors and the final table"
     )
     return parser
@@ -210,6 +231,8 @@ def main(argv: list[str] | None = None) -> int:
                 raise UserError(f"--save-rate {args.save_rate} must be positive [Hz]")
             scenario.camera.save_rate = args.save_rate
 
+        if args.record:
+            _check_record(args.record)
         meshcat = None
         if not args.no_meshcat:
             from pydrake.geometry import StartMeshcat
@@ -223,6 +246,8 @@ def main(argv: list[str] | None = None) -> int:
             output_dir=args.output,
             meshcat=meshcat,
             quiet=args.quiet,
+            replay=not args.no_replay,
+            record=args.record,
         )
         print(
             f"\n{result.controller} run of {path.name}: {result.sim_time:.2f} s simulated in "
@@ -235,6 +260,11 @@ def main(argv: list[str] | None = None) -> int:
             print(f"sinusoid tracking error after 1 s: {result.tracking_error:.4f} rad")
         if args.output:
             print(f"logs: {args.output}/joint_states.csv, commands.csv, summary.json")
+            print(f"plots: {args.output}/positions.png, tracking_error.png, efforts.png")
+            if not args.no_replay:
+                print(f"replay: {args.output}/replay.html")
+        if args.record:
+            print(f"recording: {args.record}")
     return 130 if result.interrupted else 0
 
 
@@ -249,6 +279,15 @@ def _merge(scenario, override: str):
     except Exception as error:  # yaml_load_typed raises RuntimeError, KeyError, ...
         text = " ".join(str(error).split())
         raise ScenarioError(f"--set {override!r}: {text}") from None
+
+
+def _check_record(record: str) -> None:
+    from armando_drake.recording import RecordingError, check_recording_path
+
+    try:
+        check_recording_path(record)
+    except RecordingError as error:
+        raise UserError(str(error)) from None
 
 
 def _check_output(output: str) -> None:
