@@ -57,11 +57,12 @@ def test_bad_xacro_arg_is_named():
 @pytest.mark.browser
 def test_meshcat_page_shows_every_link_in_both_layers(chromium):
     """Chromium opens the running display and finds each link of Armando in the scene."""
-    from pydrake.multibody.plant import MultibodyPlant
+    from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
+    from pydrake.systems.framework import DiagramBuilder
 
     from armando_drake.description import load_robot
 
-    plant = MultibodyPlant(0.0)
+    plant, _ = AddMultibodyPlantSceneGraph(DiagramBuilder(), 0.0)
     robot = load_robot(plant)
     plant.Finalize()
     links = [
@@ -99,7 +100,6 @@ def test_meshcat_page_shows_every_link_in_both_layers(chromium):
             png = page.screenshot()
     import io
 
-    import numpy as np
     from matplotlib import image
 
     pixels = image.imread(io.BytesIO(png), format="png")[..., :3]
