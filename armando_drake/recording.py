@@ -197,8 +197,14 @@ def check_recording_path(path: str | os.PathLike) -> Path:
         raise RecordingError(f"--record {path}: folder {folder} does not exist")
     if path.is_dir():
         raise RecordingError(f"--record {path}: is a folder")
-    if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
-        raise RecordingError(f"--record {path}: no permission to write there")
+    existed = path.exists()
+    try:
+        with open(path, "ab"):  # the real test: can this process create or append to it?
+            pass
+    except OSError as error:
+        raise RecordingError(f"--record {path}: cannot write there: {error.strerror}") from None
+    if not existed:
+        path.unlink()
     return path
 
 
