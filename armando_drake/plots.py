@@ -153,6 +153,9 @@ def write_plots(output_dir: str | Path) -> list[Path]:
 
     fig, axes = figure("Tracking error |q - commanded|", "rad")
     for j, axis in enumerate(axes):
+        if np.isnan(commanded[:, j]).all():
+            axis.text(0.5, 0.5, "no command", transform=axis.transAxes, ha="center")
+            continue
         axis.plot(times, np.abs(position[:, j] - commanded[:, j]), color="tab:red")
     save(fig, "tracking_error.png")
 
