@@ -67,7 +67,7 @@ def test_bring_up(monkeypatch):
 
 def test_control(monkeypatch):
     text, pictures = execute("02_control", monkeypatch)
-    assert pictures == 3  # one figure per run: positions and torques
+    assert pictures == 6  # per run: positions.png and efforts.png
     for scenario in ("position", "trajectory"):
         match = re.search(rf"^{scenario}: (\d+) steps, largest step error (\S+) rad$", text, re.M)
         assert match, f"no summary line for {scenario}"
