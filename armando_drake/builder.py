@@ -58,6 +58,7 @@ from armando_drake.hardware import (
     GravityFeedforward,
     HardwareInterface,
 )
+from armando_drake.importer import default_controller_config
 from armando_drake.messages import Publication
 from armando_drake.objects import AddSceneObjects
 from armando_drake.scenario import Scenario, ScenarioError
@@ -132,30 +133,8 @@ def _controller_config(scenario: Scenario, robot: LoadedRobot, hardware) -> Cont
     candidates = sorted((package_dir / "config").glob("*controllers*.yaml"))
     if candidates and (package_dir / "package.xml").is_file():
         return load_controller_config(candidates[0])
-    data = default_controller_yaml(hardware.joint_names)
+    data = default_controller_config(hardware.joint_names)
     return parse_controller_config(data, source=f"<default controllers of {robot.name}>")
-
-
-def default_controller_yaml(joints: list[str], update_rate: int = 100) -> dict:
-    """The controller YAML a robot without one gets: broadcaster, position, trajectory."""
-    return {
-        "controller_manager": {
-            "ros__parameters": {
-                "update_rate": update_rate,
-                "joint_state_broadcaster": {"type": BROADCASTER_TYPE},
-                "position_controller": {"type": POSITION_TYPES[0]},
-                "trajectory_controller": {"type": TRAJECTORY_TYPE},
-            }
-        },
-        "position_controller": {"ros__parameters": {"joints": list(joints)}},
-        "trajectory_controller": {
-            "ros__parameters": {
-                "joints": list(joints),
-                "command_interfaces": ["position"],
-                "state_interfaces": ["position", "velocity"],
-            }
-        },
-    }
 
 
 def _add_ground(plant: MultibodyPlant) -> None:

@@ -22,6 +22,23 @@ def parse_xacro_args(items: Iterable[str]) -> dict[str, str]:
     return result
 
 
+def add_scenario_arguments(parser) -> None:
+    """``--scenario FILE`` and repeatable ``--set YAML``, as every scenario command takes them."""
+    parser.add_argument(
+        "--scenario",
+        default="position",
+        metavar="FILE",
+        help="scenario YAML: a path, or a name in diagrams/ (default: position)",
+    )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="YAML",
+        help='YAML merged over the scenario, e.g. "simulation: {duration: 5}" (repeatable)',
+    )
+
+
 @contextlib.contextmanager
 def user_errors() -> Iterator[None]:
     """Turns the project's input errors into ``error: ...`` on stderr and exit 2."""

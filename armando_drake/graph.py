@@ -25,7 +25,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from armando_drake.cli import UserError, user_errors
+from armando_drake.cli import UserError, add_scenario_arguments, user_errors
 
 FORMATS = {".svg": "svg", ".png": "png", ".pdf": "pdf", ".dot": None, ".gv": None}
 INSTALL_HINT = "install Graphviz (Debian/Ubuntu: apt-get install graphviz)"
@@ -76,19 +76,7 @@ def _parser() -> argparse.ArgumentParser:
         epilog=__doc__.split("\n\n", 1)[1],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument(
-        "--scenario",
-        default="position",
-        metavar="FILE",
-        help="scenario YAML: a path, or a name in diagrams/ (default: position)",
-    )
-    parser.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="YAML",
-        help='YAML merged over the scenario, e.g. "camera: {enabled: true}" (repeatable)',
-    )
+    add_scenario_arguments(parser)
     parser.add_argument(
         "-o",
         "--output",
@@ -110,8 +98,7 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     with user_errors():
         from armando_drake.builder import MakeWorld
-        from armando_drake.scenario import load_scenario, resolve_scenario_path
-        from armando_drake.world import _merge as merge_override
+        from armando_drake.scenario import load_scenario, merge_overrides, resolve_scenario_path
 
         output = Path(args.output)
         if output.suffix.lower() not in FORMATS:
@@ -121,9 +108,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.max_depth < 1:
             raise UserError(f"--max-depth {args.max_depth} must be at least 1")
         path = resolve_scenario_path(args.scenario)
-        scenario = load_scenario(path)
-        for override in args.set:
-            scenario = merge_override(scenario, override)
+        scenario = merge_overrides(load_scenario(path), args.set)
         world = MakeWorld(scenario, quiet=True, source=str(path))
         try:
             render(graphviz_source(world.diagram, args.max_depth), output)

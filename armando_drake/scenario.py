@@ -156,6 +156,17 @@ def resolve_scenario_path(name: str | os.PathLike) -> Path:
     raise ScenarioError(f"{name}: scenario file not found (files in diagrams/: {available})")
 
 
+def merge_overrides(scenario: Scenario, overrides, label: str = "--set") -> Scenario:
+    """``scenario`` with each YAML string of ``overrides`` merged over it in turn."""
+    for override in [overrides] if isinstance(overrides, str) else overrides:
+        try:
+            scenario = yaml_load_typed(data=override, defaults=scenario)
+        except Exception as error:  # yaml_load_typed raises RuntimeError, KeyError, ...
+            text = " ".join(str(error).split())
+            raise ScenarioError(f"{label} {override!r}: {text}") from None
+    return scenario
+
+
 def load_scenario(
     filename: str | os.PathLike | None = None, overrides: str | None = None
 ) -> Scenario:
@@ -168,8 +179,7 @@ def load_scenario(
             source = str(path)
             scenario = yaml_load_typed(filename=str(path), defaults=scenario)
         if overrides:
-            source = f"override {overrides!r}"
-            scenario = yaml_load_typed(data=overrides, defaults=scenario)
+            scenario = merge_overrides(scenario, overrides, label="override")
     except ScenarioError:
         raise
     except OSError as error:

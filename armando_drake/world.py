@@ -39,7 +39,7 @@ import argparse
 import logging
 import sys
 
-from armando_drake.cli import UserError, user_errors
+from armando_drake.cli import UserError, add_scenario_arguments, user_errors
 
 CONTROLLER_TYPES = {
     "position": "position_controllers/JointGroupPositionController",
@@ -62,19 +62,7 @@ def _parser() -> argparse.ArgumentParser:
         epilog=__doc__.split("\n\n", 1)[1],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument(
-        "--scenario",
-        default="position",
-        metavar="FILE",
-        help="scenario YAML: a path, or a name in diagrams/ (default: position)",
-    )
-    parser.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="YAML",
-        help='YAML merged over the scenario, e.g. "simulation: {duration: 5}" (repeatable)',
-    )
+    add_scenario_arguments(parser)
     parser.add_argument(
         "--controller",
         choices=["position", "trajectory", "sinusoid", "none"],
@@ -200,12 +188,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     with user_errors():
         from armando_drake.run import format_table, run
-        from armando_drake.scenario import load_scenario, resolve_scenario_path
+        from armando_drake.scenario import load_scenario, merge_overrides, resolve_scenario_path
 
         path = resolve_scenario_path(args.scenario)
-        scenario = load_scenario(path)
-        for override in args.set:
-            scenario = _merge(scenario, override)
+        scenario = merge_overrides(load_scenario(path), args.set)
         if args.description is not None:
             scenario.robot.description = args.description
         scenario.robot.package_paths += args.package_path
@@ -266,19 +252,6 @@ def main(argv: list[str] | None = None) -> int:
         if args.record:
             print(f"recording: {args.record}")
     return 130 if result.interrupted else 0
-
-
-def _merge(scenario, override: str):
-    """The scenario with a YAML override string merged over it."""
-    from pydrake.common.yaml import yaml_load_typed
-
-    from armando_drake.scenario import ScenarioError
-
-    try:
-        return yaml_load_typed(data=override, defaults=scenario)
-    except Exception as error:  # yaml_load_typed raises RuntimeError, KeyError, ...
-        text = " ".join(str(error).split())
-        raise ScenarioError(f"--set {override!r}: {text}") from None
 
 
 def _check_record(record: str) -> None:
