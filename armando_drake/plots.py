@@ -73,10 +73,9 @@ def commanded_at(
 
 def write_plots(output_dir: str | Path) -> list[Path]:
     """Writes the PNG plots of the run in ``output_dir``; returns their paths."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    # A bare Figure draws with the Agg canvas and leaves pyplot's backend (and a
+    # notebook's inline plots) alone.
+    from matplotlib.figure import Figure
 
     folder = Path(output_dir)
     header, states = _read_csv(folder / "joint_states.csv")
@@ -115,9 +114,8 @@ def write_plots(output_dir: str | Path) -> list[Path]:
             commanded[:, joints.index(name)] = held[:, k]
 
     def figure(quantity: str, unit: str):
-        fig, axes = plt.subplots(
-            len(joints), 1, sharex=True, squeeze=False, figsize=FIGURE_SIZE, dpi=DPI
-        )
+        fig = Figure(figsize=FIGURE_SIZE, dpi=DPI)
+        axes = fig.subplots(len(joints), 1, sharex=True, squeeze=False)
         axes = axes[:, 0]
         fig.suptitle(f"{quantity}: {title}")
         for axis, name in zip(axes, joints, strict=True):
@@ -133,7 +131,6 @@ def write_plots(output_dir: str | Path) -> list[Path]:
     def save(fig, name: str) -> None:
         path = folder / name
         fig.savefig(path, dpi=DPI)
-        plt.close(fig)
         written.append(path)
 
     fig, axes = figure("Joint positions", "rad")
