@@ -84,9 +84,7 @@ def test_meshcat_page_shows_every_link_in_both_layers(chromium):
 
             paths = wait_for_scene_paths(page, complete)
             missing = [
-                link
-                for link in links
-                if f"/drake/illustration/{robot.name}/{link}" not in paths
+                link for link in links if f"/drake/illustration/{robot.name}/{link}" not in paths
             ]
             assert not missing, f"links missing from the Meshcat scene: {missing}"
             assert complete(paths)
