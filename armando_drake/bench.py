@@ -162,7 +162,7 @@ def _number(value: float) -> str:
 
 def machine() -> dict:
     """What the figures were measured on."""
-    import pydrake
+    from importlib import metadata
 
     info = {
         "python": platform.python_version(),
@@ -170,7 +170,7 @@ def machine() -> dict:
         "processor": _cpu_model(),
         "cpus": os.cpu_count(),
         "load_average": list(os.getloadavg()),
-        "drake": getattr(pydrake, "__version__", "unknown"),
+        "drake": metadata.version("drake"),
     }
     with contextlib.suppress(ImportError):
         import mujoco
@@ -571,7 +571,9 @@ def bench_camera(report: Report, frames: int, duration: float) -> None:
         )
     )
     report.notes.append(
-        f"Camera: {what}, colour + depth, rendered by Drake's VTK engine (EGL, headless)."
+        f"Camera: {what}, colour + depth, rendered by Drake's VTK engine through EGL; "
+        "without a GPU (as on our 2-core machines) that rendering runs on the CPU, and at "
+        "30 Hz it costs more than the simulation of the arm."
     )
 
 
