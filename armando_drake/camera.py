@@ -50,9 +50,12 @@ about the most Drake's 16-bit depth image can hold; farther points read as
 
 Rate
 ----
-The images are sampled and held at ``<update_rate>`` (zero-order holds, or the
-noise system) so that every reader sees Gazebo's frame timing and rendering
-happens at the camera rate, never per plant step. SDFormat's default rate of 0
+The colour image is sampled and held at ``<update_rate>`` (a zero-order hold,
+or the noise system) so that every reader sees Gazebo's frame timing and
+rendering happens at the camera rate, never per plant step. Depth is rendered
+on demand, when a reader evaluates it (the frame saver at its rate, the live
+view only while a page shows depth), so a camera whose depth nobody reads
+costs only its colour render. SDFormat's default rate of 0
 means "every physics step", which has no meaning for Drake's variable-step
 simulation: :data:`DEFAULT_FRAME_RATE` (30 Hz) is used instead.
 
@@ -434,8 +437,9 @@ def AddCameraSensors(
 
     Uses ``CameraConfig`` + ``ApplyCameraConfig`` (LCM publishing switched off)
     with a headless VTK renderer named ``renderer_name`` shared by all cameras.
-    With ``hold`` the images are sampled and held at each camera's rate (set it
-    False only to render on every evaluation); Gaussian colour noise, if the
+    With ``hold`` the colour image is sampled and held at each camera's rate
+    (set it False only to render on every evaluation); depth is rendered when
+    read; Gaussian colour noise, if the
     block has some, is added by a :class:`CameraColorNoise` at the same rate.
     With ``export`` the diagram exports ``<camera>.color_image`` and
     ``<camera>.depth_image``. Call after ``plant.Finalize()``.
@@ -485,11 +489,10 @@ def AddCameraSensors(
             color = noise.get_output_port()
         elif hold:
             color = _hold(builder, f"camera_hold_color_{info.name}", color, period, info)
-        depth = None
-        if enable_depth:
-            depth = sensor.GetOutputPort("depth_image_32f")
-            if hold:
-                depth = _hold(builder, f"camera_hold_depth_{info.name}", depth, period, info)
+        # Depth is not held: it is rendered when a consumer reads it (the frame
+        # saver, a page showing it, a test), so a camera whose depth nobody reads
+        # costs only its colour render.
+        depth = sensor.GetOutputPort("depth_image_32f") if enable_depth else None
         if export:
             builder.ExportOutput(color, f"{info.name}.color_image")
             if depth is not None:

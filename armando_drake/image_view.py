@@ -30,6 +30,7 @@ import json
 import logging
 import os
 import threading
+import time as _time
 import urllib.parse
 from dataclasses import dataclass
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -87,6 +88,7 @@ class _Frame:
     time: float  # [s] simulation time of the publish
     count: int  # frames received so far
     rate: float  # [Hz] publish rate (the page refreshes at it)
+    has_depth: bool = False  # whether the camera can publish depth (when a page asks)
     color_png: bytes | None = None  # encoded on first request
     depth_png: bytes | None = None
 
@@ -175,6 +177,7 @@ class ImageViewServer:
             raise ValueError(f"port={port!r} must be in 0..65535")
         self._lock = threading.Lock()
         self._frames: dict[str, _Frame] = {}
+        self._depth_requests: dict[str, float] = {}  # camera -> monotonic time of last ask
         self._page = _PAGE.format(title=html.escape(title)).encode()
         self._httpd = ThreadingHTTPServer((host, port), self._handler_class())
         self._httpd.daemon_threads = True
@@ -197,8 +200,13 @@ class ImageViewServer:
         *,
         time: float = 0.0,
         rate: float = 30.0,
+        has_depth: bool | None = None,
     ) -> None:
-        """Makes ``color`` (H x W x 4 uint8) and ``depth`` (H x W [m]) camera ``name``'s frame."""
+        """Makes ``color`` (H x W x 4 uint8) and ``depth`` (H x W [m]) camera ``name``'s frame.
+
+        ``has_depth``: the camera can publish depth, even if this frame has none
+        (depth is rendered only while a page asks for it); default: ``depth`` given.
+        """
         color = np.array(color, dtype=np.uint8, copy=True)
         if color.ndim != 3 or color.shape[2] != 4:
             raise ValueError(f"color image shape {color.shape} is not (height, width, 4)")
@@ -207,7 +215,16 @@ class ImageViewServer:
         with self._lock:
             previous = self._frames.get(name)
             count = previous.count + 1 if previous else 1
-            self._frames[name] = _Frame(color, depth, float(time), count, float(rate))
+            capable = depth is not None if has_depth is None else has_depth
+            self._frames[name] = _Frame(
+                color, depth, float(time), count, float(rate), capable or depth is not None
+            )
+
+    def wants_depth(self, name: str, within: float = 2.0) -> bool:
+        """Whether a page asked for camera ``name``'s depth in the last ``within`` seconds."""
+        with self._lock:
+            asked = self._depth_requests.get(name)
+        return asked is not None and _time.monotonic() - asked <= within
 
     def frame_count(self, name: str) -> int:
         """How many frames camera ``name`` has published (0 if none)."""
@@ -238,7 +255,7 @@ class ImageViewServer:
             "time": frame.time,
             "count": frame.count,
             "rate": frame.rate,
-            "depth": frame.depth is not None,
+            "depth": frame.has_depth,
         }
 
     def _respond(self, path: str) -> tuple[int, str, bytes]:
@@ -264,8 +281,12 @@ class ImageViewServer:
         if kind == "json":
             return 200, "application/json", json.dumps(self._metadata(name, frame)).encode()
         if kind == "depth":
-            if frame.depth is None:
+            if not frame.has_depth:
                 return 404, "text/plain", f"camera {name!r} publishes no depth\n".encode()
+            with self._lock:
+                self._depth_requests[name] = _time.monotonic()
+            if frame.depth is None:  # rendered from the next frame on
+                return 503, "text/plain", f"camera {name!r}: depth starts next frame\n".encode()
             if frame.depth_png is None:
                 frame.depth_png = depth_preview_png(frame.depth)
             return 200, "image/png", frame.depth_png
@@ -349,11 +370,18 @@ class ImageViewPublisher(LeafSystem):
         color = self._color.Eval(context)
         if color.width() == 0 or color.height() == 0:
             return
+        # Depth is rendered on demand: only while a page shows it.
         depth = None
-        if self._depth is not None and self._depth.HasValue(context):
+        wanted = self._depth is not None and self._server.wants_depth(self._camera_name)
+        if wanted and self._depth.HasValue(context):
             depth = self._depth.Eval(context).data[:, :, 0]
         self._server.publish(
-            self._camera_name, color.data, depth, time=context.get_time(), rate=self._rate
+            self._camera_name,
+            color.data,
+            depth,
+            time=context.get_time(),
+            rate=self._rate,
+            has_depth=self._depth is not None,
         )
 
 

@@ -445,6 +445,13 @@ def test_image_view_serves_latest_frames_over_http(tmp_path):
         color = np.array(Image.open(io.BytesIO(fetch(server.url + "camera/camera.png"))))
         assert color.shape == (240, 320, 3)
         assert blue(color).sum() > 4000 and red(color).sum() > 300
+        # Depth is rendered on demand: the first ask starts it from the next frame.
+        assert not server.wants_depth("camera")
+        with pytest.raises(urllib.error.HTTPError) as not_yet:
+            fetch(server.url + "camera/camera/depth.png")
+        assert not_yet.value.code == 503
+        assert server.wants_depth("camera")
+        server.publish("camera", np.zeros((240, 320, 4), np.uint8), np.ones((240, 320)))
         depth = Image.open(io.BytesIO(fetch(server.url + "camera/camera/depth.png")))
         assert depth.size == (320, 240) and depth.mode == "L"
         page = fetch(server.url).decode()
