@@ -284,7 +284,7 @@ def _IdleSystem():
     return IdleSystem()
 
 
-PIPELINE_PYTHON_SYSTEMS = 5  # broadcaster, controller, sequencer, gravity feed-forward, logger
+PIPELINE_PYTHON_SYSTEMS = 4  # broadcaster, controller, sequencer, logger
 
 
 def bench_pipeline(report: Report, duration: float) -> None:
@@ -498,7 +498,7 @@ def bench_mujoco(report: Report, period: float) -> None:
             "(mj_step with nstep, no controller in the loop) and its implicitfast step of this "
             "4-joint arm costs a few microseconds; our pipeline pays Drake's discrete step "
             "(contact solver with the PD gains implicit, 'lagged' approximation; compare the "
-            "bare plant at 1 ms with MuJoCo at 1 ms) plus five Python systems at 100 Hz, "
+            "bare plant at 1 ms with MuJoCo at 1 ms) plus our Python systems at 100 Hz, "
             "which at 20 ms are most of the cost. Drake's implicit PD keeps 20 ms stable where "
             "MuJoCo's explicit position gain diverges above 5 ms, which is not enough to "
             "close the gap."

@@ -53,9 +53,9 @@ from armando_drake.controllers import (
 )
 from armando_drake.description import LoadedRobot, load_robot
 from armando_drake.hardware import (
+    AddGravityFeedforward,
     AddHardwareInterface,
     FinishHardwareInterface,
-    GravityFeedforward,
     HardwareInterface,
 )
 from armando_drake.importer import default_controller_config
@@ -281,14 +281,12 @@ def MakeWorld(
         builder.Connect(desired, plant.get_desired_state_input_port(robot.model_instance))
         builder.ExportOutput(desired, "desired_state")
         if actuators.gravity_feedforward:
-            feedforward = builder.AddSystem(
-                GravityFeedforward(plant=plant, robot=robot, hardware=hardware, update_rate=rate)
+            feedforward_input, feedforward_output = AddGravityFeedforward(
+                builder, plant, robot, hardware, update_rate=rate
             )
-            feedforward.set_name("gravity_feedforward")
-            builder.Connect(desired, feedforward.get_input_port())
+            builder.Connect(desired, feedforward_input)
             builder.Connect(
-                feedforward.get_output_port(),
-                plant.get_actuation_input_port(robot.model_instance),
+                feedforward_output, plant.get_actuation_input_port(robot.model_instance)
             )
 
     commands_csv = Path(output_dir) / "commands.csv" if output_dir and write_commands else None

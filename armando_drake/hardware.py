@@ -19,7 +19,9 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import PdControllerGains
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.controllers import InverseDynamics
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import AffineSystem, MatrixGain, ZeroOrderHold
 
 from armando_drake.description import LoadedRobot, parse_urdf
 from armando_drake.importer import actuated_joints
@@ -168,54 +170,59 @@ def FinishHardwareInterface(
     hardware.num_model_states = nq + nv
 
 
-class GravityFeedforward(LeafSystem):
-    """Holds the arm against gravity at the commanded position.
+def AddGravityFeedforward(
+    builder: DiagramBuilder,
+    plant: MultibodyPlant,
+    robot: LoadedRobot,
+    hardware: HardwareInterface,
+    *,
+    update_rate: float,
+):
+    """Adds the torques that hold the arm against gravity at the commanded position.
 
-    .. pydrake_system::
+    Returns ``(input, output)``: the input port takes ``desired_state`` [q_d; v_d]
+    of the hardware joints in actuator order, the output port gives one torque
+    [N m] per actuator of ``robot`` for the plant's actuation input. Four Drake
+    systems, no Python at run time:
 
-        name: GravityFeedforward
-        input_ports:
-        - desired_state
-        output_ports:
-        - actuation
+    - ``gravity_feedforward_state`` (AffineSystem): the plant state with the
+      hardware joints at q_d and every other position at its default;
+    - ``gravity_feedforward`` (InverseDynamics, gravity compensation): the
+      generalized forces -tau_g(q) that cancel gravity there;
+    - ``gravity_feedforward_torque`` (MatrixGain): those forces as actuator
+      torques (pseudo-inverse of the actuation matrix, rows of ``robot``);
+    - ``gravity_feedforward_hold`` (ZeroOrderHold): samples them at
+      ``update_rate`` [Hz], when the command changes, so the plant reads a
+      stored vector each step and the dynamics are evaluated only then.
 
-    ``desired_state`` is [q_d; v_d] of the hardware joints in actuator order;
-    ``actuation`` the torques [N m], one per actuator, that cancel gravity at
-    q_d. It is recomputed by a discrete update at the controller rate (the
-    command only changes then), so the plant reads a stored vector each step.
+    The hold starts at zero torque until its first sample at t = 0, which the
+    plant's first step (from t = 0) does not see yet.
     """
-
-    def __init__(
-        self,
-        *,
-        plant: MultibodyPlant,
-        robot: LoadedRobot,
-        hardware: HardwareInterface,
-        update_rate: float,
-    ):
-        super().__init__()
-        self._plant = plant
-        self._plant_context = plant.CreateDefaultContext()
-        self._instance = robot.model_instance
-        self._hardware = hardware
-        n = len(hardware.joints)
-        # Generalized forces of the whole plant -> torques of the actuators.
-        self._B_inverse = np.linalg.pinv(plant.MakeActuationMatrix())
-        self._actuator_rows = [
-            int(index) for index in plant.GetJointActuatorIndices(robot.model_instance)
-        ]
-        self._desired_state = self.DeclareVectorInputPort("desired_state", 2 * n)
-        self._torque = self.DeclareDiscreteState(BasicVector(np.zeros(n)))
-        self.DeclareStateOutputPort("actuation", self._torque)
-        self.DeclarePeriodicDiscreteUpdateEvent(1.0 / update_rate, 0.0, self._UpdateTorque)
-        self.DeclareInitializationDiscreteUpdateEvent(self._UpdateTorque)
-
-    def _UpdateTorque(self, context, discrete_state):
-        n = len(self._hardware.joints)
-        x_d = self._desired_state.Eval(context)
-        q = self._plant.GetPositions(self._plant_context, self._instance)
-        q[self._hardware.position_index] = x_d[:n]
-        self._plant.SetPositions(self._plant_context, self._instance, q)
-        tau_g = self._plant.CalcGravityGeneralizedForces(self._plant_context)
-        u = -(self._B_inverse @ tau_g)
-        discrete_state.set_value(0, u[self._actuator_rows])
+    if not (update_rate > 0 and np.isfinite(update_rate)):
+        raise ValueError(f"update_rate={update_rate!r} must be positive [Hz]")
+    n = len(hardware.joints)
+    # The plant state at q_d: default positions, zero velocities, hardware joints from input.
+    x_default = np.concatenate(
+        [plant.GetPositions(plant.CreateDefaultContext()), np.zeros(plant.num_velocities())]
+    )
+    D = np.zeros((plant.num_multibody_states(), 2 * n))
+    for row, joint in enumerate(hardware.joints):
+        start = plant.GetJointByName(joint.name, robot.model_instance).position_start()
+        x_default[start] = 0.0
+        D[start, row] = 1.0
+    state = builder.AddSystem(AffineSystem(D=D, y0=x_default))
+    state.set_name("gravity_feedforward_state")
+    dynamics = builder.AddSystem(
+        InverseDynamics(plant, mode=InverseDynamics.InverseDynamicsMode.kGravityCompensation)
+    )
+    dynamics.set_name("gravity_feedforward")
+    # Generalized forces of the whole plant -> torques of the robot's actuators.
+    rows = [int(index) for index in plant.GetJointActuatorIndices(robot.model_instance)]
+    to_torque = builder.AddSystem(MatrixGain(np.linalg.pinv(plant.MakeActuationMatrix())[rows]))
+    to_torque.set_name("gravity_feedforward_torque")
+    hold = builder.AddSystem(ZeroOrderHold(1.0 / update_rate, n))
+    hold.set_name("gravity_feedforward_hold")
+    builder.Connect(state.get_output_port(), dynamics.get_input_port_estimated_state())
+    builder.Connect(dynamics.get_output_port_generalized_force(), to_torque.get_input_port())
+    builder.Connect(to_torque.get_output_port(), hold.get_input_port())
+    return state.get_input_port(), hold.get_output_port()
