@@ -8,6 +8,7 @@ import sys
 import xml.etree.ElementTree as ET
 
 import pytest
+from conftest import skip_or_fail
 
 from armando_drake import bench
 
@@ -55,9 +56,9 @@ def test_quick_run_writes_every_row_with_positive_numbers(quick_run):
     ]
     for name in expected:
         assert name in names
-    if HAS_MUJOCO:
-        assert "Drake pipeline / MuJoCo" in names
-        assert "Drake pipeline: largest step" in names
+    assert HAS_MUJOCO, "mujoco is not installed (pip install -e '.[test]')"
+    assert "Drake pipeline / MuJoCo" in names
+    assert "Drake pipeline: largest step" in names
     for row in report["rows"]:
         assert set(row) >= {"section", "name", "unit", "median", "min", "max", "samples"}
         assert row["section"] in bench.SECTIONS
@@ -115,8 +116,9 @@ def test_mujoco_xml_drops_ros_elements_and_keeps_every_link():
     assert moving == [("b", "c")]
 
 
-@pytest.mark.skipif(not HAS_MUJOCO, reason="mujoco is not installed (pip install -e '.[bench]')")
 def test_mujoco_model_reaches_the_targets_like_the_world():
+    if not HAS_MUJOCO:
+        skip_or_fail("mujoco is not installed (pip install -e '.[test]')")
     from armando_drake.builder import MakeWorld
     from armando_drake.scenario import load_scenario
 

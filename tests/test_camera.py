@@ -20,7 +20,6 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.sensors import ImageRgba8U
 
-from armando_drake import DEFAULT_DESCRIPTION
 from armando_drake.camera import (
     DEFAULT_FRAME_RATE,
     AddCameraSensors,
@@ -239,8 +238,6 @@ def test_camera_block_loaded_through_load_robot(tmp_path):
 
 
 def test_armando_camera_sees_the_arm():
-    if not DEFAULT_DESCRIPTION.is_file():
-        pytest.skip(f"the Armando description is not there yet: {DEFAULT_DESCRIPTION}")
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=0.001)
     robot = load_robot(plant)

@@ -80,8 +80,6 @@ def test_armando_content_loads(tmp_path, wrap):
 
 @pytest.mark.parametrize("wrap", [lambda text: text, namespaced], ids=["plain", "wildcard"])
 def test_package_config_loads(tmp_path, wrap):
-    if not PACKAGE_CONFIG.is_file():
-        pytest.skip(f"{PACKAGE_CONFIG} is not written yet")
     check_armando(load_controller_config(write(tmp_path, wrap(PACKAGE_CONFIG.read_text()))))
 
 
