@@ -37,6 +37,30 @@ def add_scenario_arguments(parser) -> None:
         metavar="YAML",
         help='YAML merged over the scenario, e.g. "simulation: {duration: 5}" (repeatable)',
     )
+    parser.add_argument(
+        "--description",
+        metavar="PATH",
+        help="robot description: .urdf/.xacro file, package directory or package://pkg/file "
+        "(default: the scenario's, i.e. the built-in Armando)",
+    )
+    parser.add_argument(
+        "--package-path",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="a folder to search for ROS packages before ROS_PACKAGE_PATH (repeatable)",
+    )
+
+
+def apply_scenario_arguments(scenario, args):
+    """The scenario with ``--set``, ``--description`` and ``--package-path`` applied."""
+    from armando_drake.scenario import merge_overrides
+
+    scenario = merge_overrides(scenario, args.set)
+    if args.description is not None:
+        scenario.robot.description = args.description
+    scenario.robot.package_paths += args.package_path
+    return scenario
 
 
 @contextlib.contextmanager

@@ -25,7 +25,12 @@ import subprocess
 import sys
 from pathlib import Path
 
-from armando_drake.cli import UserError, add_scenario_arguments, user_errors
+from armando_drake.cli import (
+    UserError,
+    add_scenario_arguments,
+    apply_scenario_arguments,
+    user_errors,
+)
 
 FORMATS = {".svg": "svg", ".png": "png", ".pdf": "pdf", ".dot": None, ".gv": None}
 INSTALL_HINT = "install Graphviz (Debian/Ubuntu: apt-get install graphviz)"
@@ -98,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     with user_errors():
         from armando_drake.builder import MakeWorld
-        from armando_drake.scenario import load_scenario, merge_overrides, resolve_scenario_path
+        from armando_drake.scenario import load_scenario, resolve_scenario_path
 
         output = Path(args.output)
         if output.suffix.lower() not in FORMATS:
@@ -108,7 +113,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.max_depth < 1:
             raise UserError(f"--max-depth {args.max_depth} must be at least 1")
         path = resolve_scenario_path(args.scenario)
-        scenario = merge_overrides(load_scenario(path), args.set)
+        scenario = apply_scenario_arguments(load_scenario(path), args)
         world = MakeWorld(scenario, quiet=True, source=str(path))
         try:
             render(graphviz_source(world.diagram, args.max_depth), output)

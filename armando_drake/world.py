@@ -39,7 +39,12 @@ import argparse
 import logging
 import sys
 
-from armando_drake.cli import UserError, add_scenario_arguments, user_errors
+from armando_drake.cli import (
+    UserError,
+    add_scenario_arguments,
+    apply_scenario_arguments,
+    user_errors,
+)
 
 CONTROLLER_TYPES = {
     "position": "position_controllers/JointGroupPositionController",
@@ -69,19 +74,6 @@ def _parser() -> argparse.ArgumentParser:
         help="what drives the arm: the position controller with the target sequence, "
         "the trajectory controller with the same targets as one JointTrajectory, the "
         "position controller with a sinusoid, or nothing (default: as the scenario says)",
-    )
-    parser.add_argument(
-        "--description",
-        metavar="PATH",
-        help="robot description: .urdf/.xacro file, package directory or package://pkg/file "
-        "(default: the scenario's, i.e. the built-in Armando)",
-    )
-    parser.add_argument(
-        "--package-path",
-        action="append",
-        default=[],
-        metavar="DIR",
-        help="a folder to search for ROS packages (repeatable)",
     )
     parser.add_argument(
         "--duration",
@@ -188,13 +180,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     with user_errors():
         from armando_drake.run import format_table, run
-        from armando_drake.scenario import load_scenario, merge_overrides, resolve_scenario_path
+        from armando_drake.scenario import load_scenario, resolve_scenario_path
 
         path = resolve_scenario_path(args.scenario)
-        scenario = merge_overrides(load_scenario(path), args.set)
-        if args.description is not None:
-            scenario.robot.description = args.description
-        scenario.robot.package_paths += args.package_path
+        scenario = apply_scenario_arguments(load_scenario(path), args)
         if args.duration is not None:
             if args.duration < 0:
                 raise UserError(f"--duration {args.duration} must not be negative")
