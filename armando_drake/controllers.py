@@ -147,15 +147,16 @@ class JointStateBroadcaster(LeafSystem):
     def _UpdateJointStates(self, context, state):
         if not self._state.HasValue(context):
             return
-        x = self._state.Eval(context)
+        x = self._state.Eval(context).tolist()  # Python floats
         effort = ()
         if self._effort.HasValue(context):
-            effort = tuple(float(value) for value in self._effort.Eval(context))
+            effort = tuple(self._effort.Eval(context).tolist())
+        n = self._n
         message = JointState(
             stamp=context.get_time(),
             name=self._names,
-            position=tuple(float(value) for value in x[: self._n]),
-            velocity=tuple(float(value) for value in x[self._n :]),
+            position=tuple(x[:n]),
+            velocity=tuple(x[n:]),
             effort=effort,
         )
         state.get_mutable_abstract_state(self._joint_states_index).set_value(message)
@@ -596,13 +597,15 @@ class JointTrajectoryController(_CommandController):
         return knots
 
     def _Update(self, context, state):
+        status = context.get_abstract_state(self._status_index).get_value()
+        trajectory = context.get_abstract_state(self._trajectory_index).get_value()
+        message = self._NewMessage(context, state)
+        if message is None and (trajectory is None or status.state != "executing"):
+            return  # nothing new and nothing running: the desired state holds
         now = context.get_time()
         n = self._n
         desired = np.array(context.get_discrete_state(self._desired_index).get_value())
         q, v = _measured(self, self._state, context, desired)
-        status = context.get_abstract_state(self._status_index).get_value()
-        trajectory = context.get_abstract_state(self._trajectory_index).get_value()
-        message = self._NewMessage(context, state)
         if message is not None:
             try:
                 indices = self._Validate(message, now)

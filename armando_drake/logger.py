@@ -108,6 +108,11 @@ class JointStateLogger(LeafSystem):
         self._last_stamp: float | None = None
         self._last_sample: JointState | None = None
         self._closed = False
+        # The joint order of the latest sample's names (a broadcaster sends the same names).
+        self._order_names: tuple[str, ...] | None = None
+        self._order: list[int] = []
+        # One CSV line: time with 6 decimals, then 10 significant digits per value.
+        self._line_format = "%.6f" + ",%.10g" * (3 * len(joint_names)) + "\n"
 
         self._csv_path = None if csv_path is None else Path(csv_path)
         self._file: TextIO | None = None
@@ -158,21 +163,28 @@ class JointStateLogger(LeafSystem):
         sample = self._joint_states.Eval(context)
         return sample if sample.name else None
 
-    def _Row(self, sample: JointState) -> list[float]:
-        """[position, velocity, effort] per joint of ours, in our order."""
-        index = {name: i for i, name in enumerate(sample.name)}
+    def _Order(self, names: tuple[str, ...], stamp: float) -> list[int]:
+        """Index in ``names`` of each of our joints; remembered for the latest ``names``."""
+        if names is self._order_names or names == self._order_names:
+            return self._order
+        index = {name: i for i, name in enumerate(names)}
         missing = [name for name in self._joint_names if name not in index]
         if missing:
             raise ValueError(
-                f"joint_states sample at t={sample.stamp!r} has no joint {missing[0]!r} "
-                f"(it names {list(sample.name)!r})"
+                f"joint_states sample at t={stamp!r} has no joint {missing[0]!r} "
+                f"(it names {list(names)!r})"
             )
-        row = []
-        for name in self._joint_names:
-            i = index[name]
-            for field in (sample.position, sample.velocity, sample.effort):
-                row.append(float(field[i]) if i < len(field) else math.nan)
-        return row
+        self._order_names = names
+        self._order = [index[name] for name in self._joint_names]
+        return self._order
+
+    def _Row(self, sample: JointState) -> list[float]:
+        """[position, velocity, effort] per joint of ours, in our order."""
+        order = self._Order(sample.name, sample.stamp)
+        fields = (sample.position, sample.velocity, sample.effort)
+        if all(len(field) == len(sample.name) for field in fields):
+            return [float(field[i]) for i in order for field in fields]
+        return [float(field[i]) if i < len(field) else math.nan for i in order for field in fields]
 
     def _PublishRow(self, context: Context) -> None:
         sample = self._Sample(context)
@@ -184,8 +196,7 @@ class JointStateLogger(LeafSystem):
                 f"JointStateLogger for {self._csv_path} was closed before the run ended"
             )
         if self._file is not None:
-            line = f"{sample.stamp:.6f}," + ",".join(f"{value:.10g}" for value in row)
-            self._file.write(line + "\n")
+            self._file.write(self._line_format % (sample.stamp, *row))
         self._rows_written += 1
         self._last_stamp = sample.stamp
         self._last_sample = sample
