@@ -284,7 +284,7 @@ def _IdleSystem():
     return IdleSystem()
 
 
-PIPELINE_PYTHON_SYSTEMS = 4  # broadcaster, controller, sequencer, logger
+PIPELINE_PYTHON_SYSTEMS = 3  # controller manager, command sequencer, joint-state logger
 
 
 def bench_pipeline(report: Report, duration: float) -> None:

@@ -3,8 +3,10 @@
 Every entry point (``python -m armando_drake.world``, the notebooks, the tests)
 calls :func:`MakeWorld`; none wires systems by hand. The steps follow the
 bring-up of the course: spawn the robot in a physics world, give it a position
-hardware interface, start the ros2_control controllers from their YAML, then
-add what drives and watches them (command sequencer, joint-state logger,
+hardware interface, start the ros2_control controllers from their YAML (all of
+them in one :class:`~armando_drake.controller_manager.ControllerManager`
+system, as upstream's controller_manager runs them in one loop), then add
+what drives and watches them (command sequencer, joint-state logger,
 camera, Meshcat).
 
 Ports of the diagram, by name:
@@ -36,7 +38,6 @@ from pydrake.multibody.plant import (
     MultibodyPlant,
 )
 from pydrake.systems.framework import Context, Diagram, DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource, MatrixGain, Multiplexer
 from pydrake.visualization import ApplyVisualizationConfig
 
 from armando_drake.controller_config import (
@@ -46,10 +47,11 @@ from armando_drake.controller_config import (
     parse_controller_config,
     validate_joints,
 )
+from armando_drake.controller_manager import ControllerManager, ManagedController
 from armando_drake.controllers import (
-    JointGroupPositionController,
-    JointStateBroadcaster,
-    JointTrajectoryController,
+    JointStateBroadcasterLogic,
+    PositionControllerLogic,
+    TrajectoryControllerLogic,
 )
 from armando_drake.description import LoadedRobot, load_robot
 from armando_drake.hardware import (
@@ -84,12 +86,16 @@ class World:
     hardware: HardwareInterface
     controller_config: ControllerManagerConfig
     update_rate: float  # [Hz] the controller manager's rate
-    controllers: dict[str, Any] = field(default_factory=dict)  # active ones, by name
+    # Active command controllers by name -> the system that runs them (the controller
+    # manager), whose ports are "<name>.commands" / "<name>.joint_trajectory", "<name>.status".
+    controllers: dict[str, Any] = field(default_factory=dict)
     controller_joints: dict[str, list[str]] = field(default_factory=dict)  # by name
-    broadcaster: Any = None
+    broadcaster: Any = None  # the system with the "joint_states" output (the manager)
+    controller_manager: Any = None  # ControllerManager: broadcaster and controllers
     sequencer: Any = None
     logger: Any = None
     sequencer_target: str = ""  # the controller the sequencer drives
+    broadcaster_name: str = ""  # the active joint state broadcaster's name in the YAML
     cameras: dict[str, Any] = field(default_factory=dict)  # AddedCamera by name
     image_view_url: str | None = None  # the live camera view, when served
     meshcat: Meshcat | None = None
@@ -158,12 +164,6 @@ def _exclude_self_collision(plant: MultibodyPlant, scene_graph, robot: LoadedRob
     scene_graph.collision_filter_manager().Apply(
         CollisionFilterDeclaration().ExcludeWithin(geometries)
     )
-
-
-def _selector(builder: DiagramBuilder, matrix: np.ndarray, name: str):
-    system = builder.AddSystem(MatrixGain(matrix))
-    system.set_name(name)
-    return system
 
 
 def MakeWorld(
@@ -243,9 +243,9 @@ def MakeWorld(
         update_rate=rate,
         meshcat=meshcat,
     )
-    instance_state = plant.get_state_output_port(robot.model_instance)
     claimed: dict[str, str] = {}
-    command_outputs = []  # (controller joints, desired_state port)
+    broadcaster = None
+    managed = []  # ManagedController, in activation order
     for name in scenario.controllers.activate:
         name = _controller_name(name, config, where)
         if name not in config.controllers:
@@ -262,8 +262,15 @@ def MakeWorld(
             ", ".join(joints),
             rate,
         )
-        system = _add_controller(builder, world, controller, joints, instance_state)
-        if controller.type != BROADCASTER_TYPE:
+        if controller.type == BROADCASTER_TYPE:
+            if broadcaster is not None:
+                raise ScenarioError(
+                    f"{where}controllers.activate names two joint state broadcasters "
+                    f"({world.broadcaster_name!r} and {name!r}); activate one"
+                )
+            broadcaster = JointStateBroadcasterLogic(joint_names=joints)
+            world.broadcaster_name = name
+        else:
             for joint in joints:
                 if joint in claimed:
                     raise ScenarioError(
@@ -271,13 +278,36 @@ def MakeWorld(
                         f"joint {joint!r}; activate only one of them"
                     )
                 claimed[joint] = name
-            command_outputs.append((joints, system.GetOutputPort("desired_state")))
+            managed.append(_managed_controller(world, controller, joints))
+        world.controller_joints[name] = list(joints)
         _log.info("activated controller %r", name)
 
-    # Desired state for the actuators: controllers' outputs, unclaimed joints
+    # The controller manager runs them all in one update at the update rate.
+    if broadcaster is not None or managed:
+        manager = builder.AddSystem(
+            ControllerManager(
+                hardware=hardware, update_rate=rate, broadcaster=broadcaster, controllers=managed
+            )
+        )
+        manager.set_name("controller_manager")
+        world.controller_manager = manager
+        builder.Connect(
+            plant.get_state_output_port(robot.model_instance), manager.GetInputPort("state")
+        )
+        builder.Connect(
+            plant.get_net_actuation_output_port(robot.model_instance),
+            manager.GetInputPort("effort"),
+        )
+        if broadcaster is not None:
+            builder.ExportOutput(manager.GetOutputPort("joint_states"), "joint_states")
+            world.broadcaster = manager
+        for controller in managed:
+            world.controllers[controller.name] = manager
+
+    # Desired state for the actuators: the controllers' commands, unclaimed joints
     # held at their initial positions.
-    if command_outputs:
-        desired = _assemble_desired_state(builder, world, command_outputs)
+    if managed:
+        desired = manager.GetOutputPort("desired_state")
         builder.Connect(desired, plant.get_desired_state_input_port(robot.model_instance))
         builder.ExportOutput(desired, "desired_state")
         if actuators.gravity_feedforward:
@@ -306,13 +336,12 @@ def MakeWorld(
 
     # Export what no system drives, for notebooks and tests.
     for name, system in world.controllers.items():
-        for port_name in ("commands", "joint_trajectory"):
+        for port_name in (f"{name}.commands", f"{name}.joint_trajectory"):
             if system.HasInputPort(port_name):
                 port = system.GetInputPort(port_name)
                 if not _is_connected(builder, port):
-                    builder.ExportInput(port, f"{name}.{port_name}")
-        if system.HasOutputPort("status"):
-            builder.ExportOutput(system.GetOutputPort("status"), f"{name}.status")
+                    builder.ExportInput(port, port_name)
+        builder.ExportOutput(system.GetOutputPort(f"{name}.status"), f"{name}.status")
     world.diagram = builder.Build()
     world.diagram.set_name("armando_world")
     return world
@@ -341,90 +370,35 @@ def _is_connected(builder: DiagramBuilder, port) -> bool:
     return builder.IsConnectedOrExported(port)
 
 
-def _add_controller(builder, world: World, controller: ControllerConfig, joints, instance_state):
+def _managed_controller(world: World, controller: ControllerConfig, joints) -> ManagedController:
+    """The logic of a position or trajectory controller on ``joints``, for the manager."""
     hardware = world.hardware
     rows = hardware.find(joints)
     lower = [hardware.joints[i].lower for i in rows]
     upper = [hardware.joints[i].upper for i in rows]
     initial = [hardware.joints[i].initial_position for i in rows]
     name = controller.name
-    if controller.type == BROADCASTER_TYPE:
-        system = JointStateBroadcaster(joint_names=joints, update_rate=world.update_rate)
-    elif controller.type in POSITION_TYPES:
-        system = JointGroupPositionController(
+    if controller.type in POSITION_TYPES:
+        logic = PositionControllerLogic(
             joint_names=joints,
             lower=lower,
             upper=upper,
-            update_rate=world.update_rate,
             initial_positions=initial,
+            log_name=lambda: name,
         )
-    elif controller.type == TRAJECTORY_TYPE:
-        system = JointTrajectoryController(
+        return ManagedController(name=name, logic=logic, topic="commands")
+    if controller.type == TRAJECTORY_TYPE:
+        logic = TrajectoryControllerLogic(
             joint_names=joints,
             lower=lower,
             upper=upper,
-            update_rate=world.update_rate,
             params=controller.params,
             initial_positions=initial,
+            log_name=lambda: name,
         )
-    else:  # the config loader only lets supported types through
-        raise ScenarioError(f"controller {name!r} has unsupported type {controller.type!r}")
-    system.set_name(name)
-    builder.AddSystem(system)
-    world.controller_joints[name] = list(joints)
-    selector = _selector(builder, hardware.state_selector(joints), f"{name}_state")
-    builder.Connect(instance_state, selector.get_input_port())
-    builder.Connect(selector.get_output_port(), system.GetInputPort("state"))
-    if controller.type == BROADCASTER_TYPE:
-        plant = world.plant
-        effort = plant.get_net_actuation_output_port(world.robot.model_instance)
-        E = np.zeros((len(joints), len(hardware.joints)))
-        for row, i in enumerate(rows):
-            E[row, i] = 1.0
-        effort_selector = _selector(builder, E, f"{name}_effort")
-        builder.Connect(effort, effort_selector.get_input_port())
-        builder.Connect(effort_selector.get_output_port(), system.GetInputPort("effort"))
-        builder.ExportOutput(system.GetOutputPort("joint_states"), "joint_states")
-        world.broadcaster = system
-    else:
-        world.controllers[name] = system
-    return system
-
-
-def _assemble_desired_state(builder, world: World, command_outputs):
-    """[q_d; v_d] in actuator order from the controllers' outputs."""
-    hardware = world.hardware
-    n = len(hardware.joints)
-    if len(command_outputs) == 1 and command_outputs[0][0] == hardware.joint_names:
-        return command_outputs[0][1]
-    claimed = [j for joints, _ in command_outputs for j in joints]
-    free = [j for j in hardware.joint_names if j not in claimed]
-    sizes = [2 * len(joints) for joints, _ in command_outputs]
-    inputs = [port for _, port in command_outputs]
-    if free:
-        rows = hardware.find(free)
-        hold = np.concatenate(
-            [[hardware.joints[i].initial_position for i in rows], np.zeros(len(rows))]
-        )
-        source = builder.AddSystem(ConstantVectorSource(hold))
-        source.set_name("hold_unclaimed_joints")
-        sizes.append(2 * len(free))
-        inputs.append(source.get_output_port())
-    mux = builder.AddSystem(Multiplexer(sizes))
-    mux.set_name("desired_state_mux")
-    P = np.zeros((2 * n, sum(sizes)))
-    offset = 0
-    for joints in [j for j, _ in command_outputs] + ([free] if free else []):
-        k = len(joints)
-        for row, i in enumerate(hardware.find(joints)):
-            P[i, offset + row] = 1.0
-            P[n + i, offset + k + row] = 1.0
-        offset += 2 * k
-    for i, port in enumerate(inputs):
-        builder.Connect(port, mux.get_input_port(i))
-    permute = _selector(builder, P, "desired_state_order")
-    builder.Connect(mux.get_output_port(), permute.get_input_port())
-    return permute.get_output_port()
+        return ManagedController(name=name, logic=logic, topic="joint_trajectory")
+    # The config loader only lets supported types through.
+    raise ScenarioError(f"controller {name!r} has unsupported type {controller.type!r}")
 
 
 def _add_sequencer(builder, world: World, scenario: Scenario, where: str, commands_csv) -> None:
@@ -470,7 +444,7 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str, comman
     )
     sequencer.set_name("command_sequencer")
     port = "joint_trajectory" if config.mode == "trajectory" else "commands"
-    builder.Connect(sequencer.GetOutputPort(port), controller.GetInputPort(port))
+    builder.Connect(sequencer.GetOutputPort(port), controller.GetInputPort(f"{name}.{port}"))
     builder.ExportOutput(sequencer.GetOutputPort("reference"), "reference")
     world.sequencer = sequencer
     world.sequencer_target = name
@@ -485,7 +459,7 @@ def _add_logger(builder, world: World, scenario: Scenario, output_dir, quiet: bo
     console_rate = scenario.logging.console_rate
     logger = builder.AddSystem(
         JointStateLogger(
-            joint_names=world.controller_joints[world.broadcaster.get_name()],
+            joint_names=world.controller_joints[world.broadcaster_name],
             update_rate=world.update_rate,
             console_rate=console_rate if console_rate > 0 else 1.0,
             csv_path=csv_path,

@@ -12,6 +12,14 @@ once, when the publication count has grown since the last update it ran.
 Every rejected message is logged on ``armando_drake.controllers`` with
 upstream's wording and counted on the ``status`` output; the controller keeps
 its previous command.
+
+Each controller's logic is a plain class (:class:`JointStateBroadcasterLogic`,
+:class:`PositionControllerLogic`, :class:`TrajectoryControllerLogic`) that
+the standalone systems here and the
+:class:`~armando_drake.controller_manager.ControllerManager` (all controllers
+of a world in one system and one update, as upstream's controller_manager)
+share: ``update(now, message, memory, measure)`` takes the controller's
+:class:`ControllerMemory` and returns the next one.
 """
 
 from __future__ import annotations
@@ -19,7 +27,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -103,6 +111,19 @@ class _Rejected(Exception):
     """A message the controller drops; the argument is the logged reason."""
 
 
+@dataclasses.dataclass(frozen=True)
+class ControllerMemory:
+    """What a command controller keeps between updates. Never mutated: an update
+    that changes something returns a new one (so Drake's copy of it is free)."""
+
+    desired: np.ndarray  # [rad, rad/s] [q_d; v_d] (2n) in the controller's joint order
+    status: ControllerStatus  # what it reports; replaced, never mutated
+    trajectory: _ActiveTrajectory | None = None  # the running trajectory, if any
+
+    def __deepcopy__(self, memo):
+        return self
+
+
 def _measured(system, port, context, desired: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Measured [q, v] from ``port``, or the desired state when it is unconnected."""
     n = system._n
@@ -110,6 +131,31 @@ def _measured(system, port, context, desired: np.ndarray) -> tuple[np.ndarray, n
         x = port.Eval(context)
         return np.array(x[:n]), np.array(x[n:])
     return desired[:n].copy(), desired[n:].copy()
+
+
+class JointStateBroadcasterLogic:
+    """The broadcaster's message: a :class:`JointState` of ``joint_names``."""
+
+    def __init__(self, *, joint_names: Sequence[str]):
+        self.joint_names = _joint_names(joint_names)
+        self.n = len(self.joint_names)
+
+    def initial_message(self) -> JointState:
+        n = self.n
+        return JointState(
+            stamp=0.0, name=self.joint_names, position=(0.0,) * n, velocity=(0.0,) * n
+        )
+
+    def message(self, stamp: float, positions: list, velocities: list, effort: list) -> JointState:
+        """The sample at ``stamp`` [s] from lists of Python floats, joint order (effort may be
+        empty)."""
+        return JointState(
+            stamp=stamp,
+            name=self.joint_names,
+            position=tuple(positions),
+            velocity=tuple(velocities),
+            effort=tuple(effort),
+        )
 
 
 class JointStateBroadcaster(LeafSystem):
@@ -133,12 +179,13 @@ class JointStateBroadcaster(LeafSystem):
 
     def __init__(self, *, joint_names: Sequence[str], update_rate: float):
         super().__init__()
-        self._names = _joint_names(joint_names)
-        self._n = n = len(self._names)
+        self._logic = JointStateBroadcasterLogic(joint_names=joint_names)
+        self._names = self._logic.joint_names
+        self._n = n = self._logic.n
         period = _period(update_rate)
         self._state = self.DeclareVectorInputPort("state", 2 * n)
         self._effort = self.DeclareVectorInputPort("effort", n)
-        initial = JointState(stamp=0.0, name=self._names, position=(0.0,) * n, velocity=(0.0,) * n)
+        initial = self._logic.initial_message()
         self._joint_states_index = self.DeclareAbstractState(AbstractValue.Make(initial))
         self.DeclareStateOutputPort("joint_states", self._joint_states_index)
         self.DeclareInitializationUnrestrictedUpdateEvent(self._UpdateJointStates)
@@ -148,22 +195,16 @@ class JointStateBroadcaster(LeafSystem):
         if not self._state.HasValue(context):
             return
         x = self._state.Eval(context).tolist()  # Python floats
-        effort = ()
+        effort = []
         if self._effort.HasValue(context):
-            effort = tuple(self._effort.Eval(context).tolist())
+            effort = self._effort.Eval(context).tolist()
         n = self._n
-        message = JointState(
-            stamp=context.get_time(),
-            name=self._names,
-            position=tuple(x[:n]),
-            velocity=tuple(x[n:]),
-            effort=effort,
-        )
+        message = self._logic.message(context.get_time(), x[:n], x[n:], effort)
         state.get_mutable_abstract_state(self._joint_states_index).set_value(message)
 
 
-class _CommandController(LeafSystem):
-    """What the position and trajectory controllers share: joints, limits, state."""
+class _CommandLogic:
+    """What the position and trajectory controllers' logic shares: joints, limits."""
 
     def __init__(
         self,
@@ -171,24 +212,57 @@ class _CommandController(LeafSystem):
         joint_names: Sequence[str],
         lower: Sequence[float] | None,
         upper: Sequence[float] | None,
-        update_rate: float,
         initial_positions: Sequence[float] | None,
-        command_port: str,
         initial_state: str,
+        log_name: Callable[[], str],
     ):
+        self.joint_names = _joint_names(joint_names)
+        self.n = n = len(self.joint_names)
+        self.lower, self.upper = _limits(self.joint_names, lower, upper)
+        q0 = _initial_positions(self.joint_names, initial_positions, self.lower, self.upper)
+        self._initial = ControllerMemory(
+            desired=np.concatenate([q0, np.zeros(n)]),
+            status=ControllerStatus(state=initial_state),
+        )
+        self._log_name = log_name  # the controller's name in log lines
+
+    def initial_memory(self) -> ControllerMemory:
+        return self._initial
+
+    def needs_update(self, message, memory: ControllerMemory) -> bool:
+        """Whether :meth:`update` could change anything (else the memory holds)."""
+        return message is not None
+
+    def update(self, now: float, message, memory: ControllerMemory, measure) -> ControllerMemory:
+        """The memory after the update at ``now`` [s]; ``message`` is the new message or None;
+        ``measure(desired)`` gives the measured (q, v) [rad, rad/s]. Returns ``memory``
+        itself when nothing changes."""
+        raise NotImplementedError
+
+    def _Reject(self, status: ControllerStatus, reason: str) -> ControllerStatus:
+        _logger.error("%s: %s", self._log_name(), reason)
+        return dataclasses.replace(
+            status, rejected=status.rejected + 1, last_error=reason, detail=dict(status.detail)
+        )
+
+
+class _CommandController(LeafSystem):
+    """What the position and trajectory controller systems share: ports and state."""
+
+    def __init__(self, *, logic: _CommandLogic, update_rate: float, command_port: str):
         super().__init__()
-        self._names = _joint_names(joint_names)
-        self._n = n = len(self._names)
+        self._logic = logic
+        self._names = logic.joint_names
+        self._n = n = logic.n
         self._period = _period(update_rate)
-        self._lower, self._upper = _limits(self._names, lower, upper)
-        q0 = _initial_positions(self._names, initial_positions, self._lower, self._upper)
+        self._lower, self._upper = logic.lower, logic.upper
+        initial = logic.initial_memory()
         self._commands = self.DeclareAbstractInputPort(command_port, PublicationValue())
         self._state = self.DeclareVectorInputPort("state", 2 * n)
-        self._desired_index = self.DeclareDiscreteState(np.concatenate([q0, np.zeros(n)]))
+        self._desired_index = self.DeclareDiscreteState(initial.desired)
         self._handled_index = self.DeclareAbstractState(AbstractValue.Make(0))
-        self._status_index = self.DeclareAbstractState(
-            AbstractValue.Make(ControllerStatus(state=initial_state))
-        )
+        self._status_index = self.DeclareAbstractState(AbstractValue.Make(initial.status))
+        self._trajectory_index = self.DeclareAbstractState(AbstractValue.Make(None))
         self.DeclareStateOutputPort("desired_state", self._desired_index)
         self.DeclareStateOutputPort("status", self._status_index)
         self.DeclarePeriodicUnrestrictedUpdateEvent(self._period, 0.0, self._Update)
@@ -196,6 +270,9 @@ class _CommandController(LeafSystem):
     @property
     def joint_names(self) -> tuple[str, ...]:
         return self._names
+
+    def _LogName(self) -> str:
+        return self.get_name() or type(self).__name__
 
     def _NewMessage(self, context, state):
         """The message published since the last update, or None; marks it handled."""
@@ -208,24 +285,97 @@ class _CommandController(LeafSystem):
         state.get_mutable_abstract_state(self._handled_index).set_value(publication.count)
         return publication.message
 
-    def _LogName(self) -> str:
-        return self.get_name() or type(self).__name__
+    def _Update(self, context, state):
+        message = self._NewMessage(context, state)
+        memory = ControllerMemory(
+            desired=None,
+            status=context.get_abstract_state(self._status_index).get_value(),
+            trajectory=context.get_abstract_state(self._trajectory_index).get_value(),
+        )
+        if not self._logic.needs_update(message, memory):
+            return
+        memory = dataclasses.replace(
+            memory, desired=np.array(context.get_discrete_state(self._desired_index).get_value())
+        )
+        new = self._logic.update(
+            context.get_time(),
+            message,
+            memory,
+            lambda desired: _measured(self, self._state, context, desired),
+        )
+        if new.desired is not memory.desired:
+            state.get_mutable_discrete_state(self._desired_index).SetFromVector(new.desired)
+        if new.status is not memory.status:
+            state.get_mutable_abstract_state(self._status_index).set_value(new.status)
+        if new.trajectory is not memory.trajectory:
+            state.get_mutable_abstract_state(self._trajectory_index).set_value(new.trajectory)
 
-    def _SetStatus(self, state, status: ControllerStatus) -> None:
-        state.get_mutable_abstract_state(self._status_index).set_value(status)
 
-    def _Reject(self, context, state, reason: str) -> None:
-        _logger.error("%s: %s", self._LogName(), reason)
-        status = context.get_abstract_state(self._status_index).get_value()
-        self._SetStatus(
-            state,
-            dataclasses.replace(
-                status, rejected=status.rejected + 1, last_error=reason, detail=dict(status.detail)
-            ),
+class PositionControllerLogic(_CommandLogic):
+    """The logic of :class:`JointGroupPositionController`."""
+
+    def __init__(
+        self,
+        *,
+        joint_names: Sequence[str],
+        lower: Sequence[float] | None = None,
+        upper: Sequence[float] | None = None,
+        initial_positions: Sequence[float] | None = None,
+        log_name: Callable[[], str] = lambda: "JointGroupPositionController",
+    ):
+        super().__init__(
+            joint_names=joint_names,
+            lower=lower,
+            upper=upper,
+            initial_positions=initial_positions,
+            initial_state="holding",
+            log_name=log_name,
         )
 
-    def _Update(self, context, state):
-        raise NotImplementedError
+    def _Validate(self, message) -> tuple[np.ndarray, str]:
+        """The command to write and a clamping warning ("" if none)."""
+        if not isinstance(message, Float64MultiArray):
+            raise _Rejected(f"expected a Float64MultiArray message, got {type(message).__name__}")
+        data = np.asarray(message.data, dtype=float).reshape(-1)
+        if not np.all(np.isfinite(data)):
+            raise _Rejected("Non-finite value received. Dropping message")
+        if data.size != self.n:
+            raise _Rejected(
+                f"command size ({data.size}) does not match number of interfaces ({self.n})"
+            )
+        command = np.clip(data, self.lower, self.upper)
+        warnings = [
+            f"command {value!r} for joint '{name}' is outside its limits [{lo!r}, {hi!r}]; "
+            f"clamped to {clamped!r}"
+            for name, value, clamped, lo, hi in zip(
+                self.joint_names,
+                data.tolist(),
+                command.tolist(),
+                self.lower.tolist(),
+                self.upper.tolist(),
+                strict=True,
+            )
+            if value != clamped
+        ]
+        return command, "; ".join(warnings)
+
+    def update(self, now, message, memory, measure):
+        if message is None:
+            return memory
+        status = memory.status
+        try:
+            command, warning = self._Validate(message)
+        except _Rejected as rejection:
+            return dataclasses.replace(memory, status=self._Reject(status, str(rejection)))
+        if warning:
+            _logger.warning("%s: %s", self._log_name(), warning)
+        status = dataclasses.replace(
+            status,
+            state="active",
+            accepted=status.accepted + 1,
+            detail={"warning": warning} if warning else {},
+        )
+        return ControllerMemory(np.concatenate([command, np.zeros(self.n)]), status, None)
 
 
 class JointGroupPositionController(_CommandController):
@@ -268,67 +418,16 @@ class JointGroupPositionController(_CommandController):
         update_rate: float,
         initial_positions: Sequence[float] | None = None,
     ):
-        super().__init__(
+        _joint_names(joint_names)
+        _period(update_rate)
+        logic = PositionControllerLogic(
             joint_names=joint_names,
             lower=lower,
             upper=upper,
-            update_rate=update_rate,
             initial_positions=initial_positions,
-            command_port="commands",
-            initial_state="holding",
+            log_name=lambda: self._LogName(),
         )
-
-    def _Validate(self, message) -> tuple[np.ndarray, str]:
-        """The command to write and a clamping warning ("" if none)."""
-        if not isinstance(message, Float64MultiArray):
-            raise _Rejected(f"expected a Float64MultiArray message, got {type(message).__name__}")
-        data = np.asarray(message.data, dtype=float).reshape(-1)
-        if not np.all(np.isfinite(data)):
-            raise _Rejected("Non-finite value received. Dropping message")
-        if data.size != self._n:
-            raise _Rejected(
-                f"command size ({data.size}) does not match number of interfaces ({self._n})"
-            )
-        command = np.clip(data, self._lower, self._upper)
-        warnings = [
-            f"command {value!r} for joint '{name}' is outside its limits [{lo!r}, {hi!r}]; "
-            f"clamped to {clamped!r}"
-            for name, value, clamped, lo, hi in zip(
-                self._names,
-                data.tolist(),
-                command.tolist(),
-                self._lower.tolist(),
-                self._upper.tolist(),
-                strict=True,
-            )
-            if value != clamped
-        ]
-        return command, "; ".join(warnings)
-
-    def _Update(self, context, state):
-        message = self._NewMessage(context, state)
-        if message is None:
-            return
-        try:
-            command, warning = self._Validate(message)
-        except _Rejected as rejection:
-            self._Reject(context, state, str(rejection))
-            return
-        if warning:
-            _logger.warning("%s: %s", self._LogName(), warning)
-        state.get_mutable_discrete_state(self._desired_index).SetFromVector(
-            np.concatenate([command, np.zeros(self._n)])
-        )
-        status = context.get_abstract_state(self._status_index).get_value()
-        self._SetStatus(
-            state,
-            dataclasses.replace(
-                status,
-                state="active",
-                accepted=status.accepted + 1,
-                detail={"warning": warning} if warning else {},
-            ),
-        )
+        super().__init__(logic=logic, update_rate=update_rate, command_port="commands")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -418,6 +517,235 @@ class _ActiveTrajectory:
         return _ActiveTrajectory(position, position.derivative(1), breaks[-1], goal)
 
 
+class TrajectoryControllerLogic(_CommandLogic):
+    """The logic of :class:`JointTrajectoryController`."""
+
+    def __init__(
+        self,
+        *,
+        joint_names: Sequence[str],
+        lower: Sequence[float] | None = None,
+        upper: Sequence[float] | None = None,
+        params: JointTrajectoryControllerParams | None = None,
+        initial_positions: Sequence[float] | None = None,
+        log_name: Callable[[], str] = lambda: "JointTrajectoryController",
+    ):
+        super().__init__(
+            joint_names=joint_names,
+            lower=lower,
+            upper=upper,
+            initial_positions=initial_positions,
+            initial_state="idle",
+            log_name=log_name,
+        )
+        names = self.joint_names
+        if params is None:
+            params = JointTrajectoryControllerParams(joints=list(names))
+        if tuple(params.joints) != names:
+            raise ValueError(f"params.joints={params.joints!r} differs from joint_names={names!r}")
+        if params.interpolation_method not in ("splines", "none"):
+            raise ValueError(
+                f"interpolation_method={params.interpolation_method!r} must be splines or none"
+            )
+        self._params = params
+        self._path_tolerance = np.array(
+            [params.trajectory_tolerance.get(name, 0.0) for name in names]
+        )
+        self._goal_tolerance = np.array([params.goal_tolerance.get(name, 0.0) for name in names])
+
+    def _Validate(self, message, now: float) -> list[int]:
+        """Controller index of each message joint; raises _Rejected in upstream's order."""
+        if not isinstance(message, JointTrajectory):
+            raise _Rejected(f"expected a JointTrajectory message, got {type(message).__name__}")
+        names = list(message.joint_names)
+        points = message.points
+        if not self._params.allow_partial_joints_goal and len(names) != self.n:
+            raise _Rejected("Joints on incoming trajectory don't match the controller joints.")
+        if not names:
+            raise _Rejected("Empty joint names on incoming trajectory.")
+        if not points:
+            raise _Rejected("Empty trajectory received.")
+        for i, name in enumerate(names):
+            if name not in self.joint_names:
+                raise _Rejected(f"Incoming joint {name} doesn't match the controller's joints.")
+            if name in names[:i]:
+                raise _Rejected(f"Incoming joint {name} appears more than once.")
+        if not self._params.allow_nonzero_velocity_at_trajectory_end:
+            for name, velocity in zip(names, points[-1].velocities, strict=False):
+                if abs(velocity) > _FLOAT_EPSILON:
+                    raise _Rejected(
+                        f"Velocity of last trajectory point of joint {name} is not zero: "
+                        f"{velocity:.15f}"
+                    )
+        if not math.isfinite(message.stamp):
+            raise _Rejected(f"Non-finite header stamp received: {message.stamp}")
+        if message.stamp != 0.0:
+            end = message.stamp + points[-1].time_from_start
+            if end < now:
+                raise _Rejected(
+                    f"Received trajectory with non-zero start time ({message.stamp:f}) "
+                    f"that ends in the past ({end:f})"
+                )
+        for i, point in enumerate(points):
+            time = point.time_from_start
+            if not math.isfinite(time):
+                raise _Rejected(f"Non-finite time_from_start at point #{i}: {time}")
+            if time < 0.0:
+                raise _Rejected(f"Time from start of point #{i} is negative: {time:f}")
+            if i > 0 and time <= points[i - 1].time_from_start:
+                raise _Rejected(
+                    f"Time between points {i - 1} and {i} is not strictly increasing, "
+                    f"it is {points[i - 1].time_from_start:f} and {time:f} respectively"
+                )
+            for field in ("positions", "velocities", "accelerations"):
+                values = getattr(point, field)
+                if field != "positions" and len(values) == 0:
+                    continue
+                if len(values) != len(names):
+                    raise _Rejected(
+                        f"Mismatch between joint_names size ({len(names)}) and {field} "
+                        f"({len(values)}) at point #{i}."
+                    )
+            if len(point.effort) != 0:
+                raise _Rejected(
+                    "Trajectories with effort fields are only supported for controllers using "
+                    "the 'effort' command interface."
+                )
+            for field in ("positions", "velocities", "accelerations"):
+                if not np.all(np.isfinite(np.asarray(getattr(point, field), dtype=float))):
+                    raise _Rejected(f"Non-finite value in {field} at point #{i}.")
+        return [self.joint_names.index(name) for name in names]
+
+    def _Knots(self, message, indices, now, desired, q, v) -> list[_Knot]:
+        """The trajectory's knots in controller order, starting from the current state."""
+        n = self.n
+        named = np.zeros(n, dtype=bool)
+        named[indices] = True
+        command = desired[:n]
+        start = message.stamp if message.stamp != 0.0 else now
+
+        def full(values, fill):
+            if len(values) == 0:
+                return None
+            result = fill.copy()
+            result[indices] = values
+            return result
+
+        knots = [
+            _Knot(
+                time=start + point.time_from_start,
+                positions=full(point.positions, command),
+                velocities=full(point.velocities, np.zeros(n)),
+                accelerations=full(point.accelerations, np.zeros(n)),
+            )
+            for point in message.points
+        ]
+        if knots[0].time > now:
+            hold = self._params.interpolation_method == "none"
+            measured_velocity = "velocity" in self._params.state_interfaces and not hold
+            current = _Knot(
+                time=now,
+                positions=np.where(named, q, command),
+                velocities=np.where(named, v, 0.0) if measured_velocity else None,
+                accelerations=None,
+            )
+            knots.insert(0, current)
+        return knots
+
+    def needs_update(self, message, memory: ControllerMemory) -> bool:
+        running = memory.trajectory is not None and memory.status.state == "executing"
+        return message is not None or running
+
+    def update(self, now, message, memory, measure):
+        if not self.needs_update(message, memory):
+            return memory  # nothing new and nothing running: the desired state holds
+        n = self.n
+        desired = memory.desired
+        status, trajectory = memory.status, memory.trajectory
+        q, v = measure(desired)
+        if message is not None:
+            try:
+                indices = self._Validate(message, now)
+            except _Rejected as rejection:
+                status = self._Reject(status, str(rejection))
+            else:
+                knots = self._Knots(message, indices, now, desired, q, v)
+                trajectory = _ActiveTrajectory.build(
+                    knots, self._params.interpolation_method == "none"
+                )
+                detail = {"start_time": knots[0].time, "end_time": trajectory.end_time}
+                outside = [
+                    f"point positions of joint '{name}' leave its limits [{lo!r}, {hi!r}]; "
+                    f"the desired position is clamped"
+                    for j, (name, lo, hi) in enumerate(
+                        zip(self.joint_names, self.lower.tolist(), self.upper.tolist(), strict=True)
+                    )
+                    if any(not lo <= k.positions[j] <= hi for k in knots[-len(message.points) :])
+                ]
+                if outside:
+                    detail["warning"] = "; ".join(outside)
+                    _logger.warning("%s: %s", self._log_name(), detail["warning"])
+                status = dataclasses.replace(
+                    status, state="executing", accepted=status.accepted + 1, detail=detail
+                )
+        if trajectory is None or status.state != "executing":
+            return ControllerMemory(desired, status, trajectory)
+        q_d, v_d, ended = trajectory.sample(now)
+        outcome = None
+        if not ended:
+            error = np.abs(q - q_d)
+            violated = (self._path_tolerance > 0) & (error > self._path_tolerance)
+            if np.any(violated):
+                j = int(np.argmax(violated))
+                outcome = (
+                    "aborted",
+                    f"path tolerance violated: joint '{self.joint_names[j]}' is "
+                    f"{error[j]:.6g} rad from its desired position {q_d[j]:.6g} (trajectory "
+                    f"tolerance {self._path_tolerance[j]:g})",
+                )
+        else:
+            outcome = self._GoalOutcome(now, trajectory, q, v)
+        if outcome is not None and outcome[0] == "aborted":
+            q_d, v_d = q.copy(), np.zeros(n)
+            _logger.warning("%s: %s", self._log_name(), outcome[1])
+            status = dataclasses.replace(
+                status, state="aborted", last_error=outcome[1], detail=dict(status.detail)
+            )
+        elif outcome is not None:
+            status = dataclasses.replace(status, state="succeeded", detail=dict(status.detail))
+        if outcome is not None:
+            trajectory = None
+        q_d = np.clip(q_d, self.lower, self.upper)
+        return ControllerMemory(np.concatenate([q_d, v_d]), status, trajectory)
+
+    def _GoalOutcome(self, now, trajectory, q, v) -> tuple[str, str] | None:
+        """("succeeded", "") at the goal, ("aborted", reason) past goal_time, else None."""
+        goal = np.clip(trajectory.goal, self.lower, self.upper)
+        error = np.abs(q - goal)
+        far = (self._goal_tolerance > 0) & (error > self._goal_tolerance)
+        stopped_tolerance = self._params.stopped_velocity_tolerance
+        moving = (stopped_tolerance > 0) & (np.abs(v) > stopped_tolerance)
+        if not np.any(far) and not np.any(moving):
+            return ("succeeded", "")
+        goal_time = self._params.goal_time
+        late = now - trajectory.end_time
+        if goal_time <= 0 or late <= goal_time:
+            return None
+        if np.any(far):
+            j = int(np.argmax(far))
+            problem = (
+                f"joint '{self.joint_names[j]}' is {error[j]:.6g} rad from its goal {goal[j]:.6g} "
+                f"(goal tolerance {self._goal_tolerance[j]:g})"
+            )
+        else:
+            j = int(np.argmax(moving))
+            problem = (
+                f"joint '{self.joint_names[j]}' still moves at {v[j]:.6g} rad/s "
+                f"(stopped_velocity_tolerance {stopped_tolerance:g})"
+            )
+        return ("aborted", f"goal tolerance violated: {problem} {late:.6g} s after the end")
+
+
 class JointTrajectoryController(_CommandController):
     """``joint_trajectory_controller/JointTrajectoryController``.
 
@@ -469,227 +797,14 @@ class JointTrajectoryController(_CommandController):
         params: JointTrajectoryControllerParams | None = None,
         initial_positions: Sequence[float] | None = None,
     ):
-        super().__init__(
+        _joint_names(joint_names)
+        _period(update_rate)
+        logic = TrajectoryControllerLogic(
             joint_names=joint_names,
             lower=lower,
             upper=upper,
-            update_rate=update_rate,
+            params=params,
             initial_positions=initial_positions,
-            command_port="joint_trajectory",
-            initial_state="idle",
+            log_name=lambda: self._LogName(),
         )
-        if params is None:
-            params = JointTrajectoryControllerParams(joints=list(self._names))
-        if tuple(params.joints) != self._names:
-            raise ValueError(
-                f"params.joints={params.joints!r} differs from joint_names={self._names!r}"
-            )
-        if params.interpolation_method not in ("splines", "none"):
-            raise ValueError(
-                f"interpolation_method={params.interpolation_method!r} must be splines or none"
-            )
-        self._params = params
-        self._path_tolerance = np.array(
-            [params.trajectory_tolerance.get(name, 0.0) for name in self._names]
-        )
-        self._goal_tolerance = np.array(
-            [params.goal_tolerance.get(name, 0.0) for name in self._names]
-        )
-        self._trajectory_index = self.DeclareAbstractState(AbstractValue.Make(None))
-
-    def _Validate(self, message, now: float) -> list[int]:
-        """Controller index of each message joint; raises _Rejected in upstream's order."""
-        if not isinstance(message, JointTrajectory):
-            raise _Rejected(f"expected a JointTrajectory message, got {type(message).__name__}")
-        names = list(message.joint_names)
-        points = message.points
-        if not self._params.allow_partial_joints_goal and len(names) != self._n:
-            raise _Rejected("Joints on incoming trajectory don't match the controller joints.")
-        if not names:
-            raise _Rejected("Empty joint names on incoming trajectory.")
-        if not points:
-            raise _Rejected("Empty trajectory received.")
-        for i, name in enumerate(names):
-            if name not in self._names:
-                raise _Rejected(f"Incoming joint {name} doesn't match the controller's joints.")
-            if name in names[:i]:
-                raise _Rejected(f"Incoming joint {name} appears more than once.")
-        if not self._params.allow_nonzero_velocity_at_trajectory_end:
-            for name, velocity in zip(names, points[-1].velocities, strict=False):
-                if abs(velocity) > _FLOAT_EPSILON:
-                    raise _Rejected(
-                        f"Velocity of last trajectory point of joint {name} is not zero: "
-                        f"{velocity:.15f}"
-                    )
-        if not math.isfinite(message.stamp):
-            raise _Rejected(f"Non-finite header stamp received: {message.stamp}")
-        if message.stamp != 0.0:
-            end = message.stamp + points[-1].time_from_start
-            if end < now:
-                raise _Rejected(
-                    f"Received trajectory with non-zero start time ({message.stamp:f}) "
-                    f"that ends in the past ({end:f})"
-                )
-        for i, point in enumerate(points):
-            time = point.time_from_start
-            if not math.isfinite(time):
-                raise _Rejected(f"Non-finite time_from_start at point #{i}: {time}")
-            if time < 0.0:
-                raise _Rejected(f"Time from start of point #{i} is negative: {time:f}")
-            if i > 0 and time <= points[i - 1].time_from_start:
-                raise _Rejected(
-                    f"Time between points {i - 1} and {i} is not strictly increasing, "
-                    f"it is {points[i - 1].time_from_start:f} and {time:f} respectively"
-                )
-            for field in ("positions", "velocities", "accelerations"):
-                values = getattr(point, field)
-                if field != "positions" and len(values) == 0:
-                    continue
-                if len(values) != len(names):
-                    raise _Rejected(
-                        f"Mismatch between joint_names size ({len(names)}) and {field} "
-                        f"({len(values)}) at point #{i}."
-                    )
-            if len(point.effort) != 0:
-                raise _Rejected(
-                    "Trajectories with effort fields are only supported for controllers using "
-                    "the 'effort' command interface."
-                )
-            for field in ("positions", "velocities", "accelerations"):
-                if not np.all(np.isfinite(np.asarray(getattr(point, field), dtype=float))):
-                    raise _Rejected(f"Non-finite value in {field} at point #{i}.")
-        return [self._names.index(name) for name in names]
-
-    def _Knots(self, message, indices, now, desired, q, v) -> list[_Knot]:
-        """The trajectory's knots in controller order, starting from the current state."""
-        n = self._n
-        named = np.zeros(n, dtype=bool)
-        named[indices] = True
-        command = desired[:n]
-        start = message.stamp if message.stamp != 0.0 else now
-
-        def full(values, fill):
-            if len(values) == 0:
-                return None
-            result = fill.copy()
-            result[indices] = values
-            return result
-
-        knots = [
-            _Knot(
-                time=start + point.time_from_start,
-                positions=full(point.positions, command),
-                velocities=full(point.velocities, np.zeros(n)),
-                accelerations=full(point.accelerations, np.zeros(n)),
-            )
-            for point in message.points
-        ]
-        if knots[0].time > now:
-            hold = self._params.interpolation_method == "none"
-            measured_velocity = "velocity" in self._params.state_interfaces and not hold
-            current = _Knot(
-                time=now,
-                positions=np.where(named, q, command),
-                velocities=np.where(named, v, 0.0) if measured_velocity else None,
-                accelerations=None,
-            )
-            knots.insert(0, current)
-        return knots
-
-    def _Update(self, context, state):
-        status = context.get_abstract_state(self._status_index).get_value()
-        trajectory = context.get_abstract_state(self._trajectory_index).get_value()
-        message = self._NewMessage(context, state)
-        if message is None and (trajectory is None or status.state != "executing"):
-            return  # nothing new and nothing running: the desired state holds
-        now = context.get_time()
-        n = self._n
-        desired = np.array(context.get_discrete_state(self._desired_index).get_value())
-        q, v = _measured(self, self._state, context, desired)
-        if message is not None:
-            try:
-                indices = self._Validate(message, now)
-            except _Rejected as rejection:
-                self._Reject(context, state, str(rejection))
-                status = state.get_abstract_state(self._status_index).get_value()
-            else:
-                knots = self._Knots(message, indices, now, desired, q, v)
-                trajectory = _ActiveTrajectory.build(
-                    knots, self._params.interpolation_method == "none"
-                )
-                detail = {"start_time": knots[0].time, "end_time": trajectory.end_time}
-                outside = [
-                    f"point positions of joint '{name}' leave its limits [{lo!r}, {hi!r}]; "
-                    f"the desired position is clamped"
-                    for j, (name, lo, hi) in enumerate(
-                        zip(self._names, self._lower.tolist(), self._upper.tolist(), strict=True)
-                    )
-                    if any(not lo <= k.positions[j] <= hi for k in knots[-len(message.points) :])
-                ]
-                if outside:
-                    detail["warning"] = "; ".join(outside)
-                    _logger.warning("%s: %s", self._LogName(), detail["warning"])
-                status = dataclasses.replace(
-                    status, state="executing", accepted=status.accepted + 1, detail=detail
-                )
-                self._SetStatus(state, status)
-                state.get_mutable_abstract_state(self._trajectory_index).set_value(trajectory)
-        if trajectory is None or status.state != "executing":
-            return
-        q_d, v_d, ended = trajectory.sample(now)
-        outcome = None
-        if not ended:
-            error = np.abs(q - q_d)
-            violated = (self._path_tolerance > 0) & (error > self._path_tolerance)
-            if np.any(violated):
-                j = int(np.argmax(violated))
-                outcome = (
-                    "aborted",
-                    f"path tolerance violated: joint '{self._names[j]}' is {error[j]:.6g} rad "
-                    f"from its desired position {q_d[j]:.6g} (trajectory tolerance "
-                    f"{self._path_tolerance[j]:g})",
-                )
-        else:
-            outcome = self._GoalOutcome(now, trajectory, q, v)
-        if outcome is not None and outcome[0] == "aborted":
-            q_d, v_d = q.copy(), np.zeros(n)
-            _logger.warning("%s: %s", self._LogName(), outcome[1])
-            status = dataclasses.replace(
-                status, state="aborted", last_error=outcome[1], detail=dict(status.detail)
-            )
-        elif outcome is not None:
-            status = dataclasses.replace(status, state="succeeded", detail=dict(status.detail))
-        if outcome is not None:
-            self._SetStatus(state, status)
-            state.get_mutable_abstract_state(self._trajectory_index).set_value(None)
-        q_d = np.clip(q_d, self._lower, self._upper)
-        state.get_mutable_discrete_state(self._desired_index).SetFromVector(
-            np.concatenate([q_d, v_d])
-        )
-
-    def _GoalOutcome(self, now, trajectory, q, v) -> tuple[str, str] | None:
-        """("succeeded", "") at the goal, ("aborted", reason) past goal_time, else None."""
-        goal = np.clip(trajectory.goal, self._lower, self._upper)
-        error = np.abs(q - goal)
-        far = (self._goal_tolerance > 0) & (error > self._goal_tolerance)
-        stopped_tolerance = self._params.stopped_velocity_tolerance
-        moving = (stopped_tolerance > 0) & (np.abs(v) > stopped_tolerance)
-        if not np.any(far) and not np.any(moving):
-            return ("succeeded", "")
-        goal_time = self._params.goal_time
-        late = now - trajectory.end_time
-        if goal_time <= 0 or late <= goal_time:
-            return None
-        if np.any(far):
-            j = int(np.argmax(far))
-            problem = (
-                f"joint '{self._names[j]}' is {error[j]:.6g} rad from its goal {goal[j]:.6g} "
-                f"(goal tolerance {self._goal_tolerance[j]:g})"
-            )
-        else:
-            j = int(np.argmax(moving))
-            problem = (
-                f"joint '{self._names[j]}' still moves at {v[j]:.6g} rad/s "
-                f"(stopped_velocity_tolerance {stopped_tolerance:g})"
-            )
-        return ("aborted", f"goal tolerance violated: {problem} {late:.6g} s after the end")
+        super().__init__(logic=logic, update_rate=update_rate, command_port="joint_trajectory")

@@ -46,7 +46,7 @@ def test_svg_names_every_system_and_port_of_the_position_world(dot, tmp_path):
     texts = svg_texts(output)
     world = MakeWorld(load_scenario("position", "logging: {console_rate: 0}"), quiet=True)
     systems = [system.get_name() for system in world.diagram.GetSystems()]
-    assert len(systems) == 13, systems
+    assert len(systems) == 9, systems
     missing = [name for name in systems if f"name={name}" not in texts]
     assert missing == [], f"systems not drawn: {missing}"
     # The named connections: the sequencer's commands topic and the broadcaster's output.
@@ -62,11 +62,12 @@ def test_png_and_dot_source(dot, tmp_path):
     result = graph("--scenario", "trajectory", "-o", str(tmp_path / "graph.png"))
     assert result.returncode == 0, result.stderr
     assert (tmp_path / "graph.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert "trajectory_controller" in result.stdout
+    assert "controller_manager" in result.stdout  # it runs the trajectory controller
     result = graph("-o", str(tmp_path / "graph.dot"))
     assert result.returncode == 0, result.stderr
     source = (tmp_path / "graph.dot").read_text()
     assert source.startswith("digraph") and "name=command_sequencer" in source
+    assert "position_controller.commands" in source  # the manager's input of that controller
 
 
 def test_missing_dot_says_how_to_install_it(tmp_path):
