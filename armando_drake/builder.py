@@ -38,6 +38,7 @@ from pydrake.multibody.plant import (
     MultibodyPlant,
 )
 from pydrake.systems.framework import Context, Diagram, DiagramBuilder
+from pydrake.systems.primitives import ZeroOrderHold
 from pydrake.visualization import ApplyVisualizationConfig
 
 from armando_drake.controller_config import (
@@ -294,10 +295,8 @@ def MakeWorld(
         builder.Connect(
             plant.get_state_output_port(robot.model_instance), manager.GetInputPort("state")
         )
-        builder.Connect(
-            plant.get_net_actuation_output_port(robot.model_instance),
-            manager.GetInputPort("effort"),
-        )
+        effort = _sampled_effort(builder, plant, robot, rate)
+        builder.Connect(effort, manager.GetInputPort("effort"))
         if broadcaster is not None:
             builder.ExportOutput(manager.GetOutputPort("joint_states"), "joint_states")
             world.broadcaster = manager
@@ -368,6 +367,28 @@ def _controller_name(entry: str, config: ControllerManagerConfig, where: str) ->
 
 def _is_connected(builder: DiagramBuilder, port) -> bool:
     return builder.IsConnectedOrExported(port)
+
+
+def _sampled_effort(builder: DiagramBuilder, plant: MultibodyPlant, robot: LoadedRobot, rate):
+    """The robot's actuator torques [N m] as the broadcaster reads them at ``rate`` [Hz].
+
+    A ZeroOrderHold samples the plant's net actuation one plant step before
+    each controller tick, in the same discrete update as that plant step, so
+    the two share one contact solve (the torques of that step, as a plant with
+    sampled output ports would report them). Read at the tick itself, the
+    output would cost a solve of its own, since the controllers' update at
+    the tick changes the plant's inputs before the plant steps.
+    """
+    effort = plant.get_net_actuation_output_port(robot.model_instance)
+    period = 1.0 / rate
+    time_step = plant.time_step()
+    if time_step <= 0:
+        return effort  # a continuous plant: its actuation is cheap to evaluate
+    offset = (period - time_step) % period if time_step < period else 0.0
+    hold = builder.AddSystem(ZeroOrderHold(period, effort.size(), offset))
+    hold.set_name("effort_sample")
+    builder.Connect(effort, hold.get_input_port())
+    return hold.get_output_port()
 
 
 def _managed_controller(world: World, controller: ControllerConfig, joints) -> ManagedController:
