@@ -308,8 +308,9 @@ def bench_pipeline(report: Report, duration: float) -> None:
     step_cost = (1.0 / row.median - 1.0) * 1e6 * 0.001 / statistics.median(bare) / k
     report.notes.append(
         f"Pipeline: every Python LeafSystem in the diagram costs about {step_cost:.0f} us per "
-        f"1 ms plant step even when it has nothing to do (pydrake's per-step calls into "
-        f"Python); the pipeline has {k} of them, so '{k} idle Python systems / bare plant' "
+        f"1 ms plant step even when it has nothing to do (pybind calls at every step; ~3 us "
+        f"with the plant's sampled output ports, whose step is an unrestricted update); the "
+        f"pipeline has {k} of them, so '{k} idle Python systems / bare plant' "
         "is the best ratio the pipeline can reach without merging them; the rest is their "
         "100 Hz Python work."
     )
