@@ -37,11 +37,16 @@ def add_scenario_arguments(parser) -> None:
         metavar="YAML",
         help='YAML merged over the scenario, e.g. "simulation: {duration: 5}" (repeatable)',
     )
+    add_description_arguments(parser, default="the scenario's, i.e. the built-in Armando")
+
+
+def add_description_arguments(parser, default: str) -> None:
+    """``--description PATH`` and repeatable ``--package-path DIR``."""
     parser.add_argument(
         "--description",
         metavar="PATH",
         help="robot description: .urdf/.xacro file, package directory or package://pkg/file "
-        "(default: the scenario's, i.e. the built-in Armando)",
+        f"(default: {default})",
     )
     parser.add_argument(
         "--package-path",

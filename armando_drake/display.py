@@ -21,7 +21,7 @@ import logging
 import sys
 
 from armando_drake import DEFAULT_DESCRIPTION, DIAGRAMS_DIR
-from armando_drake.cli import parse_xacro_args, user_errors
+from armando_drake.cli import add_description_arguments, parse_xacro_args, user_errors
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -31,11 +31,8 @@ def _parser() -> argparse.ArgumentParser:
         epilog=__doc__.split("\n\n", 1)[1],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument(
-        "--description",
-        default=None,
-        help="robot description: a .urdf/.xacro file, a package directory or "
-        f"package://pkg/file (default: {DEFAULT_DESCRIPTION.relative_to(DIAGRAMS_DIR.parent)})",
+    add_description_arguments(
+        parser, default=str(DEFAULT_DESCRIPTION.relative_to(DIAGRAMS_DIR.parent))
     )
     parser.add_argument(
         "--xacro-arg",
@@ -43,13 +40,6 @@ def _parser() -> argparse.ArgumentParser:
         default=[],
         metavar="NAME:=VALUE",
         help="a xacro:arg value, as on the xacro command line (repeatable)",
-    )
-    parser.add_argument(
-        "--package-path",
-        action="append",
-        default=[],
-        metavar="DIR",
-        help="a folder to search for ROS packages before ROS_PACKAGE_PATH (repeatable)",
     )
     parser.add_argument(
         "--position",
