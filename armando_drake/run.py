@@ -279,9 +279,14 @@ def run(
     with _sigterm_as_interrupt():
         try:
             simulator.Initialize()
-            chunk = max(duration / 100, 0.05)
-            while simulator.get_context().get_time() < duration - 1e-9:
-                target = min(duration, simulator.get_context().get_time() + chunk)
+            # Advance in slices of about 1 % (at least 50 ms) for the progress
+            # line; slice ends are computed, not accumulated, so the last one
+            # is exactly ``duration`` and its final controller tick runs.
+            slices = max(1, min(100, math.ceil(duration / 0.05)))
+            for k in range(1, slices + 1):
+                target = duration if k == slices else duration * k / slices
+                if target <= simulator.get_context().get_time():
+                    continue
                 simulator.AdvanceTo(target)
                 if progress:
                     progress.update(target)

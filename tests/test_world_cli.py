@@ -61,6 +61,7 @@ def test_sinusoid_tracks_its_reference(tmp_path):
     assert summary["tracking_error"] <= 0.05
     # Check the reference independently of the summary: amplitude pi/2 at 0.05 Hz.
     log = np.array([[float(v) for v in row] for row in rows(tmp_path / "joint_states.csv")[1:]])
+    assert abs(len(log) - (10.0 * 100 + 1)) <= 1  # one row per controller tick
     t, q0 = log[:, 0], log[:, 1]
     after = t >= 1.0
     reference = (np.pi / 2) * np.sin(2 * np.pi * 0.05 * t[after])
