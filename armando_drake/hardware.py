@@ -63,16 +63,6 @@ class HardwareInterface:
         index = {name: i for i, name in enumerate(self.joint_names)}
         return [index[name] for name in names]
 
-    def state_selector(self, names: list[str]) -> np.ndarray:
-        """Matrix taking the model state [q; v] to [q; v] of ``names`` in their order."""
-        rows = self.find(names)
-        n = len(rows)
-        S = np.zeros((2 * n, self.num_model_states))
-        for row, i in enumerate(rows):
-            S[row, self.position_index[i]] = 1.0
-            S[n + row, self.velocity_index[i]] = 1.0
-        return S
-
 
 def _actuated_joint_names(robot: LoadedRobot) -> tuple[str, str, list[str]]:
     """(interface name, source, joint names) of the joints to actuate."""
