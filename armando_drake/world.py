@@ -36,6 +36,7 @@ Examples:
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import sys
 
@@ -135,34 +136,21 @@ def _apply_controller(scenario, mode: str) -> None:
         scenario.controllers.activate = broadcasters or ["joint_state_broadcaster"]
         scenario.sequencer = None
         return
-    previous = scenario.sequencer
-    if previous is None:
-        previous = SequencerConfig(mode=mode, targets=SEED_TARGETS, period=3.0)
-    if mode == "sinusoid" and previous.mode != "sinusoid":
+    sequencer = scenario.sequencer or SequencerConfig(targets=SEED_TARGETS, period=3.0)
+    if mode == "sinusoid" and sequencer.mode != "sinusoid":
         # The sinusoid scenario's wave: pi/2 at 0.05 Hz, j2 in antiphase with j1.
         from armando_drake.scenario import load_scenario
 
         wave = load_scenario("sinusoid").sequencer
-        previous = SequencerConfig(
-            targets=previous.targets,
-            period=previous.period,
+        sequencer = dataclasses.replace(
+            sequencer,
             amplitude=wave.amplitude,
             frequency=wave.frequency,
             phase=wave.phase,
             offset=wave.offset,
         )
-    targets = previous.targets or SEED_TARGETS
-    scenario.sequencer = SequencerConfig(
-        mode=mode,
-        targets=targets,
-        period=previous.period,
-        cyclic=previous.cyclic,
-        start_delay=previous.start_delay,
-        amplitude=previous.amplitude,
-        frequency=previous.frequency,
-        phase=previous.phase,
-        offset=previous.offset,
-        rate=previous.rate,
+    scenario.sequencer = dataclasses.replace(
+        sequencer, mode=mode, targets=sequencer.targets or SEED_TARGETS
     )
     # The first controller of the right type in the controller YAML.
     wanted = CONTROLLER_TYPES[mode]
