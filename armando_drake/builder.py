@@ -38,7 +38,6 @@ from pydrake.multibody.plant import (
     MultibodyPlant,
 )
 from pydrake.systems.framework import Context, Diagram, DiagramBuilder
-from pydrake.systems.primitives import ZeroOrderHold
 from pydrake.visualization import ApplyVisualizationConfig
 
 from armando_drake.controller_config import (
@@ -56,9 +55,9 @@ from armando_drake.controllers import (
 )
 from armando_drake.description import LoadedRobot, load_robot
 from armando_drake.hardware import (
-    AddGravityFeedforward,
     AddHardwareInterface,
     FinishHardwareInterface,
+    GravityFeedforward,
     HardwareInterface,
 )
 from armando_drake.importer import default_controller_config
@@ -125,7 +124,11 @@ class World:
         )
         return x[self.hardware.position_index]
 
-    def close(self) -> None:
+    def close(self, context: Context | None = None) -> None:
+        """Ends the run: with the root ``context``, first writes the joint states the
+        logger has recorded since its last flush; then closes every file and server."""
+        if context is not None and self.logger is not None and self.closers:
+            self.logger.flush(self.logger.GetMyContextFromRoot(context))
         for closer in self.closers:
             closer()
         self.closers.clear()
@@ -285,9 +288,16 @@ def MakeWorld(
 
     # The controller manager runs them all in one update at the update rate.
     if broadcaster is not None or managed:
+        gravity = None
+        if managed and actuators.gravity_feedforward:
+            gravity = GravityFeedforward(plant, robot, hardware)
         manager = builder.AddSystem(
             ControllerManager(
-                hardware=hardware, update_rate=rate, broadcaster=broadcaster, controllers=managed
+                hardware=hardware,
+                update_rate=rate,
+                broadcaster=broadcaster,
+                controllers=managed,
+                gravity=gravity,
             )
         )
         manager.set_name("controller_manager")
@@ -295,8 +305,10 @@ def MakeWorld(
         builder.Connect(
             plant.get_state_output_port(robot.model_instance), manager.GetInputPort("state")
         )
-        effort = _sampled_effort(builder, plant, robot, rate)
-        builder.Connect(effort, manager.GetInputPort("effort"))
+        builder.Connect(
+            plant.get_net_actuation_output_port(robot.model_instance),
+            manager.GetInputPort("effort"),
+        )
         if broadcaster is not None:
             builder.ExportOutput(manager.GetOutputPort("joint_states"), "joint_states")
             world.broadcaster = manager
@@ -304,18 +316,15 @@ def MakeWorld(
             world.controllers[controller.name] = manager
 
     # Desired state for the actuators: the controllers' commands, unclaimed joints
-    # held at their initial positions.
+    # held at their initial positions; the gravity feed-forward on the actuation input.
     if managed:
         desired = manager.GetOutputPort("desired_state")
         builder.Connect(desired, plant.get_desired_state_input_port(robot.model_instance))
         builder.ExportOutput(desired, "desired_state")
-        if actuators.gravity_feedforward:
-            feedforward_input, feedforward_output = AddGravityFeedforward(
-                builder, plant, robot, hardware, update_rate=rate
-            )
-            builder.Connect(desired, feedforward_input)
+        if gravity is not None:
             builder.Connect(
-                feedforward_output, plant.get_actuation_input_port(robot.model_instance)
+                manager.GetOutputPort("feedforward"),
+                plant.get_actuation_input_port(robot.model_instance),
             )
 
     commands_csv = Path(output_dir) / "commands.csv" if output_dir and write_commands else None
@@ -367,28 +376,6 @@ def _controller_name(entry: str, config: ControllerManagerConfig, where: str) ->
 
 def _is_connected(builder: DiagramBuilder, port) -> bool:
     return builder.IsConnectedOrExported(port)
-
-
-def _sampled_effort(builder: DiagramBuilder, plant: MultibodyPlant, robot: LoadedRobot, rate):
-    """The robot's actuator torques [N m] as the broadcaster reads them at ``rate`` [Hz].
-
-    A ZeroOrderHold samples the plant's net actuation one plant step before
-    each controller tick, in the same discrete update as that plant step, so
-    the two share one contact solve (the torques of that step, as a plant with
-    sampled output ports would report them). Read at the tick itself, the
-    output would cost a solve of its own, since the controllers' update at
-    the tick changes the plant's inputs before the plant steps.
-    """
-    effort = plant.get_net_actuation_output_port(robot.model_instance)
-    period = 1.0 / rate
-    time_step = plant.time_step()
-    if time_step <= 0:
-        return effort  # a continuous plant: its actuation is cheap to evaluate
-    offset = (period - time_step) % period if time_step < period else 0.0
-    hold = builder.AddSystem(ZeroOrderHold(period, effort.size(), offset))
-    hold.set_name("effort_sample")
-    builder.Connect(effort, hold.get_input_port())
-    return hold.get_output_port()
 
 
 def _managed_controller(world: World, controller: ControllerConfig, joints) -> ManagedController:
@@ -472,23 +459,41 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str, comman
 
 
 def _add_logger(builder, world: World, scenario: Scenario, output_dir, quiet: bool) -> None:
+    """The joint state logger on what the broadcaster publishes: the plant's state and
+    net actuation of the broadcaster's joints, sampled at the controllers' rate."""
     if world.broadcaster is None:
         return
+    from pydrake.systems.primitives import Multiplexer
+
     from armando_drake.logger import JointStateLogger
+
+    plant, instance, hardware = world.plant, world.robot.model_instance, world.hardware
+    joints = world.controller_joints[world.broadcaster_name]
+    rows = hardware.find(joints)
+    state = plant.get_state_output_port(instance)
+    effort = plant.get_net_actuation_output_port(instance)
+    sample = builder.AddSystem(Multiplexer([state.size(), effort.size()]))
+    sample.set_name("joint_state_sample")
+    builder.Connect(state, sample.get_input_port(0))
+    builder.Connect(effort, sample.get_input_port(1))
 
     csv_path = None if output_dir is None else Path(output_dir) / "joint_states.csv"
     console_rate = scenario.logging.console_rate
     logger = builder.AddSystem(
         JointStateLogger(
-            joint_names=world.controller_joints[world.broadcaster_name],
+            joint_names=joints,
             update_rate=world.update_rate,
+            input_size=state.size() + effort.size(),
+            position_index=[hardware.position_index[i] for i in rows],
+            velocity_index=[hardware.velocity_index[i] for i in rows],
+            effort_index=[state.size() + i for i in rows],
             console_rate=console_rate if console_rate > 0 else 1.0,
             csv_path=csv_path,
             quiet=quiet or console_rate <= 0,
         )
     )
     logger.set_name("joint_state_logger")
-    builder.Connect(world.broadcaster.GetOutputPort("joint_states"), logger.get_input_port())
+    builder.Connect(sample.get_output_port(), logger.get_input_port())
     world.logger = logger
     world.closers.append(logger.close)
 

@@ -5,12 +5,21 @@ hardware state, update the joint state broadcaster and each active
 controller in turn, write the commands. :class:`ControllerManager` does the
 same in one periodic unrestricted update, hosting the controllers' logic as
 plain objects (:mod:`armando_drake.controllers`), so a world pays for one
-Python system in the diagram instead of one per controller (pydrake calls
-into every Python system at every plant step, even an idle one).
+Python system in the diagram instead of one per controller.
 
-Each controller behaves as its standalone system in
+Each command controller behaves as its standalone system in
 :mod:`armando_drake.controllers` does: the same validation, log lines,
-status and desired state at the same update times.
+status and desired state at the same update times. What the manager adds is
+thrift, since Python at every controller tick is what a world pays most for
+beyond the physics:
+
+- a tick at which no controller has anything to do (no new command, no
+  trajectory running) returns ``EventStatus.DidNothing()``, so Drake
+  neither copies the manager's state back nor invalidates what depends on
+  it (the plant's desired-state input, the gravity feed-forward);
+- the broadcaster's ``joint_states`` is computed when someone reads it (the
+  joint state logger and the recorder sample it at ``update_rate``), not
+  stored at every tick.
 """
 
 from __future__ import annotations
@@ -21,7 +30,7 @@ from collections.abc import Sequence
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import EventStatus, LeafSystem
 
 from armando_drake.controllers import (
     ControllerMemory,
@@ -29,8 +38,10 @@ from armando_drake.controllers import (
     PositionControllerLogic,
     TrajectoryControllerLogic,
 )
-from armando_drake.hardware import HardwareInterface
+from armando_drake.hardware import GravityFeedforward, HardwareInterface
 from armando_drake.messages import ControllerStatus, PublicationValue
+
+_DID_NOTHING = EventStatus.DidNothing()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -77,6 +88,7 @@ class ControllerManager(LeafSystem):
         output_ports:
         - joint_states
         - desired_state
+        - feedforward
         - <controller>.status
 
     - ``state``: [q; v] of the robot's model instance (``hardware.num_model_states``).
@@ -86,15 +98,22 @@ class ControllerManager(LeafSystem):
       command topic of each position / trajectory controller (a
       ``Publication``).
     - ``joint_states``: the broadcaster's :class:`JointState` of
-      ``broadcaster.joint_names``, sampled at every update; only with a
-      broadcaster.
+      ``broadcaster.joint_names`` at the time it is evaluated (``stamp`` =
+      that time), from the ``state`` and ``effort`` inputs; only with a
+      broadcaster. Its consumers sample it at ``update_rate``, as a
+      subscriber of upstream's broadcaster receives it.
     - ``desired_state``: [q_d; v_d] of every hardware joint in actuator order
       (2n) [rad, rad/s]: each controller's desired state on its joints, the
       initial position (and zero velocity) on joints no controller claims.
+    - ``feedforward``: ``gravity(q_d)``, the torques [N m] that hold the arm
+      against gravity at the desired positions, one per actuator of the
+      robot, for the plant's actuation input; only with ``gravity``. It is
+      computed when ``desired_state`` changes (at construction for the
+      initial positions).
     - ``<controller>.status``: each controller's ControllerStatus.
 
-    Everything is refreshed by one periodic update at ``update_rate`` [Hz]
-    from t = 0 (the broadcaster also at initialization); the outputs are
+    The command controllers run in one periodic update at ``update_rate``
+    [Hz] from t = 0; ``desired_state``, ``feedforward`` and the statuses are
     state, so reading them costs nothing.
     """
 
@@ -105,6 +124,7 @@ class ControllerManager(LeafSystem):
         update_rate: float,
         broadcaster: JointStateBroadcasterLogic | None = None,
         controllers: Sequence[ManagedController] = (),
+        gravity: GravityFeedforward | None = None,
     ):
         super().__init__()
         if isinstance(update_rate, bool) or not (
@@ -128,10 +148,16 @@ class ControllerManager(LeafSystem):
             self._broadcast_q = [hardware.position_index[i] for i in rows]
             self._broadcast_v = [hardware.velocity_index[i] for i in rows]
             self._broadcast_effort = rows
-            self._joint_states_index = self.DeclareAbstractState(
-                AbstractValue.Make(broadcaster.initial_message())
+            self.DeclareAbstractOutputPort(
+                "joint_states",
+                lambda: AbstractValue.Make(broadcaster.initial_message()),
+                self._CalcJointStates,
+                {
+                    self.time_ticket(),
+                    self._state.ticket(),
+                    self._effort.ticket(),
+                },
             )
-            self.DeclareStateOutputPort("joint_states", self._joint_states_index)
 
         # The controllers: command inputs, where their joints are, initial memories.
         initial = np.concatenate(
@@ -169,6 +195,10 @@ class ControllerManager(LeafSystem):
         )
         self._desired_index = self.DeclareDiscreteState(initial)
         self.DeclareStateOutputPort("desired_state", self._desired_index)
+        self._gravity = gravity
+        if gravity is not None:
+            self._feedforward_index = self.DeclareDiscreteState(gravity(initial[:n]))
+            self.DeclareStateOutputPort("feedforward", self._feedforward_index)
         for k, controller in enumerate(self._controllers):
             self.DeclareAbstractOutputPort(
                 f"{controller.name}.status",
@@ -177,10 +207,8 @@ class ControllerManager(LeafSystem):
                 {self.abstract_state_ticket(self._memory_index)},
             )
 
-        period = 1.0 / update_rate
-        if broadcaster is not None:
-            self.DeclareInitializationUnrestrictedUpdateEvent(self._UpdateJointStates)
-        self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._Update)
+        if self._controllers:
+            self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / update_rate, 0.0, self._Update)
 
     @property
     def broadcaster(self) -> JointStateBroadcasterLogic | None:
@@ -193,11 +221,11 @@ class ControllerManager(LeafSystem):
     def _Status(self, context, k: int) -> ControllerStatus:
         return context.get_abstract_state(self._memory_index).get_value().memories[k].status
 
-    def _UpdateJointStates(self, context, state, x=None) -> None:
-        if x is None:
-            if not self._state.HasValue(context):
-                return
-            x = self._state.Eval(context)
+    def _CalcJointStates(self, context, output) -> None:
+        if not self._state.HasValue(context):
+            output.set_value(self._broadcaster.initial_message())
+            return
+        x = self._state.Eval(context)
         effort = []
         if self._effort.HasValue(context):
             effort = self._effort.Eval(context)[self._broadcast_effort].tolist()
@@ -207,42 +235,43 @@ class ControllerManager(LeafSystem):
             x[self._broadcast_v].tolist(),
             effort,
         )
-        state.get_mutable_abstract_state(self._joint_states_index).set_value(message)
+        output.set_value(message)
 
-    def _Update(self, context, state) -> None:
-        x = self._state.Eval(context) if self._state.HasValue(context) else None
-        if self._broadcaster is not None and x is not None:
-            self._UpdateJointStates(context, state, x)
-        if not self._controllers:
-            return
-        now = context.get_time()
+    def _Update(self, context, state) -> EventStatus:
+        # Every pybind call costs microseconds here (the physics between ticks leaves
+        # the caches cold), so a tick with nothing to do makes as few as it can.
         memories = context.get_abstract_state(self._memory_index).get_value()
-        handled = list(memories.handled)
-        items = list(memories.memories)
-        changed = []  # indices of controllers whose desired state changed
+        handled, items = memories.handled, memories.memories
+        new_handled = new_items = None  # copies, made at the first change
+        x = None  # the measured state, evaluated when a controller needs it
         for k, controller in enumerate(self._controllers):
             message = None
             port = self._command_ports[k]
             if port.HasValue(context):
                 publication = port.Eval(context)
                 if publication.count > handled[k]:
-                    handled[k] = publication.count
+                    new_handled = new_handled or list(handled)
+                    new_handled[k] = publication.count
                     message = publication.message
-            memory = items[k]
-            if not controller.logic.needs_update(message, memory):
-                continue
-            memory = items[k] = controller.logic.update(
-                now, message, memory, _Measure(x, *self._measured_rows[k])
+            if message is None and not items[k].busy:
+                continue  # what logic.needs_update() says, without the call
+            if x is None and self._state.HasValue(context):
+                x = self._state.Eval(context)
+            new_items = new_items or list(items)
+            new_items[k] = controller.logic.update(
+                context.get_time(), message, items[k], _Measure(x, *self._measured_rows[k])
             )
-            if memory.desired is not memories.memories[k].desired:
-                changed.append(k)
-        new = _Memories(tuple(handled), tuple(items))
-        if new.handled != memories.handled or any(
-            a is not b for a, b in zip(new.memories, memories.memories, strict=True)
-        ):
-            state.get_mutable_abstract_state(self._memory_index).set_value(new)
+        if new_handled is None and new_items is None:
+            return _DID_NOTHING
+        new = _Memories(tuple(new_handled or handled), tuple(new_items or items))
+        state.get_mutable_abstract_state(self._memory_index).set_value(new)
+        changed = [k for k in range(len(items)) if new.memories[k].desired is not items[k].desired]
         if changed:
             desired = np.array(context.get_discrete_state(self._desired_index).get_value())
             for k in changed:
-                desired[self._desired_rows[k]] = items[k].desired
+                desired[self._desired_rows[k]] = new.memories[k].desired
             state.get_mutable_discrete_state(self._desired_index).SetFromVector(desired)
+            if self._gravity is not None:
+                feedforward = self._gravity(desired[: len(self._hardware.joints)])
+                state.get_mutable_discrete_state(self._feedforward_index).SetFromVector(feedforward)
+        return EventStatus.Succeeded()

@@ -119,6 +119,13 @@ class ControllerMemory:
     desired: np.ndarray  # [rad, rad/s] [q_d; v_d] (2n) in the controller's joint order
     status: ControllerStatus  # what it reports; replaced, never mutated
     trajectory: _ActiveTrajectory | None = None  # the running trajectory, if any
+    # Whether the controller has work at every update, without a new message: a
+    # trajectory being executed. Derived from the fields above.
+    busy: bool = dataclasses.field(init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        busy = self.trajectory is not None and self.status.state == "executing"
+        object.__setattr__(self, "busy", busy)
 
     def __deepcopy__(self, memo):
         return self
@@ -230,8 +237,9 @@ class _CommandLogic:
         return self._initial
 
     def needs_update(self, message, memory: ControllerMemory) -> bool:
-        """Whether :meth:`update` could change anything (else the memory holds)."""
-        return message is not None
+        """Whether :meth:`update` could change anything (else the memory holds): a new
+        message, or a controller that is busy (``memory.busy``)."""
+        return message is not None or memory.busy
 
     def update(self, now: float, message, memory: ControllerMemory, measure) -> ControllerMemory:
         """The memory after the update at ``now`` [s]; ``message`` is the new message or None;
@@ -651,10 +659,6 @@ class TrajectoryControllerLogic(_CommandLogic):
             )
             knots.insert(0, current)
         return knots
-
-    def needs_update(self, message, memory: ControllerMemory) -> bool:
-        running = memory.trajectory is not None and memory.status.state == "executing"
-        return message is not None or running
 
     def update(self, now, message, memory, measure):
         if not self.needs_update(message, memory):

@@ -19,9 +19,6 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import PdControllerGains
-from pydrake.systems.controllers import InverseDynamics
-from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import AffineSystem, MatrixGain, ZeroOrderHold
 
 from armando_drake.description import LoadedRobot, parse_urdf
 from armando_drake.importer import actuated_joints
@@ -160,59 +157,41 @@ def FinishHardwareInterface(
     hardware.num_model_states = nq + nv
 
 
-def AddGravityFeedforward(
-    builder: DiagramBuilder,
-    plant: MultibodyPlant,
-    robot: LoadedRobot,
-    hardware: HardwareInterface,
-    *,
-    update_rate: float,
-):
-    """Adds the torques that hold the arm against gravity at the commanded position.
+class GravityFeedforward:
+    """The torques that hold the arm against gravity at a commanded position.
 
-    Returns ``(input, output)``: the input port takes ``desired_state`` [q_d; v_d]
-    of the hardware joints in actuator order, the output port gives one torque
-    [N m] per actuator of ``robot`` for the plant's actuation input. Four Drake
-    systems, no Python at run time:
+    ``feedforward(q_d)`` takes the hardware joints' desired positions [rad]
+    (actuator order) and returns one torque [N m] per actuator of the robot:
+    the generalized forces -tau_g(q) that cancel gravity with the hardware
+    joints at q_d and every other position at its default, mapped onto the
+    actuators by the pseudo-inverse of the actuation matrix. Fed to the
+    plant's actuation input, they make the steady-state error of the PD
+    actuators independent of their gains.
 
-    - ``gravity_feedforward_state`` (AffineSystem): the plant state with the
-      hardware joints at q_d and every other position at its default;
-    - ``gravity_feedforward`` (InverseDynamics, gravity compensation): the
-      generalized forces -tau_g(q) that cancel gravity there;
-    - ``gravity_feedforward_torque`` (MatrixGain): those forces as actuator
-      torques (pseudo-inverse of the actuation matrix, rows of ``robot``);
-    - ``gravity_feedforward_hold`` (ZeroOrderHold): samples them at
-      ``update_rate`` [Hz], when the command changes, so the plant reads a
-      stored vector each step and the dynamics are evaluated only then.
-
-    The hold starts at zero torque until its first sample at t = 0, which the
-    plant's first step (from t = 0) does not see yet.
+    The controller manager calls it when a desired position changes, so a
+    held command costs nothing per step. It evaluates the plant in a context
+    of its own.
     """
-    if not (update_rate > 0 and np.isfinite(update_rate)):
-        raise ValueError(f"update_rate={update_rate!r} must be positive [Hz]")
-    n = len(hardware.joints)
-    # The plant state at q_d: default positions, zero velocities, hardware joints from input.
-    x_default = np.concatenate(
-        [plant.GetPositions(plant.CreateDefaultContext()), np.zeros(plant.num_velocities())]
-    )
-    D = np.zeros((plant.num_multibody_states(), 2 * n))
-    for row, joint in enumerate(hardware.joints):
-        start = plant.GetJointByName(joint.name, robot.model_instance).position_start()
-        x_default[start] = 0.0
-        D[start, row] = 1.0
-    state = builder.AddSystem(AffineSystem(D=D, y0=x_default))
-    state.set_name("gravity_feedforward_state")
-    dynamics = builder.AddSystem(
-        InverseDynamics(plant, mode=InverseDynamics.InverseDynamicsMode.kGravityCompensation)
-    )
-    dynamics.set_name("gravity_feedforward")
-    # Generalized forces of the whole plant -> torques of the robot's actuators.
-    rows = [int(index) for index in plant.GetJointActuatorIndices(robot.model_instance)]
-    to_torque = builder.AddSystem(MatrixGain(np.linalg.pinv(plant.MakeActuationMatrix())[rows]))
-    to_torque.set_name("gravity_feedforward_torque")
-    hold = builder.AddSystem(ZeroOrderHold(1.0 / update_rate, n))
-    hold.set_name("gravity_feedforward_hold")
-    builder.Connect(state.get_output_port(), dynamics.get_input_port_estimated_state())
-    builder.Connect(dynamics.get_output_port_generalized_force(), to_torque.get_input_port())
-    builder.Connect(to_torque.get_output_port(), hold.get_input_port())
-    return state.get_input_port(), hold.get_output_port()
+
+    def __init__(self, plant: MultibodyPlant, robot: LoadedRobot, hardware: HardwareInterface):
+        self._plant = plant
+        self._context = plant.CreateDefaultContext()
+        self._q_default = plant.GetPositions(self._context)
+        self._q_rows = [
+            plant.GetJointByName(joint.name, robot.model_instance).position_start()
+            for joint in hardware.joints
+        ]
+        rows = [int(index) for index in plant.GetJointActuatorIndices(robot.model_instance)]
+        # Generalized forces of the whole plant -> torques of the robot's actuators.
+        self._to_torque = np.linalg.pinv(plant.MakeActuationMatrix())[rows]
+
+    @property
+    def size(self) -> int:
+        """Number of torques: the robot's actuators."""
+        return self._to_torque.shape[0]
+
+    def __call__(self, desired_positions) -> np.ndarray:
+        q = self._q_default.copy()
+        q[self._q_rows] = desired_positions
+        self._plant.SetPositions(self._context, q)
+        return -self._to_torque @ self._plant.CalcGravityGeneralizedForces(self._context)

@@ -1,25 +1,28 @@
 """Joint state logging: the subscriber half of the course's arm controller node.
 
-:class:`JointStateLogger` reads the joint state broadcaster's ``joint_states``
-topic, appends one CSV row per broadcaster sample and prints the joint
-positions to the console once a second, like the ROS 2 node that subscribes to
+:class:`JointStateLogger` records the joint states the broadcaster publishes,
+one CSV row per broadcaster tick, and prints the joint positions to the
+console once a second, like the ROS 2 node that subscribes to
 ``joint_states`` and logs ``Joint j0: 0.123`` lines.
 
 CSV layout (``joint_states.csv``)::
 
     time,j0_position,j0_velocity,j0_effort,j1_position,j1_velocity,j1_effort,...
 
-- ``time`` [s] is the sample's header stamp (the simulation time at which the
-  broadcaster sampled the joints), printed with 6 decimals;
+- ``time`` [s] is the simulation time of the sample, printed with 6 decimals;
 - then, per joint in ``joint_names`` order, position [rad or m], velocity
-  [rad/s or m/s] and effort [N m or N]; a field the message leaves empty is
-  written as ``nan``.
+  [rad/s or m/s] and effort [N m or N]; a quantity the input does not carry
+  is written as ``nan``.
 
-One row per broadcaster sample (per controller tick when ``update_rate`` equals
-the controller rate): a sample whose stamp equals the previous row's is not
-written again. Rows are flushed as they are written, so a run stopped with
-Ctrl-C or killed keeps every complete row up to that moment, and memory stays
-bounded however long the run.
+The logger is Drake's ``VectorLogSink`` (C++) with two Python events added:
+the sink records its input at ``update_rate`` at no Python cost, and a
+periodic flush at ``flush_rate`` (1 Hz by default) appends the rows
+recorded since the last flush to the file in one write, then clears the log,
+so memory stays bounded however long the run. A run stopped with Ctrl-C
+ends with :meth:`JointStateLogger.flush`, which writes the rest; a process
+killed outright keeps every row up to its last flush (at most
+``1 / flush_rate`` of simulated time is lost), and every line on disk is
+complete.
 """
 
 from __future__ import annotations
@@ -27,13 +30,13 @@ from __future__ import annotations
 import csv
 import math
 import sys
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any, BinaryIO, TextIO
 
-from pydrake.common.value import AbstractValue
+import numpy as np
 from pydrake.systems.framework import Context, LeafSystem
-
-from armando_drake.messages import JointState
+from pydrake.systems.primitives import VectorLogSink
 
 
 def csv_header(joint_names: list[str] | tuple[str, ...]) -> str:
@@ -44,89 +47,122 @@ def csv_header(joint_names: list[str] | tuple[str, ...]) -> str:
     return ",".join(columns)
 
 
-class JointStateLogger(LeafSystem):
-    """Writes ``joint_states`` samples to a CSV file and prints positions.
+def _rate(name: str, value: float) -> float:
+    if isinstance(value, bool) or not (
+        isinstance(value, (int, float)) and math.isfinite(value) and value > 0
+    ):
+        raise ValueError(f"{name}={value!r} must be positive [Hz]")
+    return float(value)
+
+
+class JointStateLogger(VectorLogSink):
+    """Records joint states at ``update_rate``, writes them to CSV, prints positions.
 
     .. pydrake_system::
 
         name: JointStateLogger
         input_ports:
-        - joint_states
+        - data
 
-    ``joint_states`` is an abstract-valued port holding a
-    :class:`~armando_drake.messages.JointState`. A sample with no joint names
-    (nothing broadcast yet) is ignored.
+    The input is a vector of size ``input_size`` (default ``3 n`` for ``n``
+    joints) that holds each joint's position at ``position_index``, velocity
+    at ``velocity_index`` and effort at ``effort_index`` (defaults: [q; v;
+    effort] in ``joint_names`` order); ``effort_index=()`` logs no effort
+    (``nan``). In a world it is the plant's state and net actuation of the
+    robot, as the joint state broadcaster publishes them.
 
-    A periodic publish event at ``update_rate`` [Hz], starting at t = 0,
-    writes the latest sample when its stamp is new. Drake runs the publish
-    events of time t at the end of the step that reaches t, before the
-    discrete updates of time t, so a broadcaster whose output is discrete
-    state refreshed at the same rate is seen one tick late: a run of duration
-    D at rate R then logs the samples stamped 0, 1/R, ..., D - 1/R (D*R rows);
-    a source whose output is computed from the current context is logged at
-    0, 1/R, ..., D (D*R + 1 rows). Either way each row carries the time at
-    which its sample was taken.
+    A sample is recorded at every tick of ``update_rate`` [Hz] from t = 0, at
+    the end of the plant step that reaches the tick, so a run of duration D
+    at rate R writes the rows 0, 1/R, ..., D (D R + 1 rows).
 
-    A second publish event at ``console_rate`` [Hz] prints::
+    Every ``1 / console_rate`` seconds (from t = 0) it prints::
 
         [t=1.000 s] Joint positions:
         Joint j0: 0.123
         Joint j1: -0.456
 
     to ``stream`` (``sys.stdout`` at the time of printing when None), unless
-    ``quiet``. The time in brackets is the simulation time of the print.
+    ``quiet``.
 
-    Call :meth:`close` (or use the logger as a context manager) when the run
-    ends; closing twice is harmless.
+    Call :meth:`flush` with the logger's context when a run ends early (the
+    world's ``close(context)`` does), and :meth:`close` when it is done;
+    closing twice is harmless.
     """
 
     def __init__(
         self,
         *,
-        joint_names: list[str] | tuple[str, ...],
+        joint_names: Sequence[str],
         update_rate: float,
+        position_index: Sequence[int] | None = None,
+        velocity_index: Sequence[int] | None = None,
+        effort_index: Sequence[int] | None = None,
+        input_size: int | None = None,
         console_rate: float = 1.0,
+        flush_rate: float = 1.0,
         csv_path: str | Path | None = None,
         stream: TextIO | None = None,
         quiet: bool = False,
     ):
-        super().__init__()
         joint_names = tuple(joint_names)
+        n = len(joint_names)
         if not joint_names:
             raise ValueError("joint_names=() must name at least one joint")
-        if len(set(joint_names)) != len(joint_names):
+        if len(set(joint_names)) != n:
             raise ValueError(f"joint_names={list(joint_names)!r} has duplicates")
-        if not (update_rate > 0 and math.isfinite(update_rate)):
-            raise ValueError(f"update_rate={update_rate!r} must be positive [Hz]")
-        if not (console_rate > 0 and math.isfinite(console_rate)):
-            raise ValueError(f"console_rate={console_rate!r} must be positive [Hz]")
+        update_rate = _rate("update_rate", update_rate)
+        console_rate = _rate("console_rate", console_rate)
+        flush_rate = _rate("flush_rate", flush_rate)
+        input_size = 3 * n if input_size is None else int(input_size)
+        columns = {
+            "position_index": range(0, n) if position_index is None else position_index,
+            "velocity_index": range(n, 2 * n) if velocity_index is None else velocity_index,
+            "effort_index": range(2 * n, 3 * n) if effort_index is None else effort_index,
+        }
+        for name, index in columns.items():
+            index = list(index)
+            if name == "effort_index" and not index:
+                continue
+            if len(index) != n or not all(0 <= i < input_size for i in index):
+                raise ValueError(
+                    f"{name}={index!r} must give one row in [0, {input_size}) per joint "
+                    f"of {list(joint_names)!r}"
+                )
+        super().__init__(input_size, 1.0 / update_rate)
         self._joint_names = joint_names
         self._stream = stream
         self._quiet = quiet
-        # What the run has logged so far (bounded: counters and the latest row).
+        # Row layout: per joint position, velocity, effort; input_size means "nan".
+        self._columns = np.array(
+            [
+                list(columns["position_index"]),
+                list(columns["velocity_index"]),
+                list(columns["effort_index"]) or [input_size] * n,
+            ],
+            dtype=int,
+        ).T.ravel()
+        self._input_size = input_size
+        self._nan_effort = not list(columns["effort_index"])
+        self._positions = np.array(list(columns["position_index"]), dtype=int)
         self._rows_written = 0
-        self._last_stamp: float | None = None
-        self._last_sample: JointState | None = None
+        self._last_time = -math.inf  # [s] time of the last row written
+        self._last_row: np.ndarray | None = None
         self._closed = False
-        # The joint order of the latest sample's names (a broadcaster sends the same names).
-        self._order_names: tuple[str, ...] | None = None
-        self._order: list[int] = []
         # One CSV line: time with 6 decimals, then 10 significant digits per value.
-        self._line_format = "%.6f" + ",%.10g" * (3 * len(joint_names)) + "\n"
+        self._line_format = "%.6f" + ",%.10g" * (3 * n) + "\n"
 
         self._csv_path = None if csv_path is None else Path(csv_path)
-        self._file: TextIO | None = None
+        self._file: BinaryIO | None = None
         if self._csv_path is not None:
             self._csv_path.parent.mkdir(parents=True, exist_ok=True)
-            # Line-buffered: every complete row reaches the OS as soon as it is written.
-            self._file = open(self._csv_path, "w", buffering=1, newline="", encoding="utf-8")
-            self._file.write(csv_header(joint_names) + "\n")
+            # Unbuffered: each flush is one write() of complete lines.
+            self._file = open(self._csv_path, "wb", buffering=0)
+            self._file.write((csv_header(joint_names) + "\n").encode())
 
-        self._joint_states = self.DeclareAbstractInputPort(
-            "joint_states", AbstractValue.Make(JointState())
-        )
-        self.DeclarePeriodicPublishEvent(1.0 / update_rate, 0.0, self._PublishRow)
-        self.DeclarePeriodicPublishEvent(1.0 / console_rate, 0.0, self._PublishConsole)
+        # The sink records at update_rate (declared first, so at a common time the
+        # sample is recorded before it is flushed or printed).
+        LeafSystem.DeclarePeriodicPublishEvent(self, 1.0 / flush_rate, 0.0, self.flush)
+        LeafSystem.DeclarePeriodicPublishEvent(self, 1.0 / console_rate, 0.0, self._Print)
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -138,16 +174,50 @@ class JointStateLogger(LeafSystem):
 
     @property
     def rows_written(self) -> int:
-        """Number of data rows written (or, without a CSV file, that would have been)."""
+        """Number of data rows flushed (or, without a CSV file, that would have been)."""
         return self._rows_written
 
     @property
-    def last_sample(self) -> JointState | None:
-        """The latest sample logged, None before the first."""
-        return self._last_sample
+    def last_row(self) -> np.ndarray | None:
+        """The latest row flushed: [time, then position, velocity, effort per joint]."""
+        return None if self._last_row is None else self._last_row.copy()
+
+    def flush(self, context: Context) -> None:
+        """Writes the rows recorded since the last flush and clears them from the log.
+
+        ``context`` is the logger's own (``GetMyContextFromRoot``).
+        """
+        log = self.GetMutableLog(context)
+        if log.num_samples() == 0:
+            return
+        if self._closed:
+            raise RuntimeError(
+                f"JointStateLogger for {self._csv_path} was closed before the run ended"
+            )
+        times = log.sample_times().tolist()
+        block = log.data()[self._columns[self._columns < self._input_size]].T.tolist()
+        # Rows a flush interrupted (Ctrl-C) before Clear() were written already.
+        first = next((i for i, t in enumerate(times) if t > self._last_time), len(times))
+        if first < len(times):
+            if self._nan_effort:
+                n = len(self._joint_names)
+                block = [
+                    [x for j in range(n) for x in (row[2 * j], row[2 * j + 1], math.nan)]
+                    for row in block
+                ]
+            format_ = self._line_format
+            text = "".join(
+                [format_ % (t, *row) for t, row in zip(times[first:], block[first:], strict=True)]
+            )
+            if self._file is not None:
+                self._file.write(text.encode())
+            self._rows_written += len(times) - first
+            self._last_time = times[-1]
+            self._last_row = np.array([times[-1], *block[-1]])
+        log.Clear()
 
     def close(self) -> None:
-        """Flush and close the CSV file. Safe to call more than once."""
+        """Closes the CSV file. Safe to call more than once."""
         self._closed = True
         if self._file is not None:
             self._file.close()
@@ -159,55 +229,10 @@ class JointStateLogger(LeafSystem):
     def __exit__(self, *exc_info) -> None:
         self.close()
 
-    def _Sample(self, context: Context) -> JointState | None:
-        sample = self._joint_states.Eval(context)
-        return sample if sample.name else None
-
-    def _Order(self, names: tuple[str, ...], stamp: float) -> list[int]:
-        """Index in ``names`` of each of our joints; remembered for the latest ``names``."""
-        if names is self._order_names or names == self._order_names:
-            return self._order
-        index = {name: i for i, name in enumerate(names)}
-        missing = [name for name in self._joint_names if name not in index]
-        if missing:
-            raise ValueError(
-                f"joint_states sample at t={stamp!r} has no joint {missing[0]!r} "
-                f"(it names {list(names)!r})"
-            )
-        self._order_names = names
-        self._order = [index[name] for name in self._joint_names]
-        return self._order
-
-    def _Row(self, sample: JointState) -> list[float]:
-        """[position, velocity, effort] per joint of ours, in our order."""
-        order = self._Order(sample.name, sample.stamp)
-        fields = (sample.position, sample.velocity, sample.effort)
-        if all(len(field) == len(sample.name) for field in fields):
-            return [float(field[i]) for i in order for field in fields]
-        return [float(field[i]) if i < len(field) else math.nan for i in order for field in fields]
-
-    def _PublishRow(self, context: Context) -> None:
-        sample = self._Sample(context)
-        if sample is None or sample.stamp == self._last_stamp:
-            return
-        row = self._Row(sample)
-        if self._closed:
-            raise RuntimeError(
-                f"JointStateLogger for {self._csv_path} was closed before the run ended"
-            )
-        if self._file is not None:
-            self._file.write(self._line_format % (sample.stamp, *row))
-        self._rows_written += 1
-        self._last_stamp = sample.stamp
-        self._last_sample = sample
-
-    def _PublishConsole(self, context: Context) -> None:
+    def _Print(self, context: Context) -> None:
         if self._quiet:
             return
-        sample = self._Sample(context)
-        if sample is None:
-            return
-        positions = self._Row(sample)[0::3]
+        positions = self.get_input_port().Eval(context)[self._positions]
         lines = [f"[t={context.get_time():.3f} s] Joint positions:"]
         lines += [
             f"Joint {name}: {position:.3f}"

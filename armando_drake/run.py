@@ -297,7 +297,7 @@ def run(
     if progress:
         progress.finish()
     sim_time = simulator.get_context().get_time()
-    world.close()
+    world.close(simulator.get_context())
 
     result = RunResult(
         scenario=scenario_name,

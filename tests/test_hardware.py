@@ -77,3 +77,55 @@ def test_actuator_torque_respects_the_urdf_effort_limit(tmp_path):
     # 0.05 N m cannot lift the 0.1 kg links: q1 stays far from its target.
     assert abs(world.joint_positions(context)[0] - 1.5) > 0.5
     world.close()
+
+
+def armando_world(kp: float, feedforward: bool):
+    scenario = load_scenario(
+        "position",
+        "sequencer: null\nlogging: {console_rate: 0}\n"
+        f"actuators: {{kp: {kp}, kd: {kp / 20}, gravity_feedforward: {str(feedforward).lower()}}}",
+    )
+    return MakeWorld(scenario, quiet=True)
+
+
+@pytest.mark.parametrize("kp", [2.0, 8.0])
+def test_gravity_feedforward_removes_the_steady_state_error_whatever_the_gains(kp):
+    # j1 and j2 bent: gravity loads them. Without feed-forward the PD actuators sag by
+    # about tau_g / kp (0.17 rad at kp = 2, 0.04 rad at kp = 8); with it they do not.
+    target = np.array([0.0, 1.0, 0.8, 0.0])
+    errors = {}
+    for feedforward in (True, False):
+        world = armando_world(kp, feedforward)
+        simulator = Simulator(world.diagram)
+        context = simulator.get_mutable_context()
+        world.publish(context, "position_controller", Float64MultiArray(data=tuple(target)))
+        simulator.AdvanceTo(4.0)
+        errors[feedforward] = np.abs(world.joint_positions(context) - target).max()
+        world.close()
+    assert errors[True] < 1e-4, errors
+    assert errors[False] > 0.3 / kp, errors
+
+
+def test_gravity_feedforward_equals_drakes_gravity_compensation_at_the_command():
+    from pydrake.systems.controllers import InverseDynamics
+
+    world = armando_world(8.0, True)
+    plant = world.plant
+    simulator = Simulator(world.diagram)
+    context = simulator.get_mutable_context()
+    target = (0.3, -0.9, 1.1, 0.5)
+    world.publish(context, "position_controller", Float64MultiArray(data=target))
+    simulator.AdvanceTo(0.05)  # handled at the 10 ms tick
+    manager = world.controller_manager
+    feedforward = manager.GetOutputPort("feedforward").Eval(manager.GetMyContextFromRoot(context))
+    # Drake's InverseDynamics in gravity-compensation mode at q = target, v = 0.
+    dynamics = InverseDynamics(plant, mode=InverseDynamics.InverseDynamicsMode.kGravityCompensation)
+    dynamics_context = dynamics.CreateDefaultContext()
+    plant_context = plant.CreateDefaultContext()
+    plant.SetPositions(plant_context, world.robot.model_instance, np.array(target))
+    x = np.concatenate([plant.GetPositions(plant_context), np.zeros(plant.num_velocities())])
+    dynamics.get_input_port_estimated_state().FixValue(dynamics_context, x)
+    expected = dynamics.get_output_port_generalized_force().Eval(dynamics_context)
+    np.testing.assert_allclose(feedforward, expected, atol=1e-12)
+    assert np.abs(expected).max() > 0.01  # a real load, not zeros
+    world.close()

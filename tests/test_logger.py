@@ -1,4 +1,4 @@
-"""JointStateLogger: CSV rows, console lines, and rows kept when the process is killed."""
+"""JointStateLogger: CSV rows, console lines, flushing, and rows kept when a run is killed."""
 
 import io
 import math
@@ -10,58 +10,40 @@ import textwrap
 import time
 
 import pytest
-from pydrake.common.value import AbstractValue
 from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import DiagramBuilder, LeafSystem
+from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
 
 from armando_drake.logger import JointStateLogger, csv_header
-from armando_drake.messages import JointState
 
 JOINTS = ("j0", "j1")
 
 
 def sample_at(time):
-    """A made-up JointState at `time` [s] (positions, velocities, efforts known in closed form)."""
-    return JointState(
-        stamp=time,
-        name=JOINTS,
-        position=(math.sin(time), -2.0 * time),
-        velocity=(math.cos(time), -2.0),
-        effort=(0.5, time * time),
-    )
+    """[q0, q1, v0, v1, effort0, effort1] at `time` [s], known in closed form."""
+    return [math.sin(time), -2.0 * time, math.cos(time), -2.0, 0.5, time * time]
 
 
-class FreshSource(LeafSystem):
-    """Outputs the sample of the current time (a computed output, never stale)."""
+class Source(LeafSystem):
+    """Outputs ``layout(sample_at(t))`` (a computed output of the current time)."""
 
-    def __init__(self):
+    def __init__(self, layout=lambda sample: sample, size=6):
         super().__init__()
-        self.DeclareAbstractOutputPort(
-            "joint_states",
-            lambda: AbstractValue.Make(JointState()),
-            lambda context, value: value.set_value(sample_at(context.get_time())),
+        self.DeclareVectorOutputPort(
+            "y",
+            BasicVector(size),
+            lambda context, out: out.SetFromVector(layout(sample_at(context.get_time()))),
         )
 
 
-class SampledSource(LeafSystem):
-    """Like a joint state broadcaster: a discrete update at `rate` holds the sample."""
-
-    def __init__(self, rate):
-        super().__init__()
-        state = self.DeclareAbstractState(AbstractValue.Make(JointState()))
-        self.DeclareStateOutputPort("joint_states", state)
-        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._UpdateSample)
-
-    def _UpdateSample(self, context, state):
-        state.get_mutable_abstract_state(0).set_value(sample_at(context.get_time()))
-
-
-def simulate(source, logger, end_time):
+def simulate(logger, end_time, source=None):
+    """Runs ``source`` into ``logger`` to ``end_time``; returns the logger's context."""
     builder = DiagramBuilder()
-    builder.AddSystem(source)
+    source = builder.AddSystem(source or Source())
     builder.AddSystem(logger)
-    builder.Connect(source.GetOutputPort("joint_states"), logger.GetInputPort("joint_states"))
-    Simulator(builder.Build()).AdvanceTo(end_time)
+    builder.Connect(source.get_output_port(), logger.get_input_port())
+    simulator = Simulator(builder.Build())
+    simulator.AdvanceTo(end_time)
+    return logger.GetMyContextFromRoot(simulator.get_context())
 
 
 def read_rows(path):
@@ -75,80 +57,63 @@ def test_header_names_three_columns_per_joint():
     )
 
 
-def test_fresh_source_gives_one_row_per_tick_including_time_zero(tmp_path):
+def test_one_row_per_tick_from_time_zero_to_the_end(tmp_path):
     path = tmp_path / "joint_states.csv"
     logger = JointStateLogger(joint_names=JOINTS, update_rate=100.0, csv_path=path, quiet=True)
-    simulate(FreshSource(), logger, 2.0)
+    simulate(logger, 2.0)  # flushed at 0, 1 and 2 s; the sample of 2 s is recorded first
     logger.close()
     header, rows = read_rows(path)
     assert header == csv_header(JOINTS)
     assert len(rows) == 2 * 100 + 1 == logger.rows_written
     for k, row in enumerate(rows):
-        time_ = k / 100.0
-        assert row[0] == pytest.approx(time_, abs=1e-6)
-        expected = sample_at(row[0])
-        assert row[1:] == pytest.approx(
-            [
-                expected.position[0],
-                expected.velocity[0],
-                expected.effort[0],
-                expected.position[1],
-                expected.velocity[1],
-                expected.effort[1],
-            ],
-            rel=1e-9,
-            abs=1e-9,
-        )
-    assert logger.last_sample.stamp == pytest.approx(2.0)
+        assert row[0] == pytest.approx(k / 100.0, abs=1e-6)
+        q0, q1, v0, v1, e0, e1 = sample_at(row[0])
+        assert row[1:] == pytest.approx([q0, v0, e0, q1, v1, e1], rel=1e-9, abs=1e-9)
+    assert logger.last_row[0] == pytest.approx(2.0)
 
 
-def test_sampled_source_is_logged_once_per_sample_without_duplicates(tmp_path):
-    # The broadcaster's sample of time t is visible to publish events from t + 1/R on,
-    # so a 1 s run at 50 Hz holds the samples 0, 0.02, ..., 0.98.
+def test_flush_writes_what_was_recorded_since_the_last_flush_once(tmp_path):
+    # A run stopped between two flushes (Ctrl-C): the world's close(context) calls flush.
     path = tmp_path / "joint_states.csv"
-    logger = JointStateLogger(joint_names=JOINTS, update_rate=50.0, csv_path=path, quiet=True)
-    simulate(SampledSource(rate=50.0), logger, 1.0)
+    logger = JointStateLogger(joint_names=JOINTS, update_rate=100.0, csv_path=path, quiet=True)
+    context = simulate(logger, 1.555)
+    assert len(read_rows(path)[1]) == 101  # flushed at 0 and 1 s: rows 0 .. 1.00 s
+    logger.flush(context)
+    logger.flush(context)  # nothing new: nothing written
     logger.close()
     _, rows = read_rows(path)
-    times = [row[0] for row in rows]
-    assert times == pytest.approx([k / 50.0 for k in range(50)], abs=1e-6)
-    assert [row[4] for row in rows] == pytest.approx([-2.0 * t for t in times])
+    assert [row[0] for row in rows] == pytest.approx([k / 100 for k in range(156)], abs=1e-6)
 
 
-def test_joint_order_follows_the_logger_and_missing_fields_are_nan(tmp_path):
-    class Reordered(LeafSystem):
-        def __init__(self):
-            super().__init__()
-            self.DeclareAbstractOutputPort(
-                "joint_states",
-                lambda: AbstractValue.Make(JointState()),
-                lambda context, value: value.set_value(
-                    JointState(stamp=context.get_time(), name=("j1", "j0"), position=(1.0, 2.0))
-                ),
-            )
+def test_rows_come_from_the_given_indices_and_missing_effort_is_nan(tmp_path):
+    # Input [unused, q1, q0, v1, v0]: no effort.
+    def layout(sample):
+        q0, q1, v0, v1, _, _ = sample
+        return [7.0, q1, q0, v1, v0]
 
     path = tmp_path / "joint_states.csv"
     with JointStateLogger(
-        joint_names=JOINTS, update_rate=10.0, csv_path=path, quiet=True
+        joint_names=JOINTS,
+        update_rate=10.0,
+        input_size=5,
+        position_index=(2, 1),
+        velocity_index=(4, 3),
+        effort_index=(),
+        csv_path=path,
+        quiet=True,
     ) as logger:
-        simulate(Reordered(), logger, 0.1)
+        simulate(logger, 1.0, Source(layout, size=5))
     _, rows = read_rows(path)
-    assert len(rows) == 2
-    assert rows[1][0] == pytest.approx(0.1)
-    assert rows[1][1] == 2.0 and rows[1][4] == 1.0  # j0, j1 positions
-    assert all(math.isnan(value) for value in rows[1][2:4] + rows[1][5:7])
-
-
-def test_a_sample_missing_a_joint_is_an_error():
-    logger = JointStateLogger(joint_names=("j0", "j9"), update_rate=10.0, quiet=True)
-    with pytest.raises(ValueError, match="has no joint 'j9'"):
-        simulate(FreshSource(), logger, 0.1)
+    assert len(rows) == 11
+    q0, q1, v0, v1, _, _ = sample_at(rows[5][0])
+    assert rows[5][1:3] == pytest.approx([q0, v0]) and rows[5][4:6] == pytest.approx([q1, v1])
+    assert math.isnan(rows[5][3]) and math.isnan(rows[5][6])
 
 
 def test_console_prints_positions_once_a_second():
     stream = io.StringIO()
     logger = JointStateLogger(joint_names=JOINTS, update_rate=100.0, stream=stream)
-    simulate(FreshSource(), logger, 2.5)
+    simulate(logger, 2.5)
     lines = stream.getvalue().splitlines()
     # t = 0, 1, 2: a header line and one line per joint each.
     assert len(lines) == 3 * 3
@@ -166,14 +131,9 @@ def test_console_prints_positions_once_a_second():
 
 def test_quiet_prints_nothing_and_console_rate_is_honoured():
     stream = io.StringIO()
-    simulate(
-        FreshSource(),
-        JointStateLogger(joint_names=JOINTS, update_rate=10.0, stream=stream, quiet=True),
-        2.0,
-    )
+    simulate(JointStateLogger(joint_names=JOINTS, update_rate=10.0, stream=stream, quiet=True), 2.0)
     assert stream.getvalue() == ""
     simulate(
-        FreshSource(),
         JointStateLogger(joint_names=JOINTS, update_rate=10.0, console_rate=4.0, stream=stream),
         1.0,
     )
@@ -187,7 +147,7 @@ def test_close_is_safe_twice_and_writing_after_close_is_an_error(tmp_path):
     logger.close()
     assert path.read_text() == csv_header(JOINTS) + "\n"
     with pytest.raises(RuntimeError, match="was closed"):
-        simulate(FreshSource(), logger, 0.1)
+        simulate(logger, 0.1)
 
 
 @pytest.mark.parametrize(
@@ -197,6 +157,15 @@ def test_close_is_safe_twice_and_writing_after_close_is_an_error(tmp_path):
         (dict(joint_names=("j0", "j0"), update_rate=10.0), "has duplicates"),
         (dict(joint_names=JOINTS, update_rate=0.0), "update_rate=0.0 must be positive"),
         (dict(joint_names=JOINTS, update_rate=10.0, console_rate=-1.0), "console_rate=-1.0"),
+        (dict(joint_names=JOINTS, update_rate=10.0, flush_rate=0), "flush_rate=0 must be"),
+        (
+            dict(joint_names=JOINTS, update_rate=10.0, position_index=(0,)),
+            "position_index=[0] must give one row in [0, 6) per joint",
+        ),
+        (
+            dict(joint_names=JOINTS, update_rate=10.0, input_size=4, velocity_index=(2, 4)),
+            "velocity_index=[2, 4] must give one row in [0, 4)",
+        ),
     ],
 )
 def test_bad_arguments_are_rejected(kwargs, message):
@@ -207,35 +176,22 @@ def test_bad_arguments_are_rejected(kwargs, message):
 KILLED_RUN = """
 import sys
 import time
-from pydrake.common.value import AbstractValue
 from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import DiagramBuilder, LeafSystem
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource
 from armando_drake.logger import JointStateLogger
-from armando_drake.messages import JointState
-
-
-class Source(LeafSystem):
-    def __init__(self):
-        super().__init__()
-        self.DeclareAbstractOutputPort(
-            "joint_states",
-            lambda: AbstractValue.Make(JointState()),
-            lambda context, value: value.set_value(JointState(
-                stamp=context.get_time(), name=("j0", "j1"),
-                position=(0.123456789, -1.0), velocity=(2.0, 3.0), effort=(4.0, 5.0))),
-        )
-
 
 builder = DiagramBuilder()
-source = builder.AddSystem(Source())
+source = builder.AddSystem(ConstantVectorSource([0.123456789, -1.0, 2.0, 3.0, 4.0, 5.0]))
 logger = builder.AddSystem(JointStateLogger(
-    joint_names=("j0", "j1"), update_rate=1000.0, csv_path=sys.argv[1], quiet=True))
+    joint_names=("j0", "j1"), update_rate=1000.0, flush_rate=10.0, csv_path=sys.argv[1],
+    quiet=True))
 builder.Connect(source.get_output_port(), logger.get_input_port())
 simulator = Simulator(builder.Build())
 simulator.AdvanceTo(0.5)
 print("at 0.5 s", flush=True)
 if sys.argv[2] == "pause":
-    time.sleep(600)  # killed while paused: rows 0 .. 0.5 s must all be on disk
+    time.sleep(600)  # killed while paused: rows 0 .. 0.5 s (flushed at 0.5 s) are on disk
 else:
     simulator.AdvanceTo(1e6)  # killed while writing rows
 """
@@ -272,7 +228,7 @@ def check_rows(path):
     return len(rows)
 
 
-def test_a_run_killed_while_paused_keeps_every_row(tmp_path):
+def test_a_run_killed_while_paused_keeps_every_flushed_row(tmp_path):
     assert check_rows(run_and_kill(tmp_path, "pause")) == 501  # 0, 0.001, ..., 0.5 s
 
 

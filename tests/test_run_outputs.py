@@ -172,7 +172,7 @@ def test_recording_joint_states_equal_the_csv_sample_for_sample(run_dir):
     }
     header, rows = read_csv(run_dir / "out" / "joint_states.csv")
     states = bag["/joint_states"]
-    assert abs(len(states) - DURATION * RATE) <= 1, len(states)
+    assert len(states) == DURATION * RATE + 1, len(states)  # both ends
     assert len(states) == len(rows)
     for (log_time, message), row in zip(states, rows, strict=True):
         assert list(message.name) == JOINTS
@@ -225,7 +225,7 @@ def test_trajectory_recording(tmp_path):
         pytest.approx(0.5 * (k + 1)) for k in range(5)
     ]
     assert message.points[1].positions.tolist() == TARGETS[1]
-    assert len(bag["/joint_states"]) == 300
+    assert len(bag["/joint_states"]) == 301  # 0, 0.01, ..., 3.0 s
 
 
 def test_camera_recording_holds_the_frames_the_camera_took(tmp_path):

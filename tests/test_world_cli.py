@@ -47,7 +47,7 @@ def test_every_step_ends_within_0_01_rad(tmp_path, controller):
     # One CSV row per controller tick: duration x rate (+1), and commands.csv.
     log = rows(tmp_path / "joint_states.csv")
     assert log[0][:4] == ["time", "j0_position", "j0_velocity", "j0_effort"]
-    assert abs(len(log) - 1 - 15.0 * 100) <= 1
+    assert len(log) - 1 == 15.0 * 100 + 1  # 0, 0.01, ..., 15.0 s
     commands = rows(tmp_path / "commands.csv")
     assert commands[0] == ["time", "j0", "j1", "j2", "j3"]
     assert [float(v) for v in commands[2][1:]] == [1.2, -1.0, 1.2, 0.6]
@@ -61,7 +61,7 @@ def test_sinusoid_tracks_its_reference(tmp_path):
     assert summary["tracking_error"] <= 0.05
     # Check the reference independently of the summary: amplitude pi/2 at 0.05 Hz.
     log = np.array([[float(v) for v in row] for row in rows(tmp_path / "joint_states.csv")[1:]])
-    assert abs(len(log) - (10.0 * 100 + 1)) <= 1  # one row per controller tick
+    assert len(log) == 10.0 * 100 + 1  # one row per controller tick, 0 to 10 s
     t, q0 = log[:, 0], log[:, 1]
     after = t >= 1.0
     reference = (np.pi / 2) * np.sin(2 * np.pi * 0.05 * t[after])
