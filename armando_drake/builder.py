@@ -330,7 +330,7 @@ def MakeWorld(
     commands_csv = Path(output_dir) / "commands.csv" if output_dir and write_commands else None
     _add_sequencer(builder, world, scenario, where, commands_csv)
     _add_logger(builder, world, scenario, output_dir, quiet)
-    _add_cameras(builder, world, scenario, meshcat)
+    _add_cameras(builder, world, scenario, meshcat, where)
     if record is not None:
         from armando_drake.recording import AddRosbagRecorder
 
@@ -498,7 +498,7 @@ def _add_logger(builder, world: World, scenario: Scenario, output_dir, quiet: bo
     world.closers.append(logger.close)
 
 
-def _add_cameras(builder, world: World, scenario: Scenario, meshcat) -> None:
+def _add_cameras(builder, world: World, scenario: Scenario, meshcat, where: str) -> None:
     """RgbdSensors from the URDF's camera blocks, a live view and a frame saver."""
     settings = scenario.camera
     if not settings.enabled:
@@ -506,20 +506,26 @@ def _add_cameras(builder, world: World, scenario: Scenario, meshcat) -> None:
     if not world.robot.cameras:
         _log.warning("camera enabled, but %s describes no camera sensor", world.robot.source)
         return
-    from armando_drake.camera import AddCameraSensors, describe
+    from armando_drake.camera import AddCameraSensors, CameraError, choose_renderer, describe
     from armando_drake.image_view import AddFrameSaver, AddImageView
 
+    try:
+        renderer = choose_renderer(settings.renderer)
+    except CameraError as error:
+        raise ScenarioError(f"{where}{error}") from None
     world.cameras = AddCameraSensors(
         builder,
         world.plant,
         world.scene_graph,
         world.robot.model_instance,
         world.robot.cameras,
+        renderer=renderer,
         enable_depth=settings.depth,
         export=True,
     )
+    engine = {"gl": "RenderEngineGl", "vtk": "RenderEngineVtk"}[renderer]
     for camera in world.cameras.values():
-        _log.info("camera %s", describe(camera.info))
+        _log.info("camera %s, rendered by %s", describe(camera.info), engine)
     # A Meshcat kept only to record a replay (recording_only) has no viewer to go with.
     watched = meshcat is not None and not getattr(meshcat, "recording_only", False)
     if settings.live_view or watched:

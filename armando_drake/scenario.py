@@ -89,6 +89,9 @@ class CameraSettings:
     save_frames: str = ""
     # Rate at which frames are saved [Hz]; 0 = the camera's own rate.
     save_rate: float = 0.0
+    # Renderer: "gl" (Drake's OpenGL engine, on DISPLAY or a private Xvfb), "vtk"
+    # (VTK through EGL, no display needed) or "auto" (gl when possible, else vtk).
+    renderer: str = "auto"
 
 
 @dc.dataclass

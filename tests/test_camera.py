@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pytest
 from browser import CHROMIUM_ARGS
+from conftest import skip_or_fail
 from PIL import Image
 from pydrake.common.yaml import yaml_load_typed
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
@@ -76,7 +77,20 @@ def camera_urdf(sensor: str = SENSOR, **values) -> str:
 X_WL = RigidTransform(RollPitchYaw(0.0, 0.35, 0.3), [0.1, -0.2, 0.6])
 
 
-def render(urdf: str, objects: list[SceneObject], *, time: float = 0.02):
+@pytest.fixture(params=["vtk", "gl"])
+def renderer(request):
+    """Each of Drake's two renderers; "gl" on DISPLAY or a private Xvfb."""
+    if request.param == "gl":
+        from armando_drake.xdisplay import DisplayError, ensure_display
+
+        try:
+            ensure_display()
+        except DisplayError as error:
+            skip_or_fail(f"no X display for RenderEngineGl: {error}")
+    return request.param
+
+
+def render(urdf: str, objects: list[SceneObject], *, time: float = 0.02, renderer="vtk"):
     """Builds plant + camera + objects, simulates ``time`` s; returns (info, color, depth)."""
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=0.001)
@@ -85,7 +99,9 @@ def render(urdf: str, objects: list[SceneObject], *, time: float = 0.02):
     AddSceneObjects(plant, objects)
     plant.Finalize()
     (info,) = parse_camera_sensors(ET.fromstring(urdf), "inline.urdf")
-    cameras = AddCameraSensors(builder, plant, scene_graph, model, [info], export=True)
+    cameras = AddCameraSensors(
+        builder, plant, scene_graph, model, [info], renderer=renderer, export=True
+    )
     diagram = builder.Build()
     simulator = Simulator(diagram)
     simulator.AdvanceTo(time)
@@ -148,12 +164,12 @@ def plate_in_front(info, p_S, *, thickness=0.02, side=0.1, name="plate", rgba=(1
     [(1.047, 320, 240), (0.7, 320, 240), (1.047, 480, 240)],
     ids=["gazebo-default", "narrow-fov", "wide-image"],
 )
-def test_object_appears_at_its_pinhole_projection(fov, width, height):
+def test_object_appears_at_its_pinhole_projection(fov, width, height, renderer):
     urdf = camera_urdf(FOV=fov, WIDTH=width, HEIGHT=height, POSE="0.03 0.01 0.02 0 0.05 -0.04")
     (info,) = parse_camera_sensors(ET.fromstring(urdf))
     centre_S = np.array([1.0, 0.15, -0.1])  # ahead, to the left, below
     plate = plate_in_front(info, centre_S)
-    info, color, depth = render(urdf, [plate])
+    info, color, depth = render(urdf, [plate], renderer=renderer)
 
     assert color.shape == (height, width, 4)
     face_S = centre_S - [0.01, 0, 0]  # the face towards the camera
@@ -171,14 +187,14 @@ def test_object_appears_at_its_pinhole_projection(fov, width, height):
     assert np.isinf(depth[2, width - 3])
 
 
-def test_fov_and_width_move_the_projection_as_predicted():
+def test_fov_and_width_move_the_projection_as_predicted(renderer):
     """The same plate lands where fx = width / (2 tan(fov/2)) says, for three cameras."""
     centre_S = np.array([1.2, -0.2, 0.12])  # to the right, above
     seen = {}
     for fov, width in [(1.047, 320), (0.6, 320), (1.047, 640)]:
         urdf = camera_urdf(FOV=fov, WIDTH=width)
         (info,) = parse_camera_sensors(ET.fromstring(urdf))
-        info, color, _ = render(urdf, [plate_in_front(info, centre_S)])
+        info, color, _ = render(urdf, [plate_in_front(info, centre_S)], renderer=renderer)
         u_seen, v_seen = mask_centroid(red(color))
         u, v = project(info, centre_S - [0.01, 0, 0])
         assert abs(u_seen - u) < 3 and abs(v_seen - v) < 3
@@ -200,7 +216,7 @@ def test_gazebo_to_drake_camera_frame():
     assert RotationMatrix(R_LC).IsValid()
 
 
-def test_blue_disc_in_view_gives_blue_pixels_in_the_expected_region():
+def test_blue_disc_in_view_gives_blue_pixels_in_the_expected_region(renderer):
     urdf = camera_urdf()
     (info,) = parse_camera_sensors(ET.fromstring(urdf))
     centre_S = np.array([1.0, 0.0, 0.0])
@@ -213,7 +229,7 @@ def test_blue_disc_in_view_gives_blue_pixels_in_the_expected_region():
         rpy=list(RollPitchYaw(X_WO.rotation()).vector()),
         color=[0.0, 0.0, 1.0, 1.0],
     )
-    info, color, depth = render(urdf, [disc])
+    info, color, depth = render(urdf, [disc], renderer=renderer)
     mask = blue(color)
     near_face = 1.0 - 0.025
     radius_px = 0.15 * info.focal_length / near_face
