@@ -109,6 +109,13 @@ def _parser() -> argparse.ArgumentParser:
         help="rate at which --save-frames writes frames [Hz] (default: the camera's rate)",
     )
     parser.add_argument(
+        "--renderer",
+        choices=("auto", "gl", "vtk"),
+        help="camera renderer: gl = Drake's OpenGL engine (on DISPLAY or a private Xvfb), "
+        "vtk = VTK through EGL (no display needed), auto = gl when possible, else vtk "
+        "(default: as the scenario says, auto)",
+    )
+    parser.add_argument(
         "--output", metavar="DIR", help="write joint_states.csv, commands.csv, summary.json"
     )
     parser.add_argument(
@@ -193,6 +200,8 @@ def main(argv: list[str] | None = None) -> int:
             if args.save_rate <= 0:
                 raise UserError(f"--save-rate {args.save_rate} must be positive [Hz]")
             scenario.camera.save_rate = args.save_rate
+        if args.renderer is not None:
+            scenario.camera.renderer = args.renderer
 
         if args.record:
             _check_record(args.record)

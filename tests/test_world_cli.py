@@ -4,6 +4,7 @@ import csv
 import json
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -11,6 +12,8 @@ import time
 
 import numpy as np
 import pytest
+from conftest import skip_or_fail
+from PIL import Image
 
 FAST = ["--no-meshcat", "--realtime-rate", "0"]
 
@@ -44,7 +47,7 @@ def test_every_step_ends_within_0_01_rad(tmp_path, controller):
     assert summary["realtime_factor"] > 0
     # The table is printed, one line per step.
     assert re.search(r"^\s+4\s+12\.00\s", result.stdout, re.M), result.stdout
-    # One CSV row per controller tick: duration x rate (+1), and commands.csv.
+    # One CSV row per controller tick from 0 to 15 s, and commands.csv.
     log = rows(tmp_path / "joint_states.csv")
     assert log[0][:4] == ["time", "j0_position", "j0_velocity", "j0_effort"]
     assert len(log) - 1 == 15.0 * 100 + 1  # 0, 0.01, ..., 15.0 s
@@ -179,6 +182,35 @@ def test_help_documents_every_option_with_examples():
         "--quiet",
         "--camera",
         "--save-frames",
+        "--renderer",
     ]:
         assert option in result.stdout
     assert "Examples:" in result.stdout
+
+
+@pytest.mark.parametrize("renderer, engine", [("vtk", "RenderEngineVtk"), ("gl", "RenderEngineGl")])
+def test_renderer_choice_renders_the_saved_frames(tmp_path, renderer, engine):
+    if renderer == "gl" and shutil.which("Xvfb") is None and not os.environ.get("DISPLAY"):
+        skip_or_fail("no X display and no Xvfb (Debian package xvfb) for RenderEngineGl")
+    frames = tmp_path / "frames"
+    result = world(
+        *FAST,
+        "--scenario",
+        "camera",
+        "--duration",
+        "0.2",
+        "--renderer",
+        renderer,
+        "--save-frames",
+        str(frames),
+    )
+    assert result.returncode == 0, result.stderr
+    assert f"rendered by {engine}" in result.stdout + result.stderr
+    colour = sorted(p for p in frames.glob("camera_*.png") if not p.stem.endswith("_depth"))
+    assert len(colour) == 6, list(frames.iterdir())  # 0 to 0.2 s at 30 Hz, and the depths
+    assert all(p.with_name(f"{p.stem}_depth.png").is_file() for p in colour)
+    image = np.asarray(Image.open(colour[-1]).convert("RGB"))
+    assert image.shape == (480, 640, 3)
+    # The blue disc of diagrams/camera.yaml is in the lower left of the frame.
+    blue = (image[:, :, 2] > 150) & (image[:, :, 0] < 80) & (image[:, :, 1] < 80)
+    assert blue[240:, :320].sum() > 5000, blue.sum()
