@@ -64,8 +64,7 @@ def start_xvfb() -> str:
         )
         os.close(write_end)
         write_end = -1
-        ready, _, _ = select.select([read_end], [], [], START_TIMEOUT)
-        number = os.read(read_end, 64).decode().strip() if ready else ""
+        number = _read_line(read_end, time.monotonic() + START_TIMEOUT)
     finally:
         os.close(read_end)
         if write_end >= 0:
@@ -78,6 +77,20 @@ def start_xvfb() -> str:
     display = f":{number}"
     _logger.info("started Xvfb on display %s for the OpenGL camera renderer", display)
     return display
+
+
+def _read_line(fd: int, deadline: float) -> str:
+    """The first line written to ``fd`` before ``deadline``, without its newline. Xvfb
+    writes the number and the newline apart, and exits if the second write finds the
+    pipe closed, so the reader must wait for the whole line."""
+    data = b""
+    while b"\n" not in data:
+        ready, _, _ = select.select([fd], [], [], max(0.0, deadline - time.monotonic()))
+        chunk = os.read(fd, 64) if ready else b""
+        if not chunk:
+            break
+        data += chunk
+    return data.decode(errors="replace").strip()
 
 
 def _accepts_clients(number: int, process: subprocess.Popen) -> bool:
@@ -132,8 +145,8 @@ def ensure_display() -> str:
     if _started is not None and _started.poll() is None:
         raise DisplayError(f"RenderEngineGl does not work on Xvfb {os.environ.get('DISPLAY')}")
     previous = os.environ.get("DISPLAY")
-    # A server just started can refuse its first clients for a moment (seen when another
-    # process's Xvfb was shutting down on a neighbouring display): try a few times.
+    # A server can stop right after reporting its number (it did, when the number was
+    # read before its newline: see _read_line); a fresh one is tried before giving up.
     for attempt in range(1, START_ATTEMPTS + 1):
         display = start_xvfb()
         os.environ["DISPLAY"] = display
