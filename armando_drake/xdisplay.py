@@ -11,7 +11,6 @@ started for this process and stopped with it.
 
 from __future__ import annotations
 
-import atexit
 import ctypes
 import logging
 import os
@@ -45,7 +44,10 @@ def _die_with_parent() -> None:
 def start_xvfb() -> str:
     """Starts ``Xvfb`` on a free display number; returns it (e.g. ``":1"``).
 
-    The server stops when this process exits (normally or not).
+    The server stops when this process ends, however it ends: Linux sends it
+    SIGTERM when its parent dies. (Not at ``atexit``: Drake's OpenGL context
+    still talks to the display while the process tears down, and Xlib ends a
+    process whose display went away with exit status 1.)
     """
     global _started
     executable = shutil.which("Xvfb")
@@ -73,7 +75,6 @@ def start_xvfb() -> str:
         process.kill()
         raise DisplayError(f"Xvfb did not start a display within {START_TIMEOUT:g} s")
     _started = process
-    atexit.register(stop_xvfb)
     display = f":{number}"
     _logger.info("started Xvfb on display %s for the OpenGL camera renderer", display)
     return display

@@ -2,7 +2,8 @@
 
 The scene is the built-in Armando description with its camera (if the model
 exists; otherwise a bare camera link) plus a few scene objects, rendered by
-the headless VTK engine at 640x480 (or ``--size``). Each frame moves the
+the renderer a world would choose (``--renderer``: OpenGL on an X display or
+a private Xvfb, else VTK through EGL) at 640x480 (or ``--size``). Each frame moves the
 simulation time so that Drake renders anew; the figure is frames rendered per
 wall-clock second, after a warm-up frame. The last lines compare the
 simulation's real-time factor without a camera and with the camera at its own
@@ -10,7 +11,7 @@ rate plus the browser view's publisher (PNG encoding happens only when a
 browser asks, so none here). The machine's other load shows in the figures:
 run it twice.
 
-    python benchmarks/camera_fps.py [--frames N] [--size 640x480]
+    python benchmarks/camera_fps.py [--frames N] [--size 640x480] [--renderer auto|gl|vtk]
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from armando_drake import DEFAULT_DESCRIPTION
-from armando_drake.camera import AddCameraSensors, parse_camera_sensors
+from armando_drake.camera import AddCameraSensors, choose_renderer, parse_camera_sensors
 from armando_drake.image_view import AddImageView
 from armando_drake.objects import AddSceneObjects, SceneObject
 
@@ -61,7 +62,15 @@ OBJECTS = [
 ]
 
 
-def build(width: int, height: int, *, depth: bool, view: bool = False, camera: bool = True):
+def build(
+    width: int,
+    height: int,
+    *,
+    depth: bool,
+    view: bool = False,
+    camera: bool = True,
+    renderer: str = "vtk",
+):
     """The diagram, its camera and the scene's description, for one measurement."""
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=0.001)
@@ -81,14 +90,18 @@ def build(width: int, height: int, *, depth: bool, view: bool = False, camera: b
     AddSceneObjects(plant, OBJECTS)
     plant.Finalize()
     sensors = [dataclasses.replace(sensors[0], width=width, height=height)] if camera else []
-    cameras = AddCameraSensors(builder, plant, scene_graph, model, sensors, enable_depth=depth)
+    cameras = AddCameraSensors(
+        builder, plant, scene_graph, model, sensors, renderer=renderer, enable_depth=depth
+    )
     server = AddImageView(builder, cameras) if view else None
     first = next(iter(cameras.values()), None)
     return builder.Build(), first, f"{what} + {len(OBJECTS)} objects", server
 
 
-def render_fps(width: int, height: int, frames: int, *, depth: bool) -> tuple[float, str]:
-    diagram, camera, what, _ = build(width, height, depth=depth)
+def render_fps(
+    width: int, height: int, frames: int, *, depth: bool, renderer: str
+) -> tuple[float, str]:
+    diagram, camera, what, _ = build(width, height, depth=depth, renderer=renderer)
     context = diagram.CreateDefaultContext()
     sensor_context = camera.sensor.GetMyContextFromRoot(context)
     ports = [camera.sensor.GetOutputPort("color_image")]
@@ -104,9 +117,13 @@ def render_fps(width: int, height: int, frames: int, *, depth: bool) -> tuple[fl
     return frames / (time.perf_counter() - start), what
 
 
-def real_time_factor(width: int, height: int, seconds: float, *, camera: bool) -> float:
+def real_time_factor(
+    width: int, height: int, seconds: float, *, camera: bool, renderer: str
+) -> float:
     """Simulated over wall-clock seconds, with the camera and the view attached or not."""
-    diagram, _, _, server = build(width, height, depth=True, view=camera, camera=camera)
+    diagram, _, _, server = build(
+        width, height, depth=True, view=camera, camera=camera, renderer=renderer
+    )
     try:
         simulator = Simulator(diagram)
         simulator.Initialize()
@@ -123,16 +140,21 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=60, help="frames per measurement")
     parser.add_argument("--size", default="640x480", help="image size WIDTHxHEIGHT")
     parser.add_argument("--seconds", type=float, default=2.0, help="simulated seconds")
+    parser.add_argument(
+        "--renderer", choices=("auto", "gl", "vtk"), default="auto", help="as camera.renderer"
+    )
     args = parser.parse_args()
     width, height = (int(v) for v in args.size.lower().split("x"))
     logging.basicConfig(level=logging.ERROR)
-    color, what = render_fps(width, height, args.frames, depth=False)
-    both, _ = render_fps(width, height, args.frames, depth=True)
-    print(f"scene: {what}, {width}x{height}, VTK (EGL, headless)")
+    renderer = choose_renderer(args.renderer)
+    color, what = render_fps(width, height, args.frames, depth=False, renderer=renderer)
+    both, _ = render_fps(width, height, args.frames, depth=True, renderer=renderer)
+    engine = {"gl": "RenderEngineGl (OpenGL, X display)", "vtk": "RenderEngineVtk (EGL)"}
+    print(f"scene: {what}, {width}x{height}, {engine[renderer]}")
     print(f"colour:         {color:7.1f} frames/s ({1000 / color:.1f} ms a frame)")
     print(f"colour + depth: {both:7.1f} frames/s ({1000 / both:.1f} ms a frame)")
-    bare = real_time_factor(width, height, args.seconds, camera=False)
-    viewed = real_time_factor(width, height, args.seconds, camera=True)
+    bare = real_time_factor(width, height, args.seconds, camera=False, renderer=renderer)
+    viewed = real_time_factor(width, height, args.seconds, camera=True, renderer=renderer)
     print(f"simulation ({args.seconds:g} s), no camera: {bare:6.2f} x real time")
     print(f"simulation, colour + depth at the camera rate + browser view: {viewed:.2f} x real time")
 

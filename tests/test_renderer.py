@@ -54,8 +54,8 @@ def test_auto_without_a_display_starts_a_private_xvfb_that_dies_with_the_process
     assert display.startswith(":") and display[1:].isdigit()
     pid = int(pid)
     assert pid > 0
-    # The child has exited: its Xvfb is gone within a moment (atexit, or the parent-death
-    # signal when a process is killed).
+    # The child has exited: Linux's parent-death signal has ended its Xvfb (a zombie at
+    # most, where nothing reaps it).
     deadline = time.monotonic() + 10
     while time.monotonic() < deadline and os.path.exists(f"/proc/{pid}"):
         time.sleep(0.05)
