@@ -107,14 +107,14 @@ class ControllerManager(LeafSystem):
       initial position (and zero velocity) on joints no controller claims.
     - ``feedforward``: ``gravity(q_d)``, the torques [N m] that hold the arm
       against gravity at the desired positions, one per actuator of the
-      robot, for the plant's actuation input; only with ``gravity``. It is
-      computed when ``desired_state`` changes (at construction for the
-      initial positions).
+      robot, for the plant's actuation input; only with ``gravity``. It
+      depends on ``desired_state`` alone, so Drake computes it again only
+      when that changes.
     - ``<controller>.status``: each controller's ControllerStatus.
 
     The command controllers run in one periodic update at ``update_rate``
-    [Hz] from t = 0; ``desired_state``, ``feedforward`` and the statuses are
-    state, so reading them costs nothing.
+    [Hz] from t = 0; ``desired_state`` and the statuses are state and
+    ``feedforward`` is cached, so reading them costs nothing.
     """
 
     def __init__(
@@ -195,10 +195,17 @@ class ControllerManager(LeafSystem):
         )
         self._desired_index = self.DeclareDiscreteState(initial)
         self.DeclareStateOutputPort("desired_state", self._desired_index)
-        self._gravity = gravity
         if gravity is not None:
-            self._feedforward_index = self.DeclareDiscreteState(gravity(initial[:n]))
-            self.DeclareStateOutputPort("feedforward", self._feedforward_index)
+            # A function of desired_state alone: Drake caches it and calls back into
+            # Python only when desired_state changes, never per plant step.
+            self.DeclareVectorOutputPort(
+                "feedforward",
+                gravity.size,
+                lambda context, output: output.SetFromVector(
+                    gravity(context.get_discrete_state(self._desired_index).get_value()[:n])
+                ),
+                {self.discrete_state_ticket(self._desired_index)},
+            )
         for k, controller in enumerate(self._controllers):
             self.DeclareAbstractOutputPort(
                 f"{controller.name}.status",
@@ -271,7 +278,4 @@ class ControllerManager(LeafSystem):
             for k in changed:
                 desired[self._desired_rows[k]] = new.memories[k].desired
             state.get_mutable_discrete_state(self._desired_index).SetFromVector(desired)
-            if self._gravity is not None:
-                feedforward = self._gravity(desired[: len(self._hardware.joints)])
-                state.get_mutable_discrete_state(self._feedforward_index).SetFromVector(feedforward)
         return EventStatus.Succeeded()
