@@ -33,6 +33,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus, LeafSystem
 
 from armando_drake.controllers import (
+    DID_NOTHING,
     ControllerMemory,
     JointStateBroadcasterLogic,
     PositionControllerLogic,
@@ -40,8 +41,6 @@ from armando_drake.controllers import (
 )
 from armando_drake.hardware import GravityFeedforward, HardwareInterface
 from armando_drake.messages import ControllerStatus, PublicationValue
-
-_DID_NOTHING = EventStatus.DidNothing()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -269,7 +268,7 @@ class ControllerManager(LeafSystem):
                 context.get_time(), message, items[k], _Measure(x, *self._measured_rows[k])
             )
         if new_handled is None and new_items is None:
-            return _DID_NOTHING
+            return DID_NOTHING
         new = _Memories(tuple(new_handled or handled), tuple(new_items or items))
         state.get_mutable_abstract_state(self._memory_index).set_value(new)
         changed = [k for k in range(len(items)) if new.memories[k].desired is not items[k].desired]

@@ -32,7 +32,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.polynomial import Polynomial
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import EventStatus, LeafSystem
 from pydrake.trajectories import PiecewisePolynomial
 
 from armando_drake.controller_config import JointTrajectoryControllerParams
@@ -105,6 +105,11 @@ def _initial_positions(
                 inside,
             )
     return clamped
+
+
+# What an update with nothing to do returns: Drake then neither copies the system's
+# state back nor invalidates what depends on it.
+DID_NOTHING = EventStatus.DidNothing()
 
 
 class _Rejected(Exception):
@@ -301,7 +306,7 @@ class _CommandController(LeafSystem):
             trajectory=context.get_abstract_state(self._trajectory_index).get_value(),
         )
         if not self._logic.needs_update(message, memory):
-            return
+            return DID_NOTHING  # Drake then copies and invalidates nothing
         memory = dataclasses.replace(
             memory, desired=np.array(context.get_discrete_state(self._desired_index).get_value())
         )
