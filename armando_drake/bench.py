@@ -50,6 +50,8 @@ from pathlib import Path
 
 import numpy as np
 
+from armando_drake.cli import command_parser
+
 SECTIONS = ("pipeline", "mujoco", "camera", "startup", "memory")
 SCENARIOS = ("position", "trajectory", "sinusoid")
 # [rad] j0..j3: the seed targets of diagrams/position.yaml, 3 s apart.
@@ -746,12 +748,7 @@ def _sections(text: str) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m armando_drake.bench",
-        description=__doc__.split("\n\n")[0],
-        epilog=__doc__.split("\n\n", 1)[1],
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    parser = command_parser("armando_drake.bench", __doc__)
     parser.add_argument("--quick", action="store_true", help="a smoke run of a few seconds")
     parser.add_argument(
         "--json", metavar="FILE", default="bench.json", help="output (default: bench.json)"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import sys
 from collections.abc import Iterable, Iterator
@@ -9,6 +10,18 @@ from collections.abc import Iterable, Iterator
 
 class UserError(Exception):
     """A mistake in the user's input, reported as one line without a traceback."""
+
+
+def command_parser(module: str, doc: str) -> argparse.ArgumentParser:
+    """The argument parser of ``python -m <module>``: the first paragraph of the module's
+    ``doc`` as description, the rest (usage notes, examples) as epilog, verbatim."""
+    description, _, epilog = doc.partition("\n\n")
+    return argparse.ArgumentParser(
+        prog=f"python -m {module}",
+        description=description,
+        epilog=epilog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
 
 
 def parse_xacro_args(items: Iterable[str]) -> dict[str, str]:

@@ -21,16 +21,16 @@ import logging
 import sys
 
 from armando_drake import DEFAULT_DESCRIPTION, DIAGRAMS_DIR
-from armando_drake.cli import add_description_arguments, parse_xacro_args, user_errors
+from armando_drake.cli import (
+    add_description_arguments,
+    command_parser,
+    parse_xacro_args,
+    user_errors,
+)
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="python -m armando_drake.display",
-        description=__doc__.split("\n\n")[0],
-        epilog=__doc__.split("\n\n", 1)[1],
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    parser = command_parser("armando_drake.display", __doc__)
     add_description_arguments(
         parser, default=str(DEFAULT_DESCRIPTION.relative_to(DIAGRAMS_DIR.parent))
     )

@@ -29,6 +29,7 @@ from armando_drake.cli import (
     UserError,
     add_scenario_arguments,
     apply_scenario_arguments,
+    command_parser,
     user_errors,
 )
 
@@ -75,12 +76,7 @@ def _write(output: Path, data: bytes) -> None:
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="python -m armando_drake.graph",
-        description=__doc__.split("\n\n")[0],
-        epilog=__doc__.split("\n\n", 1)[1],
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    parser = command_parser("armando_drake.graph", __doc__)
     add_scenario_arguments(parser)
     parser.add_argument(
         "-o",

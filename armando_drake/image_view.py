@@ -318,7 +318,31 @@ class ImageViewServer:
         return Handler
 
 
-class ImageViewPublisher(LeafSystem):
+class _FrameConsumer(LeafSystem):
+    """What the image view publisher and the frame saver share: one camera's image
+    inputs, read by ``handler`` a small fraction of a period after each sample at
+    ``rate`` [Hz]."""
+
+    def __init__(self, *, rate: float, depth: bool, handler):
+        super().__init__()
+        if not rate > 0:
+            raise ValueError(f"rate={rate!r} must be positive")
+        self._rate = float(rate)
+        self._period = 1.0 / rate
+        self._color = self.DeclareAbstractInputPort(
+            "color_image", AbstractValue.Make(ImageRgba8U())
+        )
+        self._depth = None
+        if depth:
+            self._depth = self.DeclareAbstractInputPort(
+                "depth_image", AbstractValue.Make(ImageDepth32F())
+            )
+        self.DeclarePeriodicPublishEvent(
+            self._period, PUBLISH_OFFSET_FRACTION * self._period, handler
+        )
+
+
+class ImageViewPublisher(_FrameConsumer):
     """Hands one camera's frames to an :class:`ImageViewServer` at ``rate``.
 
     Creates its own server on ``port`` unless ``server`` is given (share one
@@ -338,24 +362,11 @@ class ImageViewPublisher(LeafSystem):
         port: int = 0,
         depth: bool = False,
     ):
-        super().__init__()
-        if not rate > 0:
-            raise ValueError(f"rate={rate!r} must be positive")
+        super().__init__(rate=rate, depth=depth, handler=self._Publish)
         if not camera_name:
             raise ValueError(f"camera_name={camera_name!r} must not be empty")
         self._camera_name = camera_name
-        self._rate = float(rate)
         self._server = server if server is not None else ImageViewServer(port=port)
-        self._color = self.DeclareAbstractInputPort(
-            "color_image", AbstractValue.Make(ImageRgba8U())
-        )
-        self._depth = None
-        if depth:
-            self._depth = self.DeclareAbstractInputPort(
-                "depth_image", AbstractValue.Make(ImageDepth32F())
-            )
-        period = 1.0 / rate
-        self.DeclarePeriodicPublishEvent(period, PUBLISH_OFFSET_FRACTION * period, self._Publish)
 
     @property
     def server(self) -> ImageViewServer:
@@ -385,7 +396,7 @@ class ImageViewPublisher(LeafSystem):
         )
 
 
-class FrameSaver(LeafSystem):
+class FrameSaver(_FrameConsumer):
     """Writes one camera's frames to ``directory`` at ``rate``.
 
     Files: ``<camera>_<index>.png`` (colour) and ``<camera>_<index>_depth.png``
@@ -406,27 +417,13 @@ class FrameSaver(LeafSystem):
         depth: bool = False,
         depth_format: str = "png",
     ):
-        super().__init__()
-        if not rate > 0:
-            raise ValueError(f"rate={rate!r} must be positive")
+        super().__init__(rate=rate, depth=depth, handler=self._Save)
         if depth_format not in ("png", "npy"):
             raise ValueError(f"depth_format={depth_format!r} must be 'png' or 'npy'")
         self._directory = Path(directory)
         self._directory.mkdir(parents=True, exist_ok=True)
         self._camera_name = camera_name
-        self._period = 1.0 / rate
         self._depth_format = depth_format
-        self._color = self.DeclareAbstractInputPort(
-            "color_image", AbstractValue.Make(ImageRgba8U())
-        )
-        self._depth = None
-        if depth:
-            self._depth = self.DeclareAbstractInputPort(
-                "depth_image", AbstractValue.Make(ImageDepth32F())
-            )
-        self.DeclarePeriodicPublishEvent(
-            self._period, PUBLISH_OFFSET_FRACTION * self._period, self._Save
-        )
 
     @property
     def directory(self) -> Path:

@@ -44,6 +44,7 @@ from armando_drake.cli import (
     UserError,
     add_scenario_arguments,
     apply_scenario_arguments,
+    command_parser,
     user_errors,
 )
 
@@ -62,12 +63,7 @@ SEED_TARGETS = [
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="python -m armando_drake.world",
-        description=__doc__.split("\n\n")[0],
-        epilog=__doc__.split("\n\n", 1)[1],
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    parser = command_parser("armando_drake.world", __doc__)
     add_scenario_arguments(parser)
     parser.add_argument(
         "--controller",
