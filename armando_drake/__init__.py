@@ -4,9 +4,21 @@ from pathlib import Path
 
 __version__ = "0.1.0"
 
-# The project's own data folders, next to the package in the source tree.
-PROJECT_ROOT = Path(__file__).resolve().parent.parent
-MODELS_DIR = PROJECT_ROOT / "models"
-DIAGRAMS_DIR = PROJECT_ROOT / "diagrams"
+_PACKAGE_DIR = Path(__file__).resolve().parent
+
+
+def _data_dir(name: str) -> Path:
+    """A data folder of the project: inside the package when installed from a wheel
+    (pyproject.toml maps ``models/`` and ``diagrams/`` into it), beside the package
+    in the source tree and in an editable install."""
+    installed = _PACKAGE_DIR / name
+    return installed if installed.is_dir() else _PACKAGE_DIR.parent / name
+
+
+# The source tree's root (notebooks write their outputs below it).
+PROJECT_ROOT = _PACKAGE_DIR.parent
+# The project's own robot descriptions and scenario files.
+MODELS_DIR = _data_dir("models")
+DIAGRAMS_DIR = _data_dir("diagrams")
 # The built-in robot: our own Armando description.
 DEFAULT_DESCRIPTION = MODELS_DIR / "armando_description" / "urdf" / "armando.urdf.xacro"

@@ -21,7 +21,7 @@ import logging
 import sys
 
 from armando_drake import DEFAULT_DESCRIPTION, DIAGRAMS_DIR
-from armando_drake.cli import (
+from armando_drake.tools.cli import (
     add_description_arguments,
     command_parser,
     parse_xacro_args,
@@ -75,7 +75,7 @@ def main(argv: list[str] | None = None) -> int:
     with user_errors():
         from pydrake.geometry import StartMeshcat
 
-        from armando_drake.visualization import load_view_config, make_display
+        from armando_drake.description.viewer import load_view_config, make_display
 
         view = load_view_config(args.view)
         view.show_collision |= args.show_collision

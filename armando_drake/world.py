@@ -40,7 +40,7 @@ import dataclasses
 import logging
 import sys
 
-from armando_drake.cli import (
+from armando_drake.tools.cli import (
     UserError,
     add_scenario_arguments,
     apply_scenario_arguments,
@@ -132,7 +132,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def _apply_controller(scenario, mode: str) -> None:
     """Points the scenario at the controller a --controller choice names."""
-    from armando_drake.sequencer import SequencerConfig
+    from armando_drake.control.sequencer import SequencerConfig
 
     broadcasters = [n for n in scenario.controllers.activate if "broadcaster" in n]
     if mode == "none":
@@ -142,7 +142,7 @@ def _apply_controller(scenario, mode: str) -> None:
     sequencer = scenario.sequencer or SequencerConfig(targets=SEED_TARGETS, period=3.0)
     if mode == "sinusoid" and sequencer.mode != "sinusoid":
         # The sinusoid scenario's wave: pi/2 at 0.05 Hz, j2 in antiphase with j1.
-        from armando_drake.scenario import load_scenario
+        from armando_drake.simulation.scenario import load_scenario
 
         wave = load_scenario("sinusoid").sequencer
         sequencer = dataclasses.replace(
@@ -170,8 +170,8 @@ def main(argv: list[str] | None = None) -> int:
         stream=sys.stdout,
     )
     with user_errors():
-        from armando_drake.run import format_table, run
-        from armando_drake.scenario import load_scenario, resolve_scenario_path
+        from armando_drake.simulation.run import format_table, run
+        from armando_drake.simulation.scenario import load_scenario, resolve_scenario_path
 
         path = resolve_scenario_path(args.scenario)
         scenario = apply_scenario_arguments(load_scenario(path), args)
@@ -237,7 +237,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _check_record(record: str) -> None:
-    from armando_drake.recording import RecordingError, check_recording_path
+    from armando_drake.outputs.recording import RecordingError, check_recording_path
 
     try:
         check_recording_path(record)

@@ -29,9 +29,9 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from armando_drake import DEFAULT_DESCRIPTION
-from armando_drake.camera import AddCameraSensors, choose_renderer, parse_camera_sensors
-from armando_drake.image_view import AddImageView
-from armando_drake.objects import AddSceneObjects, SceneObject
+from armando_drake.sensors.camera import AddCameraSensors, choose_renderer, parse_camera_sensors
+from armando_drake.sensors.image_view import AddImageView
+from armando_drake.sensors.objects import AddSceneObjects, SceneObject
 
 FALLBACK_URDF = """<?xml version="1.0"?>
 <robot name="eye">
@@ -75,7 +75,7 @@ def build(
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=0.001)
     if DEFAULT_DESCRIPTION.is_file():
-        from armando_drake.description import load_robot
+        from armando_drake.description.loader import load_robot
 
         robot = load_robot(plant)
         model, sensors, what = robot.model_instance, robot.cameras, "Armando"

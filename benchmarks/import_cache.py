@@ -25,8 +25,8 @@ _CHILD = """
 import logging, sys, time
 logging.disable(logging.WARNING)
 from pydrake.multibody.plant import MultibodyPlant
-from armando_drake.description import find_packages, load_robot
-from armando_drake.importer import prepare_urdf
+from armando_drake.description.loader import find_packages, load_robot
+from armando_drake.description.importer import prepare_urdf
 plant = MultibodyPlant(0.001)
 start = time.perf_counter()
 robot = load_robot(plant, sys.argv[1])

@@ -1,0 +1,781 @@
+"""Benchmark suite and performance budget: ``python -m armando_drake.bench``.
+
+Measures, in one invocation so that every ratio compares runs made under the
+same machine load:
+
+1. pipeline overhead: real-time factor of the position, trajectory and
+   sinusoid scenarios (no viewer, no camera, console logging off, the CSV
+   logger on) against the bare plant (same model, actuators, plant config and
+   time step) driven by a ``TrajectorySource`` through the same targets,
+   5 runs of each per repetition (each run is about a second);
+2. the same job in MuJoCo: the largest time step of {1, 2, 5, 10, 20} ms that
+   keeps every final error within 0.01 rad, for the Drake pipeline and for
+   MuJoCo (the URDF our loader expands, position actuators of the same gains),
+   and each one's real-time factor at that step;
+3. the camera: frames per second at 640 x 480, colour and colour + depth, and
+   the world's real-time factor with the camera on at its 30 Hz;
+4. start-up: wall time of ``python -m armando_drake.world --no-meshcat
+   --duration 0`` from launch to exit, with an empty mesh cache and a full one;
+5. memory: resident memory at the start and after one simulated hour of the
+   cyclic position scenario with the CSV logger at 100 Hz (fresh process).
+
+Each figure is the median of ``--repeat`` repetitions, with min and max. The
+table is printed as markdown and written with the raw samples to a JSON file.
+``--quick`` shortens every measurement to a smoke run of a few seconds.
+
+Examples:
+  python -m armando_drake.bench
+  python -m armando_drake.bench --quick --json /tmp/bench.json
+  python -m armando_drake.bench --only pipeline,mujoco --repeat 5
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import dataclasses
+import datetime
+import io
+import json
+import logging
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+
+from armando_drake.tools.cli import command_parser
+
+SECTIONS = ("pipeline", "mujoco", "camera", "startup", "memory")
+SCENARIOS = ("position", "trajectory", "sinusoid")
+# [rad] j0..j3: the seed targets of diagrams/position.yaml, 3 s apart.
+TARGETS = [
+    [0.0, 0.0, 0.0, 0.0],
+    [1.2, -1.0, 1.2, 0.6],
+    [-1.2, 1.0, -1.2, -0.6],
+    [0.6, 0.0, -0.6, 1.0],
+    [0.0, 0.0, 0.0, 0.0],
+]
+TARGET_PERIOD = 3.0  # [s] between targets
+TIME_STEPS = (0.001, 0.002, 0.005, 0.010, 0.020)  # [s] candidates of the step search
+FINAL_ERROR_TOLERANCE = 0.01  # [rad] every joint at the end of every target
+NO_CONSOLE = "logging: {console_rate: 0}"
+RTF = "x real time"  # unit of a real-time factor: simulated over wall-clock seconds
+
+
+@dataclasses.dataclass
+class Row:
+    """One line of the table."""
+
+    section: str  # one of SECTIONS
+    name: str  # what is measured
+    unit: str  # e.g. "x real time", "frames/s", "s", "MB"
+    samples: list[float]  # one per repetition
+    target: str = ""  # e.g. ">= 0.9"; "" = no budget for this row
+    met: bool | None = None  # whether the median meets the target; None without one
+
+    @property
+    def median(self) -> float:
+        return float(statistics.median(self.samples))
+
+    @property
+    def min(self) -> float:
+        return float(min(self.samples))
+
+    @property
+    def max(self) -> float:
+        return float(max(self.samples))
+
+    def check(self, op: str, bound: float) -> Row:
+        """Sets the target ``op bound`` (op: ">=" or "<=") and whether the median meets it."""
+        self.target = f"{op} {bound:g}"
+        self.met = self.median >= bound if op == ">=" else self.median <= bound
+        return self
+
+    def as_dict(self) -> dict:
+        return {
+            "section": self.section,
+            "name": self.name,
+            "unit": self.unit,
+            "median": self.median,
+            "min": self.min,
+            "max": self.max,
+            "samples": list(self.samples),
+            "target": self.target,
+            "met": self.met,
+        }
+
+
+@dataclasses.dataclass
+class Report:
+    """All rows and notes of one invocation."""
+
+    quick: bool
+    repeat: int
+    rows: list[Row] = dataclasses.field(default_factory=list)
+    notes: list[str] = dataclasses.field(default_factory=list)
+    started: str = ""  # ISO date and time of the start
+    seconds: float = 0.0  # [s] wall time of the whole invocation
+
+    def add(self, row: Row) -> Row:
+        self.rows.append(row)
+        return row
+
+    def as_dict(self) -> dict:
+        return {
+            "started": self.started,
+            "seconds": self.seconds,
+            "quick": self.quick,
+            "repeat": self.repeat,
+            "machine": machine(),
+            "rows": [row.as_dict() for row in self.rows],
+            "notes": list(self.notes),
+        }
+
+    def markdown(self) -> str:
+        lines = [
+            "| Benchmark | Median | Min | Max | Unit | Target | Met |",
+            "| --- | ---: | ---: | ---: | --- | --- | --- |",
+        ]
+        for row in self.rows:
+            met = "" if row.met is None else ("yes" if row.met else "**no**")
+            lines.append(
+                f"| {row.name} | {_number(row.median)} | {_number(row.min)} | "
+                f"{_number(row.max)} | {row.unit} | {row.target} | {met} |"
+            )
+        if self.notes:
+            lines.append("")
+            lines.extend(f"- {note}" for note in self.notes)
+        return "\n".join(lines)
+
+
+def _number(value: float) -> str:
+    if abs(value) >= 100:
+        return f"{value:.0f}"
+    if abs(value) >= 10:
+        return f"{value:.1f}"
+    return f"{value:.3g}" if abs(value) < 1 else f"{value:.2f}"
+
+
+def machine() -> dict:
+    """What the figures were measured on."""
+    from importlib import metadata
+
+    info = {
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "processor": _cpu_model(),
+        "cpus": os.cpu_count(),
+        "load_average": list(os.getloadavg()),
+        "drake": metadata.version("drake"),
+    }
+    with contextlib.suppress(ImportError):
+        import mujoco
+
+        info["mujoco"] = mujoco.__version__
+    return info
+
+
+def _cpu_model() -> str:
+    with contextlib.suppress(OSError):
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    return platform.processor()
+
+
+# --- 1. pipeline overhead ---------------------------------------------------
+
+
+def pipeline_rtf(name: str, duration: float, overrides: tuple[str, ...] = ()) -> float:
+    """Real-time factor of ``python -m armando_drake.world --scenario name`` without a viewer.
+
+    Console logging off, the CSV logger on (a temporary folder), not paced.
+    """
+    result = run_scenario(name, duration, overrides)
+    return result.realtime_factor
+
+
+def run_scenario(name: str, duration: float, overrides: tuple[str, ...] = ()):
+    """The :class:`~armando_drake.simulation.run.RunResult` of a scenario run as fast as it goes."""
+    from armando_drake.simulation.run import run
+    from armando_drake.simulation.scenario import load_scenario
+
+    scenario = load_scenario(name, NO_CONSOLE)
+    for override in overrides:
+        scenario = load_scenario_override(scenario, override)
+    scenario.simulation.duration = duration
+    scenario.simulation.realtime_rate = 0.0
+    return run(scenario, scenario_name=name, quiet=True, stream=io.StringIO())
+
+
+def load_scenario_override(scenario, override: str):
+    from pydrake.common.yaml import yaml_load_typed
+
+    return yaml_load_typed(data=override, defaults=scenario)
+
+
+def bare_plant_rtf(duration: float, time_step: float = 0.001) -> float:
+    """Real-time factor of the plant alone, its PD actuators fed by a TrajectorySource.
+
+    The same model, actuators, ground and plant config as the world; the
+    targets are held for ``TARGET_PERIOD`` each (zero desired velocity).
+    """
+    from pydrake.multibody.plant import AddMultibodyPlant, ApplyMultibodyPlantConfig
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import TrajectorySource
+    from pydrake.trajectories import PiecewisePolynomial
+
+    from armando_drake.control.hardware import AddHardwareInterface, FinishHardwareInterface
+    from armando_drake.description.loader import load_robot
+    from armando_drake.simulation.builder import _add_ground  # the world's ground slab
+    from armando_drake.simulation.scenario import load_scenario
+
+    scenario = load_scenario("position")
+    config = scenario.plant_config
+    config.time_step = time_step
+    builder = DiagramBuilder()
+    plant, _ = AddMultibodyPlant(config, builder)
+    ApplyMultibodyPlantConfig(config, plant)
+    robot = load_robot(plant)
+    _add_ground(plant)
+    actuators = scenario.actuators
+    hardware = AddHardwareInterface(plant, robot, kp=actuators.kp, kd=actuators.kd)
+    plant.Finalize()
+    FinishHardwareInterface(plant, robot, hardware)
+    n = len(hardware.joints)
+    columns = [np.concatenate([target, np.zeros(n)]) for target in TARGETS]
+    times = [k * TARGET_PERIOD for k in range(len(TARGETS))]
+    times.append(len(TARGETS) * TARGET_PERIOD)
+    columns.append(columns[-1])
+    trajectory = PiecewisePolynomial.ZeroOrderHold(times, np.stack(columns, axis=1))
+    source = builder.AddSystem(TrajectorySource(trajectory))
+    builder.Connect(
+        source.get_output_port(), plant.get_desired_state_input_port(robot.model_instance)
+    )
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    start = time.perf_counter()
+    simulator.Initialize()
+    simulator.AdvanceTo(duration)
+    return duration / (time.perf_counter() - start)
+
+
+def bench_pipeline(report: Report, duration: float, runs_per_repeat: int = 1) -> None:
+    runs = report.repeat * runs_per_repeat
+    bare, pipelines = [], {name: [] for name in SCENARIOS}
+    for _ in range(runs):
+        # Interleaved, so that a change of machine load hits every column alike.
+        bare.append(bare_plant_rtf(duration))
+        for name in SCENARIOS:
+            pipelines[name].append(pipeline_rtf(name, duration))
+    report.add(Row("pipeline", f"bare plant + TrajectorySource, {duration:g} s", RTF, bare))
+    for name in SCENARIOS:
+        report.add(Row("pipeline", f"{name} scenario, {duration:g} s", RTF, pipelines[name]))
+    for name in SCENARIOS:
+        # Each run against the bare plant run just before it.
+        ratios = [p / b for p, b in zip(pipelines[name], bare, strict=True)]
+        report.add(Row("pipeline", f"{name} / bare plant", "ratio", ratios).check(">=", 0.9))
+    fastest = max(pipelines["position"]) / max(bare)
+    report.add(Row("pipeline", "position / bare plant, fastest runs", "ratio", [fastest]))
+    report.notes.append(
+        f"Pipeline: {runs} runs of each configuration, interleaved; a ratio row is the "
+        "median (min, max) of each scenario run over the bare-plant run just before it. "
+        "On a shared machine single runs vary by +-20 %; 'fastest runs' compares the "
+        "least disturbed run of each."
+    )
+
+
+# --- 2. the same job in MuJoCo ------------------------------------------------
+
+
+def mujoco_xml(urdf: str) -> str:
+    """The expanded URDF as MuJoCo's URDF importer reads it.
+
+    Drops ``ros2_control``, ``gazebo`` and ``transmission`` elements and keeps
+    every link a body of its own (no static fusion) with its visual geometry.
+    """
+    root = ET.fromstring(urdf)
+    for tag in ("ros2_control", "gazebo", "transmission"):
+        for element in root.findall(tag):
+            root.remove(element)
+    extension = ET.SubElement(root, "mujoco")
+    ET.SubElement(extension, "compiler", discardvisual="false", fusestatic="false")
+    return ET.tostring(root, encoding="unicode")
+
+
+def _welded_groups(root: ET.Element) -> tuple[dict[str, str], list[tuple[str, str]]]:
+    """(link -> the root link of its welded group, [(parent, child) of each moving joint])."""
+    parent_of = {}
+    moving = []
+    for joint in root.findall("joint"):
+        parent = joint.find("parent").get("link")
+        child = joint.find("child").get("link")
+        parent_of[child] = (parent, joint.get("type"))
+        if joint.get("type") != "fixed":
+            moving.append((parent, child))
+
+    def group(link: str) -> str:
+        while link in parent_of and parent_of[link][1] == "fixed":
+            link = parent_of[link][0]
+        return link
+
+    return {link.get("name"): group(link.get("name")) for link in root.findall("link")}, moving
+
+
+def mujoco_model(urdf: str, hardware, *, kp: float, kd: float, time_step: float, gravcomp: bool):
+    """A compiled MuJoCo model of the arm with the world's actuators and contact filter.
+
+    Position actuators with ``kp``, ``kv = kd`` and the effort limit as force
+    range; the implicitfast integrator; a ground plane at z = 0; links across
+    a moving joint (with their welded links) never collide, as in our importer;
+    with ``gravcomp``, gravity compensation through the actuators (the
+    world's gravity feed-forward).
+    """
+    import mujoco
+
+    text = mujoco_xml(urdf)
+    spec = mujoco.MjSpec.from_string(text)
+    spec.option.timestep = time_step
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    if gravcomp:
+        for body in spec.bodies[1:]:
+            body.gravcomp = 1.0
+    for joint in hardware.joints:
+        spec.joint(joint.name).actgravcomp = gravcomp
+        actuator = spec.add_actuator(
+            name=joint.name, target=joint.name, trntype=mujoco.mjtTrn.mjTRN_JOINT
+        )
+        actuator.set_to_position(kp=kp, kv=kd)
+        if np.isfinite(joint.effort):
+            actuator.forcelimited = True
+            actuator.forcerange = [-joint.effort, joint.effort]
+    group, moving = _welded_groups(ET.fromstring(urdf))
+    for parent, child in moving:
+        for a in [link for link, g in group.items() if g == group[parent]]:
+            for b in [link for link, g in group.items() if g == group[child]]:
+                spec.add_exclude(bodyname1=a, bodyname2=b)
+    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[1.0, 1.0, 0.1])
+    model = spec.compile()
+    for joint in hardware.joints:
+        model.joint(joint.name).qpos0[:] = joint.initial_position
+    return model
+
+
+def mujoco_job(model, hardware, period: float) -> tuple[float, list[float]]:
+    """(real-time factor, final error of each target [rad]) of the target sequence."""
+    import mujoco
+
+    data = mujoco.MjData(model)
+    joints = [model.joint(joint.name) for joint in hardware.joints]
+    address = [int(joint.qposadr[0]) for joint in joints]
+    steps = int(round(period / model.opt.timestep))
+    errors = []
+    start = time.perf_counter()
+    for target in TARGETS:
+        data.ctrl[:] = target
+        mujoco.mj_step(model, data, steps)
+        q = data.qpos[address]
+        error = np.abs(q - target).max() if np.all(np.isfinite(q)) else np.inf
+        errors.append(float(error))
+    wall = time.perf_counter() - start
+    return len(TARGETS) * steps * model.opt.timestep / wall, errors
+
+
+def drake_job(time_step: float, period: float) -> tuple[float, list[float]]:
+    """(real-time factor, final error of each target [rad]) of the position scenario."""
+    result = run_scenario(
+        "position",
+        len(TARGETS) * period,
+        (f"plant_config: {{time_step: {time_step!r}}}", f"sequencer: {{period: {period!r}}}"),
+    )
+    errors = [step.max_abs_error for step in result.steps]
+    if len(errors) != len(TARGETS):
+        errors.append(np.inf)
+    return result.realtime_factor, errors
+
+
+def _largest_step(job) -> tuple[float | None, dict[float, list[float]]]:
+    """The largest time step whose every final error is within tolerance, and all errors."""
+    errors = {}
+    best = None
+    for time_step in TIME_STEPS:
+        _, errors[time_step] = job(time_step)
+        if max(errors[time_step]) <= FINAL_ERROR_TOLERANCE:
+            best = time_step
+    return best, errors
+
+
+def bench_mujoco(report: Report, period: float) -> None:
+    try:
+        import mujoco  # noqa: F401
+    except ImportError:
+        report.notes.append(
+            "MuJoCo comparison skipped: mujoco is not installed (pip install -e '.[bench]')."
+        )
+        return
+    from armando_drake.simulation.builder import MakeWorld
+    from armando_drake.simulation.scenario import load_scenario
+
+    scenario = load_scenario("position", NO_CONSOLE)
+    world = MakeWorld(scenario, quiet=True)
+    world.close()
+    actuators = scenario.actuators
+
+    def mujoco_at(time_step: float) -> tuple[float, list[float]]:
+        model = mujoco_model(
+            world.robot.urdf,
+            world.hardware,
+            kp=actuators.kp,
+            kd=actuators.kd,
+            time_step=time_step,
+            gravcomp=actuators.gravity_feedforward,
+        )
+        return mujoco_job(model, world.hardware, period)
+
+    with _quiet_mujoco():
+        drake_step, drake_errors = _largest_step(lambda h: drake_job(h, period))
+        mujoco_step, mujoco_errors = _largest_step(mujoco_at)
+    for label, errors in (("Drake", drake_errors), ("MuJoCo", mujoco_errors)):
+        worst = ", ".join(
+            f"{1000 * h:g} ms: {max(e):.3g}"
+            if np.isfinite(max(e))
+            else f"{1000 * h:g} ms: diverged"
+            for h, e in errors.items()
+        )
+        report.notes.append(f"{label}, worst final error per time step [rad]: {worst}.")
+    if drake_step is None or mujoco_step is None:
+        report.notes.append(
+            "MuJoCo comparison: no time step kept every final error within "
+            f"{FINAL_ERROR_TOLERANCE} rad (Drake: {drake_step}, MuJoCo: {mujoco_step})."
+        )
+        return
+    drake_rtf, mujoco_rtf, mujoco_1ms = [], [], []
+    for _ in range(report.repeat):
+        drake_rtf.append(drake_job(drake_step, period)[0])
+        mujoco_rtf.append(mujoco_at(mujoco_step)[0])
+        mujoco_1ms.append(mujoco_at(TIME_STEPS[0])[0])
+    job = f"{len(TARGETS)} targets x {period:g} s"
+    report.add(Row("mujoco", "Drake pipeline: largest step", "ms", [1000 * drake_step]))
+    report.add(Row("mujoco", "MuJoCo: largest step", "ms", [1000 * mujoco_step]))
+    report.add(Row("mujoco", f"Drake pipeline at {1000 * drake_step:g} ms, {job}", RTF, drake_rtf))
+    report.add(Row("mujoco", f"MuJoCo at {1000 * mujoco_step:g} ms, {job}", RTF, mujoco_rtf))
+    report.add(Row("mujoco", f"MuJoCo at 1 ms, {job}", RTF, mujoco_1ms))
+    ratios = [d / m for d, m in zip(drake_rtf, mujoco_rtf, strict=True)]
+    row = report.add(Row("mujoco", "Drake pipeline / MuJoCo", "ratio", ratios).check(">=", 1.0))
+    if not row.met:
+        report.notes.append(
+            "Drake pipeline / MuJoCo: MuJoCo runs each 3 s target as one C call "
+            "(mj_step with nstep, no controller in the loop) and its implicitfast step of this "
+            "4-joint arm costs a few microseconds; our pipeline pays Drake's discrete step "
+            "(contact solver with the PD gains implicit, 'lagged' approximation; compare the "
+            "bare plant at 1 ms with MuJoCo at 1 ms) plus our Python systems at 100 Hz, "
+            "which at 20 ms are most of the cost. Drake's implicit PD keeps 20 ms stable where "
+            "MuJoCo's explicit position gain diverges above 5 ms, which is not enough to "
+            "close the gap."
+        )
+
+
+@contextlib.contextmanager
+def _quiet_mujoco():
+    """Keeps MuJoCo's instability warnings (a diverging time step) off the console."""
+    import mujoco
+
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda message: None)
+    try:
+        yield
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
+# --- 3. camera ------------------------------------------------------------------
+
+
+def camera_fps(frames: int, *, depth: bool, renderer: str = "auto") -> tuple[float, str]:
+    """(frames rendered per wall-clock second, camera description) of the camera scene's
+    camera (diagrams/camera.yaml: the arm, the blue disc, the box)."""
+    from armando_drake.simulation.builder import MakeWorld
+    from armando_drake.simulation.scenario import load_scenario
+
+    scenario = load_scenario(
+        "camera",
+        f"camera: {{depth: {str(depth).lower()}, live_view: false, renderer: {renderer}}}\n"
+        f"{NO_CONSOLE}",
+    )
+    world = MakeWorld(scenario, quiet=True)
+    try:
+        if not world.cameras:
+            raise RuntimeError("the built-in description has no camera")
+        name, camera = next(iter(world.cameras.items()))
+        context = world.diagram.CreateDefaultContext()
+        sensor_context = camera.sensor.GetMyContextFromRoot(context)
+        ports = [camera.sensor.GetOutputPort("color_image")]
+        if depth:
+            ports.append(camera.sensor.GetOutputPort("depth_image_32f"))
+        for port in ports:  # the first frame builds the render pipeline
+            port.Eval(sensor_context)
+        start = time.perf_counter()
+        for i in range(frames):
+            context.SetTime((i + 1) * 1e-3)  # a new time: the images are rendered again
+            for port in ports:
+                port.Eval(sensor_context)
+        fps = frames / (time.perf_counter() - start)
+        info = camera.info
+        return fps, f"{name} {info.width} x {info.height} at {info.frame_rate:g} Hz"
+    finally:
+        world.close()
+
+
+def camera_world_rtf(duration: float, renderer: str = "auto") -> float:
+    """Real-time factor of the camera scenario (the camera at its 30 Hz, colour held,
+    no live view), as fast as it goes."""
+    return pipeline_rtf(
+        "camera", duration, (f"camera: {{live_view: false, renderer: {renderer}}}",)
+    )
+
+
+def bench_camera(report: Report, frames: int, duration: float) -> None:
+    from armando_drake.sensors.camera import choose_renderer
+
+    fastest = choose_renderer("auto")  # "gl" where an X display or Xvfb is there
+    renderers = ["vtk"] if fastest == "vtk" else ["gl", "vtk"]
+    rows = {}
+    what = ""
+    for _ in range(report.repeat):
+        for renderer in renderers:
+            fps, what = camera_fps(frames, depth=False, renderer=renderer)
+            rows.setdefault((renderer, "colour"), []).append(fps)
+            both = camera_fps(frames, depth=True, renderer=renderer)[0]
+            rows.setdefault((renderer, "both"), []).append(both)
+            rows.setdefault((renderer, "world"), []).append(camera_world_rtf(duration, renderer))
+        rows.setdefault(("none", "world"), []).append(
+            pipeline_rtf("camera", duration, ("camera: {enabled: false}",))
+        )
+    names = {"gl": "RenderEngineGl", "vtk": "RenderEngineVtk"}
+    for renderer in renderers:
+        engine = names[renderer]
+        report.add(Row("camera", f"colour render, {engine}", "frames/s", rows[renderer, "colour"]))
+        report.add(
+            Row("camera", f"colour + depth render, {engine}", "frames/s", rows[renderer, "both"])
+        )
+    report.add(
+        Row("camera", f"camera scenario, no camera, {duration:g} s", RTF, rows["none", "world"])
+    )
+    for renderer in renderers:
+        row = Row(
+            "camera",
+            f"camera scenario + camera, {names[renderer]}, {duration:g} s",
+            RTF,
+            rows[renderer, "world"],
+        )
+        report.add(row.check(">=", 1.0) if renderer == fastest else row)
+    report.notes.append(
+        f"Camera: {what} in the scene of diagrams/camera.yaml, on the CPU (no GPU). "
+        "The world uses RenderEngineGl (OpenGL, on DISPLAY or a private Xvfb) when it can, "
+        "else RenderEngineVtk (EGL); the target applies to the renderer a world gets here. "
+        "The world rows include the first frame, which builds the render pipeline."
+    )
+
+
+# --- 4. start-up --------------------------------------------------------------------
+
+
+START_COMMAND = ("-m", "armando_drake.world", "--no-meshcat", "--duration", "0", "--quiet")
+
+
+def startup_seconds(cache_dir: Path) -> float:
+    """Wall time [s] of ``python -m armando_drake.world --no-meshcat --duration 0``."""
+    environment = dict(os.environ, XDG_CACHE_HOME=str(cache_dir))
+    start = time.perf_counter()
+    subprocess.run(
+        [sys.executable, *START_COMMAND],
+        env=environment,
+        check=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    return time.perf_counter() - start
+
+
+def bench_startup(report: Report) -> None:
+    cold, warm = [], []
+    for _ in range(report.repeat):
+        with tempfile.TemporaryDirectory(prefix="armando_bench_cache_") as cache:
+            cold.append(startup_seconds(Path(cache)))
+            warm.append(startup_seconds(Path(cache)))
+    command = "python " + " ".join(START_COMMAND)
+    report.add(Row("startup", "start-up, empty cache", "s", cold).check("<=", 1.5))
+    report.add(Row("startup", "start-up, warm cache", "s", warm).check("<=", 1.5))
+    report.notes.append(
+        f"Start-up: `{command}` from launch to exit; 'empty cache' runs with a new "
+        "XDG_CACHE_HOME, 'warm cache' again with the same one (the OS file cache is warm "
+        "in both)."
+    )
+
+
+# --- 5. memory ----------------------------------------------------------------------
+
+
+def rss_mb() -> float:
+    """Resident memory of this process [MB] (VmRSS)."""
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024.0
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def memory_soak(horizon: float) -> dict:
+    """Runs the cyclic position scenario for ``horizon`` simulated seconds; RSS samples.
+
+    The CSV logger writes joint_states.csv at the controller rate (100 Hz) to
+    a temporary folder; console logging off; as fast as it goes.
+    """
+    from pydrake.systems.analysis import Simulator
+
+    from armando_drake.simulation.builder import MakeWorld
+    from armando_drake.simulation.scenario import load_scenario
+
+    logging.disable(logging.WARNING)
+    scenario = load_scenario("position", f"sequencer: {{cyclic: true}}\n{NO_CONSOLE}")
+    with tempfile.TemporaryDirectory(prefix="armando_bench_soak_") as folder:
+        world = MakeWorld(scenario, output_dir=folder, quiet=True)
+        simulator = Simulator(world.diagram)
+        simulator.Initialize()
+        samples = [(0.0, rss_mb())]
+        start = time.perf_counter()
+        chunks = 20
+        for k in range(1, chunks + 1):
+            simulator.AdvanceTo(horizon * k / chunks)
+            samples.append((horizon * k / chunks, rss_mb()))
+        wall = time.perf_counter() - start
+        csv_bytes = (Path(folder) / "joint_states.csv").stat().st_size
+        world.close()
+    return {"horizon": horizon, "wall": wall, "samples": samples, "csv_bytes": csv_bytes}
+
+
+def bench_memory(report: Report, horizon: float) -> None:
+    output = subprocess.run(
+        [sys.executable, "-m", "armando_drake.bench", "--memory-child", repr(horizon)],
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout
+    soak = json.loads(output.strip().splitlines()[-1])
+    samples = soak["samples"]
+    start, end = samples[0][1], samples[-1][1]
+    label = f"{horizon / 3600:g} h" if horizon >= 3600 else f"{horizon:g} s"
+    report.add(Row("memory", "resident memory at the start", "MB", [start]))
+    report.add(Row("memory", f"resident memory after {label} simulated", "MB", [end]))
+    report.add(Row("memory", f"growth over {label}", "MB", [end - start]).check("<=", 20.0))
+    report.notes.append(
+        f"Memory: one fresh process, cyclic position scenario, joint_states.csv at 100 Hz "
+        f"({soak['csv_bytes'] / 1e6:.1f} MB written), {label} simulated in {soak['wall']:.0f} s; "
+        "RSS [MB] at 0, 25, 50, 75, 100 %: "
+        + ", ".join(f"{samples[i][1]:.1f}" for i in (0, 5, 10, 15, 20))
+        + "."
+    )
+
+
+# --- the suite ----------------------------------------------------------------------
+
+
+@dataclasses.dataclass
+class Settings:
+    """How long each measurement runs."""
+
+    pipeline_seconds: float  # [s] simulated per pipeline run
+    pipeline_runs: int  # runs of each pipeline configuration per repetition
+    target_period: float  # [s] per target in the time-step search
+    camera_frames: int  # frames per render measurement
+    camera_seconds: float  # [s] simulated with the camera
+    memory_seconds: float  # [s] simulated in the memory soak
+
+    @staticmethod
+    def of(quick: bool) -> Settings:
+        if quick:
+            return Settings(1.0, 1, 1.0, 5, 0.5, 20.0)
+        return Settings(10.0, 5, TARGET_PERIOD, 60, 5.0, 3600.0)
+
+
+def run_suite(
+    *, quick: bool, repeat: int, sections=SECTIONS, stream=sys.stdout, settings=None
+) -> Report:
+    """Runs the chosen sections and returns the report."""
+    settings = settings or Settings.of(quick)
+    report = Report(quick=quick, repeat=repeat)
+    report.started = datetime.datetime.now().astimezone().isoformat(timespec="seconds")
+    begin = time.perf_counter()
+    steps = {
+        "pipeline": lambda: bench_pipeline(
+            report, settings.pipeline_seconds, settings.pipeline_runs
+        ),
+        "mujoco": lambda: bench_mujoco(report, settings.target_period),
+        "camera": lambda: bench_camera(report, settings.camera_frames, settings.camera_seconds),
+        "startup": lambda: bench_startup(report),
+        "memory": lambda: bench_memory(report, settings.memory_seconds),
+    }
+    for section in sections:
+        print(f"[bench] {section} ...", file=sys.stderr, flush=True)
+        section_start = time.perf_counter()
+        steps[section]()
+        print(
+            f"[bench] {section}: {time.perf_counter() - section_start:.1f} s",
+            file=sys.stderr,
+            flush=True,
+        )
+    report.seconds = time.perf_counter() - begin
+    return report
+
+
+def _sections(text: str) -> list[str]:
+    names = [name.strip() for name in text.split(",") if name.strip()]
+    unknown = [name for name in names if name not in SECTIONS]
+    if unknown or not names:
+        raise argparse.ArgumentTypeError(
+            f"--only {text!r}: choose from {', '.join(SECTIONS)} (comma separated)"
+        )
+    return names
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = command_parser("armando_drake.bench", __doc__)
+    parser.add_argument("--quick", action="store_true", help="a smoke run of a few seconds")
+    parser.add_argument(
+        "--json", metavar="FILE", default="bench.json", help="output (default: bench.json)"
+    )
+    parser.add_argument(
+        "--repeat", type=int, metavar="N", help="repetitions per figure (default: 3; quick: 1)"
+    )
+    parser.add_argument(
+        "--only", type=_sections, default=list(SECTIONS), help="sections, comma separated"
+    )
+    parser.add_argument("--memory-child", type=float, help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.ERROR)
+    if args.memory_child is not None:
+        print(json.dumps(memory_soak(args.memory_child)))
+        return 0
+    repeat = args.repeat if args.repeat is not None else (1 if args.quick else 3)
+    if repeat < 1:
+        parser.error(f"--repeat {repeat} must be at least 1")
+    report = run_suite(quick=args.quick, repeat=repeat, sections=args.only)
+    print(report.markdown())
+    path = Path(args.json)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(report.as_dict(), indent=2) + "\n")
+    print(f"\n{len(report.rows)} rows in {report.seconds:.0f} s; raw numbers: {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

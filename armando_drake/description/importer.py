@@ -1,0 +1,607 @@
+"""Any ROS robot description, prepared so that Drake loads and simulates it.
+
+ROS descriptions are written for RViz and Gazebo, which forgive a lot. Before
+Drake parses an expanded URDF, :func:`prepare_urdf` rewrites it (XML to XML):
+
+1. meshes: STL and Collada files are converted to cached OBJ files (see
+   :mod:`armando_drake.description.meshes`) and the ``filename`` attributes point at them;
+   missing files, unknown packages and unsupported formats are errors naming
+   the file, the link and the URDF line;
+2. collision geometry, by ``collision`` mode:
+
+   - ``boxes``: each link's collisions become one box around its visual geometry;
+   - ``convex``: each collision mesh becomes its convex hull
+     (``<drake:declare_convex/>``);
+   - ``as-is``: kept (meshes converted);
+   - ``none``: removed;
+   - ``auto``: ``boxes`` when some collision mesh is not a format Drake can
+     collide with (STL, DAE, ...), else ``as-is``;
+
+   and, unless ``none``, links on the two sides of a moving joint (with every
+   link welded to them) never collide with each other;
+3. inertias: a link whose inertia is not physically valid, or whose largest
+   principal moment exceeds :data:`INERTIA_RATIO_LIMIT` times that of its visual
+   bounding box at its declared mass, gets the bounding box's inertia; a link on
+   the child side of a moving joint that carries no mass at all (neither it nor
+   the links welded below it) gets :data:`DEFAULT_MASS`. Each change is a
+   warning naming the link, the old and the new values.
+
+:func:`actuated_joints` tells which joints take position commands, and
+:func:`default_controller_config` writes a ros2_control controller
+configuration for a robot that comes without one.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+from xml.parsers import expat
+
+import numpy as np
+from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.multibody.tree import RotationalInertia
+
+from armando_drake.description.loader import DescriptionError, PackageSearch
+from armando_drake.description.meshes import (
+    DRAKE_FORMATS,
+    ConvertedMesh,
+    convert_mesh,
+    resolve_mesh,
+)
+
+LOGGER = logging.getLogger("armando_drake.description.importer")
+
+COLLISION_MODES = ("auto", "boxes", "convex", "as-is", "none")
+# Mesh formats Drake can use as collision geometry.
+COLLIDABLE_FORMATS = DRAKE_FORMATS
+# A declared inertia whose largest principal moment exceeds this many times
+# that of the link's visual bounding box (at the declared mass) is replaced.
+INERTIA_RATIO_LIMIT = 100.0
+# [kg] mass given to a massless link on the child side of a moving joint.
+DEFAULT_MASS = 0.01
+# [m] side of the box standing in for a link without any geometry.
+DEFAULT_BOX_SIDE = 0.01
+# [m] thinnest side of a generated collision or inertia box.
+MIN_BOX_SIDE = 0.001
+MOVING_JOINT_TYPES = ("revolute", "continuous", "prismatic", "floating", "planar")
+
+
+@dataclass
+class InertiaFix:
+    """A link inertia replaced by :func:`prepare_urdf`."""
+
+    link: str
+    reason: str  # why it was replaced, in words
+    mass: float  # [kg] the mass the link now has
+    old: tuple[float, ...] | None  # [kg m^2] declared (ixx, iyy, izz, ixy, ixz, iyz); None if none
+    new: tuple[float, float, float]  # [kg m^2] new (ixx, iyy, izz) in link axes, products zero
+    box: tuple[float, float, float]  # [m] size of the box whose inertia was taken
+
+
+@dataclass
+class PreparedUrdf:
+    """The URDF Drake loads, and what preparing it changed."""
+
+    urdf: str  # the rewritten URDF text
+    warnings: list[str] = field(default_factory=list)  # one line per change made
+    converted: list[ConvertedMesh] = field(default_factory=list)  # meshes this call converted
+    meshes: list[ConvertedMesh] = field(default_factory=list)  # every mesh file used, once each
+    collision: str = "as-is"  # the collision mode applied ("auto" resolved)
+    inertia_fixes: list[InertiaFix] = field(default_factory=list)
+
+
+# --------------------------------------------------------------------------
+# XML with line numbers
+# --------------------------------------------------------------------------
+
+
+def parse_with_lines(text: str, source: str = "") -> tuple[ET.Element, dict[ET.Element, int]]:
+    """The XML root of ``text`` and the line each element starts on.
+
+    Namespaced names (``drake:declare_convex``, ``xmlns:xacro``) are kept
+    literally, so writing the tree back changes nothing but what was edited.
+    """
+    builder = ET.TreeBuilder()
+    lines: dict[ET.Element, int] = {}
+    parser = expat.ParserCreate()
+    parser.buffer_text = True
+
+    def start(tag: str, attributes: dict[str, str]) -> None:
+        lines[builder.start(tag, attributes)] = parser.CurrentLineNumber
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = builder.end
+    parser.CharacterDataHandler = builder.data
+    try:
+        parser.Parse(text, True)
+    except expat.ExpatError as error:
+        raise DescriptionError(
+            f"{source or '<urdf>'}:{error.lineno}: not valid XML: {error}"
+        ) from None
+    return builder.close(), lines
+
+
+def _floats(text: str | None, count: int, default: float = 0.0) -> np.ndarray:
+    if text is None or not text.strip():
+        return np.full(count, default)
+    values = np.array([float(v) for v in text.split()])
+    if len(values) != count:
+        raise ValueError(f"expected {count} numbers, got {text!r}")
+    return values
+
+
+def _origin(element: ET.Element) -> RigidTransform:
+    origin = element.find("origin")
+    if origin is None:
+        return RigidTransform()
+    rpy = _floats(origin.get("rpy"), 3)
+    return RigidTransform(RollPitchYaw(rpy), _floats(origin.get("xyz"), 3))
+
+
+def _box_corners(half: np.ndarray) -> np.ndarray:
+    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+    return signs * half
+
+
+def _format(values) -> str:
+    return ", ".join(f"{v:.4g}" for v in values)
+
+
+# --------------------------------------------------------------------------
+# Preparation
+# --------------------------------------------------------------------------
+
+
+class _Preparation:
+    """State of one :func:`prepare_urdf` call."""
+
+    def __init__(self, text: str, search: PackageSearch, source: str):
+        self.source = source or "<urdf>"
+        self.base_dir = Path(source).parent if source else None
+        self.search = search
+        self.root, self.lines = parse_with_lines(text, self.source)
+        self.result = PreparedUrdf(urdf="")
+        self.files: dict[ET.Element, Path] = {}  # <mesh> element -> its source file
+        self.meshes: dict[Path, ConvertedMesh] = {}
+        self.vertices: dict[Path, np.ndarray] = {}
+        self.links = {link.get("name", ""): link for link in self.root.findall("link")}
+
+    def where(self, element: ET.Element) -> str:
+        line = self.lines.get(element)
+        return f"{self.source}:{line}" if line else self.source
+
+    def warn(self, message: str) -> None:
+        LOGGER.warning("%s", message)
+        self.result.warnings.append(message)
+
+    # Meshes ---------------------------------------------------------------
+
+    def mesh_elements(self, link: ET.Element, kind: str) -> list[ET.Element]:
+        return [m for item in link.findall(kind) for m in item.findall("geometry/mesh")]
+
+    def check_mesh(self, link: ET.Element, mesh: ET.Element) -> Path:
+        """The source file of a mesh element; errors name file, link and line."""
+        filename = mesh.get("filename", "")
+        where = f"{self.where(mesh)}: link {link.get('name')!r}"
+        if not filename:
+            raise DescriptionError(f"{where}: <mesh> without a filename")
+        try:
+            path = resolve_mesh(filename, self.search, self.base_dir)
+        except DescriptionError as error:
+            raise DescriptionError(f"{where}: mesh {filename!r}: {error}") from None
+        if not path.is_file():
+            raise DescriptionError(f"{where}: mesh file {filename!r} not found (looked for {path})")
+        suffix = path.suffix.lower()
+        if suffix not in (".stl", ".dae") + DRAKE_FORMATS:
+            try:
+                convert_mesh(path)  # raises the unsupported-format message
+            except DescriptionError as error:
+                raise DescriptionError(f"{where}: {error}") from None
+        return path
+
+    def converted(self, path: Path) -> ConvertedMesh:
+        if path not in self.meshes:
+            mesh = convert_mesh(path)
+            self.meshes[path] = mesh
+            self.result.meshes.append(mesh)
+            if mesh.converted:
+                self.result.converted.append(mesh)
+        return self.meshes[path]
+
+    def mesh_vertices(self, path: Path) -> np.ndarray:
+        if path not in self.vertices:
+            self.vertices[path] = self.converted(path).vertices()
+        return self.vertices[path]
+
+    # Geometry -------------------------------------------------------------
+
+    def geometry_points(self, item: ET.Element) -> np.ndarray | None:
+        """Points bounding a <visual>/<collision>, in the link frame (None if no geometry)."""
+        geometry = item.find("geometry")
+        if geometry is None or len(geometry) == 0:
+            return None
+        shape = geometry[0]
+        kind = shape.tag.removeprefix("drake:")
+        try:
+            if kind == "box":
+                points = _box_corners(_floats(shape.get("size"), 3) / 2)
+            elif kind == "cylinder":
+                radius, length = float(shape.get("radius")), float(shape.get("length"))
+                points = _box_corners(np.array([radius, radius, length / 2]))
+            elif kind == "capsule":
+                radius, length = float(shape.get("radius")), float(shape.get("length"))
+                points = _box_corners(np.array([radius, radius, length / 2 + radius]))
+            elif kind == "sphere":
+                points = _box_corners(np.full(3, float(shape.get("radius"))))
+            elif kind == "ellipsoid":
+                points = _box_corners(np.array([float(shape.get(k)) for k in "abc"]))
+            elif kind == "mesh":
+                path = self.files[shape]
+                points = self.mesh_vertices(path) * _floats(shape.get("scale"), 3, 1.0)
+            else:
+                return None
+        except (TypeError, ValueError) as error:
+            raise DescriptionError(f"{self.where(shape)}: bad <{shape.tag}>: {error}") from None
+        X_LG = _origin(item)
+        return (X_LG.rotation().matrix() @ points.T).T + X_LG.translation()
+
+    def bounding_box(self, link: ET.Element, kinds=("visual",)) -> tuple[np.ndarray, np.ndarray]:
+        """(centre, size) of the link-frame box around the link's geometry; size 0 if none."""
+        points = [
+            p
+            for kind in kinds
+            for item in link.findall(kind)
+            if (p := self.geometry_points(item)) is not None
+        ]
+        if not points:
+            return np.zeros(3), np.zeros(3)
+        stacked = np.vstack(points)
+        low, high = stacked.min(axis=0), stacked.max(axis=0)
+        return (low + high) / 2, high - low
+
+    # Steps ----------------------------------------------------------------
+
+    def resolve_meshes(self) -> None:
+        for link in self.links.values():
+            for kind in ("visual", "collision"):
+                for mesh in self.mesh_elements(link, kind):
+                    self.files[mesh] = self.check_mesh(link, mesh)
+
+    def rewrite_meshes(self) -> None:
+        for link in self.links.values():
+            for mesh in self.mesh_elements(link, "visual") + self.mesh_elements(link, "collision"):
+                mesh.set("filename", f"file://{self.converted(self.files[mesh]).path}")
+
+    def resolve_collision_mode(self, collision: str) -> str:
+        if collision not in COLLISION_MODES:
+            raise DescriptionError(f"collision={collision!r} must be one of {COLLISION_MODES}")
+        if collision != "auto":
+            return collision
+        unusable = sorted(
+            {
+                self.files[mesh].name
+                for link in self.links.values()
+                for mesh in self.mesh_elements(link, "collision")
+                if self.files[mesh].suffix.lower() not in COLLIDABLE_FORMATS
+            }
+        )
+        if not unusable:
+            return "as-is"
+        self.warn(
+            f"{self.source}: collision meshes Drake cannot collide with ({', '.join(unusable)}): "
+            "each link collides as one box around its visual geometry (collision='boxes')"
+        )
+        return "boxes"
+
+    def apply_collision_mode(self, mode: str) -> None:
+        for name, link in self.links.items():
+            collisions = link.findall("collision")
+            if mode in ("boxes", "none"):
+                if mode == "boxes":
+                    centre, size = self.bounding_box(link)
+                    if not size.any():
+                        centre, size = self.bounding_box(link, ("collision",))
+                for item in collisions:
+                    link.remove(item)
+                if mode == "boxes" and size.any():
+                    box = ET.SubElement(link, "collision", name=f"{name}_bounding_box")
+                    ET.SubElement(box, "origin", xyz=" ".join(f"{c:.9g}" for c in centre))
+                    sides = np.maximum(size, MIN_BOX_SIDE)
+                    geometry = ET.SubElement(box, "geometry")
+                    ET.SubElement(geometry, "box", size=" ".join(f"{s:.9g}" for s in sides))
+            elif mode == "convex":
+                for mesh in self.mesh_elements(link, "collision"):
+                    if mesh.find("drake:declare_convex") is None:
+                        ET.SubElement(mesh, "drake:declare_convex")
+        if mode != "none":
+            self.filter_adjacent_collisions()
+        uses_drake = any(e.tag.startswith("drake:") for e in self.root.iter())
+        if uses_drake and "xmlns:drake" not in self.root.attrib:
+            self.root.set("xmlns:drake", "http://drake.mit.edu")
+
+    def filter_adjacent_collisions(self) -> None:
+        """Links on the two sides of a moving joint, and all links welded to them, never collide.
+
+        Drake only excludes the joint's own parent and child; descriptions that
+        hang the geometry on links welded to a bare joint frame (a bracket
+        around its servo) would collide with themselves at rest. Gazebo lumps
+        welded links, and MoveIt disables adjacent pairs, so neither sees this.
+        """
+        group = {name: name for name in self.links}
+
+        def find(name: str) -> str:
+            while group.setdefault(name, name) != name:
+                name = group[name]
+            return name
+
+        joints = []
+        for joint in self.root.findall("joint"):
+            parent, child = joint.find("parent"), joint.find("child")
+            if parent is None or child is None:
+                continue
+            ends = (parent.get("link"), child.get("link"))
+            if joint.get("type") == "fixed":
+                group[find(ends[0])] = find(ends[1])
+            elif joint.get("type") in MOVING_JOINT_TYPES:
+                joints.append((joint.get("name"), ends))
+        for joint, (parent, child) in joints:
+            members = [n for n in self.links if find(n) in (find(parent), find(child))]
+            if len(members) <= 2:
+                continue  # Drake already excludes a joint's parent and child
+            name = f"adjacent_across_{joint}"
+            element = ET.SubElement(self.root, "drake:collision_filter_group", name=name)
+            for member in members:
+                ET.SubElement(element, "drake:member", link=member)
+            ET.SubElement(element, "drake:ignored_collision_filter_group", name=name)
+
+    def fix_inertias(self) -> None:
+        moving_children = set()
+        fixed_children: dict[str, list[str]] = {}
+        for joint in self.root.findall("joint"):
+            child = joint.find("child")
+            parent = joint.find("parent")
+            if child is None or parent is None:
+                continue
+            if joint.get("type") in MOVING_JOINT_TYPES:
+                moving_children.add(child.get("link"))
+            elif joint.get("type") == "fixed":
+                fixed_children.setdefault(parent.get("link"), []).append(child.get("link"))
+        masses = {name: self.declared_mass(link) for name, link in self.links.items()}
+
+        def welded_mass(name: str, seen: set[str]) -> float:
+            seen.add(name)
+            return masses.get(name, 0.0) + sum(
+                welded_mass(child, seen)
+                for child in fixed_children.get(name, [])
+                if child not in seen
+            )
+
+        for name, link in self.links.items():
+            massless = masses[name] <= 0 and welded_mass(name, set()) <= 0
+            if name in moving_children and massless:
+                self.give_default_mass(name, link)
+            else:
+                self.check_inertia(name, link)
+
+    def declared_mass(self, link: ET.Element) -> float:
+        mass = link.find("inertial/mass")
+        try:
+            value = float(mass.get("value")) if mass is not None else 0.0
+        except (TypeError, ValueError):
+            return 0.0
+        return value if math.isfinite(value) and value > 0 else 0.0
+
+    def box_inertia(self, mass: float, size: np.ndarray) -> tuple[float, float, float]:
+        a, b, c = size
+        return (
+            mass * (b * b + c * c) / 12,
+            mass * (a * a + c * c) / 12,
+            mass * (a * a + b * b) / 12,
+        )
+
+    def inertia_box(self, link: ET.Element) -> tuple[np.ndarray, np.ndarray]:
+        centre, size = self.bounding_box(link)
+        if not size.any():
+            return centre, np.full(3, DEFAULT_BOX_SIDE)
+        return centre, np.maximum(size, MIN_BOX_SIDE)
+
+    def write_inertial(self, link, mass, centre, new) -> None:
+        inertial = link.find("inertial")
+        if inertial is None:
+            inertial = ET.SubElement(link, "inertial")
+        origin = inertial.find("origin")
+        if origin is None:
+            origin = ET.SubElement(inertial, "origin")
+        if centre is not None:
+            origin.set("xyz", " ".join(f"{c:.9g}" for c in centre))
+        origin.set("rpy", "0 0 0")
+        for tag in ("mass", "inertia"):
+            for element in inertial.findall(tag):
+                inertial.remove(element)
+        ET.SubElement(inertial, "mass", value=f"{mass:.9g}")
+        ixx, iyy, izz = new
+        ET.SubElement(
+            inertial, "inertia", ixx=f"{ixx:.9g}", iyy=f"{iyy:.9g}", izz=f"{izz:.9g}",
+            ixy="0", ixz="0", iyz="0",
+        )  # fmt: skip
+
+    def give_default_mass(self, name: str, link: ET.Element) -> None:
+        centre, size = self.inertia_box(link)
+        new = self.box_inertia(DEFAULT_MASS, size)
+        old = self.declared_inertia(link)
+        had = "no <inertial>" if link.find("inertial") is None else "no mass"
+        self.write_inertial(link, DEFAULT_MASS, centre, new)
+        self.record(
+            InertiaFix(name, "massless on a moving joint", DEFAULT_MASS, old, new, tuple(size)),
+            f"{self.where(link)}: link {name!r} is the child of a moving joint and has {had} "
+            f"(nor has anything welded to it): given a default mass of {DEFAULT_MASS} kg and "
+            f"the inertia (ixx, iyy, izz) = ({_format(new)}) kg m^2 of a "
+            f"{' x '.join(f'{s:.3g}' for s in size)} m box",
+        )
+
+    def declared_inertia(self, link: ET.Element) -> tuple[float, ...] | None:
+        inertia = link.find("inertial/inertia")
+        if inertia is None:
+            return None
+        try:
+            return tuple(
+                float(inertia.get(k, "0")) for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
+            )
+        except ValueError as error:
+            raise DescriptionError(f"{self.where(inertia)}: bad <inertia>: {error}") from None
+
+    def check_inertia(self, name: str, link: ET.Element) -> None:
+        inertial = link.find("inertial")
+        if inertial is None:
+            return
+        mass = self.declared_mass(link)
+        old = self.declared_inertia(link)
+        if mass <= 0 or old is None:
+            return  # a massless link welded to or carrying massive ones is fine for Drake
+        ixx, iyy, izz, ixy, ixz, iyz = old
+        reason = None
+        if (
+            not all(math.isfinite(v) for v in old)
+            or not RotationalInertia(ixx, iyy, izz, ixy, ixz, iyz).CouldBePhysicallyValid()
+        ):
+            reason = "is not physically valid"
+        centre, size = self.inertia_box(link)
+        new = self.box_inertia(mass, size)
+        if reason is None:
+            matrix = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+            ratio = float(np.linalg.eigvalsh(matrix).max()) / max(new)
+            if ratio <= INERTIA_RATIO_LIMIT:
+                return
+            reason = f"is {ratio:.3g} times that of its visual bounding box"
+        self.write_inertial(link, mass, None, new)
+        self.record(
+            InertiaFix(name, reason, mass, old, new, tuple(size)),
+            f"{self.where(inertial)}: link {name!r}: inertia (ixx, iyy, izz, ixy, ixz, iyz) = "
+            f"({_format(old)}) kg m^2 at mass {mass:.4g} kg {reason} "
+            f"({' x '.join(f'{s:.3g}' for s in size)} m); replaced by that box's inertia "
+            f"(ixx, iyy, izz) = ({_format(new)}) kg m^2",
+        )
+
+    def record(self, fix: InertiaFix, message: str) -> None:
+        self.result.inertia_fixes.append(fix)
+        self.warn(message)
+
+
+def prepare_urdf(
+    urdf_text: str,
+    search: PackageSearch,
+    *,
+    collision: str = "auto",
+    source: str | os.PathLike = "",
+) -> PreparedUrdf:
+    """Rewrites an expanded URDF so that Drake loads and simulates it.
+
+    ``search`` resolves ``package://`` names; ``source`` is the description
+    file (named in errors and warnings; relative mesh paths are relative to its
+    folder). ``collision`` is one of :data:`COLLISION_MODES`. See the module
+    docstring for what is changed; every change is logged on
+    ``armando_drake.description.importer`` and listed in ``warnings``.
+    """
+    step = _Preparation(urdf_text, search, str(source))
+    if step.root.tag != "robot":
+        raise DescriptionError(f"{step.source}: not a URDF: the root element is <{step.root.tag}>")
+    step.resolve_meshes()
+    mode = step.resolve_collision_mode(collision)
+    step.fix_inertias()
+    step.apply_collision_mode(mode)
+    step.rewrite_meshes()
+    step.result.collision = mode
+    step.result.urdf = '<?xml version="1.0"?>\n' + ET.tostring(step.root, encoding="unicode")
+    return step.result
+
+
+# --------------------------------------------------------------------------
+# Actuation
+# --------------------------------------------------------------------------
+
+_logged_once: set[str] = set()
+
+
+def actuated_joints(root: ET.Element) -> tuple[list[str], str]:
+    """The joints taking position commands, and where that was read from.
+
+    From ``<ros2_control>`` (joints with a ``position`` command interface) if
+    the URDF has one, else from top-level ``<transmission>`` blocks (ROS 1 and
+    ROS 2 style, their ``<joint name=..>``), else every non-fixed joint (logged
+    once). The source is ``"ros2_control"``, ``"transmission"`` or
+    ``"non-fixed joints"``.
+    """
+    kinds = {joint.get("name"): joint.get("type") for joint in root.findall("joint")}
+    blocks = root.findall("ros2_control")
+    if blocks:
+        names = [
+            joint.get("name")
+            for block in blocks
+            for joint in block.findall("joint")
+            if any(i.get("name") == "position" for i in joint.findall("command_interface"))
+        ]
+        return list(dict.fromkeys(names)), "ros2_control"
+    transmissions = root.findall("transmission")
+    if transmissions:
+        names = []
+        for transmission in transmissions:
+            for joint in transmission.findall("joint"):
+                name = joint.get("name")
+                if kinds.get(name) in (None, "fixed"):
+                    LOGGER.warning(
+                        "<transmission name=%r> names joint %r, which is not a moving joint: "
+                        "ignored",
+                        transmission.get("name"),
+                        name,
+                    )
+                elif name not in names:
+                    names.append(name)
+        return names, "transmission"
+    names = [name for name, kind in kinds.items() if kind in MOVING_JOINT_TYPES[:3]]
+    message = "no <ros2_control> or <transmission>: actuating every non-fixed joint: " + ", ".join(
+        names
+    )
+    if message not in _logged_once:
+        _logged_once.add(message)
+        LOGGER.info("%s", message)
+    return names, "non-fixed joints"
+
+
+def default_controller_config(joints: list[str], *, update_rate: int = 100) -> dict:
+    """A ros2_control controller configuration (YAML layout, as a dict) for ``joints``.
+
+    A joint state broadcaster, a group position controller and a joint
+    trajectory controller, all on ``joints``, at ``update_rate`` Hz.
+    """
+    if not joints:
+        raise ValueError("joints=[] must name at least one joint")
+    if update_rate <= 0:
+        raise ValueError(f"update_rate={update_rate!r} must be positive")
+    return {
+        "controller_manager": {
+            "ros__parameters": {
+                "update_rate": update_rate,
+                "joint_state_broadcaster": {
+                    "type": "joint_state_broadcaster/JointStateBroadcaster"
+                },
+                "position_controller": {
+                    "type": "position_controllers/JointGroupPositionController"
+                },
+                "trajectory_controller": {
+                    "type": "joint_trajectory_controller/JointTrajectoryController"
+                },
+            }
+        },
+        "position_controller": {"ros__parameters": {"joints": list(joints)}},
+        "trajectory_controller": {
+            "ros__parameters": {
+                "joints": list(joints),
+                "command_interfaces": ["position"],
+                "state_interfaces": ["position", "velocity"],
+            }
+        },
+    }

@@ -1,0 +1,112 @@
+"""Showing a robot description in Meshcat: the RViz step of the bring-up.
+
+:func:`run_display` is the ``robot_state_publisher`` + ``joint_state_publisher_gui``
++ ``rviz2`` of the course's ``display.launch``: Drake's ``ModelVisualizer``
+draws the robot with one slider per joint, the visual geometry (the
+``illustration`` layer) and the collision geometry (the ``proximity`` layer)
+as separate entries the user can toggle in the Meshcat controls, and a
+:class:`ViewConfig` read from ``diagrams/display.yaml`` plays the part of the
+saved ``.rviz`` file.
+"""
+
+import dataclasses as dc
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+from pydrake.common.yaml import yaml_load_typed
+from pydrake.geometry import Meshcat
+from pydrake.visualization import ModelVisualizer
+
+from armando_drake import DIAGRAMS_DIR
+from armando_drake.description.loader import DescriptionError, LoadedRobot, load_robot
+
+# Meshcat paths of the two geometry layers that ApplyVisualizationConfig draws.
+VISUAL_LAYER = "/drake/illustration"
+COLLISION_LAYER = "/drake/proximity"
+
+
+@dc.dataclass
+class ViewConfig:
+    """A saved view of the robot, like an ``.rviz`` file."""
+
+    # Where the Meshcat camera sits, in world coordinates [m].
+    camera_position: list[float] = dc.field(default_factory=lambda: [0.45, -0.45, 0.35])
+    # The point the Meshcat camera looks at, in world coordinates [m].
+    camera_target: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.12])
+    # Whether the visual geometry layer is shown.
+    show_visual: bool = True
+    # Whether the collision geometry layer (one box per link) is shown.
+    show_collision: bool = False
+    # Whether every link frame is drawn as a triad.
+    show_frames: bool = False
+    # Length of the frame triads [m].
+    triad_length: float = 0.05
+
+
+def load_view_config(path: str | os.PathLike | None = None) -> ViewConfig:
+    """Reads a view preset (default ``diagrams/display.yaml``)."""
+    path = Path(path) if path is not None else DIAGRAMS_DIR / "display.yaml"
+    try:
+        return yaml_load_typed(schema=ViewConfig, filename=str(path))
+    except FileNotFoundError:
+        raise DescriptionError(f"{path}: view preset not found") from None
+    except Exception as error:  # yaml_load_typed raises RuntimeError, KeyError, ...
+        raise DescriptionError(f"{path}: {type(error).__name__}: {error}") from None
+
+
+def check_positions(robot: LoadedRobot, position: Sequence[float]) -> np.ndarray:
+    """``position`` as an array, checked against the count and limits of the joints."""
+    names = [joint.name for joint in robot.joints]
+    if len(position) != len(names):
+        raise DescriptionError(
+            f"--position has {len(position)} values, expected {len(names)} ({', '.join(names)})"
+        )
+    for joint, value in zip(robot.joints, position, strict=True):
+        if not np.isfinite(value):
+            raise DescriptionError(f"--position {joint.name}={value} is not a finite number")
+        if not joint.lower <= value <= joint.upper:
+            raise DescriptionError(
+                f"--position {joint.name}={value:g} is outside its limits "
+                f"[{joint.lower:g}, {joint.upper:g}]"
+            )
+    return np.asarray(position, dtype=float)
+
+
+def apply_view(meshcat: Meshcat, view: ViewConfig) -> None:
+    """Points the Meshcat camera and shows or hides the geometry layers."""
+    meshcat.SetCameraPose(
+        camera_in_world=np.asarray(view.camera_position, dtype=float),
+        target_in_world=np.asarray(view.camera_target, dtype=float),
+    )
+    meshcat.SetProperty(VISUAL_LAYER, "visible", view.show_visual)
+    meshcat.SetProperty(COLLISION_LAYER, "visible", view.show_collision)
+
+
+def make_display(
+    description: str | os.PathLike | None = None,
+    *,
+    xacro_args: Mapping[str, str] | None = None,
+    package_paths: Sequence[str] = (),
+    view: ViewConfig | None = None,
+    position: Sequence[float] | None = None,
+    meshcat: Meshcat | None = None,
+) -> tuple[ModelVisualizer, LoadedRobot]:
+    """A finalized ModelVisualizer showing the description, and its summary."""
+    view = view or ViewConfig()
+    visualizer = ModelVisualizer(
+        meshcat=meshcat,
+        visualize_frames=view.show_frames,
+        triad_length=view.triad_length,
+        triad_radius=view.triad_length / 40,
+    )
+    plant = visualizer.parser().plant()
+    robot = load_robot(plant, description, xacro_args=xacro_args, package_paths=package_paths)
+    if position is not None:
+        q = check_positions(robot, position)
+        for joint, value in zip(robot.joints, q, strict=True):
+            plant.GetJointByName(joint.name, robot.model_instance).set_default_positions([value])
+    visualizer.Finalize()
+    apply_view(visualizer.meshcat(), view)
+    return visualizer, robot

@@ -1,0 +1,181 @@
+"""Plots of a run: the seed's joint position and torque plots, from the run's logs.
+
+:func:`write_plots` reads ``joint_states.csv``, ``commands.csv`` and
+``summary.json`` of an output folder and writes, next to them, one PNG per
+quantity with one panel per joint:
+
+- ``positions.png``: measured joint positions [rad] with the commanded
+  positions drawn as steps;
+- ``tracking_error.png``: |q - commanded| [rad] per joint, where "commanded"
+  is the latest row of ``commands.csv`` at or before each sample (nothing
+  before the first command); for a trajectory run (``commands.csv`` then
+  holds each point at the time it is due) it is the point the trajectory is
+  heading to, the same reference as the step table's, so the error shrinks
+  to the step table's error as each point comes due;
+- ``efforts.png``: joint efforts [N m] (the effort columns).
+
+Each step's start (``summary.json`` steps[*].start) is marked by a dotted
+vertical line. The figures are :data:`FIGURE_SIZE` at :data:`DPI`, so each PNG
+is 1000 x 700 pixels whatever the number of joints. Matplotlib runs with
+its non-interactive Agg backend.
+
+Also a command: ``python -m armando_drake.plots DIR`` redraws the plots of a
+run folder.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+FIGURE_SIZE = (10.0, 7.0)  # [inch]
+DPI = 100  # [pixel/inch]
+PLOTS = ("positions.png", "tracking_error.png", "efforts.png")
+
+
+def _read_csv(path: Path) -> tuple[list[str], np.ndarray]:
+    """(header, rows as floats) of a CSV file; rows cut short by a kill are skipped."""
+    with open(path, newline="", encoding="utf-8") as file:
+        rows = list(csv.reader(file))
+    if not rows:
+        return [], np.zeros((0, 0))
+    header = rows[0]
+    data = [[float(v) for v in row] for row in rows[1:] if len(row) == len(header)]
+    return header, np.array(data) if data else np.zeros((0, len(header)))
+
+
+def commanded_at(
+    times: np.ndarray, command_times: np.ndarray, commands: np.ndarray, ahead: bool = False
+) -> np.ndarray:
+    """The command in force at each of ``times``.
+
+    The latest command at or before each time (NaN before the first); with
+    ``ahead``, the first command due after each time (the last one after the
+    last).
+    """
+    result = np.full((len(times), commands.shape[1]), np.nan)
+    if len(command_times) == 0:
+        return result
+    index = np.searchsorted(command_times, times + 1e-9, side="right")
+    if ahead:
+        index = np.minimum(index, len(command_times) - 1)
+    else:
+        index = index - 1
+    valid = index >= 0
+    result[valid] = commands[index[valid]]
+    return result
+
+
+def write_plots(output_dir: str | Path) -> list[Path]:
+    """Writes the PNG plots of the run in ``output_dir``; returns their paths."""
+    # A bare Figure draws with the Agg canvas and leaves pyplot's backend (and a
+    # notebook's inline plots) alone.
+    from matplotlib.figure import Figure
+
+    folder = Path(output_dir)
+    header, states = _read_csv(folder / "joint_states.csv")
+    joints = [name[: -len("_position")] for name in header if name.endswith("_position")]
+    if not joints:
+        return []
+    times = states[:, 0]
+    position = states[:, [header.index(f"{j}_position") for j in joints]]
+    effort = states[:, [header.index(f"{j}_effort") for j in joints]]
+
+    command_times = np.zeros(0)
+    commands = np.zeros((0, len(joints)))
+    command_joints: list[str] = []
+    if (folder / "commands.csv").is_file():
+        command_header, command_rows = _read_csv(folder / "commands.csv")
+        command_joints = [name for name in command_header[1:] if name in joints]
+        if command_joints and len(command_rows):
+            order = np.argsort(command_rows[:, 0], kind="stable")
+            command_rows = command_rows[order]
+            command_times = command_rows[:, 0]
+            columns = [command_header.index(name) for name in command_joints]
+            commands = command_rows[:, columns]
+    step_starts: list[float] = []
+    title = folder.name
+    trajectory = False
+    if (folder / "summary.json").is_file():
+        summary = json.loads((folder / "summary.json").read_text())
+        step_starts = [step["start"] for step in summary.get("steps", [])]
+        title = f"{Path(summary.get('scenario') or title).stem} ({summary.get('controller')})"
+        trajectory = summary.get("controller") == "trajectory"
+
+    commanded = np.full_like(position, np.nan)
+    if command_joints:
+        held = commanded_at(times, command_times, commands, ahead=trajectory)
+        for k, name in enumerate(command_joints):
+            commanded[:, joints.index(name)] = held[:, k]
+
+    def figure(quantity: str, unit: str):
+        fig = Figure(figsize=FIGURE_SIZE, dpi=DPI)
+        axes = fig.subplots(len(joints), 1, sharex=True, squeeze=False)
+        axes = axes[:, 0]
+        fig.suptitle(f"{quantity}: {title}")
+        for axis, name in zip(axes, joints, strict=True):
+            axis.set_ylabel(f"{name} [{unit}]")
+            axis.grid(True, alpha=0.3)
+            for start in step_starts:
+                axis.axvline(start, color="grey", linestyle=":", linewidth=1)
+        axes[-1].set_xlabel("time [s]")
+        return fig, axes
+
+    written = []
+
+    def save(fig, name: str) -> None:
+        path = folder / name
+        fig.savefig(path, dpi=DPI)
+        written.append(path)
+
+    fig, axes = figure("Joint positions", "rad")
+    for j, (axis, name) in enumerate(zip(axes, joints, strict=True)):
+        axis.plot(times, position[:, j], label="measured")
+        if name in command_joints and len(command_times):
+            k = command_joints.index(name)
+            if trajectory:  # each point, reached at the time it is due
+                axis.plot(command_times, commands[:, k], "o", color="tab:orange", label="points")
+            else:  # steps held to the end of the log
+                end = max(times[-1] if len(times) else 0.0, command_times[-1])
+                t = np.append(command_times, end)
+                q = np.append(commands[:, k], commands[-1, k])
+                axis.step(t, q, where="post", linestyle="--", label="commanded")
+    axes[0].legend(loc="upper right")
+    save(fig, "positions.png")
+
+    fig, axes = figure("Tracking error |q - commanded|", "rad")
+    for j, axis in enumerate(axes):
+        if np.isnan(commanded[:, j]).all():
+            axis.text(0.5, 0.5, "no command", transform=axis.transAxes, ha="center")
+            continue
+        axis.plot(times, np.abs(position[:, j] - commanded[:, j]), color="tab:red")
+    save(fig, "tracking_error.png")
+
+    fig, axes = figure("Joint efforts", "N m")
+    for j, axis in enumerate(axes):
+        axis.plot(times, effort[:, j], color="tab:green")
+    save(fig, "efforts.png")
+    return written
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Redraws the plots of a run folder written by ``python -m armando_drake.world --output``."""
+    parser = argparse.ArgumentParser(prog="python -m armando_drake.plots", description=main.__doc__)
+    parser.add_argument("folder", metavar="DIR", help="a run's --output folder")
+    args = parser.parse_args(argv)
+    folder = Path(args.folder)
+    if not (folder / "joint_states.csv").is_file():
+        print(f"error: {folder}: no joint_states.csv there", file=sys.stderr)
+        return 2
+    for path in write_plots(folder):
+        print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

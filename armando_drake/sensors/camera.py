@@ -1,0 +1,584 @@
+"""Camera sensors described in the URDF, as Drake ``RgbdSensor`` systems.
+
+A ROS description declares its camera the Gazebo way, next to the links::
+
+    <gazebo reference="camera_link">
+      <sensor type="camera" name="camera">
+        <update_rate>30</update_rate>
+        <topic>camera</topic>
+        <pose>0 0 0 0 0 0</pose>           <!-- optional, in camera_link -->
+        <camera>
+          <horizontal_fov>1.047</horizontal_fov>
+          <image><width>320</width><height>240</height></image>
+          <clip><near>0.1</near><far>100</far></clip>
+          <noise><type>gaussian</type><mean>0</mean><stddev>0.007</stddev></noise>
+        </camera>
+      </sensor>
+    </gazebo>
+
+:func:`parse_camera_sensors` reads every such block (sensor types ``camera``,
+``depth``, ``depth_camera``, ``rgbd_camera``, ``rgbd``) into a
+:class:`CameraSensorInfo`, with SDFormat's defaults for what is left out, and
+:func:`AddCameraSensors` turns them into Drake cameras through Drake's own
+``CameraConfig`` + ``ApplyCameraConfig``.
+
+Frames
+------
+Gazebo's camera looks along the +x axis of its sensor frame S (the link frame
+moved by the sensor ``<pose>``), with +y to the left of the image and +z up.
+Drake's camera frame C looks along +z, with +x to the right of the image and
++y down. The sensor frame becomes ``CameraConfig.X_PB`` (P = the link frame)
+and the fixed rotation between the conventions becomes ``X_BC`` = ``X_BD``::
+
+    R_SC = [[ 0,  0, 1],     C's x = -S's y   (image right = -left)
+            [-1,  0, 0],     C's y = -S's z   (image down  = -up)
+            [ 0, -1, 0]]     C's z =  S's x   (optical axis = forward)
+
+(the columns are C's axes expressed in S). A ROS ``*_optical_frame`` link, if
+the description has one, already follows Drake's convention; the Gazebo block
+is on the body link in the usual descriptions, so the rotation is always
+applied.
+
+Intrinsics
+----------
+Like Gazebo, the focal length comes from the horizontal field of view with
+square pixels: ``fx = fy = width / (2 tan(horizontal_fov / 2))``; the
+principal point is the image centre. ``<clip>`` is both the colour clipping
+range and the depth range (the depth range's far end is capped at 65.5 m,
+about the most Drake's 16-bit depth image can hold; farther points read as
+"too far", i.e. +inf in the 32-bit depth image).
+
+Rate
+----
+The colour image is sampled and held at ``<update_rate>`` (a zero-order hold,
+or the noise system) so that every reader sees Gazebo's frame timing and
+rendering happens at the camera rate, never per plant step. Depth is rendered
+on demand, when a reader evaluates it (the frame saver at its rate, the live
+view only while a page shows depth), so a camera whose depth nobody reads
+costs only its colour render. SDFormat's default rate of 0
+means "every physics step", which has no meaning for Drake's variable-step
+simulation: :data:`DEFAULT_FRAME_RATE` (30 Hz) is used instead.
+
+Renderer
+--------
+Drake has two renderers; :func:`choose_renderer` picks one per world (the
+scenario's ``camera.renderer``, ``auto`` by default). ``RenderEngineGl``
+(OpenGL) needs an X display: the user's ``DISPLAY``, or a private ``Xvfb``
+that :mod:`armando_drake.tools.xdisplay` starts for the process. On our 2-core
+CPU-only machines it renders the 640 x 480 scene of ``diagrams/camera.yaml``
+at about 95 frames/s, colour or colour + depth. ``RenderEngineVtk`` renders
+headless through EGL with no display at all, at about 37 frames/s colour
+(it antialiases every frame), which at 30 Hz leaves the world just short of
+real time; ``auto`` falls back to it, saying so, when no display can be had.
+
+Noise
+-----
+Gazebo's camera ``<noise>`` (type ``gaussian``) adds N(mean, stddev) to every
+colour channel in [0, 1] units, clamped; :class:`CameraColorNoise` does the
+same on the 8-bit colour image at the camera rate (alpha untouched). Depth
+images are noise-free.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.common.schema import Transform
+from pydrake.common.value import AbstractValue
+from pydrake.geometry import RenderEngineGlParams, RenderEngineVtkParams, Rgba, SceneGraph
+from pydrake.lcm import DrakeLcm
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import ModelInstanceIndex
+from pydrake.systems.framework import DiagramBuilder, LeafSystem, OutputPort
+from pydrake.systems.primitives import ZeroOrderHold
+from pydrake.systems.sensors import (
+    ApplyCameraConfig,
+    CameraConfig,
+    ImageDepth32F,
+    ImageRgba8U,
+    RgbdSensor,
+)
+
+_logger = logging.getLogger(__name__)
+
+# Gazebo sensor types that produce a camera image.
+CAMERA_SENSOR_TYPES = ("camera", "depth", "depth_camera", "rgbd_camera", "rgbd")
+# SDFormat's defaults (camera.sdf, sensor.sdf).
+DEFAULT_HORIZONTAL_FOV = 1.047  # [rad]
+DEFAULT_WIDTH = 320  # [px]
+DEFAULT_HEIGHT = 240  # [px]
+DEFAULT_NEAR = 0.1  # [m]
+DEFAULT_FAR = 100.0  # [m]
+# The frame rate used where the description says 0 ("every physics step").
+DEFAULT_FRAME_RATE = 30.0  # [Hz]
+# Camera renderers: "auto" picks "gl" when it can (see choose_renderer), else "vtk".
+RENDERERS = ("auto", "gl", "vtk")
+# The farthest depth Drake's 16-bit depth image can represent.
+MAX_DEPTH_RANGE = 65.5  # [m]
+
+# Gazebo camera convention (x forward, y left, z up) -> Drake camera frame
+# (z forward, x right, y down); columns are C's axes expressed in S.
+R_SC = RotationMatrix(np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]))
+
+
+class CameraError(ValueError):
+    """A camera sensor block that cannot be used; the message names file and value."""
+
+
+@dataclass
+class CameraNoise:
+    """Gazebo's ``<noise>`` on the colour image."""
+
+    type: str = "gaussian"  # only "gaussian" is supported
+    mean: float = 0.0  # [colour fraction, 0..1] added to every channel
+    stddev: float = 0.0  # [colour fraction, 0..1] standard deviation
+
+
+@dataclass
+class CameraSensorInfo:
+    """One camera sensor block of the description."""
+
+    name: str  # camera name: the <topic> (slashes -> "_") if given, else the sensor name
+    sensor_name: str  # the <sensor name="..."> attribute
+    type: str  # Gazebo sensor type: camera | depth | depth_camera | rgbd_camera | rgbd
+    link: str  # the <gazebo reference="..."> link the camera is attached to
+    topic: str = ""  # the <topic> as written ("" if none)
+    horizontal_fov: float = DEFAULT_HORIZONTAL_FOV  # [rad] in (0, pi)
+    width: int = DEFAULT_WIDTH  # [px]
+    height: int = DEFAULT_HEIGHT  # [px]
+    near: float = DEFAULT_NEAR  # [m] near clipping plane (and depth range start)
+    far: float = DEFAULT_FAR  # [m] far clipping plane (and depth range end)
+    update_rate: float = 0.0  # [Hz] as written; 0 = SDFormat's "every step"
+    xyz: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # [m] sensor in link
+    rpy: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # [rad] sensor in link
+    noise: CameraNoise | None = None  # colour noise, None = noise-free
+    source: str = ""  # the file the block came from (for messages)
+
+    @property
+    def frame_rate(self) -> float:
+        """[Hz] the rate images are produced at in Drake."""
+        return self.update_rate if self.update_rate > 0 else DEFAULT_FRAME_RATE
+
+    @property
+    def focal_length(self) -> float:
+        """[px] fx = fy from the horizontal field of view (square pixels)."""
+        return self.width / (2.0 * math.tan(self.horizontal_fov / 2.0))
+
+    @property
+    def has_depth(self) -> bool:
+        """Whether Gazebo would publish a depth image for this sensor type."""
+        return self.type != "camera"
+
+    def X_LS(self) -> RigidTransform:
+        """Pose of the Gazebo sensor frame S in the link frame L."""
+        return RigidTransform(RollPitchYaw(self.rpy), self.xyz)
+
+    def X_LC(self) -> RigidTransform:
+        """Pose of Drake's camera frame C (z forward, x right, y down) in the link frame."""
+        return self.X_LS() @ RigidTransform(R_SC)
+
+
+# --------------------------------------------------------------------------
+# Parsing
+# --------------------------------------------------------------------------
+
+
+def _where(source: str, sensor: str) -> str:
+    return f"{source or '<urdf>'}: camera sensor {sensor!r}"
+
+
+def _number(element: ET.Element | None, path: str, default, kind, where: str):
+    """The number at ``path`` below ``element`` (default if absent)."""
+    if element is None:
+        return default
+    text = element.findtext(path)
+    if text is None or text.strip() == "":
+        return default
+    try:
+        value = float(text)
+    except ValueError:
+        raise CameraError(f"{where}: <{path}>={text.strip()!r} is not a number") from None
+    if kind is int:
+        if not value.is_integer():
+            raise CameraError(f"{where}: <{path}>={text.strip()!r} is not a whole number")
+        return int(value)
+    return value
+
+
+def _camera_name(topic: str, sensor_name: str) -> str:
+    name = topic.strip().strip("/").replace("/", "_")
+    return name or sensor_name
+
+
+def _parse_pose(sensor: ET.Element, where: str) -> tuple[list[float], list[float]]:
+    pose = sensor.find("pose")
+    if pose is None or not (pose.text or "").strip():
+        return [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
+    relative_to = pose.get("relative_to")
+    if relative_to:
+        raise CameraError(
+            f"{where}: <pose relative_to={relative_to!r}> is not supported; "
+            "give the pose in the link frame"
+        )
+    try:
+        values = [float(v) for v in pose.text.split()]
+    except ValueError:
+        raise CameraError(f"{where}: <pose>={pose.text.strip()!r} is not 6 numbers") from None
+    if len(values) != 6:
+        raise CameraError(f"{where}: <pose>={pose.text.strip()!r} is not 6 numbers")
+    return values[:3], values[3:]
+
+
+def _parse_noise(camera: ET.Element | None, sensor: ET.Element, where: str) -> CameraNoise | None:
+    noise = camera.find("noise") if camera is not None else None
+    if noise is None:
+        noise = sensor.find("noise")
+    if noise is None:
+        return None
+    kind = (noise.findtext("type") or "gaussian").strip()
+    if kind == "none":
+        return None
+    if kind not in ("gaussian", "gaussian_quantized"):
+        raise CameraError(f"{where}: <noise><type>={kind!r} is not supported (use 'gaussian')")
+    mean = _number(noise, "mean", 0.0, float, where)
+    stddev = _number(noise, "stddev", 0.0, float, where)
+    if stddev < 0:
+        raise CameraError(f"{where}: <noise><stddev>={stddev!r} must be >= 0")
+    return CameraNoise(type="gaussian", mean=mean, stddev=stddev)
+
+
+def _parse_sensor(sensor: ET.Element, link: str, source: str) -> CameraSensorInfo:
+    sensor_name = sensor.get("name", "").strip()
+    where = _where(source, sensor_name or "(unnamed)")
+    if not sensor_name:
+        raise CameraError(f"{where} on link {link!r}: <sensor> has no name")
+    camera = sensor.find("camera")
+    topic = (sensor.findtext("topic") or "").strip()
+    width = _number(camera, "image/width", DEFAULT_WIDTH, int, where)
+    height = _number(camera, "image/height", DEFAULT_HEIGHT, int, where)
+    fov = _number(camera, "horizontal_fov", DEFAULT_HORIZONTAL_FOV, float, where)
+    near = _number(camera, "clip/near", DEFAULT_NEAR, float, where)
+    far = _number(camera, "clip/far", DEFAULT_FAR, float, where)
+    rate = _number(sensor, "update_rate", 0.0, float, where)
+    if width <= 0:
+        raise CameraError(f"{where}: <image><width>={width!r} must be positive")
+    if height <= 0:
+        raise CameraError(f"{where}: <image><height>={height!r} must be positive")
+    if not 0.0 < fov < math.pi:
+        raise CameraError(f"{where}: <horizontal_fov>={fov!r} must be in (0, pi) radians")
+    if not (near > 0.0 and math.isfinite(near)):
+        raise CameraError(f"{where}: <clip><near>={near!r} must be positive")
+    if not (far > near and math.isfinite(far)):
+        raise CameraError(
+            f"{where}: <clip><far>={far!r} must be finite and greater than near={near!r}"
+        )
+    if not (rate >= 0.0 and math.isfinite(rate)):
+        raise CameraError(f"{where}: <update_rate>={rate!r} must be >= 0 (0 = every step)")
+    xyz, rpy = _parse_pose(sensor, where)
+    return CameraSensorInfo(
+        name=_camera_name(topic, sensor_name),
+        sensor_name=sensor_name,
+        type=sensor.get("type", ""),
+        link=link,
+        topic=topic,
+        horizontal_fov=fov,
+        width=width,
+        height=height,
+        near=near,
+        far=far,
+        update_rate=rate,
+        xyz=xyz,
+        rpy=rpy,
+        noise=_parse_noise(camera, sensor, where),
+        source=str(source),
+    )
+
+
+def parse_camera_sensors(root: ET.Element, source: str = "") -> list[CameraSensorInfo]:
+    """The camera sensor blocks of an expanded URDF, in document order.
+
+    Reads ``<gazebo reference="LINK"><sensor type="camera|depth|depth_camera|
+    rgbd_camera|rgbd">``; other sensor types (imu, ray, ...) are ignored.
+    Raises :class:`CameraError` naming ``source`` and the bad value.
+    """
+    links = {link.get("name") for link in root.findall("link")}
+    cameras: list[CameraSensorInfo] = []
+    for gazebo in root.findall("gazebo"):
+        for sensor in gazebo.findall("sensor"):
+            if sensor.get("type", "").strip() not in CAMERA_SENSOR_TYPES:
+                continue
+            link = (gazebo.get("reference") or "").strip()
+            where = _where(source, sensor.get("name", "(unnamed)"))
+            if not link:
+                raise CameraError(f'{where}: the <gazebo> block has no reference="LINK"')
+            if link not in links:
+                raise CameraError(
+                    f"{where}: reference={link!r} is not a link of the URDF "
+                    f"(links: {', '.join(sorted(n for n in links if n))})"
+                )
+            info = _parse_sensor(sensor, link, source)
+            if any(other.name == info.name for other in cameras):
+                raise CameraError(f"{where}: camera name {info.name!r} is used twice")
+            cameras.append(info)
+    return cameras
+
+
+# --------------------------------------------------------------------------
+# Drake systems
+# --------------------------------------------------------------------------
+
+
+class CameraColorNoise(LeafSystem):
+    """Adds Gazebo-style Gaussian noise to a colour image at the camera rate.
+
+    Samples its input every ``1 / frame_rate`` seconds, adds ``mean + stddev *
+    N(0, 1)`` (in [0, 1] colour units, i.e. times 255) to R, G and B, clamps,
+    and holds the result in its state (so reading the output costs nothing).
+
+    Ports:
+      - input ``color_image`` (ImageRgba8U)
+      - output ``color_image`` (ImageRgba8U, state)
+    """
+
+    def __init__(
+        self,
+        *,
+        width: int,
+        height: int,
+        frame_rate: float,
+        mean: float = 0.0,
+        stddev: float = 0.0,
+        seed: int = 0,
+    ):
+        super().__init__()
+        if not frame_rate > 0:
+            raise ValueError(f"frame_rate={frame_rate!r} must be positive")
+        if not stddev >= 0:
+            raise ValueError(f"stddev={stddev!r} must be >= 0")
+        self._mean = 255.0 * mean
+        self._stddev = 255.0 * stddev
+        self._rng = np.random.default_rng(seed)
+        model = AbstractValue.Make(ImageRgba8U(width, height))
+        self._input = self.DeclareAbstractInputPort("color_image", model)
+        state = self.DeclareAbstractState(model)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / frame_rate, 0.0, self._UpdateImage)
+        self.DeclareStateOutputPort("color_image", state)
+        self._state = state
+
+    def _UpdateImage(self, context, state):
+        image = self._input.Eval(context)
+        noisy = image.data.astype(np.float32)
+        noise = self._rng.normal(self._mean, self._stddev, size=noisy.shape[:2] + (3,))
+        noisy[:, :, :3] += noise.astype(np.float32)
+        out = state.get_mutable_abstract_state(self._state).get_mutable_value()
+        out.mutable_data[:] = np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
+
+
+@dataclass
+class AddedCamera:
+    """What :func:`AddCameraSensors` added for one camera."""
+
+    info: CameraSensorInfo  # the parsed sensor block
+    config: CameraConfig  # the Drake camera configuration that was applied
+    sensor: RgbdSensor  # Drake's sensor system (renders on demand)
+    color_image: OutputPort  # ImageRgba8U, held at the camera rate (noise applied)
+    depth_image: OutputPort | None  # ImageDepth32F [m], held at the camera rate; None if off
+
+
+def choose_renderer(wanted: str) -> str:
+    """The renderer for the camera setting ``wanted``: ``"gl"`` or ``"vtk"``.
+
+    ``"auto"`` takes Drake's OpenGL renderer when an X display is there or a
+    private Xvfb can be started (:func:`~armando_drake.tools.xdisplay.ensure_display`),
+    else VTK through EGL; ``"gl"`` insists on OpenGL; ``"vtk"`` is VTK.
+    """
+    if wanted not in RENDERERS:
+        raise CameraError(f"camera.renderer={wanted!r} must be one of {', '.join(RENDERERS)}")
+    if wanted == "vtk":
+        return "vtk"
+    from armando_drake.tools.xdisplay import DisplayError, ensure_display
+
+    try:
+        ensure_display()
+        return "gl"
+    except DisplayError as error:
+        if wanted == "gl":
+            raise CameraError(f"camera.renderer='gl' needs an X display: {error}") from None
+        _logger.info(
+            "cameras render with VTK through EGL (%s; with it, OpenGL renders about 2.5 "
+            "times faster)",
+            error,
+        )
+        return "vtk"
+
+
+def camera_config(
+    info: CameraSensorInfo,
+    base_frame: str,
+    *,
+    renderer: str = "vtk",
+    renderer_name: str | None = None,
+    enable_depth: bool = True,
+    background: tuple[float, float, float] | None = None,
+) -> CameraConfig:
+    """The Drake ``CameraConfig`` equivalent to a Gazebo camera on ``base_frame``.
+
+    ``base_frame`` is a scoped frame name (``model::link``). ``renderer``:
+    ``"vtk"`` (``RenderEngineVtk``, headless through EGL) or ``"gl"``
+    (``RenderEngineGl``, needs an X display); ``renderer_name`` (default: the
+    same) names it in the SceneGraph.
+    """
+    if renderer == "vtk":
+        params = RenderEngineVtkParams()  # backend "" = EGL on Linux: no display needed
+    elif renderer == "gl":
+        params = RenderEngineGlParams()
+    else:
+        raise CameraError(f"renderer={renderer!r} must be 'vtk' or 'gl'")
+    config = CameraConfig(
+        name=info.name,
+        width=info.width,
+        height=info.height,
+        focal=CameraConfig.FocalLength(x=info.focal_length, y=info.focal_length),
+        clipping_near=info.near,
+        clipping_far=info.far,
+        z_near=info.near,
+        z_far=min(info.far, MAX_DEPTH_RANGE),
+        fps=info.frame_rate,
+        renderer_name=renderer_name or renderer,
+        rgb=True,
+        depth=enable_depth,
+        label=False,
+        show_rgb=False,
+    )
+    if background is not None:
+        config.background = Rgba(*background, 1.0)
+    rgba = config.background
+    if renderer == "vtk":
+        params.default_clear_color = np.array([rgba.r(), rgba.g(), rgba.b()])
+    else:
+        params.default_clear_color = rgba
+    config.renderer_class = params
+    X_PB = Transform(info.X_LS())
+    X_PB.base_frame = base_frame
+    config.X_PB = X_PB
+    config.X_BC = Transform(RigidTransform(R_SC))
+    config.X_BD = Transform(RigidTransform(R_SC))
+    return config
+
+
+def AddCameraSensors(
+    builder: DiagramBuilder,
+    plant: MultibodyPlant,
+    scene_graph: SceneGraph,
+    model_instance: ModelInstanceIndex,
+    sensors: list[CameraSensorInfo],
+    *,
+    renderer: str = "vtk",
+    renderer_name: str | None = None,
+    enable_depth: bool = True,
+    hold: bool = True,
+    export: bool = False,
+    noise_seed: int = 0,
+    background: tuple[float, float, float] | None = None,
+) -> dict[str, AddedCamera]:
+    """Adds one Drake RGB-D camera per sensor block, attached to its link.
+
+    Uses ``CameraConfig`` + ``ApplyCameraConfig`` (LCM publishing switched off)
+    with one renderer shared by all cameras: ``renderer`` ``"vtk"`` (headless
+    through EGL) or ``"gl"`` (OpenGL, needs an X display: see
+    :func:`choose_renderer`), named ``renderer_name`` (default: the same).
+    With ``hold`` the colour image is sampled and held at each camera's rate
+    (set it False only to render on every evaluation); depth is rendered when
+    read; Gaussian colour noise, if the
+    block has some, is added by a :class:`CameraColorNoise` at the same rate.
+    With ``export`` the diagram exports ``<camera>.color_image`` and
+    ``<camera>.depth_image``. Call after ``plant.Finalize()``.
+    """
+    if not hold and any(info.noise is not None and info.noise.stddev > 0 for info in sensors):
+        _logger.warning("hold=False: camera noise is applied at the camera rate anyway")
+    model_name = plant.GetModelInstanceName(model_instance)
+    no_lcm = DrakeLcm("memq://null")  # ApplyCameraConfig's opt-out of LCM publishing
+    added: dict[str, AddedCamera] = {}
+    for info in sensors:
+        if info.name in added:
+            raise CameraError(f"{_where(info.source, info.sensor_name)}: name {info.name!r} twice")
+        if not plant.HasBodyNamed(info.link, model_instance):
+            raise CameraError(
+                f"{_where(info.source, info.sensor_name)}: link {info.link!r} is not a body of "
+                f"model {model_name!r} (Drake merges no links; is it the right model?)"
+            )
+        config = camera_config(
+            info,
+            f"{model_name}::{info.link}",
+            renderer=renderer,
+            renderer_name=renderer_name,
+            enable_depth=enable_depth,
+            background=background,
+        )
+        try:
+            ApplyCameraConfig(
+                config=config, builder=builder, plant=plant, scene_graph=scene_graph, lcm=no_lcm
+            )
+        except RuntimeError as error:
+            raise CameraError(f"{_where(info.source, info.sensor_name)}: {error}") from None
+        sensor = builder.GetMutableSubsystemByName(f"rgbd_sensor_{info.name}")
+        period = 1.0 / info.frame_rate
+        color = sensor.GetOutputPort("color_image")
+        if info.noise is not None and info.noise.stddev > 0:
+            noise = builder.AddNamedSystem(
+                f"camera_noise_{info.name}",
+                CameraColorNoise(
+                    width=info.width,
+                    height=info.height,
+                    frame_rate=info.frame_rate,
+                    mean=info.noise.mean,
+                    stddev=info.noise.stddev,
+                    seed=noise_seed,
+                ),
+            )
+            builder.Connect(color, noise.get_input_port())
+            color = noise.get_output_port()
+        elif hold:
+            color = _hold(builder, f"camera_hold_color_{info.name}", color, period, info)
+        # Depth is not held: it is rendered when a consumer reads it (the frame
+        # saver, a page showing it, a test), so a camera whose depth nobody reads
+        # costs only its colour render.
+        depth = sensor.GetOutputPort("depth_image_32f") if enable_depth else None
+        if export:
+            builder.ExportOutput(color, f"{info.name}.color_image")
+            if depth is not None:
+                builder.ExportOutput(depth, f"{info.name}.depth_image")
+        added[info.name] = AddedCamera(
+            info=info, config=config, sensor=sensor, color_image=color, depth_image=depth
+        )
+        _logger.debug("camera %r on %s::%s at %g Hz", info.name, model_name, info.link, 1 / period)
+    return added
+
+
+def _hold(
+    builder: DiagramBuilder, name: str, port: OutputPort, period: float, info: CameraSensorInfo
+) -> OutputPort:
+    if port.get_name().startswith("depth"):
+        model = AbstractValue.Make(ImageDepth32F(info.width, info.height))
+    else:
+        model = AbstractValue.Make(ImageRgba8U(info.width, info.height))
+    zoh = builder.AddNamedSystem(name, ZeroOrderHold(period, model))
+    builder.Connect(port, zoh.get_input_port())
+    return zoh.get_output_port()
+
+
+def describe(info: CameraSensorInfo) -> str:
+    """One line about a camera, for logs and the command line."""
+    depth = " + depth" if info.has_depth else ""
+    noise = f", noise sigma {info.noise.stddev:g}" if info.noise else ""
+    return (
+        f"{info.name}: {info.width}x{info.height}{depth}, fov {info.horizontal_fov:.3f} rad, "
+        f"{info.frame_rate:g} Hz, clip [{info.near:g}, {info.far:g}] m, "
+        f"on {info.link}{noise} ({os.path.basename(info.source) or 'urdf'})"
+    )

@@ -1,0 +1,198 @@
+"""Scenarios: the typed equivalent of a launch file.
+
+A scenario file in ``diagrams/`` says which robot to load, how the plant is
+simulated, which ros2_control controllers run, what drives them and what the
+camera sees. It is read with Drake's ``yaml_load_typed`` (the file first, then
+an optional YAML override string), so an unknown key or a value of the wrong
+type is an error naming the file.
+"""
+
+import dataclasses as dc
+import os
+from pathlib import Path
+
+from pydrake.common.yaml import yaml_load_typed
+from pydrake.multibody.plant import MultibodyPlantConfig
+from pydrake.visualization import VisualizationConfig
+
+from armando_drake import DIAGRAMS_DIR
+from armando_drake.control.sequencer import SequencerConfig
+from armando_drake.sensors.objects import SceneObject
+
+
+class ScenarioError(ValueError):
+    """A scenario file or override that cannot be read."""
+
+
+@dc.dataclass
+class RobotConfig:
+    """Which description is loaded and where its base is welded."""
+
+    # A .urdf/.xacro file, a package directory or package://pkg/file; "" is the
+    # built-in Armando (models/armando_description/urdf/armando.urdf.xacro).
+    description: str = ""
+    # xacro:arg values, as name: value.
+    xacro_args: dict[str, str] = dc.field(default_factory=dict)
+    # Extra folders searched for ROS packages, before ROS_PACKAGE_PATH.
+    package_paths: list[str] = dc.field(default_factory=list)
+    # Collision geometry: auto | boxes | convex | as-is | none.
+    collision: str = "auto"
+    # Whether the robot's links collide with each other. Off by default, as in
+    # Gazebo (<self_collide> false); the robot always collides with the ground
+    # and the scene objects.
+    self_collision: bool = False
+    # Position of the base in the world [m]; the base is welded there.
+    base_xyz: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    # Orientation of the base in the world, roll pitch yaw [rad].
+    base_rpy: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+
+@dc.dataclass
+class ActuatorConfig:
+    """The simulated position interface: Drake PD-controlled joint actuators."""
+
+    # Proportional gain of every actuated joint [N m/rad].
+    kp: float = 8.0
+    # Derivative gain of every actuated joint [N m s/rad].
+    kd: float = 0.4
+    # Per-joint gains overriding kp and kd, as joint: [kp, kd].
+    gains: dict[str, list[float]] = dc.field(default_factory=dict)
+    # Adds the torque that holds the arm against gravity at the commanded
+    # position, through the actuation input, so the steady-state error does not
+    # depend on how stiff the gains are.
+    gravity_feedforward: bool = True
+
+
+@dc.dataclass
+class ControllersConfig:
+    """The ros2_control controller manager."""
+
+    # A ros2_control controller YAML; "" is the description package's
+    # config/<robot>_controllers.yaml, or a generated default.
+    config: str = ""
+    # Controllers to activate, by name, in order. Empty: none (the arm falls).
+    activate: list[str] = dc.field(default_factory=list)
+
+
+@dc.dataclass
+class CameraSettings:
+    """The camera sensors described in the robot's URDF."""
+
+    # Whether the <sensor type="camera"> blocks become Drake RgbdSensors.
+    enabled: bool = False
+    # Whether depth images are rendered too.
+    depth: bool = True
+    # Whether a live view of the camera is served on localhost.
+    live_view: bool = False
+    # Folder where colour frames (PNG) and depth (16-bit PNG, millimetres) are
+    # saved; "" = not saved.
+    save_frames: str = ""
+    # Rate at which frames are saved [Hz]; 0 = the camera's own rate.
+    save_rate: float = 0.0
+    # Renderer: "gl" (Drake's OpenGL engine, on DISPLAY or a private Xvfb), "vtk"
+    # (VTK through EGL, no display needed) or "auto" (gl when possible, else vtk).
+    renderer: str = "auto"
+
+
+@dc.dataclass
+class LoggingConfig:
+    """The joint-state logger."""
+
+    # How often the joint positions are printed to the console [Hz]; 0 = never.
+    console_rate: float = 1.0
+
+
+@dc.dataclass
+class SimulationConfig:
+    """How long and how fast the simulation runs."""
+
+    # Simulated time [s]; 0 or less = one pass of the command sequence (2 s
+    # if there is none).
+    duration: float = 0.0
+    # Target ratio of simulated to wall-clock time; 0 = as fast as possible.
+    realtime_rate: float = 1.0
+
+
+@dc.dataclass
+class Scenario:
+    """Everything the world builder needs."""
+
+    # The robot description and its pose.
+    robot: RobotConfig = dc.field(default_factory=RobotConfig)
+    # Drake's plant settings (time step [s], contact approximation). The
+    # approximation must support PD actuators: anything but tamsi. Without
+    # sampled output ports the plant's step is a discrete update; with them it
+    # is an unrestricted one, after which the simulator asks every Python
+    # system for its witness functions, through pybind, at every step (about
+    # 4 us per Python system per 1 ms step). The outputs (state, net
+    # actuation) are then computed from the current state when read.
+    plant_config: MultibodyPlantConfig = dc.field(
+        default_factory=lambda: MultibodyPlantConfig(
+            time_step=0.001, discrete_contact_approximation="lagged", use_sampled_output_ports=False
+        )
+    )
+    # Whether a ground plane (a half space at z = 0) is added.
+    ground: bool = True
+    # Simple static objects placed in the world.
+    objects: list[SceneObject] = dc.field(default_factory=list)
+    # The hardware interface's actuators.
+    actuators: ActuatorConfig = dc.field(default_factory=ActuatorConfig)
+    # The controller manager.
+    controllers: ControllersConfig = dc.field(default_factory=ControllersConfig)
+    # What commands the controllers: a position / trajectory / sinusoid
+    # sequence; absent = nothing (commands come from the diagram's input ports).
+    sequencer: SequencerConfig | None = None
+    # Camera sensors of the description.
+    camera: CameraSettings = dc.field(default_factory=CameraSettings)
+    # Joint-state logging.
+    logging: LoggingConfig = dc.field(default_factory=LoggingConfig)
+    # Run length and pacing.
+    simulation: SimulationConfig = dc.field(default_factory=SimulationConfig)
+    # Meshcat visualization (Drake's VisualizationConfig).
+    visualization: VisualizationConfig = dc.field(default_factory=VisualizationConfig)
+
+
+def resolve_scenario_path(name: str | os.PathLike) -> Path:
+    """A scenario file: a path, or the name of a file in ``diagrams/``."""
+    path = Path(name)
+    if path.is_file():
+        return path
+    for candidate in (DIAGRAMS_DIR / path, DIAGRAMS_DIR / f"{path}.yaml"):
+        if candidate.is_file():
+            return candidate
+    available = ", ".join(sorted(p.stem for p in DIAGRAMS_DIR.glob("*.yaml")))
+    raise ScenarioError(f"{name}: scenario file not found (files in diagrams/: {available})")
+
+
+def merge_overrides(scenario: Scenario, overrides, label: str = "--set") -> Scenario:
+    """``scenario`` with each YAML string of ``overrides`` merged over it in turn."""
+    for override in [overrides] if isinstance(overrides, str) else overrides:
+        try:
+            scenario = yaml_load_typed(data=override, defaults=scenario)
+        except Exception as error:  # yaml_load_typed raises RuntimeError, KeyError, ...
+            text = " ".join(str(error).split())
+            raise ScenarioError(f"{label} {override!r}: {text}") from None
+    return scenario
+
+
+def load_scenario(
+    filename: str | os.PathLike | None = None, overrides: str | None = None
+) -> Scenario:
+    """Reads a scenario file (a path or a name in ``diagrams/``) and an override string."""
+    scenario = Scenario()
+    source = "<defaults>"
+    try:
+        if filename is not None:
+            path = resolve_scenario_path(filename)
+            source = str(path)
+            scenario = yaml_load_typed(filename=str(path), defaults=scenario)
+        if overrides:
+            scenario = merge_overrides(scenario, overrides, label="override")
+    except ScenarioError:
+        raise
+    except OSError as error:
+        raise ScenarioError(f"{filename}: cannot read the scenario: {error.strerror}") from None
+    except Exception as error:  # yaml_load_typed raises RuntimeError, KeyError, ...
+        text = " ".join(str(error).split())
+        raise ScenarioError(f"{source}: {text}") from None
+    return scenario

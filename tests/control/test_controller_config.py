@@ -1,0 +1,385 @@
+"""The controller YAML loader against the files users write and the mistakes they make."""
+
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from armando_drake import MODELS_DIR
+from armando_drake.control.config import (
+    FORWARD_COMMAND_CONTROLLER,
+    JOINT_GROUP_POSITION_CONTROLLER,
+    JOINT_STATE_BROADCASTER,
+    JOINT_TRAJECTORY_CONTROLLER,
+    ControllerConfigError,
+    load_controller_config,
+    parse_controller_config,
+    validate_joints,
+)
+
+PACKAGE_CONFIG = MODELS_DIR / "armando_description" / "config" / "armando_controllers.yaml"
+ARMANDO_JOINTS = ["j0", "j1", "j2", "j3"]
+
+# The content the package's armando_controllers.yaml is specified to have.
+ARMANDO_YAML = """\
+controller_manager:
+  ros__parameters:
+    update_rate: 100
+    joint_state_broadcaster:
+      type: joint_state_broadcaster/JointStateBroadcaster
+    position_controller:
+      type: position_controllers/JointGroupPositionController
+    trajectory_controller:
+      type: joint_trajectory_controller/JointTrajectoryController
+position_controller:
+  ros__parameters:
+    joints: [j0, j1, j2, j3]
+trajectory_controller:
+  ros__parameters:
+    joints: [j0, j1, j2, j3]
+    command_interfaces: [position]
+    state_interfaces: [position, velocity]
+"""
+
+
+def write(tmp_path: Path, text: str, name: str = "controllers.yaml") -> Path:
+    path = tmp_path / name
+    path.write_text(textwrap.dedent(text))
+    return path
+
+
+def namespaced(text: str) -> str:
+    """The same file with every node under the ``/**:`` wildcard namespace."""
+    return '"/**":\n' + textwrap.indent(text, "  ")
+
+
+def check_armando(config) -> None:
+    assert config.update_rate == 100
+    assert {name: c.type for name, c in config.controllers.items()} == {
+        "joint_state_broadcaster": JOINT_STATE_BROADCASTER,
+        "position_controller": JOINT_GROUP_POSITION_CONTROLLER,
+        "trajectory_controller": JOINT_TRAJECTORY_CONTROLLER,
+    }
+    assert config.controllers["position_controller"].joints == ARMANDO_JOINTS
+    assert config.controllers["position_controller"].kind == "position"
+    trajectory = config.controllers["trajectory_controller"]
+    assert trajectory.kind == "joint_trajectory"
+    assert trajectory.params.joints == ARMANDO_JOINTS
+    assert trajectory.params.command_interfaces == ["position"]
+    assert config.controllers["joint_state_broadcaster"].joints == []
+    validate_joints(config, ARMANDO_JOINTS, "armando.urdf.xacro")
+
+
+@pytest.mark.parametrize("wrap", [lambda text: text, namespaced], ids=["plain", "wildcard"])
+def test_armando_content_loads(tmp_path, wrap):
+    path = write(tmp_path, wrap(ARMANDO_YAML))
+    config = load_controller_config(path)
+    check_armando(config)
+    assert config.source == str(path)
+
+
+@pytest.mark.parametrize("wrap", [lambda text: text, namespaced], ids=["plain", "wildcard"])
+def test_package_config_loads(tmp_path, wrap):
+    check_armando(load_controller_config(write(tmp_path, wrap(PACKAGE_CONFIG.read_text()))))
+
+
+def test_namespaced_node_keys_and_dotted_names(tmp_path):
+    path = write(
+        tmp_path,
+        """\
+        /**/controller_manager:
+          ros__parameters:
+            update_rate: 250
+            arm:
+              type: joint_trajectory_controller/JointTrajectoryController
+            forward:
+              type: forward_command_controller/ForwardCommandController
+        robot/arm:
+          ros__parameters:
+            joints: [j0, j1]
+            command_interfaces: [position, velocity]
+            state_interfaces: [position]
+            allow_partial_joints_goal: true
+            interpolation_method: none
+            open_loop_control: true
+            constraints.goal_time: 0.5
+            constraints:
+              stopped_velocity_tolerance: 0.02
+              j0: {trajectory: 0.2, goal: 0.05}
+              j1.goal: 0.1
+        forward:
+          ros__parameters:
+            joints: [j3]
+            interface_name: position
+        """,
+    )
+    config = load_controller_config(path)
+    assert config.update_rate == 250
+    params = config.controllers["arm"].params
+    assert params.allow_partial_joints_goal is True
+    assert params.interpolation_method == "none"
+    assert params.goal_time == 0.5
+    assert params.stopped_velocity_tolerance == 0.02
+    assert params.trajectory_tolerance == {"j0": 0.2}
+    assert params.goal_tolerance == {"j0": 0.05, "j1": 0.1}
+    forward = config.controllers["forward"]
+    assert (forward.type, forward.kind, forward.interface_name) == (
+        FORWARD_COMMAND_CONTROLLER,
+        "position",
+        "position",
+    )
+
+
+def test_defaults(tmp_path):
+    path = write(
+        tmp_path,
+        """\
+        controller_manager:
+          ros__parameters:
+            arm: {type: joint_trajectory_controller/JointTrajectoryController}
+        arm:
+          ros__parameters:
+            joints: [j0]
+            command_interfaces: [position]
+            state_interfaces: [position, velocity]
+        """,
+    )
+    config = load_controller_config(path)
+    assert config.update_rate == 100
+    params = config.controllers["arm"].params
+    assert (
+        params.allow_partial_joints_goal,
+        params.interpolation_method,
+        params.allow_nonzero_velocity_at_trajectory_end,
+        params.goal_time,
+        params.stopped_velocity_tolerance,
+        params.trajectory_tolerance,
+        params.goal_tolerance,
+    ) == (False, "splines", False, 0.0, 0.01, {}, {})
+
+
+MANAGER = """\
+controller_manager:
+  ros__parameters:
+    update_rate: {rate}
+    pos:
+      {type_line}
+pos:
+  ros__parameters:
+{params}
+"""
+GOOD_TYPE = "type: position_controllers/JointGroupPositionController"
+GOOD_PARAMS = "    joints: [j0, j1]"
+
+
+@pytest.mark.parametrize(
+    "rate, type_line, params, key, message",
+    [
+        (
+            "100",
+            "type: position_controllers/JointGroupVelocityController",
+            GOOD_PARAMS,
+            "controller_manager.ros__parameters.pos.type",
+            "unknown controller type 'position_controllers/JointGroupVelocityController'; "
+            "supported: joint_state_broadcaster/JointStateBroadcaster, "
+            "position_controllers/JointGroupPositionController, "
+            "forward_command_controller/ForwardCommandController, "
+            "joint_trajectory_controller/JointTrajectoryController",
+        ),
+        (
+            "100",
+            "params_file: pos.yaml",
+            GOOD_PARAMS,
+            "controller_manager.ros__parameters.pos",
+            "The 'type' param was not defined for 'pos'",
+        ),
+        (
+            "0",
+            GOOD_TYPE,
+            GOOD_PARAMS,
+            "controller_manager.ros__parameters.update_rate",
+            "update_rate=0 must be a positive integer [Hz]",
+        ),
+        (
+            "-10",
+            GOOD_TYPE,
+            GOOD_PARAMS,
+            "controller_manager.ros__parameters.update_rate",
+            "update_rate=-10 must be a positive integer [Hz]",
+        ),
+        (
+            "100.5",
+            GOOD_TYPE,
+            GOOD_PARAMS,
+            "controller_manager.ros__parameters.update_rate",
+            "update_rate=100.5 must be a positive integer [Hz]",
+        ),
+        (
+            "100",
+            GOOD_TYPE,
+            "    use_sim_time: true",
+            "pos.ros__parameters.joints",
+            "'joints' parameter is missing",
+        ),
+        (
+            "100",
+            GOOD_TYPE,
+            "    joints: []",
+            "pos.ros__parameters.joints",
+            "'joints' parameter is empty",
+        ),
+        (
+            "100",
+            GOOD_TYPE,
+            "    joints: [j0, j1, j0]",
+            "pos.ros__parameters.joints",
+            "joint 'j0' is listed more than once",
+        ),
+        (
+            "100",
+            GOOD_TYPE,
+            "    joints: [j0]\n    gains: {j0: {p: 1}}",
+            "pos.ros__parameters.gains",
+            "unknown parameter for position_controllers/JointGroupPositionController; "
+            "known: ['joints']",
+        ),
+        (
+            "100",
+            "type: forward_command_controller/ForwardCommandController",
+            GOOD_PARAMS,
+            "pos.ros__parameters.interface_name",
+            "'interface_name' parameter is missing",
+        ),
+        (
+            "100",
+            "type: forward_command_controller/ForwardCommandController",
+            GOOD_PARAMS + "\n    interface_name: ''",
+            "pos.ros__parameters.interface_name",
+            "'interface_name' parameter is missing",
+        ),
+        (
+            "100",
+            "type: forward_command_controller/ForwardCommandController",
+            GOOD_PARAMS + "\n    interface_name: velocity",
+            "pos.ros__parameters.interface_name",
+            "interface_name='velocity' is not supported; only 'position' is simulated",
+        ),
+        (
+            "100",
+            "type: joint_trajectory_controller/JointTrajectoryController",
+            GOOD_PARAMS + "\n    state_interfaces: [position]",
+            "pos.ros__parameters.command_interfaces",
+            "parameter is missing; give a list from "
+            "['position', 'velocity', 'acceleration', 'effort']",
+        ),
+        (
+            "100",
+            "type: joint_trajectory_controller/JointTrajectoryController",
+            GOOD_PARAMS + "\n    command_interfaces: [position]\n    state_interfaces: [torque]",
+            "pos.ros__parameters.state_interfaces",
+            "unknown interface 'torque'; expected one of ['position', 'velocity', 'acceleration']",
+        ),
+        (
+            "100",
+            "type: joint_trajectory_controller/JointTrajectoryController",
+            GOOD_PARAMS
+            + "\n    command_interfaces: [position]\n    state_interfaces: [position]"
+            + "\n    interpolation_method: cubic",
+            "pos.ros__parameters.interpolation_method",
+            "unknown method 'cubic'; expected one of ['splines', 'none']",
+        ),
+        (
+            "100",
+            "type: joint_trajectory_controller/JointTrajectoryController",
+            GOOD_PARAMS
+            + "\n    command_interfaces: [position]\n    state_interfaces: [position]"
+            + "\n    constraints: {j7: {goal: 0.1}}",
+            "pos.ros__parameters.constraints.j7",
+            "'j7' is neither goal_time, stopped_velocity_tolerance nor one of the "
+            "controller's joints ['j0', 'j1']",
+        ),
+        (
+            "100",
+            "type: joint_trajectory_controller/JointTrajectoryController",
+            GOOD_PARAMS
+            + "\n    command_interfaces: [position]\n    state_interfaces: [position]"
+            + "\n    constraints: {goal_time: -1}",
+            "pos.ros__parameters.constraints.goal_time",
+            "goal_time=-1 must be >= 0",
+        ),
+    ],
+    ids=[
+        "unknown-type",
+        "missing-type",
+        "update-rate-zero",
+        "update-rate-negative",
+        "update-rate-float",
+        "joints-missing",
+        "joints-empty",
+        "joints-duplicated",
+        "unknown-parameter",
+        "interface-missing",
+        "interface-empty",
+        "interface-velocity",
+        "command-interfaces-missing",
+        "state-interface-unknown",
+        "interpolation-unknown",
+        "tolerance-unknown-joint",
+        "goal-time-negative",
+    ],
+)
+def test_bad_file_names_file_and_key(tmp_path, rate, type_line, params, key, message):
+    text = MANAGER.format(rate=rate, type_line=type_line, params=params)
+    path = write(tmp_path, text)
+    with pytest.raises(ControllerConfigError) as error:
+        load_controller_config(path)
+    assert str(error.value) == f"{path}: {key}: {message}"
+
+
+def test_unknown_joint_names_file_key_and_known_joints(tmp_path):
+    path = write(tmp_path, ARMANDO_YAML.replace("joints: [j0, j1, j2, j3]", "joints: [j0, x]", 1))
+    config = load_controller_config(path)
+    with pytest.raises(ControllerConfigError) as error:
+        validate_joints(config, ARMANDO_JOINTS, "armando.urdf.xacro")
+    assert str(error.value) == (
+        f"{path}: position_controller.ros__parameters.joints: unknown joint 'x' of controller "
+        "'position_controller'; armando.urdf.xacro has known joints: j0, j1, j2, j3"
+    )
+
+
+def test_namespaced_error_names_namespaced_key(tmp_path):
+    path = write(tmp_path, namespaced(ARMANDO_YAML.replace("update_rate: 100", "update_rate: 0")))
+    with pytest.raises(ControllerConfigError, match="update_rate=0") as error:
+        load_controller_config(path)
+    assert str(error.value).startswith(
+        f"{path}: /**/controller_manager.ros__parameters.update_rate: "
+    )
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("controller_manager: [1, 2\n", r":2: not valid YAML"),
+        ("- a\n- b\n", r": expected a mapping of ROS nodes, got \['a', 'b'\]"),
+        ("pos:\n  ros__parameters: {joints: [j0]}\n", r": controller_manager: no 'controller_"),
+    ],
+    ids=["syntax", "not-a-mapping", "no-manager"],
+)
+def test_unusable_files(tmp_path, text, message):
+    path = write(tmp_path, text)
+    with pytest.raises(ControllerConfigError, match=message) as error:
+        load_controller_config(path)
+    assert str(error.value).startswith(str(path))
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(ControllerConfigError, match="cannot read controller file"):
+        load_controller_config(tmp_path / "absent.yaml")
+
+
+def test_parse_names_given_source():
+    with pytest.raises(ControllerConfigError) as error:
+        parse_controller_config({"controller_manager": {"ros__parameters": {"a": {}}}}, "inline")
+    assert str(error.value) == (
+        "inline: controller_manager.ros__parameters.a: The 'type' param was not defined for 'a'"
+    )

@@ -1,0 +1,131 @@
+"""The hardware interface from <ros2_control>: limits, initial values, effort limits."""
+
+import numpy as np
+import pytest
+from conftest import make_mini_package
+from pydrake.systems.analysis import Simulator
+
+from armando_drake.control.messages import Float64MultiArray
+from armando_drake.simulation.builder import MakeWorld
+from armando_drake.simulation.scenario import load_scenario
+
+BLOCK = """
+<ros2_control name="MiniSystem" type="system">
+  <hardware><plugin>mock_components/GenericSystem</plugin></hardware>
+  <joint name="q1">
+    <command_interface name="position">
+      <param name="min">-1.2</param><param name="max">3.0</param>
+    </command_interface>
+    <state_interface name="position"><param name="initial_value">-1.9</param></state_interface>
+  </joint>
+  <joint name="q2">
+    <command_interface name="position"/>
+    <state_interface name="position"/>
+  </joint>
+</ros2_control>
+"""
+
+
+@pytest.fixture
+def world(tmp_path):
+    package = make_mini_package(tmp_path, BLOCK)
+    scenario = load_scenario(
+        "position",
+        f"robot: {{description: {package}}}\nsequencer: null\nlogging: {{console_rate: 0}}\n"
+        "controllers: {activate: [joint_state_broadcaster, position_controller]}",
+    )
+    world = MakeWorld(scenario, quiet=True)
+    yield world
+    world.close()
+
+
+def test_interface_limits_merge_with_the_urdf_and_initial_values_are_clamped(world):
+    q1, q2 = world.hardware.joints
+    # URDF q1 limits [-2, 2]; the interface's min -1.2 is tighter, its max 3.0 is not.
+    assert (q1.lower, q1.upper) == (-1.2, 2.0)
+    assert (q2.lower, q2.upper) == (-2.5, 2.5)
+    # initial_value -1.9 clamped into [-1.2, 2]; absent initial_value: 0.
+    assert (q1.initial_position, q2.initial_position) == (-1.2, 0.0)
+    assert q1.effort == 10.0  # the URDF effort limit
+    simulator = Simulator(world.diagram)
+    context = simulator.get_mutable_context()
+    np.testing.assert_allclose(world.joint_positions(context), [-1.2, 0.0])
+    # A command below the interface min is clamped to it.
+    world.publish(context, "position_controller", Float64MultiArray(data=(-1.8, 0.4)))
+    simulator.AdvanceTo(2.0)
+    np.testing.assert_allclose(world.joint_positions(context), [-1.2, 0.4], atol=0.01)
+    status = world.status(context, "position_controller")
+    assert "outside its limits" in str(status.detail)
+
+
+def test_actuator_torque_respects_the_urdf_effort_limit(tmp_path):
+    package = make_mini_package(tmp_path)
+    urdf = package / "urdf" / "mini.urdf.xacro"
+    urdf.write_text(urdf.read_text().replace('effort="10"', 'effort="0.05"'))
+    scenario = load_scenario(
+        "position",
+        f"robot: {{description: {package}}}\nsequencer: null\nlogging: {{console_rate: 0}}\n"
+        "actuators: {gravity_feedforward: false}",
+    )
+    world = MakeWorld(scenario, quiet=True)
+    simulator = Simulator(world.diagram)
+    context = simulator.get_mutable_context()
+    world.publish(context, "position_controller", Float64MultiArray(data=(1.5, 0.0)))
+    simulator.AdvanceTo(1.0)
+    state = world.diagram.GetOutputPort("joint_states").Eval(context)
+    assert max(abs(e) for e in state.effort) <= 0.05 + 1e-9
+    # 0.05 N m cannot lift the 0.1 kg links: q1 stays far from its target.
+    assert abs(world.joint_positions(context)[0] - 1.5) > 0.5
+    world.close()
+
+
+def armando_world(kp: float, feedforward: bool):
+    scenario = load_scenario(
+        "position",
+        "sequencer: null\nlogging: {console_rate: 0}\n"
+        f"actuators: {{kp: {kp}, kd: {kp / 20}, gravity_feedforward: {str(feedforward).lower()}}}",
+    )
+    return MakeWorld(scenario, quiet=True)
+
+
+@pytest.mark.parametrize("kp", [2.0, 8.0])
+def test_gravity_feedforward_removes_the_steady_state_error_whatever_the_gains(kp):
+    # j1 and j2 bent: gravity loads them. Without feed-forward the PD actuators sag by
+    # about tau_g / kp (0.17 rad at kp = 2, 0.04 rad at kp = 8); with it they do not.
+    target = np.array([0.0, 1.0, 0.8, 0.0])
+    errors = {}
+    for feedforward in (True, False):
+        world = armando_world(kp, feedforward)
+        simulator = Simulator(world.diagram)
+        context = simulator.get_mutable_context()
+        world.publish(context, "position_controller", Float64MultiArray(data=tuple(target)))
+        simulator.AdvanceTo(4.0)
+        errors[feedforward] = np.abs(world.joint_positions(context) - target).max()
+        world.close()
+    assert errors[True] < 1e-4, errors
+    assert errors[False] > 0.3 / kp, errors
+
+
+def test_gravity_feedforward_equals_drakes_gravity_compensation_at_the_command():
+    from pydrake.systems.controllers import InverseDynamics
+
+    world = armando_world(8.0, True)
+    plant = world.plant
+    simulator = Simulator(world.diagram)
+    context = simulator.get_mutable_context()
+    target = (0.3, -0.9, 1.1, 0.5)
+    world.publish(context, "position_controller", Float64MultiArray(data=target))
+    simulator.AdvanceTo(0.05)  # handled at the 10 ms tick
+    manager = world.controller_manager
+    feedforward = manager.GetOutputPort("feedforward").Eval(manager.GetMyContextFromRoot(context))
+    # Drake's InverseDynamics in gravity-compensation mode at q = target, v = 0.
+    dynamics = InverseDynamics(plant, mode=InverseDynamics.InverseDynamicsMode.kGravityCompensation)
+    dynamics_context = dynamics.CreateDefaultContext()
+    plant_context = plant.CreateDefaultContext()
+    plant.SetPositions(plant_context, world.robot.model_instance, np.array(target))
+    x = np.concatenate([plant.GetPositions(plant_context), np.zeros(plant.num_velocities())])
+    dynamics.get_input_port_estimated_state().FixValue(dynamics_context, x)
+    expected = dynamics.get_output_port_generalized_force().Eval(dynamics_context)
+    np.testing.assert_allclose(feedforward, expected, atol=1e-12)
+    assert np.abs(expected).max() > 0.01  # a real load, not zeros
+    world.close()

@@ -1,0 +1,107 @@
+"""The notebooks run top to bottom in short mode and print what they promise.
+
+Each notebook is executed by nbclient in the ``python3`` kernel (ipykernel
+starts it with this interpreter), from the ``notebooks`` folder as a user
+would, with ``ARMANDO_DRAKE_SHORT=1``. A cell that raises fails the test.
+"""
+
+import json
+import re
+import sys
+from pathlib import Path
+
+import nbclient
+import nbformat
+from conftest import COURSE_PACKAGE
+
+NOTEBOOKS = Path(__file__).resolve().parents[2] / "notebooks"
+
+
+def execute(name: str, monkeypatch) -> tuple[str, int]:
+    """Runs notebooks/<name>.ipynb in short mode: the text its cells printed, its image count."""
+    monkeypatch.setenv("ARMANDO_DRAKE_SHORT", "1")
+    notebook = nbformat.read(NOTEBOOKS / f"{name}.ipynb", as_version=4)
+    assert all(
+        not cell.get("outputs") and cell.get("execution_count") is None
+        for cell in notebook.cells
+        if cell.cell_type == "code"
+    ), f"{name}.ipynb is committed with outputs; clear them"
+    client = nbclient.NotebookClient(
+        notebook,
+        kernel_name="python3",
+        timeout=120,
+        resources={"metadata": {"path": str(NOTEBOOKS)}},
+    )
+    client.execute()
+    texts = []
+    pictures = 0
+    for cell in notebook.cells:
+        for output in cell.get("outputs", []):
+            if output.output_type == "stream":
+                texts.append(output.text)
+            pictures += "image/png" in output.get("data", {})
+    return "\n".join(texts), pictures
+
+
+def test_kernel_runs_this_interpreter_in_the_notebooks_folder():
+    notebook = nbformat.v4.new_notebook()
+    notebook.cells = [
+        nbformat.v4.new_code_cell("import os, sys; print(sys.executable, os.getcwd())")
+    ]
+    nbclient.NotebookClient(
+        notebook, kernel_name="python3", resources={"metadata": {"path": str(NOTEBOOKS)}}
+    ).execute()
+    executable, cwd = notebook.cells[0].outputs[0].text.split()
+    assert Path(executable).resolve() == Path(sys.executable).resolve()
+    assert Path(cwd).resolve() == NOTEBOOKS
+
+
+def test_bring_up(monkeypatch):
+    text, _ = execute("01_bring_up", monkeypatch)
+    assert "Robot 'armando'" in text
+    for joint, limit in [("j0", 2.57), ("j1", 3.14), ("j2", 3.14), ("j3", 3.14)]:
+        assert re.search(rf"^{joint}\s+revolute\s+{-limit:.2f}\s+{limit:.2f}\s", text, re.M), joint
+    assert "collision layer shown: True" in text
+    assert "visual layer shown: False" in text
+
+
+def test_control(monkeypatch):
+    text, pictures = execute("02_control", monkeypatch)
+    assert pictures == 6  # per run: positions.png and efforts.png
+    for scenario in ("position", "trajectory"):
+        match = re.search(rf"^{scenario}: (\d+) steps, largest step error (\S+) rad$", text, re.M)
+        assert match, f"no summary line for {scenario}"
+        assert int(match[1]) == 5
+        assert float(match[2]) <= 0.01
+    match = re.search(r"^sinusoid: tracking error (\S+) rad$", text, re.M)
+    assert match and float(match[1]) < 0.05
+    # Each run wrote its logs where the notebook plots them from.
+    from armando_drake import PROJECT_ROOT
+
+    folder = PROJECT_ROOT / "out" / "notebooks" / "02_control"
+    for scenario in ("position", "trajectory", "sinusoid"):
+        header = (folder / scenario / "joint_states.csv").read_text().splitlines()[0]
+        assert "j0_effort" in header
+    summary = json.loads((folder / "position" / "summary.json").read_text())
+    assert len(summary["steps"]) == 5
+
+
+def test_camera(monkeypatch):
+    text, pictures = execute("03_camera", monkeypatch)
+    assert pictures == 2  # colour and depth; the blue pixels
+    assert "cameras: camera" in text
+    match = re.search(r"^blue pixels: (\d+)$", text, re.M)
+    assert match and int(match[1]) > 1000
+    depth = re.search(r"^median depth on the disc: (\S+) m$", text, re.M)
+    assert depth and 0.1 < float(depth[1]) < 2.0
+
+
+def test_your_robot(monkeypatch):
+    text, _ = execute("04_your_robot", monkeypatch)
+    if (COURSE_PACKAGE / "urdf" / "arm.urdf").is_file():
+        assert f"Using the course package at {COURSE_PACKAGE}" in text
+    else:
+        assert "falls back to the built-in Armando model" in text
+    assert "joints: j0 [-2.57, 2.57], j1 [-3.14, 3.14]" in text
+    match = re.search(r"^largest step error: (\S+) rad$", text, re.M)
+    assert match and float(match[1]) <= 0.01
