@@ -12,7 +12,7 @@ import xml.etree.ElementTree as ET
 import pytest
 from conftest import skip_or_fail
 
-from armando_drake import bench
+from armando_drake.benchmarks import suite as bench
 
 HAS_MUJOCO = importlib.util.find_spec("mujoco") is not None
 
