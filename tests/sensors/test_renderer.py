@@ -16,7 +16,7 @@ from armando_drake.simulation.scenario import ScenarioError, load_scenario
 CHILD = """
 import os
 from armando_drake.sensors.camera import choose_renderer
-from armando_drake import xdisplay
+from armando_drake.tools import xdisplay
 print(choose_renderer({wanted!r}), os.environ.get("DISPLAY", ""),
       xdisplay._started.pid if xdisplay._started else 0, flush=True)
 """
