@@ -1,0 +1,304 @@
+"""An arm in a finalized MultibodyPlant, seen from its base: kinematics and dynamics.
+
+Everything comes from the plant (``CalcRelativeTransform``,
+``CalcJacobianSpatialVelocity``, ``CalcBiasSpatialAcceleration``, ``CalcMassMatrix``,
+``CalcBiasTerm``, ``CalcGravityGeneralizedForces``); nothing is hand-derived. Spatial
+vectors follow Drake: rotation first, ``[w; v]``, expressed in the base frame B.
+
+Also the linear algebra the task-space code shares: the damped (and optionally
+mass-weighted) pseudo-inverse, the prioritised task resolution with a null-space
+term, the orientation error and the null-space posture / joint-limit term.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import Frame, JacobianWrtVariable, ModelInstanceIndex
+
+
+class TaskSpaceError(ValueError):
+    """A task-space request the arm cannot carry out (bad frame, unreachable, singular...)."""
+
+
+class ArmModel:
+    """The joints of one model instance, an end-effector frame E and a base frame B.
+
+    The arm's joints must each have one position and one velocity (revolute or
+    prismatic). Its own plant context is used for every computation, so an
+    ``ArmModel`` may share the plant of a running diagram.
+    """
+
+    def __init__(
+        self,
+        *,
+        plant: MultibodyPlant,
+        end_effector_frame: str | Frame,
+        base_frame: str | Frame | None = None,
+        model_instance: ModelInstanceIndex | None = None,
+    ):
+        if not plant.is_finalized():
+            raise TaskSpaceError("the plant must be finalized before building an ArmModel")
+        self.plant = plant
+        self.frame_E = self._frame(end_effector_frame, model_instance)
+        instance = model_instance if model_instance is not None else self.frame_E.model_instance()
+        self.model_instance = instance
+        self.frame_B = (
+            self._frame(base_frame, instance) if base_frame is not None else plant.world_frame()
+        )
+        joints = [plant.get_joint(i) for i in plant.GetJointIndices(instance)]
+        joints = [j for j in joints if j.num_velocities() > 0]
+        odd = [j.name() for j in joints if j.num_positions() != 1 or j.num_velocities() != 1]
+        if odd:
+            raise TaskSpaceError(f"joints {odd} are not 1-dof joints: not an arm ArmModel handles")
+        if not joints:
+            raise TaskSpaceError(f"model instance {plant.GetModelInstanceName(instance)!r} "
+                                 "has no moving joints")  # fmt: skip
+        self.joint_names = [j.name() for j in joints]
+        self.position_indices = np.array([j.position_start() for j in joints])
+        self.velocity_indices = np.array([j.velocity_start() for j in joints])
+        self.lower = np.array([j.position_lower_limits()[0] for j in joints])
+        self.upper = np.array([j.position_upper_limits()[0] for j in joints])
+        self.velocity_limit = np.array([j.velocity_upper_limits()[0] for j in joints])
+        self.damping = np.array([j.default_damping_vector()[0] for j in joints])
+        # Actuators, in the order of the instance's actuation input port.
+        actuators = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices(instance)]
+        by_velocity = {a.joint().velocity_start(): a for a in actuators}
+        unactuated = [j.name() for j in joints if j.velocity_start() not in by_velocity]
+        self.actuated = not unactuated and len(actuators) == len(joints)
+        # actuation u (port order) = tau[self.actuation_order] (joint order)
+        index_of = {v: k for k, v in enumerate(self.velocity_indices)}
+        self.actuation_order = np.array([index_of[a.joint().velocity_start()] for a in actuators])
+        self.effort_limit = np.full(len(joints), np.inf)
+        for actuator in actuators:
+            self.effort_limit[index_of[actuator.joint().velocity_start()]] = actuator.effort_limit()
+        self.unactuated_joints = unactuated
+        self.context = plant.CreateDefaultContext()
+        # Where the arm's q and v sit in the instance's state vector [q_instance; v_instance].
+        global_q = plant.GetPositionsFromArray(
+            instance, np.arange(plant.num_positions(), dtype=float)
+        )
+        global_v = plant.GetVelocitiesFromArray(
+            instance, np.arange(plant.num_velocities(), dtype=float)
+        )
+        slot_q = {int(g): k for k, g in enumerate(global_q)}
+        slot_v = {int(g): k for k, g in enumerate(global_v)}
+        self.state_position_slots = np.array([slot_q[i] for i in self.position_indices])
+        self.state_velocity_slots = len(global_q) + np.array(
+            [slot_v[i] for i in self.velocity_indices]
+        )
+        self.num_instance_states = len(global_q) + len(global_v)
+
+    def _frame(self, frame: str | Frame, instance) -> Frame:
+        if not isinstance(frame, str):
+            return frame
+        try:
+            if instance is None:
+                return self.plant.GetFrameByName(frame)
+            return self.plant.GetFrameByName(frame, instance)
+        except RuntimeError as error:
+            raise TaskSpaceError(f"frame {frame!r} is not in the plant: {error}") from None
+
+    # ------------------------------------------------------------------ sizes
+    @property
+    def num_joints(self) -> int:
+        return len(self.joint_names)
+
+    @property
+    def follows_full_orientation(self) -> bool:
+        """True when the arm has the 6 joints a full pose (position + 3 rotations) needs."""
+        return self.num_joints >= 6
+
+    # ------------------------------------------------------------------ state
+    def set_state(self, q, v=None) -> None:
+        """Sets the arm's joint positions [rad] (and velocities [rad/s]) in its context."""
+        positions = self.plant.GetPositions(self.context)
+        positions[self.position_indices] = q
+        self.plant.SetPositions(self.context, positions)
+        velocities = self.plant.GetVelocities(self.context)
+        velocities[self.velocity_indices] = 0.0 if v is None else v
+        self.plant.SetVelocities(self.context, velocities)
+
+    def split_instance_state(self, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(q, v) of the arm's joints from the instance's state vector (the plant's port)."""
+        state = np.asarray(state)
+        return state[self.state_position_slots], state[self.state_velocity_slots]
+
+    def set_instance_state(self, state: np.ndarray) -> None:
+        """Sets the model instance's state [q; v] (as its state output port gives it)."""
+        self.plant.SetPositionsAndVelocities(self.context, self.model_instance, state)
+
+    def default_positions(self) -> np.ndarray:
+        return self.plant.GetDefaultPositions()[self.position_indices]
+
+    # ------------------------------------------------------------------ kinematics
+    def pose(self) -> RigidTransform:
+        """X_BE at the context's state."""
+        return self.plant.CalcRelativeTransform(self.context, self.frame_B, self.frame_E)
+
+    def jacobian(self) -> np.ndarray:
+        """(6, n) J with V_BE = J v, rows [w; v], expressed in B."""
+        J = self.plant.CalcJacobianSpatialVelocity(
+            self.context,
+            JacobianWrtVariable.kV,
+            self.frame_E,
+            np.zeros(3),
+            self.frame_B,
+            self.frame_B,
+        )
+        return J[:, self.velocity_indices]
+
+    def bias_acceleration(self) -> np.ndarray:
+        """(6,) J-dot v of E in B, rows [alpha; a] (the spatial acceleration at zero v-dot)."""
+        bias = self.plant.CalcBiasSpatialAcceleration(
+            self.context,
+            JacobianWrtVariable.kV,
+            self.frame_E,
+            np.zeros(3),
+            self.frame_B,
+            self.frame_B,
+        )
+        return np.concatenate([bias.rotational(), bias.translational()])
+
+    # ------------------------------------------------------------------ dynamics
+    def mass_matrix(self) -> np.ndarray:
+        """(n, n) M(q) of the arm's joints."""
+        M = self.plant.CalcMassMatrix(self.context)
+        return M[np.ix_(self.velocity_indices, self.velocity_indices)]
+
+    def coriolis(self) -> np.ndarray:
+        """(n,) C(q, v) v, from CalcBiasTerm."""
+        return self.plant.CalcBiasTerm(self.context)[self.velocity_indices]
+
+    def gravity(self) -> np.ndarray:
+        """(n,) g(q): the joint torques that hold the arm against gravity (= -tau_g)."""
+        return -self.plant.CalcGravityGeneralizedForces(self.context)[self.velocity_indices]
+
+    def actuation(self, tau: np.ndarray) -> np.ndarray:
+        """Joint torques (joint order) as the actuation input port's vector."""
+        return np.asarray(tau)[self.actuation_order]
+
+
+# ---------------------------------------------------------------------- algebra
+
+
+def orientation_error(R_desired: RotationMatrix, R: RotationMatrix) -> np.ndarray:
+    """(3,) the rotation vector (axis * angle) [rad] taking R to R_desired, in the base frame."""
+    angle_axis = R_desired.multiply(R.inverse()).ToAngleAxis()
+    return angle_axis.axis() * angle_axis.angle()
+
+
+def damped_pinv(
+    J: np.ndarray, *, threshold: float, max_damping: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The damped pseudo-inverse of J and its singular values.
+
+    Each singular value sigma below ``threshold`` is damped as
+    sigma / (sigma^2 + lambda^2), lambda^2 = max_damping^2 (1 - (sigma/threshold)^2),
+    so a rank-deficient J gives a bounded inverse and directions at sigma = 0 are dropped.
+    """
+    U, S, Vt = np.linalg.svd(J, full_matrices=False)
+    lam2 = np.where(S < threshold, max_damping**2 * (1.0 - (S / threshold) ** 2), 0.0)
+    denominator = S**2 + lam2
+    inverse = np.divide(S, denominator, out=np.zeros_like(S), where=denominator > 0.0)
+    return (Vt.T * inverse) @ U.T, S
+
+
+@dataclass(frozen=True)
+class Resolution:
+    """The joint acceleration of a prioritised task resolution, and how well-posed it was."""
+
+    acceleration: np.ndarray  # [rad/s^2] (n,)
+    smallest_singular_value: float  # of the first task's (weighted) Jacobian
+    null_space: np.ndarray  # (n, n) projector onto the motions that leave all tasks alone
+
+
+def resolve_tasks(
+    tasks: list[tuple[np.ndarray, np.ndarray]],
+    posture_acceleration: np.ndarray,
+    *,
+    threshold: float,
+    max_damping: float,
+    mass_matrix: np.ndarray | None = None,
+) -> Resolution:
+    """Joint accelerations a with J_i a = b_i by priority, plus the null-space term.
+
+    ``tasks`` are (J_i, b_i) with b_i = desired task acceleration - J-dot_i v. Each
+    lower-priority task acts in the null space of those above; the remaining null
+    space gets ``posture_acceleration``. With ``mass_matrix`` the pseudo-inverses
+    are weighted by M (normalised by its mean diagonal): J# = M^-1 J^T (J M^-1 J^T)^-1,
+    the dynamically consistent inverse.
+    """
+    n = posture_acceleration.shape[0]
+    if mass_matrix is not None:
+        L = np.linalg.cholesky(mass_matrix / (np.trace(mass_matrix) / n))
+        L_inv_T = np.linalg.inv(L).T  # M^-1 = L_inv_T L_inv_T^T
+    a = np.zeros(n)
+    P = np.eye(n)
+    smallest = np.inf
+    for i, (J, b) in enumerate(tasks):
+        JP = J @ P
+        if mass_matrix is None:
+            JP_pinv, S = damped_pinv(JP, threshold=threshold, max_damping=max_damping)
+        else:
+            inverse, S = damped_pinv(JP @ L_inv_T, threshold=threshold, max_damping=max_damping)
+            JP_pinv = L_inv_T @ inverse
+        if i == 0:
+            smallest = float(S[-1]) if S.size else 0.0
+        a = a + JP_pinv @ (b - J @ a)
+        P = P - JP_pinv @ JP
+    return Resolution(
+        acceleration=a + P @ posture_acceleration, smallest_singular_value=smallest, null_space=P
+    )
+
+
+def posture_acceleration(
+    arm: ArmModel,
+    q: np.ndarray,
+    v: np.ndarray,
+    *,
+    rest: np.ndarray,
+    posture_gain: float,
+    limit_gain: float,
+    damping_gain: float,
+) -> np.ndarray:
+    """The null-space joint acceleration: to ``rest``, away from the limits, damped.
+
+    posture_gain (rest - q) + limit_gain * (-grad H) - damping_gain v, where
+    H = sum(((q - mid) / (upper - lower))^2) / 2 grows towards the limits (joints
+    without finite limits contribute nothing).
+    """
+    span = arm.upper - arm.lower
+    finite = np.isfinite(span) & (span > 0)
+    limit_term = np.zeros_like(q)
+    middle = 0.5 * (arm.upper + arm.lower)
+    limit_term[finite] = -(q[finite] - middle[finite]) / span[finite] ** 2
+    return posture_gain * (rest - q) + limit_gain * limit_term - damping_gain * v
+
+
+def describe_task(arm: ArmModel, q: np.ndarray) -> str:
+    """One line naming what the task controls for this arm (logged by the planners)."""
+    if arm.follows_full_orientation:
+        extra = arm.num_joints - 6
+        return (
+            f"{arm.num_joints} joints: task = position (3) + orientation (3) of "
+            f"{arm.frame_E.name()!r}; {extra} redundant joint(s) go to the null-space posture"
+        )
+    arm.set_state(q)
+    J = arm.jacobian()
+    _, S_p, Vt_p = np.linalg.svd(J[3:], full_matrices=True)
+    rank = int(np.sum(S_p > 1e-9))
+    null = Vt_p[rank:].T  # joint motions that keep the position
+    Jo_null = J[:3] @ null
+    U, S, _ = np.linalg.svd(Jo_null, full_matrices=False)
+    axes = [U[:, k] for k in range(len(S)) if S[k] > 1e-6]
+    axes_text = ", ".join(np.array2string(axis, precision=3, suppress_small=True) for axis in axes)
+    return (
+        f"{arm.num_joints} joints: task = position (3) of {arm.frame_E.name()!r}, first; then "
+        f"orientation in its null space: {len(axes)} component(s) the arm can follow "
+        f"(rotation about {axes_text or 'no axis'} in the base frame at the start), "
+        "the others are not controlled"
+    )
