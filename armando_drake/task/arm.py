@@ -213,6 +213,7 @@ class Resolution:
 
     acceleration: np.ndarray  # [rad/s^2] (n,)
     smallest_singular_value: float  # of the first task's (weighted) Jacobian
+    singular_value_ratio: float  # its smallest over its largest singular value (0: singular)
     null_space: np.ndarray  # (n, n) projector onto the motions that leave all tasks alone
 
 
@@ -223,6 +224,8 @@ def resolve_tasks(
     threshold: float,
     max_damping: float,
     mass_matrix: np.ndarray | None = None,
+    secondary_threshold: float | None = None,
+    secondary_damping: float | None = None,
 ) -> Resolution:
     """Joint accelerations a with J_i a = b_i by priority, plus the null-space term.
 
@@ -230,7 +233,9 @@ def resolve_tasks(
     lower-priority task acts in the null space of those above; the remaining null
     space gets ``posture_acceleration``. With ``mass_matrix`` the pseudo-inverses
     are weighted by M (normalised by its mean diagonal): J# = M^-1 J^T (J M^-1 J^T)^-1,
-    the dynamically consistent inverse.
+    the dynamically consistent inverse. Tasks after the first are damped with
+    ``secondary_threshold`` / ``secondary_damping`` (default: as the first), so a
+    lower-priority task gives way well before its own singularity.
     """
     n = posture_acceleration.shape[0]
     if mass_matrix is not None:
@@ -238,20 +243,30 @@ def resolve_tasks(
         L_inv_T = np.linalg.inv(L).T  # M^-1 = L_inv_T L_inv_T^T
     a = np.zeros(n)
     P = np.eye(n)
-    smallest = np.inf
+    smallest, ratio = np.inf, 1.0
     for i, (J, b) in enumerate(tasks):
         JP = J @ P
+        damping = {"threshold": threshold, "max_damping": max_damping}
+        if i > 0:
+            if secondary_threshold is not None:
+                damping["threshold"] = secondary_threshold
+            if secondary_damping is not None:
+                damping["max_damping"] = secondary_damping
         if mass_matrix is None:
-            JP_pinv, S = damped_pinv(JP, threshold=threshold, max_damping=max_damping)
+            JP_pinv, S = damped_pinv(JP, **damping)
         else:
-            inverse, S = damped_pinv(JP @ L_inv_T, threshold=threshold, max_damping=max_damping)
+            inverse, S = damped_pinv(JP @ L_inv_T, **damping)
             JP_pinv = L_inv_T @ inverse
-        if i == 0:
-            smallest = float(S[-1]) if S.size else 0.0
+        if i == 0 and S.size:
+            smallest = float(S[-1])
+            ratio = smallest / S[0] if S[0] > 0 else 0.0
         a = a + JP_pinv @ (b - J @ a)
         P = P - JP_pinv @ JP
     return Resolution(
-        acceleration=a + P @ posture_acceleration, smallest_singular_value=smallest, null_space=P
+        acceleration=a + P @ posture_acceleration,
+        smallest_singular_value=smallest,
+        singular_value_ratio=ratio,
+        null_space=P,
     )
 
 

@@ -59,6 +59,31 @@ def _pose_errors(arm: ArmModel, q: np.ndarray, X_target: RigidTransform) -> tupl
     return position, rotation
 
 
+def _polish(arm: ArmModel, q: np.ndarray, X_target: RigidTransform, full: bool) -> np.ndarray:
+    """A few Gauss-Newton steps on the pose error, inside the joint limits.
+
+    The solvers stop at their feasibility tolerance (about 1e-6 on the constraint
+    values, so about 1e-3 rad on an orientation); from there Newton converges in
+    two or three steps to round-off.
+    """
+    for _ in range(8):
+        arm.set_state(q)
+        X = arm.pose()
+        error = np.concatenate(
+            [
+                orientation_error(X_target.rotation(), X.rotation()),
+                X_target.translation() - X.translation(),
+            ]
+        )
+        J = arm.jacobian()
+        if not full:
+            error, J = error[3:], J[3:]
+        if np.linalg.norm(error) < 1e-13:
+            break
+        q = np.clip(q + np.linalg.lstsq(J, error, rcond=1e-10)[0], arm.lower, arm.upper)
+    return q
+
+
 def solve_ik(
     arm: ArmModel,
     X_target: RigidTransform,
@@ -71,6 +96,9 @@ def solve_ik(
     seed: int = 0,
 ) -> IkResult:
     """Joint positions putting E at ``X_target`` (X_BE), within the joint limits.
+
+    Drake's ``InverseKinematics`` (joint limits, nearest to the seed) solves it,
+    a few Newton steps on the Jacobian polish the solver's result to round-off.
 
     ``orientation``: ``"constraint"`` (the whole pose), ``"cost"`` (position exact,
     orientation as close as the arm allows), ``"none"``, or ``"auto"``: constraint for
@@ -124,6 +152,8 @@ def solve_ik(
         ik.prog().AddQuadraticErrorCost(np.eye(guess.size), nearest, ik.q())
         result = Solve(ik.prog(), guess)
         q = result.GetSolution(ik.q())[arm.position_indices]
+        if np.all(np.isfinite(q)):
+            q = _polish(arm, q, X_target, full=orientation == "constraint")
         position, rotation = _pose_errors(arm, q, X_target)
         within = position <= position_tolerance and (
             not check_rotation or rotation <= orientation_tolerance
@@ -167,6 +197,10 @@ class ClikGains:
     null_damping: float = 4.0  # [1/s] null space: joint velocity damping
     singular_threshold: float = 0.02  # [m/rad] singular values below this are damped
     max_damping: float = 0.05  # [m/rad] damping at a singular value of zero
+    secondary_threshold: float = 0.5  # [-] the same for the orientation of arms with < 6
+    secondary_damping: float = 0.5  # [-] joints (a secondary task), damped much earlier
+    singular_warning: float = 0.1  # [-] smallest / largest singular value of the task
+    # Jacobian below which a failure is blamed on a singularity or the workspace boundary
 
 
 @dataclass(frozen=True)
@@ -248,12 +282,27 @@ def plan_joint_reference(
             limit_gain=gains.limit_gain,
             damping_gain=gains.null_damping,
         )
-        a = resolve_tasks(
-            tasks, a0, threshold=gains.singular_threshold, max_damping=gains.max_damping
-        ).acceleration
+        resolution = resolve_tasks(
+            tasks,
+            a0,
+            threshold=gains.singular_threshold,
+            max_damping=gains.max_damping,
+            secondary_threshold=gains.secondary_threshold,
+            secondary_damping=gains.secondary_damping,
+        )
+        a = resolution.acceleration
         TAU[k] = arm.mass_matrix() @ a + arm.coriolis() + arm.gravity() + arm.damping * v
         Q[k], V[k], A[k] = q, v, a
-        _check_limits(arm, t, q, v, TAU[k])
+        _check_limits(
+            arm,
+            t,
+            q,
+            v,
+            TAU[k],
+            resolution.smallest_singular_value,
+            resolution.singular_value_ratio,
+            gains,
+        )
         v = v + a * period
         q = q + v * period
     # The last sample holds still (the law ends at rest; the plan's residual is tiny).
@@ -264,17 +313,24 @@ def plan_joint_reference(
 def _path_failure(arm, t, trajectory, e_p, e_o, full, J, gains) -> str:
     s = float(trajectory.time_law(np.array([t])).s[0])
     rows = J if full else J[3:]
-    sigma = np.linalg.svd(rows, compute_uv=False)[-1]
+    singular_values = np.linalg.svd(rows, compute_uv=False)
+    sigma = singular_values[-1]
     what = "pose" if full else "position"
+    cause = (
+        "the path leaves the workspace or passes a singularity"
+        if sigma < gains.singular_warning * singular_values[0]
+        else "the motion is too fast to follow at this period: make it slower"
+    )
     return (
         f"the path cannot be followed: at t={t:.3f} s (s={s:.3f}) the {what} error is "
         f"{np.linalg.norm(e_p):.4g} m / {np.linalg.norm(e_o):.4g} rad; the smallest singular "
-        f"value of the {what} Jacobian is {sigma:.3g} (damped below "
-        f"{gains.singular_threshold:g}): the path leaves the workspace or passes a singularity"
+        f"value of the {what} Jacobian is {sigma:.3g} "
+        f"({sigma / singular_values[0]:.3g} of the largest, damped below "
+        f"{gains.singular_threshold:g}): {cause}"
     )
 
 
-def _check_limits(arm: ArmModel, t: float, q, v, tau) -> None:
+def _check_limits(arm: ArmModel, t: float, q, v, tau, sigma, ratio, gains: ClikGains) -> None:
     for name, value, low, high, unit, what in (
         ("position", q, arm.lower, arm.upper, "rad", "joint limits"),
         ("velocity", v, -arm.velocity_limit, arm.velocity_limit, "rad/s", "velocity limit"),
@@ -283,8 +339,14 @@ def _check_limits(arm: ArmModel, t: float, q, v, tau) -> None:
         outside = np.flatnonzero((value < low) | (value > high))
         if outside.size:
             i = outside[0]
+            hint = (
+                f"; the smallest singular value of the task Jacobian is {sigma:.3g} "
+                f"({ratio:.3g} of the largest)"
+            )
+            if ratio < gains.singular_warning:
+                hint += ": the path leaves the workspace or passes a singularity"
             raise TaskSpaceError(
                 f"the path cannot be followed: at t={t:.3f} s joint {arm.joint_names[i]!r} "
                 f"needs {name} {value[i]:.4g} {unit}, outside its {what} "
-                f"[{low[i]:.4g}, {high[i]:.4g}] {unit}"
+                f"[{low[i]:.4g}, {high[i]:.4g}] {unit}{hint}"
             )
