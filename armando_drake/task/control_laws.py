@@ -20,7 +20,6 @@ holds the last good reference and says so once in the log. The parameter
 dataclasses are what a controller registry loads with ``yaml_load_typed``.
 """
 
-from __future__ import annotations
 
 import logging
 from dataclasses import dataclass

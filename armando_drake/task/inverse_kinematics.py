@@ -16,7 +16,6 @@
   limit or needs more than the effort limit (inverse dynamics along the plan).
 """
 
-from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
