@@ -91,6 +91,15 @@ class ArmModel:
             [slot_v[i] for i in self.velocity_indices]
         )
         self.num_instance_states = len(global_q) + len(global_v)
+        # The arm is the whole plant (the usual case): no slicing per tick.
+        self._whole = np.array_equal(self.velocity_indices, np.arange(plant.num_velocities()))
+        self._columns = slice(None) if self._whole else self.velocity_indices
+        span = self.upper - self.lower
+        self._limited = np.isfinite(span) & (span > 0)
+        self._middle = np.where(self._limited, 0.5 * (self.upper + self.lower), 0.0)
+        self._inverse_span2 = np.where(
+            self._limited, 1.0 / np.where(self._limited, span, 1) ** 2, 0
+        )
 
     def _frame(self, frame: str | Frame, instance) -> Frame:
         if not isinstance(frame, str):
@@ -149,7 +158,7 @@ class ArmModel:
             self.frame_B,
             self.frame_B,
         )
-        return J[:, self.velocity_indices]
+        return J[:, self._columns]
 
     def bias_acceleration(self) -> np.ndarray:
         """(6,) J-dot v of E in B, rows [alpha; a] (the spatial acceleration at zero v-dot)."""
@@ -167,15 +176,15 @@ class ArmModel:
     def mass_matrix(self) -> np.ndarray:
         """(n, n) M(q) of the arm's joints."""
         M = self.plant.CalcMassMatrix(self.context)
-        return M[np.ix_(self.velocity_indices, self.velocity_indices)]
+        return M if self._whole else M[np.ix_(self.velocity_indices, self.velocity_indices)]
 
     def coriolis(self) -> np.ndarray:
         """(n,) C(q, v) v, from CalcBiasTerm."""
-        return self.plant.CalcBiasTerm(self.context)[self.velocity_indices]
+        return self.plant.CalcBiasTerm(self.context)[self._columns]
 
     def gravity(self) -> np.ndarray:
         """(n,) g(q): the joint torques that hold the arm against gravity (= -tau_g)."""
-        return -self.plant.CalcGravityGeneralizedForces(self.context)[self.velocity_indices]
+        return -self.plant.CalcGravityGeneralizedForces(self.context)[self._columns]
 
     def actuation(self, tau: np.ndarray) -> np.ndarray:
         """Joint torques (joint order) as the actuation input port's vector."""
@@ -189,6 +198,31 @@ def orientation_error(R_desired: RotationMatrix, R: RotationMatrix) -> np.ndarra
     """(3,) the rotation vector (axis * angle) [rad] taking R to R_desired, in the base frame."""
     angle_axis = R_desired.multiply(R.inverse()).ToAngleAxis()
     return angle_axis.axis() * angle_axis.angle()
+
+
+def rotation_matrix_from_quaternion(wxyz: np.ndarray) -> np.ndarray:
+    """The 3x3 rotation matrix of a (normalised here) quaternion (w, x, y, z), in numpy."""
+    w, x, y, z = wxyz / np.sqrt(wxyz @ wxyz)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def rotation_vector_error(R_desired: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """:func:`orientation_error` on 3x3 arrays (numpy only, for the per-tick laws)."""
+    E = R_desired @ R.T
+    cosine = min(1.0, max(-1.0, 0.5 * (E[0, 0] + E[1, 1] + E[2, 2] - 1.0)))
+    angle = np.arccos(cosine)
+    vee = np.array([E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]])
+    if angle < 1e-6:
+        return 0.5 * vee  # sin(angle) ~ angle
+    if np.pi - angle > 1e-6:
+        return vee * (angle / (2.0 * np.sin(angle)))
+    return orientation_error(RotationMatrix(E), RotationMatrix())  # near pi: Drake's
 
 
 def damped_pinv(
@@ -238,28 +272,34 @@ def resolve_tasks(
     lower-priority task gives way well before its own singularity.
     """
     n = posture_acceleration.shape[0]
-    if mass_matrix is not None:
-        L = np.linalg.cholesky(mass_matrix / (np.trace(mass_matrix) / n))
-        L_inv_T = np.linalg.inv(L).T  # M^-1 = L_inv_T L_inv_T^T
+    if mass_matrix is None:
+        W_inv = None
+    else:
+        W_inv = np.linalg.inv(mass_matrix * (n / np.trace(mass_matrix)))
     a = np.zeros(n)
     P = np.eye(n)
     smallest, ratio = np.inf, 1.0
     for i, (J, b) in enumerate(tasks):
         JP = J @ P
-        damping = {"threshold": threshold, "max_damping": max_damping}
+        limit, damping = threshold, max_damping
         if i > 0:
-            if secondary_threshold is not None:
-                damping["threshold"] = secondary_threshold
-            if secondary_damping is not None:
-                damping["max_damping"] = secondary_damping
-        if mass_matrix is None:
-            JP_pinv, S = damped_pinv(JP, **damping)
-        else:
-            inverse, S = damped_pinv(JP @ L_inv_T, **damping)
-            JP_pinv = L_inv_T @ inverse
+            limit = secondary_threshold if secondary_threshold is not None else threshold
+            damping = secondary_damping if secondary_damping is not None else max_damping
+        # J# = W^-1 (JP)^T U diag(1 / (sigma^2 + lambda^2)) U^T, with sigma^2 and U the
+        # eigen-decomposition of JP W^-1 (JP)^T: the damped_pinv of JP W^-1/2, without
+        # an SVD of the (rows x n) matrix.
+        JW = JP.T if W_inv is None else W_inv @ JP.T
+        sigma2, U = np.linalg.eigh(JP @ JW)
+        sigma2 = np.maximum(sigma2, 0.0)
+        S = np.sqrt(sigma2)
+        lam2 = np.where(S < limit, damping**2 * (1.0 - (S / limit) ** 2), 0.0)
+        denominator = sigma2 + lam2
+        scale = np.divide(1.0, denominator, out=np.zeros_like(S), where=denominator > 1e-300)
+        scale[S <= 1e-9 * S[-1]] = 0.0  # numerically zero: J# maps nothing there anyway
+        JP_pinv = JW @ ((U * scale) @ U.T)
         if i == 0 and S.size:
-            smallest = float(S[-1])
-            ratio = smallest / S[0] if S[0] > 0 else 0.0
+            smallest = float(S[0])  # eigh sorts ascending
+            ratio = smallest / S[-1] if S[-1] > 0 else 0.0
         a = a + JP_pinv @ (b - J @ a)
         P = P - JP_pinv @ JP
     return Resolution(
@@ -286,11 +326,7 @@ def posture_acceleration(
     H = sum(((q - mid) / (upper - lower))^2) / 2 grows towards the limits (joints
     without finite limits contribute nothing).
     """
-    span = arm.upper - arm.lower
-    finite = np.isfinite(span) & (span > 0)
-    limit_term = np.zeros_like(q)
-    middle = 0.5 * (arm.upper + arm.lower)
-    limit_term[finite] = -(q[finite] - middle[finite]) / span[finite] ** 2
+    limit_term = -(q - arm._middle) * arm._inverse_span2
     return posture_gain * (rest - q) + limit_gain * limit_term - damping_gain * v
 
 

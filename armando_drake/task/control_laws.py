@@ -20,21 +20,20 @@ holds the last good reference and says so once in the log. The parameter
 dataclasses are what a controller registry loads with ``yaml_load_typed``.
 """
 
-
 import logging
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.math import RigidTransform
 
 from armando_drake.task.arm import (
     ArmModel,
     TaskSpaceError,
-    orientation_error,
     posture_acceleration,
     resolve_tasks,
+    rotation_matrix_from_quaternion,
+    rotation_vector_error,
 )
-from armando_drake.task.paths import CARTESIAN_REFERENCE_SIZE, unpack_cartesian_reference
+from armando_drake.task.paths import CARTESIAN_REFERENCE_SIZE
 
 _log = logging.getLogger(__name__)
 
@@ -104,7 +103,7 @@ class _TorqueLaw:
         self._warned = False
 
     def _good_reference(self, reference: np.ndarray, q: np.ndarray) -> np.ndarray:
-        if np.all(np.isfinite(reference)):
+        if np.isfinite(reference.sum()):  # a NaN or inf anywhere makes the sum non-finite
             self._last_reference = reference
             return reference
         self.rejected_ticks += 1
@@ -118,11 +117,11 @@ class _TorqueLaw:
         raise NotImplementedError
 
     def _finish(self, tau: np.ndarray) -> np.ndarray:
-        if not np.all(np.isfinite(tau)):
+        if not np.isfinite(tau.sum()):
             self.rejected_ticks += 1
             tau = np.where(np.isfinite(tau), tau, 0.0)
         limit = self.arm.effort_limit
-        if np.any(np.abs(tau) > limit):
+        if (np.abs(tau) > limit).any():
             self.saturated_ticks += 1
             tau = np.clip(tau, -limit, limit)
         return self.arm.actuation(tau)
@@ -131,7 +130,7 @@ class _TorqueLaw:
         """The actuation vector (actuation input port order) for the instance's state."""
         arm = self.arm
         q, v = arm.split_instance_state(state)
-        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
+        if not np.isfinite(q.sum() + v.sum()):
             self.rejected_ticks += 1
             return np.zeros(arm.num_joints)
         arm.set_instance_state(state)
@@ -191,18 +190,15 @@ class OperationalSpaceInverseDynamics(_TorqueLaw):
         arm, p = self.arm, self.params
         if self.rest is None:
             self.rest = q.copy()
-        desired = unpack_cartesian_reference(reference)
-        X: RigidTransform = arm.pose()
+        X = arm.pose()
         J = arm.jacobian()
-        error = np.concatenate(
-            [
-                orientation_error(desired.pose.rotation(), X.rotation()),
-                desired.pose.translation() - X.translation(),
-            ]
-        )
+        R_desired = rotation_matrix_from_quaternion(reference[0:4])
+        error = np.empty(6)
+        error[:3] = rotation_vector_error(R_desired, X.rotation().matrix())
+        error[3:] = reference[4:7] - X.translation()
         commanded = (
-            desired.acceleration
-            + self._kd * (desired.twist - J @ v)
+            reference[13:19]
+            + self._kd * (reference[7:13] - J @ v)
             + self._kp * error
             - arm.bias_acceleration()
         )

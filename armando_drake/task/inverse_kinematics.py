@@ -16,7 +16,6 @@
   limit or needs more than the effort limit (inverse dynamics along the plan).
 """
 
-
 import logging
 from dataclasses import dataclass
 

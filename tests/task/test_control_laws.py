@@ -4,11 +4,12 @@ through the plant's forward dynamics, parameters as YAML."""
 import numpy as np
 import pytest
 from pydrake.common.yaml import yaml_load_typed
+from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.controllers import InverseDynamicsController
 from task_robots import IIWA_END_EFFECTOR, add_iiwa
 
-from armando_drake.task.arm import ArmModel, TaskSpaceError
+from armando_drake.task.arm import ArmModel, TaskSpaceError, orientation_error
 from armando_drake.task.control_laws import (
     JointSpaceInverseDynamics,
     JointSpaceInverseDynamicsParams,
@@ -59,15 +60,14 @@ def test_operational_space_law_produces_the_commanded_task_acceleration(iiwa):
     iiwa.set_state(q, v)
     X = iiwa.pose()
     # A reference 5 mm / 0.02 rad away, with a twist and an acceleration.
-    from pydrake.math import RigidTransform, RotationMatrix
 
     X_d = RigidTransform(
         X.rotation().multiply(RotationMatrix.MakeXRotation(0.02)), X.translation() + [0.005, 0, 0]
     )
     twist_d = rng.uniform(-0.2, 0.2, 6)
     acceleration_d = rng.uniform(-1, 1, 6)
-    reference = np.concatenate([
-        X_d.rotation().ToQuaternion().wxyz(), X_d.translation(), twist_d, acceleration_d])  # fmt: skip
+    quaternion = X_d.rotation().ToQuaternion().wxyz()
+    reference = np.concatenate([quaternion, X_d.translation(), twist_d, acceleration_d])
     tau = law.CalcActuation(np.concatenate([q, v]), reference)
     assert law.saturated_ticks == 0
     plant.SetPositions(context, q)
@@ -77,8 +77,6 @@ def test_operational_space_law_produces_the_commanded_task_acceleration(iiwa):
     iiwa.set_state(q, v)
     J = iiwa.jacobian()
     achieved = J @ v_dot + iiwa.bias_acceleration()
-    from armando_drake.task.arm import orientation_error
-
     error = np.concatenate(
         [orientation_error(X_d.rotation(), X.rotation()), X_d.translation() - X.translation()]
     )
