@@ -225,22 +225,6 @@ def rotation_vector_error(R_desired: np.ndarray, R: np.ndarray) -> np.ndarray:
     return orientation_error(RotationMatrix(E), RotationMatrix())  # near pi: Drake's
 
 
-def damped_pinv(
-    J: np.ndarray, *, threshold: float, max_damping: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """The damped pseudo-inverse of J and its singular values.
-
-    Each singular value sigma below ``threshold`` is damped as
-    sigma / (sigma^2 + lambda^2), lambda^2 = max_damping^2 (1 - (sigma/threshold)^2),
-    so a rank-deficient J gives a bounded inverse and directions at sigma = 0 are dropped.
-    """
-    U, S, Vt = np.linalg.svd(J, full_matrices=False)
-    lam2 = np.where(S < threshold, max_damping**2 * (1.0 - (S / threshold) ** 2), 0.0)
-    denominator = S**2 + lam2
-    inverse = np.divide(S, denominator, out=np.zeros_like(S), where=denominator > 0.0)
-    return (Vt.T * inverse) @ U.T, S
-
-
 @dataclass(frozen=True)
 class Resolution:
     """The joint acceleration of a prioritised task resolution, and how well-posed it was."""
@@ -285,9 +269,11 @@ def resolve_tasks(
         if i > 0:
             limit = secondary_threshold if secondary_threshold is not None else threshold
             damping = secondary_damping if secondary_damping is not None else max_damping
+        # Damped inverse: each singular value sigma of JP W^-1/2 below ``limit`` becomes
+        # sigma / (sigma^2 + lambda^2), lambda^2 = damping^2 (1 - (sigma / limit)^2), so
+        # J# stays bounded at a singularity and directions at sigma = 0 are dropped.
         # J# = W^-1 (JP)^T U diag(1 / (sigma^2 + lambda^2)) U^T, with sigma^2 and U the
-        # eigen-decomposition of JP W^-1 (JP)^T: the damped_pinv of JP W^-1/2, without
-        # an SVD of the (rows x n) matrix.
+        # eigen-decomposition of JP W^-1 (JP)^T (no SVD of the rows x n matrix).
         JW = JP.T if W_inv is None else W_inv @ JP.T
         sigma2, U = np.linalg.eigh(JP @ JW)
         sigma2 = np.maximum(sigma2, 0.0)

@@ -227,3 +227,39 @@ class OperationalSpaceInverseDynamics(_TorqueLaw):
             self.smallest_singular_value, resolution.smallest_singular_value
         )
         return M @ resolution.acceleration + arm.coriolis() + arm.gravity() + arm.damping * v
+
+
+@dataclass(frozen=True)
+class TorqueLawType:
+    """What a controller registry needs to register a torque law (nothing registers it yet)."""
+
+    type: str  # the ROS-style type string a controller YAML names
+    params: type  # the parameters dataclass, the yaml_load_typed schema of ros__parameters
+    law: type  # the law class, built as law(arm=ArmModel, params=params)
+    reference: str  # "joint": [q_d; v_d; a_d] (3 n); "cartesian": CARTESIAN_REFERENCE_LAYOUT
+    command_interfaces: tuple[str, ...]  # claimed per joint
+    state_interfaces: tuple[str, ...]  # read per joint
+
+
+#: The two laws, keyed by their type string, for the controller registry to register.
+TORQUE_LAWS = {
+    entry.type: entry
+    for entry in (
+        TorqueLawType(
+            type="task_space_controllers/JointSpaceInverseDynamics",
+            params=JointSpaceInverseDynamicsParams,
+            law=JointSpaceInverseDynamics,
+            reference="joint",
+            command_interfaces=("effort",),
+            state_interfaces=("position", "velocity"),
+        ),
+        TorqueLawType(
+            type="task_space_controllers/OperationalSpaceInverseDynamics",
+            params=OperationalSpaceInverseDynamicsParams,
+            law=OperationalSpaceInverseDynamics,
+            reference="cartesian",
+            command_interfaces=("effort",),
+            state_interfaces=("position", "velocity"),
+        ),
+    )
+}

@@ -11,11 +11,13 @@ from task_robots import IIWA_END_EFFECTOR, add_iiwa
 
 from armando_drake.task.arm import ArmModel, TaskSpaceError, orientation_error
 from armando_drake.task.control_laws import (
+    TORQUE_LAWS,
     JointSpaceInverseDynamics,
     JointSpaceInverseDynamicsParams,
     OperationalSpaceInverseDynamics,
     OperationalSpaceInverseDynamicsParams,
 )
+from armando_drake.task.paths import CARTESIAN_REFERENCE_SIZE
 
 
 @pytest.fixture(scope="module")
@@ -107,3 +109,13 @@ def test_unactuated_arm_is_refused():
     arm = ArmModel(plant=plant, end_effector_frame="crawer_base")
     with pytest.raises(TaskSpaceError, match=r"joints \['j0', 'j1', 'j2', 'j3'\] .* no actuator"):
         JointSpaceInverseDynamics(arm=arm)
+
+
+@pytest.mark.parametrize("type_name", sorted(TORQUE_LAWS))
+def test_registry_entries_build_their_law_from_yaml(iiwa, type_name):
+    entry = TORQUE_LAWS[type_name]
+    params = yaml_load_typed(schema=entry.params, data="{}")
+    law = entry.law(arm=iiwa, params=params)
+    expected = {"joint": 21, "cartesian": CARTESIAN_REFERENCE_SIZE}[entry.reference]
+    assert law.reference_size == expected
+    assert entry.command_interfaces == ("effort",)

@@ -4,6 +4,7 @@ import logging
 
 import numpy as np
 import pytest
+from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 from task_robots import (
@@ -115,14 +116,7 @@ def test_plan_follows_a_line_with_slerp(iiwa, caplog):
         iiwa.set_state(plan.q[k])
         X = iiwa.pose()
         worst_position = max(worst_position, np.linalg.norm(X.translation() - references[k, 4:7]))
-        R_d = RigidTransform(
-            RotationMatrix(
-                __import__("pydrake.common.eigen_geometry").common.eigen_geometry.Quaternion(
-                    references[k, :4]
-                )
-            ),
-            references[k, 4:7],
-        ).rotation()
+        R_d = RotationMatrix(Quaternion(references[k, :4]))
         worst_rotation = max(worst_rotation, np.linalg.norm(orientation_error(R_d, X.rotation())))
     assert worst_position < 1e-4 and worst_rotation < 1e-3, (worst_position, worst_rotation)
     # a_d is the derivative of v_d (semi-implicit Euler), v_d that of q_d.
