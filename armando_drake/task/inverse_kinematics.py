@@ -184,7 +184,7 @@ def solve_ik(
     )
 
 
-@dataclass(frozen=True)
+@dataclass
 class ClikGains:
     """Gains of the second-order closed-loop IK that plans the joint reference."""
 
@@ -197,8 +197,9 @@ class ClikGains:
     max_damping: float = 0.05  # [m/rad] damping at a singular value of zero
     secondary_threshold: float = 0.5  # [-] the same for the orientation of arms with < 6
     secondary_damping: float = 0.5  # [-] joints (a secondary task), damped much earlier
-    singular_warning: float = 0.1  # [-] smallest / largest singular value of the task
-    # Jacobian below which a failure is blamed on a singularity or the workspace boundary
+    # [-] smallest / largest singular value of the task Jacobian below which a failure
+    # is blamed on a singularity or the workspace boundary
+    singular_warning: float = 0.1
 
 
 @dataclass(frozen=True)
