@@ -9,5 +9,6 @@
   poses, the joint reference along a path by closed-loop inverse kinematics;
 - :mod:`~armando_drake.task.control_laws`: joint-space and operational-space inverse
   dynamics with their parameter dataclasses;
-- :mod:`~armando_drake.task.controller`: the law as a discrete-update Drake system.
+- :mod:`~armando_drake.task.controller`: the law as a discrete-update Drake system;
+- :mod:`~armando_drake.task.motion`: a motion as a scenario file gives it (YAML).
 """
