@@ -104,7 +104,7 @@ class _TorqueLaw:
 
     def _good_reference(self, reference: np.ndarray, q: np.ndarray) -> np.ndarray:
         if np.isfinite(reference.sum()):  # a NaN or inf anywhere makes the sum non-finite
-            self._last_reference = reference
+            self._last_reference = reference.copy()
             return reference
         self.rejected_ticks += 1
         if not self._warned:
