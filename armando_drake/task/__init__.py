@@ -1,0 +1,14 @@
+"""Task-space motion and torque control (issue #14).
+
+- :mod:`~armando_drake.task.time_laws`: s(t) with s', s'' (trapezoidal, cubic, quintic);
+- :mod:`~armando_drake.task.paths`: linear and circular paths, held or slerped
+  orientation, their composition with a time law (the Cartesian reference);
+- :mod:`~armando_drake.task.arm`: the arm's kinematics and dynamics from the plant,
+  damped / weighted pseudo-inverses, prioritised tasks with a null-space term;
+- :mod:`~armando_drake.task.inverse_kinematics`: Drake's InverseKinematics for single
+  poses, the joint reference along a path by closed-loop inverse kinematics;
+- :mod:`~armando_drake.task.control_laws`: joint-space and operational-space inverse
+  dynamics with their parameter dataclasses;
+- :mod:`~armando_drake.task.controller`: the law as a discrete-update Drake system;
+- :mod:`~armando_drake.task.motion`: a motion as a scenario file gives it (YAML).
+"""

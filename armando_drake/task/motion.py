@@ -1,0 +1,102 @@
+"""A task-space motion as a scenario file describes it, and the trajectory it makes.
+
+:class:`TaskSpaceMotion` is loaded with ``yaml_load_typed`` (unknown keys are
+errors); :func:`make_cartesian_trajectory` turns it and the end effector's start
+pose into a :class:`~armando_drake.task.paths.CartesianTrajectory`.
+"""
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.common.eigen_geometry import AngleAxis
+from pydrake.math import RigidTransform, RotationMatrix
+
+from armando_drake.task.paths import (
+    CartesianTrajectory,
+    CircularPath,
+    LinearPath,
+    OrientationPath,
+    PathError,
+)
+from armando_drake.task.time_laws import (
+    CubicTimeLaw,
+    QuinticTimeLaw,
+    TimeLaw,
+    TrapezoidalTimeLaw,
+)
+
+PATHS = ("linear", "circular")
+TIME_LAWS = ("trapezoidal", "cubic", "quintic")
+
+
+@dataclass
+class TaskSpaceMotion:
+    """One end-effector motion from the current pose, in the robot's base frame."""
+
+    path: str = "linear"  # linear | circular
+    # [m] linear: the goal position; empty: start + offset
+    goal: list[float] = field(default_factory=list)
+    # [m] linear: goal - start, used when goal is empty
+    offset: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    radius: float = 0.05  # [m] circular: the radius
+    normal: list[float] = field(default_factory=lambda: [1.0, 0.0, 0.0])  # circular: the
+    # plane's normal (default: the y-z plane through the start, as the course's seed)
+    center_direction: list[float] = field(default_factory=lambda: [0.0, 0.0, -1.0])  # [-]
+    # circular: from the start towards the centre (projected into the plane)
+    angle: float = 2.0 * math.pi  # [rad] circular: the arc turned about the normal
+    # [rad] rotation vector (base frame) from the start orientation to the goal's,
+    # slerped along the path; zero holds the orientation (arms with < 6 joints: zero)
+    rotation: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    time_law: str = "trapezoidal"  # trapezoidal | cubic | quintic
+    duration: float = 3.0  # [s] the motion's duration T
+    acceleration_time: float = 0.6  # [s] trapezoidal: t_c, 0 < t_c <= T/2
+
+
+def make_time_law(motion: TaskSpaceMotion) -> TimeLaw:
+    """The time law the motion names."""
+    if motion.time_law == "trapezoidal":
+        return TrapezoidalTimeLaw(
+            duration=motion.duration, acceleration_time=motion.acceleration_time
+        )
+    if motion.time_law == "cubic":
+        return CubicTimeLaw(duration=motion.duration)
+    if motion.time_law == "quintic":
+        return QuinticTimeLaw(duration=motion.duration)
+    raise PathError(f"time_law={motion.time_law!r} must be one of {', '.join(TIME_LAWS)}")
+
+
+def make_cartesian_trajectory(motion: TaskSpaceMotion, X_start: RigidTransform):
+    """The motion from ``X_start`` (X_BE now) as a CartesianTrajectory."""
+    start = X_start.translation()
+    if motion.path == "linear":
+        if motion.goal:
+            goal = motion.goal
+        else:
+            if len(motion.offset) != 3:
+                raise PathError(f"offset={motion.offset!r} must be three numbers")
+            goal = start + np.asarray(motion.offset, dtype=float)
+        path = LinearPath(start=start, goal=goal)
+    elif motion.path == "circular":
+        path = CircularPath(
+            start=start,
+            radius=motion.radius,
+            normal=motion.normal,
+            center_direction=motion.center_direction,
+            angle=motion.angle,
+        )
+    else:
+        raise PathError(f"path={motion.path!r} must be one of {', '.join(PATHS)}")
+    rotation = np.asarray(motion.rotation, dtype=float)
+    if rotation.shape != (3,) or not np.all(np.isfinite(rotation)):
+        raise PathError(f"rotation={motion.rotation!r} must be three finite numbers [rad]")
+    goal_rotation = None
+    angle = float(np.linalg.norm(rotation))
+    if angle > 0.0:
+        turn = RotationMatrix(AngleAxis(angle, rotation / angle))
+        goal_rotation = turn.multiply(X_start.rotation())
+    return CartesianTrajectory(
+        time_law=make_time_law(motion),
+        path=path,
+        orientation=OrientationPath(start=X_start.rotation(), goal=goal_rotation),
+    )
