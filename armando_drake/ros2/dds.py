@@ -19,8 +19,11 @@ configuration; a ROS 2 node reaches the world with the same XML in its
 
 from __future__ import annotations
 
+import contextlib
 import ipaddress
 import logging
+import os
+import socket
 import threading
 from collections.abc import Callable
 from typing import Any
@@ -114,6 +117,44 @@ def ros_topic_name(topic: str, namespace: str = "") -> str:
     return "/" + dds_topic_name(topic, namespace)[3:]
 
 
+def _socket_fds() -> set[int]:
+    """The file descriptors of this process that are sockets."""
+    fds = set()
+    for name in os.listdir("/proc/self/fd") if os.path.isdir("/proc/self/fd") else ():
+        with contextlib.suppress(OSError):
+            if os.readlink(f"/proc/self/fd/{name}").startswith("socket:"):
+                fds.add(int(name))
+    return fds
+
+
+def _confine_to_loopback(fds: set[int]) -> None:
+    """Binds Cyclone's receive sockets among ``fds`` to the loopback device.
+
+    Cyclone DDS binds its unicast receive sockets to every address (INADDR_ANY)
+    whatever the configured interface, though it advertises and sends on
+    127.0.0.1 only; ``SO_BINDTODEVICE lo`` makes them receive from the loopback
+    only (Linux; allowed without privileges on a socket not yet bound to a
+    device since Linux 5.7). Where that fails the log says so.
+    """
+    for fd in sorted(fds):
+        try:
+            sock = socket.socket(fileno=fd)
+        except OSError:
+            continue
+        try:
+            if sock.type == socket.SOCK_DGRAM and sock.getsockname()[0] in ("0.0.0.0", "::"):
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_BINDTODEVICE, b"lo")
+        except (OSError, AttributeError) as error:
+            _log.warning(
+                "DDS socket %s receives on every interface (cannot bind it to lo: %s); "
+                "the world still announces and sends on 127.0.0.1 only",
+                sock.getsockname(),
+                error,
+            )
+        finally:
+            sock.detach()
+
+
 # One Cyclone DDS domain per id and process, kept for the process's lifetime:
 # a domain's configuration is fixed when it is first created.
 _domains: dict[int, tuple[Domain, str]] = {}
@@ -128,8 +169,11 @@ def domain(domain_id: int, interface: str = "") -> Domain:
     with _domains_lock:
         existing = _domains.get(domain_id)
         if existing is None:
+            before = _socket_fds()
             existing = (Domain(domain_id, config), config)
             _domains[domain_id] = existing
+            if not interface:
+                _confine_to_loopback(_socket_fds() - before)
         elif existing[1] != config:
             raise Ros2Error(
                 f"ros2.network_interface={interface!r}: DDS domain {domain_id} already runs "

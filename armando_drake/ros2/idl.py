@@ -66,8 +66,8 @@ def idl_type(type_name: str) -> type[IdlStruct]:
 def _convert(field_text: str, value: Any) -> Any:
     base, bracket, _ = field_text.partition("[")
     if base in _PRIMITIVES:
-        if bracket and base in ("uint8", "char", "byte") and isinstance(value, (bytes, bytearray)):
-            return list(value)
+        if bracket and isinstance(value, (bytes, bytearray)):
+            return bytes(value)  # uint8[] as bytes: Cyclone serialises it in one copy
         return list(value) if bracket else value
     if bracket:
         return [to_idl(base, item) for item in value]
