@@ -225,7 +225,7 @@ def main(argv=None) -> int:
             time.sleep(0.005)
         error = max(abs(q - t) for q, t in zip(positions(), SEED_TARGETS[min(k, 4)], strict=True))
         label = "bad command: holding target 4" if len(target) != 4 else f"target {k}"
-        print(f"{label} {SEED_TARGETS[min(k, 4)]} reached: max error {error:.6f} rad", flush=True)
+        print(f"{label} {SEED_TARGETS[min(k, 4)]} reached: max error {error:.3e} rad", flush=True)
     del joint_states_reader, clock_reader, writer, participant, domain
     return 0
 

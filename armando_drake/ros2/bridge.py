@@ -56,6 +56,7 @@ from armando_drake.ros2.messages import (
     joint_state_message,
     joint_trajectory_of,
     message_definition,
+    resolve_topic,
     string_message,
     transform_stamped,
 )
@@ -133,7 +134,14 @@ class FoxgloveServer:
     every client that subscribes to them.
     """
 
-    def __init__(self, *, host: str = "127.0.0.1", port: int = 8765, name: str = "armando_drake"):
+    def __init__(
+        self,
+        *,
+        host: str = "127.0.0.1",
+        port: int = 8765,
+        namespace: str = "",
+        name: str = "armando_drake",
+    ):
         import foxglove
         from foxglove.websocket import Capability
 
@@ -144,6 +152,7 @@ class FoxgloveServer:
         self._channels: dict[str, Any] = {}
         self._encoders: dict[str, Callable[[dict], bytes]] = {}
         self._latched: dict[str, tuple[bytes, int]] = {}
+        self._namespace = namespace
         self._server = foxglove.start_server(
             name=name,
             host=host,
@@ -170,7 +179,7 @@ class FoxgloveServer:
         definition = message_definition(type_name)
         self._encoders[topic] = serialize_dynamic(type_name, definition)[type_name]
         self._channels[topic] = self._foxglove.Channel(
-            topic,
+            resolve_topic(topic, self._namespace),
             message_encoding="cdr",
             schema=self._foxglove.Schema(
                 name=type_name, encoding="ros2msg", data=definition.encode()
@@ -192,9 +201,9 @@ class FoxgloveServer:
         self._server.broadcast_time(max(0, round(stamp * 1e9)))
 
     def on_subscribe(self, client, channel) -> None:  # ServerListener, on the server's thread
-        data, log_time = self._latched.get(channel.topic, (b"", 0))
-        if data:
-            self._channels[channel.topic].log(data, log_time=log_time)
+        for topic, (data, log_time) in list(self._latched.items()):
+            if data and resolve_topic(topic, self._namespace) == channel.topic:
+                self._channels[topic].log(data, log_time=log_time)
 
     def close(self) -> None:
         if self._server is not None:
@@ -326,6 +335,11 @@ class Ros2Bridge(LeafSystem):
                     lambda message, k=k, convert=convert: self._Receive(k, convert(message)),
                 )
             self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._Deliver)
+
+    @property
+    def sinks(self) -> list[Any]:
+        """Where the topics go: the DDS node and/or the Foxglove server."""
+        return list(self._sinks)
 
     @property
     def commands(self) -> tuple[CommandTopic, ...]:
@@ -464,7 +478,9 @@ def AddRos2Bridge(builder, world, config) -> Ros2Bridge | None:
         _log.info("%s", reachability(config.domain_id, config.network_interface))
     if config.foxglove:
         try:
-            server = FoxgloveServer(host=config.foxglove_host, port=config.foxglove_port)
+            server = FoxgloveServer(
+                host=config.foxglove_host, port=config.foxglove_port, namespace=config.namespace
+            )
         except Exception as error:  # a bad port, or one in use
             raise ScenarioError(
                 f"ros2.foxglove_port={config.foxglove_port!r} on {config.foxglove_host}: "

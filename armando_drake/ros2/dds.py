@@ -36,6 +36,7 @@ from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 from armando_drake.ros2.idl import idl_type, to_dict, to_idl
+from armando_drake.ros2.messages import resolve_topic
 
 _log = logging.getLogger("armando_drake.ros2")
 
@@ -107,14 +108,7 @@ def reachability(domain_id: int, interface: str = "") -> str:
 
 def dds_topic_name(topic: str, namespace: str = "") -> str:
     """``rt/...`` of a ROS 2 topic: absolute names as they are, relative ones in ``namespace``."""
-    if not topic.startswith("/"):
-        topic = "/".join(part for part in (namespace.strip("/"), topic) if part)
-    return "rt/" + topic.strip("/")
-
-
-def ros_topic_name(topic: str, namespace: str = "") -> str:
-    """The ROS 2 name of a topic (``/ns/name``), as :func:`dds_topic_name` resolves it."""
-    return "/" + dds_topic_name(topic, namespace)[3:]
+    return "rt" + resolve_topic(topic, namespace)
 
 
 def _socket_fds() -> set[int]:
@@ -205,7 +199,7 @@ class DdsNode:
 
     def resolve(self, topic: str) -> str:
         """The ROS 2 name of ``topic`` in this node's namespace."""
-        return ros_topic_name(topic, self.namespace)
+        return resolve_topic(topic, self.namespace)
 
     def _topic(self, topic: str, type_name: str) -> Topic:
         name = dds_topic_name(topic, self.namespace)
@@ -237,20 +231,24 @@ class DdsNode:
         callback: Callable[[dict[str, Any]], None],
         qos: str = "default",
     ) -> DataReader:
-        def on_data_available(reader):
-            for sample in reader.take(N=64):
-                if getattr(sample, "sample_info", None) is None or sample.sample_info.valid_data:
-                    try:
-                        callback(to_dict(type_name, sample))
-                    except Exception:  # a listener must not die; the log says why
-                        _log.exception("could not handle a message on %s", topic)
+        reader = DataReader(self._participant, self._topic(topic, type_name), qos=QOS[qos])
 
-        reader = DataReader(
-            self._participant,
-            self._topic(topic, type_name),
-            qos=QOS[qos],
-            listener=Listener(on_data_available=on_data_available),
-        )
+        def drain(_entity=None):
+            # Cyclone's receive thread; the listener's own argument can be None while the
+            # reader is being registered, so the reader is taken from here.
+            for sample in reader.take(N=64):
+                info = getattr(sample, "sample_info", None)
+                if info is not None and not info.valid_data:
+                    continue
+                try:
+                    callback(to_dict(type_name, sample))
+                except Exception:  # a listener must not die; the log says why
+                    _log.exception("could not handle a message on %s", topic)
+
+        # The listener is attached once the reader exists; what arrived before (a latched
+        # topic's history) is taken right after.
+        reader.set_listener(Listener(on_data_available=drain))
+        drain()
         self._readers.append(reader)
         return reader
 

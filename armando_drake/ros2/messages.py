@@ -116,6 +116,14 @@ def dds_type_name(type_name: str) -> str:
     return f"{package}::msg::dds_::{name}_"
 
 
+def resolve_topic(topic: str, namespace: str = "") -> str:
+    """The full ROS 2 name of a topic: absolute names (``/tf``) as they are, relative ones
+    (``joint_states``) in ``namespace``."""
+    if not topic.startswith("/"):
+        topic = "/".join(part for part in (namespace.strip("/"), topic) if part)
+    return "/" + topic.strip("/")
+
+
 def ros_time(seconds: float) -> dict[str, int]:
     """builtin_interfaces/Time (or Duration) of a time in seconds."""
     sec, nanosec = divmod(round(seconds * 1e9), 1_000_000_000)
