@@ -87,7 +87,7 @@ def cyclonedds_config(interface: str = "") -> str:
         )
     return (
         "<CycloneDDS><Domain Id='any'><General><Interfaces>"
-        "<NetworkInterface address='127.0.0.1'/></Interfaces>"
+        "<NetworkInterface address='127.0.0.1' multicast='false'/></Interfaces>"
         "<AllowMulticast>false</AllowMulticast></General>"
         "<Discovery><ParticipantIndex>auto</ParticipantIndex>"
         f"<MaxAutoParticipantIndex>{MAX_PARTICIPANTS}</MaxAutoParticipantIndex>"

@@ -8,8 +8,8 @@ import time
 
 import numpy as np
 import pytest
-from conftest import EXAMPLE, python, subprocess_env
 from pydrake.systems.analysis import Simulator
+from ros2_support import EXAMPLE, new_domain_id, python, subprocess_env
 
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import load_scenario
@@ -30,9 +30,10 @@ def _world(scenario: str, domain_id: int, extra: str = ""):
     return MakeWorld(load_scenario(scenario, overrides + extra), quiet=True)
 
 
-def test_example_node_in_another_process_drives_the_arm(domain_id):
+def test_example_node_in_another_process_drives_the_arm():
     """The course's node, a plain DDS participant in its own process: it gets /joint_states
     at the broadcaster's rate, its targets are reached, its bad command is rejected."""
+    domain_id = new_domain_id()
     world = _world("ros2", domain_id)
     simulator = Simulator(world.diagram)
     simulator.set_target_realtime_rate(1.0)  # the rate is counted in wall time
@@ -101,10 +102,11 @@ def _chain(transforms: dict, child: str):
     return child, X, depth
 
 
-def test_tf_clock_and_joint_states_equal_the_plant(domain_id):
+def test_tf_clock_and_joint_states_equal_the_plant():
     """Mid-motion, /tf composed from the world to the last link equals the plant's forward
     kinematics, /clock and the stamps equal the simulation time, /joint_states the plant's
     joints, and a late subscriber still gets /robot_description and /tf_static."""
+    domain_id = new_domain_id()
     from armando_drake.ros2.dds import DdsNode
 
     world = _world("position", domain_id)  # the sequencer moves the arm
@@ -186,8 +188,9 @@ def test_tf_clock_and_joint_states_equal_the_plant(domain_id):
     print(f"tf error of {deepest}: {errors[deepest]:.2e}", file=sys.stderr)
 
 
-def test_trajectory_over_dds_is_validated_as_in_process(domain_id):
+def test_trajectory_over_dds_is_validated_as_in_process():
     """A JointTrajectory from DDS: a bad one rejected with upstream's reason, a good one run."""
+    domain_id = new_domain_id()
     from armando_drake.control.messages import JointTrajectory, JointTrajectoryPoint
     from armando_drake.ros2.dds import DdsNode
     from armando_drake.ros2.messages import joint_trajectory_message

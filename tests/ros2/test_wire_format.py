@@ -13,8 +13,8 @@ import time
 
 import numpy as np
 import pytest
-from conftest import python, subprocess_env
 from pydrake.math import RigidTransform, RollPitchYaw
+from ros2_support import new_domain_id, python, subprocess_env
 
 from armando_drake.control.messages import (
     Float64MultiArray,
@@ -127,7 +127,8 @@ def _rosbags_field(typestore, detail, value):
     return [_rosbags_field(typestore, element, item) for item in value]
 
 
-def test_payloads_on_the_wire_equal_rosbags_cdr(domain_id):
+def test_payloads_on_the_wire_equal_rosbags_cdr():
+    domain_id = new_domain_id()
     from armando_drake.ros2.dds import DdsNode
 
     topics = {topic: type_name for topic, (type_name, _) in SAMPLES.items()}

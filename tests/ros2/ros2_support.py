@@ -1,4 +1,4 @@
-"""Shared pieces of the live ROS 2 tests: a DDS domain of their own, worlds on it."""
+"""Shared pieces of the live ROS 2 tests: a DDS domain of their own, subprocesses."""
 
 import os
 import random
@@ -6,17 +6,13 @@ import sys
 import time
 from pathlib import Path
 
-import pytest
-
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLE = REPO / "examples" / "arm_controller_node.py"
 _used: set[int] = set()
 
 
-@pytest.fixture
-def domain_id() -> int:
+def new_domain_id() -> int:
     """A DDS domain id no other test of this run (nor, likely, of another run) uses."""
-    pytest.importorskip("cyclonedds")
     rng = random.Random(os.getpid() * 1_000_003 + time.monotonic_ns())
     while True:
         candidate = rng.randint(100, 230)
