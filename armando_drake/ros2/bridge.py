@@ -41,6 +41,7 @@ import math
 import queue
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -140,6 +141,7 @@ class FoxgloveServer:
         host: str = "127.0.0.1",
         port: int = 8765,
         namespace: str = "",
+        packages: dict[str, Any] | None = None,
         name: str = "armando_drake",
     ):
         import foxglove
@@ -153,12 +155,14 @@ class FoxgloveServer:
         self._encoders: dict[str, Callable[[dict], bytes]] = {}
         self._latched: dict[str, tuple[bytes, int]] = {}
         self._namespace = namespace
+        self._packages = {name: Path(path).resolve() for name, path in (packages or {}).items()}
         self._server = foxglove.start_server(
             name=name,
             host=host,
             port=port,
             capabilities=[Capability.Time],
             server_listener=self,
+            asset_handler=self._asset,
             context=self._context,
         )
         self.host = host
@@ -196,6 +200,20 @@ class FoxgloveServer:
         if topic in self._latched:
             self._latched[topic] = (data, log_time)
         self._channels[topic].log(data, log_time=log_time)
+
+    def _asset(self, uri: str) -> bytes | None:
+        """A ``package://pkg/file`` of the robot's packages (the URDF's meshes), for
+        Foxglove's 3-D panel; anything else, or outside the packages, is refused (None)."""
+        if not uri.startswith("package://"):
+            return None
+        package, _, relative = uri[len("package://") :].partition("/")
+        root = self._packages.get(package)
+        if root is None:
+            return None
+        path = (root / relative).resolve()
+        if not path.is_relative_to(root) or not path.is_file():
+            return None
+        return path.read_bytes()
 
     def set_time(self, stamp: float) -> None:
         self._server.broadcast_time(max(0, round(stamp * 1e9)))
@@ -479,7 +497,10 @@ def AddRos2Bridge(builder, world, config) -> Ros2Bridge | None:
     if config.foxglove:
         try:
             server = FoxgloveServer(
-                host=config.foxglove_host, port=config.foxglove_port, namespace=config.namespace
+                host=config.foxglove_host,
+                port=config.foxglove_port,
+                namespace=config.namespace,
+                packages=world.robot.packages.packages,
             )
         except Exception as error:  # a bad port, or one in use
             raise ScenarioError(

@@ -9,10 +9,16 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 
+from armando_drake import MODELS_DIR
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import load_scenario
 
 pytest.importorskip("foxglove")
+ASSETS = (
+    "package://armando_description/package.xml",
+    "package://armando_description/../../../../etc/hostname",
+    "file:///etc/hostname",
+)
 websockets_client = pytest.importorskip("websockets.sync.client")
 rosbags_typesys = pytest.importorskip("rosbags.typesys")
 
@@ -32,6 +38,7 @@ def test_websocket_client_receives_decoded_joint_states():
 
     channels: dict[str, dict] = {}
     received: list[tuple[int, bytes]] = []  # (log time [ns], CDR payload)
+    assets: dict[str, tuple[int, bytes]] = {}  # uri -> (status, data)
     connected = threading.Event()
 
     def client():
@@ -59,6 +66,16 @@ def test_websocket_client_receives_decoded_joint_states():
                     subscription, log_time = struct.unpack_from("<IQ", frame, 1)
                     assert subscription == 7
                     received.append((log_time, bytes(frame[13:])))
+            # The URDF's package:// files (meshes) for the 3-D panel, nothing outside them.
+            for request, uri in enumerate(ASSETS, start=1):
+                socket.send(json.dumps({"op": "fetchAsset", "uri": uri, "requestId": request}))
+                while True:
+                    frame = socket.recv(timeout=5)
+                    if isinstance(frame, bytes) and frame[0] == 0x04:  # fetch asset response
+                        request_id, status, length = struct.unpack_from("<IBI", frame, 1)
+                        assert request_id == request
+                        assets[uri] = (status, bytes(frame[10 + length :]))
+                        break
 
     thread = threading.Thread(target=client, daemon=True)
     thread.start()
@@ -85,3 +102,7 @@ def test_websocket_client_receives_decoded_joint_states():
         stamps.append(stamp)
     # One message per tick of the broadcaster (100 Hz), in order.
     assert np.allclose(np.diff(stamps), 1e9 / world.update_rate, atol=1e3)
+    package = MODELS_DIR / "armando_description"
+    assert assets[ASSETS[0]] == (0, (package / "package.xml").read_bytes())
+    assert assets[ASSETS[1]][0] == 1  # refused: outside the package
+    assert assets[ASSETS[2]][0] == 1  # refused: not a package:// URI
