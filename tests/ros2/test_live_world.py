@@ -262,3 +262,48 @@ def test_without_ros2_the_world_imports_no_dds_and_no_foxglove():
     )
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == "[]"
+
+
+def test_camera_topics_carry_the_rendered_frames():
+    """With the camera on: /camera/image_raw (best effort, rgb8) holds the frame Drake
+    rendered, /camera/camera_info its intrinsics, both stamped at the frame's time."""
+    from armando_drake.ros2.dds import DdsNode
+
+    domain_id = new_domain_id()
+    world = _world("camera", domain_id, "camera: {live_view: false, depth: false}")
+    (name,) = world.cameras
+    received = {"camera/image_raw": [], "camera/camera_info": []}
+    listener = DdsNode(domain_id=domain_id)
+    listener.subscribe(
+        "camera/image_raw",
+        "sensor_msgs/msg/Image",
+        received["camera/image_raw"].append,
+        "sensor_data",
+    )
+    listener.subscribe(
+        "camera/camera_info", "sensor_msgs/msg/CameraInfo", received["camera/camera_info"].append
+    )
+    simulator = Simulator(world.diagram)
+    simulator.Initialize()
+    time.sleep(1.0)  # discovery
+    simulator.AdvanceTo(0.1)
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and not all(len(v) >= 3 for v in received.values()):
+        time.sleep(0.02)
+    context = simulator.get_context()
+    rendered = world.diagram.GetOutputPort(f"{name}.color_image").Eval(context)
+    intrinsics = world.cameras[name].sensor.default_color_render_camera().core().intrinsics()
+    world.close(context)
+    listener.close()
+
+    image, info = received["camera/image_raw"][-1], received["camera/camera_info"][-1]
+    assert (image["width"], image["height"]) == (rendered.width(), rendered.height())
+    assert image["encoding"] == "rgb8" and image["step"] == 3 * image["width"]
+    assert image["header"]["stamp"] == info["header"]["stamp"]
+    pixels = np.frombuffer(bytes(image["data"]), np.uint8).reshape(image["height"], -1, 3)
+    # The last frame published is the one rendered at its stamp (the camera holds its
+    # image between frames), so it equals what the port holds now.
+    assert np.array_equal(pixels, rendered.data[:, :, :3])
+    assert pixels.std() > 1.0  # a scene, not a blank frame
+    assert info["k"][0] == pytest.approx(intrinsics.focal_x())
+    assert info["k"][2] == pytest.approx(intrinsics.center_x())
