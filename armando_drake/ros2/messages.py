@@ -17,6 +17,7 @@ imports neither Cyclone DDS nor Foxglove.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -80,12 +81,13 @@ def short_name(type_name: str) -> str:
     return f"{package}/{name}" if name else type_name
 
 
-def fields(type_name: str) -> list[tuple[str, str]]:
+@functools.cache
+def fields(type_name: str) -> tuple[tuple[str, str], ...]:
     """The (type, name) pairs of a message, in order; type as in the ``.msg`` file."""
     root = short_name(type_name)
     if root not in DEFINITIONS:
         raise KeyError(f"{type_name!r} is not one of the ROS 2 messages of {__name__}")
-    return [tuple(line.split()[:2]) for line in DEFINITIONS[root].splitlines()]
+    return tuple(tuple(line.split()[:2]) for line in DEFINITIONS[root].splitlines())
 
 
 def message_definition(type_name: str) -> str:
