@@ -277,9 +277,10 @@ class Ros2Bridge(LeafSystem):
         clock_rate: float = 0.0,
     ):
         super().__init__()
-        for name, rate in (("update_rate", update_rate), ("clock_rate", clock_rate)):
-            if not (math.isfinite(rate) and rate >= 0) or (name == "update_rate" and rate == 0):
-                raise ValueError(f"{name}={rate!r} must be positive [Hz]")
+        if not (math.isfinite(update_rate) and update_rate > 0):
+            raise ValueError(f"update_rate={update_rate!r} must be positive [Hz]")
+        if not (math.isfinite(clock_rate) and clock_rate >= 0):
+            raise ValueError(f"ros2.clock_rate={clock_rate!r} must be positive, or 0 [Hz]")
         if commands and subscriber is None:
             raise ValueError("commands need a subscriber")
         self._sinks = list(sinks)

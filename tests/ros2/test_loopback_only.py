@@ -93,7 +93,7 @@ def test_world_sends_and_listens_on_the_loopback_only(tmp_path):
     assert len(sends) > 10, "strace saw no traffic: the test would prove nothing"
     multicast: dict[tuple[str, str], dict[str, str]] = {}  # (thread, fd) -> options set
     for call in calls:
-        option = re.match(r"(\d+) setsockopt\((\d+), SOL_IP, (IP_MULTICAST_\w+), (\S+),", call)
+        option = re.match(r"(\d+)\s+setsockopt\((\d+), SOL_IP, (IP_MULTICAST_\w+), (\S+),", call)
         if option:
             thread, fd, name, value = option.groups()
             multicast.setdefault((thread, fd), {})[name] = value
@@ -106,7 +106,9 @@ def test_world_sends_and_listens_on_the_loopback_only(tmp_path):
             if _loopback(address):
                 continue
             assert ipaddress.ip_address(address).is_multicast, call
-            thread, fd = re.match(r"(\d+) \w+\((\d+),", call).groups()
+            where = re.match(r"(\d+)\s+\w+\((\d+),", call)
+            assert where, call
+            thread, fd = where.groups()
             options = multicast.get((thread, fd), {})
             loopback_if = str(int.from_bytes(bytes([127, 0, 0, 1]), "little"))
             assert options.get("IP_MULTICAST_IF") == f"[{loopback_if}]", (call, options)
