@@ -124,6 +124,22 @@ def _parser() -> argparse.ArgumentParser:
         metavar="FILE.mcap",
         help="record the run's topics as a ROS 2 bag (MCAP) for ros2 bag and Foxglove",
     )
+    # ros2: live DDS / Foxglove (#21)
+    parser.add_argument(
+        "--ros2",
+        action="store_true",
+        help="put the running world on DDS as a ROS 2 robot (loopback only unless the "
+        "scenario's ros2.network_interface names one); paced at real time unless "
+        "--realtime-rate is given",
+    )
+    parser.add_argument(
+        "--foxglove",
+        nargs="?",
+        type=int,
+        const=8765,
+        metavar="PORT",
+        help="serve the same topics to Foxglove over WebSocket on 127.0.0.1:PORT (default 8765)",
+    )
     parser.add_argument(
         "--quiet", action="store_true", help="print only errors and the final table"
     )
@@ -185,6 +201,12 @@ def main(argv: list[str] | None = None) -> int:
             if args.realtime_rate < 0:
                 raise UserError(f"--realtime-rate {args.realtime_rate} must not be negative")
             scenario.simulation.realtime_rate = args.realtime_rate
+        if args.ros2 or args.foxglove is not None:  # ros2: live DDS / Foxglove (#21)
+            scenario.ros2.enabled = scenario.ros2.enabled or args.ros2
+            if args.foxglove is not None:
+                scenario.ros2.foxglove, scenario.ros2.foxglove_port = True, args.foxglove
+            if args.realtime_rate is None:
+                scenario.simulation.realtime_rate = 1.0
         if args.controller is not None:
             _apply_controller(scenario, args.controller)
         if args.camera is not None:

@@ -24,8 +24,8 @@ broadcaster, the command sequencer (the commands actually sent to the
 controller it drives) and the cameras.
 
 The file is written with ``mcap-ros2-support`` (the MCAP project's ROS 2
-writer). Its message definitions are those of ROS 2 Humble (and later; these
-messages have not changed).
+writer). Its message definitions are those of :mod:`armando_drake.ros2.messages`
+(ROS 2 Humble and later; these messages have not changed).
 """
 
 from __future__ import annotations
@@ -42,117 +42,19 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, LeafSystem
 from pydrake.systems.sensors import ImageRgba8U
 
-from armando_drake.control.messages import (
-    Float64MultiArray,
-    JointState,
-    JointTrajectory,
-    PublicationValue,
+from armando_drake.control.messages import JointState, PublicationValue
+from armando_drake.ros2.messages import (  # the message definitions, shared with the bridge
+    float64_multi_array_message,
+    header,
+    image_message,
+    joint_state_message,
+    joint_trajectory_message,
+    message_definition,
 )
 
 
 class RecordingError(ValueError):
     """A recording that cannot be written; the message names the path."""
-
-
-# The ROS 2 message definitions, without comments or constants, by type name.
-_DEFINITIONS = {
-    "builtin_interfaces/Time": "int32 sec\nuint32 nanosec\n",
-    "builtin_interfaces/Duration": "int32 sec\nuint32 nanosec\n",
-    "std_msgs/Header": "builtin_interfaces/Time stamp\nstring frame_id\n",
-    "std_msgs/MultiArrayDimension": "string label\nuint32 size\nuint32 stride\n",
-    "std_msgs/MultiArrayLayout": "std_msgs/MultiArrayDimension[] dim\nuint32 data_offset\n",
-    "std_msgs/Float64MultiArray": "std_msgs/MultiArrayLayout layout\nfloat64[] data\n",
-    "sensor_msgs/JointState": (
-        "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\n"
-        "float64[] effort\n"
-    ),
-    "trajectory_msgs/JointTrajectoryPoint": (
-        "float64[] positions\nfloat64[] velocities\nfloat64[] accelerations\n"
-        "float64[] effort\nbuiltin_interfaces/Duration time_from_start\n"
-    ),
-    "trajectory_msgs/JointTrajectory": (
-        "std_msgs/Header header\nstring[] joint_names\n"
-        "trajectory_msgs/JointTrajectoryPoint[] points\n"
-    ),
-    "sensor_msgs/Image": (
-        "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\n"
-        "uint8 is_bigendian\nuint32 step\nuint8[] data\n"
-    ),
-    "sensor_msgs/RegionOfInterest": (
-        "uint32 x_offset\nuint32 y_offset\nuint32 height\nuint32 width\nbool do_rectify\n"
-    ),
-    "sensor_msgs/CameraInfo": (
-        "std_msgs/Header header\nuint32 height\nuint32 width\nstring distortion_model\n"
-        "float64[] d\nfloat64[9] k\nfloat64[9] r\nfloat64[12] p\nuint32 binning_x\n"
-        "uint32 binning_y\nsensor_msgs/RegionOfInterest roi\n"
-    ),
-}
-_SEPARATOR = "=" * 80 + "\n"
-
-
-def message_definition(type_name: str) -> str:
-    """The ``ros2msg`` schema text of ``pkg/msg/Type``: the type, then each dependency once.
-
-    Dependencies follow in depth-first order of first use, each after a line
-    of 80 ``=`` and ``MSG: pkg/Type``, as ``ros2 bag record`` writes them.
-    """
-    package, _, name = type_name.partition("/msg/")
-    root = f"{package}/{name}"
-    order: list[str] = []
-
-    def visit(current: str) -> None:
-        for line in _DEFINITIONS[current].splitlines():
-            field_type = line.split()[0].split("[")[0]
-            if "/" in field_type and field_type not in order and field_type != root:
-                order.append(field_type)
-                visit(field_type)
-
-    visit(root)
-    return _DEFINITIONS[root] + "".join(
-        f"{_SEPARATOR}MSG: {dependency}\n{_DEFINITIONS[dependency]}" for dependency in order
-    )
-
-
-def ros_time(seconds: float) -> dict[str, int]:
-    """builtin_interfaces/Time (or Duration) of a time in seconds."""
-    sec, nanosec = divmod(round(seconds * 1e9), 1_000_000_000)
-    return {"sec": int(sec), "nanosec": int(nanosec)}
-
-
-def _header(stamp: float, frame_id: str = "") -> dict[str, Any]:
-    return {"stamp": ros_time(stamp), "frame_id": frame_id}
-
-
-def joint_state_message(message: JointState) -> dict[str, Any]:
-    """sensor_msgs/JointState of ours as the writer's dictionary."""
-    return {
-        "header": _header(message.stamp),
-        "name": list(message.name),
-        "position": list(message.position),
-        "velocity": list(message.velocity),
-        "effort": list(message.effort),
-    }
-
-
-def float64_multi_array_message(message: Float64MultiArray) -> dict[str, Any]:
-    return {"layout": {"dim": [], "data_offset": 0}, "data": [float(v) for v in message.data]}
-
-
-def joint_trajectory_message(message: JointTrajectory) -> dict[str, Any]:
-    return {
-        "header": _header(message.stamp),
-        "joint_names": list(message.joint_names),
-        "points": [
-            {
-                "positions": list(point.positions),
-                "velocities": list(point.velocities),
-                "accelerations": list(point.accelerations),
-                "effort": list(point.effort),
-                "time_from_start": ros_time(point.time_from_start),
-            }
-            for point in message.points
-        ],
-    }
 
 
 @dataclass(frozen=True)
@@ -173,7 +75,7 @@ class CameraStream:
     def camera_info(self, stamp: float) -> dict[str, Any]:
         """sensor_msgs/CameraInfo: a pinhole without distortion."""
         return {
-            "header": _header(stamp, self.frame_id),
+            "header": header(stamp, self.frame_id),
             "height": self.height,
             "width": self.width,
             "distortion_model": "plumb_bob",
@@ -365,15 +267,7 @@ class RosbagRecorder(LeafSystem):
         self._Write(
             f"{camera.topic}/image_raw",
             "sensor_msgs/msg/Image",
-            {
-                "header": _header(stamp, camera.frame_id),
-                "height": camera.height,
-                "width": camera.width,
-                "encoding": "rgb8",
-                "is_bigendian": 0,
-                "step": 3 * camera.width,
-                "data": rgb.tobytes(),
-            },
+            image_message(stamp, camera.frame_id, rgb),
             stamp,
         )
         self._Write(

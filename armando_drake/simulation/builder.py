@@ -335,6 +335,10 @@ def MakeWorld(
         from armando_drake.outputs.recording import AddRosbagRecorder
 
         AddRosbagRecorder(builder, world, record)
+    if scenario.ros2.enabled or scenario.ros2.foxglove:  # ros2: live DDS / Foxglove (#21)
+        from armando_drake.ros2.bridge import AddRos2Bridge  # imports DDS only when on
+
+        AddRos2Bridge(builder, world, scenario.ros2)
 
     if meshcat is not None and scenario.visualization.enable_meshcat_creation:
         ApplyVisualizationConfig(

@@ -17,6 +17,7 @@ from pydrake.visualization import VisualizationConfig
 
 from armando_drake import DIAGRAMS_DIR
 from armando_drake.control.sequencer import SequencerConfig
+from armando_drake.ros2.config import Ros2Config  # ros2: live DDS / Foxglove (#21)
 from armando_drake.sensors.objects import SceneObject
 
 
@@ -150,6 +151,8 @@ class Scenario:
     simulation: SimulationConfig = dc.field(default_factory=SimulationConfig)
     # Meshcat visualization (Drake's VisualizationConfig).
     visualization: VisualizationConfig = dc.field(default_factory=VisualizationConfig)
+    # The running world on DDS as a ROS 2 robot, and on Foxglove (#21).
+    ros2: Ros2Config = dc.field(default_factory=Ros2Config)
 
 
 def resolve_scenario_path(name: str | os.PathLike) -> Path:

@@ -1,0 +1,251 @@
+"""The ROS 2 messages the project speaks, in one place.
+
+``DEFINITIONS`` holds the ``.msg`` text of every ROS 2 message type that the
+MCAP recorder (:mod:`armando_drake.outputs.recording`), the DDS bridge and the
+Foxglove server (:mod:`armando_drake.ros2.bridge`) write or read, copied from
+the ROS 2 Jazzy ``.msg`` files without comments and constants (these types
+have not changed since Humble). Everything else is derived from it: the
+``ros2msg`` schemas of MCAP and Foxglove (:func:`message_definition`) and the
+DDS types of Cyclone DDS (:mod:`armando_drake.ros2.idl`).
+
+Messages cross this module as plain dictionaries, field by field as in the
+``.msg`` files (nested messages are dictionaries, arrays are lists, ``uint8[]``
+is ``bytes``); the functions below turn the project's message dataclasses
+(:mod:`armando_drake.control.messages`) into them and back. This module
+imports neither Cyclone DDS nor Foxglove.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from armando_drake.control.messages import (
+    Float64MultiArray,
+    JointState,
+    JointTrajectory,
+    JointTrajectoryPoint,
+)
+
+# The ROS 2 message definitions, without comments or constants, by type name (pkg/Type).
+DEFINITIONS = {
+    "builtin_interfaces/Time": "int32 sec\nuint32 nanosec\n",
+    "builtin_interfaces/Duration": "int32 sec\nuint32 nanosec\n",
+    "std_msgs/Header": "builtin_interfaces/Time stamp\nstring frame_id\n",
+    "std_msgs/String": "string data\n",
+    "std_msgs/MultiArrayDimension": "string label\nuint32 size\nuint32 stride\n",
+    "std_msgs/MultiArrayLayout": "std_msgs/MultiArrayDimension[] dim\nuint32 data_offset\n",
+    "std_msgs/Float64MultiArray": "std_msgs/MultiArrayLayout layout\nfloat64[] data\n",
+    "rosgraph_msgs/Clock": "builtin_interfaces/Time clock\n",
+    "sensor_msgs/JointState": (
+        "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\n"
+        "float64[] effort\n"
+    ),
+    "trajectory_msgs/JointTrajectoryPoint": (
+        "float64[] positions\nfloat64[] velocities\nfloat64[] accelerations\n"
+        "float64[] effort\nbuiltin_interfaces/Duration time_from_start\n"
+    ),
+    "trajectory_msgs/JointTrajectory": (
+        "std_msgs/Header header\nstring[] joint_names\n"
+        "trajectory_msgs/JointTrajectoryPoint[] points\n"
+    ),
+    "geometry_msgs/Vector3": "float64 x\nfloat64 y\nfloat64 z\n",
+    "geometry_msgs/Quaternion": "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n",
+    "geometry_msgs/Transform": (
+        "geometry_msgs/Vector3 translation\ngeometry_msgs/Quaternion rotation\n"
+    ),
+    "geometry_msgs/TransformStamped": (
+        "std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/Transform transform\n"
+    ),
+    "tf2_msgs/TFMessage": "geometry_msgs/TransformStamped[] transforms\n",
+    "sensor_msgs/Image": (
+        "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\n"
+        "uint8 is_bigendian\nuint32 step\nuint8[] data\n"
+    ),
+    "sensor_msgs/RegionOfInterest": (
+        "uint32 x_offset\nuint32 y_offset\nuint32 height\nuint32 width\nbool do_rectify\n"
+    ),
+    "sensor_msgs/CameraInfo": (
+        "std_msgs/Header header\nuint32 height\nuint32 width\nstring distortion_model\n"
+        "float64[] d\nfloat64[9] k\nfloat64[9] r\nfloat64[12] p\nuint32 binning_x\n"
+        "uint32 binning_y\nsensor_msgs/RegionOfInterest roi\n"
+    ),
+}
+_SEPARATOR = "=" * 80 + "\n"
+
+
+def short_name(type_name: str) -> str:
+    """``pkg/Type`` of ``pkg/msg/Type`` (or of ``pkg/Type``)."""
+    package, _, name = type_name.partition("/msg/")
+    return f"{package}/{name}" if name else type_name
+
+
+@functools.cache
+def fields(type_name: str) -> tuple[tuple[str, str], ...]:
+    """The (type, name) pairs of a message, in order; type as in the ``.msg`` file."""
+    root = short_name(type_name)
+    if root not in DEFINITIONS:
+        raise KeyError(f"{type_name!r} is not one of the ROS 2 messages of {__name__}")
+    return tuple(tuple(line.split()[:2]) for line in DEFINITIONS[root].splitlines())
+
+
+def message_definition(type_name: str) -> str:
+    """The ``ros2msg`` schema text of ``pkg/msg/Type``: the type, then each dependency once.
+
+    Dependencies follow in depth-first order of first use, each after a line
+    of 80 ``=`` and ``MSG: pkg/Type``, as ``ros2 bag record`` writes them.
+    """
+    root = short_name(type_name)
+    order: list[str] = []
+
+    def visit(current: str) -> None:
+        for field_type, _ in fields(current):
+            field_type = field_type.split("[")[0]
+            if "/" in field_type and field_type not in order and field_type != root:
+                order.append(field_type)
+                visit(field_type)
+
+    visit(root)
+    return DEFINITIONS[root] + "".join(
+        f"{_SEPARATOR}MSG: {dependency}\n{DEFINITIONS[dependency]}" for dependency in order
+    )
+
+
+def dds_type_name(type_name: str) -> str:
+    """The DDS type name ROS 2 gives ``pkg/msg/Type``: ``pkg::msg::dds_::Type_``."""
+    package, _, name = short_name(type_name).partition("/")
+    return f"{package}::msg::dds_::{name}_"
+
+
+def resolve_topic(topic: str, namespace: str = "") -> str:
+    """The full ROS 2 name of a topic: absolute names (``/tf``) as they are, relative ones
+    (``joint_states``) in ``namespace``."""
+    if not topic.startswith("/"):
+        topic = "/".join(part for part in (namespace.strip("/"), topic) if part)
+    return "/" + topic.strip("/")
+
+
+def ros_time(seconds: float) -> dict[str, int]:
+    """builtin_interfaces/Time (or Duration) of a time in seconds."""
+    sec, nanosec = divmod(round(seconds * 1e9), 1_000_000_000)
+    return {"sec": int(sec), "nanosec": int(nanosec)}
+
+
+def seconds(time: Any) -> float:
+    """Seconds of a builtin_interfaces/Time or Duration (a dictionary or a message)."""
+    if isinstance(time, Mapping):
+        return time["sec"] + time["nanosec"] * 1e-9
+    return time.sec + time.nanosec * 1e-9
+
+
+def header(stamp: float, frame_id: str = "") -> dict[str, Any]:
+    """std_msgs/Header at ``stamp`` [s]."""
+    return {"stamp": ros_time(stamp), "frame_id": frame_id}
+
+
+def joint_state_message(message: JointState) -> dict[str, Any]:
+    """sensor_msgs/JointState of ours."""
+    return {
+        "header": header(message.stamp),
+        "name": list(message.name),
+        "position": list(message.position),
+        "velocity": list(message.velocity),
+        "effort": list(message.effort),
+    }
+
+
+def float64_multi_array_message(message: Float64MultiArray) -> dict[str, Any]:
+    """std_msgs/Float64MultiArray of ours (no layout, as ``ros2 topic pub`` sends it)."""
+    return {"layout": {"dim": [], "data_offset": 0}, "data": [float(v) for v in message.data]}
+
+
+def joint_trajectory_message(message: JointTrajectory) -> dict[str, Any]:
+    """trajectory_msgs/JointTrajectory of ours."""
+    return {
+        "header": header(message.stamp),
+        "joint_names": list(message.joint_names),
+        "points": [
+            {
+                "positions": list(point.positions),
+                "velocities": list(point.velocities),
+                "accelerations": list(point.accelerations),
+                "effort": list(point.effort),
+                "time_from_start": ros_time(point.time_from_start),
+            }
+            for point in message.points
+        ],
+    }
+
+
+def _get(message: Any, name: str) -> Any:
+    return message[name] if isinstance(message, Mapping) else getattr(message, name)
+
+
+def _floats(values: Sequence[float]) -> tuple[float, ...]:
+    return tuple(float(v) for v in values)
+
+
+def float64_multi_array_of(message: Any) -> Float64MultiArray:
+    """Ours of a received std_msgs/Float64MultiArray (dictionary or DDS message)."""
+    return Float64MultiArray(data=_floats(_get(message, "data")))
+
+
+def joint_trajectory_of(message: Any) -> JointTrajectory:
+    """Ours of a received trajectory_msgs/JointTrajectory (dictionary or DDS message).
+
+    A zero header stamp stays 0 ("start when received"), as the controller reads it.
+    """
+    return JointTrajectory(
+        stamp=seconds(_get(_get(message, "header"), "stamp")),
+        joint_names=tuple(str(name) for name in _get(message, "joint_names")),
+        points=tuple(
+            JointTrajectoryPoint(
+                positions=_floats(_get(point, "positions")),
+                velocities=_floats(_get(point, "velocities")),
+                accelerations=_floats(_get(point, "accelerations")),
+                effort=_floats(_get(point, "effort")),
+                time_from_start=seconds(_get(point, "time_from_start")),
+            )
+            for point in _get(message, "points")
+        ),
+    )
+
+
+def clock_message(stamp: float) -> dict[str, Any]:
+    """rosgraph_msgs/Clock at ``stamp`` [s]."""
+    return {"clock": ros_time(stamp)}
+
+
+def string_message(text: str) -> dict[str, Any]:
+    """std_msgs/String."""
+    return {"data": text}
+
+
+def transform_stamped(stamp: float, parent: str, child: str, X_PC) -> dict[str, Any]:
+    """geometry_msgs/TransformStamped: the pose ``X_PC`` (a Drake RigidTransform) of
+    frame ``child`` in frame ``parent``."""
+    p = X_PC.translation()
+    q = X_PC.rotation().ToQuaternion()
+    return {
+        "header": header(stamp, parent),
+        "child_frame_id": child,
+        "transform": {
+            "translation": {"x": float(p[0]), "y": float(p[1]), "z": float(p[2])},
+            "rotation": {"x": q.x(), "y": q.y(), "z": q.z(), "w": q.w()},
+        },
+    }
+
+
+def image_message(stamp: float, frame_id: str, rgb) -> dict[str, Any]:
+    """sensor_msgs/Image (``rgb8``) of an height x width x 3 uint8 array."""
+    height, width = rgb.shape[:2]
+    return {
+        "header": header(stamp, frame_id),
+        "height": int(height),
+        "width": int(width),
+        "encoding": "rgb8",
+        "is_bigendian": 0,
+        "step": 3 * int(width),
+        "data": rgb.tobytes(),
+    }

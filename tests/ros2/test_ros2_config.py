@@ -1,0 +1,46 @@
+"""The ros2: section: bad values named, the printed configuration the one the README gives."""
+
+from pathlib import Path
+
+import pytest
+
+from armando_drake.simulation.builder import MakeWorld
+from armando_drake.simulation.scenario import ScenarioError, load_scenario
+
+pytest.importorskip("cyclonedds")
+README = Path(__file__).resolve().parents[2] / "README.md"
+
+
+def test_the_readme_gives_the_loopback_configuration_the_world_prints():
+    from armando_drake.ros2.dds import cyclonedds_config, reachability
+
+    xml = cyclonedds_config()
+    assert f'export CYCLONEDDS_URI="{xml}"' in README.read_text()
+    assert f'CYCLONEDDS_URI="{xml}"' in reachability(0)
+    assert "127.0.0.1" in xml and "<AllowMulticast>false</AllowMulticast>" in xml
+    assert "<NetworkInterface name='eth1'/>" in cyclonedds_config("eth1")
+
+
+@pytest.mark.parametrize(
+    "section, message",
+    [
+        ("{enabled: true, domain_id: 300}", "ros2.domain_id=300 must be an integer in [0, 232]"),
+        ("{enabled: true, domain_id: 201, namespace: arm}", "ros2.namespace='arm' must start"),
+        ("{foxglove: true, foxglove_port: 70000}", "ros2.foxglove_port=70000 on 127.0.0.1"),
+    ],
+)
+def test_bad_ros2_settings_are_named(section, message):
+    scenario = load_scenario("ros2", f"ros2: {section}\nlogging: {{console_rate: 0}}")
+    with pytest.raises(ScenarioError, match=message.replace("[", r"\[").replace("]", r"\]")):
+        MakeWorld(scenario, quiet=True)
+
+
+def test_topic_names_follow_the_ros2_dds_mapping():
+    from armando_drake.ros2.dds import dds_topic_name
+
+    assert dds_topic_name("joint_states") == "rt/joint_states"
+    assert dds_topic_name("joint_states", "/arm") == "rt/arm/joint_states"
+    assert dds_topic_name("position_controller/commands", "/arm/") == (
+        "rt/arm/position_controller/commands"
+    )
+    assert dds_topic_name("/tf", "/arm") == "rt/tf"
