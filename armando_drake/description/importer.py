@@ -526,49 +526,94 @@ def prepare_urdf(
 _logged_once: set[str] = set()
 
 
+def actuation(
+    root: ET.Element, hardware: list | None = None, joints: list | None = None
+) -> tuple[dict[str, list[str]], str, list[str]]:
+    """The actuated joints with their command interfaces, where that was read, and notes.
+
+    From the ``<ros2_control>`` blocks if the URDF has any (every joint with a
+    command interface, in block order; a joint in two blocks keeps the first),
+    else from ROS 1 top-level ``<transmission>`` blocks (their
+    ``hardware_interface/<Kind>JointInterface`` mapped to position, velocity or
+    effort), else every revolute, continuous and prismatic joint with
+    ``["position"]``. Joints with a ``<mimic>`` are never actuated: Drake
+    couples them to the joint they follow. The source is ``"ros2_control"``,
+    ``"transmission"`` or ``"non-fixed joints"``; the notes say what was
+    ignored (hardware plugins we do not run, mimic joints, transmissions on
+    fixed joints), one line each.
+    """
+    from armando_drake.description.loader import parse_joints, parse_transmissions
+    from armando_drake.description.ros2_control import parse_ros2_control
+
+    if hardware is None:
+        hardware = parse_ros2_control(root)
+    if joints is None:
+        joints = parse_joints(root)
+    kinds = {joint.get("name"): joint.get("type") for joint in root.findall("joint")}
+    mimics = {joint.name: joint.mimic for joint in joints if joint.mimic}
+    result: dict[str, list[str]] = {}
+    notes: list[str] = []
+
+    def add(name: str, interfaces: list[str], where: str) -> None:
+        if name in mimics:
+            notes.append(
+                f"{where}: joint {name!r} mimics {mimics[name]!r}: not actuated, Drake couples it"
+            )
+        elif name in result:
+            notes.append(f"{where}: joint {name!r} is already actuated: this entry is ignored")
+        else:
+            result[name] = interfaces
+
+    if hardware:
+        for block in hardware:
+            notes.append(
+                f"<ros2_control name={block.name!r}>: hardware plugin {block.plugin!r} is not "
+                "run: Drake simulates its joints"
+            )
+            for component in block.joints:
+                interfaces = [i.name for i in component.command_interfaces]
+                if interfaces:
+                    add(component.name, interfaces, f"<ros2_control name={block.name!r}>")
+        return result, "ros2_control", notes
+    transmissions = [t for t in parse_transmissions(root) if not t.ros2_control]
+    if transmissions:
+        for transmission in transmissions:
+            where = f"<transmission name={transmission.name!r}>"
+            for name, interfaces in transmission.joints.items():
+                if kinds.get(name) in (None, "fixed"):
+                    notes.append(f"{where} names joint {name!r}, which is not a moving joint: ignored")
+                    continue
+                add(name, interfaces or ["position"], where)
+        return result, "transmission", notes
+    for name, kind in kinds.items():
+        if kind in MOVING_JOINT_TYPES[:3]:
+            add(name, ["position"], "no <ros2_control> or <transmission>")
+    notes.append(
+        "no <ros2_control> or <transmission>: actuating every non-fixed joint: "
+        + ", ".join(result)
+    )
+    return result, "non-fixed joints", notes
+
+
 def actuated_joints(root: ET.Element) -> tuple[list[str], str]:
     """The joints taking position commands, and where that was read from.
 
     From ``<ros2_control>`` (joints with a ``position`` command interface) if
-    the URDF has one, else from top-level ``<transmission>`` blocks (ROS 1 and
-    ROS 2 style, their ``<joint name=..>``), else every non-fixed joint (logged
-    once). The source is ``"ros2_control"``, ``"transmission"`` or
-    ``"non-fixed joints"``.
+    the URDF has one, else from top-level ``<transmission>`` blocks (every
+    joint they name, whatever its hardware interface), else every non-fixed
+    joint. Mimic joints are left out. The source is ``"ros2_control"``,
+    ``"transmission"`` or ``"non-fixed joints"``; see :func:`actuation`.
     """
-    kinds = {joint.get("name"): joint.get("type") for joint in root.findall("joint")}
-    blocks = root.findall("ros2_control")
-    if blocks:
-        names = [
-            joint.get("name")
-            for block in blocks
-            for joint in block.findall("joint")
-            if any(i.get("name") == "position" for i in joint.findall("command_interface"))
-        ]
-        return list(dict.fromkeys(names)), "ros2_control"
-    transmissions = root.findall("transmission")
-    if transmissions:
-        names = []
-        for transmission in transmissions:
-            for joint in transmission.findall("joint"):
-                name = joint.get("name")
-                if kinds.get(name) in (None, "fixed"):
-                    LOGGER.warning(
-                        "<transmission name=%r> names joint %r, which is not a moving joint: "
-                        "ignored",
-                        transmission.get("name"),
-                        name,
-                    )
-                elif name not in names:
-                    names.append(name)
-        return names, "transmission"
-    names = [name for name, kind in kinds.items() if kind in MOVING_JOINT_TYPES[:3]]
-    message = "no <ros2_control> or <transmission>: actuating every non-fixed joint: " + ", ".join(
-        names
-    )
-    if message not in _logged_once:
-        _logged_once.add(message)
-        LOGGER.info("%s", message)
-    return names, "non-fixed joints"
+    interfaces, source, notes = actuation(root)
+    for note in notes:
+        if note not in _logged_once:
+            _logged_once.add(note)
+            LOGGER.info("%s", note)
+    if source == "ros2_control":
+        names = [name for name, kinds in interfaces.items() if "position" in kinds]
+    else:
+        names = list(interfaces)
+    return names, source
 
 
 def default_controller_config(joints: list[str], *, update_rate: int = 100) -> dict:
