@@ -272,9 +272,27 @@ class _Preparation:
                     self.files[mesh] = self.check_mesh(link, mesh)
 
     def rewrite_meshes(self) -> None:
-        for link in self.links.values():
+        overridden = []
+        for name, link in self.links.items():
             for mesh in self.mesh_elements(link, "visual") + self.mesh_elements(link, "collision"):
-                mesh.set("filename", f"file://{self.converted(self.files[mesh]).path}")
+                path = self.converted(self.files[mesh]).path
+                mesh.set("filename", f"file://{path}")
+            for visual in link.findall("visual"):
+                mesh = visual.find("geometry/mesh")
+                material = visual.find("material")
+                if mesh is None or material is None:
+                    continue
+                if self.files[mesh].suffix.lower() == ".dae":
+                    # The Collada file's own materials are shown (as RViz does); Drake
+                    # would otherwise warn that the URDF colour is ignored.
+                    visual.remove(material)
+                    overridden.append(name)
+        if overridden:
+            LOGGER.info(
+                "%s: Collada visuals of %s show their own materials, not the URDF <material>",
+                self.source,
+                ", ".join(dict.fromkeys(overridden)),
+            )
 
     def resolve_collision_mode(self, collision: str) -> str:
         if collision not in COLLISION_MODES:
@@ -387,6 +405,25 @@ class _Preparation:
             else:
                 self.check_inertia(name, link)
 
+    def fix_negative_masses(self) -> None:
+        """A negative mass is taken as no mass (Drake refuses it), with a warning."""
+        for name, link in self.links.items():
+            mass = link.find("inertial/mass")
+            try:
+                value = float(mass.get("value")) if mass is not None else 0.0
+            except (TypeError, ValueError):
+                raise DescriptionError(
+                    f"{self.where(mass)}: link {name!r}: mass value={mass.get('value')!r} is "
+                    "not a number"
+                ) from None
+            if value < 0 or not math.isfinite(value):
+                inertial = link.find("inertial")
+                link.remove(inertial)
+                self.warn(
+                    f"{self.where(mass)}: link {name!r}: mass {value:g} kg is not physically "
+                    "meaningful: taken as massless (its <inertial> is dropped)"
+                )
+
     def declared_mass(self, link: ET.Element) -> float:
         mass = link.find("inertial/mass")
         try:
@@ -497,6 +534,7 @@ def prepare_urdf(
     *,
     collision: str = "auto",
     source: str | os.PathLike = "",
+    edit=None,
 ) -> PreparedUrdf:
     """Rewrites an expanded URDF so that Drake loads and simulates it.
 
@@ -505,11 +543,18 @@ def prepare_urdf(
     folder). ``collision`` is one of :data:`COLLISION_MODES`. See the module
     docstring for what is changed; every change is logged on
     ``armando_drake.description.importer`` and listed in ``warnings``.
+    ``edit``, if given, is called with the parsed ``<robot>`` element first
+    (the loader's joint repairs and ``world`` link removal), so that the line
+    numbers in messages are still those of ``urdf_text``.
     """
     step = _Preparation(urdf_text, search, str(source))
     if step.root.tag != "robot":
         raise DescriptionError(f"{step.source}: not a URDF: the root element is <{step.root.tag}>")
+    if edit is not None:
+        edit(step.root)
+        step.links = {link.get("name", ""): link for link in step.root.findall("link")}
     step.resolve_meshes()
+    step.fix_negative_masses()
     mode = step.resolve_collision_mode(collision)
     step.fix_inertias()
     step.apply_collision_mode(mode)
@@ -543,10 +588,37 @@ def actuation(
     fixed joints), one line each.
     """
     from armando_drake.description.loader import parse_joints, parse_transmissions
-    from armando_drake.description.ros2_control import parse_ros2_control
+    from armando_drake.description.ros2_control import (
+        ComponentInfo,
+        HardwareInfo,
+        InterfaceInfo,
+        Ros2ControlError,
+        parse_ros2_control,
+    )
 
     if hardware is None:
-        hardware = parse_ros2_control(root)
+        try:
+            hardware = parse_ros2_control(root)
+        except Ros2ControlError:  # checked where the description is loaded; read leniently
+            hardware = [
+                HardwareInfo(
+                    name=block.get("name", ""),
+                    type=block.get("type", ""),
+                    plugin=(block.findtext("hardware/plugin") or "").strip(),
+                    joints=[
+                        ComponentInfo(
+                            name=joint.get("name", ""),
+                            type="joint",
+                            command_interfaces=[
+                                InterfaceInfo(name=i.get("name", ""))
+                                for i in joint.findall("command_interface")
+                            ],
+                        )
+                        for joint in block.findall("joint")
+                    ],
+                )
+                for block in root.findall("ros2_control")
+            ]
     if joints is None:
         joints = parse_joints(root)
     kinds = {joint.get("name"): joint.get("type") for joint in root.findall("joint")}

@@ -740,23 +740,25 @@ def load_robot(
     hardware = parse_ros2_control(root, source=str(source))
     cameras = parse_camera_sensors(root, source=str(source))
     warnings: list[str] = []
-    for message in repair_joints(root, joints, source):
-        _warn(warnings, message)
-    welds = detach_world(root, source)
-    for message in strip_unused(root, source):
-        LOGGER.info("%s", message)
-    transmissions = parse_transmissions(root)
-    # The hardware interface makes the actuators from what we parsed; Drake's own
-    # transmission actuators would duplicate them.
-    for element in root.findall("transmission"):
-        root.remove(element)
     interfaces, actuation_source, notes = actuation(root, hardware, joints)
     for message in notes:
         LOGGER.info("%s: %s", source, message)
+    transmissions = parse_transmissions(root)
+    welds: list[BaseWeld] = []
 
-    prepared = prepare_urdf(
-        ET.tostring(root, encoding="unicode"), search, collision=collision, source=source
-    )
+    def edit(tree: ET.Element) -> None:
+        """Repairs, the `world` link and what Drake must not see, on the tree Drake loads."""
+        for message in repair_joints(tree, joints, source):
+            _warn(warnings, message)
+        welds.extend(detach_world(tree, source))
+        for message in strip_unused(tree, source):
+            LOGGER.info("%s", message)
+        # The hardware interface makes the actuators from what we parsed; Drake's own
+        # transmission actuators would duplicate them.
+        for element in tree.findall("transmission"):
+            tree.remove(element)
+
+    prepared = prepare_urdf(urdf, search, collision=collision, source=source, edit=edit)
     warnings += prepared.warnings
     parser = Parser(plant, model_name) if model_name else Parser(plant)
     parser.package_map().AddMap(search.package_map())

@@ -135,10 +135,16 @@ class World:
 
 
 def _controller_config(scenario: Scenario, robot: LoadedRobot, hardware) -> ControllerManagerConfig:
-    """The controller YAML of the scenario, of the description package, or a default."""
+    """The controller YAML of the scenario, of the description's ``<gazebo><plugin>``
+    ``<parameters>``, of the description package, or a default."""
     path = scenario.controllers.config
     if path:
         return load_controller_config(Path(path))
+    for named in robot.controller_files:
+        if named.is_file():
+            _log.info("controller configuration from the description's <gazebo> plugin: %s", named)
+            return load_controller_config(named)
+        _log.warning("the description's <gazebo> plugin names %s, which does not exist", named)
     package_dir = robot.source.parent.parent
     candidates = sorted((package_dir / "config").glob("*controllers*.yaml"))
     if candidates and (package_dir / "package.xml").is_file():
