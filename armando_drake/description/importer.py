@@ -568,9 +568,6 @@ def prepare_urdf(
 # Actuation
 # --------------------------------------------------------------------------
 
-_logged_once: set[str] = set()
-
-
 def actuation(
     root: ET.Element, hardware: list | None = None, joints: list | None = None
 ) -> tuple[dict[str, list[str]], str, list[str]]:
@@ -638,9 +635,13 @@ def actuation(
 
     if hardware:
         for block in hardware:
+            sensors = [sensor.name for sensor in block.sensors + block.gpios]
             notes.append(
                 f"<ros2_control name={block.name!r}>: hardware plugin {block.plugin!r} is not "
-                "run: Drake simulates its joints"
+                "run: "
+                + ("Drake simulates its joints" if block.joints else "")
+                + ("; " if block.joints and sensors else "")
+                + (f"its sensors/GPIOs ({', '.join(sensors)}) give no readings" if sensors else "")
             )
             for component in block.joints:
                 interfaces = [i.name for i in component.command_interfaces]
@@ -676,11 +677,7 @@ def actuated_joints(root: ET.Element) -> tuple[list[str], str]:
     joint. Mimic joints are left out. The source is ``"ros2_control"``,
     ``"transmission"`` or ``"non-fixed joints"``; see :func:`actuation`.
     """
-    interfaces, source, notes = actuation(root)
-    for note in notes:
-        if note not in _logged_once:
-            _logged_once.add(note)
-            LOGGER.info("%s", note)
+    interfaces, source, _ = actuation(root)  # load_robot logs the notes
     if source == "ros2_control":
         names = [name for name, kinds in interfaces.items() if "position" in kinds]
     else:

@@ -230,6 +230,37 @@ def _xacro_error(path: Path, error: BaseException) -> DescriptionError:
     return DescriptionError(f"{location}: xacro error{chain}: {text}")
 
 
+def _root_arg_defaults(path: Path, given: Mapping[str, str]) -> dict[str, str]:
+    """Defaults of the ``xacro:arg``s used in the ``<robot>`` tag's own attributes.
+
+    xacro evaluates ``<robot name="$(arg name)">`` before it reads the
+    ``<xacro:arg name="name" default=..>`` inside, so a description written
+    that way (ur_description, for one) only expands when the launch file passes
+    the argument. Here the declared default is used, as it would be anywhere
+    else in the file (plain defaults only: one holding ``$(..)`` or ``${..}``
+    is left to xacro).
+    """
+    try:
+        root = ET.parse(path).getroot()
+    except (ET.ParseError, OSError):
+        return {}
+    import re
+
+    used = {
+        name
+        for value in root.attrib.values()
+        for name in re.findall(r"\$\(arg\s+([^)\s]+)\s*\)", value)
+        if name not in given
+    }
+    defaults = {}
+    for element in root:
+        if element.tag.endswith("}arg") or element.tag == "xacro:arg":
+            name, default = element.get("name"), element.get("default")
+            if name in used and default is not None and "$" not in default:
+                defaults[name] = default
+    return defaults
+
+
 def expand_description(
     path: str | os.PathLike,
     mappings: Mapping[str, str] | None = None,
@@ -252,6 +283,7 @@ def expand_description(
     import xacro
 
     args = {str(k): str(v) for k, v in (mappings or {}).items()}
+    args.update(_root_arg_defaults(path, args))
     try:
         with _xacro_find(search):
             doc = xacro.process_file(str(path), mappings=args)
