@@ -621,8 +621,18 @@ def parse_transmissions(root: ET.Element) -> list[Transmission]:
     ]:
         kind = (block.findtext("type") or block.findtext("plugin") or "").strip()
         transmission = Transmission(name=block.get("name", ""), type=kind, ros2_control=holder)
-        reduction = block.findtext("actuator/mechanicalReduction") or block.findtext(
-            "actuator/mechanical_reduction"
+        reduction = next(
+            (
+                text
+                for path in (
+                    "actuator/mechanicalReduction",
+                    "joint/mechanicalReduction",
+                    "actuator/mechanical_reduction",
+                    "joint/mechanical_reduction",
+                )
+                if (text := block.findtext(path))
+            ),
+            None,
         )
         with contextlib.suppress(TypeError, ValueError):
             transmission.mechanical_reduction = float(reduction)

@@ -1,8 +1,8 @@
 """Mesh files of a robot description, made loadable by Drake.
 
 Drake renders and collides OBJ (and glTF) meshes; ROS descriptions mostly ship
-STL or Collada (DAE). :func:`convert_mesh` turns those into OBJ files with
-normals, written once into a cache keyed by the source file's content, so a
+STL or Collada (DAE). :func:`convert_mesh` turns those (and OBJ files without
+the normals Drake's renderers need) into OBJ files with normals, written once into a cache keyed by the source file's content, so a
 second load converts nothing:
 
 - the cache is ``$XDG_CACHE_HOME/armando_drake/meshes`` (``~/.cache`` when the
@@ -83,6 +83,15 @@ def _content_key(path: Path) -> str:
             image = path.parent / name.removeprefix("file://")
             if image.suffix and image.is_file():
                 files.append(image)
+    elif path.suffix.lower() == ".obj":
+        text = path.read_text(errors="replace")
+        for name in re.findall(r"^mtllib\s+(.+?)\s*$", text, re.M):
+            library = path.parent / name
+            if library.is_file():
+                files.append(library)
+                maps = re.findall(r"^\s*map_\w+\s+(?:-\S+\s+\S+\s+)*(.+?)\s*$",
+                                  library.read_text(errors="replace"), re.M)  # fmt: skip
+                files += [library.parent / m for m in maps if (library.parent / m).is_file()]
     for file in files:
         with open(file, "rb") as stream:
             for block in iter(lambda: stream.read(1 << 20), b""):
@@ -239,6 +248,14 @@ def _write_atomically(path: Path, write) -> None:
         raise
 
 
+def _needs_normals(path: Path) -> bool:
+    """An OBJ without vertex normals, which Drake's renderers refuse ("OBJ has no normals")."""
+    if path.suffix.lower() != ".obj":
+        return False
+    with open(path, "rb") as stream:
+        return not any(line.startswith(b"vn ") for line in stream)
+
+
 def convert_mesh(source: str | os.PathLike) -> ConvertedMesh:
     """The OBJ Drake should load for ``source``, converting it into the cache if needed.
 
@@ -247,9 +264,9 @@ def convert_mesh(source: str | os.PathLike) -> ConvertedMesh:
     """
     source = Path(source).resolve()
     suffix = source.suffix.lower()
-    if suffix in DRAKE_FORMATS:
+    if suffix in DRAKE_FORMATS and not _needs_normals(source):
         return ConvertedMesh(source=source, path=source, converted=False)
-    if suffix not in CONVERTED_FORMATS:
+    if suffix not in CONVERTED_FORMATS + (".obj",):
         raise DescriptionError(
             f"{source}: unsupported mesh format {suffix or '(no extension)'!r}; "
             f"supported: {', '.join(SUPPORTED_FORMATS)}"
@@ -259,7 +276,7 @@ def convert_mesh(source: str | os.PathLike) -> ConvertedMesh:
     if target.is_file() and _vertices_file(target).is_file():
         return ConvertedMesh(source=source, path=target, converted=False)
     folder.mkdir(parents=True, exist_ok=True)
-    if suffix == ".dae":
+    if suffix in (".dae", ".obj"):
         parts = _parts(source)
         vertices = np.vstack([part.vertices for part in parts])
         textures = []

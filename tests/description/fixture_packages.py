@@ -111,15 +111,23 @@ def write_collada(path: Path, unit: float = 1.0) -> None:
     Image.fromarray(pixels).save(path.parent / "texture.png")
 
 
-def write_obj_with_mtl(path: Path, size) -> None:
+def write_obj_with_mtl(path: Path, size, normals: bool = True) -> None:
+    """A box as OBJ (with face normals unless ``normals`` is False) using ``part.mtl``'s
+    material of colour OBJ_GREEN."""
     vertices, faces = box(size)
     r, g, b = OBJ_GREEN
     path.with_suffix(".mtl").write_text(f"newmtl green\nKd {r} {g} {b}\nd 1\n")
-    path.write_text(
-        f"mtllib {path.with_suffix('.mtl').name}\nusemtl green\n"
-        + "".join(f"v {x:g} {y:g} {z:g}\n" for x, y, z in vertices)
-        + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in faces)
-    )
+    lines = [f"mtllib {path.with_suffix('.mtl').name}\nusemtl green\n"]
+    lines += [f"v {x:g} {y:g} {z:g}\n" for x, y, z in vertices]
+    if normals:
+        for a, b_, c in faces:
+            n = np.cross(vertices[b_] - vertices[a], vertices[c] - vertices[a])
+            lines.append("vn %g %g %g\n" % tuple(n / np.linalg.norm(n)))
+        lines += [f"f {a + 1}//{k + 1} {b_ + 1}//{k + 1} {c + 1}//{k + 1}\n"
+                  for k, (a, b_, c) in enumerate(faces)]  # fmt: skip
+    else:
+        lines += [f"f {a + 1} {b_ + 1} {c + 1}\n" for a, b_, c in faces]
+    path.write_text("".join(lines))
 
 
 def write_meshes(package: Path) -> None:
