@@ -568,6 +568,7 @@ def prepare_urdf(
 # Actuation
 # --------------------------------------------------------------------------
 
+
 def actuation(
     root: ET.Element, hardware: list | None = None, joints: list | None = None
 ) -> tuple[dict[str, list[str]], str, list[str]]:
@@ -654,7 +655,9 @@ def actuation(
             where = f"<transmission name={transmission.name!r}>"
             for name, interfaces in transmission.joints.items():
                 if kinds.get(name) in (None, "fixed"):
-                    notes.append(f"{where} names joint {name!r}, which is not a moving joint: ignored")
+                    notes.append(
+                        f"{where} names joint {name!r}, which is not a moving joint: ignored"
+                    )
                     continue
                 add(name, interfaces or ["position"], where)
         return result, "transmission", notes
@@ -662,8 +665,7 @@ def actuation(
         if kind in MOVING_JOINT_TYPES[:3]:
             add(name, ["position"], "no <ros2_control> or <transmission>")
     notes.append(
-        "no <ros2_control> or <transmission>: actuating every non-fixed joint: "
-        + ", ".join(result)
+        "no <ros2_control> or <transmission>: actuating every non-fixed joint: " + ", ".join(result)
     )
     return result, "non-fixed joints", notes
 

@@ -337,7 +337,8 @@ class Transmission:
     # joint -> its command interfaces, from ROS 1 <hardwareInterface> (mapped with
     # HARDWARE_INTERFACES; unknown ones kept as written) or empty for ROS 2
     joints: dict[str, list[str]] = field(default_factory=dict)
-    # joint -> the <hardwareInterface> texts as written (ROS 1), e.g. "hardware_interface/EffortJointInterface"
+    # joint -> the <hardwareInterface> texts as written (ROS 1),
+    # e.g. "hardware_interface/EffortJointInterface"
     hardware_interfaces: dict[str, list[str]] = field(default_factory=dict)
     mechanical_reduction: float = 1.0  # actuator turns per joint turn, as written
     ros2_control: str = ""  # the <ros2_control name> holding it; "" for a ROS 1 block
@@ -573,7 +574,7 @@ def repair_joints(
                 limit.set("upper", repr(info.upper))
         if info.effort == 0:
             warnings.append(
-                f"{where}: effort=\"0\", which Gazebo takes as no effort limit: "
+                f'{where}: effort="0", which Gazebo takes as no effort limit: '
                 "its actuator here has no effort limit either"
             )
             info.effort = math.inf
@@ -583,7 +584,7 @@ def repair_joints(
             if limit is not None:
                 limit.set("effort", repr(info.effort))
         if info.velocity == 0:
-            warnings.append(f"{where}: velocity=\"0\": taken as no velocity limit")
+            warnings.append(f'{where}: velocity="0": taken as no velocity limit')
             info.velocity = math.inf
             if limit is not None:
                 del limit.attrib["velocity"]
@@ -617,7 +618,9 @@ def parse_transmissions(root: ET.Element) -> list[Transmission]:
     """ROS 1 top-level ``<transmission>`` blocks and ROS 2 ones inside ``<ros2_control>``."""
     result = []
     for block, holder in [(t, "") for t in root.findall("transmission")] + [
-        (t, r.get("name", "")) for r in root.findall("ros2_control") for t in r.findall("transmission")
+        (t, r.get("name", ""))
+        for r in root.findall("ros2_control")
+        for t in r.findall("transmission")
     ]:
         kind = (block.findtext("type") or block.findtext("plugin") or "").strip()
         transmission = Transmission(name=block.get("name", ""), type=kind, ros2_control=holder)
@@ -637,9 +640,7 @@ def parse_transmissions(root: ET.Element) -> list[Transmission]:
         with contextlib.suppress(TypeError, ValueError):
             transmission.mechanical_reduction = float(reduction)
         for joint in block.findall("joint"):
-            written = [
-                (e.text or "").strip() for e in joint.findall("hardwareInterface") if e.text
-            ]
+            written = [(e.text or "").strip() for e in joint.findall("hardwareInterface") if e.text]
             written += [
                 (e.text or "").strip()
                 for e in block.findall("actuator/hardwareInterface")

@@ -2,7 +2,8 @@
 
 Drake renders and collides OBJ (and glTF) meshes; ROS descriptions mostly ship
 STL or Collada (DAE). :func:`convert_mesh` turns those (and OBJ files without
-the normals Drake's renderers need) into OBJ files with normals, written once into a cache keyed by the source file's content, so a
+the normals Drake's renderers need) into OBJ files with normals, written once
+into a cache keyed by the source file's content (and its textures), so a
 second load converts nothing:
 
 - the cache is ``$XDG_CACHE_HOME/armando_drake/meshes`` (``~/.cache`` when the
@@ -191,7 +192,9 @@ def _material_obj(
     for index, (part, texture) in enumerate(zip(parts, texture_names, strict=True)):
         material = f"material_{index}"
         r, g, b, a = part.color
-        mtl.append(f"newmtl {material}\nKa 0 0 0\nKd {r:.6g} {g:.6g} {b:.6g}\nKs 0 0 0\nd {a:.6g}\n")
+        mtl.append(
+            f"newmtl {material}\nKa 0 0 0\nKd {r:.6g} {g:.6g} {b:.6g}\nKs 0 0 0\nd {a:.6g}\n"
+        )
         if texture:
             mtl.append(f"map_Kd {texture}\n")
         v, f = part.vertices, part.faces

@@ -1,6 +1,8 @@
 """The test fixture packages of tests/description/fixtures, copied into a workspace with
 their mesh files written (tiny STL, OBJ + MTL, Collada with a material and a texture)."""
 
+# ruff: noqa: E501  (the Collada template stays one readable XML document)
+
 import shutil
 from pathlib import Path
 
@@ -122,7 +124,8 @@ def write_obj_with_mtl(path: Path, size, normals: bool = True) -> None:
     if normals:
         for a, b_, c in faces:
             n = np.cross(vertices[b_] - vertices[a], vertices[c] - vertices[a])
-            lines.append("vn %g %g %g\n" % tuple(n / np.linalg.norm(n)))
+            nx, ny, nz = n / np.linalg.norm(n)
+            lines.append(f"vn {nx:g} {ny:g} {nz:g}\n")
         lines += [f"f {a + 1}//{k + 1} {b_ + 1}//{k + 1} {c + 1}//{k + 1}\n"
                   for k, (a, b_, c) in enumerate(faces)]  # fmt: skip
     else:

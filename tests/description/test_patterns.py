@@ -103,7 +103,8 @@ def test_ros1_transmissions_give_each_joint_its_hardware_interface(workspace, ar
 
 
 WORLD_ONLY = """<robot name="r"><link name="world"/>
-<link name="a"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+<link name="a"><inertial><mass value="1"/>
+  <inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
 </robot>"""
 TWO_TREES_ON_WORLD = WORLD_ONLY.replace(
     "</robot>",
