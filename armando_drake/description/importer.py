@@ -274,9 +274,15 @@ class _Preparation:
     def rewrite_meshes(self) -> None:
         overridden = []
         for name, link in self.links.items():
-            for mesh in self.mesh_elements(link, "visual") + self.mesh_elements(link, "collision"):
-                path = self.converted(self.files[mesh]).path
-                mesh.set("filename", f"file://{path}")
+            for mesh in self.mesh_elements(link, "visual"):
+                mesh.set("filename", f"file://{self.converted(self.files[mesh]).path}")
+            for mesh in self.mesh_elements(link, "collision"):
+                source = self.files[mesh]
+                # Drake collides with its own formats as they are (an OBJ without normals
+                # is rewritten for the renderers only).
+                if source.suffix.lower() not in COLLIDABLE_FORMATS:
+                    source = self.converted(source).path
+                mesh.set("filename", f"file://{source}")
             for visual in link.findall("visual"):
                 mesh = visual.find("geometry/mesh")
                 material = visual.find("material")

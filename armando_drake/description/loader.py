@@ -33,6 +33,8 @@ from armando_drake import MODELS_DIR
 from armando_drake.description.ros2_control import HardwareInfo, parse_ros2_control
 
 LOGGER = logging.getLogger("armando_drake.description")
+# What $(find pkg) gives for a package that is not found: a folder that does not exist.
+MISSING_PACKAGE_DIR = Path("/nonexistent-ros-package")
 
 
 class DescriptionError(RuntimeError):
@@ -184,11 +186,21 @@ def find_packages(
 
 
 @contextlib.contextmanager
-def _xacro_find(search: PackageSearch):
-    """Lets the PyPI ``xacro`` resolve ``$(find pkg)`` through our search."""
+def _xacro_find(search: PackageSearch, missing: list[str]):
+    """Lets the PyPI ``xacro`` resolve ``$(find pkg)`` through our search.
+
+    An unknown package is appended to ``missing`` and stands for a folder that
+    does not exist (:data:`MISSING_PACKAGE_DIR`): a ``<gazebo>`` block naming a
+    bringup package's YAML must not stop the description from loading; an
+    include or a mesh from it still fails, naming the package.
+    """
     from xacro import substitution_args
 
     def eval_find(pkg: str) -> str:
+        if pkg not in search.packages:
+            if pkg not in missing:
+                missing.append(pkg)
+            return str(MISSING_PACKAGE_DIR / pkg)
         return str(search.resolve(pkg))
 
     saved = substitution_args._eval_find, substitution_args._eval_dict.get("find")
@@ -284,16 +296,32 @@ def expand_description(
 
     args = {str(k): str(v) for k, v in (mappings or {}).items()}
     args.update(_root_arg_defaults(path, args))
+    missing: list[str] = []
     try:
-        with _xacro_find(search):
+        with _xacro_find(search, missing):
             doc = xacro.process_file(str(path), mappings=args)
-    except DescriptionError as error:
-        raise _xacro_error(path, error) from None
     except Exception as error:  # xacro raises XacroException, ExpatError, NameError...
-        raise _xacro_error(path, error) from None
+        failure = _xacro_error(path, error)
+        if missing:
+            unknown = ", ".join(repr(name) for name in missing)
+            searched = "; ".join(search.searched) or "(no search path)"
+            failure = DescriptionError(
+                f"{failure}; $(find) of unknown package {unknown} (searched {searched})"
+            )
+        raise failure from None
     finally:
         xacro.init_stacks(None)
-    return doc.toprettyxml(indent="  ")
+    text = doc.toprettyxml(indent="  ")
+    for name in missing:
+        LOGGER.warning(
+            "%s: $(find %s): unknown package (searched %s); it stands for %s, which does not "
+            "exist, so whatever the description takes from it is not used",
+            path,
+            name,
+            "; ".join(search.searched),
+            MISSING_PACKAGE_DIR / name,
+        )
+    return text
 
 
 # --------------------------------------------------------------------------

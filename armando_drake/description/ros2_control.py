@@ -10,7 +10,10 @@ the tag and attribute at fault; the description file is named in front.
 
 from __future__ import annotations
 
+import ast
+import contextlib
 import math
+import operator
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 
@@ -84,12 +87,44 @@ def _parameters(element: ET.Element, where: str) -> dict[str, str]:
     return result
 
 
+_OPERATORS = {
+    ast.Add: operator.add,
+    ast.Sub: operator.sub,
+    ast.Mult: operator.mul,
+    ast.Div: operator.truediv,
+    ast.Pow: operator.pow,
+    ast.USub: operator.neg,
+    ast.UAdd: operator.pos,
+}
+
+
+def _arithmetic(node: ast.AST) -> float:
+    """The value of an expression of numbers, ``pi``, + - * / ** and brackets."""
+    if isinstance(node, ast.Expression):
+        return _arithmetic(node.body)
+    if isinstance(node, ast.Constant) and isinstance(node.value, int | float):
+        return float(node.value)
+    if isinstance(node, ast.Name) and node.id == "pi":
+        return math.pi
+    if isinstance(node, ast.BinOp) and type(node.op) in _OPERATORS:
+        return _OPERATORS[type(node.op)](_arithmetic(node.left), _arithmetic(node.right))
+    if isinstance(node, ast.UnaryOp) and type(node.op) in _OPERATORS:
+        return _OPERATORS[type(node.op)](_arithmetic(node.operand))
+    raise ValueError(f"not arithmetic: {ast.dump(node)}")
+
+
 def _number(text: str, what: str, where: str) -> float:
+    """A number, or an expression in braces as the ros2_control docs write them
+    (``{-2*pi}``, as ur_description does: upstream keeps it as a string)."""
     try:
-        value = float(text)
+        return float(text)
     except ValueError:
-        raise Ros2ControlError(f"{where}{what}={text!r} is not a number") from None
-    return value
+        pass
+    stripped = text.strip()
+    if stripped.startswith("{") and stripped.endswith("}"):
+        with contextlib.suppress(ValueError, SyntaxError, ZeroDivisionError, OverflowError):
+            return _arithmetic(ast.parse(stripped[1:-1], mode="eval"))
+    raise Ros2ControlError(f"{where}{what}={text!r} is not a number")
 
 
 def _interface(element: ET.Element, owner: str, where: str) -> InterfaceInfo:

@@ -246,10 +246,31 @@ def test_gazebo_plugin_yaml_is_the_controller_configuration(workspace):
     assert (hardware["joint1"].lower, hardware["joint1"].upper) == (-1.0, 1.0)  # min/max params
     assert hardware["joint1"].initial_position == 0.4
     assert hardware["tool_joint"].initial_position == 0.5
+    # {-pi/2} and {pi/2}, tighter than the URDF's +-3 rad.
+    assert (hardware["tool_joint"].lower, hardware["tool_joint"].upper) == pytest.approx(
+        (-np.pi / 2, np.pi / 2)
+    )
     for name, q0 in (("joint1", 0.4), ("joint2", -0.3), ("tool_joint", 0.5)):
         assert world.plant.GetJointByName(name).get_angle(plant_context) == pytest.approx(
             q0, abs=0.01
         )
+
+
+def test_gazebo_plugin_yaml_of_a_package_we_do_not_have_is_reported(tmp_path, caplog):
+    """A description naming its bringup package's YAML still loads without that package."""
+    urdf = tmp_path / "robot.urdf.xacro"
+    urdf.write_text(
+        '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro"><link name="a"/>'
+        '<gazebo><plugin filename="gz_ros2_control-system" name="x">'
+        "<parameters>$(find my_robot_bringup)/config/controllers.yaml</parameters>"
+        "</plugin></gazebo></robot>"
+    )
+    caplog.set_level(logging.INFO)
+    _, robot = load(urdf)
+    assert robot.controller_files == [
+        Path("/nonexistent-ros-package/my_robot_bringup/config/controllers.yaml")
+    ]
+    assert "$(find my_robot_bringup): unknown package (searched " in caplog.text
 
 
 # --------------------------------------------------------------------------
