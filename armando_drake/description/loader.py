@@ -2,14 +2,21 @@
 
 Every entry point turns a description into Drake through :func:`load_robot`:
 
-1. :func:`find_packages` builds the package search path (explicit entries,
-   ``ROS_PACKAGE_PATH``, ``AMENT_PREFIX_PATH``, the project's ``models/``, the
-   tree around the description) into a Drake ``PackageMap``;
+1. :func:`find_packages` builds the package search path into a Drake
+   ``PackageMap``: the package of the description the user named first (an
+   edited copy of a package wins over the original), then ``--package-path``,
+   ``ROS_PACKAGE_PATH``, ``AMENT_PREFIX_PATH``, the folders around the
+   description, the project's ``models/`` last; a package hidden by an earlier
+   one of the same name is reported once;
 2. :func:`expand_description` runs the real ``xacro`` processor with
    ``$(find pkg)`` resolved through that map;
-3. :func:`load_robot` adds the URDF to a ``MultibodyPlant`` with ``package://``
-   resolution, welds the base to the world and returns a :class:`LoadedRobot`
-   summary with the ``<ros2_control>`` block and the camera sensors.
+3. :func:`load_robot` repairs meaningless joint values (:func:`repair_joints`),
+   takes a ``world`` link out and welds what was fixed to it
+   (:func:`detach_world`), adds the URDF to a ``MultibodyPlant`` and returns a
+   :class:`LoadedRobot` summary: joints (limits, damping, mimic), the
+   ``<ros2_control>`` blocks, ROS 1 and ROS 2 transmissions, the command
+   interfaces of each actuated joint, the controller YAML a ``<gazebo>``
+   plugin names, the camera sensors, and every warning.
 """
 
 from __future__ import annotations
