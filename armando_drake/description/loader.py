@@ -635,6 +635,9 @@ def repair_joints(
                 f"{where}: <dynamics friction={info.friction:g}> is not simulated (Drake has "
                 f"no joint friction); damping={info.damping:g} is"
             )
+            dynamics = elements[info.name].find("dynamics") if info.name in elements else None
+            if dynamics is not None:
+                dynamics.attrib.pop("friction", None)  # said once, here, not again by Drake
         if info.damping < 0:
             warnings.append(f"{where}: damping={info.damping:g} is negative: using 0")
             info.damping = 0.0

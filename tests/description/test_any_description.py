@@ -171,6 +171,9 @@ def test_display_loads_the_iiwa_with_its_world_link(iiwa_package):
     (line,) = [line for line in result.stdout.splitlines() if line.startswith("Joints: ")]
     assert line.count("iiwa_joint_") == 7
     assert "iiwa_joint_1 [-2.97, 2.97]" in line and "iiwa_joint_7 [-3.05, 3.05]" in line
+    assert "Welded to the world: iiwa_link_0 (fixed to the world link by 'world_iiwa_joint')" in (
+        result.stdout
+    )
 
 
 def _iiwa_world(iiwa_package, tmp_path, controller: str, *sets: str) -> subprocess.CompletedProcess:

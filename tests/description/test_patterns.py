@@ -505,13 +505,31 @@ def test_meaningless_values_are_repaired_with_a_warning_each(workspace):
 # --------------------------------------------------------------------------
 
 FIXTURES = [
-    # package, joints of its position controller, the display's joints line
-    ("world_arm_description", 2, "Joints: shoulder [-2.00, 2.00], elbow [-2.50, 2.50]"),
-    ("gripper_description", 3, "base_pan [-inf, inf], shoulder [-1.50, 1.50], wrist [-inf, inf]"),
-    ("control_forms_description", 3, "Joints: joint1 [-2.00, 2.00], joint2 [-2.00, 2.00]"),
-    ("xacro_features_description", 3, "Joints: joint_a [-1.20, 1.30], joint_b [-0.70, 0.90]"),
-    ("mesh_description", 3, "Joints: joint1 [-3.00, 3.00], joint2 [-2.00, 2.00]"),
-    ("bad_values_description", 3, "swapped_limits [-0.80, 1.20]"),
+    # package, joints of its position controller, lines the display prints
+    (
+        "world_arm_description",
+        2,
+        [
+            "Joints: shoulder [-2.00, 2.00], elbow [-2.50, 2.50]",
+            "Welded to the world: base_footprint (fixed to the world link by 'world_joint')",
+        ],
+    ),
+    (
+        "gripper_description",
+        3,
+        [
+            "base_pan [-inf, inf], shoulder [-1.50, 1.50], wrist [-inf, inf]",
+            "Mimic: right_finger_joint = 1 * left_finger_joint + 0",
+        ],
+    ),
+    ("control_forms_description", 3, ["Joints: joint1 [-2.00, 2.00], joint2 [-2.00, 2.00]"]),
+    ("xacro_features_description", 3, ["Joints: joint_a [-1.20, 1.30], joint_b [-0.70, 0.90]"]),
+    ("mesh_description", 3, ["Joints: joint1 [-3.00, 3.00], joint2 [-2.00, 2.00]"]),
+    (
+        "bad_values_description",
+        3,
+        ["swapped_limits [-0.80, 1.20]", "Welded to the world: base_link"],
+    ),
 ]
 
 
@@ -521,13 +539,14 @@ def run(module: str, *args: str) -> subprocess.CompletedProcess:
     )
 
 
-@pytest.mark.parametrize("package, joints, line", FIXTURES, ids=[f[0] for f in FIXTURES])
-def test_every_fixture_displays_and_simulates(workspace, tmp_path, package, joints, line):
+@pytest.mark.parametrize("package, joints, lines", FIXTURES, ids=[f[0] for f in FIXTURES])
+def test_every_fixture_displays_and_simulates(workspace, tmp_path, package, joints, lines):
     description = str(workspace / package)
     common = ["--description", description, "--package-path", str(workspace)]
     shown = run("armando_drake.display", *common, "--loop-once")
     assert shown.returncode == 0, shown.stderr
-    assert line in shown.stdout
+    for line in lines:
+        assert line in shown.stdout
     assert "Traceback" not in shown.stderr
     for controller in ("none", "position"):
         out = tmp_path / controller
