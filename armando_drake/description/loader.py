@@ -429,8 +429,29 @@ class LoadedRobot:
         return [joint for joint in self.joints if joint.mimic]
 
 
+def _description_files(folder: Path, depth: int = 3) -> list[Path]:
+    """Top-level description files (``*.urdf.xacro``, ``*.urdf``) below ``folder``."""
+    found = []
+    for path in sorted(folder.rglob("*")):
+        relative = path.relative_to(folder)
+        if len(relative.parts) > depth or any(
+            part.startswith(".") or part in ("build", "install", "log", "test")
+            for part in relative.parts[:-1]
+        ):
+            continue
+        if path.is_file() and path.name.endswith((".urdf.xacro", ".urdf")):
+            found.append(path)
+    return found
+
+
 def resolve_description(description: str | os.PathLike | None, search: PackageSearch) -> Path:
-    """The description file meant by a path, a package dir or ``package://pkg/file``."""
+    """The description file meant by a path, a package dir or ``package://pkg/file``.
+
+    In a package directory: ``urdf/*.urdf.xacro``, ``urdf/*.xacro``,
+    ``urdf/*.urdf``, ``*.urdf*``, else any ``*.urdf.xacro`` or ``*.urdf`` up to
+    three folders down (``robots/fr3/fr3.urdf.xacro``); the first in that order,
+    the others named in the log.
+    """
     from armando_drake import DEFAULT_DESCRIPTION
 
     if description is None or str(description) == "":
@@ -438,14 +459,28 @@ def resolve_description(description: str | os.PathLike | None, search: PackageSe
     text = str(description)
     if text.startswith("package://"):
         package, _, rest = text[len("package://") :].partition("/")
-        return search.resolve(package) / rest
-    path = Path(text).expanduser()
+        path = search.resolve(package) / rest
+    else:
+        path = Path(text).expanduser()
     if path.is_dir():
         urdf_dir = path / "urdf"
         candidates = sorted(urdf_dir.glob("*.urdf.xacro")) + sorted(urdf_dir.glob("*.xacro"))
         candidates += sorted(urdf_dir.glob("*.urdf")) + sorted(path.glob("*.urdf*"))
+        candidates = list(dict.fromkeys(candidates)) or _description_files(path)
         if not candidates:
-            raise DescriptionError(f"{path}: no .urdf or .xacro file in {urdf_dir} or {path}")
+            raise DescriptionError(
+                f"{path}: no .urdf or .xacro file in {urdf_dir}, {path} or the folders below"
+            )
+        tops = [c for c in candidates if c.name.endswith((".urdf.xacro", ".urdf"))]
+        others = [c for c in tops if c != candidates[0]]
+        if others:
+            LOGGER.info(
+                "%s holds %d descriptions: using %s (others: %s); name a file to choose",
+                path,
+                len(others) + 1,
+                candidates[0].relative_to(path),
+                ", ".join(str(c.relative_to(path)) for c in others),
+            )
         return candidates[0]
     if not path.exists():
         raise DescriptionError(f"{path}: description file not found")

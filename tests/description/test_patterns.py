@@ -363,6 +363,24 @@ def test_package_order_description_then_package_path_then_models(workspace, tmp_
     assert search.searched[-1].startswith("project models: ")
 
 
+def test_a_package_with_its_descriptions_in_subfolders(workspace, tmp_path, caplog):
+    """Like franka_description's robots/<arm>/<arm>.urdf.xacro: found, the others named."""
+    package = tmp_path / "nested_description"
+    for arm in ("fr3", "fer"):
+        (package / "robots" / arm).mkdir(parents=True)
+        shutil.copy(
+            workspace / "bad_values_description" / "urdf" / "bad_values.urdf",
+            package / "robots" / arm / f"{arm}.urdf",
+        )
+    (package / "package.xml").write_text("<package><name>nested_description</name></package>")
+    caplog.set_level(logging.INFO)
+    _, robot = load("package://nested_description", package_paths=[tmp_path])
+    assert robot.source == package.resolve() / "robots" / "fer" / "fer.urdf"
+    assert "holds 2 descriptions: using robots/fer/fer.urdf (others: robots/fr3/fr3.urdf)" in (
+        caplog.text
+    )
+
+
 # --------------------------------------------------------------------------
 # 6. Meshes
 # --------------------------------------------------------------------------
