@@ -102,6 +102,25 @@ def test_ros1_transmissions_give_each_joint_its_hardware_interface(workspace, ar
     assert first.hardware_interfaces == {"shoulder": [f"hardware_interface/{argument}"]}
 
 
+def test_a_moving_joint_from_the_world_link_hangs_on_a_welded_anchor(tmp_path):
+    """A linear rail from `world`: the rail stays a joint, its parent welded at the base pose."""
+    path = tmp_path / "rail.urdf"
+    path.write_text(
+        '<robot name="rail"><link name="world"/>'
+        '<link name="carriage"><inertial><mass value="1"/>'
+        '<inertia ixx="1e-2" iyy="1e-2" izz="1e-2" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+        '<joint name="rail" type="prismatic"><parent link="world"/><child link="carriage"/>'
+        '<origin xyz="0 0 0.5"/><axis xyz="1 0 0"/>'
+        '<limit lower="-1" upper="1" effort="100" velocity="1"/></joint></robot>'
+    )
+    plant, robot = load(path, X_WB=RigidTransform([0.0, 2.0, 0.0]))
+    assert [w.link for w in robot.welds] == ["world_anchor"]
+    assert plant.num_positions() == 1
+    context = plant.CreateDefaultContext()
+    X = plant.GetFrameByName("carriage").CalcPoseInWorld(context)
+    np.testing.assert_allclose(X.translation(), [0.0, 2.0, 0.5])
+
+
 WORLD_ONLY = """<robot name="r"><link name="world"/>
 <link name="a"><inertial><mass value="1"/>
   <inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
