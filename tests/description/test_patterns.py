@@ -462,6 +462,32 @@ def test_obj_without_normals_is_converted_with_its_material(tmp_path, monkeypatc
     np.testing.assert_allclose(np.ptp(mesh.vertices(), axis=0), [0.03, 0.03, 0.05])
 
 
+def test_collada_materials_and_texture_are_sent_to_meshcat(workspace, tmp_path, monkeypatch):
+    """The display sends Meshcat the converted OBJ with its MTL and its texture image."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    import base64
+    import re
+
+    from pydrake.geometry import Meshcat
+
+    from armando_drake.description.viewer import make_display
+
+    meshcat = Meshcat()
+    visualizer, _ = make_display(workspace / "mesh_description", meshcat=meshcat)
+    visualizer.Run(loop_once=True)
+    messages = []
+    for blob in re.findall(r"[A-Za-z0-9+/]{200,}={0,2}", meshcat.StaticHtml()):
+        try:
+            messages.append(base64.b64decode(blob))
+        except ValueError:
+            continue
+    (body,) = [m for m in messages if b"mtl_library" in m and b"map_Kd" in m]
+    r, g, b = (f"{c:.6g}".encode() for c in (0.8, 0.101961, 0.101961))  # DAE_RED in 8 bits
+    assert b"Kd " + b" ".join((r, g, b)) in body
+    assert b"map_Kd body-" in body and b"-texture1.png" in body
+    assert b"data:image/png;base64,iVBORw0KGgo" in body  # the PNG itself, as a resource
+
+
 def test_collada_materials_and_obj_mtl_show_in_the_camera_image(workspace, tmp_path, monkeypatch):
     """A camera looking down at the robot sees the Collada red, its blue texture, the OBJ green."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
