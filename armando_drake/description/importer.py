@@ -26,9 +26,14 @@ Drake parses an expanded URDF, :func:`prepare_urdf` rewrites it (XML to XML):
    the links welded below it) gets :data:`DEFAULT_MASS`. Each change is a
    warning naming the link, the old and the new values.
 
-:func:`actuated_joints` tells which joints take position commands, and
-:func:`default_controller_config` writes a ros2_control controller
-configuration for a robot that comes without one.
+Before any of this, a negative mass is taken as no mass (with a warning), and
+a Collada visual shows its own materials rather than the URDF ``<material>``.
+
+:func:`actuation` tells which joints are actuated, with their command
+interfaces (from ``<ros2_control>``, ROS 1 transmissions, or every moving
+joint; never a ``<mimic>`` joint), :func:`actuated_joints` which of them take
+position commands, and :func:`default_controller_config` writes a ros2_control
+controller configuration for a robot that comes without one.
 """
 
 from __future__ import annotations
