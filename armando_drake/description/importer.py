@@ -665,13 +665,24 @@ def actuation(
         for transmission in transmissions:
             where = f"<transmission name={transmission.name!r}>"
             for name, interfaces in transmission.joints.items():
+                written = transmission.hardware_interfaces.get(name, [])
                 if kinds.get(name) in (None, "fixed"):
                     notes.append(
                         f"{where} names joint {name!r}, which is not a moving joint: ignored"
                     )
-                    continue
-                add(name, interfaces or ["position"], where)
-        return result, "transmission", notes
+                elif written and not interfaces:
+                    notes.append(
+                        f"{where}: {', '.join(written)} of joint {name!r} is not a joint "
+                        "command interface (position, velocity, effort): ignored"
+                    )
+                elif name in result and name not in mimics:
+                    # Gazebo descriptions give a joint one transmission per interface.
+                    result[name] = list(dict.fromkeys(result[name] + interfaces))
+                else:
+                    add(name, interfaces or ["position"], where)
+        if result:
+            return result, "transmission", notes
+        notes.append("no <transmission> names a joint command interface")
     for name, kind in kinds.items():
         if kind in MOVING_JOINT_TYPES[:3]:
             add(name, ["position"], "no <ros2_control> or <transmission>")

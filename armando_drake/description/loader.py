@@ -369,8 +369,9 @@ class Transmission:
 
     name: str
     type: str  # e.g. transmission_interface/SimpleTransmission (ROS 2: the <plugin>)
-    # joint -> its command interfaces, from ROS 1 <hardwareInterface> (mapped with
-    # HARDWARE_INTERFACES; unknown ones kept as written) or empty for ROS 2
+    # joint -> its command interfaces, from ROS 1 <hardwareInterface> mapped with
+    # HARDWARE_INTERFACES (others, such as franka_hw/FrankaStateInterface, left out);
+    # empty for ROS 2
     joints: dict[str, list[str]] = field(default_factory=dict)
     # joint -> the <hardwareInterface> texts as written (ROS 1),
     # e.g. "hardware_interface/EffortJointInterface"
@@ -722,7 +723,8 @@ def parse_transmissions(root: ET.Element) -> list[Transmission]:
             interfaces = []
             for text in written:
                 short = text.rsplit("/", 1)[-1]
-                interfaces.append(HARDWARE_INTERFACES.get(short, short))
+                if short in HARDWARE_INTERFACES:  # not e.g. franka_hw/FrankaStateInterface
+                    interfaces.append(HARDWARE_INTERFACES[short])
             name = joint.get("name", "")
             transmission.joints[name] = list(dict.fromkeys(interfaces))
             transmission.hardware_interfaces[name] = written

@@ -121,6 +121,38 @@ def test_a_moving_joint_from_the_world_link_hangs_on_a_welded_anchor(tmp_path):
     np.testing.assert_allclose(X.translation(), [0.0, 2.0, 0.5])
 
 
+def test_gazebo_style_transmissions_one_per_interface_and_non_joint_ones(tmp_path, caplog):
+    """As franka_description writes them for Gazebo: a position, a velocity and an effort
+    transmission on each joint, and franka_hw state transmissions that command nothing."""
+
+    def transmission(name, joint, interface):
+        return (
+            f'<transmission name="{name}"><type>transmission_interface/SimpleTransmission</type>'
+            f'<joint name="{joint}"><hardwareInterface>{interface}</hardwareInterface></joint>'
+            f'<actuator name="{name}_motor"/></transmission>'
+        )
+
+    blocks = [
+        transmission(f"j_{kind}", "j", f"hardware_interface/{kind}JointInterface")
+        for kind in ("Position", "Velocity", "Effort")
+    ] + [transmission("state", "j", "franka_hw/FrankaStateInterface")]
+    path = tmp_path / "arm.urdf"
+    path.write_text(
+        '<robot name="arm"><link name="a"/><link name="b"><inertial><mass value="1"/>'
+        '<inertia ixx="1e-2" iyy="1e-2" izz="1e-2" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+        '<joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" effort="10" velocity="1"/></joint>'
+        + "".join(blocks)
+        + "</robot>"
+    )
+    caplog.set_level(logging.INFO)
+    _, robot = load(path)
+    assert robot.command_interfaces == {"j": ["position", "velocity", "effort"]}
+    assert "franka_hw/FrankaStateInterface of joint 'j' is not a joint command interface" in (
+        caplog.text
+    )
+
+
 WORLD_ONLY = """<robot name="r"><link name="world"/>
 <link name="a"><inertial><mass value="1"/>
   <inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
