@@ -22,6 +22,14 @@ from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import load_scenario, merge_overrides
 
 
+@pytest.fixture(scope="module", autouse=True)
+def mesh_cache(tmp_path_factory):
+    """Converted meshes go to a cache of this module's own (subprocesses inherit it)."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("XDG_CACHE_HOME", str(tmp_path_factory.mktemp("xdg-cache")))
+        yield
+
+
 @pytest.fixture(scope="module")
 def workspace(tmp_path_factory) -> Path:
     """All fixture packages side by side in one ``src`` folder, meshes written."""
