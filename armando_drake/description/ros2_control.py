@@ -12,10 +12,15 @@ from __future__ import annotations
 
 import ast
 import contextlib
+import logging
 import math
 import operator
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
+
+LOGGER = logging.getLogger("armando_drake.description.ros2_control")
+# Interfaces that move a joint; a <joint> of a block with none of them is I/O.
+MOTION_INTERFACES = frozenset({"position", "velocity", "effort", "acceleration"})
 
 
 class Ros2ControlError(ValueError):
@@ -181,7 +186,10 @@ def _component(element: ET.Element, where: str) -> ComponentInfo:
 def parse_ros2_control(root: ET.Element, source: str = "") -> list[HardwareInfo]:
     """Every ``<ros2_control>`` block of a URDF, checked against its joints.
 
-    Joints named in a block must exist in the URDF and must not be fixed.
+    Joints named in a block must exist in the URDF and must not be fixed; a
+    ``<joint>`` that is not in the URDF and has no position, velocity, effort or
+    acceleration interface (older ur_description's ``speed_scaling``, ``gpio``)
+    is taken as a GPIO, with a warning.
     """
     where = f"{source}: " if source else ""
     if root.tag != "robot":
@@ -216,6 +224,19 @@ def parse_ros2_control(root: ET.Element, source: str = "") -> list[HardwareInfo]
                 )
             if child.tag == "joint":
                 joint = _component(child, where)
+                interfaces = {i.name for i in joint.command_interfaces + joint.state_interfaces}
+                if joint.name not in urdf_joints and not interfaces & MOTION_INTERFACES:
+                    LOGGER.warning(
+                        "%s<ros2_control name='%s'>: joint '%s' is not in the URDF and has no "
+                        "%s interface: taken as a GPIO (older ur_description writes its I/O so)",
+                        where,
+                        name,
+                        joint.name,
+                        ", ".join(sorted(MOTION_INTERFACES)),
+                    )
+                    joint.type = "gpio"
+                    info.gpios.append(joint)
+                    continue
                 if joint.name not in urdf_joints:
                     raise Ros2ControlError(
                         f"{where}<ros2_control name='{name}'>: "

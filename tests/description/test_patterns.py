@@ -294,6 +294,31 @@ def test_control_blocks_plugins_params_transmissions(workspace, caplog):
     ]
 
 
+def test_io_pseudo_joints_of_a_ros2_control_block_are_taken_as_gpios(tmp_path, caplog):
+    """Older ur_description lists its I/O as <joint>s that are not in the URDF."""
+    path = tmp_path / "arm.urdf"
+    path.write_text(
+        '<robot name="arm"><link name="a"/><link name="b"><inertial><mass value="1"/>'
+        '<inertia ixx="1e-2" iyy="1e-2" izz="1e-2" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+        '<joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" effort="10" velocity="1"/></joint>'
+        '<ros2_control name="Ur" type="system"><hardware><plugin>ur/Driver</plugin></hardware>'
+        '<joint name="j"><command_interface name="position"/></joint>'
+        '<joint name="speed_scaling"><state_interface name="speed_scaling_factor"/>'
+        '<command_interface name="target_speed_fraction_cmd"/></joint>'
+        "</ros2_control></robot>"
+    )
+    caplog.set_level(logging.INFO)
+    _, robot = load(path)
+    (block,) = robot.ros2_control
+    assert [j.name for j in block.joints] == ["j"]
+    assert [g.name for g in block.gpios] == ["speed_scaling"]
+    assert robot.command_interfaces == {"j": ["position"]}
+    assert "joint 'speed_scaling' is not in the URDF and has no acceleration, effort" in (
+        caplog.text
+    )
+
+
 def test_gazebo_plugin_yaml_is_the_controller_configuration(workspace):
     world, plant_context = simulate(
         workspace / "control_forms_description",
