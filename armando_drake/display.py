@@ -92,6 +92,16 @@ def main(argv: list[str] | None = None) -> int:
         joints = ", ".join(f"{j.name} [{j.lower:.2f}, {j.upper:.2f}]" for j in robot.joints)
         print(f"Showing {robot.name!r} from {robot.source}")
         print(f"Joints: {joints}")
+        welded = ", ".join(
+            weld.link + (f" (fixed to the world link by {weld.joint!r})" if weld.joint else "")
+            for weld in robot.welds
+        )
+        print(f"Welded to the world: {welded}")
+        for joint in robot.mimic_joints:
+            print(
+                f"Mimic: {joint.name} = {joint.mimic_multiplier:g} * {joint.mimic} "
+                f"+ {joint.mimic_offset:g} (its slider is free here; the simulation couples it)"
+            )
         print(f"Meshcat: {meshcat.web_url()}", flush=True)
         visualizer.Run(loop_once=args.loop_once)
     return 0

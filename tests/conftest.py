@@ -10,6 +10,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
 COURSE_PACKAGE = SHARED / "upstream" / "arm_description"
+IIWA_PACKAGE = SHARED / "upstream" / "iiwa_description"
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 
 
@@ -26,6 +27,14 @@ def course_package() -> Path:
     if not (COURSE_PACKAGE / "urdf" / "arm.urdf").is_file():
         skip_or_fail(f"the course package is not at {COURSE_PACKAGE}")
     return COURSE_PACKAGE
+
+
+@pytest.fixture
+def iiwa_package() -> Path:
+    """The KUKA iiwa description of the course's later chapters (read only, never copied)."""
+    if not (IIWA_PACKAGE / "urdf" / "iiwa14.urdf.xacro").is_file():
+        skip_or_fail(f"the iiwa package is not at {IIWA_PACKAGE}")
+    return IIWA_PACKAGE
 
 
 @pytest.fixture

@@ -26,9 +26,14 @@ Drake parses an expanded URDF, :func:`prepare_urdf` rewrites it (XML to XML):
    the links welded below it) gets :data:`DEFAULT_MASS`. Each change is a
    warning naming the link, the old and the new values.
 
-:func:`actuated_joints` tells which joints take position commands, and
-:func:`default_controller_config` writes a ros2_control controller
-configuration for a robot that comes without one.
+Before any of this, a negative mass is taken as no mass (with a warning), and
+a Collada visual shows its own materials rather than the URDF ``<material>``.
+
+:func:`actuation` tells which joints are actuated, with their command
+interfaces (from ``<ros2_control>``, ROS 1 transmissions, or every moving
+joint; never a ``<mimic>`` joint), :func:`actuated_joints` which of them take
+position commands, and :func:`default_controller_config` writes a ros2_control
+controller configuration for a robot that comes without one.
 """
 
 from __future__ import annotations
@@ -272,9 +277,33 @@ class _Preparation:
                     self.files[mesh] = self.check_mesh(link, mesh)
 
     def rewrite_meshes(self) -> None:
-        for link in self.links.values():
-            for mesh in self.mesh_elements(link, "visual") + self.mesh_elements(link, "collision"):
+        overridden = []
+        for name, link in self.links.items():
+            for mesh in self.mesh_elements(link, "visual"):
                 mesh.set("filename", f"file://{self.converted(self.files[mesh]).path}")
+            for mesh in self.mesh_elements(link, "collision"):
+                source = self.files[mesh]
+                # Drake collides with its own formats as they are (an OBJ without normals
+                # is rewritten for the renderers only).
+                if source.suffix.lower() not in COLLIDABLE_FORMATS:
+                    source = self.converted(source).path
+                mesh.set("filename", f"file://{source}")
+            for visual in link.findall("visual"):
+                mesh = visual.find("geometry/mesh")
+                material = visual.find("material")
+                if mesh is None or material is None:
+                    continue
+                if self.files[mesh].suffix.lower() == ".dae":
+                    # The Collada file's own materials are shown (as RViz does); Drake
+                    # would otherwise warn that the URDF colour is ignored.
+                    visual.remove(material)
+                    overridden.append(name)
+        if overridden:
+            LOGGER.info(
+                "%s: Collada visuals of %s show their own materials, not the URDF <material>",
+                self.source,
+                ", ".join(dict.fromkeys(overridden)),
+            )
 
     def resolve_collision_mode(self, collision: str) -> str:
         if collision not in COLLISION_MODES:
@@ -387,6 +416,25 @@ class _Preparation:
             else:
                 self.check_inertia(name, link)
 
+    def fix_negative_masses(self) -> None:
+        """A negative mass is taken as no mass (Drake refuses it), with a warning."""
+        for name, link in self.links.items():
+            mass = link.find("inertial/mass")
+            try:
+                value = float(mass.get("value")) if mass is not None else 0.0
+            except (TypeError, ValueError):
+                raise DescriptionError(
+                    f"{self.where(mass)}: link {name!r}: mass value={mass.get('value')!r} is "
+                    "not a number"
+                ) from None
+            if value < 0 or not math.isfinite(value):
+                inertial = link.find("inertial")
+                link.remove(inertial)
+                self.warn(
+                    f"{self.where(mass)}: link {name!r}: mass {value:g} kg is not physically "
+                    "meaningful: taken as massless (its <inertial> is dropped)"
+                )
+
     def declared_mass(self, link: ET.Element) -> float:
         mass = link.find("inertial/mass")
         try:
@@ -497,6 +545,7 @@ def prepare_urdf(
     *,
     collision: str = "auto",
     source: str | os.PathLike = "",
+    edit=None,
 ) -> PreparedUrdf:
     """Rewrites an expanded URDF so that Drake loads and simulates it.
 
@@ -505,11 +554,18 @@ def prepare_urdf(
     folder). ``collision`` is one of :data:`COLLISION_MODES`. See the module
     docstring for what is changed; every change is logged on
     ``armando_drake.description.importer`` and listed in ``warnings``.
+    ``edit``, if given, is called with the parsed ``<robot>`` element first
+    (the loader's joint repairs and ``world`` link removal), so that the line
+    numbers in messages are still those of ``urdf_text``.
     """
     step = _Preparation(urdf_text, search, str(source))
     if step.root.tag != "robot":
         raise DescriptionError(f"{step.source}: not a URDF: the root element is <{step.root.tag}>")
+    if edit is not None:
+        edit(step.root)
+        step.links = {link.get("name", ""): link for link in step.root.findall("link")}
     step.resolve_meshes()
+    step.fix_negative_masses()
     mode = step.resolve_collision_mode(collision)
     step.fix_inertias()
     step.apply_collision_mode(mode)
@@ -523,52 +579,134 @@ def prepare_urdf(
 # Actuation
 # --------------------------------------------------------------------------
 
-_logged_once: set[str] = set()
+
+def actuation(
+    root: ET.Element, hardware: list | None = None, joints: list | None = None
+) -> tuple[dict[str, list[str]], str, list[str]]:
+    """The actuated joints with their command interfaces, where that was read, and notes.
+
+    From the ``<ros2_control>`` blocks if the URDF has any (every joint with a
+    command interface, in block order; a joint in two blocks keeps the first),
+    else from ROS 1 top-level ``<transmission>`` blocks (their
+    ``hardware_interface/<Kind>JointInterface`` mapped to position, velocity or
+    effort), else every revolute, continuous and prismatic joint with
+    ``["position"]``. Joints with a ``<mimic>`` are never actuated: Drake
+    couples them to the joint they follow. The source is ``"ros2_control"``,
+    ``"transmission"`` or ``"non-fixed joints"``; the notes say what was
+    ignored (hardware plugins we do not run, mimic joints, transmissions on
+    fixed joints), one line each.
+    """
+    from armando_drake.description.loader import parse_joints, parse_transmissions
+    from armando_drake.description.ros2_control import (
+        ComponentInfo,
+        HardwareInfo,
+        InterfaceInfo,
+        Ros2ControlError,
+        parse_ros2_control,
+    )
+
+    if hardware is None:
+        try:
+            hardware = parse_ros2_control(root)
+        except Ros2ControlError:  # checked where the description is loaded; read leniently
+            hardware = [
+                HardwareInfo(
+                    name=block.get("name", ""),
+                    type=block.get("type", ""),
+                    plugin=(block.findtext("hardware/plugin") or "").strip(),
+                    joints=[
+                        ComponentInfo(
+                            name=joint.get("name", ""),
+                            type="joint",
+                            command_interfaces=[
+                                InterfaceInfo(name=i.get("name", ""))
+                                for i in joint.findall("command_interface")
+                            ],
+                        )
+                        for joint in block.findall("joint")
+                    ],
+                )
+                for block in root.findall("ros2_control")
+            ]
+    if joints is None:
+        joints = parse_joints(root)
+    kinds = {joint.get("name"): joint.get("type") for joint in root.findall("joint")}
+    mimics = {joint.name: joint.mimic for joint in joints if joint.mimic}
+    result: dict[str, list[str]] = {}
+    notes: list[str] = []
+
+    def add(name: str, interfaces: list[str], where: str) -> None:
+        if name in mimics:
+            notes.append(
+                f"{where}: joint {name!r} mimics {mimics[name]!r}: not actuated, Drake couples it"
+            )
+        elif name in result:
+            notes.append(f"{where}: joint {name!r} is already actuated: this entry is ignored")
+        else:
+            result[name] = interfaces
+
+    if hardware:
+        for block in hardware:
+            sensors = [sensor.name for sensor in block.sensors + block.gpios]
+            notes.append(
+                f"<ros2_control name={block.name!r}>: hardware plugin {block.plugin!r} is not "
+                "run: "
+                + ("Drake simulates its joints" if block.joints else "")
+                + ("; " if block.joints and sensors else "")
+                + (f"its sensors/GPIOs ({', '.join(sensors)}) give no readings" if sensors else "")
+            )
+            for component in block.joints:
+                interfaces = [i.name for i in component.command_interfaces]
+                if interfaces:
+                    add(component.name, interfaces, f"<ros2_control name={block.name!r}>")
+        return result, "ros2_control", notes
+    transmissions = [t for t in parse_transmissions(root) if not t.ros2_control]
+    if transmissions:
+        for transmission in transmissions:
+            where = f"<transmission name={transmission.name!r}>"
+            for name, interfaces in transmission.joints.items():
+                written = transmission.hardware_interfaces.get(name, [])
+                if kinds.get(name) in (None, "fixed"):
+                    notes.append(
+                        f"{where} names joint {name!r}, which is not a moving joint: ignored"
+                    )
+                elif written and not interfaces:
+                    notes.append(
+                        f"{where}: {', '.join(written)} of joint {name!r} is not a joint "
+                        "command interface (position, velocity, effort): ignored"
+                    )
+                elif name in result and name not in mimics:
+                    # Gazebo descriptions give a joint one transmission per interface.
+                    result[name] = list(dict.fromkeys(result[name] + interfaces))
+                else:
+                    add(name, interfaces or ["position"], where)
+        if result:
+            return result, "transmission", notes
+        notes.append("no <transmission> names a joint command interface")
+    for name, kind in kinds.items():
+        if kind in MOVING_JOINT_TYPES[:3]:
+            add(name, ["position"], "no <ros2_control> or <transmission>")
+    notes.append(
+        "no <ros2_control> or <transmission>: actuating every non-fixed joint: " + ", ".join(result)
+    )
+    return result, "non-fixed joints", notes
 
 
 def actuated_joints(root: ET.Element) -> tuple[list[str], str]:
     """The joints taking position commands, and where that was read from.
 
     From ``<ros2_control>`` (joints with a ``position`` command interface) if
-    the URDF has one, else from top-level ``<transmission>`` blocks (ROS 1 and
-    ROS 2 style, their ``<joint name=..>``), else every non-fixed joint (logged
-    once). The source is ``"ros2_control"``, ``"transmission"`` or
-    ``"non-fixed joints"``.
+    the URDF has one, else from top-level ``<transmission>`` blocks (every
+    joint they name, whatever its hardware interface), else every non-fixed
+    joint. Mimic joints are left out. The source is ``"ros2_control"``,
+    ``"transmission"`` or ``"non-fixed joints"``; see :func:`actuation`.
     """
-    kinds = {joint.get("name"): joint.get("type") for joint in root.findall("joint")}
-    blocks = root.findall("ros2_control")
-    if blocks:
-        names = [
-            joint.get("name")
-            for block in blocks
-            for joint in block.findall("joint")
-            if any(i.get("name") == "position" for i in joint.findall("command_interface"))
-        ]
-        return list(dict.fromkeys(names)), "ros2_control"
-    transmissions = root.findall("transmission")
-    if transmissions:
-        names = []
-        for transmission in transmissions:
-            for joint in transmission.findall("joint"):
-                name = joint.get("name")
-                if kinds.get(name) in (None, "fixed"):
-                    LOGGER.warning(
-                        "<transmission name=%r> names joint %r, which is not a moving joint: "
-                        "ignored",
-                        transmission.get("name"),
-                        name,
-                    )
-                elif name not in names:
-                    names.append(name)
-        return names, "transmission"
-    names = [name for name, kind in kinds.items() if kind in MOVING_JOINT_TYPES[:3]]
-    message = "no <ros2_control> or <transmission>: actuating every non-fixed joint: " + ", ".join(
-        names
-    )
-    if message not in _logged_once:
-        _logged_once.add(message)
-        LOGGER.info("%s", message)
-    return names, "non-fixed joints"
+    interfaces, source, _ = actuation(root)  # load_robot logs the notes
+    if source == "ros2_control":
+        names = [name for name, kinds in interfaces.items() if "position" in kinds]
+    else:
+        names = list(interfaces)
+    return names, source
 
 
 def default_controller_config(joints: list[str], *, update_rate: int = 100) -> dict:

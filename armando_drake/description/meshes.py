@@ -1,8 +1,9 @@
 """Mesh files of a robot description, made loadable by Drake.
 
 Drake renders and collides OBJ (and glTF) meshes; ROS descriptions mostly ship
-STL or Collada (DAE). :func:`convert_mesh` turns those into OBJ files with
-normals, written once into a cache keyed by the source file's content, so a
+STL or Collada (DAE). :func:`convert_mesh` turns those (and OBJ files without
+the normals Drake's renderers need) into OBJ files with normals, written once
+into a cache keyed by the source file's content (and its textures), so a
 second load converts nothing:
 
 - the cache is ``$XDG_CACHE_HOME/armando_drake/meshes`` (``~/.cache`` when the
@@ -12,6 +13,11 @@ second load converts nothing:
 - Collada's ``<unit meter="..">`` is applied (as Gazebo and RViz do); its
   ``up_axis`` is ignored (as RViz does);
 - every face gets its own normal (flat shading, as the STL facets are);
+- Collada materials are kept: each material becomes an ``newmtl`` of an MTL
+  file beside the OBJ (diffuse colour ``Kd``, opacity ``d``, texture
+  ``map_Kd`` written as a PNG beside it), and the faces using it follow a
+  ``usemtl``; Drake shows them in Meshcat and in camera images (an OBJ's own
+  materials are used when the URDF gives the visual no colour);
 - alongside each OBJ a ``.npy`` keeps the vertices, so bounding boxes of
   cached meshes cost no parsing.
 
@@ -24,6 +30,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,7 +40,7 @@ import numpy as np
 from armando_drake.description.loader import DescriptionError, PackageSearch
 
 # Bumped whenever the OBJ written for the same source would differ.
-CONVERTER_VERSION = 2
+CONVERTER_VERSION = 3
 # Formats converted to OBJ, by lower-case extension.
 CONVERTED_FORMATS = (".stl", ".dae")
 # Formats Drake reads itself; passed through untouched.
@@ -68,30 +75,152 @@ def _vertices_file(obj: Path) -> Path:
 
 
 def _content_key(path: Path) -> str:
+    """A hash of the file, and for Collada of the image files it names (its textures)."""
     digest = hashlib.sha256(f"armando_drake mesh converter {CONVERTER_VERSION}\n".encode())
-    with open(path, "rb") as stream:
-        for block in iter(lambda: stream.read(1 << 20), b""):
-            digest.update(block)
+    files = [path]
+    if path.suffix.lower() == ".dae":
+        text = path.read_text(errors="replace")
+        for name in re.findall(r"<init_from>\s*([^<]+?)\s*</init_from>", text):
+            image = path.parent / name.removeprefix("file://")
+            if image.suffix and image.is_file():
+                files.append(image)
+    elif path.suffix.lower() == ".obj":
+        text = path.read_text(errors="replace")
+        for name in re.findall(r"^mtllib\s+(.+?)\s*$", text, re.M):
+            library = path.parent / name
+            if library.is_file():
+                files.append(library)
+                maps = re.findall(r"^\s*map_\w+\s+(?:-\S+\s+\S+\s+)*(.+?)\s*$",
+                                  library.read_text(errors="replace"), re.M)  # fmt: skip
+                files += [library.parent / m for m in maps if (library.parent / m).is_file()]
+    for file in files:
+        with open(file, "rb") as stream:
+            for block in iter(lambda: stream.read(1 << 20), b""):
+                digest.update(block)
     return digest.hexdigest()[:24]
 
 
-def _load_trimesh(path: Path):
-    """The single triangle mesh of an STL/DAE/OBJ/glTF file, in metres per its own units."""
+def _load_scene(path: Path):
+    """The trimesh scene of a mesh file, scaled to metres by its Collada ``<unit>``."""
     import trimesh
 
     try:
         scene = trimesh.load_scene(str(path))
     except Exception as error:  # trimesh raises ValueError, KeyError, ImportError...
         raise DescriptionError(f"{path}: cannot read mesh: {error}") from None
-    mesh = scene.to_mesh()
     units = {str(g.metadata.get("units", "")) for g in scene.geometry.values()}
     if path.suffix.lower() == ".dae" and len(units) == 1:
         factor, _, unit = units.pop().partition("*")
-        if unit.strip() == "meters":
-            mesh.apply_scale(float(factor))
+        if unit.strip() == "meters" and float(factor) != 1.0:
+            scene = scene.scaled(float(factor))
+    return scene
+
+
+def _load_trimesh(path: Path):
+    """The single triangle mesh of an STL/DAE/OBJ/glTF file, in metres per its own units."""
+    mesh = _load_scene(path).to_mesh()
     if len(mesh.faces) == 0:
         raise DescriptionError(f"{path}: mesh has no triangles")
     return mesh
+
+
+@dataclass
+class _Part:
+    """The triangles of one material, in the mesh file's frame."""
+
+    vertices: np.ndarray  # (N, 3) [m]
+    faces: np.ndarray  # (M, 3) vertex indices
+    uv: np.ndarray | None  # (N, 2) texture coordinates, None without a texture
+    color: tuple[float, float, float, float]  # diffuse RGBA in [0, 1]
+    image: object = None  # PIL image of the diffuse texture, or None
+
+
+def _material_of(visual) -> tuple[tuple[float, float, float, float], object]:
+    """(diffuse RGBA in [0, 1], texture image or None) of a trimesh visual."""
+    rgba = np.array([0.7, 0.7, 0.7, 1.0])
+    image = None
+    if getattr(visual, "kind", None) == "texture" or hasattr(visual, "material"):
+        material = getattr(visual, "material", None)
+        factor = getattr(material, "baseColorFactor", None)
+        if factor is None:
+            factor = getattr(material, "diffuse", None)
+        if factor is not None:
+            rgba = np.asarray(factor, dtype=float).ravel()[:4] / 255.0
+        image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
+    elif getattr(visual, "kind", None) in ("face", "vertex"):
+        colors = np.asarray(visual.face_colors, dtype=float)
+        rgba = colors.mean(axis=0)[:4] / 255.0
+    if len(rgba) == 3:
+        rgba = np.append(rgba, 1.0)
+    return tuple(float(c) for c in rgba), image
+
+
+def _parts(path: Path) -> list[_Part]:
+    """The mesh split by material, every node's transform applied."""
+    parts = []
+    for mesh in _load_scene(path).dump():
+        if len(mesh.faces) == 0:
+            continue
+        color, image = _material_of(mesh.visual)
+        uv = getattr(mesh.visual, "uv", None)
+        if image is None or uv is None or len(uv) != len(mesh.vertices):
+            uv, image = None, None
+        parts.append(
+            _Part(
+                vertices=np.asarray(mesh.vertices, dtype=float),
+                faces=np.asarray(mesh.faces, dtype=np.int64),
+                uv=None if uv is None else np.asarray(uv, dtype=float),
+                color=color,
+                image=image,
+            )
+        )
+    if not parts:
+        raise DescriptionError(f"{path}: mesh has no triangles")
+    return parts
+
+
+def _material_obj(
+    parts: list[_Part], name: str, mtl_name: str, texture_names: list[str | None]
+) -> tuple[str, str]:
+    """OBJ text (one ``usemtl`` group per part, face normals) and its MTL text."""
+    obj = [
+        f"# converted by armando_drake (converter {CONVERTER_VERSION}) from {name}\n",
+        f"mtllib {mtl_name}\n",
+    ]
+    mtl = [f"# materials of {name}\n"]
+    v_offset = vt_offset = vn_offset = 0
+    for index, (part, texture) in enumerate(zip(parts, texture_names, strict=True)):
+        material = f"material_{index}"
+        r, g, b, a = part.color
+        mtl.append(
+            f"newmtl {material}\nKa 0 0 0\nKd {r:.6g} {g:.6g} {b:.6g}\nKs 0 0 0\nd {a:.6g}\n"
+        )
+        if texture:
+            mtl.append(f"map_Kd {texture}\n")
+        v, f = part.vertices, part.faces
+        a_, b_ = v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]
+        normals = np.cross(a_, b_)
+        lengths = np.linalg.norm(normals, axis=1, keepdims=True)
+        normals = np.divide(normals, lengths, out=np.zeros_like(normals), where=lengths > 0)
+        obj.append(f"o {material}\nusemtl {material}\n")
+        obj.append(("v %.9g %.9g %.9g\n" * len(v)) % tuple(v.ravel()))
+        obj.append(("vn %.6f %.6f %.6f\n" * len(normals)) % tuple(normals.ravel()))
+        n = np.arange(len(f)) + 1 + vn_offset
+        fv = f + 1 + v_offset
+        if texture:
+            obj.append(("vt %.9g %.9g\n" * len(part.uv)) % tuple(part.uv.ravel()))
+            ft = f + 1 + vt_offset
+            corners = np.column_stack(
+                [fv[:, 0], ft[:, 0], n, fv[:, 1], ft[:, 1], n, fv[:, 2], ft[:, 2], n]
+            )
+            obj.append(("f %d/%d/%d %d/%d/%d %d/%d/%d\n" * len(f)) % tuple(corners.ravel()))
+            vt_offset += len(part.uv)
+        else:
+            corners = np.column_stack([fv[:, 0], n, fv[:, 1], n, fv[:, 2], n])
+            obj.append(("f %d//%d %d//%d %d//%d\n" * len(f)) % tuple(corners.ravel()))
+        v_offset += len(v)
+        vn_offset += len(f)
+    return "".join(obj), "".join(mtl)
 
 
 def _obj_text(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray, name: str) -> str:
@@ -122,6 +251,14 @@ def _write_atomically(path: Path, write) -> None:
         raise
 
 
+def _needs_normals(path: Path) -> bool:
+    """An OBJ without vertex normals, which Drake's renderers refuse ("OBJ has no normals")."""
+    if path.suffix.lower() != ".obj":
+        return False
+    with open(path, "rb") as stream:
+        return not any(line.startswith(b"vn ") for line in stream)
+
+
 def convert_mesh(source: str | os.PathLike) -> ConvertedMesh:
     """The OBJ Drake should load for ``source``, converting it into the cache if needed.
 
@@ -130,9 +267,9 @@ def convert_mesh(source: str | os.PathLike) -> ConvertedMesh:
     """
     source = Path(source).resolve()
     suffix = source.suffix.lower()
-    if suffix in DRAKE_FORMATS:
+    if suffix in DRAKE_FORMATS and not _needs_normals(source):
         return ConvertedMesh(source=source, path=source, converted=False)
-    if suffix not in CONVERTED_FORMATS:
+    if suffix not in CONVERTED_FORMATS + (".obj",):
         raise DescriptionError(
             f"{source}: unsupported mesh format {suffix or '(no extension)'!r}; "
             f"supported: {', '.join(SUPPORTED_FORMATS)}"
@@ -141,12 +278,27 @@ def convert_mesh(source: str | os.PathLike) -> ConvertedMesh:
     target = folder / f"{source.stem}-{_content_key(source)}.obj"
     if target.is_file() and _vertices_file(target).is_file():
         return ConvertedMesh(source=source, path=target, converted=False)
-    mesh = _load_trimesh(source)
-    vertices = np.asarray(mesh.vertices, dtype=float)
-    faces = np.asarray(mesh.faces, dtype=np.int64)
-    normals = np.asarray(mesh.face_normals, dtype=float)
     folder.mkdir(parents=True, exist_ok=True)
-    text = _obj_text(vertices, faces, normals, source.name)
+    if suffix in (".dae", ".obj"):
+        parts = _parts(source)
+        vertices = np.vstack([part.vertices for part in parts])
+        textures = []
+        for index, part in enumerate(parts):
+            if part.image is None:
+                textures.append(None)
+                continue
+            image_path = target.with_name(f"{target.stem}-texture{index}.png")
+            _write_atomically(image_path, lambda name, im=part.image: im.save(name, format="PNG"))
+            textures.append(image_path.name)
+        mtl_path = target.with_suffix(".mtl")
+        text, mtl = _material_obj(parts, source.name, mtl_path.name, textures)
+        _write_atomically(mtl_path, lambda name: Path(name).write_text(mtl))
+    else:
+        mesh = _load_trimesh(source)
+        vertices = np.asarray(mesh.vertices, dtype=float)
+        faces = np.asarray(mesh.faces, dtype=np.int64)
+        normals = np.asarray(mesh.face_normals, dtype=float)
+        text = _obj_text(vertices, faces, normals, source.name)
 
     def save_vertices(name: str) -> None:
         with open(name, "wb") as stream:

@@ -10,9 +10,17 @@ the tag and attribute at fault; the description file is named in front.
 
 from __future__ import annotations
 
+import ast
+import contextlib
+import logging
 import math
+import operator
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
+
+LOGGER = logging.getLogger("armando_drake.description.ros2_control")
+# Interfaces that move a joint; a <joint> of a block with none of them is I/O.
+MOTION_INTERFACES = frozenset({"position", "velocity", "effort", "acceleration"})
 
 
 class Ros2ControlError(ValueError):
@@ -84,12 +92,44 @@ def _parameters(element: ET.Element, where: str) -> dict[str, str]:
     return result
 
 
+_OPERATORS = {
+    ast.Add: operator.add,
+    ast.Sub: operator.sub,
+    ast.Mult: operator.mul,
+    ast.Div: operator.truediv,
+    ast.Pow: operator.pow,
+    ast.USub: operator.neg,
+    ast.UAdd: operator.pos,
+}
+
+
+def _arithmetic(node: ast.AST) -> float:
+    """The value of an expression of numbers, ``pi``, + - * / ** and brackets."""
+    if isinstance(node, ast.Expression):
+        return _arithmetic(node.body)
+    if isinstance(node, ast.Constant) and isinstance(node.value, int | float):
+        return float(node.value)
+    if isinstance(node, ast.Name) and node.id == "pi":
+        return math.pi
+    if isinstance(node, ast.BinOp) and type(node.op) in _OPERATORS:
+        return _OPERATORS[type(node.op)](_arithmetic(node.left), _arithmetic(node.right))
+    if isinstance(node, ast.UnaryOp) and type(node.op) in _OPERATORS:
+        return _OPERATORS[type(node.op)](_arithmetic(node.operand))
+    raise ValueError(f"not arithmetic: {ast.dump(node)}")
+
+
 def _number(text: str, what: str, where: str) -> float:
+    """A number, or an expression in braces as the ros2_control docs write them
+    (``{-2*pi}``, as ur_description does: upstream keeps it as a string)."""
     try:
-        value = float(text)
+        return float(text)
     except ValueError:
-        raise Ros2ControlError(f"{where}{what}={text!r} is not a number") from None
-    return value
+        pass
+    stripped = text.strip()
+    if stripped.startswith("{") and stripped.endswith("}"):
+        with contextlib.suppress(ValueError, SyntaxError, ZeroDivisionError, OverflowError):
+            return _arithmetic(ast.parse(stripped[1:-1], mode="eval"))
+    raise Ros2ControlError(f"{where}{what}={text!r} is not a number")
 
 
 def _interface(element: ET.Element, owner: str, where: str) -> InterfaceInfo:
@@ -146,7 +186,10 @@ def _component(element: ET.Element, where: str) -> ComponentInfo:
 def parse_ros2_control(root: ET.Element, source: str = "") -> list[HardwareInfo]:
     """Every ``<ros2_control>`` block of a URDF, checked against its joints.
 
-    Joints named in a block must exist in the URDF and must not be fixed.
+    Joints named in a block must exist in the URDF and must not be fixed; a
+    ``<joint>`` that is not in the URDF and has no position, velocity, effort or
+    acceleration interface (older ur_description's ``speed_scaling``, ``gpio``)
+    is taken as a GPIO, with a warning.
     """
     where = f"{source}: " if source else ""
     if root.tag != "robot":
@@ -181,6 +224,19 @@ def parse_ros2_control(root: ET.Element, source: str = "") -> list[HardwareInfo]
                 )
             if child.tag == "joint":
                 joint = _component(child, where)
+                interfaces = {i.name for i in joint.command_interfaces + joint.state_interfaces}
+                if joint.name not in urdf_joints and not interfaces & MOTION_INTERFACES:
+                    LOGGER.warning(
+                        "%s<ros2_control name='%s'>: joint '%s' is not in the URDF and has no "
+                        "%s interface: taken as a GPIO (older ur_description writes its I/O so)",
+                        where,
+                        name,
+                        joint.name,
+                        ", ".join(sorted(MOTION_INTERFACES)),
+                    )
+                    joint.type = "gpio"
+                    info.gpios.append(joint)
+                    continue
                 if joint.name not in urdf_joints:
                     raise Ros2ControlError(
                         f"{where}<ros2_control name='{name}'>: "

@@ -61,7 +61,7 @@ from armando_drake.control.hardware import (
 from armando_drake.control.manager import ControllerManager, ManagedController
 from armando_drake.control.messages import Publication
 from armando_drake.description.importer import default_controller_config
-from armando_drake.description.loader import LoadedRobot, load_robot
+from armando_drake.description.loader import LoadedRobot, load_robot, package_of
 from armando_drake.sensors.objects import AddSceneObjects
 from armando_drake.simulation.scenario import Scenario, ScenarioError
 
@@ -135,13 +135,19 @@ class World:
 
 
 def _controller_config(scenario: Scenario, robot: LoadedRobot, hardware) -> ControllerManagerConfig:
-    """The controller YAML of the scenario, of the description package, or a default."""
+    """The controller YAML of the scenario, of the description's ``<gazebo><plugin>``
+    ``<parameters>``, of the description package, or a default."""
     path = scenario.controllers.config
     if path:
         return load_controller_config(Path(path))
-    package_dir = robot.source.parent.parent
-    candidates = sorted((package_dir / "config").glob("*controllers*.yaml"))
-    if candidates and (package_dir / "package.xml").is_file():
+    for named in robot.controller_files:
+        if named.is_file():
+            _log.info("controller configuration from the description's <gazebo> plugin: %s", named)
+            return load_controller_config(named)
+        _log.warning("the description's <gazebo> plugin names %s, which does not exist", named)
+    package_dir = package_of(robot.source)
+    candidates = sorted((package_dir / "config").glob("*controllers*.yaml")) if package_dir else []
+    if candidates:
         return load_controller_config(candidates[0])
     data = default_controller_config(hardware.joint_names)
     return parse_controller_config(data, source=f"<default controllers of {robot.name}>")

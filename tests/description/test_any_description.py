@@ -1,10 +1,12 @@
-"""Descriptions other than our own: the course's STL package and a xacro arm with a gripper."""
+"""Descriptions other than our own: the course's STL package, the course's KUKA iiwa (world
+link, ROS 1 transmissions) and a xacro arm with a gripper."""
 
 import json
 import subprocess
 import sys
 import textwrap
 
+import numpy as np
 import pytest
 from conftest import make_mini_package
 
@@ -147,3 +149,83 @@ def test_xacro_arm_with_gripper_ros2_control_macro_and_namespaced_yaml(tmp_path)
     assert abs(len(rows) - 1 - 6.0 * 200) <= 1
     first = [float(v) for v in rows[1].split(",")]
     assert first[1] == pytest.approx(0.3)  # initial_value from the xacro:arg
+
+
+IIWA_JOINTS = [f"iiwa_joint_{i}" for i in range(1, 8)]
+# [rad] seed-style targets for the 7 joints: out, back, a mixed pose, home.
+IIWA_TARGETS = [
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [1.2, -1.0, 1.2, -1.0, 0.6, 1.0, 0.5],
+    [-1.2, 1.0, -1.2, 1.0, -0.6, -1.0, -0.5],
+    [0.6, 0.5, -0.6, -1.5, 1.0, 0.5, 1.0],
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+]
+# [N m/rad], [N m s/rad]: stiff enough for a 30 kg arm (Armando's default is 8, 0.4).
+IIWA_GAINS = "actuators: {kp: 2000.0, kd: 50.0}"
+
+
+def test_display_loads_the_iiwa_with_its_world_link(iiwa_package):
+    result = run("armando_drake.display", "--description", str(iiwa_package), "--loop-once")
+    assert result.returncode == 0, result.stderr
+    assert "Showing 'iiwa14'" in result.stdout
+    (line,) = [line for line in result.stdout.splitlines() if line.startswith("Joints: ")]
+    assert line.count("iiwa_joint_") == 7
+    assert "iiwa_joint_1 [-2.97, 2.97]" in line and "iiwa_joint_7 [-3.05, 3.05]" in line
+    assert "Welded to the world: iiwa_link_0 (fixed to the world link by 'world_iiwa_joint')" in (
+        result.stdout
+    )
+
+
+def _iiwa_world(iiwa_package, tmp_path, controller: str, *sets: str) -> subprocess.CompletedProcess:
+    result = run(
+        "armando_drake.world", "--description", str(iiwa_package), "--controller", controller,
+        "--no-meshcat", "--realtime-rate", "0", "--quiet", "--no-replay",
+        "--output", str(tmp_path), *[arg for s in sets for arg in ("--set", s)],
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    return result
+
+
+def test_iiwa_falls_without_a_controller(iiwa_package, tmp_path):
+    _iiwa_world(iiwa_package, tmp_path, "none", "simulation: {duration: 2.0}")
+    from armando_drake.simulation.run import read_joint_states
+
+    times, q = read_joint_states(tmp_path / "joint_states.csv", IIWA_JOINTS)
+    assert times[-1] == pytest.approx(2.0)
+    moved = np.abs(q[-1] - q[0])
+    assert moved.max() > 0.1, f"the joints moved only {moved} rad in 2 s"
+
+
+def test_iiwa_position_controller_reaches_the_seed_style_targets(iiwa_package, tmp_path):
+    _iiwa_world(
+        iiwa_package,
+        tmp_path,
+        "position",
+        f"sequencer: {{targets: {IIWA_TARGETS}, period: 3.0}}",
+        IIWA_GAINS,
+    )
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["joint_names"] == IIWA_JOINTS
+    errors = [step["max_abs_error"] for step in summary["steps"]]
+    assert len(errors) == 5 and max(errors) <= 0.01, errors
+
+
+@pytest.mark.parametrize(
+    "argument, interface",
+    [("PositionJointInterface", "position"), ("EffortJointInterface", "effort")],
+)
+def test_iiwa_transmission_hardware_interface_per_joint(iiwa_package, argument, interface):
+    from pydrake.multibody.plant import MultibodyPlant
+
+    from armando_drake.description.loader import load_robot
+
+    plant = MultibodyPlant(0.001)
+    robot = load_robot(plant, iiwa_package, xacro_args={"hardware_interface": argument})
+    assert robot.base_link == "iiwa_link_0"
+    assert robot.welds[0].joint == "world_iiwa_joint"
+    assert robot.actuation_source == "transmission"
+    assert robot.command_interfaces == {joint: [interface] for joint in IIWA_JOINTS}
+    assert robot.transmissions[0].hardware_interfaces == {
+        "iiwa_joint_1": [f"hardware_interface/{argument}"]
+    }
+    assert [j.damping for j in robot.joints] == [0.5] * 7

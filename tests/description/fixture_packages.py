@@ -1,0 +1,158 @@
+"""The test fixture packages of tests/description/fixtures, copied into a workspace with
+their mesh files written (tiny STL, OBJ + MTL, Collada with a material and a texture)."""
+
+# ruff: noqa: E501  (the Collada template stays one readable XML document)
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+FIXTURES = Path(__file__).resolve().parent / "fixtures"
+# [0..1] RGB of the Collada file's coloured body and of its texture.
+DAE_RED = (0.8, 0.1, 0.1)
+TEXTURE_BLUE = (0, 0, 255)
+# [0..1] diffuse colour of part.mtl.
+OBJ_GREEN = (0.1, 0.7, 0.2)
+
+
+def box(size, offset=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices (8, 3) and outward triangles (12, 3) of a box of ``size`` [m] at ``offset``."""
+    hx, hy, hz = np.asarray(size, dtype=float) / 2
+    vertices = np.array([[x, y, z] for x in (-hx, hx) for y in (-hy, hy) for z in (-hz, hz)])
+    faces = np.array(
+        [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+         [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]]
+    )  # fmt: skip
+    return vertices + np.asarray(offset, dtype=float), faces
+
+
+def write_stl(path: Path, size, offset=(0.0, 0.0, 0.0)) -> None:
+    import trimesh
+
+    vertices, faces = box(size, offset)
+    trimesh.Trimesh(vertices, faces).export(path)
+
+
+def _floats(values) -> str:
+    return " ".join(f"{v:g}" for v in np.ravel(values))
+
+
+def _collada_geometry(name: str, size, offset, textured: bool) -> str:
+    vertices, faces = box(size, offset)
+    uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]] * 2, dtype=float)
+    inputs = f'<input semantic="VERTEX" source="#{name}-v" offset="0"/>'
+    indices = faces.ravel()
+    uv_source = ""
+    if textured:
+        inputs += f'<input semantic="TEXCOORD" source="#{name}-uv" offset="1" set="0"/>'
+        indices = np.column_stack([faces.ravel(), faces.ravel()]).ravel()
+        uv_source = (
+            f'<source id="{name}-uv"><float_array id="{name}-uv-a" count="{uv.size}">'
+            f"{_floats(uv)}</float_array><technique_common>"
+            f'<accessor source="#{name}-uv-a" count="{len(uv)}" stride="2">'
+            '<param name="S" type="float"/><param name="T" type="float"/></accessor>'
+            "</technique_common></source>"
+        )
+    return (
+        f'<geometry id="{name}" name="{name}"><mesh>'
+        f'<source id="{name}-p"><float_array id="{name}-p-a" count="{vertices.size}">'
+        f"{_floats(vertices)}</float_array><technique_common>"
+        f'<accessor source="#{name}-p-a" count="{len(vertices)}" stride="3">'
+        '<param name="X" type="float"/><param name="Y" type="float"/>'
+        '<param name="Z" type="float"/></accessor></technique_common></source>'
+        f"{uv_source}"
+        f'<vertices id="{name}-v"><input semantic="POSITION" source="#{name}-p"/></vertices>'
+        f'<triangles material="{name}-material" count="{len(faces)}">{inputs}'
+        f"<p>{_floats(indices)}</p></triangles></mesh></geometry>"
+    )
+
+
+def write_collada(path: Path, unit: float = 1.0) -> None:
+    """Two boxes in one file, in units of ``unit`` metres: a 4 cm body of diffuse colour
+    DAE_RED and, beside it (+x), a 2 x 2 x 6 cm plate textured with ``texture.png``."""
+    from PIL import Image
+
+    scale = 1.0 / unit
+    body = _collada_geometry("body", np.array([0.04] * 3) * scale, (0, 0, 0), False)
+    plate = _collada_geometry(
+        "plate", np.array([0.02, 0.02, 0.06]) * scale, np.array([0.05, 0, 0]) * scale, True
+    )
+    r, g, b = DAE_RED
+    path.write_text(
+        f"""<?xml version="1.0" encoding="utf-8"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+  <asset><unit name="custom" meter="{unit}"/><up_axis>Z_UP</up_axis></asset>
+  <library_images><image id="tex-image"><init_from>texture.png</init_from></image></library_images>
+  <library_effects>
+    <effect id="red-effect"><profile_COMMON><technique sid="common"><phong>
+      <diffuse><color>{r} {g} {b} 1</color></diffuse></phong></technique></profile_COMMON></effect>
+    <effect id="tex-effect"><profile_COMMON>
+      <newparam sid="tex-surface"><surface type="2D"><init_from>tex-image</init_from></surface></newparam>
+      <newparam sid="tex-sampler"><sampler2D><source>tex-surface</source></sampler2D></newparam>
+      <technique sid="common"><phong><diffuse><texture texture="tex-sampler" texcoord="UVMap"/></diffuse></phong></technique>
+    </profile_COMMON></effect>
+  </library_effects>
+  <library_materials>
+    <material id="red" name="red"><instance_effect url="#red-effect"/></material>
+    <material id="tex" name="tex"><instance_effect url="#tex-effect"/></material>
+  </library_materials>
+  <library_geometries>{body}{plate}</library_geometries>
+  <library_visual_scenes><visual_scene id="scene">
+    <node id="body-node"><instance_geometry url="#body"><bind_material><technique_common>
+      <instance_material symbol="body-material" target="#red"/></technique_common></bind_material></instance_geometry></node>
+    <node id="plate-node"><instance_geometry url="#plate"><bind_material><technique_common>
+      <instance_material symbol="plate-material" target="#tex"><bind_vertex_input semantic="UVMap" input_semantic="TEXCOORD" input_set="0"/></instance_material></technique_common></bind_material></instance_geometry></node>
+  </visual_scene></library_visual_scenes>
+  <scene><instance_visual_scene url="#scene"/></scene>
+</COLLADA>
+"""
+    )
+    pixels = np.zeros((4, 4, 3), dtype=np.uint8)
+    pixels[:] = TEXTURE_BLUE
+    Image.fromarray(pixels).save(path.parent / "texture.png")
+
+
+def write_obj_with_mtl(path: Path, size, normals: bool = True) -> None:
+    """A box as OBJ (with face normals unless ``normals`` is False) using ``part.mtl``'s
+    material of colour OBJ_GREEN."""
+    vertices, faces = box(size)
+    r, g, b = OBJ_GREEN
+    path.with_suffix(".mtl").write_text(f"newmtl green\nKd {r} {g} {b}\nd 1\n")
+    lines = [f"mtllib {path.with_suffix('.mtl').name}\nusemtl green\n"]
+    lines += [f"v {x:g} {y:g} {z:g}\n" for x, y, z in vertices]
+    if normals:
+        for a, b_, c in faces:
+            n = np.cross(vertices[b_] - vertices[a], vertices[c] - vertices[a])
+            nx, ny, nz = n / np.linalg.norm(n)
+            lines.append(f"vn {nx:g} {ny:g} {nz:g}\n")
+        lines += [f"f {a + 1}//{k + 1} {b_ + 1}//{k + 1} {c + 1}//{k + 1}\n"
+                  for k, (a, b_, c) in enumerate(faces)]  # fmt: skip
+    else:
+        lines += [f"f {a + 1} {b_ + 1} {c + 1}\n" for a, b_, c in faces]
+    path.write_text("".join(lines))
+
+
+def write_meshes(package: Path) -> None:
+    """The mesh files a fixture package refers to."""
+    name = package.name
+    if name == "world_arm_description":
+        (package / "meshes").mkdir(exist_ok=True)
+        write_stl(package / "meshes" / "rod.stl", (0.04, 0.04, 0.1))
+    elif name == "mesh_description":
+        meshes = package / "meshes"
+        meshes.mkdir(exist_ok=True)
+        write_collada(meshes / "body.dae", unit=0.01)  # centimetres
+        write_obj_with_mtl(meshes / "part.obj", (0.03, 0.03, 0.05))
+        write_stl(meshes / "rod_mm.stl", (20, 20, 100), (0, 0, 50))  # millimetres
+
+
+def make_workspace(root: Path, names=None) -> Path:
+    """Copies the fixture packages (all, or ``names``) into ``root``/src; returns src."""
+    src = root / "src"
+    for package in sorted(FIXTURES.iterdir()):
+        if package.is_dir() and (names is None or package.name in names):
+            target = src / package.name
+            shutil.copytree(package, target)
+            write_meshes(target)
+    return src
