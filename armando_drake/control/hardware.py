@@ -192,9 +192,11 @@ def AddHardwareInterface(
         q0 = initial_position(lower, upper, state)
         joint = plant.GetJointByName(joint_name, robot.model_instance)
         joint.set_default_positions([q0])
+        # Actuators the parser made (e.g. from a <transmission>); the per-instance
+        # listing is empty before Finalize(), so look through all of them.
         existing = [
             plant.get_joint_actuator(index)
-            for index in plant.GetJointActuatorIndices(robot.model_instance)
+            for index in plant.GetJointActuatorIndices()
             if plant.get_joint_actuator(index).joint().index() == joint.index()
         ]
         effort = info.effort if np.isfinite(info.effort) and info.effort > 0 else np.inf
@@ -263,7 +265,10 @@ def FinishHardwareInterface(
     actuators = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices(instance)]
     order = [actuator.joint().name() for actuator in actuators]
     if order != hardware.joint_names:
-        raise RuntimeError(f"actuator order {order} differs from {hardware.joint_names}")
+        raise RuntimeError(
+            f"actuator order {order} differs from {hardware.joint_names}: "
+            f"{[a.name() for a in actuators]}"
+        )
     hardware.position_index = [q_start[name] for name in order]
     hardware.velocity_index = [v_start[name] for name in order]
     hardware.num_model_states = nq + nv
