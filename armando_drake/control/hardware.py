@@ -132,7 +132,8 @@ def _transmission_interfaces(root: ET.Element, names: list[str], where) -> dict[
             texts = [
                 (element.text or "").strip()
                 for element in (
-                    joint.findall("hardwareInterface") + transmission.findall("actuator/hardwareInterface")
+                    joint.findall("hardwareInterface")
+                    + transmission.findall("actuator/hardwareInterface")
                 )
             ]
             chosen = "position"

@@ -178,7 +178,8 @@ class ControllerManager(LeafSystem):
             if unknown:
                 raise ValueError(
                     f"controller {controller.name!r} claims {unknown}, which the hardware "
-                    f"interface {hardware.name!r} does not actuate ({', '.join(hardware.joint_names)})"
+                    f"interface {hardware.name!r} does not actuate "
+                    f"({', '.join(hardware.joint_names)})"
                 )
             rows = hardware.find(list(logic.joint_names))
             for row in rows:

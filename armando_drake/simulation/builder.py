@@ -69,6 +69,7 @@ from armando_drake.simulation.scenario import Scenario, ScenarioError
 
 _log = logging.getLogger("armando_drake.world")
 
+
 @dataclass
 class World:
     """The built diagram and handles to its parts."""

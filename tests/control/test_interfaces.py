@@ -2,7 +2,6 @@
 
 import textwrap
 
-import numpy as np
 import pytest
 from conftest import make_mini_package
 from pydrake.systems.analysis import Simulator
@@ -178,7 +177,9 @@ ROS2_CONTROL = """
 TRANSMISSIONS = """
 <transmission name="t1">
   <type>transmission_interface/SimpleTransmission</type>
-  <joint name="q1"><hardwareInterface>hardware_interface/EffortJointInterface</hardwareInterface></joint>
+  <joint name="q1">
+    <hardwareInterface>hardware_interface/EffortJointInterface</hardwareInterface>
+  </joint>
   <actuator name="m1"><mechanicalReduction>1</mechanicalReduction></actuator>
 </transmission>
 <transmission name="t2">

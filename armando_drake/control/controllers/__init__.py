@@ -168,20 +168,23 @@ def load_parameters(cls: type[Controller], raw: dict[str, Any]):
                 name, f"unknown parameter for {cls.type_name()}; known: {sorted(known)}"
             )
     try:
-        params = yaml_load_typed(
-            schema=cls.parameters,
-            data=yaml.safe_dump(data),
-            defaults=cls.parameters(),
-        )
-    except Exception as error:  # yaml_load_typed raises RuntimeError, TypeError, ...
-        name = _field_named_in(str(error), data) or next(iter(data), "ros__parameters")
-        raise ParameterError(name, " ".join(str(error).split())) from None
+        params = _load_typed(cls.parameters, data)
+    except Exception as whole:  # yaml_load_typed raises RuntimeError, TypeError, ValueError
+        # Find the parameter at fault: load them one at a time.
+        name, problem = next(iter(data), "ros__parameters"), str(whole)
+        for candidate, value in data.items():
+            try:
+                _load_typed(cls.parameters, {candidate: value})
+            except Exception as single:  # as above
+                name, problem = candidate, str(single)
+                break
+        raise ParameterError(name, " ".join(problem.split())) from None
     params.check(raw)
     return params
 
 
-def _field_named_in(text: str, data: dict[str, Any]) -> str | None:
-    return next((name for name in data if f"'{name}'" in text), None)
+def _load_typed(schema: type, data: dict[str, Any]):
+    return yaml_load_typed(schema=schema, data=yaml.safe_dump(data), defaults=schema())
 
 
 # Parameters every controller accepts and the simulation has no use for.
@@ -372,9 +375,7 @@ class Controller:
         )
 
     def accept(self, status: ControllerStatus, state: str, detail: dict) -> ControllerStatus:
-        return dataclasses.replace(
-            status, state=state, accepted=status.accepted + 1, detail=detail
-        )
+        return dataclasses.replace(status, state=state, accepted=status.accepted + 1, detail=detail)
 
     @staticmethod
     def log_warning(name: str, text: str) -> None:

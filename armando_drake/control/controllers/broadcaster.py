@@ -6,7 +6,6 @@ in its order, at ``update_rate``; and the same numbers as one vector
 ``[q; v; effort]``, which Drake's C++ ``VectorLogSink`` records without Python.
 """
 
-
 import dataclasses
 from typing import Any
 

@@ -19,7 +19,6 @@ stays active (upstream Jazzy deactivates it). A value outside the joint's limit
 command accepted, with the warning in ``status.detail["warning"]``.
 """
 
-
 import dataclasses
 from typing import Any
 

@@ -20,7 +20,6 @@ than ``trajectory_tolerance`` from the desired position aborts with "path
 tolerance violated". An abort holds the measured position of that moment.
 """
 
-
 import dataclasses
 import math
 from typing import Any
@@ -90,7 +89,8 @@ class JointTrajectoryControllerParams:
             _interfaces(raw.get(name), allowed, name)
         if "effort" in self.command_interfaces:
             raise ParameterError(
-                "command_interfaces", "the 'effort' command interface is not simulated; use position"
+                "command_interfaces",
+                "the 'effort' command interface is not simulated; use position",
             )
         if self.interpolation_method not in INTERPOLATION_METHODS:
             raise ParameterError(
@@ -206,8 +206,6 @@ class _ActiveTrajectory:
             segments.append(np.array([[Polynomial(row)] for row in coefficients], dtype=object))
         position = PiecewisePolynomial(segments, breaks)
         return _ActiveTrajectory(position, position.derivative(1), breaks[-1], goal)
-
-
 
 
 _IGNORED = frozenset(
@@ -497,5 +495,3 @@ class JointTrajectoryController(Controller):
                 f"(stopped_velocity_tolerance {stopped_tolerance:g})"
             )
         return ("aborted", f"goal tolerance violated: {problem} {late:.6g} s after the end")
-
-
