@@ -25,8 +25,6 @@ import math
 from typing import Any
 
 import numpy as np
-from pydrake.polynomial import Polynomial
-from pydrake.trajectories import PiecewisePolynomial
 
 from armando_drake.control.controllers import (
     Controller,
@@ -155,12 +153,25 @@ def _segment_coefficients(a: _Knot, b: _Knot) -> np.ndarray:
     return np.stack([p0, v0, 0.5 * a0, c3, c4, c5], axis=1)
 
 
+_DEGREE = 5  # highest segment degree (quintic)
+_EXPONENTS = np.arange(_DEGREE + 1)
+
+
 @dataclasses.dataclass(frozen=True)
 class _ActiveTrajectory:
-    """An accepted trajectory, sampled at each update. Never mutated."""
+    """An accepted trajectory, sampled at each update. Never mutated.
 
-    position: PiecewisePolynomial | None  # q_d(t) (n x 1); None if it has ended on arrival
-    velocity: PiecewisePolynomial | None  # v_d(t) (n x 1)
+    The segments are kept as coefficient arrays and sampled with a few numpy
+    operations (no per-sample pybind call: inside a simulation each costs tens of
+    microseconds); :meth:`as_piecewise_polynomial` gives the same trajectory as
+    Drake's ``PiecewisePolynomial``.
+    """
+
+    breaks: np.ndarray  # [s] knot times (segments + 1); empty if it has ended on arrival
+    # Per segment, per joint, ascending coefficients in (t - break) of q_d: (s, n, 6).
+    position: np.ndarray
+    # The same for v_d: (s, n, 6); for interpolation_method none, the held velocities.
+    velocity: np.ndarray
     end_time: float  # [s] time of the last point
     goal: np.ndarray  # [rad] positions of the last point (n)
 
@@ -169,43 +180,36 @@ class _ActiveTrajectory:
 
     def sample(self, time: float) -> tuple[np.ndarray, np.ndarray, bool]:
         """Desired (q, v) at ``time`` and whether the trajectory has ended."""
-        if self.position is None or time >= self.end_time:
+        if len(self.breaks) == 0 or time >= self.end_time:
             return self.goal.copy(), np.zeros_like(self.goal), True
-        time = max(time, self.position.start_time())
-        return (
-            self.position.value(time).reshape(-1),
-            self.velocity.value(time).reshape(-1),
-            False,
-        )
+        k = max(int(np.searchsorted(self.breaks, time, side="right")) - 1, 0)
+        tau = max(time - self.breaks[k], 0.0)
+        powers = tau**_EXPONENTS
+        return self.position[k] @ powers, self.velocity[k] @ powers, False
 
     @staticmethod
     def build(knots: list[_Knot], hold: bool) -> "_ActiveTrajectory":
         goal = knots[-1].positions.copy()
+        n = len(goal)
         if len(knots) < 2:
-            return _ActiveTrajectory(None, None, knots[-1].time, goal)
-        breaks = [knot.time for knot in knots]
-        if hold:
-            # interpolation_method: none -- each point's values until the next one.
-            positions = np.stack([knot.positions for knot in knots], axis=1)
-            velocities = np.stack(
-                [
-                    np.zeros_like(knot.positions) if knot.velocities is None else knot.velocities
-                    for knot in knots
-                ],
-                axis=1,
-            )
-            return _ActiveTrajectory(
-                PiecewisePolynomial.ZeroOrderHold(breaks, positions),
-                PiecewisePolynomial.ZeroOrderHold(breaks, velocities),
-                breaks[-1],
-                goal,
-            )
-        segments = []
-        for a, b in zip(knots[:-1], knots[1:], strict=True):
+            empty = np.zeros((0, n, _DEGREE + 1))
+            return _ActiveTrajectory(np.zeros(0), empty, empty, knots[-1].time, goal)
+        breaks = np.array([knot.time for knot in knots])
+        segments = len(knots) - 1
+        position = np.zeros((segments, n, _DEGREE + 1))
+        velocity = np.zeros((segments, n, _DEGREE + 1))
+        for k, (a, b) in enumerate(zip(knots[:-1], knots[1:], strict=True)):
+            if hold:
+                # interpolation_method: none -- each point's values until the next one.
+                position[k, :, 0] = a.positions
+                if a.velocities is not None:
+                    velocity[k, :, 0] = a.velocities
+                continue
             coefficients = _segment_coefficients(a, b)
-            segments.append(np.array([[Polynomial(row)] for row in coefficients], dtype=object))
-        position = PiecewisePolynomial(segments, breaks)
-        return _ActiveTrajectory(position, position.derivative(1), breaks[-1], goal)
+            degree = coefficients.shape[1] - 1
+            position[k, :, : degree + 1] = coefficients
+            velocity[k, :, :degree] = coefficients[:, 1:] * np.arange(1, degree + 1)
+        return _ActiveTrajectory(breaks, position, velocity, float(breaks[-1]), goal)
 
 
 _IGNORED = frozenset(
@@ -307,6 +311,8 @@ class JointTrajectoryController(Controller):
             [params.trajectory_tolerance.get(name, 0.0) for name in names]
         )
         self._goal_tolerance = np.array([params.goal_tolerance.get(name, 0.0) for name in names])
+        # [rad] the path tolerance as a bound to compare with (inf where unchecked).
+        self._path_limit = np.where(self._path_tolerance > 0, self._path_tolerance, np.inf)
 
     def _Validate(self, message, now: float) -> list[int]:
         """Controller index of each message joint; raises _Rejected in upstream's order."""
@@ -410,6 +416,16 @@ class JointTrajectoryController(Controller):
     def update(self, now, message, memory, measure):
         if message is None and not memory.busy:
             return memory  # nothing new and nothing running: the desired state holds
+        if message is None and now < memory.trajectory.end_time:
+            # The common tick: sample the running trajectory, check the path tolerance
+            # (vectorised), nothing else; any event goes the long way below.
+            q_d, v_d, _ = memory.trajectory.sample(now)
+            q, _ = measure(memory.desired)
+            if not np.any(np.abs(q - q_d) > self._path_limit):
+                q_d = np.minimum(np.maximum(q_d, self.lower), self.upper)
+                return ControllerMemory(
+                    np.concatenate([q_d, v_d]), memory.status, memory.trajectory
+                )
         n = self.n
         desired = memory.desired
         status, trajectory = memory.status, memory.trajectory
