@@ -207,6 +207,13 @@ class ControllerManager(LeafSystem):
             AbstractValue.Make(_Memories((0,) * len(memories), tuple(memories)))
         )
         self._desired_index = self.DeclareDiscreteState(initial)
+        # [0] when the only controller's desired state is the whole desired_state.
+        self._whole = (
+            [0]
+            if len(self._desired_rows) == 1
+            and np.array_equal(self._desired_rows[0], np.arange(2 * n))
+            else None
+        )
         self.DeclareStateOutputPort("desired_state", self._desired_index)
         self._effort_index = None
         if any(rows is not None for rows in self._effort_rows):
@@ -279,7 +286,11 @@ class ControllerManager(LeafSystem):
         new = _Memories(tuple(new_handled or handled), tuple(new_items or items))
         state.get_mutable_abstract_state(self._memory_index).set_value(new)
         changed = [k for k in range(len(items)) if new.memories[k].desired is not items[k].desired]
-        if changed:
+        if changed == self._whole:  # one controller on every joint, in hardware order
+            state.get_mutable_discrete_state(self._desired_index).SetFromVector(
+                new.memories[0].desired
+            )
+        elif changed:
             desired = np.array(context.get_discrete_state(self._desired_index).get_value())
             for k in changed:
                 desired[self._desired_rows[k]] = new.memories[k].desired

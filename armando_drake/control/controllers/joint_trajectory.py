@@ -20,6 +20,7 @@ than ``trajectory_tolerance`` from the desired position aborts with "path
 tolerance violated". An abort holds the measured position of that moment.
 """
 
+import bisect
 import dataclasses
 import math
 from typing import Any
@@ -167,11 +168,10 @@ class _ActiveTrajectory:
     Drake's ``PiecewisePolynomial``.
     """
 
-    breaks: np.ndarray  # [s] knot times (segments + 1); empty if it has ended on arrival
-    # Per segment, per joint, ascending coefficients in (t - break) of q_d: (s, n, 6).
-    position: np.ndarray
-    # The same for v_d: (s, n, 6); for interpolation_method none, the held velocities.
-    velocity: np.ndarray
+    breaks: tuple[float, ...]  # [s] knot times (segments + 1); () if it has ended on arrival
+    # Per segment, ascending coefficients in (t - break) of [q_d; v_d] (2n rows): (s, 2n, 6);
+    # for interpolation_method none, the held positions and velocities.
+    coefficients: np.ndarray
     end_time: float  # [s] time of the last point
     goal: np.ndarray  # [rad] positions of the last point (n)
 
@@ -180,36 +180,38 @@ class _ActiveTrajectory:
 
     def sample(self, time: float) -> tuple[np.ndarray, np.ndarray, bool]:
         """Desired (q, v) at ``time`` and whether the trajectory has ended."""
-        if len(self.breaks) == 0 or time >= self.end_time:
+        if not self.breaks or time >= self.end_time:
             return self.goal.copy(), np.zeros_like(self.goal), True
-        k = max(int(np.searchsorted(self.breaks, time, side="right")) - 1, 0)
-        tau = max(time - self.breaks[k], 0.0)
-        powers = tau**_EXPONENTS
-        return self.position[k] @ powers, self.velocity[k] @ powers, False
+        x_d = self.sample_state(time)
+        n = len(self.goal)
+        return x_d[:n], x_d[n:], False
+
+    def sample_state(self, time: float) -> np.ndarray:
+        """[q_d; v_d] (2n) at ``time`` before the end (one matrix product)."""
+        k = max(bisect.bisect_right(self.breaks, time) - 1, 0)
+        return self.coefficients[k] @ (max(time - self.breaks[k], 0.0) ** _EXPONENTS)
 
     @staticmethod
     def build(knots: list[_Knot], hold: bool) -> "_ActiveTrajectory":
         goal = knots[-1].positions.copy()
         n = len(goal)
         if len(knots) < 2:
-            empty = np.zeros((0, n, _DEGREE + 1))
-            return _ActiveTrajectory(np.zeros(0), empty, empty, knots[-1].time, goal)
-        breaks = np.array([knot.time for knot in knots])
-        segments = len(knots) - 1
-        position = np.zeros((segments, n, _DEGREE + 1))
-        velocity = np.zeros((segments, n, _DEGREE + 1))
+            empty = np.zeros((0, 2 * n, _DEGREE + 1))
+            return _ActiveTrajectory((), empty, knots[-1].time, goal)
+        breaks = tuple(float(knot.time) for knot in knots)
+        table = np.zeros((len(knots) - 1, 2 * n, _DEGREE + 1))
         for k, (a, b) in enumerate(zip(knots[:-1], knots[1:], strict=True)):
             if hold:
                 # interpolation_method: none -- each point's values until the next one.
-                position[k, :, 0] = a.positions
+                table[k, :n, 0] = a.positions
                 if a.velocities is not None:
-                    velocity[k, :, 0] = a.velocities
+                    table[k, n:, 0] = a.velocities
                 continue
             coefficients = _segment_coefficients(a, b)
             degree = coefficients.shape[1] - 1
-            position[k, :, : degree + 1] = coefficients
-            velocity[k, :, :degree] = coefficients[:, 1:] * np.arange(1, degree + 1)
-        return _ActiveTrajectory(breaks, position, velocity, float(breaks[-1]), goal)
+            table[k, :n, : degree + 1] = coefficients
+            table[k, n:, :degree] = coefficients[:, 1:] * np.arange(1, degree + 1)
+        return _ActiveTrajectory(breaks, table, breaks[-1], goal)
 
 
 _IGNORED = frozenset(
@@ -313,6 +315,9 @@ class JointTrajectoryController(Controller):
         self._goal_tolerance = np.array([params.goal_tolerance.get(name, 0.0) for name in names])
         # [rad] the path tolerance as a bound to compare with (inf where unchecked).
         self._path_limit = np.where(self._path_tolerance > 0, self._path_tolerance, np.inf)
+        # [rad, rad/s] bounds of [q_d; v_d]: the position limits, velocities unbounded.
+        self._state_lower = np.concatenate([self.lower, np.full(self.n, -np.inf)])
+        self._state_upper = np.concatenate([self.upper, np.full(self.n, np.inf)])
 
     def _Validate(self, message, now: float) -> list[int]:
         """Controller index of each message joint; raises _Rejected in upstream's order."""
@@ -416,16 +421,14 @@ class JointTrajectoryController(Controller):
     def update(self, now, message, memory, measure):
         if message is None and not memory.busy:
             return memory  # nothing new and nothing running: the desired state holds
-        if message is None and now < memory.trajectory.end_time:
+        if message is None and now < memory.trajectory.end_time and memory.trajectory.breaks:
             # The common tick: sample the running trajectory, check the path tolerance
             # (vectorised), nothing else; any event goes the long way below.
-            q_d, v_d, _ = memory.trajectory.sample(now)
+            x_d = memory.trajectory.sample_state(now)
             q, _ = measure(memory.desired)
-            if not np.any(np.abs(q - q_d) > self._path_limit):
-                q_d = np.minimum(np.maximum(q_d, self.lower), self.upper)
-                return ControllerMemory(
-                    np.concatenate([q_d, v_d]), memory.status, memory.trajectory
-                )
+            if not (np.abs(q - x_d[: self.n]) > self._path_limit).any():
+                x_d = np.minimum(np.maximum(x_d, self._state_lower), self._state_upper)
+                return ControllerMemory(x_d, memory.status, memory.trajectory)
         n = self.n
         desired = memory.desired
         status, trajectory = memory.status, memory.trajectory
