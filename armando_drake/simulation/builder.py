@@ -2,18 +2,19 @@
 
 Every entry point (``python -m armando_drake.world``, the notebooks, the tests)
 calls :func:`MakeWorld`; none wires systems by hand. The steps follow the
-bring-up of the course: spawn the robot in a physics world, give it a position
-hardware interface, start the ros2_control controllers from their YAML (all of
-them in one :class:`~armando_drake.control.manager.ControllerManager`
-system, as upstream's controller_manager runs them in one loop), then add
+bring-up of the course: spawn the robot in a physics world, give it a hardware
+interface (position, velocity or effort actuators), start the ros2_control
+controllers of its YAML, found by type in the controller registry (all of them
+in one :class:`~armando_drake.control.manager.ControllerManager` system, as
+upstream's controller_manager runs them in one loop), then add
 what drives and watches them (command sequencer, joint-state logger,
 camera, Meshcat).
 
 Ports of the diagram, by name:
 
-- ``<controller>.commands`` / ``<controller>.joint_trajectory``: command
-  inputs of the active position / trajectory controllers that no sequencer
-  drives (a :class:`~armando_drake.control.messages.Publication`; see
+- ``<controller>.<topic>`` (``commands``, ``joint_trajectory``, ...): command
+  inputs of the active controllers that no sequencer drives (a
+  :class:`~armando_drake.control.messages.Publication`; see
   :meth:`World.publish`);
 - ``<controller>.status``: each command controller's ControllerStatus;
 - ``joint_states``: the broadcaster's JointState;
