@@ -162,10 +162,10 @@ _EXPONENTS = np.arange(_DEGREE + 1)
 class _ActiveTrajectory:
     """An accepted trajectory, sampled at each update. Never mutated.
 
-    The segments are kept as coefficient arrays and sampled with a few numpy
-    operations (no per-sample pybind call: inside a simulation each costs tens of
-    microseconds); :meth:`as_piecewise_polynomial` gives the same trajectory as
-    Drake's ``PiecewisePolynomial``.
+    The segments are kept as one coefficient table and sampled with one matrix
+    product (no pybind call: inside a simulation each costs tens of microseconds,
+    so Drake's ``PiecewisePolynomial.value`` here cost more than the rest of the
+    tick).
     """
 
     breaks: tuple[float, ...]  # [s] knot times (segments + 1); () if it has ended on arrival
