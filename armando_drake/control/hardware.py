@@ -35,7 +35,7 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import PdControllerGains
 from pydrake.systems.controllers import InverseDynamics
 from pydrake.systems.framework import DiagramBuilder, OutputPort
-from pydrake.systems.primitives import Adder, AffineSystem, MatrixGain
+from pydrake.systems.primitives import Adder, AffineSystem, MatrixGain, Multiplexer
 
 from armando_drake.description.importer import actuated_joints
 from armando_drake.description.loader import LoadedRobot, parse_urdf
@@ -288,23 +288,33 @@ def AddGravityFeedforward(
     ``feedforward``.
 
     ``desired_state`` is [q_d; v_d] of the hardware joints (actuator order). The
-    chain is Drake's: an ``AffineSystem`` places q_d into the plant's default state
-    (every other position at its default, velocities zero), ``InverseDynamics`` in
-    gravity-compensation mode gives the generalized forces -tau_g(q), and a
-    ``MatrixGain`` maps them onto the actuators of the position joints by the
-    pseudo-inverse of the actuation matrix (velocity and effort joints get 0: the
-    feed-forward is for position joints only). Drake caches each output on its
-    input, so the chain runs when the desired state changes, never per plant step.
+    chain is Drake's: an ``AffineSystem`` places q_d of the position joints into the
+    plant's default state (every other position at its default, velocities zero),
+    ``InverseDynamics`` in gravity-compensation mode gives the generalized forces
+    -tau_g(q), and a ``MatrixGain`` maps them onto the actuators of the position
+    joints by the pseudo-inverse of the actuation matrix (velocity and effort joints
+    get 0: the feed-forward is for position joints only). Drake caches each output
+    on its input, so the chain runs when the desired state changes, never per plant
+    step. On a mixed robot the velocity and effort joints do not sit at a commanded
+    position, so their measured positions go in instead (the diagram then also has
+    the input ``state``, the robot's [q; v], connected here, and the chain runs at
+    every plant step).
     """
     n = len(hardware.joints)
+    mixed = any(joint.command_interface != "position" for joint in hardware.joints)
+    state = plant.get_state_output_port(robot.model_instance)
     context = plant.CreateDefaultContext()
     x_default = plant.GetPositionsAndVelocities(context)
     x_default[plant.num_positions() :] = 0.0
-    select = np.zeros((len(x_default), 2 * n))
+    columns = 2 * n + (state.size() if mixed else 0)
+    select = np.zeros((len(x_default), columns))
     for i, joint in enumerate(hardware.joints):
         row = plant.GetJointByName(joint.name, robot.model_instance).position_start()
-        select[row, i] = 1.0
-        x_default[row] = 0.0  # replaced by q_d
+        if joint.command_interface == "position":
+            select[row, i] = 1.0  # q_d
+        else:
+            select[row, 2 * n + hardware.position_index[i]] = 1.0  # measured q
+        x_default[row] = 0.0  # replaced by the above
     inner = DiagramBuilder()
     placement = inner.AddNamedSystem("plant_state", AffineSystem(D=select, y0=x_default))
     dynamics = inner.AddNamedSystem(
@@ -317,12 +327,20 @@ def AddGravityFeedforward(
         if joint.command_interface != "position":
             to_torque[i, :] = 0.0
     torque = inner.AddNamedSystem("actuator_torque", MatrixGain(to_torque))
-    inner.ExportInput(placement.get_input_port(), "desired_state")
+    if mixed:
+        stack = inner.AddNamedSystem("inputs", Multiplexer([2 * n, state.size()]))
+        inner.ExportInput(stack.get_input_port(0), "desired_state")
+        inner.ExportInput(stack.get_input_port(1), "state")
+        inner.Connect(stack.get_output_port(), placement.get_input_port())
+    else:
+        inner.ExportInput(placement.get_input_port(), "desired_state")
     inner.Connect(placement.get_output_port(), dynamics.get_input_port_estimated_state())
     inner.Connect(dynamics.get_output_port_generalized_force(), torque.get_input_port())
     inner.ExportOutput(torque.get_output_port(), "feedforward")
     system = builder.AddNamedSystem("gravity_feedforward", inner.Build())
     builder.Connect(desired_state, system.GetInputPort("desired_state"))
+    if mixed:
+        builder.Connect(state, system.GetInputPort("state"))
     return system.GetOutputPort("feedforward")
 
 

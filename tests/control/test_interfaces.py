@@ -299,3 +299,42 @@ def test_mixed_effort_arm_and_position_gripper(tmp_path):
     assert abs(q[1] - target) < 1e-3, q
     assert q[0] == pytest.approx(-2.0, abs=1e-3), q
     world.close()
+
+
+def test_mixed_feedforward_uses_the_measured_position_of_the_effort_joint(tmp_path):
+    package = make_mini_package(tmp_path, MIXED)
+    # Centres of mass 0.1 m up each link: gravity on q2 depends on where q1 is.
+    parts = package / "urdf" / "parts.xacro"
+    parts.write_text(
+        parts.read_text().replace("<inertial>", '<inertial>\n        <origin xyz="0 0 0.1"/>')
+    )
+    controllers = tmp_path / "mixed.yaml"
+    controllers.write_text(textwrap.dedent(MIXED_CONTROLLERS))
+    scenario = load_scenario(
+        "position",
+        f"robot: {{description: {package}}}\nsequencer: null\nlogging: {{console_rate: 0}}\n"
+        f"controllers: {{config: {controllers}, activate: "
+        "[joint_state_broadcaster, arm_controller, gripper_controller]}",
+    )
+    world = MakeWorld(scenario, quiet=True)
+    plant, instance = world.plant, world.robot.model_instance
+    simulator = Simulator(world.diagram)
+    context = simulator.get_mutable_context()
+    target = 0.5
+    world.publish(context, "gripper_controller", Float64MultiArray(data=(target,)))
+    simulator.AdvanceTo(0.3)  # q1 (no torque) is falling
+    q1 = world.joint_positions(context)[0]
+    assert abs(q1 - 0.3) > 0.1, q1
+
+    def gravity_at(q):
+        static = plant.CreateDefaultContext()
+        plant.SetPositions(static, instance, q)
+        return -plant.CalcGravityGeneralizedForces(static)
+
+    system = world.diagram.GetSubsystemByName("gravity_feedforward")
+    torques = system.GetOutputPort("feedforward").Eval(system.GetMyContextFromRoot(context))
+    expected = gravity_at([q1, target])[1]
+    assert torques.tolist() == [0.0, pytest.approx(expected, abs=1e-12)]
+    # At q1's initial position the torque would be another one.
+    assert abs(expected - gravity_at([0.3, target])[1]) > 0.01
+    world.close()
