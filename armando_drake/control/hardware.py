@@ -1,24 +1,41 @@
 """The simulated hardware interface: what gz_ros2_control does for Gazebo.
 
-Every joint with a ``position`` command interface in the ``<ros2_control>``
-block (or, without one, every joint the description actuates) gets a Drake
-joint actuator with PD gains and the URDF effort limit. Drake integrates the
-PD law implicitly inside its discrete solver, so stiff position tracking is
-stable at millisecond steps (gz_ros2_control instead turns a position command
-into a velocity command that sags under gravity). ``min``/``max`` interface
-parameters merge with the URDF limits, the tighter winning; the position
-state interface's ``initial_value`` (0 when absent, clamped into the limits)
-is the joint's initial position.
+Every actuated joint gets a Drake joint actuator with the URDF effort limit,
+driven through the command interface the description gives it:
+
+- ``position``: PD gains (``kp`` [N m/rad], ``kd`` [N m s/rad]); Drake integrates
+  the PD law implicitly inside its discrete solver, so stiff position tracking
+  is stable at millisecond steps (gz_ros2_control instead turns a position
+  command into a velocity command that sags under gravity). Gravity is fed
+  forward at the commanded position (:func:`ConnectHardwareInterface`).
+- ``velocity``: a damping-only servo, kp = 0 and kd = ``kv`` [N m s/rad], that
+  drives the joint at the commanded velocity (the desired velocity of Drake's
+  PD actuator; implicit, so stable at any gain).
+- ``effort``: no gains; the commanded torque [N m], clamped to the effort limit,
+  goes to the plant's actuation input.
+
+The interface comes from ``<ros2_control>`` (each joint's
+``<command_interface name=..>``; with several, position before velocity before
+effort), else from ROS 1 ``<transmission>`` blocks
+(``hardware_interface/PositionJointInterface | VelocityJointInterface |
+EffortJointInterface``, position when absent), else every non-fixed joint is a
+position joint. ``min``/``max`` interface parameters merge with the URDF
+limits, the tighter winning; the position state interface's ``initial_value``
+(0 when absent, clamped into the limits) is the joint's initial position.
 """
 
 from __future__ import annotations
 
 import logging
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import PdControllerGains
+from pydrake.systems.controllers import InverseDynamics
+from pydrake.systems.framework import DiagramBuilder, OutputPort
+from pydrake.systems.primitives import Adder, AffineSystem, MatrixGain, Multiplexer
 
 from armando_drake.description.importer import actuated_joints
 from armando_drake.description.loader import LoadedRobot, parse_urdf
@@ -34,8 +51,10 @@ class HardwareJoint:
     name: str
     lower: float  # [rad] command limit: URDF limit merged with the interface min
     upper: float  # [rad] command limit: URDF limit merged with the interface max
-    effort: float  # [N m] effort limit of the actuator
+    effort: float  # [N m] effort limit of the actuator (inf: none)
     initial_position: float  # [rad]
+    command_interface: str = "position"  # position | velocity | effort
+    velocity: float = np.inf  # [rad/s] URDF velocity limit (inf: none)
 
 
 @dataclass
@@ -60,12 +79,80 @@ class HardwareInterface:
         index = {name: i for i, name in enumerate(self.joint_names)}
         return [index[name] for name in names]
 
+    def interfaces(self) -> list[str]:
+        """Each joint's command interface, hardware order."""
+        return [joint.command_interface for joint in self.joints]
 
-def _actuated_joint_names(robot: LoadedRobot) -> tuple[str, str, list[str]]:
-    """(interface name, source, joint names) of the joints to actuate."""
-    names, source = actuated_joints(parse_urdf(robot.urdf, robot.source))
-    name = robot.ros2_control[0].name if source == "ros2_control" else robot.name
-    return name, source, names
+
+INTERFACE_PRIORITY = ("position", "velocity", "effort")
+# ROS 1 transmission hardware interfaces -> command interface.
+TRANSMISSION_INTERFACES = {
+    "PositionJointInterface": "position",
+    "VelocityJointInterface": "velocity",
+    "EffortJointInterface": "effort",
+}
+
+
+def command_interfaces(robot: LoadedRobot) -> tuple[str, str, dict[str, str]]:
+    """(interface name, source, {joint: command interface}) of the joints to actuate,
+    in the description's order; see the module docstring for the rules."""
+    root = parse_urdf(robot.urdf, robot.source)
+    names, source = actuated_joints(root)
+    if source == "ros2_control":
+        result = {}
+        for block in robot.ros2_control:
+            for component in block.joints:
+                given = [i.name for i in component.command_interfaces]
+                chosen = next((i for i in INTERFACE_PRIORITY if i in given), None)
+                if chosen is None:
+                    if given:
+                        _log.warning(
+                            "%s: joint '%s' has command interfaces %s; the simulation drives "
+                            "%s only: not actuated",
+                            robot.source,
+                            component.name,
+                            given,
+                            ", ".join(INTERFACE_PRIORITY),
+                        )
+                    continue
+                result.setdefault(component.name, chosen)
+        return robot.ros2_control[0].name, source, result
+    if source == "transmission":
+        return robot.name, source, _transmission_interfaces(root, names, robot.source)
+    return robot.name, source, {name: "position" for name in names}
+
+
+def _transmission_interfaces(root: ET.Element, names: list[str], where) -> dict[str, str]:
+    result = {}
+    for transmission in root.findall("transmission"):
+        for joint in transmission.findall("joint"):
+            name = joint.get("name")
+            if name not in names or name in result:
+                continue
+            texts = [
+                (element.text or "").strip()
+                for element in (
+                    joint.findall("hardwareInterface")
+                    + transmission.findall("actuator/hardwareInterface")
+                )
+            ]
+            chosen = "position"
+            for text in texts:
+                kind = text.rsplit("/", 1)[-1]
+                if kind in TRANSMISSION_INTERFACES:
+                    chosen = TRANSMISSION_INTERFACES[kind]
+                    break
+                _log.warning(
+                    "%s: <transmission name=%r> joint %r: hardware interface %r is not "
+                    "simulated (known: %s); using position",
+                    where,
+                    transmission.get("name"),
+                    name,
+                    text,
+                    ", ".join(TRANSMISSION_INTERFACES),
+                )
+            result[name] = chosen
+    return {name: result[name] for name in names}
 
 
 def AddHardwareInterface(
@@ -74,16 +161,22 @@ def AddHardwareInterface(
     *,
     kp: float,
     kd: float,
+    kv: float = 1.0,
     gains: dict[str, list[float]] | None = None,
 ) -> HardwareInterface:
-    """Adds PD-controlled actuators to the (not yet finalized) plant.
+    """Adds the actuators to the (not yet finalized) plant: PD-controlled ones on
+    position joints (``kp`` [N m/rad], ``kd`` [N m s/rad]), damping-only ones on
+    velocity joints (``kv`` [N m s/rad]), plain ones on effort joints.
+    ``gains[joint] = [kp, kd]`` overrides them per joint (a velocity joint's kp
+    must be 0, its kd is the velocity gain).
 
     Sets each joint's default position to its initial value. Call before
     ``plant.Finalize()``; the state indices are filled in by
     :func:`FinishHardwareInterface` afterwards.
     """
     gains = gains or {}
-    name, source, names = _actuated_joint_names(robot)
+    name, source, kinds = command_interfaces(robot)
+    names = list(kinds)
     interfaces = {}
     for block in robot.ros2_control:
         for component in block.joints:
@@ -93,14 +186,18 @@ def AddHardwareInterface(
         info = robot.joint(joint_name)
         component = interfaces.get(joint_name)
         command = component.command_interface("position") if component else None
+        if kinds[joint_name] != "position":
+            command = None
         state = component.state_interface("position") if component else None
         lower, upper = merge_limits(info.lower, info.upper, command)
         q0 = initial_position(lower, upper, state)
         joint = plant.GetJointByName(joint_name, robot.model_instance)
         joint.set_default_positions([q0])
+        # Actuators the parser made (e.g. from a <transmission>); the per-instance
+        # listing is empty before Finalize(), so look through all of them.
         existing = [
             plant.get_joint_actuator(index)
-            for index in plant.GetJointActuatorIndices(robot.model_instance)
+            for index in plant.GetJointActuatorIndices()
             if plant.get_joint_actuator(index).joint().index() == joint.index()
         ]
         effort = info.effort if np.isfinite(info.effort) and info.effort > 0 else np.inf
@@ -109,15 +206,33 @@ def AddHardwareInterface(
             if existing
             else plant.AddJointActuator(f"{joint_name}_actuator", joint, effort)
         )
-        joint_kp, joint_kd = gains.get(joint_name, [kp, kd])
-        if joint_kp <= 0 or joint_kd < 0:
-            raise ValueError(
-                f"gains of {joint_name}: kp={joint_kp!r} must be > 0 and kd={joint_kd!r} >= 0"
-            )
-        actuator.set_controller_gains(PdControllerGains(p=joint_kp, d=joint_kd))
+        interface = kinds[joint_name]
+        if interface == "position":
+            joint_kp, joint_kd = gains.get(joint_name, [kp, kd])
+            if not (joint_kp > 0 and joint_kd >= 0):
+                raise ValueError(
+                    f"gains of position joint {joint_name}: kp={joint_kp!r} must be > 0 and "
+                    f"kd={joint_kd!r} >= 0"
+                )
+            actuator.set_controller_gains(PdControllerGains(p=joint_kp, d=joint_kd))
+        elif interface == "velocity":
+            joint_kp, joint_kv = gains.get(joint_name, [0.0, kv])
+            if joint_kp != 0 or not joint_kv > 0:
+                raise ValueError(
+                    f"gains of velocity joint {joint_name}: kp={joint_kp!r} must be 0 and "
+                    f"the velocity gain kv={joint_kv!r} > 0"
+                )
+            actuator.set_controller_gains(PdControllerGains(p=0.0, d=joint_kv))
+        velocity = info.velocity if np.isfinite(info.velocity) and info.velocity > 0 else np.inf
         joints.append(
             HardwareJoint(
-                name=joint_name, lower=lower, upper=upper, effort=effort, initial_position=q0
+                name=joint_name,
+                lower=lower,
+                upper=upper,
+                effort=effort,
+                initial_position=q0,
+                command_interface=interface,
+                velocity=velocity,
             )
         )
     return HardwareInterface(
@@ -151,47 +266,110 @@ def FinishHardwareInterface(
     actuators = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices(instance)]
     order = [actuator.joint().name() for actuator in actuators]
     if order != hardware.joint_names:
-        raise RuntimeError(f"actuator order {order} differs from {hardware.joint_names}")
+        raise RuntimeError(
+            f"actuator order {order} differs from {hardware.joint_names}: "
+            f"{[a.name() for a in actuators]}"
+        )
     hardware.position_index = [q_start[name] for name in order]
     hardware.velocity_index = [v_start[name] for name in order]
     hardware.num_model_states = nq + nv
 
 
-class GravityFeedforward:
-    """The torques that hold the arm against gravity at a commanded position.
+def AddGravityFeedforward(
+    builder: DiagramBuilder,
+    plant: MultibodyPlant,
+    robot: LoadedRobot,
+    hardware: HardwareInterface,
+    desired_state: OutputPort,
+) -> OutputPort:
+    """The torques [N m] that hold the arm against gravity at the commanded positions,
+    one per actuator of the robot (actuator order), computed in C++: a diagram
+    ``gravity_feedforward`` with the input ``desired_state`` and the output
+    ``feedforward``.
 
-    ``feedforward(q_d)`` takes the hardware joints' desired positions [rad]
-    (actuator order) and returns one torque [N m] per actuator of the robot:
-    the generalized forces -tau_g(q) that cancel gravity with the hardware
-    joints at q_d and every other position at its default, mapped onto the
-    actuators by the pseudo-inverse of the actuation matrix. Fed to the
-    plant's actuation input, they make the steady-state error of the PD
-    actuators independent of their gains.
-
-    The controller manager calls it when a desired position changes, so a
-    held command costs nothing per step. It evaluates the plant in a context
-    of its own.
+    ``desired_state`` is [q_d; v_d] of the hardware joints (actuator order). The
+    chain is Drake's: an ``AffineSystem`` places q_d of the position joints into the
+    plant's default state (every other position at its default, velocities zero),
+    ``InverseDynamics`` in gravity-compensation mode gives the generalized forces
+    -tau_g(q), and a ``MatrixGain`` maps them onto the actuators of the position
+    joints by the pseudo-inverse of the actuation matrix (velocity and effort joints
+    get 0: the feed-forward is for position joints only). Drake caches each output
+    on its input, so the chain runs when the desired state changes, never per plant
+    step. On a mixed robot the velocity and effort joints do not sit at a commanded
+    position, so their measured positions go in instead (the diagram then also has
+    the input ``state``, the robot's [q; v], connected here, and the chain runs at
+    every plant step).
     """
+    n = len(hardware.joints)
+    mixed = any(joint.command_interface != "position" for joint in hardware.joints)
+    state = plant.get_state_output_port(robot.model_instance)
+    context = plant.CreateDefaultContext()
+    x_default = plant.GetPositionsAndVelocities(context)
+    x_default[plant.num_positions() :] = 0.0
+    columns = 2 * n + (state.size() if mixed else 0)
+    select = np.zeros((len(x_default), columns))
+    for i, joint in enumerate(hardware.joints):
+        row = plant.GetJointByName(joint.name, robot.model_instance).position_start()
+        if joint.command_interface == "position":
+            select[row, i] = 1.0  # q_d
+        else:
+            select[row, 2 * n + hardware.position_index[i]] = 1.0  # measured q
+        x_default[row] = 0.0  # replaced by the above
+    inner = DiagramBuilder()
+    placement = inner.AddNamedSystem("plant_state", AffineSystem(D=select, y0=x_default))
+    dynamics = inner.AddNamedSystem(
+        "gravity_compensation",
+        InverseDynamics(plant, mode=InverseDynamics.InverseDynamicsMode.kGravityCompensation),
+    )
+    rows = [int(index) for index in plant.GetJointActuatorIndices(robot.model_instance)]
+    to_torque = np.linalg.pinv(plant.MakeActuationMatrix())[rows]
+    for i, joint in enumerate(hardware.joints):
+        if joint.command_interface != "position":
+            to_torque[i, :] = 0.0
+    torque = inner.AddNamedSystem("actuator_torque", MatrixGain(to_torque))
+    if mixed:
+        stack = inner.AddNamedSystem("inputs", Multiplexer([2 * n, state.size()]))
+        inner.ExportInput(stack.get_input_port(0), "desired_state")
+        inner.ExportInput(stack.get_input_port(1), "state")
+        inner.Connect(stack.get_output_port(), placement.get_input_port())
+    else:
+        inner.ExportInput(placement.get_input_port(), "desired_state")
+    inner.Connect(placement.get_output_port(), dynamics.get_input_port_estimated_state())
+    inner.Connect(dynamics.get_output_port_generalized_force(), torque.get_input_port())
+    inner.ExportOutput(torque.get_output_port(), "feedforward")
+    system = builder.AddNamedSystem("gravity_feedforward", inner.Build())
+    builder.Connect(desired_state, system.GetInputPort("desired_state"))
+    if mixed:
+        builder.Connect(state, system.GetInputPort("state"))
+    return system.GetOutputPort("feedforward")
 
-    def __init__(self, plant: MultibodyPlant, robot: LoadedRobot, hardware: HardwareInterface):
-        self._plant = plant
-        self._context = plant.CreateDefaultContext()
-        self._q_default = plant.GetPositions(self._context)
-        self._q_rows = [
-            plant.GetJointByName(joint.name, robot.model_instance).position_start()
-            for joint in hardware.joints
-        ]
-        rows = [int(index) for index in plant.GetJointActuatorIndices(robot.model_instance)]
-        # Generalized forces of the whole plant -> torques of the robot's actuators.
-        self._to_torque = np.linalg.pinv(plant.MakeActuationMatrix())[rows]
 
-    @property
-    def size(self) -> int:
-        """Number of torques: the robot's actuators."""
-        return self._to_torque.shape[0]
-
-    def __call__(self, desired_positions) -> np.ndarray:
-        q = self._q_default.copy()
-        q[self._q_rows] = desired_positions
-        self._plant.SetPositions(self._context, q)
-        return -self._to_torque @ self._plant.CalcGravityGeneralizedForces(self._context)
+def ConnectHardwareInterface(
+    builder: DiagramBuilder,
+    plant: MultibodyPlant,
+    robot: LoadedRobot,
+    hardware: HardwareInterface,
+    *,
+    desired_state: OutputPort,
+    effort: OutputPort | None,
+    gravity_feedforward: bool,
+) -> None:
+    """Wires the commands to the plant: ``desired_state`` ([q_d; v_d], actuator order)
+    to the PD actuators' desired-state input; to the actuation input the sum of the
+    gravity feed-forward of the position joints (when ``gravity_feedforward``) and
+    ``effort`` (the effort joints' commanded torques [N m], zero on other joints;
+    None when no joint takes effort commands)."""
+    instance = robot.model_instance
+    builder.Connect(desired_state, plant.get_desired_state_input_port(instance))
+    torques = []
+    if gravity_feedforward and "position" in hardware.interfaces():
+        torques.append(AddGravityFeedforward(builder, plant, robot, hardware, desired_state))
+    if effort is not None:
+        torques.append(effort)
+    if len(torques) == 1:
+        builder.Connect(torques[0], plant.get_actuation_input_port(instance))
+    elif torques:
+        adder = builder.AddNamedSystem("actuation", Adder(len(torques), len(hardware.joints)))
+        for k, torque in enumerate(torques):
+            builder.Connect(torque, adder.get_input_port(k))
+        builder.Connect(adder.get_output_port(), plant.get_actuation_input_port(instance))

@@ -4,42 +4,41 @@ Upstream's ``controller_manager`` runs one loop at ``update_rate``: read the
 hardware state, update the joint state broadcaster and each active
 controller in turn, write the commands. :class:`ControllerManager` does the
 same in one periodic unrestricted update, hosting the controllers' logic as
-plain objects (:mod:`armando_drake.control.controllers`), so a world pays for one
-Python system in the diagram instead of one per controller.
-
-Each command controller behaves as its standalone system in
-:mod:`armando_drake.control.controllers` does: the same validation, log lines,
-status and desired state at the same update times. What the manager adds is
-thrift, since Python at every controller tick is what a world pays most for
-beyond the physics:
+plain objects, so a world pays for one Python system in the diagram instead of
+one per controller. It knows no controller type: it runs whatever
+:class:`~armando_drake.control.controllers.Controller` objects it is given (the
+world builder makes them from the registry, by their YAML ``type``), gives
+each a command input named after its ``topic``, and routes what it commands
+to its joints' interface (``desired_state`` for position and velocity joints,
+``effort`` for effort joints). Python at every controller tick is what a world
+pays most for beyond the physics, so:
 
 - a tick at which no controller has anything to do (no new command, no
   trajectory running) returns ``EventStatus.DidNothing()``, so Drake
   neither copies the manager's state back nor invalidates what depends on
   it (the plant's desired-state input, the gravity feed-forward);
 - the broadcaster's ``joint_states`` is computed when someone reads it (the
-  joint state logger and the recorder sample it at ``update_rate``), not
-  stored at every tick.
+  recorder samples it at ``update_rate``), not stored at every tick; its
+  vector view for the logger is C++ (:func:`AddJointStateVector`);
+- the gravity feed-forward is C++ too (Drake's ``InverseDynamics``, see
+  :func:`~armando_drake.control.hardware.ConnectHardwareInterface`).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Sequence
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import EventStatus, LeafSystem
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.framework import Diagram, DiagramBuilder, EventStatus, LeafSystem
+from pydrake.systems.primitives import MatrixGain, Multiplexer
 
-from armando_drake.control.controllers import (
-    DID_NOTHING,
-    ControllerMemory,
-    JointStateBroadcasterLogic,
-    PositionControllerLogic,
-    TrajectoryControllerLogic,
-)
-from armando_drake.control.hardware import GravityFeedforward, HardwareInterface
+from armando_drake.control.config import check_update_rate
+from armando_drake.control.controllers import DID_NOTHING, Controller, ControllerMemory
+from armando_drake.control.controllers.broadcaster import JointStateBroadcaster
+from armando_drake.control.hardware import HardwareInterface
 from armando_drake.control.messages import ControllerStatus, PublicationValue
 
 
@@ -48,8 +47,12 @@ class ManagedController:
     """One command controller run by the manager."""
 
     name: str  # the controller's name in the YAML, e.g. "position_controller"
-    logic: PositionControllerLogic | TrajectoryControllerLogic
-    topic: str  # its command input: "commands" or "joint_trajectory"
+    logic: Controller  # its logic, an instance of a registered controller class
+
+    @property
+    def topic(self) -> str:
+        """Its command input: ``<name>.<topic>``."""
+        return self.logic.topic
 
 
 def _Measure(x: np.ndarray | None, q_rows: np.ndarray, v_rows: np.ndarray):
@@ -82,54 +85,48 @@ class ControllerManager(LeafSystem):
         input_ports:
         - state
         - effort
-        - <controller>.commands
-        - <controller>.joint_trajectory
+        - <controller>.<topic>
         output_ports:
         - joint_states
         - desired_state
-        - feedforward
+        - effort_command
         - <controller>.status
 
     - ``state``: [q; v] of the robot's model instance (``hardware.num_model_states``).
     - ``effort``: the robot's actuator torques [N m], hardware joint order;
       optional, when unconnected ``JointState.effort`` is empty.
-    - ``<controller>.commands`` / ``<controller>.joint_trajectory``: the
-      command topic of each position / trajectory controller (a
-      ``Publication``).
-    - ``joint_states``: the broadcaster's :class:`JointState` of
-      ``broadcaster.joint_names`` at the time it is evaluated (``stamp`` =
-      that time), from the ``state`` and ``effort`` inputs; only with a
-      broadcaster. Its consumers sample it at ``update_rate``, as a
-      subscriber of upstream's broadcaster receives it.
+    - ``<controller>.<topic>``: the command topic of each controller (a
+      ``Publication`` of its ``message``), e.g. ``position_controller.commands``,
+      ``trajectory_controller.joint_trajectory``.
+    - ``joint_states``: the broadcaster's :class:`JointState` of its joints at the
+      time it is evaluated (``stamp`` = that time), from the ``state`` and
+      ``effort`` inputs; only with a broadcaster. Its consumers sample it at
+      ``update_rate``, as a subscriber of upstream's broadcaster receives it.
     - ``desired_state``: [q_d; v_d] of every hardware joint in actuator order
-      (2n) [rad, rad/s]: each controller's desired state on its joints, the
-      initial position (and zero velocity) on joints no controller claims.
-    - ``feedforward``: ``gravity(q_d)``, the torques [N m] that hold the arm
-      against gravity at the desired positions, one per actuator of the
-      robot, for the plant's actuation input; only with ``gravity``. It
-      depends on ``desired_state`` alone, so Drake computes it again only
-      when that changes.
+      (2n) [rad, rad/s]: each controller's desired state on its position and
+      velocity joints, the initial position (and zero velocity) on joints no
+      controller claims. Entries of effort joints are unused.
+    - ``effort_command``: the commanded torques [N m] of every hardware joint
+      (n), non-zero only on effort joints; only when a controller commands
+      efforts.
     - ``<controller>.status``: each controller's ControllerStatus.
 
-    The command controllers run in one periodic update at ``update_rate``
-    [Hz] from t = 0; ``desired_state`` and the statuses are state and
-    ``feedforward`` is cached, so reading them costs nothing.
+    Each controller must claim joints whose hardware command interface is the
+    one it commands. The controllers run in one periodic update at
+    ``update_rate`` [Hz] from t = 0; ``desired_state``, ``effort_command`` and
+    the statuses are state, so reading them costs nothing.
     """
 
     def __init__(
         self,
         *,
         hardware: HardwareInterface,
-        update_rate: float,
-        broadcaster: JointStateBroadcasterLogic | None = None,
+        update_rate: int,
+        broadcaster: JointStateBroadcaster | None = None,
         controllers: Sequence[ManagedController] = (),
-        gravity: GravityFeedforward | None = None,
     ):
         super().__init__()
-        if isinstance(update_rate, bool) or not (
-            isinstance(update_rate, (int, float)) and math.isfinite(update_rate) and update_rate > 0
-        ):
-            raise ValueError(f"update_rate={update_rate!r} must be a positive number [Hz]")
+        check_update_rate(update_rate, "ControllerManager")
         names = [controller.name for controller in controllers]
         duplicates = sorted({name for name in names if names.count(name) > 1})
         if duplicates:
@@ -162,22 +159,36 @@ class ControllerManager(LeafSystem):
         initial = np.concatenate(
             [[joint.initial_position for joint in hardware.joints], np.zeros(n)]
         )
+        interfaces = hardware.interfaces()
         self._command_ports = []
         self._measured_rows = []  # per controller: (q indices, v indices) into ``state``
         self._desired_rows = []  # per controller: its [q_d; v_d] rows in ``desired_state``
+        self._effort_rows = []  # per controller: its rows in ``effort_command``, or None
         memories = []
         for controller in self._controllers:
-            if controller.topic not in ("commands", "joint_trajectory"):
-                raise ValueError(
-                    f"topic={controller.topic!r} of {controller.name!r} must be commands or "
-                    "joint_trajectory"
-                )
+            logic = controller.logic
+            if not logic.topic:
+                raise ValueError(f"controller {controller.name!r} has no command topic")
             self._command_ports.append(
                 self.DeclareAbstractInputPort(
-                    f"{controller.name}.{controller.topic}", PublicationValue()
+                    f"{controller.name}.{logic.topic}", PublicationValue()
                 )
             )
-            rows = hardware.find(list(controller.logic.joint_names))
+            unknown = [j for j in logic.joint_names if j not in hardware.joint_names]
+            if unknown:
+                raise ValueError(
+                    f"controller {controller.name!r} claims {unknown}, which the hardware "
+                    f"interface {hardware.name!r} does not actuate "
+                    f"({', '.join(hardware.joint_names)})"
+                )
+            rows = hardware.find(list(logic.joint_names))
+            for row in rows:
+                if interfaces[row] != logic.interface:
+                    raise ValueError(
+                        f"controller {controller.name!r} commands the {logic.interface} "
+                        f"interface of joint {hardware.joint_names[row]!r}, which the hardware "
+                        f"interface {hardware.name!r} drives through {interfaces[row]}"
+                    )
             self._measured_rows.append(
                 (
                     np.array([hardware.position_index[i] for i in rows], dtype=int),
@@ -186,25 +197,28 @@ class ControllerManager(LeafSystem):
             )
             desired_rows = np.concatenate([rows, np.asarray(rows, dtype=int) + n]).astype(int)
             self._desired_rows.append(desired_rows)
-            memory = controller.logic.initial_memory()
+            self._effort_rows.append(
+                np.asarray(rows, dtype=int) if logic.interface == "effort" else None
+            )
+            memory = logic.initial_memory()
             initial[desired_rows] = memory.desired
             memories.append(memory)
         self._memory_index = self.DeclareAbstractState(
             AbstractValue.Make(_Memories((0,) * len(memories), tuple(memories)))
         )
         self._desired_index = self.DeclareDiscreteState(initial)
+        # [0] when the only controller's desired state is the whole desired_state.
+        self._whole = (
+            [0]
+            if len(self._desired_rows) == 1
+            and np.array_equal(self._desired_rows[0], np.arange(2 * n))
+            else None
+        )
         self.DeclareStateOutputPort("desired_state", self._desired_index)
-        if gravity is not None:
-            # A function of desired_state alone: Drake caches it and calls back into
-            # Python only when desired_state changes, never per plant step.
-            self.DeclareVectorOutputPort(
-                "feedforward",
-                gravity.size,
-                lambda context, output: output.SetFromVector(
-                    gravity(context.get_discrete_state(self._desired_index).get_value()[:n])
-                ),
-                {self.discrete_state_ticket(self._desired_index)},
-            )
+        self._effort_index = None
+        if any(rows is not None for rows in self._effort_rows):
+            self._effort_index = self.DeclareDiscreteState(np.zeros(n))
+            self.DeclareStateOutputPort("effort_command", self._effort_index)
         for k, controller in enumerate(self._controllers):
             self.DeclareAbstractOutputPort(
                 f"{controller.name}.status",
@@ -217,7 +231,7 @@ class ControllerManager(LeafSystem):
             self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / update_rate, 0.0, self._Update)
 
     @property
-    def broadcaster(self) -> JointStateBroadcasterLogic | None:
+    def broadcaster(self) -> JointStateBroadcaster | None:
         return self._broadcaster
 
     @property
@@ -260,7 +274,7 @@ class ControllerManager(LeafSystem):
                     new_handled[k] = publication.count
                     message = publication.message
             if message is None and not items[k].busy:
-                continue  # what logic.needs_update() says, without the call
+                continue  # nothing new and nothing running: the commands hold
             if x is None and self._state.HasValue(context):
                 x = self._state.Eval(context)
             new_items = new_items or list(items)
@@ -272,9 +286,59 @@ class ControllerManager(LeafSystem):
         new = _Memories(tuple(new_handled or handled), tuple(new_items or items))
         state.get_mutable_abstract_state(self._memory_index).set_value(new)
         changed = [k for k in range(len(items)) if new.memories[k].desired is not items[k].desired]
-        if changed:
+        if changed == self._whole:  # one controller on every joint, in hardware order
+            state.get_mutable_discrete_state(self._desired_index).SetFromVector(
+                new.memories[0].desired
+            )
+        elif changed:
             desired = np.array(context.get_discrete_state(self._desired_index).get_value())
             for k in changed:
                 desired[self._desired_rows[k]] = new.memories[k].desired
             state.get_mutable_discrete_state(self._desired_index).SetFromVector(desired)
+        changed = [
+            k
+            for k in range(len(items))
+            if self._effort_rows[k] is not None and new.memories[k].effort is not items[k].effort
+        ]
+        if changed:
+            effort = np.array(context.get_discrete_state(self._effort_index).get_value())
+            for k in changed:
+                effort[self._effort_rows[k]] = new.memories[k].effort
+            state.get_mutable_discrete_state(self._effort_index).SetFromVector(effort)
         return EventStatus.Succeeded()
+
+
+def AddJointStateVector(
+    builder: DiagramBuilder,
+    plant: MultibodyPlant,
+    hardware: HardwareInterface,
+    instance,
+    joint_names: Sequence[str],
+) -> Diagram:
+    """The broadcaster's vector view, in C++: [positions; velocities; efforts] of
+    ``joint_names`` in that order (3n) [rad, rad/s, N m], from the plant's state and
+    net actuation of ``instance``. What the broadcaster publishes as
+    ``JointState``, as one vector that Drake's ``VectorLogSink`` records without
+    any Python. Added as a diagram ``joint_state_vector`` with the input ports
+    ``state`` and ``effort`` connected and the output port ``joint_states``.
+    """
+    state = plant.get_state_output_port(instance)
+    effort = plant.get_net_actuation_output_port(instance)
+    rows = hardware.find(list(joint_names))
+    n = len(rows)
+    select = np.zeros((3 * n, state.size() + effort.size()))
+    for i, row in enumerate(rows):
+        select[i, hardware.position_index[row]] = 1.0
+        select[n + i, hardware.velocity_index[row]] = 1.0
+        select[2 * n + i, state.size() + row] = 1.0
+    inner = DiagramBuilder()
+    stack = inner.AddNamedSystem("stack", Multiplexer([state.size(), effort.size()]))
+    gain = inner.AddNamedSystem("select", MatrixGain(select))
+    inner.ExportInput(stack.get_input_port(0), "state")
+    inner.ExportInput(stack.get_input_port(1), "effort")
+    inner.Connect(stack.get_output_port(), gain.get_input_port())
+    inner.ExportOutput(gain.get_output_port(), "joint_states")
+    view = builder.AddNamedSystem("joint_state_vector", inner.Build())
+    builder.Connect(state, view.GetInputPort("state"))
+    builder.Connect(effort, view.GetInputPort("effort"))
+    return view

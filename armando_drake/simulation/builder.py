@@ -2,18 +2,19 @@
 
 Every entry point (``python -m armando_drake.world``, the notebooks, the tests)
 calls :func:`MakeWorld`; none wires systems by hand. The steps follow the
-bring-up of the course: spawn the robot in a physics world, give it a position
-hardware interface, start the ros2_control controllers from their YAML (all of
-them in one :class:`~armando_drake.control.manager.ControllerManager`
-system, as upstream's controller_manager runs them in one loop), then add
+bring-up of the course: spawn the robot in a physics world, give it a hardware
+interface (position, velocity or effort actuators), start the ros2_control
+controllers of its YAML, found by type in the controller registry (all of them
+in one :class:`~armando_drake.control.manager.ControllerManager` system, as
+upstream's controller_manager runs them in one loop), then add
 what drives and watches them (command sequencer, joint-state logger,
 camera, Meshcat).
 
 Ports of the diagram, by name:
 
-- ``<controller>.commands`` / ``<controller>.joint_trajectory``: command
-  inputs of the active position / trajectory controllers that no sequencer
-  drives (a :class:`~armando_drake.control.messages.Publication`; see
+- ``<controller>.<topic>`` (``commands``, ``joint_trajectory``, ...): command
+  inputs of the active controllers that no sequencer drives (a
+  :class:`~armando_drake.control.messages.Publication`; see
   :meth:`World.publish`);
 - ``<controller>.status``: each command controller's ControllerStatus;
 - ``joint_states``: the broadcaster's JointState;
@@ -42,37 +43,32 @@ from pydrake.visualization import ApplyVisualizationConfig
 
 from armando_drake.control.config import (
     ControllerConfig,
+    ControllerConfigError,
     ControllerManagerConfig,
+    check_update_rate,
     load_controller_config,
     parse_controller_config,
     validate_joints,
 )
-from armando_drake.control.controllers import (
-    JointStateBroadcasterLogic,
-    PositionControllerLogic,
-    TrajectoryControllerLogic,
-)
+from armando_drake.control.controllers import ControllerJoints, lookup
 from armando_drake.control.hardware import (
     AddHardwareInterface,
+    ConnectHardwareInterface,
     FinishHardwareInterface,
-    GravityFeedforward,
     HardwareInterface,
 )
-from armando_drake.control.manager import ControllerManager, ManagedController
-from armando_drake.control.messages import Publication
+from armando_drake.control.manager import (
+    AddJointStateVector,
+    ControllerManager,
+    ManagedController,
+)
+from armando_drake.control.messages import Float64MultiArray, JointTrajectory, Publication
 from armando_drake.description.importer import default_controller_config
 from armando_drake.description.loader import LoadedRobot, load_robot, package_of
 from armando_drake.sensors.objects import AddSceneObjects
 from armando_drake.simulation.scenario import Scenario, ScenarioError
 
 _log = logging.getLogger("armando_drake.world")
-
-POSITION_TYPES = (
-    "position_controllers/JointGroupPositionController",
-    "forward_command_controller/ForwardCommandController",
-)
-TRAJECTORY_TYPE = "joint_trajectory_controller/JointTrajectoryController"
-BROADCASTER_TYPE = "joint_state_broadcaster/JointStateBroadcaster"
 
 
 @dataclass
@@ -108,10 +104,10 @@ class World:
         port.FixValue(context, previous.publish(message, stamp=context.get_time()))
 
     def command_port(self, controller: str):
-        for suffix in ("commands", "joint_trajectory"):
-            name = f"{controller}.{suffix}"
-            if self.diagram.HasInputPort(name):
-                return self.diagram.GetInputPort(name)
+        entry = self.controller_config.controllers.get(controller)
+        name = f"{controller}.{entry.topic}" if entry is not None else ""
+        if name and self.diagram.HasInputPort(name):
+            return self.diagram.GetInputPort(name)
         raise KeyError(f"no command input for controller {controller!r}")
 
     def status(self, context: Context, controller: str):
@@ -226,7 +222,7 @@ def MakeWorld(
     # The hardware interface: PD actuators from <ros2_control>.
     actuators = scenario.actuators
     hardware = AddHardwareInterface(
-        plant, robot, kp=actuators.kp, kd=actuators.kd, gains=actuators.gains
+        plant, robot, kp=actuators.kp, kd=actuators.kd, kv=actuators.kv, gains=actuators.gains
     )
     plant.Finalize()
     if not robot_config.self_collision:
@@ -242,7 +238,12 @@ def MakeWorld(
     # The controller manager: read the YAML, then load and activate controllers.
     config = _controller_config(scenario, robot, hardware)
     validate_joints(config, hardware.joint_names, config.source)
-    rate = float(config.update_rate)
+    rate = config.update_rate
+    if scenario.controllers.update_rate:  # the scenario's override of the YAML's rate
+        try:
+            rate = check_update_rate(scenario.controllers.update_rate, f"{where}controllers")
+        except ControllerConfigError as error:
+            raise ScenarioError(str(error)) from None
     world = World(
         diagram=None,  # set below
         plant=plant,
@@ -272,13 +273,18 @@ def MakeWorld(
             ", ".join(joints),
             rate,
         )
-        if controller.type == BROADCASTER_TYPE:
+        cls = controller.controller_class
+        if cls.broadcaster:
             if broadcaster is not None:
                 raise ScenarioError(
                     f"{where}controllers.activate names two joint state broadcasters "
                     f"({world.broadcaster_name!r} and {name!r}); activate one"
                 )
-            broadcaster = JointStateBroadcasterLogic(joint_names=joints)
+            broadcaster = cls(
+                name=name,
+                joints=ControllerJoints.make(joints),
+                params=controller.params,
+            )
             world.broadcaster_name = name
         else:
             for joint in joints:
@@ -294,18 +300,13 @@ def MakeWorld(
 
     # The controller manager runs them all in one update at the update rate.
     if broadcaster is not None or managed:
-        gravity = None
-        if managed and actuators.gravity_feedforward:
-            gravity = GravityFeedforward(plant, robot, hardware)
-        manager = builder.AddSystem(
-            ControllerManager(
-                hardware=hardware,
-                update_rate=rate,
-                broadcaster=broadcaster,
-                controllers=managed,
-                gravity=gravity,
+        try:
+            manager = ControllerManager(
+                hardware=hardware, update_rate=rate, broadcaster=broadcaster, controllers=managed
             )
-        )
+        except ValueError as error:
+            raise ScenarioError(f"{where}{error}") from None
+        builder.AddSystem(manager)
         manager.set_name("controller_manager")
         world.controller_manager = manager
         builder.Connect(
@@ -322,16 +323,24 @@ def MakeWorld(
             world.controllers[controller.name] = manager
 
     # Desired state for the actuators: the controllers' commands, unclaimed joints
-    # held at their initial positions; the gravity feed-forward on the actuation input.
+    # held at their initial positions; on the actuation input the effort commands and
+    # the gravity feed-forward of the position joints.
     if managed:
         desired = manager.GetOutputPort("desired_state")
-        builder.Connect(desired, plant.get_desired_state_input_port(robot.model_instance))
+        ConnectHardwareInterface(
+            builder,
+            plant,
+            robot,
+            hardware,
+            desired_state=desired,
+            effort=(
+                manager.GetOutputPort("effort_command")
+                if manager.HasOutputPort("effort_command")
+                else None
+            ),
+            gravity_feedforward=actuators.gravity_feedforward,
+        )
         builder.ExportOutput(desired, "desired_state")
-        if gravity is not None:
-            builder.Connect(
-                manager.GetOutputPort("feedforward"),
-                plant.get_actuation_input_port(robot.model_instance),
-            )
 
     commands_csv = Path(output_dir) / "commands.csv" if output_dir and write_commands else None
     _add_sequencer(builder, world, scenario, where, commands_csv)
@@ -354,11 +363,10 @@ def MakeWorld(
 
     # Export what no system drives, for notebooks and tests.
     for name, system in world.controllers.items():
-        for port_name in (f"{name}.commands", f"{name}.joint_trajectory"):
-            if system.HasInputPort(port_name):
-                port = system.GetInputPort(port_name)
-                if not _is_connected(builder, port):
-                    builder.ExportInput(port, port_name)
+        port_name = f"{name}.{config.controllers[name].topic}"
+        port = system.GetInputPort(port_name)
+        if not _is_connected(builder, port):
+            builder.ExportInput(port, port_name)
         builder.ExportOutput(system.GetOutputPort(f"{name}.status"), f"{name}.status")
     world.diagram = builder.Build()
     world.diagram.set_name("armando_world")
@@ -368,16 +376,27 @@ def MakeWorld(
 def _controller_name(entry: str, config: ControllerManagerConfig, where: str) -> str:
     """A controller name, or for ``type:<plugin>`` the first controller of that type.
 
-    A position controller may also be a ForwardCommandController on the
-    position interface.
+    A controller of another type that reads the same message on the same
+    command interface also answers (a ForwardCommandController on position for
+    ``type:position_controllers/JointGroupPositionController``).
     """
     if not entry.startswith("type:"):
         return entry
     wanted = entry[len("type:") :]
-    types = POSITION_TYPES if wanted in POSITION_TYPES else (wanted,)
-    for name, controller in config.controllers.items():
-        if controller.type in types:
-            return name
+    try:
+        wanted_class = lookup(wanted)
+    except KeyError as error:
+        raise ScenarioError(f"{where}controllers.activate: {error.args[0]}") from None
+    matches = [name for name, c in config.controllers.items() if c.type == wanted]
+    if not matches and not wanted_class.broadcaster:
+        matches = [
+            name
+            for name, c in config.controllers.items()
+            if c.controller_class.message is wanted_class.message
+            and c.interface_name == wanted_class.fixed_interface
+        ]
+    if matches:
+        return matches[0]
     raise ScenarioError(
         f"{where}controllers.activate asks for a {wanted} controller; {config.source} "
         f"defines none (defined: {', '.join(config.controllers) or 'none'})"
@@ -389,34 +408,23 @@ def _is_connected(builder: DiagramBuilder, port) -> bool:
 
 
 def _managed_controller(world: World, controller: ControllerConfig, joints) -> ManagedController:
-    """The logic of a position or trajectory controller on ``joints``, for the manager."""
+    """The logic of a command controller on ``joints`` (its registered class, built
+    with the joints' hardware limits), for the manager."""
     hardware = world.hardware
-    rows = hardware.find(joints)
-    lower = [hardware.joints[i].lower for i in rows]
-    upper = [hardware.joints[i].upper for i in rows]
-    initial = [hardware.joints[i].initial_position for i in rows]
-    name = controller.name
-    if controller.type in POSITION_TYPES:
-        logic = PositionControllerLogic(
-            joint_names=joints,
-            lower=lower,
-            upper=upper,
-            initial_positions=initial,
-            log_name=lambda: name,
-        )
-        return ManagedController(name=name, logic=logic, topic="commands")
-    if controller.type == TRAJECTORY_TYPE:
-        logic = TrajectoryControllerLogic(
-            joint_names=joints,
-            lower=lower,
-            upper=upper,
-            params=controller.params,
-            initial_positions=initial,
-            log_name=lambda: name,
-        )
-        return ManagedController(name=name, logic=logic, topic="joint_trajectory")
-    # The config loader only lets supported types through.
-    raise ScenarioError(f"controller {name!r} has unsupported type {controller.type!r}")
+    rows = [hardware.joints[i] for i in hardware.find(joints)]
+    logic = controller.controller_class(
+        name=controller.name,
+        joints=ControllerJoints.make(
+            joints,
+            lower=[joint.lower for joint in rows],
+            upper=[joint.upper for joint in rows],
+            velocity=[joint.velocity for joint in rows],
+            effort=[joint.effort for joint in rows],
+            initial_positions=[joint.initial_position for joint in rows],
+        ),
+        params=controller.params,
+    )
+    return ManagedController(name=controller.name, logic=logic)
 
 
 def _add_sequencer(builder, world: World, scenario: Scenario, where: str, commands_csv) -> None:
@@ -426,11 +434,12 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str, comman
     from armando_drake.control.sequencer import CommandSequencer, validate
     from armando_drake.outputs.logger import CommandsCsv
 
-    wanted = TRAJECTORY_TYPE if config.mode == "trajectory" else POSITION_TYPES
+    message = JointTrajectory if config.mode == "trajectory" else Float64MultiArray
     targets = [
         (name, system)
         for name, system in world.controllers.items()
-        if world.controller_config.controllers[name].type in wanted
+        if world.controller_config.controllers[name].controller_class.message is message
+        and world.controller_config.controllers[name].interface_name == "position"
     ]
     if not targets:
         kind = "trajectory" if config.mode == "trajectory" else "position"
@@ -469,41 +478,29 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str, comman
 
 
 def _add_logger(builder, world: World, scenario: Scenario, output_dir, quiet: bool) -> None:
-    """The joint state logger on what the broadcaster publishes: the plant's state and
-    net actuation of the broadcaster's joints, sampled at the controllers' rate."""
+    """The joint state logger on what the broadcaster publishes: its C++ vector view
+    ([q; v; effort] of its joints), sampled at the controllers' rate."""
     if world.broadcaster is None:
         return
-    from pydrake.systems.primitives import Multiplexer
-
     from armando_drake.outputs.logger import JointStateLogger
 
-    plant, instance, hardware = world.plant, world.robot.model_instance, world.hardware
     joints = world.controller_joints[world.broadcaster_name]
-    rows = hardware.find(joints)
-    state = plant.get_state_output_port(instance)
-    effort = plant.get_net_actuation_output_port(instance)
-    sample = builder.AddSystem(Multiplexer([state.size(), effort.size()]))
-    sample.set_name("joint_state_sample")
-    builder.Connect(state, sample.get_input_port(0))
-    builder.Connect(effort, sample.get_input_port(1))
-
+    view = AddJointStateVector(
+        builder, world.plant, world.hardware, world.robot.model_instance, joints
+    )
     csv_path = None if output_dir is None else Path(output_dir) / "joint_states.csv"
     console_rate = scenario.logging.console_rate
     logger = builder.AddSystem(
         JointStateLogger(
             joint_names=joints,
             update_rate=world.update_rate,
-            input_size=state.size() + effort.size(),
-            position_index=[hardware.position_index[i] for i in rows],
-            velocity_index=[hardware.velocity_index[i] for i in rows],
-            effort_index=[state.size() + i for i in rows],
             console_rate=console_rate if console_rate > 0 else 1.0,
             csv_path=csv_path,
             quiet=quiet or console_rate <= 0,
         )
     )
     logger.set_name("joint_state_logger")
-    builder.Connect(sample.get_output_port(), logger.get_input_port())
+    builder.Connect(view.GetOutputPort("joint_states"), logger.get_input_port())
     world.logger = logger
     world.closers.append(logger.close)
 

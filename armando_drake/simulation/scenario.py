@@ -56,7 +56,11 @@ class ActuatorConfig:
     kp: float = 8.0
     # Derivative gain of every actuated joint [N m s/rad].
     kd: float = 0.4
-    # Per-joint gains overriding kp and kd, as joint: [kp, kd].
+    # Velocity gain of every joint with a velocity command interface [N m s/rad]: the
+    # torque per rad/s of velocity error of its damping-only servo (kp = 0).
+    kv: float = 1.0
+    # Per-joint gains overriding kp and kd, as joint: [kp, kd] (a velocity joint:
+    # [0, kv]).
     gains: dict[str, list[float]] = dc.field(default_factory=dict)
     # Adds the torque that holds the arm against gravity at the commanded
     # position, through the actuation input, so the steady-state error does not
@@ -73,6 +77,9 @@ class ControllersConfig:
     config: str = ""
     # Controllers to activate, by name, in order. Empty: none (the arm falls).
     activate: list[str] = dc.field(default_factory=list)
+    # Rate of the controller manager [Hz], overriding the YAML's update_rate; 0 = the
+    # YAML's.
+    update_rate: int = 0
 
 
 @dc.dataclass

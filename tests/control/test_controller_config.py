@@ -7,16 +7,16 @@ import pytest
 
 from armando_drake import MODELS_DIR
 from armando_drake.control.config import (
-    FORWARD_COMMAND_CONTROLLER,
-    JOINT_GROUP_POSITION_CONTROLLER,
-    JOINT_STATE_BROADCASTER,
-    JOINT_TRAJECTORY_CONTROLLER,
     ControllerConfigError,
     load_controller_config,
     parse_controller_config,
     validate_joints,
 )
 
+JOINT_STATE_BROADCASTER = "joint_state_broadcaster/JointStateBroadcaster"
+JOINT_GROUP_POSITION_CONTROLLER = "position_controllers/JointGroupPositionController"
+FORWARD_COMMAND_CONTROLLER = "forward_command_controller/ForwardCommandController"
+JOINT_TRAJECTORY_CONTROLLER = "joint_trajectory_controller/JointTrajectoryController"
 PACKAGE_CONFIG = MODELS_DIR / "armando_description" / "config" / "armando_controllers.yaml"
 ARMANDO_JOINTS = ["j0", "j1", "j2", "j3"]
 
@@ -61,9 +61,10 @@ def check_armando(config) -> None:
         "trajectory_controller": JOINT_TRAJECTORY_CONTROLLER,
     }
     assert config.controllers["position_controller"].joints == ARMANDO_JOINTS
-    assert config.controllers["position_controller"].kind == "position"
+    position = config.controllers["position_controller"]
+    assert (position.interface_name, position.topic) == ("position", "commands")
     trajectory = config.controllers["trajectory_controller"]
-    assert trajectory.kind == "joint_trajectory"
+    assert (trajectory.interface_name, trajectory.topic) == ("position", "joint_trajectory")
     assert trajectory.params.joints == ARMANDO_JOINTS
     assert trajectory.params.command_interfaces == ["position"]
     assert config.controllers["joint_state_broadcaster"].joints == []
@@ -123,9 +124,9 @@ def test_namespaced_node_keys_and_dotted_names(tmp_path):
     assert params.trajectory_tolerance == {"j0": 0.2}
     assert params.goal_tolerance == {"j0": 0.05, "j1": 0.1}
     forward = config.controllers["forward"]
-    assert (forward.type, forward.kind, forward.interface_name) == (
+    assert (forward.type, forward.topic, forward.interface_name) == (
         FORWARD_COMMAND_CONTROLLER,
-        "position",
+        "commands",
         "position",
     )
 
@@ -182,8 +183,10 @@ GOOD_PARAMS = "    joints: [j0, j1]"
             "controller_manager.ros__parameters.pos.type",
             "unknown controller type 'position_controllers/JointGroupVelocityController'; "
             "supported: joint_state_broadcaster/JointStateBroadcaster, "
-            "position_controllers/JointGroupPositionController, "
             "forward_command_controller/ForwardCommandController, "
+            "position_controllers/JointGroupPositionController, "
+            "velocity_controllers/JointGroupVelocityController, "
+            "effort_controllers/JointGroupEffortController, "
             "joint_trajectory_controller/JointTrajectoryController",
         ),
         (
@@ -260,9 +263,10 @@ GOOD_PARAMS = "    joints: [j0, j1]"
         (
             "100",
             "type: forward_command_controller/ForwardCommandController",
-            GOOD_PARAMS + "\n    interface_name: velocity",
+            GOOD_PARAMS + "\n    interface_name: acceleration",
             "pos.ros__parameters.interface_name",
-            "interface_name='velocity' is not supported; only 'position' is simulated",
+            "interface_name='acceleration' is not supported; only 'position', 'velocity', "
+            "'effort' are simulated",
         ),
         (
             "100",
@@ -320,7 +324,7 @@ GOOD_PARAMS = "    joints: [j0, j1]"
         "unknown-parameter",
         "interface-missing",
         "interface-empty",
-        "interface-velocity",
+        "interface-acceleration",
         "command-interfaces-missing",
         "state-interface-unknown",
         "interpolation-unknown",

@@ -1,4 +1,5 @@
-"""The controllers against upstream's bad-input cases, with numbers and reason texts."""
+"""The registered controllers, run by the controller manager, against upstream's bad-input
+cases, with numbers and reason texts."""
 
 import logging
 import math
@@ -6,15 +7,15 @@ import math
 import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource
 
-from armando_drake.control.config import JointTrajectoryControllerParams
-from armando_drake.control.controllers import (
-    JointGroupPositionController,
-    JointStateBroadcaster,
+from armando_drake.control.controllers import ControllerJoints
+from armando_drake.control.controllers.forward_command import JointGroupPositionController
+from armando_drake.control.controllers.joint_trajectory import (
     JointTrajectoryController,
+    JointTrajectoryControllerParams,
 )
+from armando_drake.control.hardware import HardwareInterface, HardwareJoint
+from armando_drake.control.manager import ControllerManager, ManagedController
 from armando_drake.control.messages import (
     Float64MultiArray,
     JointTrajectory,
@@ -27,19 +28,36 @@ PERIOD = 1.0 / RATE  # [s]
 NAMES = ("j0", "j1", "j2")
 LOWER = (-3.0, -2.0, -3.0)  # [rad]
 UPPER = (3.0, 2.0, 3.0)  # [rad]
+NAME = "ctl"  # the controller's name: ports ctl.<topic>, ctl.status; log lines "ctl: ..."
+
+
+def bare_hardware(names=NAMES, interface="position") -> HardwareInterface:
+    """A hardware interface without a plant: the manager's ``state`` input is [q; v] of
+    ``names`` in that order."""
+    n = len(names)
+    joints = [
+        HardwareJoint(name, -np.inf, np.inf, np.inf, 0.0, command_interface=interface)
+        for name in names
+    ]
+    return HardwareInterface("bare", "test", joints, list(range(n)), list(range(n, 2 * n)), 2 * n)
 
 
 class Harness:
-    """Runs one controller alone, with its topic and measured state as fixed inputs."""
+    """Runs one controller in a controller manager alone, with its topic and measured
+    state as fixed inputs."""
 
-    def __init__(self, system, topic: str):
-        self.system = system
-        self.topic = topic
-        self.simulator = Simulator(system)
+    def __init__(self, logic, update_rate=RATE):
+        self.system = ControllerManager(
+            hardware=bare_hardware(logic.joint_names, logic.interface),
+            update_rate=update_rate,
+            controllers=[ManagedController(NAME, logic)],
+        )
+        self.topic = f"{NAME}.{logic.topic}"
+        self.simulator = Simulator(self.system)
         self.context = self.simulator.get_mutable_context()
         self.publication = Publication()
-        system.GetInputPort(topic).FixValue(self.context, self.publication)
-        self.set_measured(np.zeros(len(NAMES)))
+        self.system.GetInputPort(self.topic).FixValue(self.context, self.publication)
+        self.set_measured(np.zeros(len(logic.joint_names)))
         self.time = 0.0  # [s] time of the latest update
         self.simulator.AdvanceTo(PERIOD / 2)
 
@@ -67,45 +85,7 @@ class Harness:
 
     @property
     def status(self):
-        return self.system.GetOutputPort("status").Eval(self.context)
-
-
-# ----------------------------------------------------------------------------------------------
-# Joint state broadcaster
-
-
-def test_broadcaster_publishes_joint_states_at_update_rate():
-    builder = DiagramBuilder()
-    broadcaster = builder.AddSystem(JointStateBroadcaster(joint_names=NAMES, update_rate=50))
-    state = builder.AddSystem(ConstantVectorSource([0.1, 0.2, 0.3, -1.0, -2.0, -3.0]))
-    effort = builder.AddSystem(ConstantVectorSource([4.0, 5.0, 6.0]))
-    builder.Connect(state.get_output_port(), broadcaster.GetInputPort("state"))
-    builder.Connect(effort.get_output_port(), broadcaster.GetInputPort("effort"))
-    diagram = builder.Build()
-    simulator = Simulator(diagram)
-    simulator.AdvanceTo(0.07)  # the last 50 Hz update ran at 0.06 s
-    context = broadcaster.GetMyContextFromRoot(simulator.get_context())
-    message = broadcaster.GetOutputPort("joint_states").Eval(context)
-    assert message.stamp == pytest.approx(0.06, abs=1e-12)
-    assert message.name == NAMES
-    assert message.position == pytest.approx((0.1, 0.2, 0.3))
-    assert message.velocity == pytest.approx((-1.0, -2.0, -3.0))
-    assert message.effort == pytest.approx((4.0, 5.0, 6.0))
-
-
-def test_broadcaster_without_effort_publishes_empty_effort():
-    broadcaster = JointStateBroadcaster(joint_names=("a",), update_rate=RATE)
-    context = broadcaster.CreateDefaultContext()
-    broadcaster.GetInputPort("state").FixValue(context, [0.5, 0.25])
-    simulator = Simulator(broadcaster, context)
-    simulator.AdvanceTo(0.015)
-    message = broadcaster.GetOutputPort("joint_states").Eval(context)
-    assert (message.stamp, message.position, message.velocity, message.effort) == (
-        pytest.approx(0.01),
-        (0.5,),
-        (0.25,),
-        (),
-    )
+        return self.system.GetOutputPort(f"{NAME}.status").Eval(self.context)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -114,9 +94,10 @@ def test_broadcaster_without_effort_publishes_empty_effort():
 
 def position_harness(initial=(0.1, -0.2, 0.3)) -> Harness:
     controller = JointGroupPositionController(
-        joint_names=NAMES, lower=LOWER, upper=UPPER, update_rate=RATE, initial_positions=initial
+        name=NAME,
+        joints=ControllerJoints.make(NAMES, lower=LOWER, upper=UPPER, initial_positions=initial),
     )
-    return Harness(controller, "commands")
+    return Harness(controller)
 
 
 def test_position_controller_holds_on_start_up():
@@ -217,8 +198,8 @@ def test_position_controller_handles_each_message_once():
     [
         ({"joint_names": ()}, "joint_names=() must not be empty"),
         ({"joint_names": ("a", "b", "a")}, "joint_names=('a', 'b', 'a') repeats ['a']"),
-        ({"update_rate": 0}, "update_rate=0 must be a positive number [Hz]"),
-        ({"update_rate": -5.0}, "update_rate=-5.0 must be a positive number [Hz]"),
+        ({"update_rate": 0}, "update_rate=0 must be a positive integer [Hz]"),
+        ({"update_rate": -5.0}, "update_rate=-5.0 must be a positive integer [Hz]"),
         ({"lower": (0.0, 0.0)}, "must each have 3 values"),
         ({"lower": (3.5, 0.0, 0.0)}, "limits [3.5, 3.0] of joint 'j0' are not an interval"),
         ({"initial_positions": (0.0, math.nan, 0.0)}, "must be 3 finite values"),
@@ -227,8 +208,12 @@ def test_position_controller_handles_each_message_once():
 def test_position_controller_constructor_errors(kwargs, message):
     arguments = dict(joint_names=NAMES, lower=LOWER, upper=UPPER, update_rate=RATE)
     arguments.update(kwargs)
+    update_rate = arguments.pop("update_rate")
     with pytest.raises(ValueError) as error:
-        JointGroupPositionController(**arguments)
+        logic = JointGroupPositionController(
+            name=NAME, joints=ControllerJoints.make(arguments.pop("joint_names"), **arguments)
+        )
+        Harness(logic, update_rate=update_rate)
     assert message in str(error.value)
 
 
@@ -238,14 +223,11 @@ def test_position_controller_constructor_errors(kwargs, message):
 
 def trajectory_harness(initial=(0.0, 0.0, 0.0), **params) -> Harness:
     controller = JointTrajectoryController(
-        joint_names=NAMES,
-        lower=LOWER,
-        upper=UPPER,
-        update_rate=RATE,
+        name=NAME,
+        joints=ControllerJoints.make(NAMES, lower=LOWER, upper=UPPER, initial_positions=initial),
         params=JointTrajectoryControllerParams(joints=list(NAMES), **params),
-        initial_positions=initial,
     )
-    return Harness(controller, "joint_trajectory")
+    return Harness(controller)
 
 
 def point(positions, time, velocities=(), accelerations=(), effort=()):
@@ -687,7 +669,7 @@ def test_path_tolerance_violated_aborts_and_holds_measured():
 def test_trajectory_controller_rejects_mismatched_params():
     with pytest.raises(ValueError, match=r"params.joints=\['j1', 'j0'\] differs"):
         JointTrajectoryController(
-            joint_names=("j0", "j1"),
-            update_rate=RATE,
+            name=NAME,
+            joints=ControllerJoints.make(("j0", "j1")),
             params=JointTrajectoryControllerParams(joints=["j1", "j0"]),
         )

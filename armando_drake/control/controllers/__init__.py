@@ -1,0 +1,411 @@
+"""The controller registry: every ros2_control controller type, by its ROS type string.
+
+As pluginlib does for upstream's controller_manager, one table maps a type
+string (``position_controllers/JointGroupPositionController``, ...) to the
+class that implements it. Each type is one module of this package that
+registers itself with :func:`register`; the YAML loader, the world builder and
+the :class:`~armando_drake.control.manager.ControllerManager` look types up
+here and never compare type strings. A controller class declares:
+
+- ``parameters``: its parameters dataclass, loaded from the controller's
+  ``ros__parameters`` with Drake's ``yaml_load_typed`` (every field commented
+  with unit and meaning); its ``check()`` method validates ranges once, raising
+  :class:`ParameterError` with the parameter's name;
+- ``ignored_parameters``: upstream parameters it accepts and does not simulate;
+- ``command_interface(params)``: the command interface it claims on each of its
+  joints (``position``, ``velocity`` or ``effort``; ``None`` for a broadcaster);
+- ``message`` and ``topic``: the command message class it reads and the
+  topic it reads it on (``/<controller>/<topic>``);
+- its logic: ``initial_memory()`` and ``update(now, message, memory, measure)``
+  (see :class:`Controller`).
+
+Adding a controller type is one new module that subclasses :class:`Controller`,
+decorates it with ``@register("<ros type>")`` and is imported at the end of this
+file (or anywhere before the YAML is read, e.g. from a test module).
+
+Every rejected message is logged on ``armando_drake.control.controllers`` with
+upstream's wording and counted in the controller's status; the controller keeps
+its previous command.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+from collections.abc import Callable, Sequence
+from typing import Any, ClassVar
+
+import numpy as np
+import yaml
+from pydrake.common.yaml import yaml_load_typed
+from pydrake.systems.framework import EventStatus
+
+from armando_drake.control.messages import ControllerStatus
+
+_logger = logging.getLogger("armando_drake.control.controllers")
+
+COMMAND_INTERFACES = ("position", "velocity", "effort")  # what the hardware simulates
+
+# What an update with nothing to do returns: Drake then neither copies the system's
+# state back nor invalidates what depends on it.
+DID_NOTHING = EventStatus.DidNothing()
+
+
+class ParameterError(ValueError):
+    """A bad controller parameter: ``parameter`` is its (dotted) name, the message the
+    problem. The YAML loader adds the file and the node key in front."""
+
+    def __init__(self, parameter: str, problem: str):
+        super().__init__(problem)
+        self.parameter = parameter
+        self.problem = problem
+
+
+class Rejected(Exception):
+    """A message the controller drops; the argument is the logged reason."""
+
+
+# --------------------------------------------------------------------------------------
+# The registry
+
+
+_REGISTRY: dict[str, type[Controller]] = {}
+
+
+def register(type_name: str) -> Callable[[type[Controller]], type[Controller]]:
+    """Class decorator: registers a :class:`Controller` subclass under ``type_name``
+    (the ROS plugin type string). Registering a name twice is an error."""
+
+    def decorate(cls: type[Controller]) -> type[Controller]:
+        if type_name in _REGISTRY and _REGISTRY[type_name] is not cls:
+            raise ValueError(
+                f"controller type {type_name!r} is already registered by "
+                f"{_REGISTRY[type_name].__module__}.{_REGISTRY[type_name].__qualname__}"
+            )
+        if not dataclasses.is_dataclass(cls.parameters):
+            raise TypeError(f"{cls.__qualname__}.parameters must be a dataclass")
+        _REGISTRY[type_name] = cls
+        cls.type_names = (*cls.__dict__.get("type_names", ()), type_name)
+        return cls
+
+    return decorate
+
+
+def unregister(type_name: str) -> None:
+    """Removes a registered type (for tests that register a toy type)."""
+    _REGISTRY.pop(type_name, None)
+
+
+def lookup(type_name: str) -> type[Controller]:
+    """The class registered under ``type_name``; KeyError naming the known types."""
+    try:
+        return _REGISTRY[type_name]
+    except KeyError:
+        raise KeyError(
+            f"unknown controller type {type_name!r}; supported: {', '.join(_REGISTRY)}"
+        ) from None
+
+
+def registered_types() -> tuple[str, ...]:
+    """Every registered type string, in registration order."""
+    return tuple(_REGISTRY)
+
+
+def types_accepting(message: type, interface: str | None = None) -> tuple[str, ...]:
+    """The registered types whose command message is ``message`` (and, when given,
+    whose fixed command interface is ``interface``), in registration order."""
+    return tuple(
+        name
+        for name, cls in _REGISTRY.items()
+        if cls.message is message
+        and (interface is None or cls.fixed_interface in (None, interface))
+    )
+
+
+# --------------------------------------------------------------------------------------
+# Parameters
+
+
+def joint_list(value: Any, parameter: str = "joints", *, allow_empty: bool = False) -> list[str]:
+    """A checked list of joint names: non-empty (unless allowed), unique."""
+    if value is None and allow_empty:
+        return []
+    if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
+        raise ParameterError(parameter, f"expected a list of joint names, got {value!r}")
+    if not value and not allow_empty:
+        raise ParameterError(parameter, f"'{parameter}' parameter is empty")
+    seen = set()
+    for name in value:
+        if name in seen:
+            raise ParameterError(parameter, f"joint '{name}' is listed more than once")
+        seen.add(name)
+    return list(value)
+
+
+def non_negative(value: Any, parameter: str) -> float:
+    """A finite number >= 0."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ParameterError(parameter, f"expected a number, got {value!r}")
+    if not math.isfinite(value) or value < 0:
+        raise ParameterError(parameter, f"{parameter.rsplit('.', 1)[-1]}={value!r} must be >= 0")
+    return float(value)
+
+
+def load_parameters(cls: type[Controller], raw: dict[str, Any]):
+    """``cls.parameters`` from the ``ros__parameters`` mapping ``raw`` (dotted names
+    already nested): unknown names are errors, ignored ones are dropped, the rest
+    is read with ``yaml_load_typed`` and checked by the dataclass's ``check()``."""
+    raw = cls.ros_layout(dict(raw))
+    fields = {f.name for f in dataclasses.fields(cls.parameters)}
+    known = cls.known_parameters()
+    data = {}
+    for name, value in raw.items():
+        if name in fields:
+            data[name] = value
+        elif name not in cls.ignored_parameters and name not in _COMMON_IGNORED:
+            raise ParameterError(
+                name, f"unknown parameter for {cls.type_name()}; known: {sorted(known)}"
+            )
+    try:
+        params = _load_typed(cls.parameters, data)
+    except Exception as whole:  # yaml_load_typed raises RuntimeError, TypeError, ValueError
+        # Find the parameter at fault: load them one at a time.
+        name, problem = next(iter(data), "ros__parameters"), str(whole)
+        for candidate, value in data.items():
+            try:
+                _load_typed(cls.parameters, {candidate: value})
+            except Exception as single:  # as above
+                name, problem = candidate, str(single)
+                break
+        raise ParameterError(name, " ".join(problem.split())) from None
+    params.check(raw)
+    return params
+
+
+def _load_typed(schema: type, data: dict[str, Any]):
+    return yaml_load_typed(schema=schema, data=yaml.safe_dump(data), defaults=schema())
+
+
+# Parameters every controller accepts and the simulation has no use for.
+_COMMON_IGNORED = frozenset({"use_sim_time", "type", "update_rate", "is_async"})
+
+
+@dataclasses.dataclass
+class NoParameters:
+    """A controller without parameters."""
+
+    def check(self, raw: dict[str, Any]) -> None:
+        pass
+
+
+# --------------------------------------------------------------------------------------
+# Joints and memory
+
+
+@dataclasses.dataclass(frozen=True)
+class ControllerJoints:
+    """The joints a controller claims, in its order, with their hardware limits."""
+
+    names: tuple[str, ...]
+    lower: np.ndarray  # [rad] position command limits (n)
+    upper: np.ndarray  # [rad] position command limits (n)
+    velocity: np.ndarray  # [rad/s] velocity limits (n); inf = none
+    effort: np.ndarray  # [N m] effort limits (n); inf = none
+    initial_positions: np.ndarray  # [rad] positions held until the first command (n)
+
+    @property
+    def n(self) -> int:
+        return len(self.names)
+
+    @staticmethod
+    def make(
+        joint_names: Sequence[str],
+        *,
+        lower: Sequence[float] | None = None,
+        upper: Sequence[float] | None = None,
+        velocity: Sequence[float] | None = None,
+        effort: Sequence[float] | None = None,
+        initial_positions: Sequence[float] | None = None,
+    ) -> ControllerJoints:
+        """Checked joints: names non-empty and unique, limits intervals, initial
+        positions finite (clamped into the limits, with a warning)."""
+        names = tuple(joint_names)
+        if not names:
+            raise ValueError(f"joint_names={joint_names!r} must not be empty")
+        duplicates = sorted({name for name in names if names.count(name) > 1})
+        if duplicates:
+            raise ValueError(f"joint_names={joint_names!r} repeats {duplicates}")
+        n = len(names)
+        low = np.full(n, -np.inf) if lower is None else np.asarray(lower, dtype=float)
+        high = np.full(n, np.inf) if upper is None else np.asarray(upper, dtype=float)
+        if low.shape != (n,) or high.shape != (n,):
+            raise ValueError(f"lower={lower!r} and upper={upper!r} must each have {n} values")
+        for name, lo, hi in zip(names, low.tolist(), high.tolist(), strict=True):
+            if np.isnan(lo) or np.isnan(hi) or lo > hi:
+                raise ValueError(f"limits [{lo}, {hi}] of joint '{name}' are not an interval")
+        limits = {}
+        for label, values in (("velocity", velocity), ("effort", effort)):
+            array = np.full(n, np.inf) if values is None else np.asarray(values, dtype=float)
+            if array.shape != (n,) or np.any(np.isnan(array)) or np.any(array <= 0):
+                raise ValueError(f"{label}={values!r} must be {n} positive limits")
+            limits[label] = array
+        if initial_positions is None:
+            q0 = np.clip(np.zeros(n), low, high)
+        else:
+            given = np.asarray(initial_positions, dtype=float)
+            if given.shape != (n,) or not np.all(np.isfinite(given)):
+                raise ValueError(
+                    f"initial_positions={initial_positions!r} must be {n} finite values"
+                )
+            q0 = np.clip(given, low, high)
+            for name, value, inside in zip(names, given.tolist(), q0.tolist(), strict=True):
+                if value != inside:
+                    _logger.warning(
+                        "initial position %r of joint '%s' is outside its limits; starting at %r",
+                        value,
+                        name,
+                        inside,
+                    )
+        return ControllerJoints(names, low, high, limits["velocity"], limits["effort"], q0)
+
+
+@dataclasses.dataclass(frozen=True)
+class ControllerMemory:
+    """What a command controller keeps between updates. Never mutated: an update
+    that changes something returns a new one (so Drake's copy of it is free)."""
+
+    # [rad, rad/s] [q_d; v_d] (2n) in the controller's joint order: the desired state
+    # of its position joints (q_d, v_d) and velocity joints (v_d; q_d unused).
+    desired: np.ndarray
+    status: ControllerStatus  # what it reports; replaced, never mutated
+    trajectory: Any = None  # a running trajectory, if the controller has one
+    # [N m] commanded torques (n) of an effort controller; None for the others.
+    effort: np.ndarray | None = None
+    # Whether the controller has work at every update, without a new message: a
+    # trajectory being executed. Derived from the fields above.
+    busy: bool = dataclasses.field(init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        busy = self.trajectory is not None and self.status.state == "executing"
+        object.__setattr__(self, "busy", busy)
+
+    def __deepcopy__(self, memo):
+        return self
+
+
+Measure = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+
+
+class Controller:
+    """The base of every command controller's logic (and of the broadcaster's).
+
+    A subclass sets the class attributes below, implements :meth:`update`, and is
+    registered with :func:`register`. The manager builds it with
+    ``cls(name=..., joints=ControllerJoints, params=<its parameters>)``.
+    """
+
+    parameters: ClassVar[type] = NoParameters  # the parameters dataclass
+    ignored_parameters: ClassVar[frozenset[str]] = frozenset()  # accepted, not simulated
+    message: ClassVar[type | None] = None  # the command message class
+    topic: ClassVar[str | None] = None  # the command topic: /<controller>/<topic>
+    fixed_interface: ClassVar[str | None] = None  # the interface claimed, if fixed
+    initial_state: ClassVar[str] = "holding"  # ControllerStatus.state before any command
+    broadcaster: ClassVar[bool] = False  # publishes joint states instead of commanding
+    type_names: ClassVar[tuple[str, ...]] = ()  # set by register()
+
+    @classmethod
+    def type_name(cls) -> str:
+        return cls.type_names[0] if cls.type_names else cls.__qualname__
+
+    @classmethod
+    def known_parameters(cls) -> frozenset[str]:
+        return frozenset(f.name for f in dataclasses.fields(cls.parameters))
+
+    @classmethod
+    def ros_layout(cls, raw: dict[str, Any]) -> dict[str, Any]:
+        """``raw`` (the ROS parameters) in the layout of :attr:`parameters`."""
+        return raw
+
+    @classmethod
+    def command_interface(cls, params) -> str | None:
+        """The command interface the controller claims on each of its joints."""
+        return cls.fixed_interface
+
+    @classmethod
+    def joints_of(cls, params) -> list[str]:
+        """The joints the controller claims ([] = every hardware joint)."""
+        return list(params.joints)
+
+    def __init__(self, *, name: str, joints: ControllerJoints, params=None):
+        self.name = name  # the controller's name in log lines
+        self.joints = joints
+        self.joint_names = joints.names
+        self.n = n = joints.n
+        self.lower, self.upper = joints.lower, joints.upper
+        self.params = params if params is not None else self.default_parameters(joints)
+        self.interface = self.command_interface(self.params)
+        self._initial = ControllerMemory(
+            desired=np.concatenate([joints.initial_positions, np.zeros(n)]),
+            status=ControllerStatus(state=self.initial_state),
+            effort=np.zeros(n) if self.interface == "effort" else None,
+        )
+
+    @classmethod
+    def default_parameters(cls, joints: ControllerJoints):
+        """Parameters when none are given (tests): the controller's joints."""
+        return cls.parameters(joints=list(joints.names))
+
+    def initial_memory(self) -> ControllerMemory:
+        return self._initial
+
+    def update(
+        self, now: float, message: Any, memory: ControllerMemory, measure: Measure
+    ) -> ControllerMemory:
+        """The memory after the update at ``now`` [s]; ``message`` is the new message
+        or None; ``measure(desired)`` gives the measured (q, v) [rad, rad/s] of the
+        controller's joints. Returns ``memory`` itself when nothing changes."""
+        raise NotImplementedError
+
+    def reject(self, status: ControllerStatus, reason: str) -> ControllerStatus:
+        """``status`` after rejecting a message for ``reason`` (logged)."""
+        _logger.error("%s: %s", self.name, reason)
+        return dataclasses.replace(
+            status, rejected=status.rejected + 1, last_error=reason, detail=dict(status.detail)
+        )
+
+    def accept(self, status: ControllerStatus, state: str, detail: dict) -> ControllerStatus:
+        return dataclasses.replace(status, state=state, accepted=status.accepted + 1, detail=detail)
+
+    @staticmethod
+    def log_warning(name: str, text: str) -> None:
+        _logger.warning("%s: %s", name, text)
+
+
+# The controller types shipped with the package register themselves on import.
+from armando_drake.control.controllers import (  # noqa: E402  (after the registry)
+    broadcaster,
+    forward_command,
+    joint_trajectory,
+)
+
+__all__ = [
+    "COMMAND_INTERFACES",
+    "DID_NOTHING",
+    "Controller",
+    "ControllerJoints",
+    "ControllerMemory",
+    "ParameterError",
+    "Rejected",
+    "broadcaster",
+    "forward_command",
+    "joint_trajectory",
+    "joint_list",
+    "load_parameters",
+    "lookup",
+    "non_negative",
+    "register",
+    "registered_types",
+    "types_accepting",
+    "unregister",
+]

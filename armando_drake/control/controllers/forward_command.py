@@ -1,0 +1,166 @@
+"""Forward-command controllers: ``forward_command_controller/ForwardCommandController``
+and its fixed-interface forms ``position_controllers/JointGroupPositionController``,
+``velocity_controllers/JointGroupVelocityController`` and
+``effort_controllers/JointGroupEffortController``.
+
+Each reads ``std_msgs/Float64MultiArray`` on ``/<controller>/commands``, one value
+per joint in the controller's order, and writes it to the joints' command
+interface: positions [rad] become the desired state of Drake's PD actuators
+(v_d = 0), velocities [rad/s] the desired velocity of a damping-only servo,
+efforts [N m] torques on the plant's actuation input.
+
+Before any command arrives it writes nothing: the joints hold their initial
+positions (velocity joints hold still, effort joints get no torque). A message
+with a NaN/Inf element ("Non-finite value received. Dropping message") or with
+the wrong size, empty included ("command size (N) does not match number of
+interfaces (M)"), is dropped and the previous command kept; the controller
+stays active (upstream Jazzy deactivates it). A value outside the joint's limit
+(position limits, URDF velocity limit, URDF effort limit) is clamped and the
+command accepted, with the warning in ``status.detail["warning"]``.
+"""
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+
+from armando_drake.control.controllers import (
+    COMMAND_INTERFACES,
+    Controller,
+    ControllerMemory,
+    ParameterError,
+    Rejected,
+    joint_list,
+    register,
+)
+from armando_drake.control.messages import Float64MultiArray
+
+
+@dataclasses.dataclass
+class JointGroupParameters:
+    """The parameters of the JointGroup*Controller types."""
+
+    # The joints commanded, in the order of the command's values.
+    joints: list[str] = dataclasses.field(default_factory=list)
+
+    def check(self, raw: dict[str, Any]) -> None:
+        if "joints" not in raw:
+            raise ParameterError("joints", "'joints' parameter is missing")
+        joint_list(raw["joints"])
+
+
+@dataclasses.dataclass
+class ForwardCommandParameters(JointGroupParameters):
+    """The parameters of ``forward_command_controller/ForwardCommandController``."""
+
+    # The command interface written: position [rad], velocity [rad/s] or effort [N m].
+    interface_name: str = ""
+
+    def check(self, raw: dict[str, Any]) -> None:
+        super().check(raw)
+        if not self.interface_name:
+            raise ParameterError("interface_name", "'interface_name' parameter is missing")
+        if self.interface_name not in COMMAND_INTERFACES:
+            raise ParameterError(
+                "interface_name",
+                f"interface_name={self.interface_name!r} is not supported; only "
+                f"{', '.join(repr(i) for i in COMMAND_INTERFACES)} are simulated",
+            )
+
+
+@register("forward_command_controller/ForwardCommandController")
+class ForwardCommandController(Controller):
+    """Writes each Float64MultiArray command to its joints' ``interface_name``."""
+
+    parameters = ForwardCommandParameters
+    message = Float64MultiArray
+    topic = "commands"
+    initial_state = "holding"
+
+    @classmethod
+    def command_interface(cls, params) -> str:
+        return cls.fixed_interface or params.interface_name
+
+    @classmethod
+    def default_parameters(cls, joints):
+        return cls.parameters(joints=list(joints.names), interface_name="position")
+
+    def _Limits(self) -> tuple[np.ndarray, np.ndarray]:
+        if self.interface == "position":
+            return self.lower, self.upper
+        limit = self.joints.velocity if self.interface == "velocity" else self.joints.effort
+        return -limit, limit
+
+    def _Validate(self, message) -> tuple[np.ndarray, str]:
+        """The command to write and a clamping warning ("" if none)."""
+        if not isinstance(message, Float64MultiArray):
+            raise Rejected(f"expected a Float64MultiArray message, got {type(message).__name__}")
+        data = np.asarray(message.data, dtype=float).reshape(-1)
+        if not np.all(np.isfinite(data)):
+            raise Rejected("Non-finite value received. Dropping message")
+        if data.size != self.n:
+            raise Rejected(
+                f"command size ({data.size}) does not match number of interfaces ({self.n})"
+            )
+        lower, upper = self._Limits()
+        command = np.clip(data, lower, upper)
+        if np.array_equal(command, data):
+            return command, ""
+        warnings = [
+            f"command {value!r} for joint '{name}' is outside its limits [{lo!r}, {hi!r}]; "
+            f"clamped to {clamped!r}"
+            for name, value, clamped, lo, hi in zip(
+                self.joint_names,
+                data.tolist(),
+                command.tolist(),
+                lower.tolist(),
+                upper.tolist(),
+                strict=True,
+            )
+            if value != clamped
+        ]
+        return command, "; ".join(warnings)
+
+    def update(self, now, message, memory, measure):
+        if message is None:
+            return memory
+        try:
+            command, warning = self._Validate(message)
+        except Rejected as rejection:
+            return dataclasses.replace(memory, status=self.reject(memory.status, str(rejection)))
+        if warning:
+            self.log_warning(self.name, warning)
+        status = self.accept(memory.status, "active", {"warning": warning} if warning else {})
+        n = self.n
+        if self.interface == "position":
+            return ControllerMemory(np.concatenate([command, np.zeros(n)]), status)
+        if self.interface == "velocity":
+            # A damping-only servo: q_d is not used (kp = 0), v_d is the command.
+            return ControllerMemory(np.concatenate([memory.desired[:n], command]), status)
+        return ControllerMemory(memory.desired, status, effort=command)
+
+
+@register("position_controllers/JointGroupPositionController")
+class JointGroupPositionController(ForwardCommandController):
+    """A ForwardCommandController on the position interface [rad]."""
+
+    parameters = JointGroupParameters
+    fixed_interface = "position"
+
+    @classmethod
+    def default_parameters(cls, joints):
+        return cls.parameters(joints=list(joints.names))
+
+
+@register("velocity_controllers/JointGroupVelocityController")
+class JointGroupVelocityController(JointGroupPositionController):
+    """A ForwardCommandController on the velocity interface [rad/s]."""
+
+    fixed_interface = "velocity"
+
+
+@register("effort_controllers/JointGroupEffortController")
+class JointGroupEffortController(JointGroupPositionController):
+    """A ForwardCommandController on the effort interface [N m]."""
+
+    fixed_interface = "effort"
