@@ -27,7 +27,6 @@ limits, the tighter winning; the position state interface's ``initial_value``
 from __future__ import annotations
 
 import logging
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,8 +36,7 @@ from pydrake.systems.controllers import InverseDynamics
 from pydrake.systems.framework import DiagramBuilder, OutputPort
 from pydrake.systems.primitives import Adder, AffineSystem, MatrixGain, Multiplexer
 
-from armando_drake.description.importer import actuated_joints
-from armando_drake.description.loader import LoadedRobot, parse_urdf
+from armando_drake.description.loader import LoadedRobot
 from armando_drake.description.ros2_control import initial_position, merge_limits
 
 _log = logging.getLogger("armando_drake.control.hardware")
@@ -62,7 +60,7 @@ class HardwareInterface:
     """The actuated joints, in actuator order, and where they are in the plant."""
 
     name: str  # the ros2_control block's name, or the robot's
-    source: str  # "ros2_control", "transmission" or "all joints"
+    source: str  # "ros2_control", "transmission" or "non-fixed joints"
     joints: list[HardwareJoint]
     # Index of each joint's position in the model instance's state vector [q; v].
     position_index: list[int]
@@ -85,74 +83,30 @@ class HardwareInterface:
 
 
 INTERFACE_PRIORITY = ("position", "velocity", "effort")
-# ROS 1 transmission hardware interfaces -> command interface.
-TRANSMISSION_INTERFACES = {
-    "PositionJointInterface": "position",
-    "VelocityJointInterface": "velocity",
-    "EffortJointInterface": "effort",
-}
 
 
 def command_interfaces(robot: LoadedRobot) -> tuple[str, str, dict[str, str]]:
     """(interface name, source, {joint: command interface}) of the joints to actuate,
-    in the description's order; see the module docstring for the rules."""
-    root = parse_urdf(robot.urdf, robot.source)
-    names, source = actuated_joints(root)
-    if source == "ros2_control":
-        result = {}
-        for block in robot.ros2_control:
-            for component in block.joints:
-                given = [i.name for i in component.command_interfaces]
-                chosen = next((i for i in INTERFACE_PRIORITY if i in given), None)
-                if chosen is None:
-                    if given:
-                        _log.warning(
-                            "%s: joint '%s' has command interfaces %s; the simulation drives "
-                            "%s only: not actuated",
-                            robot.source,
-                            component.name,
-                            given,
-                            ", ".join(INTERFACE_PRIORITY),
-                        )
-                    continue
-                result.setdefault(component.name, chosen)
-        return robot.ros2_control[0].name, source, result
-    if source == "transmission":
-        return robot.name, source, _transmission_interfaces(root, names, robot.source)
-    return robot.name, source, {name: "position" for name in names}
-
-
-def _transmission_interfaces(root: ET.Element, names: list[str], where) -> dict[str, str]:
+    in the description's order: of the command interfaces the description gives a
+    joint (:attr:`LoadedRobot.command_interfaces`, read from ``<ros2_control>`` or
+    ROS 1 ``<transmission>`` blocks), the first of position, velocity, effort."""
     result = {}
-    for transmission in root.findall("transmission"):
-        for joint in transmission.findall("joint"):
-            name = joint.get("name")
-            if name not in names or name in result:
-                continue
-            texts = [
-                (element.text or "").strip()
-                for element in (
-                    joint.findall("hardwareInterface")
-                    + transmission.findall("actuator/hardwareInterface")
-                )
-            ]
-            chosen = "position"
-            for text in texts:
-                kind = text.rsplit("/", 1)[-1]
-                if kind in TRANSMISSION_INTERFACES:
-                    chosen = TRANSMISSION_INTERFACES[kind]
-                    break
-                _log.warning(
-                    "%s: <transmission name=%r> joint %r: hardware interface %r is not "
-                    "simulated (known: %s); using position",
-                    where,
-                    transmission.get("name"),
-                    name,
-                    text,
-                    ", ".join(TRANSMISSION_INTERFACES),
-                )
-            result[name] = chosen
-    return {name: result[name] for name in names}
+    for joint, given in robot.command_interfaces.items():
+        chosen = next((i for i in INTERFACE_PRIORITY if i in given), None)
+        if chosen is None:
+            _log.warning(
+                "%s: joint '%s' has command interfaces %s; the simulation drives %s only: "
+                "not actuated",
+                robot.source,
+                joint,
+                given,
+                ", ".join(INTERFACE_PRIORITY),
+            )
+            continue
+        result[joint] = chosen
+    source = robot.actuation_source
+    name = robot.ros2_control[0].name if source == "ros2_control" else robot.name
+    return name, source, result
 
 
 def AddHardwareInterface(
