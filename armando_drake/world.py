@@ -150,9 +150,10 @@ def _apply_controller(scenario, mode: str) -> None:
     """Points the scenario at the controller a --controller choice names."""
     from armando_drake.control.sequencer import SequencerConfig
 
-    broadcasters = [n for n in scenario.controllers.activate if "broadcaster" in n]
+    # The YAML's joint state broadcaster, whatever its name (ROS 1: JointStateController).
+    broadcasters = ["type:joint_state_broadcaster/JointStateBroadcaster"]
     if mode == "none":
-        scenario.controllers.activate = broadcasters or ["joint_state_broadcaster"]
+        scenario.controllers.activate = broadcasters
         scenario.sequencer = None
         return
     sequencer = scenario.sequencer or SequencerConfig(targets=SEED_TARGETS, period=3.0)
@@ -173,9 +174,7 @@ def _apply_controller(scenario, mode: str) -> None:
     )
     # The first controller of the right type in the controller YAML.
     wanted = CONTROLLER_TYPES[mode]
-    scenario.controllers.activate = (broadcasters or ["joint_state_broadcaster"]) + [
-        f"type:{wanted}"
-    ]
+    scenario.controllers.activate = broadcasters + [f"type:{wanted}"]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -18,6 +18,31 @@ as nested mappings. Which types exist, and which parameters each reads, the
 controller registry (:mod:`armando_drake.control.controllers`) says. Every error
 names the file and the key at fault, as
 ``<file>: <key>: <problem>``.
+
+A ROS 1 (``ros_control``) file, one with no ``ros__parameters`` anywhere, is
+read too::
+
+    rrbot:                               # any namespace, or none
+      joint_state_controller:
+        type: joint_state_controller/JointStateController
+        publish_rate: 50
+      joint1_position_controller:
+        type: effort_controllers/JointPositionController
+        joint: joint1
+        pid: {p: 100.0, i: 0.01, d: 10.0}
+
+Every mapping with a ``type`` is a controller (its other keys its parameters),
+looked up among the ROS 1 types of the registry (:mod:`.controllers.ros1`);
+mappings without one are namespaces; what holds no controller (gains of
+``gazebo_ros_control``, ...) is ignored with one warning. ROS 1 has no update
+rate in the file: the controllers run at :data:`ROS1_UPDATE_RATE`, as
+``gazebo_ros_control`` runs them at every 1 ms physics step.
+
+As upstream's controller manager, which fails only when it loads a controller
+of a type it has no plugin for, a controller of a type the registry does not
+know (``GripperActionController``, ...) is noted with one warning and the file
+loads; activating that controller is the error, naming the file, the key and
+the type (:attr:`ControllerConfig.controller_class`).
 """
 
 from __future__ import annotations
@@ -39,6 +64,9 @@ from armando_drake.control.controllers import (
 _logger = logging.getLogger("armando_drake.control.config")
 
 DEFAULT_UPDATE_RATE = 100  # [Hz] upstream controller_manager default
+# [Hz] the rate of a ROS 1 file's controllers: gazebo_ros_control's control period is
+# Gazebo's physics step, 1 ms by default.
+ROS1_UPDATE_RATE = 1000
 
 # Parameters upstream knows that the simulation has no use for; they are
 # accepted (so an existing file loads unchanged) and otherwise ignored.
@@ -70,26 +98,47 @@ class ControllerConfig:
     """One controller declared under ``controller_manager``."""
 
     name: str  # the controller's name (its topics are /<name>/...)
-    type: str  # the plugin type as written, a registered type
+    type: str  # the plugin type as written
     joints: list[str]  # joints it claims, in its order; [] = all (broadcaster only)
     params: Any = None  # its parameters dataclass (the registered type's ``parameters``)
     parameters: dict[str, Any] = field(default_factory=dict)  # its ros__parameters as read
     key: str = ""  # where its ros__parameters are in the file, for error messages
+    ros: int = 2  # the ROS generation of the file: 2 (ros2_control) or 1 (ros_control)
+    namespace: str = ""  # ROS 1: the namespace it was declared in ("/rrbot"), "" = none
+    # Why it cannot run ("<file>: <key>.type: unknown controller type ..."), when its
+    # type is not registered; "" for a supported controller.
+    unsupported: str = ""
+
+    @property
+    def supported(self) -> bool:
+        return not self.unsupported
 
     @property
     def controller_class(self) -> type[Controller]:
-        """The registered class that implements :attr:`type`."""
-        return lookup(self.type)
+        """The registered class that implements :attr:`type`; for an unsupported type
+        the :class:`ControllerConfigError` naming the file, key and type."""
+        if self.unsupported:
+            raise ControllerConfigError(self.unsupported)
+        return lookup(self.type, ros=self.ros)
 
     @property
     def interface_name(self) -> str | None:
-        """The command interface it claims on its joints (None: a broadcaster)."""
-        return self.controller_class.command_interface(self.params)
+        """The command interface it claims on its joints (None: a broadcaster or an
+        unsupported type)."""
+        return self.controller_class.command_interface(self.params) if self.supported else None
 
     @property
     def topic(self) -> str | None:
-        """Its command topic (``commands``, ``joint_trajectory``), None for a broadcaster."""
-        return self.controller_class.topic
+        """Its command topic (``commands``, ``joint_trajectory``; ROS 1: ``command``),
+        None for a broadcaster or an unsupported type."""
+        return self.controller_class.topic if self.supported else None
+
+    @property
+    def ros_topic(self) -> str | None:
+        """Its full command topic name as ROS would resolve it:
+        ``/<controller>/commands``, ROS 1 ``/<namespace>/<controller>/command``."""
+        topic = self.topic
+        return None if topic is None else f"{self.namespace}/{self.name}/{topic}"
 
 
 @dataclass
@@ -99,6 +148,7 @@ class ControllerManagerConfig:
     update_rate: int = DEFAULT_UPDATE_RATE  # [Hz] rate of every controller update
     controllers: dict[str, ControllerConfig] = field(default_factory=dict)  # by name
     source: str = ""  # the file it was read from, for error messages
+    ros: int = 2  # the file's ROS generation: 2 (ros2_control) or 1 (ros_control)
 
 
 def check_update_rate(update_rate: Any, where: str) -> int:
@@ -171,9 +221,34 @@ def _collect_nodes(
 
 
 def _controller(
-    name: str, type_: str, raw: dict[str, Any], source: str, key: str
+    name: str,
+    type_: Any,
+    raw: dict[str, Any],
+    source: str,
+    key: str,
+    *,
+    type_key: str,
+    ros: int = 2,
+    namespace: str = "",
 ) -> ControllerConfig:
-    cls = lookup(type_)
+    """The controller ``name`` of type ``type_`` (written at ``type_key``) with its
+    parameters ``raw`` (at ``key``); an unknown type gives an unsupported entry."""
+    if not isinstance(type_, str) or not type_:
+        raise _fail(source, type_key, f"expected a controller type string, got {type_!r}")
+    try:
+        cls = lookup(type_, ros=ros)
+    except KeyError as error:
+        unsupported = f"{source}: {type_key}: {error.args[0]}"
+        _logger.warning(
+            "%s: %s: controller type %r is not supported; %r fails if activated",
+            source,
+            type_key,
+            type_,
+            name,
+        )
+        return ControllerConfig(
+            name, type_, [], None, raw, key, ros=ros, namespace=namespace, unsupported=unsupported
+        )
     for parameter in raw:
         if parameter in cls.ignored_parameters:
             _logger.info("%s: %s.%s is not simulated; ignored", source, key, parameter)
@@ -182,7 +257,7 @@ def _controller(
     except ParameterError as error:
         raise _fail(source, f"{key}.{error.parameter}", error.problem) from None
     joints = cls.joints_of(params)
-    return ControllerConfig(name, type_, joints, params, raw, key)
+    return ControllerConfig(name, type_, joints, params, raw, key, ros=ros, namespace=namespace)
 
 
 def parse_controller_config(data: Any, source: str) -> ControllerManagerConfig:
@@ -192,10 +267,17 @@ def parse_controller_config(data: Any, source: str) -> ControllerManagerConfig:
     """
     if not isinstance(data, dict):
         raise ControllerConfigError(f"{source}: expected a mapping of ROS nodes, got {data!r}")
+    if not _holds_key(data, "ros__parameters") and _holds_key(data, "type"):
+        return _parse_ros1(data, source)
     nodes: dict[str, tuple[str, dict[str, Any]]] = {}
     _collect_nodes(data, source, "", nodes)
     if "controller_manager" not in nodes:
-        raise _fail(source, "controller_manager", "no 'controller_manager: ros__parameters:' node")
+        raise _fail(
+            source,
+            "controller_manager",
+            "no 'controller_manager: ros__parameters:' node (ROS 2) and no mapping with a "
+            "'type' (a ROS 1 controller)",
+        )
     manager_key, manager = nodes.pop("controller_manager")
     update_rate = check_update_rate(
         manager.get("update_rate", DEFAULT_UPDATE_RATE), f"{source}: {manager_key}.update_rate"
@@ -226,11 +308,9 @@ def parse_controller_config(data: Any, source: str) -> ControllerManagerConfig:
             raise _fail(
                 source, f"{node_key}.type", f"type {params['type']!r} differs from {type_!r}"
             )
-        try:
-            lookup(type_)
-        except KeyError as error:
-            raise _fail(source, f"{key}.type", error.args[0]) from None
-        config.controllers[name] = _controller(name, type_, params, source, node_key)
+        config.controllers[name] = _controller(
+            name, type_, params, source, node_key, type_key=f"{key}.type"
+        )
     for name, (node_key, _) in nodes.items():
         _logger.warning(
             "%s: %s: '%s' is not a controller of controller_manager; ignored",
@@ -238,6 +318,57 @@ def parse_controller_config(data: Any, source: str) -> ControllerManagerConfig:
             node_key,
             name,
         )
+    return config
+
+
+def _holds_key(data: Any, key: str) -> bool:
+    """Whether ``key`` is a key of ``data`` or of any mapping inside it."""
+    if not isinstance(data, dict):
+        return False
+    return key in data or any(_holds_key(value, key) for value in data.values())
+
+
+def _parse_ros1(data: dict[str, Any], source: str) -> ControllerManagerConfig:
+    """The controllers of a ROS 1 (ros_control) parameter file: every mapping with a
+    ``type``, in any namespace."""
+    config = ControllerManagerConfig(update_rate=ROS1_UPDATE_RATE, source=source, ros=1)
+
+    def walk(mapping: dict[str, Any], path: str) -> tuple[int, list[str]]:
+        """(controllers found under ``mapping``, keys that hold none)."""
+        found, ignored = 0, []
+        for raw_key, value in mapping.items():
+            key = str(raw_key)
+            where = f"{path}/{key}" if path else key
+            if isinstance(value, dict) and "type" in value:
+                if key in config.controllers:
+                    raise _fail(
+                        source,
+                        where,
+                        f"controller '{key}' is also defined at {config.controllers[key].key}",
+                    )
+                params = {str(k): v for k, v in value.items() if k != "type"}
+                config.controllers[key] = _controller(
+                    key,
+                    value["type"],
+                    params,
+                    source,
+                    where,
+                    type_key=f"{where}.type",
+                    ros=1,
+                    namespace=f"/{path}" if path else "",
+                )
+                found += 1
+            elif isinstance(value, dict):
+                inner, inner_ignored = walk(value, where)
+                found += inner
+                ignored += inner_ignored if inner else [where]
+            else:
+                ignored.append(where)
+        return found, ignored
+
+    _, ignored = walk(data, "")
+    for where in ignored:
+        _logger.warning("%s: %s holds no controller (no 'type'); ignored", source, where)
     return config
 
 
@@ -264,10 +395,11 @@ def validate_joints(
     """Fails if a controller names a joint the robot (described by ``source``) lacks."""
     known = list(robot_joint_names)
     for controller in config.controllers.values():
-        for joint in controller.joints:
+        for joint in controller.joints:  # none for an unsupported type
+            where = "joint" if "joint" in controller.parameters else "joints"
             if joint not in known:
                 raise ControllerConfigError(
-                    f"{config.source}: {controller.key}.joints: unknown joint "
+                    f"{config.source}: {controller.key}.{where}: unknown joint "
                     f"'{joint}' of controller '{controller.name}'; {source} has known joints: "
                     f"{', '.join(known)}"
                 )

@@ -50,6 +50,16 @@ class Float64MultiArray:
 
 
 @dataclass(frozen=True)
+class Float64:
+    """std_msgs/Float64: one value, as ROS 1's single-joint controllers read it."""
+
+    data: float = 0.0
+
+    def __deepcopy__(self, memo):
+        return self  # immutable: see the module docstring
+
+
+@dataclass(frozen=True)
 class JointTrajectoryPoint:
     """trajectory_msgs/JointTrajectoryPoint."""
 

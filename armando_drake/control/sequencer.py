@@ -370,3 +370,45 @@ class CommandSequencer(LeafSystem):
         self._PublishOn(
             context, state, self._commands_state, "commands", Float64MultiArray(data=command)
         )
+
+
+# [rad] j0 j1 j2 j3: the course's seed targets for Armando.
+SEED_TARGETS = (
+    (0.0, 0.0, 0.0, 0.0),
+    (1.2, -1.0, 1.2, 0.6),
+    (-1.2, 1.0, -1.2, -0.6),
+    (0.6, 0.0, -0.6, 1.0),
+    (0.0, 0.0, 0.0, 0.0),
+)
+SEED_ROOM = 0.8  # the share of a joint's range on each side of home the seed may use
+
+
+def is_seed(targets: Sequence[Sequence[float]]) -> bool:
+    """Whether ``targets`` are the seed targets themselves (the default)."""
+    return [list(map(float, t)) for t in targets] == [list(t) for t in SEED_TARGETS]
+
+
+def seed_targets_for(lower: Sequence[float], upper: Sequence[float]) -> list[list[float]]:
+    """The seed targets sized to a robot whose joints have these limits [rad or m].
+
+    Joint j follows the seed's column j mod 4 about its home (0, clamped into
+    its limits). Each side is scaled down only if the seed's largest excursion
+    on that side (1.2) exceeds :data:`SEED_ROOM` of the room the limits leave
+    there, so a joint with room (every Armando joint, the iiwa's) gets the seed
+    itself, and a short one (a 4 cm gripper finger) the same pattern within
+    its range. Unlimited joints get the seed unscaled.
+    """
+    if len(lower) != len(upper):
+        raise ValueError(f"lower={lower!r} and upper={upper!r} differ in length")
+    columns = len(SEED_TARGETS[0])
+    reach_up = max(max(t) for t in SEED_TARGETS)  # [rad] 1.2
+    reach_down = -min(min(t) for t in SEED_TARGETS)  # [rad] 1.2
+    targets = [[0.0] * len(lower) for _ in SEED_TARGETS]
+    for j, (low, high) in enumerate(zip(lower, upper, strict=True)):
+        home = min(max(0.0, low), high)
+        up = min(1.0, SEED_ROOM * (high - home) / reach_up)
+        down = min(1.0, SEED_ROOM * (home - low) / reach_down)
+        for k, seed in enumerate(SEED_TARGETS):
+            value = seed[j % columns]
+            targets[k][j] = home + value * (up if value > 0 else down)
+    return targets

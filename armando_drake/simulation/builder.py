@@ -24,6 +24,7 @@ Ports of the diagram, by name:
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 from dataclasses import dataclass, field
@@ -273,7 +274,10 @@ def MakeWorld(
             ", ".join(joints),
             rate,
         )
-        cls = controller.controller_class
+        try:
+            cls = controller.controller_class
+        except ControllerConfigError as error:  # a type the registry does not know
+            raise ScenarioError(f"{where}controllers.activate: {name!r}: {error}") from None
         if cls.broadcaster:
             if broadcaster is not None:
                 raise ScenarioError(
@@ -376,9 +380,13 @@ def MakeWorld(
 def _controller_name(entry: str, config: ControllerManagerConfig, where: str) -> str:
     """A controller name, or for ``type:<plugin>`` the first controller of that type.
 
-    A controller of another type that reads the same message on the same
-    command interface also answers (a ForwardCommandController on position for
-    ``type:position_controllers/JointGroupPositionController``).
+    Else, for a broadcaster, the first broadcaster (ROS 1's
+    ``joint_state_controller/JointStateController`` for
+    ``type:joint_state_broadcaster/JointStateBroadcaster``); for a command
+    controller, one of another type that reads the same message on the same
+    command interface (a ForwardCommandController on position for
+    ``type:position_controllers/JointGroupPositionController``, ROS 1's
+    ``position_controllers/JointTrajectoryController`` for the trajectory type).
     """
     if not entry.startswith("type:"):
         return entry
@@ -387,12 +395,19 @@ def _controller_name(entry: str, config: ControllerManagerConfig, where: str) ->
         wanted_class = lookup(wanted)
     except KeyError as error:
         raise ScenarioError(f"{where}controllers.activate: {error.args[0]}") from None
-    matches = [name for name, c in config.controllers.items() if c.type == wanted]
+    matches = [name for name, c in config.controllers.items() if c.supported and c.type == wanted]
+    if not matches and wanted_class.broadcaster:
+        matches = [
+            name
+            for name, c in config.controllers.items()
+            if c.supported and c.controller_class.broadcaster
+        ]
     if not matches and not wanted_class.broadcaster:
         matches = [
             name
             for name, c in config.controllers.items()
-            if c.controller_class.message is wanted_class.message
+            if c.supported
+            and c.controller_class.message is wanted_class.message
             and c.interface_name == wanted_class.fixed_interface
         ]
     if matches:
@@ -450,6 +465,7 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str, comman
     name, controller = targets[0]
     joints = world.controller_joints[name]
     rows = world.hardware.find(joints)
+    config = _sized_seed(config, world, [world.hardware.joints[i] for i in rows])
     validate(
         config,
         joints,
@@ -471,10 +487,31 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str, comman
     )
     sequencer.set_name("command_sequencer")
     port = "joint_trajectory" if config.mode == "trajectory" else "commands"
-    builder.Connect(sequencer.GetOutputPort(port), controller.GetInputPort(f"{name}.{port}"))
+    topic = world.controller_config.controllers[name].topic  # ROS 1: "command"
+    builder.Connect(sequencer.GetOutputPort(port), controller.GetInputPort(f"{name}.{topic}"))
     builder.ExportOutput(sequencer.GetOutputPort("reference"), "reference")
     world.sequencer = sequencer
     world.sequencer_target = name
+
+
+def _sized_seed(config, world: World, joints: list) -> Any:
+    """``config`` with the seed targets (the default) sized to ``joints``
+    (:func:`~armando_drake.control.sequencer.seed_targets_for`); other targets as
+    written."""
+    from armando_drake.control.sequencer import is_seed, seed_targets_for
+
+    targets = getattr(config, "targets", None)
+    if not targets or not is_seed(targets):
+        return config
+    sized = seed_targets_for([j.lower for j in joints], [j.upper for j in joints])
+    if not is_seed(sized):
+        _log.info(
+            "seed targets sized to the %d joints of %s: %s",
+            len(joints),
+            world.robot.name,
+            " ".join(str([round(v, 3) for v in target]) for target in sized),
+        )
+    return dataclasses.replace(config, targets=sized)
 
 
 def _add_logger(builder, world: World, scenario: Scenario, output_dir, quiet: bool) -> None:
@@ -490,10 +527,13 @@ def _add_logger(builder, world: World, scenario: Scenario, output_dir, quiet: bo
     )
     csv_path = None if output_dir is None else Path(output_dir) / "joint_states.csv"
     console_rate = scenario.logging.console_rate
+    broadcaster = world.controller_manager.broadcaster
+    # ROS 1's joint_state_controller publishes at its own publish_rate.
+    rate = broadcaster.publish_rate(broadcaster.params) or world.update_rate
     logger = builder.AddSystem(
         JointStateLogger(
             joint_names=joints,
-            update_rate=world.update_rate,
+            update_rate=rate,
             console_rate=console_rate if console_rate > 0 else 1.0,
             csv_path=csv_path,
             quiet=quiet or console_rate <= 0,

@@ -178,19 +178,6 @@ GOOD_PARAMS = "    joints: [j0, j1]"
     [
         (
             "100",
-            "type: position_controllers/JointGroupVelocityController",
-            GOOD_PARAMS,
-            "controller_manager.ros__parameters.pos.type",
-            "unknown controller type 'position_controllers/JointGroupVelocityController'; "
-            "supported: joint_state_broadcaster/JointStateBroadcaster, "
-            "forward_command_controller/ForwardCommandController, "
-            "position_controllers/JointGroupPositionController, "
-            "velocity_controllers/JointGroupVelocityController, "
-            "effort_controllers/JointGroupEffortController, "
-            "joint_trajectory_controller/JointTrajectoryController",
-        ),
-        (
-            "100",
             "params_file: pos.yaml",
             GOOD_PARAMS,
             "controller_manager.ros__parameters.pos",
@@ -313,7 +300,6 @@ GOOD_PARAMS = "    joints: [j0, j1]"
         ),
     ],
     ids=[
-        "unknown-type",
         "missing-type",
         "update-rate-zero",
         "update-rate-negative",
@@ -338,6 +324,38 @@ def test_bad_file_names_file_and_key(tmp_path, rate, type_line, params, key, mes
     with pytest.raises(ControllerConfigError) as error:
         load_controller_config(path)
     assert str(error.value) == f"{path}: {key}: {message}"
+
+
+def test_unknown_type_is_noted_and_fails_only_when_used(tmp_path, caplog):
+    # As upstream's controller manager, which fails when it loads a controller it has no
+    # plugin for, not when it reads the file: the file loads, with one warning.
+    text = MANAGER.format(
+        rate=100, type_line="type: position_controllers/JointGroupVelocityController",
+        params=GOOD_PARAMS,
+    )  # fmt: skip
+    path = write(tmp_path, text)
+    with caplog.at_level("WARNING", logger="armando_drake.control.config"):
+        config = load_controller_config(path)
+    key = "controller_manager.ros__parameters.pos.type"
+    assert [r.getMessage() for r in caplog.records] == [
+        f"{path}: {key}: controller type 'position_controllers/JointGroupVelocityController' "
+        "is not supported; 'pos' fails if activated"
+    ]
+    pos = config.controllers["pos"]
+    assert not pos.supported and pos.joints == [] and pos.topic is None
+    validate_joints(config, ARMANDO_JOINTS, "armando.urdf.xacro")  # nothing to check
+    with pytest.raises(ControllerConfigError) as error:
+        pos.controller_class  # noqa: B018  (the property raises)
+    assert str(error.value) == (
+        f"{path}: {key}: unknown controller type "
+        "'position_controllers/JointGroupVelocityController'; "
+        "supported: joint_state_broadcaster/JointStateBroadcaster, "
+        "forward_command_controller/ForwardCommandController, "
+        "position_controllers/JointGroupPositionController, "
+        "velocity_controllers/JointGroupVelocityController, "
+        "effort_controllers/JointGroupEffortController, "
+        "joint_trajectory_controller/JointTrajectoryController"
+    )
 
 
 def test_unknown_joint_names_file_key_and_known_joints(tmp_path):

@@ -19,6 +19,14 @@ here and never compare type strings. A controller class declares:
 - its logic: ``initial_memory()`` and ``update(now, message, memory, measure)``
   (see :class:`Controller`).
 
+ROS 1 controller YAML (``ros_control``) names some types the same as ROS 2
+(``position_controllers/JointGroupPositionController``) but reads them on
+other topics (``command`` instead of ``commands``), and has types ROS 2 lacks
+(``effort_controllers/JointPositionController``); so the registry has one
+table per ROS generation, ``register(type, ros=1)`` for the ROS 1 ones
+(:mod:`.ros1`, mapped onto the same logic and command interfaces as their
+ROS 2 counterparts).
+
 Adding a controller type is one new module that subclasses :class:`Controller`,
 decorates it with ``@register("<ros type>")`` and is imported at the end of this
 file (or anywhere before the YAML is read, e.g. from a test module).
@@ -70,46 +78,59 @@ class Rejected(Exception):
 # The registry
 
 
-_REGISTRY: dict[str, type[Controller]] = {}
+# One table per ROS generation: ROS 2 (ros2_control) and ROS 1 (ros_control).
+_REGISTRIES: dict[int, dict[str, type[Controller]]] = {1: {}, 2: {}}
+_REGISTRY = _REGISTRIES[2]
 
 
-def register(type_name: str) -> Callable[[type[Controller]], type[Controller]]:
+def _table(ros: int) -> dict[str, type[Controller]]:
+    if ros not in _REGISTRIES:
+        raise ValueError(f"ros={ros!r} must be 1 (ros_control) or 2 (ros2_control)")
+    return _REGISTRIES[ros]
+
+
+def register(type_name: str, *, ros: int = 2) -> Callable[[type[Controller]], type[Controller]]:
     """Class decorator: registers a :class:`Controller` subclass under ``type_name``
-    (the ROS plugin type string). Registering a name twice is an error."""
+    (the ROS plugin type string) of ROS generation ``ros`` (2: ros2_control, 1:
+    ros_control). Registering a name twice in one generation is an error."""
+    table = _table(ros)
 
     def decorate(cls: type[Controller]) -> type[Controller]:
-        if type_name in _REGISTRY and _REGISTRY[type_name] is not cls:
+        if type_name in table and table[type_name] is not cls:
             raise ValueError(
                 f"controller type {type_name!r} is already registered by "
-                f"{_REGISTRY[type_name].__module__}.{_REGISTRY[type_name].__qualname__}"
+                f"{table[type_name].__module__}.{table[type_name].__qualname__}"
             )
         if not dataclasses.is_dataclass(cls.parameters):
             raise TypeError(f"{cls.__qualname__}.parameters must be a dataclass")
-        _REGISTRY[type_name] = cls
+        table[type_name] = cls
         cls.type_names = (*cls.__dict__.get("type_names", ()), type_name)
+        cls.ros = ros
         return cls
 
     return decorate
 
 
-def unregister(type_name: str) -> None:
+def unregister(type_name: str, *, ros: int = 2) -> None:
     """Removes a registered type (for tests that register a toy type)."""
-    _REGISTRY.pop(type_name, None)
+    _table(ros).pop(type_name, None)
 
 
-def lookup(type_name: str) -> type[Controller]:
-    """The class registered under ``type_name``; KeyError naming the known types."""
+def lookup(type_name: str, *, ros: int = 2) -> type[Controller]:
+    """The class registered under ``type_name`` (ROS generation ``ros``); KeyError
+    naming the known types."""
+    table = _table(ros)
     try:
-        return _REGISTRY[type_name]
+        return table[type_name]
     except KeyError:
         raise KeyError(
-            f"unknown controller type {type_name!r}; supported: {', '.join(_REGISTRY)}"
+            f"unknown controller type {type_name!r}; supported: {', '.join(table)}"
         ) from None
 
 
-def registered_types() -> tuple[str, ...]:
-    """Every registered type string, in registration order."""
-    return tuple(_REGISTRY)
+def registered_types(*, ros: int = 2) -> tuple[str, ...]:
+    """Every registered type string of ROS generation ``ros``, in registration order."""
+    return tuple(_table(ros))
 
 
 def types_accepting(message: type, interface: str | None = None) -> tuple[str, ...]:
@@ -282,12 +303,16 @@ class ControllerMemory:
     trajectory: Any = None  # a running trajectory, if the controller has one
     # [N m] commanded torques (n) of an effort controller; None for the others.
     effort: np.ndarray | None = None
+    # The controller's own state between updates (a PID's integral), if any.
+    internal: Any = None
+    # Whether the controller works at every update whatever arrives (a PID loop).
+    running: bool = False
     # Whether the controller has work at every update, without a new message: a
-    # trajectory being executed. Derived from the fields above.
+    # trajectory being executed, or a running loop. Derived from the fields above.
     busy: bool = dataclasses.field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
-        busy = self.trajectory is not None and self.status.state == "executing"
+        busy = self.running or (self.trajectory is not None and self.status.state == "executing")
         object.__setattr__(self, "busy", busy)
 
     def __deepcopy__(self, memo):
@@ -313,6 +338,7 @@ class Controller:
     initial_state: ClassVar[str] = "holding"  # ControllerStatus.state before any command
     broadcaster: ClassVar[bool] = False  # publishes joint states instead of commanding
     type_names: ClassVar[tuple[str, ...]] = ()  # set by register()
+    ros: ClassVar[int] = 2  # the ROS generation it is registered in; set by register()
 
     @classmethod
     def type_name(cls) -> str:
@@ -331,6 +357,12 @@ class Controller:
     def command_interface(cls, params) -> str | None:
         """The command interface the controller claims on each of its joints."""
         return cls.fixed_interface
+
+    @classmethod
+    def publish_rate(cls, params) -> float | None:
+        """[Hz] the rate a broadcaster publishes at, when its parameters set one
+        (ROS 1's ``publish_rate``); None = the controller manager's update rate."""
+        return None
 
     @classmethod
     def joints_of(cls, params) -> list[str]:
@@ -387,6 +419,7 @@ from armando_drake.control.controllers import (  # noqa: E402  (after the regist
     broadcaster,
     forward_command,
     joint_trajectory,
+    ros1,
 )
 
 __all__ = [
@@ -406,6 +439,7 @@ __all__ = [
     "non_negative",
     "register",
     "registered_types",
+    "ros1",
     "types_accepting",
     "unregister",
 ]

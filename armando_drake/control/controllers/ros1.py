@@ -1,0 +1,358 @@
+"""ROS 1 (``ros_control``) controller types, mapped onto the ROS 2 ones.
+
+The course's first year runs ROS 1 with ``gazebo_ros_control``; its controller
+YAML names these types (registered with ``ros=1``, looked up only for a ROS 1
+file, see :mod:`armando_drake.control.config`):
+
+=================================================  ==========================================
+ROS 1 type                                          runs as
+=================================================  ==========================================
+``joint_state_controller/JointStateController``     the joint state broadcaster, every joint,
+                                                    sampled at ``publish_rate`` [Hz]
+``position_controllers/JointPositionController``    forward command on one ``joint``'s position
+``velocity_controllers/JointVelocityController``    ... on its velocity
+``effort_controllers/JointEffortController``        ... on its effort
+``position_controllers/JointGroupPositionController``  JointGroupPositionController (``joints``)
+``velocity_controllers/JointGroupVelocityController``  JointGroupVelocityController
+``effort_controllers/JointGroupEffortController``   JointGroupEffortController
+``position_controllers/JointTrajectoryController``  JointTrajectoryController on positions
+``effort_controllers/JointPositionController``      a PID on one joint's position error whose
+                                                    output is its effort (``pid: {p, i, d}``)
+=================================================  ==========================================
+
+The group and trajectory types read the same messages and claim the same
+command interfaces as their ROS 2 counterparts; ROS 1 puts every command on
+``/<namespace>/<controller>/command`` (the single-joint ones a
+``std_msgs/Float64``), so their command input is ``<controller>.command``.
+ROS 1's trajectory controller has no ``command_interfaces``/``state_interfaces``
+parameters (position, and position + velocity) and does not reject a last
+point with non-zero velocities. Other ROS 1 types (``effort_controllers/
+JointTrajectoryController``, ``GripperActionController``, ...) are not
+simulated: a file may name them, and activating one is an error.
+"""
+
+import dataclasses
+import math
+from typing import Any
+
+import numpy as np
+
+from armando_drake.control.controllers import (
+    Controller,
+    ControllerMemory,
+    ParameterError,
+    Rejected,
+    non_negative,
+    register,
+)
+from armando_drake.control.controllers.broadcaster import JointStateBroadcaster
+from armando_drake.control.controllers.forward_command import (
+    JointGroupEffortController,
+    JointGroupPositionController,
+    JointGroupVelocityController,
+)
+from armando_drake.control.controllers.joint_trajectory import JointTrajectoryController
+from armando_drake.control.messages import Float64, Float64MultiArray
+
+ROS1_TOPIC = "command"  # every ROS 1 command topic: /<namespace>/<controller>/command
+
+
+# --------------------------------------------------------------------------------------
+# joint_state_controller
+
+
+@dataclasses.dataclass
+class JointStateControllerParameters:
+    """The parameters of ``joint_state_controller/JointStateController``."""
+
+    # [Hz] rate at which joint states are published; required, as in ROS 1.
+    publish_rate: float = 0.0
+
+    def check(self, raw: dict[str, Any]) -> None:
+        if "publish_rate" not in raw:
+            raise ParameterError("publish_rate", "Parameter 'publish_rate' not set")
+        if not (math.isfinite(self.publish_rate) and self.publish_rate > 0):
+            raise ParameterError(
+                "publish_rate", f"publish_rate={self.publish_rate!r} must be positive [Hz]"
+            )
+
+
+@register("joint_state_controller/JointStateController", ros=1)
+class JointStateController(JointStateBroadcaster):
+    """ROS 1's joint state publisher: every joint of the hardware interface."""
+
+    parameters = JointStateControllerParameters
+    ignored_parameters = frozenset({"extra_joints"})
+
+    @classmethod
+    def joints_of(cls, params) -> list[str]:
+        return []  # every hardware joint
+
+    @classmethod
+    def publish_rate(cls, params) -> float | None:
+        return params.publish_rate
+
+    @classmethod
+    def default_parameters(cls, joints):
+        return cls.parameters(publish_rate=50.0)
+
+
+# --------------------------------------------------------------------------------------
+# One joint, forwarded
+
+
+@dataclasses.dataclass
+class SingleJointParameters:
+    """The parameters of ROS 1's single-joint forward-command controllers."""
+
+    # The joint commanded.
+    joint: str = ""
+
+    def check(self, raw: dict[str, Any]) -> None:
+        _check_joint(raw)
+
+
+def _check_joint(raw: dict[str, Any]) -> None:
+    joint = raw.get("joint")
+    if not isinstance(joint, str) or not joint:
+        raise ParameterError("joint", f"No joint given; expected a joint name, got {joint!r}")
+
+
+def _as_array(message: Any) -> Any:
+    """A Float64 command as the one-element Float64MultiArray the forward logic reads."""
+    if isinstance(message, Float64):
+        return Float64MultiArray(data=(float(message.data),))
+    return message
+
+
+class _SingleJoint:
+    """Mixin: one ``joint`` parameter, std_msgs/Float64 on ``command``."""
+
+    parameters = SingleJointParameters
+    message = Float64
+    topic = ROS1_TOPIC
+
+    @classmethod
+    def joints_of(cls, params) -> list[str]:
+        return [params.joint]
+
+    @classmethod
+    def default_parameters(cls, joints):
+        return cls.parameters(joint=joints.names[0])
+
+    def _Validate(self, message):
+        if not isinstance(message, Float64):
+            raise Rejected(f"expected a Float64 message, got {type(message).__name__}")
+        return super()._Validate(_as_array(message))
+
+
+@register("position_controllers/JointPositionController", ros=1)
+class JointPositionController(_SingleJoint, JointGroupPositionController):
+    """The position [rad] of one joint, forwarded."""
+
+
+@register("velocity_controllers/JointVelocityController", ros=1)
+class JointVelocityController(_SingleJoint, JointGroupVelocityController):
+    """The velocity [rad/s] of one joint, forwarded."""
+
+
+@register("effort_controllers/JointEffortController", ros=1)
+class JointEffortController(_SingleJoint, JointGroupEffortController):
+    """The effort [N m] of one joint, forwarded."""
+
+
+# --------------------------------------------------------------------------------------
+# Groups and trajectories: the ROS 2 logic on ROS 1's topic
+
+
+@register("position_controllers/JointGroupPositionController", ros=1)
+class Ros1JointGroupPositionController(JointGroupPositionController):
+    """JointGroupPositionController reading ``command``."""
+
+    topic = ROS1_TOPIC
+
+
+@register("velocity_controllers/JointGroupVelocityController", ros=1)
+class Ros1JointGroupVelocityController(JointGroupVelocityController):
+    """JointGroupVelocityController reading ``command``."""
+
+    topic = ROS1_TOPIC
+
+
+@register("effort_controllers/JointGroupEffortController", ros=1)
+class Ros1JointGroupEffortController(JointGroupEffortController):
+    """JointGroupEffortController reading ``command``."""
+
+    topic = ROS1_TOPIC
+
+
+@register("position_controllers/JointTrajectoryController", ros=1)
+class Ros1JointTrajectoryController(JointTrajectoryController):
+    """JointTrajectoryController on positions reading ``command``, with ROS 1's
+    parameters (no interface lists; any velocity at the last point accepted)."""
+
+    topic = ROS1_TOPIC
+    ignored_parameters = JointTrajectoryController.ignored_parameters | frozenset(
+        {"stop_trajectory_duration", "hold_trajectory_duration", "velocity_ff"}
+    )
+
+    @classmethod
+    def known_parameters(cls) -> frozenset[str]:
+        return frozenset({"joints", "constraints", "allow_partial_joints_goal"})
+
+    @classmethod
+    def ros_layout(cls, raw: dict[str, Any]) -> dict[str, Any]:
+        for name in ("command_interfaces", "state_interfaces", "interpolation_method"):
+            if name in raw:
+                raise ParameterError(name, f"'{name}' is a ROS 2 parameter, not ROS 1's")
+        raw["command_interfaces"] = ["position"]
+        raw["state_interfaces"] = ["position", "velocity"]
+        raw["allow_nonzero_velocity_at_trajectory_end"] = True
+        return super().ros_layout(raw)
+
+
+# --------------------------------------------------------------------------------------
+# effort_controllers/JointPositionController: a PID to effort
+
+
+@dataclasses.dataclass
+class PidGains:
+    """control_toolbox's ``Pid`` gains, as ROS 1 reads them under ``pid:``."""
+
+    # [N m/rad] proportional gain; required.
+    p: float = 0.0
+    # [N m/(rad s)] integral gain.
+    i: float = 0.0
+    # [N m s/rad] derivative gain (on the change of the error between updates).
+    d: float = 0.0
+    # [N m] the integral term stays within +-i_clamp (0: no integral action, as upstream).
+    i_clamp: float = 0.0
+    # [N m] lower bound of the integral term; None = -i_clamp.
+    i_clamp_min: float | None = None
+    # [N m] upper bound of the integral term; None = i_clamp.
+    i_clamp_max: float | None = None
+    # Clamp the integrated error itself (to i_clamp / i), not only the term.
+    antiwindup: bool = False
+    # Publish the PID's internal state (not simulated; accepted).
+    publish_state: bool = False
+
+    @property
+    def i_min(self) -> float:
+        """[N m] the integral term's lower bound (<= 0)."""
+        return -abs(self.i_clamp if self.i_clamp_min is None else self.i_clamp_min)
+
+    @property
+    def i_max(self) -> float:
+        """[N m] the integral term's upper bound (>= 0)."""
+        return abs(self.i_clamp if self.i_clamp_max is None else self.i_clamp_max)
+
+
+@dataclasses.dataclass
+class JointPositionPidParameters:
+    """The parameters of ``effort_controllers/JointPositionController``."""
+
+    # The joint controlled.
+    joint: str = ""
+    # Its PID gains.
+    pid: PidGains = dataclasses.field(default_factory=PidGains)
+
+    def check(self, raw: dict[str, Any]) -> None:
+        _check_joint(raw)
+        gains = raw.get("pid")
+        if not isinstance(gains, dict) or "p" not in gains:
+            raise ParameterError("pid.p", "No p gain specified for pid")
+        for name in ("p", "i", "d"):
+            non_negative(getattr(self.pid, name), f"pid.{name}")
+
+
+@dataclasses.dataclass(frozen=True)
+class _PidState:
+    """What the PID keeps between updates."""
+
+    target: float  # [rad] the commanded position
+    integral: float  # [rad s] integrated position error
+    last_error: float  # [rad] the error at the previous update
+    last_time: float  # [s] time of the previous update
+
+
+@register("effort_controllers/JointPositionController", ros=1)
+class JointPositionPidController(Controller):
+    """A PID on one joint's position error, writing the joint's effort [N m].
+
+    As ROS 1's controller with control_toolbox's ``Pid``: at each update
+    ``effort = p e + clamp(i integral(e dt), i_min, i_max) + d (e - e_prev) / dt``
+    with ``e = target - q``, clamped to the joint's effort limit. Until a
+    command arrives the target is the position measured at the first update
+    (upstream's ``starting()``: hold where it is). A command outside the
+    joint's position limits is clamped (with a warning); a NaN/Inf one is
+    dropped. It runs at every update of the controller manager, so the loop
+    closes at ``update_rate``.
+    """
+
+    parameters = JointPositionPidParameters
+    message = Float64
+    topic = ROS1_TOPIC
+    fixed_interface = "effort"
+    initial_state = "holding"
+
+    @classmethod
+    def joints_of(cls, params) -> list[str]:
+        return [params.joint]
+
+    @classmethod
+    def default_parameters(cls, joints):
+        return cls.parameters(joint=joints.names[0], pid=PidGains(p=1.0))
+
+    def initial_memory(self) -> ControllerMemory:
+        return dataclasses.replace(super().initial_memory(), running=True)
+
+    def update(self, now, message, memory, measure):
+        state, status = memory.internal, memory.status
+        q, _ = measure(memory.desired)
+        position = float(q[0])
+        if state is None:  # the first update: hold the measured position
+            state = _PidState(position, 0.0, 0.0, now)
+        target = state.target
+        if message is not None:
+            try:
+                if not isinstance(message, Float64):
+                    raise Rejected(f"expected a Float64 message, got {type(message).__name__}")
+                if not math.isfinite(message.data):
+                    raise Rejected("Non-finite value received. Dropping message")
+            except Rejected as rejection:
+                status = self.reject(status, str(rejection))
+            else:
+                low, high = float(self.lower[0]), float(self.upper[0])
+                target = min(max(float(message.data), low), high)
+                detail = {}
+                if target != message.data:
+                    detail["warning"] = (
+                        f"command {message.data!r} for joint '{self.joint_names[0]}' is outside "
+                        f"its limits [{low!r}, {high!r}]; clamped to {target!r}"
+                    )
+                    self.log_warning(self.name, detail["warning"])
+                status = self.accept(status, "active", detail)
+        gains = self.params.pid
+        error = target - position
+        dt = now - state.last_time
+        integral = state.integral
+        derivative = 0.0
+        if dt > 0:
+            integral += dt * error
+            if gains.antiwindup and gains.i != 0:
+                integral = min(
+                    max(integral, gains.i_min / abs(gains.i)), gains.i_max / abs(gains.i)
+                )
+            derivative = (error - state.last_error) / dt
+        integral_term = gains.i * integral
+        if not gains.antiwindup:
+            integral_term = min(max(integral_term, gains.i_min), gains.i_max)
+        limit = float(self.joints.effort[0])
+        effort = gains.p * error + integral_term + gains.d * derivative
+        effort = min(max(effort, -limit), limit)
+        return dataclasses.replace(
+            memory,
+            status=status,
+            effort=np.array([effort]),
+            internal=_PidState(target, integral, error, now),
+        )
