@@ -128,6 +128,12 @@ class ControllerConfig:
         return self.controller_class.command_interface(self.params) if self.supported else None
 
     @property
+    def position_targets(self) -> bool:
+        """Whether its commands are joint positions (a position or trajectory sequence can
+        drive it: a position controller, a trajectory controller, ROS 1's PID ones)."""
+        return self.supported and self.controller_class.position_targets(self.params)
+
+    @property
     def topic(self) -> str | None:
         """Its command topic (``commands``, ``joint_trajectory``; ROS 1: ``command``),
         None for a broadcaster or an unsupported type."""

@@ -386,7 +386,9 @@ def _controller_name(entry: str, config: ControllerManagerConfig, where: str) ->
     controller, one of another type that reads the same message on the same
     command interface (a ForwardCommandController on position for
     ``type:position_controllers/JointGroupPositionController``, ROS 1's
-    ``position_controllers/JointTrajectoryController`` for the trajectory type).
+    ``position_controllers/JointTrajectoryController`` for the trajectory type)
+    or, for a position type, that takes positions whatever it commands (ROS 1's
+    ``effort_controllers/JointTrajectoryController``).
     """
     if not entry.startswith("type:"):
         return entry
@@ -408,7 +410,10 @@ def _controller_name(entry: str, config: ControllerManagerConfig, where: str) ->
             for name, c in config.controllers.items()
             if c.supported
             and c.controller_class.message is wanted_class.message
-            and c.interface_name == wanted_class.fixed_interface
+            and (
+                c.interface_name == wanted_class.fixed_interface
+                or (wanted_class.fixed_interface == "position" and c.position_targets)
+            )
         ]
     if matches:
         return matches[0]
@@ -454,7 +459,7 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str, comman
         (name, system)
         for name, system in world.controllers.items()
         if world.controller_config.controllers[name].controller_class.message is message
-        and world.controller_config.controllers[name].interface_name == "position"
+        and world.controller_config.controllers[name].position_targets
     ]
     if not targets:
         kind = "trajectory" if config.mode == "trajectory" else "position"

@@ -165,9 +165,21 @@ def test_ros1_file_maps_onto_the_ros2_controllers_and_interfaces(tmp_path, caplo
             "traj.command_interfaces",
             "'command_interfaces' is a ROS 2 parameter, not ROS 1's",
         ),
+        (
+            "traj:\n  type: effort_controllers/JointTrajectoryController\n  joints: [j0, j1]\n"
+            "  gains: {j0: {p: 100.0, d: 1.0}}\n",
+            "traj.gains.j1.p",
+            "No p gain specified for pid",
+        ),
+        (
+            "traj:\n  type: effort_controllers/JointTrajectoryController\n  joints: [j0]\n"
+            "  gains: {j0: {p: 1.0}, j9: {p: 1.0}}\n",
+            "traj.gains.j9",
+            "'j9' is not one of the controller's joints",
+        ),
     ],
     ids=["publish-rate-missing", "publish-rate-zero", "p-missing", "joint-missing",
-         "p-negative", "ros2-parameter"],
+         "p-negative", "ros2-parameter", "trajectory-gains-missing", "trajectory-gains-unknown"],
 )  # fmt: skip
 def test_bad_ros1_parameters_name_file_and_key(tmp_path, controller, key, message):
     path = write(tmp_path, controller)
@@ -445,3 +457,38 @@ def test_controller_flag_on_another_robot_sizes_the_seed_targets(tmp_path, contr
         np.array([[0, 0, 0], [1.2, -1.0, 0.04], [-1.2, 1.0, 0], [0.6, 0, 0], [0, 0, 0]])
     )
     assert max(step_errors(summary)) <= 0.01, step_errors(summary)
+
+
+SPINNER_TRAJECTORY_ROS1 = """\
+spinner:
+  joint_state_controller:
+    type: joint_state_controller/JointStateController
+    publish_rate: 100
+  spin_trajectory_controller:
+    type: effort_controllers/JointTrajectoryController
+    joints: [spin]
+    gains:
+      spin: {p: 2.0, i: 20.0, d: 0.1, i_clamp: 0.05, antiwindup: true}
+"""
+
+
+def test_effort_trajectory_controller_follows_the_seed_through_its_pid(tmp_path):
+    urdf = tmp_path / "spinner.urdf"
+    urdf.write_text(SPINNER)
+    controllers = write(tmp_path, SPINNER_TRAJECTORY_ROS1, "spinner_controllers.yaml")
+    out = tmp_path / "out"
+    result = run_world(
+        "--description", str(urdf), "--controller", "trajectory", "--output", str(out),
+        "--set", f"controllers: {{config: {controllers}}}",
+        "--set", "robot: {base_xyz: [0, 0, 0]}",
+    )  # fmt: skip
+    assert result.returncode == 0, result.stdout + result.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    # The continuous joint takes the seed's j0 column as it is.
+    assert [step["target"] for step in summary["steps"]] == [[t[0]] for t in SEED_TARGETS]
+    # At the moment each point is due, through the PID: within 0.01 rad.
+    assert max(step_errors(summary)) <= 0.01, step_errors(summary)
+    rows = (out / "joint_states.csv").read_text().splitlines()
+    effort = np.array([float(row.split(",")[3]) for row in rows[1:]])  # [N m]
+    # The PID's torques move the light arm (I = 0.002 kg m^2): a few mN m, within the limit.
+    assert 1e-3 < np.abs(effort).max() <= 0.5

@@ -1,6 +1,10 @@
 """The course's KUKA iiwa with ``hardware_interface:=EffortJointInterface``: every joint
 torque-controlled, driven by ROS 1 effort controllers (iiwa_stack's layout)."""
 
+import json
+import subprocess
+import sys
+
 import numpy as np
 from pydrake.systems.analysis import Simulator
 
@@ -12,17 +16,17 @@ from armando_drake.simulation.scenario import load_scenario
 JOINTS = [f"iiwa_joint_{k}" for k in range(1, 8)]
 PIDS = [f"EffortJointInterface_J{k}_controller" for k in range(1, 8)]
 # [N m/rad, N m/(rad s), N m s/rad, N m] p, i, d, i_clamp per joint, tuned here: about
-# 25-50 rad/s for each joint's inertia (from ~3 kg m^2 at joint 2 down to ~0.002 kg m^2
+# 25-150 rad/s for each joint's inertia (from ~3 kg m^2 at joint 2 down to ~0.002 kg m^2
 # at joint 7, where d dt / I must stay well below 1 at the 1 kHz loop), an integral
 # time p / i of 0.5 s against gravity, the integral bounded by i_clamp (antiwindup).
 GAINS = [
     (1500, 3000, 50, 300),
     (2000, 4000, 60, 300),
-    (150, 300, 10, 100),
+    (300, 600, 15, 100),
     (800, 1600, 30, 200),
     (80, 160, 4, 50),
     (50, 100, 3, 50),
-    (5, 10, 0.3, 5),
+    (50, 100, 0.8, 5),
 ]
 
 
@@ -38,6 +42,18 @@ def ros1_controllers() -> str:
         "    type: effort_controllers/JointGroupEffortController",
         f"    joints: [{', '.join(JOINTS)}]",
     ]
+    lines += [
+        "  EffortJointInterface_trajectory_controller:",
+        "    type: effort_controllers/JointTrajectoryController",
+        f"    joints: [{', '.join(JOINTS)}]",
+        "    constraints: {goal_time: 0.5, stopped_velocity_tolerance: 0.05}",
+        "    state_publish_rate: 25",
+        "    gains:",
+    ]
+    for joint, (p, i, d, clamp) in zip(JOINTS, GAINS, strict=True):
+        lines.append(
+            f"      {joint}: {{p: {p}, i: {i}, d: {d}, i_clamp: {clamp}, antiwindup: true}}"
+        )
     for name, joint, (p, i, d, clamp) in zip(PIDS, JOINTS, GAINS, strict=True):
         lines += [
             f"  {name}:",
@@ -104,3 +120,30 @@ def test_iiwa_pid_effort_controllers_reach_seed_style_targets(iiwa_package, tmp_
     assert max(errors) <= 0.01, errors
     assert [world.status(context, name).accepted for name in PIDS] == [3] * 7
     world.close()
+
+
+def test_iiwa_effort_trajectory_controller_runs_the_seed_from_the_command_line(
+    iiwa_package, tmp_path
+):
+    # iiwa_stack's ROS 1 trajectory controller on effort, chosen by --controller trajectory.
+    controllers = tmp_path / "iiwa_control.yaml"
+    controllers.write_text(ros1_controllers())
+    out = tmp_path / "out"
+    result = subprocess.run(
+        [sys.executable, "-m", "armando_drake.world", "--description", str(iiwa_package),
+         "--controller", "trajectory", "--no-meshcat", "--realtime-rate", "0", "--quiet",
+         "--no-replay", "--output", str(out),
+         "--set", "robot: {xacro_args: {hardware_interface: EffortJointInterface}}",
+         "--set", f"controllers: {{config: {controllers}}}"],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stdout + result.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["joint_names"] == JOINTS
+    targets = [step["target"] for step in summary["steps"]]
+    assert targets[1] == [1.2, -1.0, 1.2, 0.6, 1.2, -1.0, 1.2]  # the seed, sized to 7 joints
+    errors = [
+        max(abs(r - t) for r, t in zip(step["reached"], step["target"], strict=True))
+        for step in summary["steps"]
+    ]
+    assert len(errors) == 5 and max(errors) <= 0.01, errors

@@ -359,6 +359,12 @@ class Controller:
         return cls.fixed_interface
 
     @classmethod
+    def position_targets(cls, params) -> bool:
+        """Whether its command messages carry joint positions [rad or m] (so a sequence
+        of position targets can drive it), whatever interface it commands."""
+        return cls.command_interface(params) == "position"
+
+    @classmethod
     def publish_rate(cls, params) -> float | None:
         """[Hz] the rate a broadcaster publishes at, when its parameters set one
         (ROS 1's ``publish_rate``); None = the controller manager's update rate."""

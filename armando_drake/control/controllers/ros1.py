@@ -18,6 +18,9 @@ ROS 1 type                                          runs as
 ``position_controllers/JointTrajectoryController``  JointTrajectoryController on positions
 ``effort_controllers/JointPositionController``      a PID on one joint's position error whose
                                                     output is its effort (``pid: {p, i, d}``)
+``effort_controllers/JointTrajectoryController``    the trajectory controller, its desired
+                                                    state turned into efforts by a PID per
+                                                    joint (``gains: {<joint>: {p, i, d}}``)
 =================================================  ==========================================
 
 The group and trajectory types read the same messages and claim the same
@@ -26,9 +29,9 @@ command interfaces as their ROS 2 counterparts; ROS 1 puts every command on
 ``std_msgs/Float64``), so their command input is ``<controller>.command``.
 ROS 1's trajectory controller has no ``command_interfaces``/``state_interfaces``
 parameters (position, and position + velocity) and does not reject a last
-point with non-zero velocities. Other ROS 1 types (``effort_controllers/
-JointTrajectoryController``, ``GripperActionController``, ...) are not
-simulated: a file may name them, and activating one is an error.
+point with non-zero velocities. Other ROS 1 types
+(``velocity_controllers/JointTrajectoryController``, ``GripperActionController``,
+...) are not simulated: a file may name them, and activating one is an error.
 """
 
 import dataclasses
@@ -51,7 +54,10 @@ from armando_drake.control.controllers.forward_command import (
     JointGroupPositionController,
     JointGroupVelocityController,
 )
-from armando_drake.control.controllers.joint_trajectory import JointTrajectoryController
+from armando_drake.control.controllers.joint_trajectory import (
+    JointTrajectoryController,
+    JointTrajectoryControllerParams,
+)
 from armando_drake.control.messages import Float64, Float64MultiArray
 
 ROS1_TOPIC = "command"  # every ROS 1 command topic: /<namespace>/<controller>/command
@@ -332,27 +338,122 @@ class JointPositionPidController(Controller):
                     )
                     self.log_warning(self.name, detail["warning"])
                 status = self.accept(status, "active", detail)
-        gains = self.params.pid
         error = target - position
         dt = now - state.last_time
-        integral = state.integral
-        derivative = 0.0
-        if dt > 0:
-            integral += dt * error
-            if gains.antiwindup and gains.i != 0:
-                integral = min(
-                    max(integral, gains.i_min / abs(gains.i)), gains.i_max / abs(gains.i)
-                )
-            derivative = (error - state.last_error) / dt
-        integral_term = gains.i * integral
-        if not gains.antiwindup:
-            integral_term = min(max(integral_term, gains.i_min), gains.i_max)
+        derivative = (error - state.last_error) / dt if dt > 0 else 0.0
+        effort, integral = pid_command(self.params.pid, error, derivative, state.integral, dt)
         limit = float(self.joints.effort[0])
-        effort = gains.p * error + integral_term + gains.d * derivative
-        effort = min(max(effort, -limit), limit)
         return dataclasses.replace(
             memory,
             status=status,
-            effort=np.array([effort]),
+            effort=np.array([min(max(effort, -limit), limit)]),
             internal=_PidState(target, integral, error, now),
+        )
+
+
+def pid_command(
+    gains: PidGains, error: float, error_dot: float, integral: float, dt: float
+) -> tuple[float, float]:
+    """control_toolbox's ``Pid::computeCommand(error, error_dot, dt)``: the command
+    ``p error + i integral + d error_dot`` [N m] and the new integrated error [rad s]
+    (integrated over ``dt`` [s]; with ``antiwindup`` the integrated error is bounded
+    to i_clamp / i, else the integral term to [i_min, i_max])."""
+    if dt > 0:
+        integral += dt * error
+        if gains.antiwindup and gains.i != 0:
+            bound = abs(gains.i)
+            integral = min(max(integral, gains.i_min / bound), gains.i_max / bound)
+    integral_term = gains.i * integral
+    if not gains.antiwindup:
+        integral_term = min(max(integral_term, gains.i_min), gains.i_max)
+    return gains.p * error + integral_term + gains.d * error_dot, integral
+
+
+@dataclasses.dataclass
+class EffortTrajectoryParameters(JointTrajectoryControllerParams):
+    """``effort_controllers/JointTrajectoryController``: the trajectory controller's
+    parameters and a PID per joint."""
+
+    # PID gains per joint, as ``gains: {<joint>: {p: .., i: .., d: .., i_clamp: ..}}``;
+    # every joint needs its p.
+    gains: dict[str, PidGains] = dataclasses.field(default_factory=dict)
+
+    def check(self, raw: dict[str, Any]) -> None:
+        super().check(raw)
+        given = raw.get("gains") or {}
+        if not isinstance(given, dict):
+            raise ParameterError("gains", f"expected a mapping of joints, got {given!r}")
+        for joint in given:
+            if joint not in self.joints:
+                raise ParameterError(
+                    f"gains.{joint}", f"'{joint}' is not one of the controller's joints"
+                )
+        for joint in self.joints:
+            if not isinstance(given.get(joint), dict) or "p" not in given[joint]:
+                raise ParameterError(f"gains.{joint}.p", "No p gain specified for pid")
+            for name in ("p", "i", "d"):
+                non_negative(getattr(self.gains[joint], name), f"gains.{joint}.{name}")
+
+
+@dataclasses.dataclass(frozen=True)
+class _TrajectoryPidState:
+    """What the effort trajectory controller's PIDs keep between updates."""
+
+    integral: np.ndarray  # [rad s] integrated position error per joint
+    last_time: float  # [s] time of the previous update
+
+
+@register("effort_controllers/JointTrajectoryController", ros=1)
+class EffortJointTrajectoryController(Ros1JointTrajectoryController):
+    """The trajectory controller whose desired state [q_d; v_d] a PID per joint turns
+    into efforts: ``effort_j = pid_j(q_d - q, v_d - v)`` at every update (ROS 1's
+    effort HardwareInterfaceAdapter), clamped to the effort limits. Before any
+    trajectory it holds the initial positions."""
+
+    parameters = EffortTrajectoryParameters
+    fixed_interface = "effort"
+
+    @classmethod
+    def known_parameters(cls) -> frozenset[str]:
+        return super().known_parameters() | {"gains"}
+
+    @classmethod
+    def position_targets(cls, params) -> bool:
+        return True  # its trajectories are positions; the PIDs turn them into efforts
+
+    @classmethod
+    def default_parameters(cls, joints):
+        return cls.parameters(
+            joints=list(joints.names),
+            gains={joint: PidGains(p=1.0) for joint in joints.names},
+        )
+
+    def __init__(self, *, name, joints, params=None):
+        super().__init__(name=name, joints=joints, params=params)
+        self._gains = [self.params.gains[joint] for joint in self.joint_names]
+
+    def initial_memory(self) -> ControllerMemory:
+        return dataclasses.replace(super().initial_memory(), running=True)
+
+    def update(self, now, message, memory, measure):
+        # The trajectory logic sees its own state (busy only while executing).
+        own = dataclasses.replace(memory, running=False)
+        tracked = super().update(now, message, own, measure)
+        n = self.n
+        q, v = measure(tracked.desired)
+        error = tracked.desired[:n] - q
+        error_dot = tracked.desired[n:] - v
+        state = memory.internal or _TrajectoryPidState(np.zeros(n), now)
+        dt = now - state.last_time
+        effort, integral = np.zeros(n), np.zeros(n)
+        for j, gains in enumerate(self._gains):
+            effort[j], integral[j] = pid_command(
+                gains, float(error[j]), float(error_dot[j]), float(state.integral[j]), dt
+            )
+        limit = self.joints.effort
+        return dataclasses.replace(
+            tracked,
+            effort=np.clip(effort, -limit, limit),
+            internal=_TrajectoryPidState(integral, now),
+            running=True,
         )
