@@ -33,8 +33,10 @@ read too::
 
 Every mapping with a ``type`` is a controller (its other keys its parameters),
 looked up among the ROS 1 types of the registry (:mod:`.controllers.ros1`);
-mappings without one are namespaces; what holds no controller (gains of
-``gazebo_ros_control``, ...) is ignored with one warning. ROS 1 has no update
+mappings without one are namespaces; what holds no controller is ignored
+with one warning, but for ``gazebo_ros_control: {pid_gains: {<joint>: {p, i,
+d}}}``, the gains Gazebo closes its position (and velocity) joints with, read
+into :attr:`ControllerManagerConfig.pid_gains`. ROS 1 has no update
 rate in the file: the controllers run at :data:`ROS1_UPDATE_RATE`, as
 ``gazebo_ros_control`` runs them at every 1 ms physics step.
 
@@ -155,6 +157,10 @@ class ControllerManagerConfig:
     controllers: dict[str, ControllerConfig] = field(default_factory=dict)  # by name
     source: str = ""  # the file it was read from, for error messages
     ros: int = 2  # the file's ROS generation: 2 (ros2_control) or 1 (ros_control)
+    # ROS 1: gazebo_ros_control's pid_gains per joint, as {joint: (p, i, d)} [N m/rad,
+    # N m/(rad s), N m s/rad] (on a velocity joint, p is per rad/s); the gains Gazebo
+    # closes a position or velocity interface with.
+    pid_gains: dict[str, tuple[float, float, float]] = field(default_factory=dict)
 
 
 def check_update_rate(update_rate: Any, where: str) -> int:
@@ -345,6 +351,9 @@ def _parse_ros1(data: dict[str, Any], source: str) -> ControllerManagerConfig:
         for raw_key, value in mapping.items():
             key = str(raw_key)
             where = f"{path}/{key}" if path else key
+            if key == "gazebo_ros_control" and isinstance(value, dict):
+                ignored += _gazebo_pid_gains(value, source, where, config.pid_gains)
+                continue
             if isinstance(value, dict) and "type" in value:
                 if key in config.controllers:
                     raise _fail(
@@ -376,6 +385,29 @@ def _parse_ros1(data: dict[str, Any], source: str) -> ControllerManagerConfig:
     for where in ignored:
         _logger.warning("%s: %s holds no controller (no 'type'); ignored", source, where)
     return config
+
+
+def _gazebo_pid_gains(
+    block: dict[str, Any], source: str, where: str, gains: dict[str, tuple[float, float, float]]
+) -> list[str]:
+    """Reads ``gazebo_ros_control: {pid_gains: {<joint>: {p, i, d}}}`` into ``gains``;
+    returns the keys it ignores."""
+    ignored = [f"{where}/{key}" for key in block if key != "pid_gains"]
+    entries = block.get("pid_gains") or {}
+    if not isinstance(entries, dict):
+        raise _fail(source, f"{where}/pid_gains", f"expected a mapping of joints, got {entries!r}")
+    for joint, values in entries.items():
+        key = f"{where}/pid_gains/{joint}"
+        if not isinstance(values, dict) or "p" not in values:
+            raise _fail(source, f"{key}.p", "No p gain specified for pid")
+        numbers = []
+        for name in ("p", "i", "d"):
+            value = values.get(name, 0.0)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or value < 0:
+                raise _fail(source, f"{key}.{name}", f"{name}={value!r} must be a number >= 0")
+            numbers.append(float(value))
+        gains[str(joint)] = tuple(numbers)
+    return ignored
 
 
 def load_controller_config(path: str | Path) -> ControllerManagerConfig:

@@ -85,15 +85,18 @@ class HardwareInterface:
 INTERFACE_PRIORITY = ("position", "velocity", "effort")
 
 
-def command_interfaces(robot: LoadedRobot) -> tuple[str, str, dict[str, str]]:
+def command_interfaces(robot: LoadedRobot, *, warn: bool = True) -> tuple[str, str, dict[str, str]]:
     """(interface name, source, {joint: command interface}) of the joints to actuate,
     in the description's order: of the command interfaces the description gives a
     joint (:attr:`LoadedRobot.command_interfaces`, read from ``<ros2_control>`` or
-    ROS 1 ``<transmission>`` blocks), the first of position, velocity, effort."""
+    ROS 1 ``<transmission>`` blocks), the first of position, velocity, effort. A joint
+    with none of them is left out (with a warning, when ``warn``)."""
     result = {}
     for joint, given in robot.command_interfaces.items():
         chosen = next((i for i in INTERFACE_PRIORITY if i in given), None)
         if chosen is None:
+            if not warn:
+                continue
             _log.warning(
                 "%s: joint '%s' has command interfaces %s; the simulation drives %s only: "
                 "not actuated",

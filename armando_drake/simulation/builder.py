@@ -57,6 +57,7 @@ from armando_drake.control.hardware import (
     ConnectHardwareInterface,
     FinishHardwareInterface,
     HardwareInterface,
+    command_interfaces,
 )
 from armando_drake.control.manager import (
     AddJointStateVector,
@@ -131,9 +132,11 @@ class World:
         self.closers.clear()
 
 
-def _controller_config(scenario: Scenario, robot: LoadedRobot, hardware) -> ControllerManagerConfig:
+def _controller_config(
+    scenario: Scenario, robot: LoadedRobot, joint_names: list[str]
+) -> ControllerManagerConfig:
     """The controller YAML of the scenario, of the description's ``<gazebo><plugin>``
-    ``<parameters>``, of the description package, or a default."""
+    ``<parameters>``, of the description package, or a default on ``joint_names``."""
     path = scenario.controllers.config
     if path:
         return load_controller_config(Path(path))
@@ -146,8 +149,45 @@ def _controller_config(scenario: Scenario, robot: LoadedRobot, hardware) -> Cont
     candidates = sorted((package_dir / "config").glob("*controllers*.yaml")) if package_dir else []
     if candidates:
         return load_controller_config(candidates[0])
-    data = default_controller_config(hardware.joint_names)
+    data = default_controller_config(joint_names)
     return parse_controller_config(data, source=f"<default controllers of {robot.name}>")
+
+
+def _yaml_gains(
+    config: ControllerManagerConfig, interfaces: dict[str, str]
+) -> dict[str, list[float]]:
+    """Per-joint actuator gains from a ROS 1 file's ``gazebo_ros_control/pid_gains``:
+    [kp, kd] = [p, d] on a position joint, [0, kv] = [0, p] on a velocity joint (Drake's
+    implicit PD, so no integral: ``i`` is noted and dropped); effort joints take none,
+    as in Gazebo."""
+    gains = {}
+    for joint, (p, i, d) in config.pid_gains.items():
+        interface = interfaces.get(joint)
+        if interface == "position":
+            gains[joint] = [p, d]
+        elif interface == "velocity":
+            gains[joint] = [0.0, p]
+        else:
+            _log.warning(
+                "%s: gazebo_ros_control/pid_gains/%s: not a position or velocity joint; ignored",
+                config.source,
+                joint,
+            )
+            continue
+        if i:
+            _log.info(
+                "%s: gazebo_ros_control/pid_gains/%s: i=%g not simulated (Drake's PD actuator)",
+                config.source,
+                joint,
+                i,
+            )
+    if gains:
+        _log.info(
+            "actuator gains from %s: %s",
+            config.source,
+            ", ".join(f"{joint} {values}" for joint, values in gains.items()),
+        )
+    return gains
 
 
 def _add_ground(plant: MultibodyPlant) -> None:
@@ -220,10 +260,15 @@ def MakeWorld(
         _add_ground(plant)
     AddSceneObjects(plant, scenario.objects)
 
+    # The controller YAML, first: a ROS 1 file's gazebo_ros_control gains are actuator gains.
+    interfaces = command_interfaces(robot, warn=False)[2]  # warned by AddHardwareInterface
+    config = _controller_config(scenario, robot, list(interfaces))
+
     # The hardware interface: PD actuators from <ros2_control>.
     actuators = scenario.actuators
+    gains = {**_yaml_gains(config, interfaces), **actuators.gains}  # the scenario's win
     hardware = AddHardwareInterface(
-        plant, robot, kp=actuators.kp, kd=actuators.kd, kv=actuators.kv, gains=actuators.gains
+        plant, robot, kp=actuators.kp, kd=actuators.kd, kv=actuators.kv, gains=gains
     )
     plant.Finalize()
     if not robot_config.self_collision:
@@ -236,8 +281,7 @@ def MakeWorld(
         ", ".join(f"{j.name} [{j.lower:.2f}, {j.upper:.2f}]" for j in hardware.joints),
     )
 
-    # The controller manager: read the YAML, then load and activate controllers.
-    config = _controller_config(scenario, robot, hardware)
+    # The controller manager: load and activate the YAML's controllers.
     validate_joints(config, hardware.joint_names, config.source)
     rate = config.update_rate
     if scenario.controllers.update_rate:  # the scenario's override of the YAML's rate

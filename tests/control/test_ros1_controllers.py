@@ -123,10 +123,40 @@ def test_ros1_file_maps_onto_the_ros2_controllers_and_interfaces(tmp_path, caplo
         f"{path}: armando/gripper_controller.type: controller type "
         "'position_controllers/GripperActionController' is not supported; "
         "'gripper_controller' fails if activated",
-        f"{path}: gazebo_ros_control holds no controller (no 'type'); ignored",
     ]
+    assert config.pid_gains == {"j0": (100.0, 0.01, 10.0)}  # gazebo_ros_control's
     # The same type string means the ROS 2 controller in a ROS 2 file.
     assert lookup("position_controllers/JointGroupPositionController").topic == "commands"
+
+
+def actuator_gains(world) -> dict[str, tuple[float, float]]:
+    plant = world.plant
+    result = {}
+    for index in plant.GetJointActuatorIndices(world.robot.model_instance):
+        actuator = plant.get_joint_actuator(index)
+        gains = actuator.get_controller_gains()
+        result[actuator.joint().name()] = (gains.p, gains.d)
+    return result
+
+
+@pytest.mark.parametrize(
+    "override, j0",
+    [("", (100.0, 10.0)), ("actuators: {gains: {j0: [20.0, 1.0]}}", (20.0, 1.0))],
+    ids=["from-the-yaml", "scenario-wins"],
+)
+def test_gazebo_ros_control_pid_gains_are_the_position_actuator_gains(tmp_path, override, j0):
+    path = write(tmp_path, ARMANDO_ROS1)
+    scenario = load_scenario(
+        "position",
+        "sequencer: null\nlogging: {console_rate: 0}\n"
+        f"controllers: {{config: {path}, activate: [joint_state_controller]}}\n" + override,
+    )
+    world = MakeWorld(scenario, quiet=True)
+    # p and d of pid_gains/j0; the other joints keep the scenario's kp 8, kd 0.4.
+    assert actuator_gains(world) == {
+        "j0": j0, "j1": (8.0, 0.4), "j2": (8.0, 0.4), "j3": (8.0, 0.4),
+    }  # fmt: skip
+    world.close()
 
 
 @pytest.mark.parametrize(
@@ -177,9 +207,16 @@ def test_ros1_file_maps_onto_the_ros2_controllers_and_interfaces(tmp_path, caplo
             "traj.gains.j9",
             "'j9' is not one of the controller's joints",
         ),
+        (
+            "js: {type: joint_state_controller/JointStateController, publish_rate: 50}\n"
+            "gazebo_ros_control:\n  pid_gains:\n    j0: {i: 1.0}\n",
+            "gazebo_ros_control/pid_gains/j0.p",
+            "No p gain specified for pid",
+        ),
     ],
     ids=["publish-rate-missing", "publish-rate-zero", "p-missing", "joint-missing",
-         "p-negative", "ros2-parameter", "trajectory-gains-missing", "trajectory-gains-unknown"],
+         "p-negative", "ros2-parameter", "trajectory-gains-missing", "trajectory-gains-unknown",
+         "gazebo-p-missing"],
 )  # fmt: skip
 def test_bad_ros1_parameters_name_file_and_key(tmp_path, controller, key, message):
     path = write(tmp_path, controller)
