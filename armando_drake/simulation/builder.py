@@ -126,9 +126,12 @@ class World:
 
     def close(self, context: Context | None = None) -> None:
         """Ends the run: with the root ``context``, first writes the joint states the
-        logger has recorded since its last flush; then closes every file and server."""
+        logger has recorded since its last flush (and the sequencer's commands since
+        its last batch); then closes every file and server."""
         if context is not None and self.logger is not None and self.closers:
             self.logger.flush(self.logger.GetMyContextFromRoot(context))
+        if context is not None and self.sequencer is not None and self.closers:
+            self.sequencer.flush(context)
         for closer in self.closers:
             closer()
         self.closers.clear()
@@ -410,22 +413,24 @@ def _managed_controller(world: World, controller: ControllerConfig, joints) -> M
 
 
 def _add_sequencer(builder, world: World, scenario: Scenario, where: str, commands_csv) -> None:
+    """The command sequencer of the scenario, on the first active controller of the
+    kind its configuration feeds (a position or a trajectory controller)."""
     config = scenario.sequencer
     if config is None:
         return
-    from armando_drake.control.sequencer import CommandSequencer, validate
+    from armando_drake.control.sequencer import CONTROLLER_KIND, MakeSequencer, validate
     from armando_drake.outputs.logger import CommandsCsv
 
-    wanted = TRAJECTORY_TYPE if config.mode == "trajectory" else POSITION_TYPES
+    kind = CONTROLLER_KIND[type(config)]
+    wanted = TRAJECTORY_TYPE if kind == "trajectory" else POSITION_TYPES
     targets = [
         (name, system)
         for name, system in world.controllers.items()
         if world.controller_config.controllers[name].type in wanted
     ]
     if not targets:
-        kind = "trajectory" if config.mode == "trajectory" else "position"
         raise ScenarioError(
-            f"{where}sequencer.mode={config.mode!r} needs an active {kind} controller; "
+            f"{where}sequencer !{type(config).__name__} needs an active {kind} controller; "
             f"active: {', '.join(world.controllers) or 'none'}"
         )
     name, controller = targets[0]
@@ -443,7 +448,7 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str, comman
         on_publish = CommandsCsv(commands_csv, joints)
         world.closers.append(on_publish.close)
     sequencer = builder.AddSystem(
-        CommandSequencer(
+        MakeSequencer(
             config=config,
             joint_names=joints,
             controller_rate=world.update_rate,
@@ -451,7 +456,7 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str, comman
         )
     )
     sequencer.set_name("command_sequencer")
-    port = "joint_trajectory" if config.mode == "trajectory" else "commands"
+    port = "joint_trajectory" if kind == "trajectory" else "commands"
     builder.Connect(sequencer.GetOutputPort(port), controller.GetInputPort(f"{name}.{port}"))
     builder.ExportOutput(sequencer.GetOutputPort("reference"), "reference")
     world.sequencer = sequencer
