@@ -541,7 +541,7 @@ class SinusoidSequencer(Diagram):
       consumer that evaluates it in C++;
     - ``command_count``: vector of one, the number of samples so far (0
       before the first; sample k, taken at start_delay + k / rate, makes it
-      k + 1);
+      k + 1, to rounding: it is a clock sampled with the wave, so round it);
     - ``commands``: the same sample as a Publication of Float64MultiArray
       (count = ``command_count``, stamp = the sample's time), made in Python
       only when a subscriber reads it;
