@@ -13,9 +13,9 @@ FAST = "logging: {console_rate: 0}\nsimulator_config: {target_realtime_rate: 0}\
 
 
 def test_step_columns_hold_final_error_largest_error_after_settling_and_settling_time():
-    # One joint, two 1 s steps sampled at 10 Hz (the last step lasts to 2 s): step 0 (target 1) enters the band at
-    # 0.4 s, leaves it at 0.6 s, is back for good at 0.7 s and ends 0.002 off; step 1
-    # (target 0) never gets within the band.
+    # One joint, two 1 s steps sampled at 10 Hz (the last one lasts to 2 s): step 0
+    # (target 1) enters the band at 0.4 s, leaves it at 0.6 s, is back for good at
+    # 0.7 s and ends 0.002 off; step 1 (target 0) never gets within the band.
     times = np.round(np.arange(0.0, 2.01, 0.1), 10)
     q = np.array(
         [0.0, 0.5, 0.9, 0.95, 0.995, 0.996, 0.98, 0.994, 0.997, 0.998]
