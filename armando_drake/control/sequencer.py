@@ -537,8 +537,9 @@ class SinusoidSequencer(Diagram):
     seed node publishes it on a timer; no Python runs per sample.
 
     - ``position_command``: vector [rad or m], the latest sample, held until
-      the next (0 before the first): the command stream as a vector, for a
-      consumer that evaluates it in C++;
+      the next, and ``initial_positions`` before the first: the command
+      stream as a vector, for a consumer that evaluates it in C++ (wired to
+      a plant's desired state, it holds the initial pose until the start);
     - ``command_count``: vector of one, the number of samples so far (0
       before the first; sample k, taken at start_delay + k / rate, makes it
       k + 1, to rounding: it is a clock sampled with the wave, so round it);
@@ -564,6 +565,7 @@ class SinusoidSequencer(Diagram):
         config: Sinusoid,
         joint_names: Sequence[str],
         controller_rate: float = 100.0,
+        initial_positions: Sequence[float] | None = None,
         on_publish: Callable[[float, str, Any], None] | None = None,
     ):
         super().__init__()
@@ -573,6 +575,9 @@ class SinusoidSequencer(Diagram):
             raise ValueError("joint_names=() must name at least one joint")
         if not (math.isfinite(controller_rate) and controller_rate > 0):
             raise ValueError(f"controller_rate={controller_rate!r} must be positive [Hz]")
+        initial = np.zeros(n) if initial_positions is None else np.asarray(initial_positions, float)
+        if initial.shape != (n,) or not np.all(np.isfinite(initial)):
+            raise ValueError(f"initial_positions={initial_positions!r} must be {n} finite numbers")
         if not isinstance(config, Sinusoid):
             raise ValueError(f"config={config!r} is not a Sinusoid")
         validate(config, joint_names, [-math.inf] * n, [math.inf] * n)
@@ -593,7 +598,9 @@ class SinusoidSequencer(Diagram):
                 is_time_based=True,
             ),
         )
-        offset = builder.AddNamedSystem("offset", ConstantVectorSource(wave.offset))
+        # The hold samples wave - initial, so that its default (zeros, before the
+        # first sample) reads as the initial positions once they are added back.
+        offset = builder.AddNamedSystem("offset", ConstantVectorSource(wave.offset - initial))
         wave_sum = builder.AddNamedSystem("wave", Adder(2, n))
         builder.Connect(sine.GetOutputPort("y0"), wave_sum.get_input_port(0))
         builder.Connect(offset.get_output_port(), wave_sum.get_input_port(1))
@@ -613,18 +620,25 @@ class SinusoidSequencer(Diagram):
         builder.Connect(stack.get_output_port(), hold.get_input_port())
         split = builder.AddNamedSystem("split", Demultiplexer([n, 1]))
         builder.Connect(hold.get_output_port(), split.get_input_port())
+        start = builder.AddNamedSystem("initial_positions", ConstantVectorSource(initial))
+        command = builder.AddNamedSystem("position_command", Adder(2, n))
+        builder.Connect(split.get_output_port(0), command.get_input_port(0))
+        builder.Connect(start.get_output_port(), command.get_input_port(1))
+        sample = builder.AddNamedSystem("held_sample", Multiplexer([n, 1]))
+        builder.Connect(command.get_output_port(), sample.get_input_port(0))
+        builder.Connect(split.get_output_port(1), sample.get_input_port(1))
         topic = builder.AddNamedSystem("topic", _SinusoidTopic(n=n, start_delay=s, rate=rate))
-        builder.Connect(hold.get_output_port(), topic.GetInputPort("sample"))
+        builder.Connect(sample.get_output_port(), topic.GetInputPort("sample"))
         for name in ("commands", "joint_trajectory", "reference"):
             builder.ExportOutput(topic.GetOutputPort(name), name)
-        builder.ExportOutput(split.get_output_port(0), "position_command")
+        builder.ExportOutput(command.get_output_port(), "position_command")
         builder.ExportOutput(split.get_output_port(1), "command_count")
         self._log = None
         if on_publish is not None:
             self._log = builder.AddNamedSystem(
                 "command_log", _CommandLog(n=n, wave=wave, rate=rate, on_publish=on_publish)
             )
-            builder.Connect(hold.get_output_port(), self._log.GetInputPort("sample"))
+            builder.Connect(sample.get_output_port(), self._log.GetInputPort("sample"))
         builder.BuildInto(self)
 
     @property
@@ -660,18 +674,21 @@ def MakeSequencer(
     config: SequencerConfig,
     joint_names: Sequence[str],
     controller_rate: float = 100.0,
+    initial_positions: Sequence[float] | None = None,
     on_publish: Callable[[float, str, Any], None] | None = None,
 ) -> CommandSequencer | SinusoidSequencer:
     """The sequencer system of ``config``: a :class:`CommandSequencer` for targets and
     trajectories, a :class:`SinusoidSequencer` for a :class:`Sinusoid`.
 
-    ``controller_rate`` [Hz]: the sinusoid's sample rate when its ``rate`` is None.
+    ``controller_rate`` [Hz]: the sinusoid's sample rate when its ``rate`` is None;
+    ``initial_positions`` [rad or m]: its ``position_command`` before the first sample.
     """
     if isinstance(config, Sinusoid):
         return SinusoidSequencer(
             config=config,
             joint_names=joint_names,
             controller_rate=controller_rate,
+            initial_positions=initial_positions,
             on_publish=on_publish,
         )
     return CommandSequencer(config=config, joint_names=joint_names, on_publish=on_publish)

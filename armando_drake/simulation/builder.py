@@ -452,6 +452,7 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str, comman
             config=config,
             joint_names=joints,
             controller_rate=world.update_rate,
+            initial_positions=[world.hardware.joints[i].initial_position for i in rows],
             on_publish=on_publish,
         )
     )

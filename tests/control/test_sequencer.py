@@ -279,6 +279,25 @@ def test_sinusoid_vector_ports_hold_the_latest_sample_and_its_count():
     assert sequencer.GetOutputPort("joint_trajectory").Eval(context).count == 0
     sequencer, context, _ = run(config, 0.49)
     assert sequencer.GetOutputPort("command_count").Eval(context)[0] == 0
+    assert sequencer.GetOutputPort("commands").Eval(context).count == 0
+    assert np.isnan(sequencer.GetOutputPort("reference").Eval(context)).all()
+    # Before the first sample the vector stream holds the initial positions.
+    np.testing.assert_array_equal(sequencer.GetOutputPort("position_command").Eval(context), 0)
+    held = SinusoidSequencer(
+        config=config, joint_names=JOINTS, initial_positions=[0.1, 0.2, 0.3, 0.4]
+    )
+    context = held.CreateDefaultContext()
+    np.testing.assert_array_equal(
+        held.GetOutputPort("position_command").Eval(context), [0.1, 0.2, 0.3, 0.4]
+    )
+    simulator = Simulator(held, context)
+    simulator.AdvanceTo(0.515)  # samples at 0.50 and 0.51: the wave, not the initial pose
+    np.testing.assert_allclose(
+        held.GetOutputPort("position_command").Eval(context),
+        [0.1 + 0.2 * math.sin(2 * math.pi * 0.05 * 0.01)]
+        + [0.2 * math.sin(2 * math.pi * 0.05 * 0.01)] * 3,
+        atol=1e-12,
+    )
 
 
 def test_sequencer_rejects_structural_errors_without_limits():
