@@ -207,7 +207,18 @@ def run_scenario(name: str, duration: float, overrides: tuple[str, ...] = ()):
         scenario = load_scenario_override(scenario, override)
     scenario.simulation.duration = duration
     scenario.simulator_config.target_realtime_rate = 0.0
-    return run(scenario, scenario_name=name, quiet=True, stream=io.StringIO())
+    # The CSV logs on, in a temporary folder (the run writes no CSV without a folder);
+    # no plots, no replay.
+    with tempfile.TemporaryDirectory(prefix="armando_drake_bench_") as folder:
+        return run(
+            scenario,
+            scenario_name=name,
+            quiet=True,
+            stream=io.StringIO(),
+            output_dir=folder,
+            replay=False,
+            plots=False,
+        )
 
 
 def load_scenario_override(scenario, override: str):

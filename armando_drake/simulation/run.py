@@ -332,11 +332,12 @@ def run(
     stream: TextIO = sys.stdout,
     replay: bool = True,
     record: str | Path | None = None,
+    plots: bool = True,
 ) -> RunResult:
     """Builds and simulates ``scenario``; returns (and, with ``output_dir``, writes) results.
 
-    With ``output_dir`` it also writes the plots (:mod:`armando_drake.outputs.plots`)
-    and, with ``replay``, ``replay.html`` (:mod:`armando_drake.outputs.replay`;
+    With ``output_dir`` it also writes, with ``plots``, the plots
+    (:mod:`armando_drake.outputs.plots`) and, with ``replay``, ``replay.html`` (:mod:`armando_drake.outputs.replay`;
     without ``meshcat`` a private Meshcat records it). ``record``: an
     ``.mcap`` file for the ROS 2 recording (:mod:`armando_drake.outputs.recording`).
     """
@@ -420,9 +421,10 @@ def run(
         result.tracking_error = table.largest
     if log_dir is not None:
         (log_dir / "summary.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
-        from armando_drake.outputs.plots import write_plots
+        if plots:
+            from armando_drake.outputs.plots import write_plots
 
-        write_plots(log_dir)
+            write_plots(log_dir)
     if replay_meshcat is not None:
         from armando_drake.outputs.replay import REPLAY_FILE, write_replay
 
