@@ -337,8 +337,9 @@ def run(
     """Builds and simulates ``scenario``; returns (and, with ``output_dir``, writes) results.
 
     With ``output_dir`` it also writes, with ``plots``, the plots
-    (:mod:`armando_drake.outputs.plots`) and, with ``replay``, ``replay.html`` (:mod:`armando_drake.outputs.replay`;
-    without ``meshcat`` a private Meshcat records it). ``record``: an
+    (:mod:`armando_drake.outputs.plots`) and, with ``replay``, ``replay.html``
+    (:mod:`armando_drake.outputs.replay`; without ``meshcat`` a private Meshcat
+    records it). ``record``: an
     ``.mcap`` file for the ROS 2 recording (:mod:`armando_drake.outputs.recording`).
     """
     from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
