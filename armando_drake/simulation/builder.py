@@ -62,7 +62,7 @@ from armando_drake.control.manager import ControllerManager, ManagedController
 from armando_drake.control.messages import Publication
 from armando_drake.description.importer import default_controller_config
 from armando_drake.description.loader import LoadedRobot, load_robot
-from armando_drake.sensors.objects import AddSceneObjects
+from armando_drake.sensors.objects import AddSceneObjects, SceneObjectError
 from armando_drake.simulation.scenario import Scenario, ScenarioError
 
 _log = logging.getLogger("armando_drake.world")
@@ -218,7 +218,10 @@ def MakeWorld(
     )
     if scenario.ground:
         _add_ground(plant)
-    AddSceneObjects(plant, scenario.objects)
+    try:
+        AddSceneObjects(plant, scenario.objects)
+    except SceneObjectError as error:
+        raise ScenarioError(f"{where}objects: {error}") from None
 
     # The hardware interface: PD actuators from <ros2_control>.
     actuators = scenario.actuators

@@ -131,3 +131,14 @@ def test_wrong_tag_in_an_override_names_the_override():
         "--set 'sequencer: !Sine {frequency: 1}': sequencer: unknown tag !Sine "
         "(choose !PositionTargets, !JointTrajectoryTargets, !Sinusoid)"
     )
+
+
+def test_a_bad_object_dimension_is_one_line_naming_the_file_and_object():
+    from armando_drake.simulation.builder import MakeWorld
+
+    scenario = load_scenario("world", "objects: [{name: ball, shape: !Sphere {radius: -0.1}}]")
+    with pytest.raises(ScenarioError) as error:
+        MakeWorld(scenario, quiet=True, source="mine.yaml")
+    assert str(error.value) == (
+        "mine.yaml: objects: object 'ball': Sphere radius=-0.1 must be positive [m]"
+    )
