@@ -37,9 +37,7 @@ from pydrake.systems.framework import (
     State,
 )
 from pydrake.systems.primitives import (
-    Adder,
-    ConstantVectorSource,
-    Demultiplexer,
+    AffineSystem,
     Multiplexer,
     Sine,
     TrajectorySource,
@@ -450,16 +448,31 @@ class CommandSequencer(LeafSystem):
 _CLOCK_HORIZON = 1e9
 
 
+def _Affine(gain, offset) -> AffineSystem:
+    """The stateless system y = gain u + offset (Drake's AffineSystem, C++)."""
+    gain = np.asarray(gain, dtype=float)
+    rows, columns = gain.shape
+    return AffineSystem(
+        A=np.zeros((0, 0)),
+        B=np.zeros((0, columns)),
+        f0=np.zeros(0),
+        C=np.zeros((rows, 0)),
+        D=gain,
+        y0=np.asarray(offset, dtype=float),
+    )
+
+
 class _SinusoidTopic(LeafSystem):
     """The held sample of a SinusoidSequencer as topics, computed only when read.
 
-    Input ``sample``: [wave (n); count] from the ZeroOrderHold, count = the
-    number of samples taken so far (0 before the first).
+    Input ``sample``: [wave - initial (n); count] from the ZeroOrderHold, count =
+    the number of samples taken so far (0 before the first).
     """
 
-    def __init__(self, *, n: int, start_delay: float, rate: float):
+    def __init__(self, *, n: int, start_delay: float, rate: float, initial: np.ndarray):
         super().__init__()
         self._n = n
+        self._initial = np.asarray(initial, dtype=float)
         self._start_delay = start_delay
         self._rate = rate
         self._sample = self.DeclareVectorInputPort("sample", n + 1)
@@ -480,7 +493,8 @@ class _SinusoidTopic(LeafSystem):
         if count <= 0:
             return Publication()
         stamp = self._start_delay + (count - 1) / self._rate
-        return Publication(count, Float64MultiArray(data=tuple(sample[: self._n].tolist())), stamp)
+        data = tuple((sample[: self._n] + self._initial).tolist())
+        return Publication(count, Float64MultiArray(data=data), stamp)
 
     def _CalcCommands(self, context: Context, output: AbstractValue) -> None:
         output.set_value(self.publication(self._sample.Eval(context)))
@@ -490,7 +504,7 @@ class _SinusoidTopic(LeafSystem):
         if sample[self._n] < 0.5:
             output.SetFromVector(np.full(self._n, np.nan))
         else:
-            output.SetFromVector(sample[: self._n])
+            output.SetFromVector(sample[: self._n] + self._initial)
 
 
 class _CommandLog(LeafSystem):
@@ -598,13 +612,11 @@ class SinusoidSequencer(Diagram):
                 is_time_based=True,
             ),
         )
-        # The hold samples wave - initial, so that its default (zeros, before the
-        # first sample) reads as the initial positions once they are added back.
-        offset = builder.AddNamedSystem("offset", ConstantVectorSource(wave.offset - initial))
-        wave_sum = builder.AddNamedSystem("wave", Adder(2, n))
-        builder.Connect(sine.GetOutputPort("y0"), wave_sum.get_input_port(0))
-        builder.Connect(offset.get_output_port(), wave_sum.get_input_port(1))
-        # The sample count as a clock: (t - s) rate + 1, so sample k holds k + 1.
+        # The hold samples [wave - initial; count], so that its default (zeros, before
+        # the first sample) reads as the initial positions and count 0 once the
+        # initial positions are added back. The count is a clock sampled with the
+        # wave: (t - s) rate + 1, so sample k holds k + 1. Few systems on purpose:
+        # each costs the simulator a little at every plant step.
         clock = builder.AddNamedSystem(
             "sample_clock",
             TrajectorySource(
@@ -614,31 +626,32 @@ class SinusoidSequencer(Diagram):
             ),
         )
         stack = builder.AddNamedSystem("stack", Multiplexer([n, 1]))
-        builder.Connect(wave_sum.get_output_port(), stack.get_input_port(0))
+        builder.Connect(sine.GetOutputPort("y0"), stack.get_input_port(0))
         builder.Connect(clock.get_output_port(), stack.get_input_port(1))
+        shift = builder.AddNamedSystem(
+            "offset", _Affine(np.eye(n + 1), np.append(wave.offset - initial, 0.0))
+        )
+        builder.Connect(stack.get_output_port(), shift.get_input_port())
         hold = builder.AddNamedSystem("sample", ZeroOrderHold(1.0 / rate, n + 1, s))
-        builder.Connect(stack.get_output_port(), hold.get_input_port())
-        split = builder.AddNamedSystem("split", Demultiplexer([n, 1]))
-        builder.Connect(hold.get_output_port(), split.get_input_port())
-        start = builder.AddNamedSystem("initial_positions", ConstantVectorSource(initial))
-        command = builder.AddNamedSystem("position_command", Adder(2, n))
-        builder.Connect(split.get_output_port(0), command.get_input_port(0))
-        builder.Connect(start.get_output_port(), command.get_input_port(1))
-        sample = builder.AddNamedSystem("held_sample", Multiplexer([n, 1]))
-        builder.Connect(command.get_output_port(), sample.get_input_port(0))
-        builder.Connect(split.get_output_port(1), sample.get_input_port(1))
-        topic = builder.AddNamedSystem("topic", _SinusoidTopic(n=n, start_delay=s, rate=rate))
-        builder.Connect(sample.get_output_port(), topic.GetInputPort("sample"))
+        builder.Connect(shift.get_output_port(), hold.get_input_port())
+        command = builder.AddNamedSystem("position_command", _Affine(np.eye(n, n + 1), initial))
+        builder.Connect(hold.get_output_port(), command.get_input_port())
+        count = builder.AddNamedSystem("command_count", _Affine(np.eye(1, n + 1, n), [0.0]))
+        builder.Connect(hold.get_output_port(), count.get_input_port())
+        topic = builder.AddNamedSystem(
+            "topic", _SinusoidTopic(n=n, start_delay=s, rate=rate, initial=initial)
+        )
+        builder.Connect(hold.get_output_port(), topic.GetInputPort("sample"))
         for name in ("commands", "joint_trajectory", "reference"):
             builder.ExportOutput(topic.GetOutputPort(name), name)
         builder.ExportOutput(command.get_output_port(), "position_command")
-        builder.ExportOutput(split.get_output_port(1), "command_count")
+        builder.ExportOutput(count.get_output_port(), "command_count")
         self._log = None
         if on_publish is not None:
             self._log = builder.AddNamedSystem(
                 "command_log", _CommandLog(n=n, wave=wave, rate=rate, on_publish=on_publish)
             )
-            builder.Connect(sample.get_output_port(), self._log.GetInputPort("sample"))
+            builder.Connect(hold.get_output_port(), self._log.GetInputPort("sample"))
         builder.BuildInto(self)
 
     @property
