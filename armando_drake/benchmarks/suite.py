@@ -52,7 +52,7 @@ import numpy as np
 
 from armando_drake.tools.cli import command_parser
 
-SECTIONS = ("pipeline", "mujoco", "camera", "startup", "memory")
+SECTIONS = ("pipeline", "mujoco", "camera", "startup", "memory", "perception")
 SCENARIOS = ("position", "trajectory", "sinusoid")
 # [rad] j0..j3: the seed targets of diagrams/position.yaml, 3 s apart.
 TARGETS = [
@@ -689,6 +689,87 @@ def bench_memory(report: Report, horizon: float) -> None:
 # --- the suite ----------------------------------------------------------------------
 
 
+# --- 6. perception (issue #19) -----------------------------------------------------
+
+
+def perception_fps(frames: int) -> tuple[float, dict[str, float], str]:
+    """(frames per wall-clock second, median ms per stage, what) of the perception
+    scenario's pipeline on its camera's 640 x 480 depth frame: Drake's depth-to-cloud
+    conversion in the world frame, then every step. The frame is rendered once; each
+    repetition converts it again (the conversion's input is set anew)."""
+    from pydrake.perception import PointCloud
+    from pydrake.systems.analysis import Simulator
+
+    from armando_drake.simulation.builder import MakeWorld
+    from armando_drake.simulation.scenario import load_scenario
+
+    world = MakeWorld(load_scenario("perception", NO_CONSOLE), quiet=True)
+    try:
+        added = world.perception
+        simulator = Simulator(world.diagram)
+        simulator.AdvanceTo(0.05)
+        context = simulator.get_context()
+        converter = added.points_in_world.get_system()
+        depth = world.diagram.GetOutputPort(f"{added.camera}.depth_image").Eval(context)
+        color = world.diagram.GetOutputPort(f"{added.camera}.color_image").Eval(context)
+        X_WC = added.camera_pose.Eval(added.camera_pose.get_system().GetMyContextFromRoot(context))
+        converter_context = converter.CreateDefaultContext()
+        converter.GetInputPort("color_image").FixValue(converter_context, color)
+        converter.GetInputPort("camera_pose").FixValue(converter_context, X_WC)
+        pipeline = added.pipeline.pipeline
+        stages: dict[str, list[float]] = {"depth to point cloud": []}
+        start = time.perf_counter()
+        for _ in range(frames):
+            begin = time.perf_counter()
+            converter.GetInputPort("depth_image").FixValue(converter_context, depth)
+            cloud = PointCloud(converter.get_output_port().Eval(converter_context))
+            stages["depth to point cloud"].append(time.perf_counter() - begin)
+            result = pipeline.run(cloud, viewpoint=X_WC.translation(), frame="world")
+            for stage in result.stages[1:]:
+                stages.setdefault(stage.name, []).append(stage.seconds)
+        fps = frames / (time.perf_counter() - start)
+        medians = {name: 1e3 * statistics.median(values) for name, values in stages.items()}
+        return fps, medians, f"{depth.width()} x {depth.height()}, {len(result.clusters)} clusters"
+    finally:
+        world.close()
+
+
+def bench_perception(report: Report, frames: int, duration: float) -> None:
+    fps, scenario, camera_only = [], [], []
+    stages: dict[str, list[float]] = {}
+    what = ""
+    for _ in range(report.repeat):
+        rate, medians, what = perception_fps(max(frames, 10))
+        fps.append(rate)
+        for name, value in medians.items():
+            stages.setdefault(name, []).append(value)
+        scenario.append(pipeline_rtf("perception", duration))
+        camera_only.append(pipeline_rtf("perception", duration, ("perception: null",)))
+    report.add(
+        Row("perception", "perception pipeline, 640 x 480 depth frames", "frames/s", fps).check(
+            ">=", 15.0
+        )
+    )
+    report.add(
+        Row("perception", f"perception scenario, no pipeline, {duration:g} s", RTF, camera_only)
+    )
+    report.add(
+        Row(
+            "perception",
+            f"perception scenario, camera 30 Hz, pipeline 10 Hz, {duration:g} s",
+            RTF,
+            scenario,
+        ).check(">=", 1.0)
+    )
+    steps = ", ".join(f"{name}: {statistics.median(v):.1f}" for name, v in stages.items())
+    report.notes.append(
+        f"Perception: diagrams/perception.yaml ({what}); the pipeline row converts the "
+        f"rendered depth frame and runs every step (rendering excluded); median ms per "
+        f"stage: {steps}. The scenario rows run the world with the camera at 30 Hz, "
+        "without and with the pipeline at 10 Hz (no viewer)."
+    )
+
+
 @dataclasses.dataclass
 class Settings:
     """How long each measurement runs."""
@@ -723,6 +804,9 @@ def run_suite(
         "camera": lambda: bench_camera(report, settings.camera_frames, settings.camera_seconds),
         "startup": lambda: bench_startup(report),
         "memory": lambda: bench_memory(report, settings.memory_seconds),
+        "perception": lambda: bench_perception(
+            report, settings.camera_frames, settings.camera_seconds
+        ),
     }
     for section in sections:
         print(f"[bench] {section} ...", file=sys.stderr, flush=True)

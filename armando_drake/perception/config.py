@@ -30,7 +30,7 @@ class PerceptionError(ValueError):
 
 @dc.dataclass
 class CropBox:
-    """Keeps the points inside an axis-aligned box (Drake's ``PointCloud.Crop``)."""
+    """Keeps the points inside an axis-aligned box, faces included."""
 
     # [m] lowest corner x y z, in the pipeline's frame (see PerceptionConfig.frame).
     lower: list[float] = dc.field(default_factory=lambda: [-1.0, -1.0, -1.0])
@@ -51,7 +51,7 @@ class VoxelDownsample:
 class StatisticalOutlierRemoval:
     """Removes points whose mean distance to their nearest neighbours is more than
     ``std_ratio`` standard deviations above the cloud's mean of that distance
-    (PCL's and Open3D's filter; neighbours from scikit-learn's KD-tree)."""
+    (PCL's and Open3D's filter; neighbours from SciPy's KD-tree)."""
 
     # [-] neighbours per point the mean distance is taken over; >= 1.
     neighbours: int = 20

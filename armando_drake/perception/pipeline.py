@@ -5,10 +5,12 @@ Library per step (nothing here re-implements geometry):
 =============================  ==================================================
 step                           done by
 =============================  ==================================================
-``CropBox``                    Drake ``PointCloud.Crop``
+``CropBox``                    a NumPy mask (Drake's ``PointCloud.Crop`` does the same
+                               4 to 6 times slower on a 640 x 480 cloud)
 ``VoxelDownsample``            Drake ``PointCloud.VoxelizedDownSample``
 ``EstimateNormals``            Drake ``PointCloud.EstimateNormals`` + ``FlipNormalsTowardPoint``
-``StatisticalOutlierRemoval``  scikit-learn ``KDTree`` (k nearest neighbours)
+``StatisticalOutlierRemoval``  SciPy ``cKDTree`` (k nearest neighbours; SciPy comes
+                               with scikit-learn)
 ``PlaneSegmentation``          scikit-learn ``RANSACRegressor`` with a plane model
                                fitted by NumPy's SVD (total least squares)
 ``Clustering``                 scikit-learn ``DBSCAN`` (``min_neighbours: 1``:
@@ -19,8 +21,8 @@ step                           done by
 tests run it on synthetic clouds); :mod:`armando_drake.perception.systems`
 runs it inside the world at its own rate. Points that are not finite (Drake's
 depth-to-cloud conversion gives NaN where the depth is out of range) are
-dropped before the first step that is not a Drake crop or voxel filter (those
-skip them themselves).
+dropped before the first step unless it is a crop or a voxel filter (those
+drop them themselves).
 """
 
 from __future__ import annotations
@@ -191,9 +193,13 @@ class _Work:
 
 
 def _crop(step: CropBox, cloud: PointCloud, work: _Work) -> PointCloud:
-    lower = np.asarray(step.lower, dtype=np.float32)
-    upper = np.asarray(step.upper, dtype=np.float32)
-    return cloud.Crop(lower, upper)
+    # Drake's PointCloud.Crop gives the same points but took 40 to 60 ms on a
+    # 640 x 480 cloud on our 2-core machine; this vectorised mask takes about 10.
+    xyzs = cloud.xyzs()
+    lower = np.asarray(step.lower, dtype=np.float32)[:, None]
+    upper = np.asarray(step.upper, dtype=np.float32)[:, None]
+    inside = ((xyzs >= lower) & (xyzs <= upper)).all(axis=0)  # NaN compares false
+    return select(cloud, inside)
 
 
 def _voxel(step: VoxelDownsample, cloud: PointCloud, work: _Work) -> PointCloud:
@@ -214,12 +220,12 @@ def _normals(step: EstimateNormals, cloud: PointCloud, work: _Work) -> PointClou
 
 
 def _outliers(step: StatisticalOutlierRemoval, cloud: PointCloud, work: _Work) -> PointCloud:
-    from sklearn.neighbors import KDTree
+    from scipy.spatial import cKDTree  # about 3 times faster here than scikit-learn's KDTree
 
     points = points_of(cloud)
     if len(points) <= step.neighbours:
         return cloud  # too few points for the statistic: nothing is an outlier
-    distances, _ = KDTree(points).query(points, k=step.neighbours + 1)
+    distances, _ = cKDTree(points).query(points, k=step.neighbours + 1)
     mean = distances[:, 1:].mean(axis=1)  # column 0 is the point itself
     keep = mean <= mean.mean() + step.std_ratio * mean.std()
     return select(cloud, keep)

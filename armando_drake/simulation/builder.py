@@ -98,6 +98,7 @@ class World:
     broadcaster_name: str = ""  # the active joint state broadcaster's name in the YAML
     cameras: dict[str, Any] = field(default_factory=dict)  # AddedCamera by name
     image_view_url: str | None = None  # the live camera view, when served
+    perception: Any = None  # AddedPerception when the scenario has a perception block
     meshcat: Meshcat | None = None
     closers: list = field(default_factory=list)  # called by close()
 
@@ -331,6 +332,17 @@ def MakeWorld(
     _add_sequencer(builder, world, scenario, where, commands_csv)
     _add_logger(builder, world, scenario, output_dir, quiet)
     _add_cameras(builder, world, scenario, meshcat, where)
+    # Perception (issue #19): point clouds and the pipeline of scenario.perception.
+    from armando_drake.perception.systems import AddPerception
+
+    world.perception = AddPerception(
+        builder,
+        world,
+        scenario.perception,
+        meshcat=meshcat,
+        output_dir=output_dir if write_commands else None,
+        source=source,
+    )
     if record is not None:
         from armando_drake.outputs.recording import AddRosbagRecorder
 

@@ -17,6 +17,7 @@ from pydrake.visualization import VisualizationConfig
 
 from armando_drake import DIAGRAMS_DIR
 from armando_drake.control.sequencer import SequencerConfig
+from armando_drake.perception.config import PerceptionConfig
 from armando_drake.sensors.objects import SceneObject
 
 
@@ -144,6 +145,9 @@ class Scenario:
     sequencer: SequencerConfig | None = None
     # Camera sensors of the description.
     camera: CameraSettings = dc.field(default_factory=CameraSettings)
+    # Point clouds from a camera's depth and the pipeline run on them (clusters,
+    # planes); absent = none. See armando_drake/perception/config.py.
+    perception: PerceptionConfig | None = None
     # Joint-state logging.
     logging: LoggingConfig = dc.field(default_factory=LoggingConfig)
     # Run length and pacing.
