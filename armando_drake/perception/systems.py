@@ -186,8 +186,8 @@ class PerceptionVisualizer(LeafSystem):
       - input ``camera_pose`` (RigidTransform X_WF, optional): the pose of the
         pipeline's frame in the world (for a pipeline in the camera frame).
 
-    A periodic publish event every ``1 / rate`` seconds from ``offset`` draws
-    each new result.
+    A periodic publish event every ``1 / rate`` seconds from ``offset`` (and a
+    forced publish) draws each new result.
     """
 
     def __init__(
@@ -203,6 +203,7 @@ class PerceptionVisualizer(LeafSystem):
             "camera_pose", AbstractValue.Make(RigidTransform())
         )
         self.DeclarePeriodicPublishEvent(1.0 / rate, offset, self._Draw)
+        self.DeclareForcedPublishEvent(self._Draw)  # diagram.ForcedPublish draws too
         for layer in ("filtered", "plane"):
             meshcat.SetProperty(f"{MESHCAT_PATH}/{layer}", "visible", False)
 
