@@ -85,11 +85,11 @@ class PlaneSegmentation:
 
 @dc.dataclass
 class Clustering:
-    """Groups the points into clusters (scikit-learn's ``DBSCAN``): with
-    ``min_neighbours: 1`` this is PCL's Euclidean cluster extraction (points
-    closer than ``tolerance`` chain into one cluster); larger values make it
-    DBSCAN proper (only points with that many neighbours grow a cluster). The
-    cloud after this step holds the points of the clusters kept."""
+    """Groups the points into clusters: with ``min_neighbours: 1`` PCL's Euclidean
+    cluster extraction (points closer than ``tolerance`` chain into one cluster;
+    SciPy's KD-tree and graph components), with more scikit-learn's ``DBSCAN``
+    (only points with that many neighbours grow a cluster). The cloud after this
+    step holds the points of the clusters kept."""
 
     # [m] neighbourhood radius (DBSCAN's eps); > 0.
     tolerance: float = 0.01
