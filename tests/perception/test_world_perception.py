@@ -222,3 +222,17 @@ def test_output_folder_gets_clusters_json(tmp_path):
             low, high = np.array(cluster["box"]["min"]), np.array(cluster["box"]["max"])
             assert np.all(low <= cluster["centroid"]) and np.all(cluster["centroid"] <= high)
             assert cluster["count"] >= 50
+
+
+def test_pipeline_in_the_camera_frame_finds_the_ground_seen_from_the_camera():
+    steps = "[!VoxelDownsample {leaf_size: 0.01}, !PlaneSegmentation {distance_threshold: 0.005}]"
+    _, world, context = run_world(f"perception: {{frame: camera, steps: {steps}}}", seconds=0.05)
+    result = world.diagram.GetOutputPort("perception.result").Eval(context)
+    assert result.frame == "camera"
+    (plane,) = result.planes
+    X_WC = world.diagram.GetOutputPort("camera.camera_pose").Eval(context)
+    normal_W = X_WC.rotation() @ plane.normal
+    assert normal_W @ [0.0, 0.0, 1.0] > math.cos(math.radians(1.0))  # up, towards the camera
+    height = plane.coefficients[3]  # signed distance of the camera (the origin) [m]
+    assert height == pytest.approx(X_WC.translation()[2], abs=0.003)
+    world.close()
