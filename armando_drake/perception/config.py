@@ -28,8 +28,16 @@ class PerceptionError(ValueError):
     """A perception block or step with a bad parameter; the message names the step."""
 
 
+class _StepType(type):
+    """Metaclass of the steps: a step type prints as its YAML tag, so that Drake's
+    message for an unknown tag lists the known ones as ``!CropBox, !VoxelDownsample, ...``."""
+
+    def __repr__(cls) -> str:
+        return f"!{cls.__name__}"
+
+
 @dc.dataclass
-class CropBox:
+class CropBox(metaclass=_StepType):
     """Keeps the points inside an axis-aligned box, faces included."""
 
     # [m] lowest corner x y z, in the pipeline's frame (see PerceptionConfig.frame).
@@ -39,7 +47,7 @@ class CropBox:
 
 
 @dc.dataclass
-class VoxelDownsample:
+class VoxelDownsample(metaclass=_StepType):
     """One point per occupied voxel, the mean of its points (Drake's
     ``PointCloud.VoxelizedDownSample``; colours are averaged too)."""
 
@@ -48,7 +56,7 @@ class VoxelDownsample:
 
 
 @dc.dataclass
-class StatisticalOutlierRemoval:
+class StatisticalOutlierRemoval(metaclass=_StepType):
     """Removes points whose mean distance to their nearest neighbours is more than
     ``std_ratio`` standard deviations above the cloud's mean of that distance
     (PCL's and Open3D's filter; neighbours from SciPy's KD-tree)."""
@@ -60,7 +68,7 @@ class StatisticalOutlierRemoval:
 
 
 @dc.dataclass
-class EstimateNormals:
+class EstimateNormals(metaclass=_StepType):
     """Adds a normal per point, turned towards the camera (Drake's
     ``PointCloud.EstimateNormals`` and ``FlipNormalsTowardPoint``)."""
 
@@ -71,7 +79,7 @@ class EstimateNormals:
 
 
 @dc.dataclass
-class PlaneSegmentation:
+class PlaneSegmentation(metaclass=_StepType):
     """Finds the dominant plane with RANSAC (scikit-learn's ``RANSACRegressor`` driving a
     total-least-squares plane), reports its coefficients and removes its inliers."""
 
@@ -84,7 +92,7 @@ class PlaneSegmentation:
 
 
 @dc.dataclass
-class Clustering:
+class Clustering(metaclass=_StepType):
     """Groups the points into clusters: with ``min_neighbours: 1`` PCL's Euclidean
     cluster extraction (points closer than ``tolerance`` chain into one cluster;
     SciPy's KD-tree and graph components), with more scikit-learn's ``DBSCAN``

@@ -200,6 +200,7 @@ def test_an_unknown_step_on_the_command_line_is_one_line():
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1, done.stderr
     assert "'MedianFilter'" in lines[0] and "perception" in lines[0]
+    assert "(!CropBox, !VoxelDownsample, !StatisticalOutlierRemoval" in lines[0]  # the known
 
 
 def test_output_folder_gets_clusters_json(tmp_path):
