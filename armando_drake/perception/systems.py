@@ -56,7 +56,7 @@ _log = logging.getLogger("armando_drake.perception")
 # colour image is held at the camera rate: the frame of that instant is then held);
 # its readers publish twice as late, after the update.
 UPDATE_OFFSET_FRACTION = 1e-3
-# The steps that need scikit-learn (the 'perception' extra).
+# The steps that need scikit-learn or SciPy (the "perception" extra).
 SKLEARN_STEPS = (StatisticalOutlierRemoval, PlaneSegmentation, Clustering)
 # Meshcat colours of the clusters, in order (Tableau 10), and of the plane's inliers.
 CLUSTER_COLOURS = [
@@ -335,10 +335,10 @@ def AddPerception(
     except PerceptionError as error:
         raise _error(where, str(error)) from None
     if any(isinstance(step, SKLEARN_STEPS) for step in config.steps):
-        if importlib.util.find_spec("sklearn") is None:
+        if any(importlib.util.find_spec(name) is None for name in ("sklearn", "scipy")):
             raise _error(
                 where,
-                "perception: the outlier, plane and clustering steps need scikit-learn "
+                "perception: the outlier, plane and clustering steps need scikit-learn and SciPy "
                 "(pip install 'armando-drake[perception]')",
             )
     if not world.cameras:

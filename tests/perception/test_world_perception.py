@@ -237,3 +237,17 @@ def test_pipeline_in_the_camera_frame_finds_the_ground_seen_from_the_camera():
     height = plane.coefficients[3]  # signed distance of the camera (the origin) [m]
     assert height == pytest.approx(X_WC.translation()[2], abs=0.003)
     world.close()
+
+
+def test_without_scikit_learn_the_hint_names_the_extra(monkeypatch):
+    import armando_drake.perception.systems as systems
+
+    real = systems.importlib.util.find_spec
+    monkeypatch.setattr(
+        systems.importlib.util,
+        "find_spec",
+        lambda name, *args: None if name in ("sklearn", "scipy") else real(name, *args),
+    )
+    scenario = load_scenario("perception", QUIET)
+    with pytest.raises(ScenarioError, match=r"pip install 'armando-drake\[perception\]'"):
+        MakeWorld(scenario, quiet=True)
