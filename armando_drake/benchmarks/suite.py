@@ -690,18 +690,14 @@ def bench_memory(report: Report, horizon: float) -> None:
     )
 
 
-# --- the suite ----------------------------------------------------------------------
-
-
 # --- 6. perception (issue #19) -----------------------------------------------------
 
 
 def perception_fps(frames: int) -> tuple[float, float, dict[str, float], str]:
     """(frames per wall-clock second, per CPU second of this process, median ms per
-    stage, what) of the perception
-    scenario's pipeline on its camera's 640 x 480 depth frame: Drake's depth-to-cloud
-    conversion in the world frame, then every step. The frame is rendered once; each
-    repetition converts it again (the conversion's input is set anew)."""
+    stage, what) of the perception scenario's pipeline on its camera's 640 x 480 depth
+    frame: Drake's depth-to-cloud conversion in the world frame, then every step. The
+    frame is rendered once; each repetition converts it again (its input set anew)."""
     from pydrake.perception import PointCloud
     from pydrake.systems.analysis import Simulator
 
@@ -814,6 +810,9 @@ def bench_perception(report: Report, frames: int, duration: float) -> None:
         "the process's CPU time instead of the wall time: what the frame rate would be "
         "with the CPU to itself, on a machine shared with other jobs."
     )
+
+
+# --- the suite ----------------------------------------------------------------------
 
 
 @dataclasses.dataclass
