@@ -75,6 +75,11 @@ PLANE_COLOUR = Rgba(0.6, 0.6, 0.6, 1.0)
 MESHCAT_PATH = "/perception"
 
 
+def missing_modules(names) -> list[str]:
+    """The modules of ``names`` that cannot be imported here."""
+    return [name for name in names if importlib.util.find_spec(name) is None]
+
+
 def _result_value() -> AbstractValue:
     return AbstractValue.Make(NO_RESULT)
 
@@ -335,7 +340,7 @@ def AddPerception(
     except PerceptionError as error:
         raise _error(where, str(error)) from None
     if any(isinstance(step, SKLEARN_STEPS) for step in config.steps):
-        if any(importlib.util.find_spec(name) is None for name in ("sklearn", "scipy")):
+        if missing_modules(("sklearn", "scipy")):
             raise _error(
                 where,
                 "perception: the outlier, plane and clustering steps need scikit-learn and SciPy "
