@@ -29,6 +29,7 @@ from pydrake.visualization import VisualizationConfig
 
 from armando_drake import DIAGRAMS_DIR
 from armando_drake.control.sequencer import JointTrajectoryTargets, PositionTargets, Sinusoid
+from armando_drake.perception.config import PerceptionConfig
 from armando_drake.ros2.config import Ros2Config  # ros2: live DDS / Foxglove (#21)
 from armando_drake.sensors.objects import SceneObject
 
@@ -163,6 +164,9 @@ class Scenario:
     sequencer: PositionTargets | JointTrajectoryTargets | Sinusoid | None = None
     # Camera sensors of the description.
     camera: CameraSettings = dc.field(default_factory=CameraSettings)
+    # Point clouds from a camera's depth and the pipeline run on them (clusters,
+    # planes); absent = none. See armando_drake/perception/config.py.
+    perception: PerceptionConfig | None = None
     # Joint-state logging.
     logging: LoggingConfig = dc.field(default_factory=LoggingConfig)
     # Run length.
