@@ -29,17 +29,18 @@ import logging
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from pydrake.geometry import Box, Meshcat
+from pydrake.geometry import Box, Meshcat, SceneGraph
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import (
     AddMultibodyPlant,
+    ApplyMultibodyPlantConfig,
     CoulombFriction,
     MultibodyPlant,
 )
-from pydrake.systems.framework import Context, Diagram, DiagramBuilder
+from pydrake.systems.framework import Context, Diagram, DiagramBuilder, System
 from pydrake.visualization import ApplyVisualizationConfig
 
 from armando_drake.control.config import (
@@ -67,8 +68,12 @@ from armando_drake.control.manager import (
 from armando_drake.control.messages import Float64MultiArray, JointTrajectory, Publication
 from armando_drake.description.importer import default_controller_config
 from armando_drake.description.loader import LoadedRobot, load_robot, package_of
-from armando_drake.sensors.objects import AddSceneObjects
+from armando_drake.sensors.objects import AddSceneObjects, SceneObjectError
 from armando_drake.simulation.scenario import Scenario, ScenarioError
+
+if TYPE_CHECKING:
+    from armando_drake.outputs.logger import JointStateLogger
+    from armando_drake.sensors.camera import AddedCamera
 
 _log = logging.getLogger("armando_drake.world")
 
@@ -79,23 +84,25 @@ class World:
 
     diagram: Diagram
     plant: MultibodyPlant
-    scene_graph: Any
+    scene_graph: SceneGraph
     robot: LoadedRobot
     hardware: HardwareInterface
     controller_config: ControllerManagerConfig
-    update_rate: float  # [Hz] the controller manager's rate
+    update_rate: int  # [Hz] the controller manager's rate
     # Active command controllers by name -> the system that runs them (the controller
-    # manager), whose ports are "<name>.commands" / "<name>.joint_trajectory", "<name>.status".
-    controllers: dict[str, Any] = field(default_factory=dict)
+    # manager), whose ports are "<name>.<topic>" and "<name>.status".
+    controllers: dict[str, ControllerManager] = field(default_factory=dict)
     controller_joints: dict[str, list[str]] = field(default_factory=dict)  # by name
-    broadcaster: Any = None  # the system with the "joint_states" output (the manager)
-    controller_manager: Any = None  # ControllerManager: broadcaster and controllers
-    sequencer: Any = None
-    logger: Any = None
+    # The system with the "joint_states" output (the manager), when a broadcaster is active.
+    broadcaster: ControllerManager | None = None
+    controller_manager: ControllerManager | None = None  # broadcaster and controllers
+    sequencer: System | None = None  # the command sequencer (a LeafSystem or a Diagram)
+    logger: JointStateLogger | None = None
     sequencer_target: str = ""  # the controller the sequencer drives
     broadcaster_name: str = ""  # the active joint state broadcaster's name in the YAML
-    cameras: dict[str, Any] = field(default_factory=dict)  # AddedCamera by name
+    cameras: dict[str, AddedCamera] = field(default_factory=dict)  # by name
     image_view_url: str | None = None  # the live camera view, when served
+    perception: Any = None  # AddedPerception when the scenario has a perception block
     meshcat: Meshcat | None = None
     closers: list = field(default_factory=list)  # called by close()
 
@@ -124,19 +131,21 @@ class World:
 
     def close(self, context: Context | None = None) -> None:
         """Ends the run: with the root ``context``, first writes the joint states the
-        logger has recorded since its last flush; then closes every file and server."""
+        logger has recorded since its last flush (and the sequencer's commands since
+        its last batch); then closes every file and server."""
         if context is not None and self.logger is not None and self.closers:
             self.logger.flush(self.logger.GetMyContextFromRoot(context))
+        if context is not None and self.sequencer is not None and self.closers:
+            self.sequencer.flush(context)
         for closer in self.closers:
             closer()
         self.closers.clear()
 
 
-def _controller_config(
-    scenario: Scenario, robot: LoadedRobot, joint_names: list[str]
-) -> ControllerManagerConfig:
+def _controller_config(scenario: Scenario, robot: LoadedRobot) -> ControllerManagerConfig:
     """The controller YAML of the scenario, of the description's ``<gazebo><plugin>``
-    ``<parameters>``, of the description package, or a default on ``joint_names``."""
+    ``<parameters>``, of the description package, or a default on the joints the
+    hardware interface will actuate."""
     path = scenario.controllers.config
     if path:
         return load_controller_config(Path(path))
@@ -149,7 +158,7 @@ def _controller_config(
     candidates = sorted((package_dir / "config").glob("*controllers*.yaml")) if package_dir else []
     if candidates:
         return load_controller_config(candidates[0])
-    data = default_controller_config(joint_names)
+    data = default_controller_config(list(command_interfaces(robot, warn=False)[2]))
     return parse_controller_config(data, source=f"<default controllers of {robot.name}>")
 
 
@@ -234,18 +243,60 @@ def MakeWorld(
     """
     where = f"{source}: " if source else ""
     builder = DiagramBuilder()
+    # The physics: a MultibodyPlant and its SceneGraph, as the scenario configures them.
+    plant, scene_graph = _add_plant(builder, scenario, where)
+    # Spawn the robot (its base welded at the spawn pose), the ground and the objects.
+    robot = _add_robot_and_scene(plant, scenario, where)
+    # The controller YAML (before the actuators: a ROS 1 file's gazebo_ros_control gains
+    # are theirs); its update rate, which the scenario may override, below.
+    config = _controller_config(scenario, robot)
+    # The hardware interface: an actuator per commanded joint; then the plant is final.
+    hardware = _add_hardware(plant, scene_graph, robot, scenario, config)
+    world = World(
+        diagram=None,  # set by Build() below
+        plant=plant,
+        scene_graph=scene_graph,
+        robot=robot,
+        hardware=hardware,
+        controller_config=config,
+        update_rate=_update_rate(config, scenario, where),
+        meshcat=meshcat,
+    )
+    # The controller manager: the activated controllers of the YAML, in one system.
+    _add_controller_manager(builder, world, scenario, where)
+    # What drives and watches them: sequencer, logger, cameras, recorder, bridges.
+    commands_csv = Path(output_dir) / "commands.csv" if output_dir and write_commands else None
+    _add_sequencer(builder, world, scenario, where, commands_csv)
+    _add_logger(builder, world, scenario, output_dir, quiet)
+    _add_cameras(builder, world, scenario, meshcat, where)
+    _add_perception(
+        builder, world, scenario, meshcat, output_dir if write_commands else None, source
+    )
+    _add_recorder_and_bridges(builder, world, scenario, record)
+    # Meshcat draws the world.
+    _apply_visualization(builder, world, scenario, meshcat)
+    # Export what no system drives (command inputs, statuses), for notebooks and tests.
+    _export_free_ports(builder, world)
+    world.diagram = builder.Build()
+    world.diagram.set_name("armando_world")
+    return world
+
+
+def _add_plant(builder: DiagramBuilder, scenario: Scenario, where: str):
+    """The plant and scene graph of ``scenario.plant_config``."""
     plant_config = scenario.plant_config
     if plant_config.time_step > 0 and plant_config.discrete_contact_approximation == "tamsi":
         raise ScenarioError(
             f"{where}plant_config.discrete_contact_approximation='tamsi' ignores PD actuator "
             "gains; use 'lagged', 'sap' or 'similar'"
         )
-    from pydrake.multibody.plant import ApplyMultibodyPlantConfig
-
     plant, scene_graph = AddMultibodyPlant(plant_config, builder)
     ApplyMultibodyPlantConfig(plant_config, plant)
+    return plant, scene_graph
 
-    # Spawn the robot: load the description and weld its base at the spawn pose.
+
+def _add_robot_and_scene(plant: MultibodyPlant, scenario: Scenario, where: str) -> LoadedRobot:
+    """The robot's description welded at its spawn pose, the ground and the objects."""
     robot_config = scenario.robot
     X_WB = RigidTransform(RollPitchYaw(robot_config.base_rpy), robot_config.base_xyz)
     robot = load_robot(
@@ -258,47 +309,61 @@ def MakeWorld(
     )
     if scenario.ground:
         _add_ground(plant)
-    AddSceneObjects(plant, scenario.objects)
+    try:
+        AddSceneObjects(plant, scenario.objects)
+    except SceneObjectError as error:
+        raise ScenarioError(f"{where}objects: {error}") from None
+    return robot
 
-    # The controller YAML, first: a ROS 1 file's gazebo_ros_control gains are actuator gains.
+
+def _add_hardware(
+    plant: MultibodyPlant,
+    scene_graph: SceneGraph,
+    robot: LoadedRobot,
+    scenario: Scenario,
+    config: ControllerManagerConfig,
+) -> HardwareInterface:
+    """The actuators of the hardware interface (gains: the scenario's, per joint the
+    controller YAML's ``gazebo_ros_control`` ones unless the scenario names the joint);
+    finalizes the plant."""
     interfaces = command_interfaces(robot, warn=False)[2]  # warned by AddHardwareInterface
-    config = _controller_config(scenario, robot, list(interfaces))
-
-    # The hardware interface: PD actuators from <ros2_control>.
     actuators = scenario.actuators
     gains = {**_yaml_gains(config, interfaces), **actuators.gains}  # the scenario's win
     hardware = AddHardwareInterface(
         plant, robot, kp=actuators.kp, kd=actuators.kd, kv=actuators.kv, gains=gains
     )
     plant.Finalize()
-    if not robot_config.self_collision:
+    if not scenario.robot.self_collision:
         _exclude_self_collision(plant, scene_graph, robot)
     FinishHardwareInterface(plant, robot, hardware)
     _log.info(
         "hardware interface %r (%s): %s",
         hardware.name,
         hardware.source,
-        ", ".join(f"{j.name} [{j.lower:.2f}, {j.upper:.2f}]" for j in hardware.joints),
+        ", ".join(
+            f"{j.name} {j.command_interface} [{j.lower:.2f}, {j.upper:.2f}]"
+            for j in hardware.joints
+        ),
     )
+    return hardware
 
-    # The controller manager: load and activate the YAML's controllers.
+
+def _update_rate(config: ControllerManagerConfig, scenario: Scenario, where: str) -> int:
+    """The controller manager's rate [Hz]: the YAML's, or the scenario's override."""
+    if not scenario.controllers.update_rate:
+        return config.update_rate
+    try:
+        return check_update_rate(scenario.controllers.update_rate, f"{where}controllers")
+    except ControllerConfigError as error:
+        raise ScenarioError(str(error)) from None
+
+
+def _add_controller_manager(builder, world: World, scenario: Scenario, where: str) -> None:
+    """Loads and activates the scenario's controllers (a broadcaster and command
+    controllers, each joint claimed once) in one :class:`ControllerManager`, wired to
+    the plant through the hardware interface."""
+    config, hardware, plant = world.controller_config, world.hardware, world.plant
     validate_joints(config, hardware.joint_names, config.source)
-    rate = config.update_rate
-    if scenario.controllers.update_rate:  # the scenario's override of the YAML's rate
-        try:
-            rate = check_update_rate(scenario.controllers.update_rate, f"{where}controllers")
-        except ControllerConfigError as error:
-            raise ScenarioError(str(error)) from None
-    world = World(
-        diagram=None,  # set below
-        plant=plant,
-        scene_graph=scene_graph,
-        robot=robot,
-        hardware=hardware,
-        controller_config=config,
-        update_rate=rate,
-        meshcat=meshcat,
-    )
     claimed: dict[str, str] = {}
     broadcaster = None
     managed = []  # ManagedController, in activation order
@@ -316,7 +381,7 @@ def MakeWorld(
             name,
             controller.type,
             ", ".join(joints),
-            rate,
+            world.update_rate,
         )
         try:
             cls = controller.controller_class
@@ -345,80 +410,103 @@ def MakeWorld(
             managed.append(_managed_controller(world, controller, joints))
         world.controller_joints[name] = list(joints)
         _log.info("activated controller %r", name)
+    if broadcaster is None and not managed:
+        return
 
     # The controller manager runs them all in one update at the update rate.
-    if broadcaster is not None or managed:
-        try:
-            manager = ControllerManager(
-                hardware=hardware, update_rate=rate, broadcaster=broadcaster, controllers=managed
-            )
-        except ValueError as error:
-            raise ScenarioError(f"{where}{error}") from None
-        builder.AddSystem(manager)
-        manager.set_name("controller_manager")
-        world.controller_manager = manager
-        builder.Connect(
-            plant.get_state_output_port(robot.model_instance), manager.GetInputPort("state")
+    try:
+        manager = ControllerManager(
+            hardware=hardware,
+            update_rate=world.update_rate,
+            broadcaster=broadcaster,
+            controllers=managed,
         )
-        builder.Connect(
-            plant.get_net_actuation_output_port(robot.model_instance),
-            manager.GetInputPort("effort"),
-        )
-        if broadcaster is not None:
-            builder.ExportOutput(manager.GetOutputPort("joint_states"), "joint_states")
-            world.broadcaster = manager
-        for controller in managed:
-            world.controllers[controller.name] = manager
-
+    except ValueError as error:
+        raise ScenarioError(f"{where}{error}") from None
+    builder.AddSystem(manager)
+    manager.set_name("controller_manager")
+    world.controller_manager = manager
+    instance = world.robot.model_instance
+    builder.Connect(plant.get_state_output_port(instance), manager.GetInputPort("state"))
+    builder.Connect(plant.get_net_actuation_output_port(instance), manager.GetInputPort("effort"))
+    if broadcaster is not None:
+        builder.ExportOutput(manager.GetOutputPort("joint_states"), "joint_states")
+        world.broadcaster = manager
+    for controller in managed:
+        world.controllers[controller.name] = manager
+    if not managed:
+        return
     # Desired state for the actuators: the controllers' commands, unclaimed joints
     # held at their initial positions; on the actuation input the effort commands and
     # the gravity feed-forward of the position joints.
-    if managed:
-        desired = manager.GetOutputPort("desired_state")
-        ConnectHardwareInterface(
-            builder,
-            plant,
-            robot,
-            hardware,
-            desired_state=desired,
-            effort=(
-                manager.GetOutputPort("effort_command")
-                if manager.HasOutputPort("effort_command")
-                else None
-            ),
-            gravity_feedforward=actuators.gravity_feedforward,
-        )
-        builder.ExportOutput(desired, "desired_state")
+    desired = manager.GetOutputPort("desired_state")
+    ConnectHardwareInterface(
+        builder,
+        plant,
+        world.robot,
+        hardware,
+        desired_state=desired,
+        effort=(
+            manager.GetOutputPort("effort_command")
+            if manager.HasOutputPort("effort_command")
+            else None
+        ),
+        gravity_feedforward=scenario.actuators.gravity_feedforward,
+    )
+    builder.ExportOutput(desired, "desired_state")
 
-    commands_csv = Path(output_dir) / "commands.csv" if output_dir and write_commands else None
-    _add_sequencer(builder, world, scenario, where, commands_csv)
-    _add_logger(builder, world, scenario, output_dir, quiet)
-    _add_cameras(builder, world, scenario, meshcat, where)
+
+def _add_perception(builder, world: World, scenario: Scenario, meshcat, output_dir, source) -> None:
+    """Point clouds from a camera's depth and the pipeline of ``scenario.perception``
+    (``clusters.json`` in ``output_dir``); before the recorder, which records them."""
+    if scenario.perception is None:
+        return
+    from armando_drake.perception.systems import AddPerception
+
+    world.perception = AddPerception(
+        builder,
+        world,
+        scenario.perception,
+        meshcat=meshcat,
+        output_dir=output_dir,
+        source=source,
+    )
+
+
+def _add_recorder_and_bridges(builder, world: World, scenario: Scenario, record) -> None:
+    """The ROS 2 bag recorder (``record``) and the live DDS / Foxglove bridge."""
     if record is not None:
         from armando_drake.outputs.recording import AddRosbagRecorder
 
         AddRosbagRecorder(builder, world, record)
-    if scenario.ros2.enabled or scenario.ros2.foxglove:  # ros2: live DDS / Foxglove (#21)
+    if scenario.ros2.enabled or scenario.ros2.foxglove:
         from armando_drake.ros2.bridge import AddRos2Bridge  # imports DDS only when on
 
         AddRos2Bridge(builder, world, scenario.ros2)
 
-    if meshcat is not None and scenario.visualization.enable_meshcat_creation:
-        ApplyVisualizationConfig(
-            scenario.visualization, builder, plant=plant, scene_graph=scene_graph, meshcat=meshcat
-        )
-        meshcat.SetProperty("/drake/proximity", "visible", False)
 
-    # Export what no system drives, for notebooks and tests.
+def _apply_visualization(builder, world: World, scenario: Scenario, meshcat) -> None:
+    """Drake's visualization of the plant in ``meshcat``, the collision layer hidden."""
+    if meshcat is None or not scenario.visualization.enable_meshcat_creation:
+        return
+    ApplyVisualizationConfig(
+        scenario.visualization,
+        builder,
+        plant=world.plant,
+        scene_graph=world.scene_graph,
+        meshcat=meshcat,
+    )
+    meshcat.SetProperty("/drake/proximity", "visible", False)
+
+
+def _export_free_ports(builder: DiagramBuilder, world: World) -> None:
+    """Each controller's command input that no system drives, and its status."""
     for name, system in world.controllers.items():
-        port_name = f"{name}.{config.controllers[name].topic}"
+        port_name = f"{name}.{world.controller_config.controllers[name].topic}"
         port = system.GetInputPort(port_name)
-        if not _is_connected(builder, port):
+        if not builder.IsConnectedOrExported(port):
             builder.ExportInput(port, port_name)
         builder.ExportOutput(system.GetOutputPort(f"{name}.status"), f"{name}.status")
-    world.diagram = builder.Build()
-    world.diagram.set_name("armando_world")
-    return world
 
 
 def _controller_name(entry: str, config: ControllerManagerConfig, where: str) -> str:
@@ -467,10 +555,6 @@ def _controller_name(entry: str, config: ControllerManagerConfig, where: str) ->
     )
 
 
-def _is_connected(builder: DiagramBuilder, port) -> bool:
-    return builder.IsConnectedOrExported(port)
-
-
 def _managed_controller(world: World, controller: ControllerConfig, joints) -> ManagedController:
     """The logic of a command controller on ``joints`` (its registered class, built
     with the joints' hardware limits), for the manager."""
@@ -492,13 +576,16 @@ def _managed_controller(world: World, controller: ControllerConfig, joints) -> M
 
 
 def _add_sequencer(builder, world: World, scenario: Scenario, where: str, commands_csv) -> None:
+    """The command sequencer of the scenario, on the first active controller of the
+    kind its configuration feeds (a position or a trajectory controller)."""
     config = scenario.sequencer
     if config is None:
         return
-    from armando_drake.control.sequencer import CommandSequencer, validate
+    from armando_drake.control.sequencer import CONTROLLER_KIND, MakeSequencer, validate
     from armando_drake.outputs.logger import CommandsCsv
 
-    message = JointTrajectory if config.mode == "trajectory" else Float64MultiArray
+    kind = CONTROLLER_KIND[type(config)]
+    message = JointTrajectory if kind == "trajectory" else Float64MultiArray
     targets = [
         (name, system)
         for name, system in world.controllers.items()
@@ -506,9 +593,8 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str, comman
         and world.controller_config.controllers[name].position_targets
     ]
     if not targets:
-        kind = "trajectory" if config.mode == "trajectory" else "position"
         raise ScenarioError(
-            f"{where}sequencer.mode={config.mode!r} needs an active {kind} controller; "
+            f"{where}sequencer !{type(config).__name__} needs an active {kind} controller; "
             f"active: {', '.join(world.controllers) or 'none'}"
         )
     name, controller = targets[0]
@@ -527,15 +613,16 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str, comman
         on_publish = CommandsCsv(commands_csv, joints)
         world.closers.append(on_publish.close)
     sequencer = builder.AddSystem(
-        CommandSequencer(
+        MakeSequencer(
             config=config,
             joint_names=joints,
             controller_rate=world.update_rate,
+            initial_positions=[world.hardware.joints[i].initial_position for i in rows],
             on_publish=on_publish,
         )
     )
     sequencer.set_name("command_sequencer")
-    port = "joint_trajectory" if config.mode == "trajectory" else "commands"
+    port = "joint_trajectory" if kind == "trajectory" else "commands"
     topic = world.controller_config.controllers[name].topic  # ROS 1: "command"
     builder.Connect(sequencer.GetOutputPort(port), controller.GetInputPort(f"{name}.{topic}"))
     builder.ExportOutput(sequencer.GetOutputPort("reference"), "reference")

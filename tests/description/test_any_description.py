@@ -40,7 +40,7 @@ def test_world_drives_the_course_package_to_the_seed_targets(course_package, tmp
     assert result.returncode == 0, result.stderr
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert len(summary["steps"]) == 5
-    assert max(step["max_abs_error"] for step in summary["steps"]) <= 0.01
+    assert max(step["final_error"] for step in summary["steps"]) <= 0.01
     # The importer said what it repaired.
     assert "link 'base_link': inertia" in result.stderr + result.stdout
 
@@ -119,8 +119,7 @@ def test_xacro_arm_with_gripper_ros2_control_macro_and_namespaced_yaml(tmp_path)
               xacro_args: {{initial_q1: "0.3"}}
             controllers:
               activate: [joint_state_broadcaster, arm_controller]
-            sequencer:
-              mode: position
+            sequencer: !PositionTargets
               targets: [[0.3, 0.0, 0.0], [0.8, -0.6, 0.02], [-0.5, 0.9, 0.01]]
               period: 2.0
             """
@@ -142,7 +141,7 @@ def test_xacro_arm_with_gripper_ros2_control_macro_and_namespaced_yaml(tmp_path)
     assert "at 200 Hz" in result.stdout
     summary = json.loads((out / "summary.json").read_text())
     assert summary["joint_names"] == ["q1", "q2", "finger_joint"]
-    errors = [step["max_abs_error"] for step in summary["steps"]]
+    errors = [step["final_error"] for step in summary["steps"]]
     assert len(errors) == 3 and max(errors) <= 0.01, errors
     rows = (out / "joint_states.csv").read_text().splitlines()
     assert rows[0].startswith("time,q1_position,q1_velocity,q1_effort,q2_position")
@@ -188,9 +187,10 @@ def _iiwa_world(iiwa_package, tmp_path, controller: str, *sets: str) -> subproce
 
 def test_iiwa_falls_without_a_controller(iiwa_package, tmp_path):
     _iiwa_world(iiwa_package, tmp_path, "none", "simulation: {duration: 2.0}")
-    from armando_drake.simulation.run import read_joint_states
+    from armando_drake.outputs.logger import read_joint_states
 
-    times, q = read_joint_states(tmp_path / "joint_states.csv", IIWA_JOINTS)
+    states = read_joint_states(tmp_path / "joint_states.csv", IIWA_JOINTS)
+    times, q = states.times, states.position
     assert times[-1] == pytest.approx(2.0)
     moved = np.abs(q[-1] - q[0])
     assert moved.max() > 0.1, f"the joints moved only {moved} rad in 2 s"
@@ -206,7 +206,7 @@ def test_iiwa_position_controller_reaches_the_seed_style_targets(iiwa_package, t
     )
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["joint_names"] == IIWA_JOINTS
-    errors = [step["max_abs_error"] for step in summary["steps"]]
+    errors = [step["final_error"] for step in summary["steps"]]
     assert len(errors) == 5 and max(errors) <= 0.01, errors
 
 
