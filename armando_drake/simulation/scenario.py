@@ -215,7 +215,9 @@ def _keep_variants(data, current) -> None:
         if name not in hints or not hasattr(current, name):
             continue
         old = getattr(current, name)
-        if _union_members(hints[name]) and isinstance(value, dict) and "_tag" not in value:
+        # Only a Union of several dataclasses is tagged (an Optional of one is not).
+        tagged = len(_union_members(hints[name])) > 1
+        if tagged and isinstance(value, dict) and "_tag" not in value:
             if dc.is_dataclass(old):
                 value["_tag"] = "!" + type(old).__name__
         _keep_variants(value, old)
@@ -232,8 +234,12 @@ def _one_line(error: Exception, current) -> str:
     )
     if match:
         tag, field = match.groups()
-        choices = _tag_choices(type(current), field)
-        text = f"{field}: unknown tag !{tag} (choose {', '.join(choices)})"
+        choices = ", ".join(_tag_choices(type(current), field))
+        if not choices:  # a Union inside a list: Drake's message lists the options
+            listed = re.search(r"options for '\w+' \(+([^()]*)\)+", text)
+            choices = listed.group(1) if listed else ""
+        where = "" if field == "_" else f"{field}: "
+        text = f"{where}unknown tag !{tag} (choose {choices})"
     return text
 
 

@@ -214,15 +214,16 @@ def test_an_unknown_step_on_the_command_line_is_one_line():
     assert done.returncode != 0
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1, done.stderr
-    assert "'MedianFilter'" in lines[0] and "perception" in lines[0]
-    assert "(!CropBox, !VoxelDownsample, !StatisticalOutlierRemoval" in lines[0]  # the known
+    assert "unknown tag !MedianFilter" in lines[0] and "perception" in lines[0]
+    assert "(choose !CropBox, !VoxelDownsample, !StatisticalOutlierRemoval" in lines[0]  # known
 
 
 def test_output_folder_gets_clusters_json(tmp_path):
     from armando_drake.simulation.run import run
 
     scenario = load_scenario(
-        "perception", f"{QUIET}\nsimulation: {{duration: 0.35, realtime_rate: 0}}"
+        "perception",
+        f"{QUIET}\nsimulation: {{duration: 0.35}}\nsimulator_config: {{target_realtime_rate: 0}}",
     )
     run(scenario, scenario_name="perception", output_dir=tmp_path, quiet=True, replay=False)
     document = json.loads((tmp_path / "clusters.json").read_text())
