@@ -4,24 +4,21 @@ The course's first year runs ROS 1 with ``gazebo_ros_control``; its controller
 YAML names these types (registered with ``ros=1``, looked up only for a ROS 1
 file, see :mod:`armando_drake.control.config`):
 
-=================================================  ==========================================
-ROS 1 type                                          runs as
-=================================================  ==========================================
-``joint_state_controller/JointStateController``     the joint state broadcaster, every joint,
-                                                    sampled at ``publish_rate`` [Hz]
-``position_controllers/JointPositionController``    forward command on one ``joint``'s position
-``velocity_controllers/JointVelocityController``    ... on its velocity
-``effort_controllers/JointEffortController``        ... on its effort
-``position_controllers/JointGroupPositionController``  JointGroupPositionController (``joints``)
-``velocity_controllers/JointGroupVelocityController``  JointGroupVelocityController
-``effort_controllers/JointGroupEffortController``   JointGroupEffortController
-``position_controllers/JointTrajectoryController``  JointTrajectoryController on positions
-``effort_controllers/JointPositionController``      a PID on one joint's position error whose
-                                                    output is its effort (``pid: {p, i, d}``)
-``effort_controllers/JointTrajectoryController``    the trajectory controller, its desired
-                                                    state turned into efforts by a PID per
-                                                    joint (``gains: {<joint>: {p, i, d}}``)
-=================================================  ==========================================
+- ``joint_state_controller/JointStateController``: the joint state
+  broadcaster on every joint, sampled at ``publish_rate`` [Hz];
+- ``position_controllers/JointPositionController``,
+  ``velocity_controllers/JointVelocityController``,
+  ``effort_controllers/JointEffortController``: forward commands on one
+  ``joint``'s position, velocity or effort;
+- ``position_controllers/JointGroupPositionController`` (and the velocity and
+  effort ones): the JointGroup controllers (``joints``);
+- ``position_controllers/JointTrajectoryController``: the trajectory controller
+  on positions;
+- ``effort_controllers/JointPositionController``: a PID on one joint's position
+  error whose output is its effort (``pid: {p, i, d, ...}``);
+- ``effort_controllers/JointTrajectoryController``: the trajectory controller,
+  its desired state turned into efforts by a PID per joint (``gains: {<joint>:
+  {p, i, d, ...}}``).
 
 The group and trajectory types read the same messages and claim the same
 command interfaces as their ROS 2 counterparts; ROS 1 puts every command on
