@@ -739,3 +739,25 @@ def seed_targets_for(lower: Sequence[float], upper: Sequence[float]) -> list[lis
             value = seed[j % columns]
             targets[k][j] = home + value * (up if value > 0 else down)
     return targets
+
+
+def seed_wave_for(
+    lower: Sequence[float], upper: Sequence[float]
+) -> tuple[list[float], list[float], list[float]]:
+    """(amplitude, phase, offset) [rad or m, rad, rad or m] of the seed's wave sized to
+    a robot whose joints have these limits: joint j takes the seed phase of joint
+    j mod 4 and the seed amplitude (pi/2), reduced to 40 % of its range if that is
+    less; the wave is centred on home (0) unless that would take it within 10 % of
+    the range of a limit, then as near home as it can be. Armando (and the iiwa)
+    get the seed's wave itself."""
+    if len(lower) != len(upper):
+        raise ValueError(f"lower={lower!r} and upper={upper!r} differ in length")
+    amplitude, phase, offset = [], [], []
+    for j, (low, high) in enumerate(zip(lower, upper, strict=True)):
+        span = high - low
+        reach = min(SEED_AMPLITUDE, 0.4 * span)
+        margin = 0.1 * span if math.isfinite(span) else 0.0
+        amplitude.append(reach)
+        phase.append(SEED_PHASE[j % len(SEED_PHASE)])
+        offset.append(min(max(0.0, low + margin + reach), high - margin - reach))
+    return amplitude, phase, offset

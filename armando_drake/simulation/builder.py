@@ -632,14 +632,32 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str, comman
 
 def _sized_seed(config, world: World, joints: list) -> Any:
     """``config`` with the seed targets (the default) sized to ``joints``
-    (:func:`~armando_drake.control.sequencer.seed_targets_for`); other targets as
-    written."""
-    from armando_drake.control.sequencer import is_seed, seed_targets_for
+    (:func:`~armando_drake.control.sequencer.seed_targets_for`), or the seed's wave
+    (:func:`~armando_drake.control.sequencer.seed_wave_for`); other targets and
+    waves as written."""
+    from armando_drake.control.sequencer import (
+        SEED_AMPLITUDE,
+        SEED_PHASE,
+        Sinusoid,
+        is_seed,
+        seed_targets_for,
+        seed_wave_for,
+    )
 
+    lower, upper = [j.lower for j in joints], [j.upper for j in joints]
+    if isinstance(config, Sinusoid):
+        if config.amplitude or config.offset or list(config.phase) != list(SEED_PHASE):
+            return config
+        amplitude, phase, offset = seed_wave_for(lower, upper)
+        seed = [SEED_AMPLITUDE] * len(SEED_PHASE), list(SEED_PHASE), [0.0] * len(SEED_PHASE)
+        if (amplitude, phase, offset) == seed:
+            return config  # the seed's wave itself (Armando)
+        _log.info("seed wave sized to the %d joints of %s", len(joints), world.robot.name)
+        return dataclasses.replace(config, amplitude=amplitude, phase=phase, offset=offset)
     targets = getattr(config, "targets", None)
     if not targets or not is_seed(targets):
         return config
-    sized = seed_targets_for([j.lower for j in joints], [j.upper for j in joints])
+    sized = seed_targets_for(lower, upper)
     if not is_seed(sized):
         _log.info(
             "seed targets sized to the %d joints of %s: %s",

@@ -23,7 +23,8 @@ from armando_drake.control.controllers.forward_command import JointGroupPosition
 from armando_drake.control.controllers.joint_trajectory import JointTrajectoryController
 from armando_drake.control.controllers.ros1 import JointPositionPidController
 from armando_drake.control.messages import Float64, Float64MultiArray, JointTrajectory
-from armando_drake.control.sequencer import SEED_TARGETS, seed_targets_for
+from armando_drake.control.sequencer import SEED_TARGETS, seed_targets_for, seed_wave_for
+from armando_drake.outputs.logger import read_joint_states
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import ScenarioError, load_scenario
 
@@ -529,3 +530,26 @@ def test_effort_trajectory_controller_follows_the_seed_through_its_pid(tmp_path)
     effort = np.array([float(row.split(",")[3]) for row in rows[1:]])  # [N m]
     # The PID's torques move the light arm (I = 0.002 kg m^2): a few mN m, within the limit.
     assert 1e-3 < np.abs(effort).max() <= 0.5
+
+
+def test_sinusoid_flag_on_another_robot_sizes_the_seed_wave(tmp_path):
+    package = make_mini_package(tmp_path, textwrap.dedent(SLIDER))
+    out = tmp_path / "out"
+    result = run_world("--description", str(package), "--controller", "sinusoid",
+                       "--duration", "5", "--output", str(out))  # fmt: skip
+    assert result.returncode == 0, result.stdout + result.stderr
+    amplitude, phase, offset = seed_wave_for([-2.0, -2.5, 0.0], [2.0, 2.5, 0.05])
+    # pi/2 where the range allows (q1, q2, about home); the 5 cm slide swings 2 cm about
+    # 2.5 cm, 5 mm from either limit; phases: the seed's j0 j1 j2.
+    assert amplitude == pytest.approx([np.pi / 2, np.pi / 2, 0.02])
+    assert offset == pytest.approx([0.0, 0.0, 0.025])
+    assert phase == [0.0, 0.0, np.pi]
+    states = read_joint_states(out / "joint_states.csv", ["q1", "q2", "slide"])
+    times, q = states.times, states.position
+    late = times >= 1.0
+    wave = np.array(offset) + np.array(amplitude) * np.sin(
+        2 * np.pi * 0.05 * times[late, None] + np.array(phase)
+    )
+    # Within the position PD's lag (Armando's own sinusoid tracks within about 0.03 rad).
+    error = np.abs(q[late] - wave).max(axis=0)
+    assert error[0] <= 0.05 and error[1] <= 0.05 and error[2] <= 0.005, error
