@@ -178,9 +178,12 @@ def _yaml_gains(
             gains[joint] = [0.0, p]
         else:
             _log.warning(
-                "%s: gazebo_ros_control/pid_gains/%s: not a position or velocity joint; ignored",
+                "%s: gazebo_ros_control/pid_gains/%s: %s; ignored",
                 config.source,
                 joint,
+                "an effort joint (Gazebo closes no loop on it)"
+                if interface
+                else "not an actuated joint of the robot",
             )
             continue
         if i:
