@@ -19,6 +19,7 @@ from armando_drake import DIAGRAMS_DIR
 from armando_drake.control.sequencer import SequencerConfig
 from armando_drake.ros2.config import Ros2Config  # ros2: live DDS / Foxglove (#21)
 from armando_drake.sensors.objects import SceneObject
+from armando_drake.task.motion import TaskSpaceMotion
 
 
 class ScenarioError(ValueError):
@@ -150,6 +151,11 @@ class Scenario:
     # What commands the controllers: a position / trajectory / sinusoid
     # sequence; absent = nothing (commands come from the diagram's input ports).
     sequencer: SequencerConfig | None = None
+    # A task-space motion of the end effector (path, time law, start positions):
+    # published once at t = 0 to the active controller that takes a Cartesian
+    # trajectory (as a CartesianTrajectory) or else a joint trajectory (planned by
+    # closed-loop inverse kinematics, as a JointTrajectory); absent = none.
+    task: TaskSpaceMotion | None = None
     # Camera sensors of the description.
     camera: CameraSettings = dc.field(default_factory=CameraSettings)
     # Joint-state logging.
