@@ -248,6 +248,13 @@ def main(argv: list[str] | None = None) -> int:
             print(format_table(result.joint_names, result.steps))
         if result.tracking_error is not None:
             print(f"sinusoid tracking error after 1 s: {result.tracking_error:.4f} rad")
+        if result.task_space and result.task_space["max_position_error"] is not None:
+            errors = result.task_space
+            print(
+                f"task space: max position error {errors['max_position_error'] * 1e3:.3f} mm "
+                f"(RMS {errors['rms_position_error'] * 1e3:.3f} mm), max orientation error "
+                f"{errors['max_orientation_error']:.4f} rad"
+            )
         if args.output:
             print(f"logs: {args.output}/joint_states.csv, commands.csv, summary.json")
             print(f"plots: {args.output}/positions.png, tracking_error.png, efforts.png")

@@ -53,6 +53,8 @@ class RunResult:
     joint_names: list[str]
     steps: list[StepResult] = field(default_factory=list)
     tracking_error: float | None = None  # [rad] sinusoid: max |q - reference| after 1 s
+    # task: max_position_error, rms_position_error [m], max_orientation_error [rad]
+    task_space: dict[str, Any] | None = None
     output_dir: str | None = None
 
     def summary(self) -> dict[str, Any]:
@@ -66,6 +68,7 @@ class RunResult:
             "interrupted": self.interrupted,
             "joint_names": self.joint_names,
             "tracking_error": self.tracking_error,
+            "task_space": self.task_space,
             "steps": [
                 {
                     "target": step.target,
@@ -319,6 +322,24 @@ def run(
         else:
             steps = [(t, list(config.targets[k])) for t, k in world.sequencer.step_times(sim_time)]
             result.steps = step_table(times, positions, steps, sim_time)
+    if world.task is not None and csv_path.is_file():
+        from armando_drake.outputs.task_space import (
+            TASK_SPACE_CSV,
+            task_space_errors,
+            write_task_space_csv,
+        )
+
+        times, positions = read_joint_states(csv_path, world.task.arm.joint_names)
+        errors = task_space_errors(world.task, times, positions, world.task.arm.joint_names)
+        result.task_space = errors.summary()
+        if output_dir is not None:
+            write_task_space_csv(errors, log_dir / TASK_SPACE_CSV)
+        if world.meshcat is not None and len(times):
+            from pydrake.geometry import Rgba
+
+            world.meshcat.SetLine(
+                "task/end_effector_trace", errors.actual.T, 2.0, Rgba(1.0, 0.3, 0.1, 1.0)
+            )
     if temporary is not None:
         temporary.cleanup()
     if output_dir is not None:
