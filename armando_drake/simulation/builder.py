@@ -559,14 +559,17 @@ def cartesian_trajectory_message(trajectory, period: float, frame: str):
 
 
 def joint_trajectory_message(plan, joint_names) -> JointTrajectory:
-    """The JointTrajectory message of a planned joint reference."""
+    """The JointTrajectory message of a planned joint reference. Its last point is at
+    rest (the plan's residual velocity there is tiny; a trajectory controller
+    rejects a last point that is not)."""
     from armando_drake.control.messages import JointTrajectoryPoint
 
+    last = len(plan.times) - 1
     points = tuple(
         JointTrajectoryPoint(
             positions=tuple(plan.q[k].tolist()),
-            velocities=tuple(plan.v[k].tolist()),
-            accelerations=tuple(plan.a[k].tolist()),
+            velocities=tuple(0.0 * plan.v[k] if k == last else plan.v[k]),
+            accelerations=tuple(0.0 * plan.a[k] if k == last else plan.a[k]),
             time_from_start=float(t),
         )
         for k, t in enumerate(plan.times)
