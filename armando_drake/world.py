@@ -1,12 +1,12 @@
 """Runs the Armando world: robot, ros2_control controllers, command sequence, logs.
 
 The project's main job, the course's arm_controller_node in Drake: loads a
-scenario from diagrams/ (default: position.yaml, the seed targets
-[0,0,0,0] [1.2,-1,1.2,0.6] [-1.2,1,-1.2,-0.6] [0.6,0,-0.6,1] [0,0,0,0]
-3 s apart through the position controller), shows it in Meshcat paced to
-real time, prints the joint positions once a second, and ends with a table
-per step: target, reached position, largest error, time to settle within
-0.01 rad. Ctrl-C stops cleanly and still writes the table and the logs.
+scenario from diagrams/ (default: position.yaml, the course's five seed
+targets 3 s apart through the position controller), shows it in Meshcat
+paced to real time, prints the joint positions once a second, and ends with
+a table per step: target, reached position, final error, largest error after
+settling, settling time (within 0.01 rad). Ctrl-C stops cleanly and still
+writes the table and the logs.
 
 With --output DIR it writes DIR/joint_states.csv (time, then position,
 velocity, effort per joint, one row per controller tick), DIR/commands.csv
@@ -31,12 +31,12 @@ Examples:
   python -m armando_drake.world --scenario diagrams/world.yaml     # no controller: it falls
   python -m armando_drake.world --scenario camera --save-frames out/frames --save-rate 2
   python -m armando_drake.world --set "actuators: {kp: 4.0}" --set "sequencer: {period: 5}"
+  python -m armando_drake.world --scenario sinusoid --set "sequencer: !Sinusoid {frequency: 0.1}"
 """
 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import logging
 import sys
 
@@ -53,13 +53,6 @@ CONTROLLER_TYPES = {
     "sinusoid": "position_controllers/JointGroupPositionController",
     "trajectory": "joint_trajectory_controller/JointTrajectoryController",
 }
-SEED_TARGETS = [
-    [0.0, 0.0, 0.0, 0.0],
-    [1.2, -1.0, 1.2, 0.6],
-    [-1.2, 1.0, -1.2, -0.6],
-    [0.6, 0.0, -0.6, 1.0],
-    [0.0, 0.0, 0.0, 0.0],
-]
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -147,30 +140,38 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _apply_controller(scenario, mode: str) -> None:
-    """Points the scenario at the controller a --controller choice names."""
-    from armando_drake.control.sequencer import SequencerConfig
+    """Points the scenario at the controller a --controller choice names.
+
+    position / trajectory keep the scenario's targets, period, cyclic and
+    start delay (the seed targets when it has none); sinusoid keeps a
+    sinusoid the scenario has, else runs the seed's wave (Sinusoid's
+    defaults).
+    """
+    from armando_drake.control.sequencer import (
+        JointTrajectoryTargets,
+        PositionTargets,
+        Sinusoid,
+    )
 
     broadcasters = [n for n in scenario.controllers.activate if "broadcaster" in n]
     if mode == "none":
         scenario.controllers.activate = broadcasters or ["joint_state_broadcaster"]
         scenario.sequencer = None
         return
-    sequencer = scenario.sequencer or SequencerConfig(targets=SEED_TARGETS, period=3.0)
-    if mode == "sinusoid" and sequencer.mode != "sinusoid":
-        # The sinusoid scenario's wave: pi/2 at 0.05 Hz, j2 in antiphase with j1.
-        from armando_drake.simulation.scenario import load_scenario
-
-        wave = load_scenario("sinusoid").sequencer
-        sequencer = dataclasses.replace(
-            sequencer,
-            amplitude=wave.amplitude,
-            frequency=wave.frequency,
-            phase=wave.phase,
-            offset=wave.offset,
-        )
-    scenario.sequencer = dataclasses.replace(
-        sequencer, mode=mode, targets=sequencer.targets or SEED_TARGETS
-    )
+    current = scenario.sequencer
+    if mode == "sinusoid":
+        scenario.sequencer = current if isinstance(current, Sinusoid) else Sinusoid()
+    else:
+        kind = PositionTargets if mode == "position" else JointTrajectoryTargets
+        if isinstance(current, (PositionTargets, JointTrajectoryTargets)):
+            scenario.sequencer = kind(
+                targets=current.targets,
+                period=current.period,
+                cyclic=current.cyclic,
+                start_delay=current.start_delay,
+            )
+        else:
+            scenario.sequencer = kind()
     # The first controller of the right type in the controller YAML.
     wanted = CONTROLLER_TYPES[mode]
     scenario.controllers.activate = (broadcasters or ["joint_state_broadcaster"]) + [
@@ -200,13 +201,13 @@ def main(argv: list[str] | None = None) -> int:
         if args.realtime_rate is not None:
             if args.realtime_rate < 0:
                 raise UserError(f"--realtime-rate {args.realtime_rate} must not be negative")
-            scenario.simulation.realtime_rate = args.realtime_rate
+            scenario.simulator_config.target_realtime_rate = args.realtime_rate
         if args.ros2 or args.foxglove is not None:  # ros2: live DDS / Foxglove (#21)
             scenario.ros2.enabled = scenario.ros2.enabled or args.ros2
             if args.foxglove is not None:
                 scenario.ros2.foxglove, scenario.ros2.foxglove_port = True, args.foxglove
             if args.realtime_rate is None:
-                scenario.simulation.realtime_rate = 1.0
+                scenario.simulator_config.target_realtime_rate = 1.0
         if args.controller is not None:
             _apply_controller(scenario, args.controller)
         if args.camera is not None:
@@ -239,11 +240,7 @@ def main(argv: list[str] | None = None) -> int:
             replay=not args.no_replay,
             record=args.record,
         )
-        print(
-            f"\n{result.controller} run of {path.name}: {result.sim_time:.2f} s simulated in "
-            f"{result.wall_time:.2f} s ({result.realtime_factor:.2f}x real time)"
-            + (" [interrupted]" if result.interrupted else "")
-        )
+        print(f"\n{result.headline()}")
         if result.steps:
             print(format_table(result.joint_names, result.steps))
         if result.tracking_error is not None:

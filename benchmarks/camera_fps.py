@@ -31,7 +31,7 @@ from pydrake.systems.framework import DiagramBuilder
 from armando_drake import DEFAULT_DESCRIPTION
 from armando_drake.sensors.camera import AddCameraSensors, choose_renderer, parse_camera_sensors
 from armando_drake.sensors.image_view import AddImageView
-from armando_drake.sensors.objects import AddSceneObjects, SceneObject
+from armando_drake.sensors.objects import AddSceneObjects, Box, Cylinder, SceneObject, Sphere
 
 FALLBACK_URDF = """<?xml version="1.0"?>
 <robot name="eye">
@@ -46,19 +46,21 @@ FALLBACK_URDF = """<?xml version="1.0"?>
 
 OBJECTS = [
     SceneObject(
-        name="table", shape="box", size=[0.8, 0.8, 0.02], xyz=[0, 0, -0.042], color=[0.6] * 3 + [1]
+        name="table", shape=Box(size=[0.8, 0.8, 0.02]), xyz=[0, 0, -0.042], color=[0.6] * 3 + [1]
     ),
     SceneObject(
         name="blue_disc",
-        shape="cylinder",
-        size=[0.03, 0.01],
+        shape=Cylinder(radius=0.03, length=0.01),
         xyz=[0.12, -0.12, -0.026],
         color=[0, 0, 1, 1],
     ),
     SceneObject(
-        name="cube", shape="box", size=[0.03, 0.03, 0.03], xyz=[0.2, -0.05, -0.016], collision=False
+        name="cube",
+        shape=Box(size=[0.03, 0.03, 0.03]),
+        xyz=[0.2, -0.05, -0.016],
+        collision=False,
     ),
-    SceneObject(name="ball", shape="sphere", size=[0.02], xyz=[0.15, 0.05, -0.011], rpy=[0, 0, 0]),
+    SceneObject(name="ball", shape=Sphere(radius=0.02), xyz=[0.15, 0.05, -0.011], rpy=[0, 0, 0]),
 ]
 
 

@@ -3,13 +3,22 @@
 The ROS 2 node publishes a list of joint targets one after the other on a
 timer (``Float64MultiArray`` on the position controller's ``commands`` topic),
 or the same targets as one ``JointTrajectory``; another version drives the
-joints with a slow sinusoid. :class:`CommandSequencer` does the same inside a
-Drake diagram, configured by a :class:`SequencerConfig` loaded from YAML::
+joints with a slow sinusoid. The three are a tagged union of dataclasses,
+each with only its own fields, chosen in a scenario by a YAML tag::
 
-    mode: position          # position | trajectory | sinusoid
-    targets: [[0, 0, 0, 0], [0.5, -0.3, 0.8, 0], [-0.5, 0.3, -0.8, 0]]
-    period: 3.0
-    cyclic: true
+    sequencer: !PositionTargets {period: 3.0}          # the seed targets, 3 s apart
+    sequencer: !JointTrajectoryTargets {period: 3.0}   # the same as one JointTrajectory
+    sequencer: !Sinusoid {frequency: 0.05}             # the seed's wave
+
+The defaults are the course's seed: :data:`SEED_TARGETS` (Armando's four
+joints) and the seed's wave (pi/2 at 0.05 Hz, j2 in antiphase with j1), so
+they are written here once and a scenario states only what differs.
+
+:class:`CommandSequencer` publishes targets and trajectories (a few Python
+events per run); :class:`SinusoidSequencer` evaluates the wave with Drake's
+``Sine`` and samples it at the controller rate with a ``ZeroOrderHold``, all
+in C++, and turns the held sample into a message only when a subscriber
+reads it. :func:`MakeSequencer` builds the one a configuration asks for.
 """
 
 import dataclasses
@@ -18,55 +27,126 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, Context, LeafSystem, State
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import (
+    BasicVector,
+    Context,
+    Diagram,
+    DiagramBuilder,
+    LeafSystem,
+    State,
+)
+from pydrake.systems.primitives import (
+    AffineSystem,
+    Multiplexer,
+    Sine,
+    TrajectorySource,
+    ZeroOrderHold,
+)
+from pydrake.trajectories import PiecewisePolynomial
 
 from armando_drake.control.messages import (
     Float64MultiArray,
     JointTrajectory,
     JointTrajectoryPoint,
+    Publication,
     PublicationValue,
 )
 
 # No `from __future__ import annotations` here: yaml_load_typed reads the
 # dataclass field types at run time and does not resolve string annotations.
 
-MODES = ("position", "trajectory", "sinusoid")
+# [rad] j0 j1 j2 j3: the course's seed targets for Armando, the default of
+# PositionTargets and JointTrajectoryTargets.
+SEED_TARGETS = (
+    (0.0, 0.0, 0.0, 0.0),
+    (1.2, -1.0, 1.2, 0.6),
+    (-1.2, 1.0, -1.2, -0.6),
+    (0.6, 0.0, -0.6, 1.0),
+    (0.0, 0.0, 0.0, 0.0),
+)
+# [rad] the seed wave's amplitude, every joint.
+SEED_AMPLITUDE = math.pi / 2
+# [rad] the seed wave's phases for Armando: j2 in antiphase with j1 keeps the
+# forearm upright, so the arm never folds into the table (in phase, j1 = j2 =
+# pi/2 would point it at the floor).
+SEED_PHASE = (0.0, 0.0, math.pi, 0.0)
+
+
+def _seed_targets() -> list[list[float]]:
+    return [list(target) for target in SEED_TARGETS]
 
 
 @dataclasses.dataclass
-class SequencerConfig:
-    """What the command sequencer publishes, and when."""
+class PositionTargets:
+    """Each target in turn as a Float64MultiArray on a position controller's ``commands``."""
 
-    # position: each target in turn as a Float64MultiArray on `commands`;
-    # trajectory: all targets as one JointTrajectory on `joint_trajectory`;
-    # sinusoid: offset + amplitude sin(2 pi frequency t + phase) on `commands`.
-    mode: str = "position"
     # [rad or m] joint targets, one list per target with one value per joint
-    # (in the controller's joint order). Unused by the sinusoid.
-    targets: list[list[float]] = dataclasses.field(default_factory=list)
-    # [s] time between targets: position mode publishes target k at
-    # start_delay + k period; trajectory mode reaches target k at
-    # time_from_start = (k + 1) period.
+    # (in the controller's joint order); default: SEED_TARGETS.
+    targets: list[list[float]] = dataclasses.field(default_factory=_seed_targets)
+    # [s] time between targets: target k is published at start_delay + k period.
     period: float = 3.0
-    # After the last target, start again from the first (position mode), or
-    # publish the trajectory again every len(targets) period (trajectory mode).
+    # After the last target, start again from the first.
     cyclic: bool = False
     # [s] simulation time of the first publication.
     start_delay: float = 0.0
-    # [rad or m] sinusoid amplitude per joint; empty = pi/2 for every joint.
+
+
+@dataclasses.dataclass
+class JointTrajectoryTargets:
+    """All targets as one JointTrajectory on a trajectory controller's ``joint_trajectory``."""
+
+    # [rad or m] the trajectory's points, one list per point with one value
+    # per joint (in the controller's joint order); default: SEED_TARGETS.
+    targets: list[list[float]] = dataclasses.field(default_factory=_seed_targets)
+    # [s] point k is reached at time_from_start = (k + 1) period.
+    period: float = 3.0
+    # Publish the trajectory again every len(targets) period.
+    cyclic: bool = False
+    # [s] simulation time of the (first) publication.
+    start_delay: float = 0.0
+
+
+@dataclasses.dataclass
+class Sinusoid:
+    """q_i(t) = offset_i + amplitude_i sin(2 pi frequency (t - start_delay) + phase_i) on
+    a position controller's ``commands``, sampled at ``rate``."""
+
+    # [rad or m] amplitude per joint; empty = SEED_AMPLITUDE (pi/2) for every joint.
     amplitude: list[float] = dataclasses.field(default_factory=list)
-    # [Hz] sinusoid frequency.
+    # [Hz] frequency of the wave.
     frequency: float = 0.05
-    # [rad] sinusoid phase per joint; empty = 0 for every joint.
-    phase: list[float] = dataclasses.field(default_factory=list)
-    # [rad or m] sinusoid centre per joint; empty = 0 for every joint.
+    # [rad] phase per joint; default: SEED_PHASE (Armando's four joints);
+    # empty = 0 for every joint.
+    phase: list[float] = dataclasses.field(default_factory=lambda: list(SEED_PHASE))
+    # [rad or m] centre per joint; empty = 0 for every joint.
     offset: list[float] = dataclasses.field(default_factory=list)
-    # [Hz] rate at which sinusoid commands are published; None = the
-    # controller rate.
+    # [Hz] rate at which commands are published; None = the controller rate.
     rate: float | None = None
+    # [s] simulation time of the first publication (the wave's t = 0).
+    start_delay: float = 0.0
 
 
-DEFAULT_AMPLITUDE = math.pi / 2  # [rad] the sinusoid seed's amplitude
+# What drives the controllers; a YAML tag chooses (!PositionTargets, ...).
+SequencerConfig = PositionTargets | JointTrajectoryTargets | Sinusoid
+# The controller a sequencer feeds, by configuration type: "position" (a
+# JointGroupPositionController's commands) or "trajectory".
+CONTROLLER_KIND = {
+    PositionTargets: "position",
+    JointTrajectoryTargets: "trajectory",
+    Sinusoid: "position",
+}
+# What ``--controller`` calls each configuration.
+MODE_NAMES = {
+    PositionTargets: "position",
+    JointTrajectoryTargets: "trajectory",
+    Sinusoid: "sinusoid",
+}
+
+
+def mode_of(config: SequencerConfig) -> str:
+    """position | trajectory | sinusoid: the name of ``config``'s mode."""
+    return MODE_NAMES[type(config)]
 
 
 class SequencerError(ValueError):
@@ -74,28 +154,27 @@ class SequencerError(ValueError):
 
 
 @dataclasses.dataclass(frozen=True)
-class Sinusoid:
-    """The per-joint sinusoid parameters with defaults filled in."""
+class Wave:
+    """A :class:`Sinusoid` with its per-joint defaults filled in, as arrays."""
 
-    amplitude: tuple[float, ...]  # [rad or m]
-    phase: tuple[float, ...]  # [rad]
-    offset: tuple[float, ...]  # [rad or m]
+    amplitude: np.ndarray  # [rad or m] per joint
+    phase: np.ndarray  # [rad] per joint
+    offset: np.ndarray  # [rad or m] per joint
     frequency: float  # [Hz]
+    start_delay: float  # [s]
 
-    def __call__(self, time_since_start: float) -> tuple[float, ...]:
-        """The command [rad or m] at ``time_since_start`` [s] after the start delay."""
-        angle = 2 * math.pi * self.frequency * time_since_start
-        return tuple(
-            o + a * math.sin(angle + p)
-            for a, p, o in zip(self.amplitude, self.phase, self.offset, strict=True)
-        )
+    def __call__(self, times) -> np.ndarray:
+        """The commands [rad or m] at ``times`` [s] (one row per time), the wave
+        itself, not its samples; for checking a run against it."""
+        t = np.asarray(times, dtype=float).reshape(-1, 1) - self.start_delay
+        return self.offset + self.amplitude * np.sin(2 * np.pi * self.frequency * t + self.phase)
 
 
 def _per_joint(
     values: Sequence[float], default: float, what: str, joint_names: Sequence[str], prefix: str
-) -> tuple[float, ...]:
+) -> np.ndarray:
     if not values:
-        return (default,) * len(joint_names)
+        return np.full(len(joint_names), default)
     if len(values) != len(joint_names):
         raise SequencerError(
             f"{prefix}{what} has {len(values)} values, expected {len(joint_names)} "
@@ -104,17 +183,18 @@ def _per_joint(
     for name, value in zip(joint_names, values, strict=True):
         if not math.isfinite(value):
             raise SequencerError(f"{prefix}{what}: {name}={value!r} is not finite")
-    return tuple(float(v) for v in values)
+    return np.array(values, dtype=float)
 
 
-def sinusoid_of(config: SequencerConfig, joint_names: Sequence[str], source: str = "") -> Sinusoid:
-    """The sinusoid of ``config`` with per-joint defaults filled in."""
+def wave_of(config: Sinusoid, joint_names: Sequence[str], source: str = "") -> Wave:
+    """The wave of ``config`` with per-joint defaults filled in."""
     prefix = f"{source}: " if source else ""
-    return Sinusoid(
-        amplitude=_per_joint(config.amplitude, DEFAULT_AMPLITUDE, "amplitude", joint_names, prefix),
+    return Wave(
+        amplitude=_per_joint(config.amplitude, SEED_AMPLITUDE, "amplitude", joint_names, prefix),
         phase=_per_joint(config.phase, 0.0, "phase", joint_names, prefix),
         offset=_per_joint(config.offset, 0.0, "offset", joint_names, prefix),
         frequency=config.frequency,
+        start_delay=config.start_delay,
     )
 
 
@@ -136,34 +216,25 @@ def validate(
     n = len(joint_names)
     if len(lower) != n or len(upper) != n:
         raise ValueError(f"{n} joint names but {len(lower)} lower and {len(upper)} upper limits")
-    if config.mode not in MODES:
+    if not isinstance(config, (PositionTargets, JointTrajectoryTargets, Sinusoid)):
         raise SequencerError(
-            f"{prefix}mode={config.mode!r} is not one of {', '.join(map(repr, MODES))}"
+            f"{prefix}sequencer={config!r} is not one of PositionTargets, "
+            "JointTrajectoryTargets, Sinusoid"
         )
     if not (math.isfinite(config.start_delay) and config.start_delay >= 0):
         raise SequencerError(
             f"{prefix}start_delay={config.start_delay!r} must be zero or positive [s]"
         )
 
-    def check_limits(what: str, name: str, value: float, low: float, high: float) -> None:
-        if value > high:
-            raise SequencerError(
-                f"{prefix}{what}: {name}={value!r} is above its upper limit {high!r}"
-            )
-        if value < low:
-            raise SequencerError(
-                f"{prefix}{what}: {name}={value!r} is below its lower limit {low!r}"
-            )
-
-    if config.mode == "sinusoid":
+    if isinstance(config, Sinusoid):
         if not (math.isfinite(config.frequency) and config.frequency > 0):
             raise SequencerError(f"{prefix}frequency={config.frequency!r} must be positive [Hz]")
         if config.rate is not None and not (math.isfinite(config.rate) and config.rate > 0):
             raise SequencerError(f"{prefix}rate={config.rate!r} must be positive [Hz]")
-        sinusoid = sinusoid_of(config, joint_names, source)
+        wave = wave_of(config, joint_names, source)
         for i, name in enumerate(joint_names):
-            reach = abs(sinusoid.amplitude[i])
-            centre = sinusoid.offset[i]
+            reach = abs(float(wave.amplitude[i]))
+            centre = float(wave.offset[i])
             swing = f"offset {centre!r} +- amplitude {reach!r}"
             if centre + reach > upper[i]:
                 raise SequencerError(
@@ -180,7 +251,7 @@ def validate(
     if not (math.isfinite(config.period) and config.period > 0):
         raise SequencerError(f"{prefix}period={config.period!r} must be positive [s]")
     if not config.targets:
-        raise SequencerError(f"{prefix}mode {config.mode!r} needs at least one target")
+        raise SequencerError(f"{prefix}{type(config).__name__} needs at least one target")
     for k, target in enumerate(config.targets):
         if len(target) != n:
             raise SequencerError(
@@ -190,11 +261,46 @@ def validate(
         for i, (name, value) in enumerate(zip(joint_names, target, strict=True)):
             if not math.isfinite(value):
                 raise SequencerError(f"{prefix}target {k}: {name}={value!r} is not finite")
-            check_limits(f"target {k}", name, value, lower[i], upper[i])
+            if value > upper[i]:
+                raise SequencerError(
+                    f"{prefix}target {k}: {name}={value!r} is above its upper limit {upper[i]!r}"
+                )
+            if value < lower[i]:
+                raise SequencerError(
+                    f"{prefix}target {k}: {name}={value!r} is below its lower limit {lower[i]!r}"
+                )
+
+
+def step_times(config: SequencerConfig, end_time: float | None = None) -> list[tuple[float, int]]:
+    """(time [s], target index) at which each target becomes the reference.
+
+    Position targets: the time target k is published. Trajectory: the time
+    the trajectory starts heading to point k, which it reaches one ``period``
+    later. Without ``end_time``, one pass over the targets; with it, every
+    step at or before ``end_time`` (cyclic sequences repeat). Empty for the
+    sinusoid.
+    """
+    if isinstance(config, Sinusoid):
+        return []
+    n = len(config.targets)
+    if end_time is None:
+        count = n
+    else:
+        steps = math.floor((end_time - config.start_delay) / config.period + 1e-9) + 1
+        count = max(0, steps if config.cyclic else min(steps, n))
+    return [(config.start_delay + k * config.period, k % n) for k in range(count)]
+
+
+def one_pass(config: SequencerConfig) -> float:
+    """[s] the end of one pass of the sequence: the last target's period, or one
+    period of the wave."""
+    if isinstance(config, Sinusoid):
+        return config.start_delay + 1.0 / config.frequency
+    return config.start_delay + len(config.targets) * config.period
 
 
 class CommandSequencer(LeafSystem):
-    """Publishes a configured sequence of joint commands.
+    """Publishes a configured sequence of joint targets.
 
     .. pydrake_system::
 
@@ -205,30 +311,26 @@ class CommandSequencer(LeafSystem):
         - reference
 
     - ``commands``: a :class:`~armando_drake.control.messages.Publication` of
-      :class:`~armando_drake.control.messages.Float64MultiArray` (position and
-      sinusoid modes) for a position controller;
+      :class:`~armando_drake.control.messages.Float64MultiArray`
+      (:class:`PositionTargets`) for a position controller;
     - ``joint_trajectory``: a Publication of
-      :class:`~armando_drake.control.messages.JointTrajectory` (trajectory mode) for a
-      joint trajectory controller;
+      :class:`~armando_drake.control.messages.JointTrajectory`
+      (:class:`JointTrajectoryTargets`) for a joint trajectory controller;
     - ``reference``: vector [rad or m], the target currently commanded, for
-      logging and plots; NaN before the first publication. In trajectory mode
-      it is the target the trajectory is heading to.
+      logging and plots; NaN before the first publication. For a trajectory
+      it is the point the trajectory is heading to.
 
-    The topic ports of the other modes stay at count 0. All three are state
+    The topic port of the other mode stays at count 0. All three are state
     output ports changed only by a periodic unrestricted update, so reading
-    them costs nothing, and a controller that reads them in a discrete update
-    of the same time already sees the new message (Drake runs the
-    unrestricted updates of a time before its discrete updates).
+    them costs nothing.
 
     Publication times (``start_delay`` = s, ``period`` = T, n targets):
 
-    - position: target k at s + k T, k = 0..n-1; then, if cyclic, target
-      k mod n at s + k T for every k; otherwise nothing more;
+    - position targets: target k at s + k T, k = 0..n-1; then, if cyclic,
+      target k mod n at s + k T for every k; otherwise nothing more;
     - trajectory: one JointTrajectory at s (stamp 0: "start when received")
       whose point k is target k with zero velocities and time_from_start
-      (k + 1) T; if cyclic, the same message again every n T;
-    - sinusoid: q_i = offset_i + A_i sin(2 pi f (t - s) + phase_i) at
-      t = s, s + 1/rate, ...
+      (k + 1) T; if cyclic, the same message again every n T.
 
     ``on_publish(time, topic, message)``, when given, is called once per
     publication (``topic`` is "commands" or "joint_trajectory"), e.g. to
@@ -238,9 +340,8 @@ class CommandSequencer(LeafSystem):
     def __init__(
         self,
         *,
-        config: SequencerConfig,
+        config: PositionTargets | JointTrajectoryTargets,
         joint_names: Sequence[str],
-        controller_rate: float = 100.0,
         on_publish: Callable[[float, str, Any], None] | None = None,
     ):
         super().__init__()
@@ -248,16 +349,14 @@ class CommandSequencer(LeafSystem):
         n = len(joint_names)
         if n == 0:
             raise ValueError("joint_names=() must name at least one joint")
-        if not (math.isfinite(controller_rate) and controller_rate > 0):
-            raise ValueError(f"controller_rate={controller_rate!r} must be positive [Hz]")
+        if isinstance(config, Sinusoid):
+            raise ValueError("a Sinusoid is run by SinusoidSequencer (see MakeSequencer)")
         validate(config, joint_names, [-math.inf] * n, [math.inf] * n)
         self._config = dataclasses.replace(
             config, targets=[list(map(float, target)) for target in config.targets]
         )
         self._joint_names = joint_names
         self._on_publish = on_publish
-        self._sinusoid = sinusoid_of(config, joint_names) if config.mode == "sinusoid" else None
-        self._rate = controller_rate if config.rate is None else config.rate
 
         self._commands_state = self.DeclareAbstractState(PublicationValue())
         self._trajectory_state = self.DeclareAbstractState(PublicationValue())
@@ -267,30 +366,23 @@ class CommandSequencer(LeafSystem):
         self.DeclareStateOutputPort("reference", self._reference_state)
 
         s, period = config.start_delay, config.period
-        if config.mode == "position":
+        if isinstance(config, PositionTargets):
             self.DeclarePeriodicUnrestrictedUpdateEvent(period, s, self._UpdatePosition)
-        elif config.mode == "trajectory":
+        else:
             cycle = period * len(config.targets)
             self.DeclarePeriodicUnrestrictedUpdateEvent(cycle, s, self._UpdateTrajectory)
             self.DeclarePeriodicUnrestrictedUpdateEvent(period, s, self._UpdateReference)
-        else:
-            self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / self._rate, s, self._UpdateSinusoid)
 
     @property
-    def config(self) -> SequencerConfig:
+    def config(self) -> PositionTargets | JointTrajectoryTargets:
         return self._config
 
     @property
     def joint_names(self) -> tuple[str, ...]:
         return self._joint_names
 
-    @property
-    def rate(self) -> float:
-        """[Hz] the sinusoid publication rate."""
-        return self._rate
-
     def trajectory_message(self) -> JointTrajectory:
-        """The JointTrajectory that trajectory mode publishes."""
+        """The JointTrajectory that a JointTrajectoryTargets sequencer publishes."""
         period = self._config.period
         zeros = (0.0,) * len(self._joint_names)
         return JointTrajectory(
@@ -305,24 +397,11 @@ class CommandSequencer(LeafSystem):
         )
 
     def step_times(self, end_time: float | None = None) -> list[tuple[float, int]]:
-        """(time [s], target index) at which each target becomes the reference.
+        """:func:`step_times` of this sequencer's configuration."""
+        return step_times(self._config, end_time)
 
-        Position mode: the time target k is published. Trajectory mode: the
-        time the trajectory starts heading to target k, which it reaches one
-        ``period`` later. Without ``end_time``, one pass over the targets;
-        with it, every step at or before ``end_time`` (cyclic sequences
-        repeat). Empty for the sinusoid.
-        """
-        config = self._config
-        if config.mode == "sinusoid":
-            return []
-        n = len(config.targets)
-        if end_time is None:
-            count = n
-        else:
-            steps = math.floor((end_time - config.start_delay) / config.period + 1e-9) + 1
-            count = max(0, steps if config.cyclic else min(steps, n))
-        return [(config.start_delay + k * config.period, k % n) for k in range(count)]
+    def flush(self, root_context: Context) -> None:
+        """Nothing to do: every publication reached ``on_publish`` when it happened."""
 
     def _Index(self, context: Context) -> int | None:
         """Which target is due at this periodic tick, None when the sequence is over."""
@@ -364,9 +443,265 @@ class CommandSequencer(LeafSystem):
             return
         state.get_mutable_discrete_state(self._reference_state).set_value(self._config.targets[k])
 
-    def _UpdateSinusoid(self, context: Context, state: State) -> None:
-        command = self._sinusoid(context.get_time() - self._config.start_delay)
-        state.get_mutable_discrete_state(self._reference_state).set_value(command)
-        self._PublishOn(
-            context, state, self._commands_state, "commands", Float64MultiArray(data=command)
+
+# [s] how far the sample clock of a SinusoidSequencer runs; far beyond any run.
+_CLOCK_HORIZON = 1e9
+
+
+def _Affine(gain, offset) -> AffineSystem:
+    """The stateless system y = gain u + offset (Drake's AffineSystem, C++)."""
+    gain = np.asarray(gain, dtype=float)
+    rows, columns = gain.shape
+    return AffineSystem(
+        A=np.zeros((0, 0)),
+        B=np.zeros((0, columns)),
+        f0=np.zeros(0),
+        C=np.zeros((rows, 0)),
+        D=gain,
+        y0=np.asarray(offset, dtype=float),
+    )
+
+
+class _SinusoidTopic(LeafSystem):
+    """The held sample of a SinusoidSequencer as topics, computed only when read.
+
+    Input ``sample``: [wave - initial (n); count] from the ZeroOrderHold, count =
+    the number of samples taken so far (0 before the first).
+    """
+
+    def __init__(self, *, n: int, start_delay: float, rate: float, initial: np.ndarray):
+        super().__init__()
+        self._n = n
+        self._initial = np.asarray(initial, dtype=float)
+        self._start_delay = start_delay
+        self._rate = rate
+        self._sample = self.DeclareVectorInputPort("sample", n + 1)
+        self.DeclareAbstractOutputPort(
+            "commands", PublicationValue, self._CalcCommands, {self._sample.ticket()}
         )
+        self.DeclareAbstractOutputPort(
+            "joint_trajectory",
+            PublicationValue,
+            lambda context, output: output.set_value(Publication()),
+            {self.nothing_ticket()},
+        )
+        self.DeclareVectorOutputPort("reference", n, self._CalcReference, {self._sample.ticket()})
+
+    def publication(self, sample: np.ndarray) -> Publication:
+        """The Publication of a held ``sample`` [wave; count]."""
+        count = round(float(sample[self._n]))
+        if count <= 0:
+            return Publication()
+        stamp = self._start_delay + (count - 1) / self._rate
+        data = tuple((sample[: self._n] + self._initial).tolist())
+        return Publication(count, Float64MultiArray(data=data), stamp)
+
+    def _CalcCommands(self, context: Context, output: AbstractValue) -> None:
+        output.set_value(self.publication(self._sample.Eval(context)))
+
+    def _CalcReference(self, context: Context, output: BasicVector) -> None:
+        sample = self._sample.Eval(context)
+        if sample[self._n] < 0.5:
+            output.SetFromVector(np.full(self._n, np.nan))
+        else:
+            output.SetFromVector(sample[: self._n] + self._initial)
+
+
+class _CommandLog(LeafSystem):
+    """Hands every sample of a SinusoidSequencer to ``on_publish``, in batches once a
+    simulated second: reads the sample count (input ``sample``, as _SinusoidTopic)
+    and evaluates ``wave`` at the times of the samples taken since the last batch."""
+
+    def __init__(self, *, n: int, wave: Wave, rate: float, on_publish):
+        super().__init__()
+        self._n = n
+        self._wave = wave
+        self._rate = rate
+        self._on_publish = on_publish
+        self._handled = 0  # samples handed on so far
+        self._sample = self.DeclareVectorInputPort("sample", n + 1)
+        self.DeclarePeriodicPublishEvent(1.0, 0.0, self.flush)
+
+    def flush(self, context: Context) -> None:
+        """Hands the samples taken since the last flush to ``on_publish``."""
+        count = round(float(self._sample.Eval(context)[self._n]))
+        if count <= self._handled:
+            return
+        stamps = self._wave.start_delay + np.arange(self._handled, count) / self._rate
+        for stamp, values in zip(stamps.tolist(), self._wave(stamps).tolist(), strict=True):
+            self._on_publish(stamp, "commands", Float64MultiArray(data=tuple(values)))
+        self._handled = count
+
+
+class SinusoidSequencer(Diagram):
+    """Publishes a :class:`Sinusoid`, evaluated and sampled in C++.
+
+    .. pydrake_system::
+
+        name: SinusoidSequencer
+        output_ports:
+        - commands
+        - joint_trajectory
+        - reference
+        - position_command
+        - command_count
+
+    Drake's ``Sine`` (plus the offsets) evaluates the wave, a
+    ``ZeroOrderHold`` samples it at ``rate`` from ``start_delay`` on, as the
+    seed node publishes it on a timer; no Python runs per sample.
+
+    - ``position_command``: vector [rad or m], the latest sample, held until
+      the next, and ``initial_positions`` before the first: the command
+      stream as a vector, for a consumer that evaluates it in C++ (wired to
+      a plant's desired state, it holds the initial pose until the start);
+    - ``command_count``: vector of one, the number of samples so far (0
+      before the first; sample k, taken at start_delay + k / rate, makes it
+      k + 1, to rounding: it is a clock sampled with the wave, so round it);
+    - ``commands``: the same sample as a Publication of Float64MultiArray
+      (count = ``command_count``, stamp = the sample's time), made in Python
+      only when a subscriber reads it;
+    - ``joint_trajectory``: always count 0 (the interface of CommandSequencer);
+    - ``reference``: the latest sample, NaN before the first.
+
+    Samples are discrete updates: a subscriber updating at a sample's time
+    sees the sample before it, as it sees a CommandSequencer's publication
+    of that time.
+
+    ``on_publish(time, "commands", message)``, when given, receives every
+    sample, in batches once a simulated second and at :meth:`flush`: the
+    wave evaluated (in numpy) at the times of the samples taken since the
+    last batch, equal to the published samples to rounding.
+    """
+
+    def __init__(
+        self,
+        *,
+        config: Sinusoid,
+        joint_names: Sequence[str],
+        controller_rate: float = 100.0,
+        initial_positions: Sequence[float] | None = None,
+        on_publish: Callable[[float, str, Any], None] | None = None,
+    ):
+        super().__init__()
+        joint_names = tuple(joint_names)
+        n = len(joint_names)
+        if n == 0:
+            raise ValueError("joint_names=() must name at least one joint")
+        if not (math.isfinite(controller_rate) and controller_rate > 0):
+            raise ValueError(f"controller_rate={controller_rate!r} must be positive [Hz]")
+        initial = np.zeros(n) if initial_positions is None else np.asarray(initial_positions, float)
+        if initial.shape != (n,) or not np.all(np.isfinite(initial)):
+            raise ValueError(f"initial_positions={initial_positions!r} must be {n} finite numbers")
+        if not isinstance(config, Sinusoid):
+            raise ValueError(f"config={config!r} is not a Sinusoid")
+        validate(config, joint_names, [-math.inf] * n, [math.inf] * n)
+        self._config = config
+        self._joint_names = joint_names
+        self._wave = wave_of(config, joint_names)
+        self._rate = controller_rate if config.rate is None else config.rate
+        s, rate, wave = config.start_delay, self._rate, self._wave
+
+        builder = DiagramBuilder()
+        omega = 2 * math.pi * wave.frequency  # [rad/s]
+        sine = builder.AddNamedSystem(
+            "sine",
+            Sine(
+                amplitudes=wave.amplitude,
+                frequencies=np.full(n, omega),
+                phases=wave.phase - omega * s,  # the wave's t = 0 is start_delay
+                is_time_based=True,
+            ),
+        )
+        # The hold samples [wave - initial; count], so that its default (zeros, before
+        # the first sample) reads as the initial positions and count 0 once the
+        # initial positions are added back. The count is a clock sampled with the
+        # wave: (t - s) rate + 1, so sample k holds k + 1. Few systems on purpose:
+        # each costs the simulator a little at every plant step.
+        clock = builder.AddNamedSystem(
+            "sample_clock",
+            TrajectorySource(
+                PiecewisePolynomial.FirstOrderHold(
+                    [0.0, _CLOCK_HORIZON], [[1.0 - s * rate, 1.0 + (_CLOCK_HORIZON - s) * rate]]
+                )
+            ),
+        )
+        stack = builder.AddNamedSystem("stack", Multiplexer([n, 1]))
+        builder.Connect(sine.GetOutputPort("y0"), stack.get_input_port(0))
+        builder.Connect(clock.get_output_port(), stack.get_input_port(1))
+        shift = builder.AddNamedSystem(
+            "offset", _Affine(np.eye(n + 1), np.append(wave.offset - initial, 0.0))
+        )
+        builder.Connect(stack.get_output_port(), shift.get_input_port())
+        hold = builder.AddNamedSystem("sample", ZeroOrderHold(1.0 / rate, n + 1, s))
+        builder.Connect(shift.get_output_port(), hold.get_input_port())
+        command = builder.AddNamedSystem("position_command", _Affine(np.eye(n, n + 1), initial))
+        builder.Connect(hold.get_output_port(), command.get_input_port())
+        count = builder.AddNamedSystem("command_count", _Affine(np.eye(1, n + 1, n), [0.0]))
+        builder.Connect(hold.get_output_port(), count.get_input_port())
+        topic = builder.AddNamedSystem(
+            "topic", _SinusoidTopic(n=n, start_delay=s, rate=rate, initial=initial)
+        )
+        builder.Connect(hold.get_output_port(), topic.GetInputPort("sample"))
+        for name in ("commands", "joint_trajectory", "reference"):
+            builder.ExportOutput(topic.GetOutputPort(name), name)
+        builder.ExportOutput(command.get_output_port(), "position_command")
+        builder.ExportOutput(count.get_output_port(), "command_count")
+        self._log = None
+        if on_publish is not None:
+            self._log = builder.AddNamedSystem(
+                "command_log", _CommandLog(n=n, wave=wave, rate=rate, on_publish=on_publish)
+            )
+            builder.Connect(hold.get_output_port(), self._log.GetInputPort("sample"))
+        builder.BuildInto(self)
+
+    @property
+    def config(self) -> Sinusoid:
+        return self._config
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return self._joint_names
+
+    @property
+    def rate(self) -> float:
+        """[Hz] the sample (publication) rate."""
+        return self._rate
+
+    @property
+    def wave(self) -> Wave:
+        """The wave being sampled."""
+        return self._wave
+
+    def step_times(self, end_time: float | None = None) -> list[tuple[float, int]]:
+        """Empty: a sinusoid has no steps."""
+        return []
+
+    def flush(self, root_context: Context) -> None:
+        """Hands the samples recorded since the last flush to ``on_publish``."""
+        if self._log is not None:
+            self._log.flush(self._log.GetMyContextFromRoot(root_context))
+
+
+def MakeSequencer(
+    *,
+    config: SequencerConfig,
+    joint_names: Sequence[str],
+    controller_rate: float = 100.0,
+    initial_positions: Sequence[float] | None = None,
+    on_publish: Callable[[float, str, Any], None] | None = None,
+) -> CommandSequencer | SinusoidSequencer:
+    """The sequencer system of ``config``: a :class:`CommandSequencer` for targets and
+    trajectories, a :class:`SinusoidSequencer` for a :class:`Sinusoid`.
+
+    ``controller_rate`` [Hz]: the sinusoid's sample rate when its ``rate`` is None;
+    ``initial_positions`` [rad or m]: its ``position_command`` before the first sample.
+    """
+    if isinstance(config, Sinusoid):
+        return SinusoidSequencer(
+            config=config,
+            joint_names=joint_names,
+            controller_rate=controller_rate,
+            initial_positions=initial_positions,
+            on_publish=on_publish,
+        )
+    return CommandSequencer(config=config, joint_names=joint_names, on_publish=on_publish)

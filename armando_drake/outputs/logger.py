@@ -23,6 +23,14 @@ ends with :meth:`JointStateLogger.flush`, which writes the rest; a process
 killed outright keeps every row up to its last flush (at most
 ``1 / flush_rate`` of simulated time is lost), and every line on disk is
 complete.
+
+Listeners added with :meth:`JointStateLogger.add_listener` receive the same
+rows (time and positions) at each flush, in memory: the run's step table is
+computed that way, with or without a CSV file.
+
+Reading: :func:`read_csv` is the project's one CSV reader (``joint_states.csv``,
+``commands.csv``); :func:`read_joint_states` gives a joint-state CSV by
+quantity and joint.
 """
 
 from __future__ import annotations
@@ -30,7 +38,8 @@ from __future__ import annotations
 import csv
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, BinaryIO, TextIO
 
@@ -148,6 +157,7 @@ class JointStateLogger(VectorLogSink):
         self._last_time = -math.inf  # [s] time of the last row written
         self._last_row: np.ndarray | None = None
         self._closed = False
+        self._listeners: list[Callable[[np.ndarray, np.ndarray], None]] = []
         # One CSV line: time with 6 decimals, then 10 significant digits per value.
         self._line_format = "%.6f" + ",%.10g" * (3 * n) + "\n"
 
@@ -182,6 +192,12 @@ class JointStateLogger(VectorLogSink):
         """The latest row flushed: [time, then position, velocity, effort per joint]."""
         return None if self._last_row is None else self._last_row.copy()
 
+    def add_listener(self, listener: Callable[[np.ndarray, np.ndarray], None]) -> None:
+        """Calls ``listener(times, positions)`` at each flush with the rows it writes:
+        ``times`` [s] (m,), ``positions`` [rad or m] (m, n) in ``joint_names`` order.
+        Every row reaches the listeners once, in time order, CSV file or not."""
+        self._listeners.append(listener)
+
     def flush(self, context: Context) -> None:
         """Writes the rows recorded since the last flush and clears them from the log.
 
@@ -211,6 +227,11 @@ class JointStateLogger(VectorLogSink):
             )
             if self._file is not None:
                 self._file.write(text.encode())
+            if self._listeners:
+                times_array = log.sample_times()[first:]
+                positions = log.data()[self._positions][:, first:].T
+                for listener in self._listeners:
+                    listener(times_array, positions)
             self._rows_written += len(times) - first
             self._last_time = times[-1]
             self._last_row = np.array([times[-1], *block[-1]])
@@ -241,6 +262,54 @@ class JointStateLogger(VectorLogSink):
         stream = sys.stdout if self._stream is None else self._stream
         stream.write("\n".join(lines) + "\n")
         stream.flush()
+
+
+def read_csv(path: str | Path) -> tuple[list[str], np.ndarray]:
+    """(header, rows as floats, one array row per line) of a CSV file the project
+    writes; a last line cut short by a kill is skipped."""
+    with open(path, newline="", encoding="utf-8") as file:
+        lines = list(csv.reader(file))
+    if not lines:
+        return [], np.zeros((0, 0))
+    header = lines[0]
+    data = [[float(v) for v in line] for line in lines[1:] if len(line) == len(header)]
+    return header, np.array(data) if data else np.zeros((0, len(header)))
+
+
+@dataclass
+class JointStates:
+    """A joint_states.csv by quantity: one row per sample, one column per joint."""
+
+    joint_names: list[str]
+    times: np.ndarray  # [s] (m,)
+    position: np.ndarray  # [rad or m] (m, n)
+    velocity: np.ndarray  # [rad/s or m/s] (m, n)
+    effort: np.ndarray  # [N m or N] (m, n), nan where not logged
+
+
+def read_joint_states(path: str | Path, joint_names: Sequence[str] | None = None) -> JointStates:
+    """The joint states of a joint_states.csv (see the module's docstring for the
+    layout), for ``joint_names`` (default: every joint of the file, in its order).
+    A joint the file does not hold is a ValueError naming it and the file."""
+    header, rows = read_csv(path)
+    in_file = [name[: -len("_position")] for name in header if name.endswith("_position")]
+    names = in_file if joint_names is None else list(joint_names)
+    missing = [name for name in names if name not in in_file]
+    if missing:
+        raise ValueError(f"{path}: no columns for joints {missing} (joints: {in_file})")
+
+    def columns(quantity: str) -> np.ndarray:
+        return rows[:, [header.index(f"{name}_{quantity}") for name in names]].reshape(
+            len(rows), len(names)
+        )
+
+    return JointStates(
+        joint_names=names,
+        times=rows[:, 0] if len(rows) else np.zeros(0),
+        position=columns("position"),
+        velocity=columns("velocity"),
+        effort=columns("effort"),
+    )
 
 
 class CommandsCsv:

@@ -32,27 +32,17 @@ run folder.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import sys
 from pathlib import Path
 
 import numpy as np
 
+from armando_drake.outputs.logger import read_csv, read_joint_states
+
 FIGURE_SIZE = (10.0, 7.0)  # [inch]
 DPI = 100  # [pixel/inch]
 PLOTS = ("positions.png", "tracking_error.png", "efforts.png")
-
-
-def _read_csv(path: Path) -> tuple[list[str], np.ndarray]:
-    """(header, rows as floats) of a CSV file; rows cut short by a kill are skipped."""
-    with open(path, newline="", encoding="utf-8") as file:
-        rows = list(csv.reader(file))
-    if not rows:
-        return [], np.zeros((0, 0))
-    header = rows[0]
-    data = [[float(v) for v in row] for row in rows[1:] if len(row) == len(header)]
-    return header, np.array(data) if data else np.zeros((0, len(header)))
 
 
 def commanded_at(
@@ -84,19 +74,17 @@ def write_plots(output_dir: str | Path) -> list[Path]:
     from matplotlib.figure import Figure
 
     folder = Path(output_dir)
-    header, states = _read_csv(folder / "joint_states.csv")
-    joints = [name[: -len("_position")] for name in header if name.endswith("_position")]
+    states = read_joint_states(folder / "joint_states.csv")
+    joints = states.joint_names
     if not joints:
         return []
-    times = states[:, 0]
-    position = states[:, [header.index(f"{j}_position") for j in joints]]
-    effort = states[:, [header.index(f"{j}_effort") for j in joints]]
+    times, position, effort = states.times, states.position, states.effort
 
     command_times = np.zeros(0)
     commands = np.zeros((0, len(joints)))
     command_joints: list[str] = []
     if (folder / "commands.csv").is_file():
-        command_header, command_rows = _read_csv(folder / "commands.csv")
+        command_header, command_rows = read_csv(folder / "commands.csv")
         command_joints = [name for name in command_header[1:] if name in joints]
         if command_joints and len(command_rows):
             order = np.argsort(command_rows[:, 0], kind="stable")
@@ -174,7 +162,7 @@ def write_plots(output_dir: str | Path) -> list[Path]:
 def _task_space_plots(folder: Path, title: str, times, effort, joints, save) -> None:
     from matplotlib.figure import Figure
 
-    header, rows = _read_csv(folder / "task_space.csv")
+    header, rows = read_csv(folder / "task_space.csv")
     if not len(rows):
         return
     column = {name: rows[:, header.index(name)] for name in header}

@@ -1,11 +1,12 @@
 """Task-space tracking of a run: the end effector's logged pose against the desired one.
 
-After a run with a ``task:`` section, :func:`task_space_errors` takes the logged joint
-positions (``joint_states.csv``, one row per controller tick), computes the end
-effector's pose at each row by forward kinematics on the world's plant (its own
-context, :class:`~armando_drake.task.arm.ArmModel`) and compares it with the
-desired pose of the task's Cartesian trajectory at the same time (held at the
-goal after the end). :func:`write_task_space_csv` keeps the result as
+In a run with a ``task:`` section, :class:`TaskSpaceTracker` listens to the joint-state
+logger (the rows of ``joint_states.csv``, one per controller tick, in memory at each
+flush, so once a simulated second and never per step), computes the end effector's
+pose at each row by forward kinematics on the world's plant (its own context,
+:class:`~armando_drake.task.arm.ArmModel`) and compares it with the desired pose of
+the task's Cartesian trajectory at the same time (held at the goal after the end):
+:func:`task_space_errors`. :func:`write_task_space_csv` keeps the result as
 ``task_space.csv`` (time, desired and actual position, both error norms), which
 :mod:`armando_drake.outputs.plots` draws as ``task_error.png`` and
 ``task_path.png``.
@@ -51,6 +52,31 @@ class TaskSpaceErrors:
             "rms_position_error": float(np.sqrt(np.mean(self.position_error**2))),
             "max_orientation_error": float(self.orientation_error.max()),
         }
+
+
+class TaskSpaceTracker:
+    """Collects :func:`task_space_errors` of the rows a joint-state logger flushes."""
+
+    def __init__(self, task, joint_names):
+        self._task = task
+        self._joint_names = list(joint_names)
+        self._parts: list[TaskSpaceErrors] = []
+
+    def add(self, times: np.ndarray, positions: np.ndarray) -> None:
+        """A logger listener: rows of ``times`` [s] and ``positions`` [rad]."""
+        if len(times):
+            self._parts.append(task_space_errors(self._task, times, positions, self._joint_names))
+
+    def errors(self) -> TaskSpaceErrors:
+        """Every row so far."""
+        if not self._parts:
+            empty = np.zeros(0)
+            return TaskSpaceErrors(empty, np.zeros((0, 3)), np.zeros((0, 3)), empty, empty)
+        return TaskSpaceErrors(
+            *(np.concatenate([getattr(part, name) for part in self._parts])
+              for name in ("times", "desired", "actual", "position_error",
+                           "orientation_error"))
+        )  # fmt: skip
 
 
 def task_space_errors(task, times: np.ndarray, positions: np.ndarray, joint_names) -> TaskSpaceErrors:

@@ -1,13 +1,17 @@
 """Scenario objects: simple static shapes for the camera (and the arm) to see.
 
-A scenario lists them in YAML, loaded with Drake's ``yaml_load_typed``::
+A scenario lists them in YAML, loaded with Drake's ``yaml_load_typed``; the
+shape is a tagged union, each variant with only its own dimensions::
 
     objects:
     - name: blue_disc
-      shape: cylinder
-      size: [0.15, 0.05]          # radius, length [m]
+      shape: !Cylinder {radius: 0.15, length: 0.05}   # [m]
       xyz: [0.3, 0.0, 0.025]
       color: [0.0, 0.0, 1.0, 1.0]
+    - name: cube
+      shape: !Box {size: [0.05, 0.05, 0.05]}          # [m] x y z
+    - name: ball
+      shape: !Sphere {radius: 0.03}                    # [m]
 
 Each object is welded to the world with visual geometry (illustration and
 perception roles, so Meshcat and the cameras both see it) and, unless turned
@@ -21,16 +25,9 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from pydrake.geometry import Box, Cylinder, Shape, Sphere
+from pydrake import geometry
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
-
-# The number of size values each shape takes, and what they are.
-SHAPE_SIZES = {
-    "box": ("x", "y", "z"),
-    "cylinder": ("radius", "length"),
-    "sphere": ("radius",),
-}
 
 
 class SceneObjectError(ValueError):
@@ -38,13 +35,39 @@ class SceneObjectError(ValueError):
 
 
 @dataclass
+class Box:
+    """A box centred on the object frame."""
+
+    # [m] edge lengths along the object frame's x, y and z.
+    size: list[float] = field(default_factory=lambda: [0.05, 0.05, 0.05])
+
+
+@dataclass
+class Cylinder:
+    """A cylinder centred on the object frame, its axis the frame's z axis."""
+
+    radius: float = 0.05  # [m]
+    length: float = 0.05  # [m] along z
+
+
+@dataclass
+class Sphere:
+    """A sphere centred on the object frame."""
+
+    radius: float = 0.05  # [m]
+
+
+# The shape of a scene object; a YAML tag chooses (!Box, !Cylinder, !Sphere).
+ObjectShape = Box | Cylinder | Sphere
+
+
+@dataclass
 class SceneObject:
     """A static object of the scenario, welded to the world."""
 
     name: str = ""  # unique name (geometry names derive from it)
-    shape: str = "box"  # box | cylinder | sphere
-    # [m] box: x y z edge lengths; cylinder: radius length (axis = z); sphere: radius
-    size: list[float] = field(default_factory=lambda: [0.05, 0.05, 0.05])
+    # !Box {size: [x, y, z]} | !Cylinder {radius, length} | !Sphere {radius}, in metres.
+    shape: ObjectShape = field(default_factory=Box)
     xyz: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # [m] centre in world
     rpy: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # [rad] roll pitch yaw
     color: list[float] = field(default_factory=lambda: [0.8, 0.2, 0.2, 1.0])  # RGBA in [0, 1]
@@ -55,13 +78,14 @@ class SceneObject:
         """Pose of the object frame O in the world."""
         return RigidTransform(RollPitchYaw(self.rpy), self.xyz)
 
-    def make_shape(self) -> Shape:
+    def make_shape(self) -> geometry.Shape:
         """The Drake shape (after :func:`validate_object`)."""
-        if self.shape == "box":
-            return Box(*self.size)
-        if self.shape == "cylinder":
-            return Cylinder(self.size[0], self.size[1])
-        return Sphere(self.size[0])
+        shape = self.shape
+        if isinstance(shape, Box):
+            return geometry.Box(*shape.size)
+        if isinstance(shape, Cylinder):
+            return geometry.Cylinder(shape.radius, shape.length)
+        return geometry.Sphere(shape.radius)
 
 
 def _numbers(obj: SceneObject, label: str, values, count: int) -> list[float]:
@@ -74,21 +98,30 @@ def _numbers(obj: SceneObject, label: str, values, count: int) -> list[float]:
     return numbers
 
 
+def _dimensions(obj: SceneObject) -> dict[str, float]:
+    """The shape's dimensions [m] by name; raises for a shape of the wrong type."""
+    shape = obj.shape
+    if isinstance(shape, Box):
+        x, y, z = _numbers(obj, "Box size", shape.size, 3)
+        return {"x": x, "y": y, "z": z}
+    if isinstance(shape, Cylinder):
+        return {"radius": shape.radius, "length": shape.length}
+    if isinstance(shape, Sphere):
+        return {"radius": shape.radius}
+    raise SceneObjectError(
+        f"object {obj.name!r}: shape={shape!r} is not one of !Box, !Cylinder, !Sphere"
+    )
+
+
 def validate_object(obj: SceneObject) -> None:
     """Raises :class:`SceneObjectError` naming the object and the bad value."""
     if not obj.name:
         raise SceneObjectError(f"scene object {obj!r} has no name")
-    if obj.shape not in SHAPE_SIZES:
-        raise SceneObjectError(
-            f"object {obj.name!r}: shape={obj.shape!r} is not one of {', '.join(SHAPE_SIZES)}"
-        )
-    meaning = SHAPE_SIZES[obj.shape]
-    size = _numbers(obj, "size", obj.size, len(meaning))
-    for label, value in zip(meaning, size, strict=True):
-        if not value > 0:
+    kind = type(obj.shape).__name__
+    for label, value in _dimensions(obj).items():
+        if not (math.isfinite(value) and value > 0):
             raise SceneObjectError(
-                f"object {obj.name!r}: {obj.shape} {label}={value!r} must be positive "
-                f"(size={obj.size!r} is {' '.join(meaning)} in metres)"
+                f"object {obj.name!r}: {kind} {label}={value!r} must be positive [m]"
             )
     _numbers(obj, "xyz", obj.xyz, 3)
     _numbers(obj, "rpy", obj.rpy, 3)

@@ -65,7 +65,7 @@ from armando_drake.control.manager import (
 from armando_drake.control.messages import Float64MultiArray, JointTrajectory, Publication
 from armando_drake.description.importer import default_controller_config
 from armando_drake.description.loader import LoadedRobot, load_robot, package_of
-from armando_drake.sensors.objects import AddSceneObjects
+from armando_drake.sensors.objects import AddSceneObjects, SceneObjectError
 from armando_drake.simulation.scenario import Scenario, ScenarioError
 
 _log = logging.getLogger("armando_drake.world")
@@ -134,9 +134,12 @@ class World:
 
     def close(self, context: Context | None = None) -> None:
         """Ends the run: with the root ``context``, first writes the joint states the
-        logger has recorded since its last flush; then closes every file and server."""
+        logger has recorded since its last flush (and the sequencer's commands since
+        its last batch); then closes every file and server."""
         if context is not None and self.logger is not None and self.closers:
             self.logger.flush(self.logger.GetMyContextFromRoot(context))
+        if context is not None and self.sequencer is not None and self.closers:
+            self.sequencer.flush(context)
         for closer in self.closers:
             closer()
         self.closers.clear()
@@ -229,7 +232,10 @@ def MakeWorld(
     )
     if scenario.ground:
         _add_ground(plant)
-    AddSceneObjects(plant, scenario.objects)
+    try:
+        AddSceneObjects(plant, scenario.objects)
+    except SceneObjectError as error:
+        raise ScenarioError(f"{where}objects: {error}") from None
 
     # The hardware interface: PD actuators from <ros2_control>.
     actuators = scenario.actuators
@@ -578,13 +584,16 @@ def joint_trajectory_message(plan, joint_names) -> JointTrajectory:
 
 
 def _add_sequencer(builder, world: World, scenario: Scenario, where: str, commands_csv) -> None:
+    """The command sequencer of the scenario, on the first active controller of the
+    kind its configuration feeds (a position or a trajectory controller)."""
     config = scenario.sequencer
     if config is None:
         return
-    from armando_drake.control.sequencer import CommandSequencer, validate
+    from armando_drake.control.sequencer import CONTROLLER_KIND, MakeSequencer, validate
     from armando_drake.outputs.logger import CommandsCsv
 
-    message = JointTrajectory if config.mode == "trajectory" else Float64MultiArray
+    kind = CONTROLLER_KIND[type(config)]
+    message = JointTrajectory if kind == "trajectory" else Float64MultiArray
     targets = [
         (name, system)
         for name, system in world.controllers.items()
@@ -592,9 +601,8 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str, comman
         and world.controller_config.controllers[name].interface_name == "position"
     ]
     if not targets:
-        kind = "trajectory" if config.mode == "trajectory" else "position"
         raise ScenarioError(
-            f"{where}sequencer.mode={config.mode!r} needs an active {kind} controller; "
+            f"{where}sequencer !{type(config).__name__} needs an active {kind} controller; "
             f"active: {', '.join(world.controllers) or 'none'}"
         )
     name, controller = targets[0]
@@ -612,15 +620,16 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str, comman
         on_publish = CommandsCsv(commands_csv, joints)
         world.closers.append(on_publish.close)
     sequencer = builder.AddSystem(
-        CommandSequencer(
+        MakeSequencer(
             config=config,
             joint_names=joints,
             controller_rate=world.update_rate,
+            initial_positions=[world.hardware.joints[i].initial_position for i in rows],
             on_publish=on_publish,
         )
     )
     sequencer.set_name("command_sequencer")
-    port = "joint_trajectory" if config.mode == "trajectory" else "commands"
+    port = "joint_trajectory" if kind == "trajectory" else "commands"
     builder.Connect(sequencer.GetOutputPort(port), controller.GetInputPort(f"{name}.{port}"))
     builder.ExportOutput(sequencer.GetOutputPort("reference"), "reference")
     world.sequencer = sequencer

@@ -1,17 +1,19 @@
 """Running a scenario: the arm controller node of the bring-up, start to finish.
 
 :func:`run` builds the world of a scenario with :func:`~armando_drake.simulation.builder.MakeWorld`,
-simulates it (paced to real time or as fast as possible, with a progress line
-when not paced), survives Ctrl-C, and reports per command step the target,
-the reached position, the largest joint error and the time to settle within
-0.01 rad. With an output folder it writes ``joint_states.csv`` (the logger),
+simulates it with Drake's ``Simulator`` set up by ``ApplySimulatorConfig``
+(paced to real time or as fast as possible, with a progress line when not
+paced), survives Ctrl-C, and reports per command step the target, the reached
+position, the final error, the largest error after settling and the settling
+time (within :data:`SETTLE_TOLERANCE`). The table is computed in memory from
+the rows the joint-state logger records, with or without an output folder.
+With an output folder it writes ``joint_states.csv`` (the logger),
 ``commands.csv`` (every command published) and ``summary.json``.
 """
 
 from __future__ import annotations
 
 import contextlib
-import csv
 import json
 import math
 import signal
@@ -23,9 +25,11 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from armando_drake.control.sequencer import Sinusoid, mode_of, one_pass, wave_of
 from armando_drake.simulation.scenario import Scenario
 
 SETTLE_TOLERANCE = 0.01  # [rad] "reached" band of the step table
+TRACKING_SKIP = 1.0  # [s] the sinusoid's tracking error counts from start_delay + this
 
 
 @dataclass
@@ -36,8 +40,12 @@ class StepResult:
     end: float  # [s] when the next step began (or the run ended)
     target: list[float]  # [rad] per joint
     reached: list[float]  # [rad] measured at the end of the step
-    max_abs_error: float  # [rad] largest |reached - target| over the joints
-    settle_time: float | None  # [s] from start until within 0.01 rad for good, None if never
+    final_error: float  # [rad] largest |reached - target| over the joints, at the step's end
+    # [rad] largest |q - target| over the joints and the samples after settling;
+    # None if it never settled.
+    largest_error_after_settling: float | None
+    # [s] from start until within SETTLE_TOLERANCE for good; None if never.
+    settling_time: float | None
 
 
 @dataclass
@@ -45,23 +53,25 @@ class RunResult:
     """What a run did."""
 
     scenario: str
-    controller: str
+    controller: str  # position | trajectory | sinusoid | none (controller_mode)
     sim_time: float  # [s]
     wall_time: float  # [s]
     realtime_factor: float
     interrupted: bool
     joint_names: list[str]
     steps: list[StepResult] = field(default_factory=list)
-    tracking_error: float | None = None  # [rad] sinusoid: max |q - reference| after 1 s
+    tracking_error: float | None = None  # [rad] sinusoid: max |q - wave| after 1 s
     # task: max_position_error, rms_position_error [m], max_orientation_error [rad]
     task_space: dict[str, Any] | None = None
     output_dir: str | None = None
+    driven: str = ""  # the controller the sequencer drove, by its name in the YAML
 
     def summary(self) -> dict[str, Any]:
         """The ``summary.json`` contract."""
         return {
             "scenario": self.scenario,
             "controller": self.controller,
+            "driven_controller": self.driven,
             "sim_time": self.sim_time,
             "wall_time": self.wall_time,
             "realtime_factor": self.realtime_factor,
@@ -73,100 +83,200 @@ class RunResult:
                 {
                     "target": step.target,
                     "reached": step.reached,
-                    "max_abs_error": step.max_abs_error,
-                    "settle_time": step.settle_time,
+                    "final_error": step.final_error,
+                    "largest_error_after_settling": step.largest_error_after_settling,
+                    "settling_time": step.settling_time,
                     "start": step.start,
                 }
                 for step in self.steps
             ],
         }
 
+    def headline(self) -> str:
+        """One line naming what ran and how fast, e.g. ``position.yaml with the
+        trajectory controller: 15.00 s simulated in 2.10 s (7.14x real time)``."""
+        name = Path(self.scenario).name if self.scenario else "the scenario"
+        if self.controller == "task":
+            what = f"{name} with a task-space motion"
+        elif self.controller == "none":
+            what = f"{name} with no controller driving the arm"
+        elif self.controller == "sinusoid":
+            what = f"{name} with a sinusoid on the position controller"
+        else:
+            what = f"{name} with the {self.controller} controller"
+        if self.driven:
+            what += f" ({self.driven})"
+        return (
+            f"{what}: {self.sim_time:.2f} s simulated in {self.wall_time:.2f} s "
+            f"({self.realtime_factor:.2f}x real time)"
+            + (" [interrupted]" if self.interrupted else "")
+        )
+
 
 def controller_mode(scenario: Scenario) -> str:
-    """position | trajectory | sinusoid | none: what drives the arm."""
+    """position | trajectory | sinusoid | task | none: what drives the arm."""
     if scenario.sequencer is None:
-        return "none"
-    return scenario.sequencer.mode
+        return "none" if scenario.task is None else "task"
+    return mode_of(scenario.sequencer)
 
 
 def default_duration(scenario: Scenario) -> float:
-    """[s] one pass of the command sequence (2 s without one)."""
-    config = scenario.sequencer
-    if config is None:
-        return 2.0
-    if config.mode == "sinusoid":
-        return config.start_delay + 1.0 / config.frequency
-    return config.start_delay + len(config.targets) * config.period
+    """[s] one pass of the command sequence; the task's motion and 0.5 s of holding
+    without one; 2 s without either."""
+    if scenario.sequencer is None:
+        return 2.0 if scenario.task is None else scenario.task.duration + 0.5
+    return one_pass(scenario.sequencer)
 
 
-def read_joint_states(path: Path, joint_names: list[str]) -> tuple[np.ndarray, np.ndarray]:
-    """(times [s], positions [rad] per joint) from a joint_states.csv."""
-    with open(path, newline="", encoding="utf-8") as file:
-        rows = list(csv.reader(file))
-    if len(rows) < 2:
-        return np.zeros(0), np.zeros((0, len(joint_names)))
-    header = rows[0]
-    columns = [header.index(f"{name}_position") for name in joint_names]
-    data = []
-    for row in rows[1:]:
-        if len(row) == len(header):  # a row cut by a kill is skipped
-            data.append([float(row[0])] + [float(row[c]) for c in columns])
-    array = np.array(data) if data else np.zeros((0, len(joint_names) + 1))
-    return array[:, 0], array[:, 1:]
+@dataclass
+class _Step:
+    """What :class:`StepTable` keeps of one step while the rows stream in."""
+
+    start: float  # [s]
+    target: np.ndarray  # [rad]
+    reached: np.ndarray | None = None  # [rad] the latest sample
+    final_error: float = math.nan  # [rad] the latest sample's error
+    exceeded: bool = False  # a sample was outside the band
+    pending: bool = False  # the latest sample was outside the band
+    settled_at: float | None = None  # [s] the first sample after the latest one outside
+    largest_after: float = -math.inf  # [rad] largest error since the latest one outside
 
 
-def step_table(
-    times: np.ndarray,
-    positions: np.ndarray,
-    steps: list[tuple[float, list[float]]],
-    end_time: float,
-) -> list[StepResult]:
-    """Per step: the position reached just before the next step, its error, settle time."""
-    results = []
-    for k, (start, target) in enumerate(steps):
-        end = steps[k + 1][0] if k + 1 < len(steps) else end_time
-        last = k + 1 == len(steps)
-        inside = (times >= start - 1e-9) & ((times <= end + 1e-9) if last else (times < end - 1e-9))
-        if not inside.any():
-            continue
-        window_t = times[inside]
-        window_q = positions[inside]
-        reached = window_q[-1]
-        error = np.abs(window_q - np.asarray(target)).max(axis=1)
-        outside = np.nonzero(error > SETTLE_TOLERANCE)[0]
-        if error[-1] > SETTLE_TOLERANCE:
-            settle = None
-        elif len(outside) == 0:
-            settle = 0.0
+class StepTable:
+    """The step table of a target sequence, computed from rows as they stream in.
+
+    Step k starts at ``start_delay + k period`` with target ``targets[k mod n]``
+    (after the last target, the steps go on only if ``cyclic``; the last step
+    lasts to the end of the run). A row belongs to the step in force at its
+    time. Feed it the logger's rows in time order with :meth:`add` (it is a
+    :meth:`~armando_drake.outputs.logger.JointStateLogger.add_listener`
+    listener); memory stays one small record per step, however long the run.
+    """
+
+    def __init__(
+        self,
+        *,
+        targets,
+        period: float,
+        cyclic: bool,
+        start_delay: float = 0.0,
+        columns=None,
+        tolerance: float = SETTLE_TOLERANCE,
+    ):
+        self._targets = np.asarray(targets, dtype=float)
+        self._period = float(period)
+        self._cyclic = cyclic
+        self._start_delay = float(start_delay)
+        self._columns = None if columns is None else np.asarray(columns, dtype=int)
+        self._tolerance = tolerance
+        self._steps: dict[int, _Step] = {}
+
+    def _index(self, times: np.ndarray) -> np.ndarray:
+        k = np.floor((times - self._start_delay) / self._period + 1e-9).astype(int)
+        if not self._cyclic:
+            k = np.minimum(k, len(self._targets) - 1)
+        return k
+
+    def add(self, times: np.ndarray, positions: np.ndarray) -> None:
+        """Takes rows: ``times`` [s] (m,), ``positions`` [rad] (m, columns); with
+        ``columns``, those columns of ``positions`` are the sequence's joints."""
+        times = np.asarray(times, dtype=float)
+        q = np.asarray(positions, dtype=float)
+        if self._columns is not None:
+            q = q[:, self._columns]
+        keep = times >= self._start_delay - 1e-9
+        times, q, index = times[keep], q[keep], self._index(times[keep])
+        for k in np.unique(index).tolist():
+            rows = index == k
+            step = self._steps.get(k)
+            if step is None:
+                start = self._start_delay + k * self._period
+                step = self._steps[k] = _Step(start, self._targets[k % len(self._targets)])
+            self._update(step, times[rows], q[rows])
+
+    def _update(self, step: _Step, t: np.ndarray, q: np.ndarray) -> None:
+        error = np.abs(q - step.target).max(axis=1)
+        outside = np.nonzero(error > self._tolerance)[0]
+        if len(outside):
+            step.exceeded = True
+            last = outside[-1]
+            step.pending = last + 1 == len(t)
+            step.settled_at = None if step.pending else float(t[last + 1])
+            step.largest_after = -math.inf if step.pending else float(error[last + 1 :].max())
         else:
-            settle = float(window_t[outside[-1] + 1] - start)
-        results.append(
-            StepResult(
-                start=float(start),
-                end=float(end),
-                target=[float(v) for v in target],
-                reached=[float(v) for v in reached],
-                max_abs_error=float(error[-1]),
-                settle_time=settle,
+            if step.pending:
+                step.settled_at = float(t[0])
+                step.pending = False
+            step.largest_after = max(step.largest_after, float(error.max()))
+        step.reached = q[-1]
+        step.final_error = float(error[-1])
+
+    def results(self, end_time: float) -> list[StepResult]:
+        """One :class:`StepResult` per step that has rows, the last ending at ``end_time``."""
+        keys = sorted(self._steps)
+        results = []
+        for position, k in enumerate(keys):
+            step = self._steps[k]
+            settled = step.final_error <= self._tolerance
+            if not settled:
+                settling = None
+            elif not step.exceeded:
+                settling = 0.0
+            else:
+                settling = step.settled_at - step.start
+            following = keys[position + 1] if position + 1 < len(keys) else None
+            end = end_time if following is None else self._steps[following].start
+            results.append(
+                StepResult(
+                    start=step.start,
+                    end=float(end),
+                    target=step.target.tolist(),
+                    reached=step.reached.tolist(),
+                    final_error=step.final_error,
+                    largest_error_after_settling=step.largest_after if settled else None,
+                    settling_time=settling,
+                )
             )
-        )
-    return results
+        return results
+
+
+class TrackingError:
+    """The largest |q - wave(t)| over the joints of the rows at or after ``after`` [s]."""
+
+    def __init__(self, wave, *, after: float, columns=None):
+        self._wave = wave
+        self._after = after
+        self._columns = None if columns is None else np.asarray(columns, dtype=int)
+        self.largest: float | None = None  # [rad], None before a row counts
+
+    def add(self, times: np.ndarray, positions: np.ndarray) -> None:
+        keep = np.asarray(times) >= self._after - 1e-9
+        if not keep.any():
+            return
+        q = np.asarray(positions)[keep]
+        if self._columns is not None:
+            q = q[:, self._columns]
+        error = float(np.abs(q - self._wave(np.asarray(times)[keep])).max())
+        self.largest = error if self.largest is None else max(self.largest, error)
 
 
 def format_table(joint_names: list[str], steps: list[StepResult]) -> str:
-    """The end-of-run table, one line per step."""
+    """The end-of-run table, one line per step: final error, largest error after
+    settling and settling time as in summary.json."""
     width = 7 * len(joint_names)
     lines = [
         f"{'step':>4}  {'t [s]':>6}  {'target [rad]':<{width}}  {'reached [rad]':<{width}}"
-        f"  {'max err':>8}  {'settle [s]':>10}"
+        f"  {'final error':>11}  {'after settling':>14}  {'settling [s]':>12}"
     ]
     for k, step in enumerate(steps):
         target = " ".join(f"{v:6.3f}" for v in step.target)
         reached = " ".join(f"{v:6.3f}" for v in step.reached)
-        settle = "-" if step.settle_time is None else f"{step.settle_time:.3f}"
+        settle = "-" if step.settling_time is None else f"{step.settling_time:.3f}"
+        after = step.largest_error_after_settling
+        after_text = "-" if after is None else f"{after:.4f}"
         lines.append(
             f"{k:>4}  {step.start:6.2f}  {target:<{width}}  {reached:<{width}}"
-            f"  {step.max_abs_error:8.4f}  {settle:>10}"
+            f"  {step.final_error:11.4f}  {after_text:>14}  {settle:>12}"
         )
     return "\n".join(lines)
 
@@ -228,28 +338,25 @@ def run(
     stream: TextIO = sys.stdout,
     replay: bool = True,
     record: str | Path | None = None,
+    plots: bool = True,
 ) -> RunResult:
     """Builds and simulates ``scenario``; returns (and, with ``output_dir``, writes) results.
 
-    With ``output_dir`` it also writes the plots (:mod:`armando_drake.outputs.plots`)
-    and, with ``replay``, ``replay.html`` (:mod:`armando_drake.outputs.replay`;
-    without ``meshcat`` a private Meshcat records it). ``record``: an
+    With ``output_dir`` it also writes, with ``plots``, the plots
+    (:mod:`armando_drake.outputs.plots`) and, with ``replay``, ``replay.html``
+    (:mod:`armando_drake.outputs.replay`; without ``meshcat`` a private Meshcat
+    records it). ``record``: an
     ``.mcap`` file for the ROS 2 recording (:mod:`armando_drake.outputs.recording`).
     """
-    import tempfile
-
-    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
     from armando_drake.simulation.builder import MakeWorld
 
     duration = scenario.simulation.duration
     if duration <= 0:
         duration = default_duration(scenario)
-    temporary = None
-    if output_dir is None:
-        temporary = tempfile.TemporaryDirectory(prefix="armando_drake_")
-        log_dir = Path(temporary.name)
-    else:
+    log_dir = None
+    if output_dir is not None:
         log_dir = Path(output_dir)
         log_dir.mkdir(parents=True, exist_ok=True)
     replay_meshcat = None
@@ -268,10 +375,13 @@ def run(
     )
     if replay_meshcat is not None:
         start_replay(replay_meshcat, live=replay_meshcat is meshcat)
+    # The step table (or the sinusoid's tracking error) from the logger's rows.
+    table = _table_of(world)
+    tracker = _task_tracker_of(world)
     joint_names = world.hardware.joint_names
     simulator = Simulator(world.diagram)
-    realtime_rate = scenario.simulation.realtime_rate
-    simulator.set_target_realtime_rate(realtime_rate)
+    ApplySimulatorConfig(scenario.simulator_config, simulator)
+    realtime_rate = scenario.simulator_config.target_realtime_rate
     progress = None if (realtime_rate > 0 or quiet) else _Progress(duration)
     if meshcat is not None:
         print(f"Meshcat: {meshcat.web_url()}", file=stream, flush=True)
@@ -300,7 +410,7 @@ def run(
     if progress:
         progress.finish()
     sim_time = simulator.get_context().get_time()
-    world.close(simulator.get_context())
+    world.close(simulator.get_context())  # the logger's last rows reach the table too
 
     result = RunResult(
         scenario=scenario_name,
@@ -311,42 +421,31 @@ def run(
         interrupted=interrupted,
         joint_names=joint_names,
         output_dir=None if output_dir is None else str(output_dir),
+        driven=world.sequencer_target or (world.task.controller if world.task else ""),
     )
-    csv_path = log_dir / "joint_states.csv"
-    if world.sequencer is not None and csv_path.is_file():
-        sequencer_joints = world.controller_joints[world.sequencer_target]
-        times, positions = read_joint_states(csv_path, sequencer_joints)
-        config = world.sequencer.config
-        if config.mode == "sinusoid":
-            result.tracking_error = _sinusoid_error(world.sequencer, times, positions)
-        else:
-            steps = [(t, list(config.targets[k])) for t, k in world.sequencer.step_times(sim_time)]
-            result.steps = step_table(times, positions, steps, sim_time)
-    if world.task is not None and csv_path.is_file():
-        from armando_drake.outputs.task_space import (
-            TASK_SPACE_CSV,
-            task_space_errors,
-            write_task_space_csv,
-        )
-
-        times, positions = read_joint_states(csv_path, world.task.arm.joint_names)
-        errors = task_space_errors(world.task, times, positions, world.task.arm.joint_names)
+    if isinstance(table, StepTable):
+        result.steps = table.results(sim_time)
+    elif isinstance(table, TrackingError):
+        result.tracking_error = table.largest
+    if tracker is not None:
+        errors = tracker.errors()
         result.task_space = errors.summary()
-        if output_dir is not None:
+        if log_dir is not None:
+            from armando_drake.outputs.task_space import TASK_SPACE_CSV, write_task_space_csv
+
             write_task_space_csv(errors, log_dir / TASK_SPACE_CSV)
-        if world.meshcat is not None and len(times):
+        if world.meshcat is not None and len(errors.times):
             from pydrake.geometry import Rgba
 
             world.meshcat.SetLine(
                 "task/end_effector_trace", errors.actual.T, 2.0, Rgba(1.0, 0.3, 0.1, 1.0)
             )
-    if temporary is not None:
-        temporary.cleanup()
-    if output_dir is not None:
+    if log_dir is not None:
         (log_dir / "summary.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
-        from armando_drake.outputs.plots import write_plots
+        if plots:
+            from armando_drake.outputs.plots import write_plots
 
-        write_plots(log_dir)
+            write_plots(log_dir)
     if replay_meshcat is not None:
         from armando_drake.outputs.replay import REPLAY_FILE, write_replay
 
@@ -354,17 +453,41 @@ def run(
     return result
 
 
-def _sinusoid_error(sequencer, times: np.ndarray, positions: np.ndarray) -> float | None:
-    """[rad] largest |q - reference| after the first second of the sinusoid."""
-    from armando_drake.control.sequencer import sinusoid_of
-
-    config = sequencer.config
-    wave = sinusoid_of(config, sequencer.joint_names)
-    keep = times >= config.start_delay + 1.0
-    if not keep.any():
+def _task_tracker_of(world):
+    """A listener on the world's joint-state logger that follows the end effector of the
+    scenario's task (:class:`~armando_drake.outputs.task_space.TaskSpaceTracker`);
+    None without a task."""
+    if world.task is None or world.logger is None:
         return None
-    t = times[keep][:, None] - config.start_delay
-    reference = np.asarray(wave.offset) + np.asarray(wave.amplitude) * np.sin(
-        2 * np.pi * wave.frequency * t + np.asarray(wave.phase)
-    )
-    return float(np.abs(positions[keep] - reference).max())
+    from armando_drake.outputs.task_space import TaskSpaceTracker
+
+    tracker = TaskSpaceTracker(world.task, list(world.logger.joint_names))
+    world.logger.add_listener(tracker.add)
+    return tracker
+
+
+def _table_of(world) -> StepTable | TrackingError | None:
+    """A listener on the world's joint-state logger that computes the step table (or
+    the sinusoid's tracking error) of its sequencer; None without either."""
+    if world.sequencer is None or world.logger is None:
+        return None
+    logged = list(world.logger.joint_names)
+    joints = world.controller_joints[world.sequencer_target]
+    if not set(joints) <= set(logged):
+        return None
+    columns = [logged.index(name) for name in joints]
+    config = world.sequencer.config
+    if isinstance(config, Sinusoid):
+        table = TrackingError(
+            wave_of(config, joints), after=config.start_delay + TRACKING_SKIP, columns=columns
+        )
+    else:
+        table = StepTable(
+            targets=config.targets,
+            period=config.period,
+            cyclic=config.cyclic,
+            start_delay=config.start_delay,
+            columns=columns,
+        )
+    world.logger.add_listener(table.add)
+    return table

@@ -3,20 +3,32 @@
 A scenario file in ``diagrams/`` says which robot to load, how the plant is
 simulated, which ros2_control controllers run, what drives them and what the
 camera sees. It is read with Drake's ``yaml_load_typed`` (the file first, then
-an optional YAML override string), so an unknown key or a value of the wrong
-type is an error naming the file.
+optional YAML override strings), so an unknown key, an unknown tag or a value
+of the wrong type is an error naming the file.
+
+Two fields are tagged unions, as in manipulation's station scenarios: the
+sequencer (``!PositionTargets``, ``!JointTrajectoryTargets``, ``!Sinusoid``)
+and each object's shape (``!Box``, ``!Cylinder``, ``!Sphere``). An override
+without a tag merges into the variant already there, so
+``sequencer: {period: 5}`` changes a trajectory's period and keeps it a
+trajectory; a tag chooses a variant anew (from its defaults, then the given
+fields).
 """
 
 import dataclasses as dc
 import os
+import re
+import types
+import typing
 from pathlib import Path
 
-from pydrake.common.yaml import yaml_load_typed
+from pydrake.common.yaml import yaml_dump, yaml_load, yaml_load_typed
 from pydrake.multibody.plant import MultibodyPlantConfig
+from pydrake.systems.analysis import SimulatorConfig
 from pydrake.visualization import VisualizationConfig
 
 from armando_drake import DIAGRAMS_DIR
-from armando_drake.control.sequencer import SequencerConfig
+from armando_drake.control.sequencer import JointTrajectoryTargets, PositionTargets, Sinusoid
 from armando_drake.ros2.config import Ros2Config  # ros2: live DDS / Foxglove (#21)
 from armando_drake.sensors.objects import SceneObject
 from armando_drake.task.motion import TaskSpaceMotion
@@ -113,13 +125,11 @@ class LoggingConfig:
 
 @dc.dataclass
 class SimulationConfig:
-    """How long and how fast the simulation runs."""
+    """How long the simulation runs (how fast: ``Scenario.simulator_config``)."""
 
     # Simulated time [s]; 0 or less = one pass of the command sequence (2 s
     # if there is none).
     duration: float = 0.0
-    # Target ratio of simulated to wall-clock time; 0 = as fast as possible.
-    realtime_rate: float = 1.0
 
 
 @dc.dataclass
@@ -148,9 +158,10 @@ class Scenario:
     actuators: ActuatorConfig = dc.field(default_factory=ActuatorConfig)
     # The controller manager.
     controllers: ControllersConfig = dc.field(default_factory=ControllersConfig)
-    # What commands the controllers: a position / trajectory / sinusoid
-    # sequence; absent = nothing (commands come from the diagram's input ports).
-    sequencer: SequencerConfig | None = None
+    # What commands the controllers, by tag: !PositionTargets,
+    # !JointTrajectoryTargets or !Sinusoid (control/sequencer.py); absent or
+    # null = nothing (commands come from the diagram's input ports).
+    sequencer: PositionTargets | JointTrajectoryTargets | Sinusoid | None = None
     # A task-space motion of the end effector (path, time law, start positions):
     # published once at t = 0 to the active controller that takes a Cartesian
     # trajectory (as a CartesianTrajectory) or else a joint trajectory (planned by
@@ -160,8 +171,15 @@ class Scenario:
     camera: CameraSettings = dc.field(default_factory=CameraSettings)
     # Joint-state logging.
     logging: LoggingConfig = dc.field(default_factory=LoggingConfig)
-    # Run length and pacing.
+    # Run length.
     simulation: SimulationConfig = dc.field(default_factory=SimulationConfig)
+    # Drake's simulator settings, applied with ApplySimulatorConfig:
+    # target_realtime_rate is the pacing (simulated over wall-clock time; 1 =
+    # real time, 0 = as fast as possible); the integrator settings matter only
+    # for continuous state, which a world with a discrete plant does not have.
+    simulator_config: SimulatorConfig = dc.field(
+        default_factory=lambda: SimulatorConfig(target_realtime_rate=1.0)
+    )
     # Meshcat visualization (Drake's VisualizationConfig).
     visualization: VisualizationConfig = dc.field(default_factory=VisualizationConfig)
     # The running world on DDS as a ROS 2 robot, and on Foxglove (#21).
@@ -180,14 +198,89 @@ def resolve_scenario_path(name: str | os.PathLike) -> Path:
     raise ScenarioError(f"{name}: scenario file not found (files in diagrams/: {available})")
 
 
+def _union_members(schema) -> tuple[type, ...]:
+    """The dataclass members of a Union (or Optional Union) field type; () otherwise."""
+    if typing.get_origin(schema) not in (typing.Union, types.UnionType):
+        return ()
+    return tuple(t for t in typing.get_args(schema) if dc.is_dataclass(t))
+
+
+def _keep_variants(data, current) -> None:
+    """Tags each untagged mapping of ``data`` (a ``yaml_load`` result) that sets a
+    Union field of ``current`` with the variant ``current`` holds there, so an
+    override without a tag merges into that variant instead of starting over from
+    the Union's first one (Drake's rule for an untagged mapping)."""
+    if not (isinstance(data, dict) and dc.is_dataclass(current)):
+        return
+    hints = typing.get_type_hints(type(current))
+    for name, value in data.items():
+        if name not in hints or not hasattr(current, name):
+            continue
+        old = getattr(current, name)
+        # Only a Union of several dataclasses has variants (Optional[X] takes no tag).
+        variants = len(_union_members(hints[name])) > 1
+        if variants and isinstance(value, dict) and "_tag" not in value:
+            if dc.is_dataclass(old):
+                value["_tag"] = "!" + type(old).__name__
+        _keep_variants(value, old)
+
+
+def _one_line(error: Exception, current) -> str:
+    """Drake's message of a YAML error as one line, with a bad tag's choices spelled
+    as tags."""
+    text = " ".join(str(error).split())
+    match = re.search(
+        r"The yaml type tag value '(\w+)' did not match any of the allowed type "
+        r"options for '(\w+)'",
+        text,
+    )
+    if match:
+        tag, field = match.groups()
+        choices = _tag_choices(type(current), field)
+        text = f"{field}: unknown tag !{tag} (choose {', '.join(choices)})"
+    return text
+
+
+def _tag_choices(schema, field: str, seen=()) -> list[str]:
+    """The tags of the Union field named ``field`` in ``schema`` or a dataclass nested
+    in it (through lists, dicts and Unions); [] when there is none."""
+    if not dc.is_dataclass(schema) or schema in seen:
+        return []
+    for name, hint in typing.get_type_hints(schema).items():
+        members = _union_members(hint)
+        if name == field and members:
+            return [f"!{t.__name__}" for t in members]
+        nested = [hint, *typing.get_args(hint)]
+        for inner in nested:
+            for candidate in (inner, *typing.get_args(inner)):
+                choices = _tag_choices(candidate, field, (*seen, schema))
+                if choices:
+                    return choices
+    return []
+
+
+def _merge(scenario: Scenario, text: str) -> Scenario:
+    """``scenario`` with the YAML ``text`` merged over it (see :func:`_keep_variants`)."""
+    data = yaml_load(data=text)
+    if data is None:
+        return scenario
+    if not isinstance(data, dict):
+        raise ScenarioError(f"expected a YAML mapping, got {data!r}")
+    _keep_variants(data, scenario)
+    return yaml_load_typed(data=yaml_dump(data), defaults=scenario)
+
+
 def merge_overrides(scenario: Scenario, overrides, label: str = "--set") -> Scenario:
-    """``scenario`` with each YAML string of ``overrides`` merged over it in turn."""
+    """``scenario`` with each YAML string of ``overrides`` merged over it in turn.
+
+    An untagged mapping keeps the variant of a Union field (see the module's
+    docstring); a tag chooses one.
+    """
     for override in [overrides] if isinstance(overrides, str) else overrides:
         try:
-            scenario = yaml_load_typed(data=override, defaults=scenario)
+            scenario = _merge(scenario, override)
         except Exception as error:  # yaml_load_typed raises RuntimeError, KeyError, ...
-            text = " ".join(str(error).split())
-            raise ScenarioError(f"{label} {override!r}: {text}") from None
+            raise ScenarioError(f"{label} {override!r}: {_one_line(error, scenario)}") from None
     return scenario
 
 
@@ -209,6 +302,5 @@ def load_scenario(
     except OSError as error:
         raise ScenarioError(f"{filename}: cannot read the scenario: {error.strerror}") from None
     except Exception as error:  # yaml_load_typed raises RuntimeError, KeyError, ...
-        text = " ".join(str(error).split())
-        raise ScenarioError(f"{source}: {text}") from None
+        raise ScenarioError(f"{source}: {_one_line(error, scenario)}") from None
     return scenario

@@ -1,5 +1,6 @@
 """CommandSequencer: what it publishes, when, and which configurations it rejects."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -10,9 +11,14 @@ from pydrake.systems.framework import DiagramBuilder, LeafSystem
 
 from armando_drake.control.messages import Float64MultiArray, JointTrajectory, PublicationValue
 from armando_drake.control.sequencer import (
+    SEED_TARGETS,
     CommandSequencer,
-    SequencerConfig,
+    JointTrajectoryTargets,
+    MakeSequencer,
+    PositionTargets,
     SequencerError,
+    Sinusoid,
+    SinusoidSequencer,
     validate,
 )
 
@@ -27,7 +33,7 @@ def run(config, end_time, *, controller_rate=100.0):
     published = []
     builder = DiagramBuilder()
     sequencer = builder.AddSystem(
-        CommandSequencer(
+        MakeSequencer(
             config=config,
             joint_names=JOINTS,
             controller_rate=controller_rate,
@@ -37,12 +43,13 @@ def run(config, end_time, *, controller_rate=100.0):
     diagram = builder.Build()
     simulator = Simulator(diagram)
     simulator.AdvanceTo(end_time)
+    sequencer.flush(simulator.get_context())  # a sinusoid hands on its samples in batches
     context = sequencer.GetMyContextFromRoot(simulator.get_context())
     return sequencer, context, published
 
 
 def test_position_mode_publishes_each_target_once_per_period():
-    config = SequencerConfig(mode="position", targets=TARGETS, period=3.0, start_delay=1.0)
+    config = PositionTargets(targets=TARGETS, period=3.0, start_delay=1.0)
     sequencer, context, published = run(config, 20.0)
     assert [time for time, _, _ in published] == pytest.approx([1.0, 4.0, 7.0])
     assert {topic for _, topic, _ in published} == {"commands"}
@@ -58,7 +65,7 @@ def test_position_mode_publishes_each_target_once_per_period():
 
 
 def test_position_mode_before_start_delay_publishes_nothing():
-    config = SequencerConfig(mode="position", targets=TARGETS, period=3.0, start_delay=2.0)
+    config = PositionTargets(targets=TARGETS, period=3.0, start_delay=2.0)
     sequencer, context, published = run(config, 1.9)
     assert published == []
     assert sequencer.GetOutputPort("commands").Eval(context).count == 0
@@ -66,7 +73,7 @@ def test_position_mode_before_start_delay_publishes_nothing():
 
 
 def test_cyclic_position_mode_wraps_around():
-    config = SequencerConfig(mode="position", targets=TARGETS, period=3.0, cyclic=True)
+    config = PositionTargets(targets=TARGETS, period=3.0, cyclic=True)
     sequencer, context, published = run(config, 16.0)
     # t = 0, 3, 6, 9, 12, 15 -> targets 0, 1, 2, 0, 1, 2
     assert [time for time, _, _ in published] == pytest.approx([0, 3, 6, 9, 12, 15])
@@ -77,7 +84,7 @@ def test_cyclic_position_mode_wraps_around():
 
 
 def test_trajectory_mode_publishes_one_trajectory():
-    config = SequencerConfig(mode="trajectory", targets=TARGETS, period=5.0, start_delay=0.5)
+    config = JointTrajectoryTargets(targets=TARGETS, period=5.0, start_delay=0.5)
     sequencer, context, published = run(config, 40.0)
     assert len(published) == 1
     time, topic, message = published[0]
@@ -97,14 +104,14 @@ def test_trajectory_mode_publishes_one_trajectory():
 
 
 def test_trajectory_reference_follows_the_segment_being_driven():
-    config = SequencerConfig(mode="trajectory", targets=TARGETS, period=5.0)
+    config = JointTrajectoryTargets(targets=TARGETS, period=5.0)
     sequencer, context, _ = run(config, 6.0)
     # Between 5 s and 10 s the trajectory heads to target 1.
     np.testing.assert_array_equal(sequencer.GetOutputPort("reference").Eval(context), TARGETS[1])
 
 
 def test_cyclic_trajectory_mode_republishes_every_cycle():
-    config = SequencerConfig(mode="trajectory", targets=TARGETS, period=5.0, cyclic=True)
+    config = JointTrajectoryTargets(targets=TARGETS, period=5.0, cyclic=True)
     sequencer, context, published = run(config, 31.0)
     assert [time for time, _, _ in published] == pytest.approx([0.0, 15.0, 30.0])
     assert published[0][2] == published[2][2]
@@ -112,7 +119,7 @@ def test_cyclic_trajectory_mode_republishes_every_cycle():
 
 
 def test_sinusoid_mode_publishes_at_the_controller_rate():
-    config = SequencerConfig(mode="sinusoid", start_delay=1.0)
+    config = Sinusoid(phase=[], start_delay=1.0)
     sequencer, context, published = run(config, 3.0, controller_rate=50.0)
     # 1.00, 1.02, ..., 2.98: the update due at the end time runs in the next step.
     assert len(published) == 100
@@ -130,8 +137,7 @@ def test_sinusoid_mode_publishes_at_the_controller_rate():
 
 
 def test_sinusoid_uses_its_own_rate_amplitude_phase_and_offset():
-    config = SequencerConfig(
-        mode="sinusoid",
+    config = Sinusoid(
         rate=10.0,
         frequency=0.5,
         amplitude=[0.1, 0.2, 0.3, 0.4],
@@ -149,77 +155,93 @@ def test_sinusoid_uses_its_own_rate_amplitude_phase_and_offset():
     )
 
 
-def test_config_loads_from_yaml():
-    config = yaml_load_typed(
-        schema=SequencerConfig,
-        data="mode: trajectory\ntargets: [[0, 0, 0, 0], [1, 0.5, 0, 0]]\nperiod: 5\ncyclic: true\n",
+def test_each_variant_loads_from_yaml_with_its_tag():
+    @dataclasses.dataclass
+    class Holder:
+        sequencer: PositionTargets | JointTrajectoryTargets | Sinusoid | None = None
+
+    def load(text):
+        return yaml_load_typed(schema=Holder, data=text).sequencer
+
+    config = load(
+        "sequencer: !JointTrajectoryTargets\n"
+        "  targets: [[0, 0, 0, 0], [1, 0.5, 0, 0]]\n  period: 5\n  cyclic: true\n"
     )
-    assert config.mode == "trajectory"
+    assert isinstance(config, JointTrajectoryTargets)
     assert config.targets == [[0.0, 0.0, 0.0, 0.0], [1.0, 0.5, 0.0, 0.0]]
-    assert (config.period, config.cyclic, config.rate) == (5.0, True, None)
+    assert (config.period, config.cyclic, config.start_delay) == (5.0, True, 0.0)
+    config = load("sequencer: !PositionTargets {period: 2}")
+    assert isinstance(config, PositionTargets)
+    assert config.targets == [list(t) for t in SEED_TARGETS] and config.period == 2.0
+    config = load("sequencer: !Sinusoid {frequency: 0.1, rate: 50}")
+    assert isinstance(config, Sinusoid)
+    assert (config.frequency, config.rate) == (0.1, 50.0)
+    assert config.phase == [0.0, 0.0, math.pi, 0.0]  # the seed's wave
+    assert load("sequencer: null") is None
+    # Each variant has only its own fields: a sinusoid's key in targets is an error.
+    with pytest.raises(RuntimeError, match="frequency"):
+        load("sequencer: !PositionTargets {frequency: 0.1}")
     with pytest.raises(RuntimeError, match="perod"):
-        yaml_load_typed(schema=SequencerConfig, data="perod: 5\n")
+        load("sequencer: !PositionTargets {perod: 5}")
+    with pytest.raises(RuntimeError, match="'Velocity' did not match"):
+        load("sequencer: !Velocity {period: 5}")
 
 
 def test_valid_configs_pass():
-    validate(SequencerConfig(targets=TARGETS), JOINTS, LOWER, UPPER)
-    validate(SequencerConfig(mode="sinusoid", amplitude=[1.0] * 4), JOINTS, LOWER, UPPER)
+    validate(PositionTargets(targets=TARGETS), JOINTS, LOWER, UPPER)
+    validate(Sinusoid(phase=[], amplitude=[1.0] * 4), JOINTS, LOWER, UPPER)
 
 
 @pytest.mark.parametrize(
     "config, message",
     [
         (
-            SequencerConfig(targets=[[0, 0, 0, 0], [0, 0, 0, 0], [0, 3.5, 0, 0]]),
+            PositionTargets(targets=[[0, 0, 0, 0], [0, 0, 0, 0], [0, 3.5, 0, 0]]),
             "arm.yaml: target 2: j1=3.5 is above its upper limit 1.57",
         ),
         (
-            SequencerConfig(targets=[[0, 0, -2.5, 0]]),
+            PositionTargets(targets=[[0, 0, -2.5, 0]]),
             "arm.yaml: target 0: j2=-2.5 is below its lower limit -2.0",
         ),
         (
-            SequencerConfig(targets=[[0, 0, 0, 0], [0, 0, 0]]),
+            PositionTargets(targets=[[0, 0, 0, 0], [0, 0, 0]]),
             "arm.yaml: target 1 has 3 values, expected 4 (j0, j1, j2, j3)",
         ),
         (
-            SequencerConfig(targets=[[0, math.nan, 0, 0]]),
+            PositionTargets(targets=[[0, math.nan, 0, 0]]),
             "arm.yaml: target 0: j1=nan is not finite",
         ),
-        (SequencerConfig(targets=TARGETS, period=0.0), "arm.yaml: period=0.0 must be positive"),
-        (SequencerConfig(targets=TARGETS, period=-3.0), "arm.yaml: period=-3.0 must be positive"),
+        (PositionTargets(targets=TARGETS, period=0.0), "arm.yaml: period=0.0 must be positive"),
+        (PositionTargets(targets=TARGETS, period=-3.0), "arm.yaml: period=-3.0 must be positive"),
         (
-            SequencerConfig(mode="velocity", targets=TARGETS),
-            "arm.yaml: mode='velocity' is not one of 'position', 'trajectory', 'sinusoid'",
+            JointTrajectoryTargets(targets=[]),
+            "arm.yaml: JointTrajectoryTargets needs at least one target",
         ),
         (
-            SequencerConfig(mode="trajectory"),
-            "arm.yaml: mode 'trajectory' needs at least one target",
-        ),
-        (
-            SequencerConfig(targets=TARGETS, start_delay=-1.0),
+            PositionTargets(targets=TARGETS, start_delay=-1.0),
             "arm.yaml: start_delay=-1.0 must be zero or positive",
         ),
         (
             # The default amplitude pi/2 exceeds j1's +-1.57.
-            SequencerConfig(mode="sinusoid"),
+            Sinusoid(),
             "arm.yaml: sinusoid: j1 reaches 1.5707963267948966 (offset 0.0 +- amplitude "
             "1.5707963267948966), above its upper limit 1.57",
         ),
         (
-            SequencerConfig(mode="sinusoid", amplitude=[0.5] * 4, offset=[0, 0, 0, -0.7]),
+            Sinusoid(phase=[], amplitude=[0.5] * 4, offset=[0, 0, 0, -0.7]),
             "arm.yaml: sinusoid: j3 reaches -1.2 (offset -0.7 +- amplitude 0.5), "
             "below its lower limit -1.0",
         ),
         (
-            SequencerConfig(mode="sinusoid", amplitude=[0.5] * 3),
+            Sinusoid(phase=[], amplitude=[0.5] * 3),
             "arm.yaml: amplitude has 3 values, expected 4 (j0, j1, j2, j3)",
         ),
         (
-            SequencerConfig(mode="sinusoid", amplitude=[0.5] * 4, frequency=0.0),
+            Sinusoid(phase=[], amplitude=[0.5] * 4, frequency=0.0),
             "arm.yaml: frequency=0.0 must be positive",
         ),
         (
-            SequencerConfig(mode="sinusoid", amplitude=[0.5] * 4, rate=-10.0),
+            Sinusoid(phase=[], amplitude=[0.5] * 4, rate=-10.0),
             "arm.yaml: rate=-10.0 must be positive",
         ),
     ],
@@ -231,11 +253,58 @@ def test_bad_configs_are_rejected_with_one_line(config, message):
     assert "\n" not in str(error.value)
 
 
+def test_make_sequencer_builds_the_system_of_the_variant():
+    assert isinstance(
+        MakeSequencer(config=Sinusoid(phase=[]), joint_names=JOINTS), SinusoidSequencer
+    )
+    assert isinstance(
+        MakeSequencer(config=JointTrajectoryTargets(targets=TARGETS), joint_names=JOINTS),
+        CommandSequencer,
+    )
+    with pytest.raises(ValueError, match="SinusoidSequencer"):
+        CommandSequencer(config=Sinusoid(), joint_names=JOINTS)
+
+
+def test_sinusoid_vector_ports_hold_the_latest_sample_and_its_count():
+    config = Sinusoid(start_delay=0.5, amplitude=[0.2] * 4, phase=[], offset=[0.1, 0, 0, 0])
+    sequencer, context, published = run(config, 0.555, controller_rate=100.0)
+    count = sequencer.GetOutputPort("command_count").Eval(context)[0]
+    command = sequencer.GetOutputPort("position_command").Eval(context)
+    assert round(count) == 6 == len(published)  # 0.50, 0.51, ..., 0.55
+    assert count == pytest.approx(6, abs=1e-9)
+    expected = 0.2 * math.sin(2 * math.pi * 0.05 * 0.05)
+    np.testing.assert_allclose(command, [0.1 + expected, expected, expected, expected], atol=1e-12)
+    np.testing.assert_allclose(command, published[-1][2].data, atol=1e-12)
+    assert sequencer.GetOutputPort("commands").Eval(context).stamp == pytest.approx(0.55)
+    assert sequencer.GetOutputPort("joint_trajectory").Eval(context).count == 0
+    sequencer, context, _ = run(config, 0.49)
+    assert sequencer.GetOutputPort("command_count").Eval(context)[0] == 0
+    assert sequencer.GetOutputPort("commands").Eval(context).count == 0
+    assert np.isnan(sequencer.GetOutputPort("reference").Eval(context)).all()
+    # Before the first sample the vector stream holds the initial positions.
+    np.testing.assert_array_equal(sequencer.GetOutputPort("position_command").Eval(context), 0)
+    held = SinusoidSequencer(
+        config=config, joint_names=JOINTS, initial_positions=[0.1, 0.2, 0.3, 0.4]
+    )
+    context = held.CreateDefaultContext()
+    np.testing.assert_array_equal(
+        held.GetOutputPort("position_command").Eval(context), [0.1, 0.2, 0.3, 0.4]
+    )
+    simulator = Simulator(held, context)
+    simulator.AdvanceTo(0.515)  # samples at 0.50 and 0.51: the wave, not the initial pose
+    np.testing.assert_allclose(
+        held.GetOutputPort("position_command").Eval(context),
+        [0.1 + 0.2 * math.sin(2 * math.pi * 0.05 * 0.01)]
+        + [0.2 * math.sin(2 * math.pi * 0.05 * 0.01)] * 3,
+        atol=1e-12,
+    )
+
+
 def test_sequencer_rejects_structural_errors_without_limits():
     with pytest.raises(SequencerError, match="target 1 has 3 values"):
-        CommandSequencer(config=SequencerConfig(targets=[[0] * 4, [0] * 3]), joint_names=JOINTS)
+        CommandSequencer(config=PositionTargets(targets=[[0] * 4, [0] * 3]), joint_names=JOINTS)
     with pytest.raises(SequencerError, match="period=0"):
-        CommandSequencer(config=SequencerConfig(targets=TARGETS, period=0), joint_names=JOINTS)
+        CommandSequencer(config=PositionTargets(targets=TARGETS, period=0), joint_names=JOINTS)
 
 
 class CountReader(LeafSystem):
@@ -253,7 +322,7 @@ class CountReader(LeafSystem):
 
 def test_a_discrete_subscriber_sees_a_command_at_its_publication_time():
     builder = DiagramBuilder()
-    config = SequencerConfig(mode="position", targets=TARGETS, period=0.05, start_delay=0.02)
+    config = PositionTargets(targets=TARGETS, period=0.05, start_delay=0.02)
     sequencer = builder.AddSystem(CommandSequencer(config=config, joint_names=JOINTS))
     reader = builder.AddSystem(CountReader())
     builder.Connect(sequencer.GetOutputPort("commands"), reader.commands)

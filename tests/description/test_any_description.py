@@ -40,7 +40,7 @@ def test_world_drives_the_course_package_to_the_seed_targets(course_package, tmp
     assert result.returncode == 0, result.stderr
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert len(summary["steps"]) == 5
-    assert max(step["max_abs_error"] for step in summary["steps"]) <= 0.01
+    assert max(step["final_error"] for step in summary["steps"]) <= 0.01
     # The importer said what it repaired.
     assert "link 'base_link': inertia" in result.stderr + result.stdout
 
@@ -119,8 +119,7 @@ def test_xacro_arm_with_gripper_ros2_control_macro_and_namespaced_yaml(tmp_path)
               xacro_args: {{initial_q1: "0.3"}}
             controllers:
               activate: [joint_state_broadcaster, arm_controller]
-            sequencer:
-              mode: position
+            sequencer: !PositionTargets
               targets: [[0.3, 0.0, 0.0], [0.8, -0.6, 0.02], [-0.5, 0.9, 0.01]]
               period: 2.0
             """
@@ -142,7 +141,7 @@ def test_xacro_arm_with_gripper_ros2_control_macro_and_namespaced_yaml(tmp_path)
     assert "at 200 Hz" in result.stdout
     summary = json.loads((out / "summary.json").read_text())
     assert summary["joint_names"] == ["q1", "q2", "finger_joint"]
-    errors = [step["max_abs_error"] for step in summary["steps"]]
+    errors = [step["final_error"] for step in summary["steps"]]
     assert len(errors) == 3 and max(errors) <= 0.01, errors
     rows = (out / "joint_states.csv").read_text().splitlines()
     assert rows[0].startswith("time,q1_position,q1_velocity,q1_effort,q2_position")

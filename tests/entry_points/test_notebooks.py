@@ -69,7 +69,7 @@ def test_control(monkeypatch):
     text, pictures = execute("02_control", monkeypatch)
     assert pictures == 6  # per run: positions.png and efforts.png
     for scenario in ("position", "trajectory"):
-        match = re.search(rf"^{scenario}: (\d+) steps, largest step error (\S+) rad$", text, re.M)
+        match = re.search(rf"^{scenario}: (\d+) steps, largest final error (\S+) rad$", text, re.M)
         assert match, f"no summary line for {scenario}"
         assert int(match[1]) == 5
         assert float(match[2]) <= 0.01
@@ -103,5 +103,5 @@ def test_your_robot(monkeypatch):
     else:
         assert "falls back to the built-in Armando model" in text
     assert "joints: j0 [-2.57, 2.57], j1 [-3.14, 3.14]" in text
-    match = re.search(r"^largest step error: (\S+) rad$", text, re.M)
+    match = re.search(r"^largest final error: (\S+) rad$", text, re.M)
     assert match and float(match[1]) <= 0.01

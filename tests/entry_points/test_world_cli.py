@@ -39,14 +39,23 @@ def test_every_step_ends_within_0_01_rad(tmp_path, controller):
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["controller"] == controller
     assert summary["scenario"].endswith("position.yaml")
+    assert summary["driven_controller"] == f"{controller}_controller"
+    # The headline names what ran: the file and the controller that --controller chose.
+    assert f"position.yaml with the {controller} controller ({controller}_controller)" in (
+        result.stdout
+    )
     assert len(summary["steps"]) == 5
     for step in summary["steps"]:
-        assert step["max_abs_error"] <= 0.01, step
-        assert step["settle_time"] is not None and step["settle_time"] < 3.0
+        assert step["final_error"] <= 0.01, step
+        assert step["settling_time"] is not None and step["settling_time"] < 3.0
+        # Largest error after settling: within the band by definition, and not below the
+        # final error (the final sample is one of those after settling).
+        assert step["final_error"] <= step["largest_error_after_settling"] <= 0.01, step
     assert summary["sim_time"] == pytest.approx(15.0)
     assert summary["realtime_factor"] > 0
-    # The table is printed, one line per step.
+    # The table is printed, one line per step, under columns named for what they hold.
     assert re.search(r"^\s+4\s+12\.00\s", result.stdout, re.M), result.stdout
+    assert re.search(r"final error\s+after settling\s+settling \[s\]$", result.stdout, re.M)
     # One CSV row per controller tick from 0 to 15 s, and commands.csv.
     log = rows(tmp_path / "joint_states.csv")
     assert log[0][:4] == ["time", "j0_position", "j0_velocity", "j0_effort"]
@@ -70,6 +79,29 @@ def test_sinusoid_tracks_its_reference(tmp_path):
     reference = (np.pi / 2) * np.sin(2 * np.pi * 0.05 * t[after])
     assert np.abs(q0[after] - reference).max() <= 0.05
     assert q0.max() > 1.5  # it really swings to pi/2 at t = 5 s
+
+
+def test_a_tagged_override_switches_the_sequencer(tmp_path):
+    result = world(
+        *FAST,
+        "--quiet",
+        "--set",
+        "sequencer: !Sinusoid {frequency: 0.1}",
+        "--duration",
+        "5",
+        "--output",
+        str(tmp_path),
+        "--no-replay",
+    )
+    assert result.returncode == 0, result.stderr
+    assert "position.yaml with a sinusoid on the position controller" in result.stdout
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["controller"] == "sinusoid" and summary["steps"] == []
+    log = np.array([[float(v) for v in row] for row in rows(tmp_path / "joint_states.csv")[1:]])
+    t, q1 = log[:, 0], log[:, 4]
+    # The seed wave at 0.1 Hz: j1 reaches about pi/2 at t = 2.5 s.
+    assert np.abs(q1[t >= 1.0] - (np.pi / 2) * np.sin(2 * np.pi * 0.1 * t[t >= 1.0])).max() < 0.1
+    assert q1.max() > 1.45
 
 
 def test_console_lines_follow_the_seed_node_format():
@@ -128,9 +160,18 @@ def test_sigint_keeps_every_row_and_writes_the_summary(tmp_path):
         (["--set", "sequencer: {targets: [[0, 0, 0]]}"], "target 0 has 3 values, expected 4"),
         (["--set", "sequencer: {targets: [[0, 3.5, 0, 0]]}"], "target 0: j1=3.5 is above"),
         (["--set", "sequencer: {period: 0}"], "period=0.0 must be positive"),
+        (
+            ["--set", "sequencer: !Sinusoid {perod: 3}"],
+            "--set 'sequencer: !Sinusoid {perod: 3}': The fields ['perod'] were unknown",
+        ),
+        (
+            ["--set", "sequencer: !Sine {frequency: 1}"],
+            "sequencer: unknown tag !Sine (choose !PositionTargets, !JointTrajectoryTargets, "
+            "!Sinusoid)",
+        ),
         (["--duration", "-1"], "--duration -1.0 must not be negative"),
     ],
-    ids=["unknown-key", "no-file", "length", "limit", "period", "duration"],
+    ids=["unknown-key", "no-file", "length", "limit", "period", "variant-key", "tag", "duration"],
 )
 def test_bad_input_is_one_line_without_traceback(args, message):
     result = world(*FAST, *args)

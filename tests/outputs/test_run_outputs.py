@@ -266,7 +266,7 @@ def test_record_into_a_missing_folder_fails_before_the_run(tmp_path):
     assert result.stderr.strip().splitlines() == [
         f"error: --record {path}: folder {path.parent} does not exist"
     ]
-    assert "run of" not in result.stdout
+    assert " simulated in " not in result.stdout
 
 
 def test_record_without_permission_fails_before_the_run(tmp_path):
@@ -283,5 +283,5 @@ def test_record_without_permission_fails_before_the_run(tmp_path):
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"error: --record {path}: cannot write there")
-    assert "run of" not in result.stdout
+    assert " simulated in " not in result.stdout
     assert not path.exists()

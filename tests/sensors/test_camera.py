@@ -36,7 +36,14 @@ from armando_drake.sensors.image_view import (
     ImageViewServer,
     depth_millimetres,
 )
-from armando_drake.sensors.objects import AddSceneObjects, SceneObject, SceneObjectError
+from armando_drake.sensors.objects import (
+    AddSceneObjects,
+    Box,
+    Cylinder,
+    SceneObject,
+    SceneObjectError,
+    Sphere,
+)
 
 # A camera on camera_link, as the Armando description declares it (Gazebo style).
 SENSOR = """
@@ -146,8 +153,7 @@ def plate_in_front(info, p_S, *, thickness=0.02, side=0.1, name="plate", rgba=(1
     X_WO = sensor_pose(info) @ RigidTransform(p_S)
     return SceneObject(
         name=name,
-        shape="box",
-        size=[thickness, side, side],
+        shape=Box(size=[thickness, side, side]),
         xyz=list(X_WO.translation()),
         rpy=list(RollPitchYaw(X_WO.rotation()).vector()),
         color=list(rgba),
@@ -223,8 +229,7 @@ def test_blue_disc_in_view_gives_blue_pixels_in_the_expected_region(renderer):
     X_WO = sensor_pose(info) @ RigidTransform(RollPitchYaw(0, math.pi / 2, 0), centre_S)
     disc = SceneObject(
         name="blue_disc",
-        shape="cylinder",
-        size=[0.15, 0.05],
+        shape=Cylinder(radius=0.15, length=0.05),
         xyz=list(X_WO.translation()),
         rpy=list(RollPitchYaw(X_WO.rotation()).vector()),
         color=[0.0, 0.0, 1.0, 1.0],
@@ -378,8 +383,8 @@ def test_scene_objects_load_from_yaml():
         schema=Scene,
         data="""
 objects:
-- {name: cube, shape: box, size: [0.05, 0.05, 0.05], xyz: [0.3, 0, 0.025]}
-- {name: ball, shape: sphere, size: [0.03], xyz: [0.3, 0.1, 0.03], color: [0, 1, 0, 1]}
+- {name: cube, shape: !Box {size: [0.05, 0.05, 0.05]}, xyz: [0.3, 0, 0.025]}
+- {name: ball, shape: !Sphere {radius: 0.03}, xyz: [0.3, 0.1, 0.03], color: [0, 1, 0, 1]}
 """,
     ).objects
     plant, _ = AddMultibodyPlantSceneGraph(DiagramBuilder(), time_step=0.001)
@@ -393,13 +398,16 @@ objects:
 
 
 BAD_OBJECTS = [
-    (dict(shape="cone"), "object 'thing': shape='cone' is not one of box, cylinder, sphere"),
-    (dict(shape="sphere", size=[-0.1]), "object 'thing': sphere radius=-0.1 must be positive"),
+    (dict(shape="cone"), "object 'thing': shape='cone' is not one of !Box, !Cylinder, !Sphere"),
+    (dict(shape=Sphere(radius=-0.1)), "object 'thing': Sphere radius=-0.1 must be positive"),
     (
-        dict(shape="cylinder", size=[0.1, 0]),
-        "object 'thing': cylinder length=0.0 must be positive",
+        dict(shape=Cylinder(radius=0.1, length=0.0)),
+        "object 'thing': Cylinder length=0.0 must be positive",
     ),
-    (dict(shape="box", size=[0.1, 0.1]), "object 'thing': size=[0.1, 0.1] must be 3 numbers"),
+    (
+        dict(shape=Box(size=[0.1, 0.1])),
+        "object 'thing': Box size=[0.1, 0.1] must be 3 numbers",
+    ),
     (dict(color=[0, 0, 2, 1]), "object 'thing': color=[0, 0, 2, 1] must be RGBA in [0, 1]"),
     (dict(xyz=[0, 0]), "object 'thing': xyz=[0, 0] must be 3 numbers"),
 ]
@@ -429,8 +437,7 @@ def simulate_with_view(tmp_path, *, seconds=0.1):
     objects = [
         SceneObject(
             name="disc",
-            shape="cylinder",
-            size=[0.15, 0.05],
+            shape=Cylinder(radius=0.15, length=0.05),
             xyz=list(X_WO.translation()),
             rpy=list(RollPitchYaw(X_WO.rotation()).vector()),
             color=[0, 0, 1, 1],

@@ -33,7 +33,7 @@ def test_camera_scenario_frame_shows_the_blue_disc():
     depth = world.diagram.GetOutputPort("camera.depth_image").Eval(context).data[..., 0]
     assert image.shape == (480, 640, 4)
     (disc,) = [o for o in scenario.objects if o.name == "blue_disc"]
-    top_centre = np.array(disc.xyz) + [0, 0, disc.size[1] / 2]
+    top_centre = np.array(disc.xyz) + [0, 0, disc.shape.length / 2]
     (u, v), distance = project(world, context, top_centre)
     assert 0 <= u < 640 and 0 <= v < 480, (u, v)
     rgb = image[..., :3].astype(int)

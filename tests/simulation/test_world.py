@@ -7,8 +7,8 @@ import pytest
 from pydrake.systems.analysis import Simulator
 
 from armando_drake.control.messages import Float64MultiArray, JointTrajectory, JointTrajectoryPoint
+from armando_drake.outputs.logger import read_joint_states
 from armando_drake.simulation.builder import MakeWorld
-from armando_drake.simulation.run import read_joint_states
 from armando_drake.simulation.scenario import ScenarioError, load_scenario
 
 SEED_TARGETS = [
@@ -45,7 +45,8 @@ def test_position_control_reaches_the_seed_targets_without_overshoot(tmp_path):
     )
     simulator.AdvanceTo(12.0)
     world.close()
-    times, q = read_joint_states(tmp_path / "joint_states.csv", list(JOINTS))
+    states = read_joint_states(tmp_path / "joint_states.csv", list(JOINTS))
+    times, q = states.times, states.position
     previous = np.zeros(4)
     for k, target in enumerate(SEED_TARGETS):
         start, end = 3.0 * k, 3.0 * (k + 1)
