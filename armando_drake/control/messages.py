@@ -2,8 +2,8 @@
 
 The field names follow the ROS 2 messages users already know
 (``sensor_msgs/JointState``, ``std_msgs/Float64MultiArray``,
-``trajectory_msgs/JointTrajectory``, ``cartesian_control_msgs/CartesianTrajectory``), with times as float seconds of
-simulation time instead of ``builtin_interfaces/Time``.
+``trajectory_msgs/JointTrajectory``, ``cartesian_control_msgs/CartesianTrajectory``),
+with times as float seconds of simulation time instead of ``builtin_interfaces/Time``.
 
 A topic is a port whose value is a :class:`Publication`: the number of
 messages published on it so far and the latest one. A subscriber (a

@@ -44,11 +44,11 @@ from pydrake.systems.sensors import ImageRgba8U
 
 from armando_drake.control.messages import JointState, PublicationValue
 from armando_drake.ros2.messages import (  # the message definitions, shared with the bridge
+    cartesian_trajectory_message,
     float64_multi_array_message,
     header,
     image_message,
     joint_state_message,
-    cartesian_trajectory_message,
     joint_trajectory_message,
     message_definition,
 )

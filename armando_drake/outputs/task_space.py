@@ -79,7 +79,9 @@ class TaskSpaceTracker:
         )  # fmt: skip
 
 
-def task_space_errors(task, times: np.ndarray, positions: np.ndarray, joint_names) -> TaskSpaceErrors:
+def task_space_errors(
+    task, times: np.ndarray, positions: np.ndarray, joint_names
+) -> TaskSpaceErrors:
     """The tracking of ``task`` (a :class:`~armando_drake.simulation.builder.TaskReference`)
     from logged ``positions`` [rad] (N, len(joint_names)) at ``times`` [s]."""
     arm = task.arm

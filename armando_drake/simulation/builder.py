@@ -485,8 +485,12 @@ def _add_task(builder, world: World, scenario: Scenario, where: str) -> None:
     from armando_drake.task.time_laws import TimeLawError
 
     config = world.controller_config.controllers
-    targets = [n for n in world.controllers if config[n].controller_class.message is CartesianTrajectory]
-    targets += [n for n in world.controllers if config[n].controller_class.message is JointTrajectory]
+    targets = [
+        n for n in world.controllers if config[n].controller_class.message is CartesianTrajectory
+    ]
+    targets += [
+        n for n in world.controllers if config[n].controller_class.message is JointTrajectory
+    ]
     if not targets:
         raise ScenarioError(
             f"{where}task needs an active controller that takes a CartesianTrajectory or a "

@@ -32,7 +32,6 @@ clamped to the effort limits; ``status.detail`` counts the ticks that were clamp
 (``rejected_ticks``; the output is then finite all the same).
 """
 
-
 import dataclasses
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -223,7 +222,7 @@ def _reach(arm: ArmModel) -> float:
         joint = plant.GetJointByName(name, arm.model_instance)
         points.append(joint.frame_on_child().CalcPoseInWorld(context).translation())
     points.append(arm.frame_E.CalcPoseInWorld(context).translation())
-    return float(sum(np.linalg.norm(b - a) for a, b in zip(points, points[1:])))
+    return float(sum(np.linalg.norm(b - a) for a, b in zip(points[:-1], points[1:], strict=True)))
 
 
 def _base_joint_position(law) -> np.ndarray:
@@ -243,8 +242,8 @@ def _times(points, label: str) -> np.ndarray:
     if bad.size:
         k = int(bad[0]) + 1
         raise Rejected(
-            f"time_from_start of point {k} ({times[k]!r} s) is not after point {k - 1}'s "
-            f"({times[k - 1]!r} s)"
+            f"time_from_start of point {k} ({float(times[k])!r} s) is not after point {k - 1}'s "
+            f"({float(times[k - 1])!r} s)"
         )
     return times
 
@@ -298,7 +297,7 @@ class JointSpaceInverseDynamicsController(_InverseDynamicsController):
                 values = np.asarray(values, dtype=float)
                 if values.shape != (n,) or not np.all(np.isfinite(values)):
                     raise Rejected(
-                        f"point {k} at {times[k]!r} s: {label} {values.tolist()} must be "
+                        f"point {k} at {float(times[k])!r} s: {label} {values.tolist()} must be "
                         f"{n} finite numbers"
                     )
                 samples[k, block * n + to_arm] = values
@@ -307,9 +306,10 @@ class JointSpaceInverseDynamicsController(_InverseDynamicsController):
             )
             if outside.size:
                 i = int(outside[0])
+                low, high, value = float(lower[i]), float(upper[i]), float(samples[k, i])
                 raise Rejected(
-                    f"point {k} at {times[k]!r} s: position {samples[k, i]!r} of joint "
-                    f"'{law.arm.joint_names[i]}' is outside its limits [{lower[i]!r}, {upper[i]!r}]"
+                    f"point {k} at {float(times[k])!r} s: position {value!r} of joint "
+                    f"'{law.arm.joint_names[i]}' is outside its limits [{low!r}, {high!r}]"
                 )
         if times[0] > 0:  # reach the first point from where the arm is
             start = np.zeros(3 * n)
@@ -337,16 +337,12 @@ class OperationalSpaceInverseDynamicsController(_InverseDynamicsController):
         q_arm[law.controller_order] = q
         arm.set_state(q_arm)
         X = arm.pose()
-        final = np.concatenate(
-            [X.rotation().ToQuaternion().wxyz(), X.translation(), np.zeros(12)]
-        )
+        final = np.concatenate([X.rotation().ToQuaternion().wxyz(), X.translation(), np.zeros(12)])
         return _Reference(law, None, now, now, final)
 
     def _accept(self, message, q, v, now):
         if not isinstance(message, CartesianTrajectory):
-            raise Rejected(
-                f"expected a CartesianTrajectory message, got {type(message).__name__}"
-            )
+            raise Rejected(f"expected a CartesianTrajectory message, got {type(message).__name__}")
         try:
             law = self._law(message.controlled_frame, message.frame_id)
         except TaskSpaceError as error:
@@ -372,14 +368,14 @@ class OperationalSpaceInverseDynamicsController(_InverseDynamicsController):
                 values = np.asarray(values, dtype=float)
                 if values.shape != (size,) or not np.all(np.isfinite(values)):
                     raise Rejected(
-                        f"point {k} at {times[k]!r} s: {label} {values.tolist()} must be "
+                        f"point {k} at {float(times[k])!r} s: {label} {values.tolist()} must be "
                         f"{size} finite numbers"
                     )
                 samples[k, start : start + size] = values
             norm = np.linalg.norm(samples[k, :4])
             if not 0.9 < norm < 1.1:
                 raise Rejected(
-                    f"point {k} at {times[k]!r} s: orientation {samples[k, :4].tolist()} is "
+                    f"point {k} at {float(times[k])!r} s: orientation {samples[k, :4].tolist()} is "
                     "not a unit quaternion (w, x, y, z)"
                 )
             samples[k, :4] /= norm
@@ -388,7 +384,7 @@ class OperationalSpaceInverseDynamicsController(_InverseDynamicsController):
             distance = float(np.linalg.norm(samples[k, 4:7] - base))
             if distance > law.reach:
                 raise Rejected(
-                    f"point {k} at {times[k]!r} s: position {samples[k, 4:7].tolist()} is "
+                    f"point {k} at {float(times[k])!r} s: position {samples[k, 4:7].tolist()} is "
                     f"{distance:.3f} m from the arm's first joint, beyond its reach of "
                     f"{law.reach:.3f} m (outside the workspace)"
                 )
