@@ -187,7 +187,9 @@ GOOD_PARAMS = "    joints: [j0, j1]"
             "position_controllers/JointGroupPositionController, "
             "velocity_controllers/JointGroupVelocityController, "
             "effort_controllers/JointGroupEffortController, "
-            "joint_trajectory_controller/JointTrajectoryController",
+            "joint_trajectory_controller/JointTrajectoryController, "
+            "task_space_controllers/JointSpaceInverseDynamics, "
+            "task_space_controllers/OperationalSpaceInverseDynamics",
         ),
         (
             "100",
