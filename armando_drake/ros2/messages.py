@@ -56,15 +56,18 @@ DEFINITIONS = {
     "geometry_msgs/Pose": "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n",
     "geometry_msgs/Twist": "geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n",
     "geometry_msgs/Accel": "geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n",
-    # From ros-controls/cartesian_controllers' cartesian_control_msgs (Humble).
+    # Universal Robots' cartesian_control_msgs (not in ROS 2's core messages).
+    "cartesian_control_msgs/CartesianPosture": (
+        "string[] posture_joint_names\nfloat64[] posture_joint_values\n"
+    ),
     "cartesian_control_msgs/CartesianTrajectoryPoint": (
         "builtin_interfaces/Duration time_from_start\ngeometry_msgs/Pose pose\n"
         "geometry_msgs/Twist twist\ngeometry_msgs/Accel acceleration\n"
-        "geometry_msgs/Accel jerk\n"
+        "geometry_msgs/Accel jerk\ncartesian_control_msgs/CartesianPosture posture\n"
     ),
     "cartesian_control_msgs/CartesianTrajectory": (
-        "std_msgs/Header header\nstring controlled_frame\n"
-        "cartesian_control_msgs/CartesianTrajectoryPoint[] points\n"
+        "std_msgs/Header header\ncartesian_control_msgs/CartesianTrajectoryPoint[] points\n"
+        "string controlled_frame\n"
     ),
     "geometry_msgs/Quaternion": "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n",
     "geometry_msgs/Transform": (
@@ -205,7 +208,8 @@ def _spatial(values: Sequence[float]) -> dict[str, Any]:
 
 
 def cartesian_trajectory_message(message: CartesianTrajectory) -> dict[str, Any]:
-    """cartesian_control_msgs/CartesianTrajectory of ours (jerk zero: not planned)."""
+    """cartesian_control_msgs/CartesianTrajectory of ours (jerk zero: not planned; no
+    posture)."""
     return {
         "header": header(message.stamp, message.frame_id),
         "controlled_frame": message.controlled_frame,
@@ -221,6 +225,7 @@ def cartesian_trajectory_message(message: CartesianTrajectory) -> dict[str, Any]
                 "twist": _spatial(point.twist),
                 "acceleration": _spatial(point.acceleration),
                 "jerk": _spatial(()),
+                "posture": {"posture_joint_names": [], "posture_joint_values": []},
             }
             for point in message.points
         ],
