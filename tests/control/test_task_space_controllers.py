@@ -10,9 +10,12 @@ through the trajectory controller within 2 mm. Bad input: rejected with the reas
 or followed through a singularity with finite torques within the limits.
 """
 
+import json
+
 import numpy as np
 import pytest
 from conftest import REPO, SHARED, skip_or_fail
+from PIL import Image
 from pydrake.systems.analysis import Simulator
 
 from armando_drake.control.messages import (
@@ -235,3 +238,46 @@ def test_armando_follows_position_paths(path):
     print(f"Armando {path}: max {errors['max_position_error'] * 1e3:.3f} mm")
     assert errors["max_position_error"] <= 2e-3
     assert result.driven == "trajectory_controller"
+
+
+def test_task_outputs_summary_csv_and_plots(tmp_path):
+    scenario = load_scenario("task_armando", QUIET + "\ntask: {path: circular}")
+    run(scenario, scenario_name="task_armando", output_dir=tmp_path, quiet=True, replay=False)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    errors = summary["task_space"]
+    assert set(errors) == {"max_position_error", "rms_position_error", "max_orientation_error"}
+    assert 0 < errors["rms_position_error"] < errors["max_position_error"] <= 2e-3
+    assert summary["controller"] == "task"
+    header = (tmp_path / "task_space.csv").read_text().splitlines()[0].split(",")
+    assert header[0] == "time" and "position_error" in header and "orientation_error" in header
+    table = np.loadtxt(tmp_path / "task_space.csv", delimiter=",", skiprows=1)
+    assert len(table) == 301  # 3 s at Armando's 100 Hz, both ends
+    assert table[:, header.index("position_error")].max() == pytest.approx(
+        errors["max_position_error"], rel=1e-6
+    )
+    for plot in ("task_error.png", "joint_torques.png", "task_path.png"):
+        with Image.open(tmp_path / plot) as image:
+            assert image.size == (1000, 700), plot
+
+
+@pytest.mark.parametrize(
+    "override, message",
+    [
+        (
+            "controllers: {activate: [joint_state_broadcaster, position_controller]}",
+            "task needs an active controller that takes a CartesianTrajectory or a "
+            "JointTrajectory; active: position_controller",
+        ),
+        ("task: {start_positions: [0.1, 0.2]}", "task.start_positions=[0.1, 0.2] must have 4"),
+        ("task: {start_positions: [0, 0, 9, 0]}", "9.0 of joint 'j2' is outside its limits"),
+        ("task: {profile: bang}", "profile='bang' must be one of"),
+    ],
+)
+def test_bad_task_sections_are_one_line_errors(override, message):
+    from armando_drake.simulation.scenario import ScenarioError
+
+    scenario = load_scenario("task_armando", QUIET + "\n" + override)
+    with pytest.raises(ScenarioError, match="task") as error:
+        MakeWorld(scenario, quiet=True, source="task_armando.yaml")
+    assert message in str(error.value)
+    assert str(error.value).startswith("task_armando.yaml: ")
