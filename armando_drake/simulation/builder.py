@@ -28,17 +28,18 @@ import logging
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from pydrake.geometry import Box, Meshcat
+from pydrake.geometry import Box, Meshcat, SceneGraph
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import (
     AddMultibodyPlant,
+    ApplyMultibodyPlantConfig,
     CoulombFriction,
     MultibodyPlant,
 )
-from pydrake.systems.framework import Context, Diagram, DiagramBuilder
+from pydrake.systems.framework import Context, Diagram, DiagramBuilder, System
 from pydrake.visualization import ApplyVisualizationConfig
 
 from armando_drake.control.config import (
@@ -68,6 +69,10 @@ from armando_drake.description.loader import LoadedRobot, load_robot, package_of
 from armando_drake.sensors.objects import AddSceneObjects, SceneObjectError
 from armando_drake.simulation.scenario import Scenario, ScenarioError
 
+if TYPE_CHECKING:
+    from armando_drake.outputs.logger import JointStateLogger
+    from armando_drake.sensors.camera import AddedCamera
+
 _log = logging.getLogger("armando_drake.world")
 
 
@@ -88,22 +93,23 @@ class World:
 
     diagram: Diagram
     plant: MultibodyPlant
-    scene_graph: Any
+    scene_graph: SceneGraph
     robot: LoadedRobot
     hardware: HardwareInterface
     controller_config: ControllerManagerConfig
-    update_rate: float  # [Hz] the controller manager's rate
+    update_rate: int  # [Hz] the controller manager's rate
     # Active command controllers by name -> the system that runs them (the controller
-    # manager), whose ports are "<name>.commands" / "<name>.joint_trajectory", "<name>.status".
-    controllers: dict[str, Any] = field(default_factory=dict)
+    # manager), whose ports are "<name>.<topic>" and "<name>.status".
+    controllers: dict[str, ControllerManager] = field(default_factory=dict)
     controller_joints: dict[str, list[str]] = field(default_factory=dict)  # by name
-    broadcaster: Any = None  # the system with the "joint_states" output (the manager)
-    controller_manager: Any = None  # ControllerManager: broadcaster and controllers
-    sequencer: Any = None
-    logger: Any = None
+    # The system with the "joint_states" output (the manager), when a broadcaster is active.
+    broadcaster: ControllerManager | None = None
+    controller_manager: ControllerManager | None = None  # broadcaster and controllers
+    sequencer: System | None = None  # the command sequencer (a LeafSystem or a Diagram)
+    logger: JointStateLogger | None = None
     sequencer_target: str = ""  # the controller the sequencer drives
     broadcaster_name: str = ""  # the active joint state broadcaster's name in the YAML
-    cameras: dict[str, Any] = field(default_factory=dict)  # AddedCamera by name
+    cameras: dict[str, AddedCamera] = field(default_factory=dict)  # by name
     image_view_url: str | None = None  # the live camera view, when served
     meshcat: Meshcat | None = None
     task: TaskReference | None = None  # the scenario's task-space motion, if any
@@ -208,18 +214,57 @@ def MakeWorld(
     """
     where = f"{source}: " if source else ""
     builder = DiagramBuilder()
+    # The physics: a MultibodyPlant and its SceneGraph, as the scenario configures them.
+    plant, scene_graph = _add_plant(builder, scenario, where)
+    # Spawn the robot (its base welded at the spawn pose), the ground and the objects.
+    robot = _add_robot_and_scene(plant, scenario, where)
+    # The hardware interface: an actuator per commanded joint; then the plant is final.
+    hardware = _add_hardware(plant, scene_graph, robot, scenario, where)
+    # The controller YAML and its update rate (the scenario may override the rate).
+    config = _controller_config(scenario, robot, hardware)
+    world = World(
+        diagram=None,  # set by Build() below
+        plant=plant,
+        scene_graph=scene_graph,
+        robot=robot,
+        hardware=hardware,
+        controller_config=config,
+        update_rate=_update_rate(config, scenario, where),
+        meshcat=meshcat,
+    )
+    # The controller manager: the activated controllers of the YAML, in one system.
+    _add_controller_manager(builder, world, scenario, where)
+    # What drives and watches them: sequencer, logger, cameras, recorder, bridges.
+    commands_csv = Path(output_dir) / "commands.csv" if output_dir and write_commands else None
+    _add_sequencer(builder, world, scenario, where, commands_csv)
+    _add_task(builder, world, scenario, where)
+    _add_logger(builder, world, scenario, output_dir, quiet)
+    _add_cameras(builder, world, scenario, meshcat, where)
+    _add_recorder_and_bridges(builder, world, scenario, record)
+    # Meshcat draws the world.
+    _apply_visualization(builder, world, scenario, meshcat)
+    # Export what no system drives (command inputs, statuses), for notebooks and tests.
+    _export_free_ports(builder, world)
+    world.diagram = builder.Build()
+    world.diagram.set_name("armando_world")
+    return world
+
+
+def _add_plant(builder: DiagramBuilder, scenario: Scenario, where: str):
+    """The plant and scene graph of ``scenario.plant_config``."""
     plant_config = scenario.plant_config
     if plant_config.time_step > 0 and plant_config.discrete_contact_approximation == "tamsi":
         raise ScenarioError(
             f"{where}plant_config.discrete_contact_approximation='tamsi' ignores PD actuator "
             "gains; use 'lagged', 'sap' or 'similar'"
         )
-    from pydrake.multibody.plant import ApplyMultibodyPlantConfig
-
     plant, scene_graph = AddMultibodyPlant(plant_config, builder)
     ApplyMultibodyPlantConfig(plant_config, plant)
+    return plant, scene_graph
 
-    # Spawn the robot: load the description and weld its base at the spawn pose.
+
+def _add_robot_and_scene(plant: MultibodyPlant, scenario: Scenario, where: str) -> LoadedRobot:
+    """The robot's description welded at its spawn pose, the ground and the objects."""
     robot_config = scenario.robot
     X_WB = RigidTransform(RollPitchYaw(robot_config.base_rpy), robot_config.base_xyz)
     robot = load_robot(
@@ -236,14 +281,24 @@ def MakeWorld(
         AddSceneObjects(plant, scenario.objects)
     except SceneObjectError as error:
         raise ScenarioError(f"{where}objects: {error}") from None
+    return robot
 
-    # The hardware interface: PD actuators from <ros2_control>.
+
+def _add_hardware(
+    plant: MultibodyPlant,
+    scene_graph: SceneGraph,
+    robot: LoadedRobot,
+    scenario: Scenario,
+    where: str,
+) -> HardwareInterface:
+    """The actuators of the hardware interface; finalizes the plant; the task's start
+    positions, if it gives them."""
     actuators = scenario.actuators
     hardware = AddHardwareInterface(
         plant, robot, kp=actuators.kp, kd=actuators.kd, kv=actuators.kv, gains=actuators.gains
     )
     plant.Finalize()
-    if not robot_config.self_collision:
+    if not scenario.robot.self_collision:
         _exclude_self_collision(plant, scene_graph, robot)
     FinishHardwareInterface(plant, robot, hardware)
     if scenario.task is not None and scenario.task.start_positions:
@@ -252,28 +307,30 @@ def MakeWorld(
         "hardware interface %r (%s): %s",
         hardware.name,
         hardware.source,
-        ", ".join(f"{j.name} [{j.lower:.2f}, {j.upper:.2f}]" for j in hardware.joints),
+        ", ".join(
+            f"{j.name} {j.command_interface} [{j.lower:.2f}, {j.upper:.2f}]"
+            for j in hardware.joints
+        ),
     )
+    return hardware
 
-    # The controller manager: read the YAML, then load and activate controllers.
-    config = _controller_config(scenario, robot, hardware)
+
+def _update_rate(config: ControllerManagerConfig, scenario: Scenario, where: str) -> int:
+    """The controller manager's rate [Hz]: the YAML's, or the scenario's override."""
+    if not scenario.controllers.update_rate:
+        return config.update_rate
+    try:
+        return check_update_rate(scenario.controllers.update_rate, f"{where}controllers")
+    except ControllerConfigError as error:
+        raise ScenarioError(str(error)) from None
+
+
+def _add_controller_manager(builder, world: World, scenario: Scenario, where: str) -> None:
+    """Loads and activates the scenario's controllers (a broadcaster and command
+    controllers, each joint claimed once) in one :class:`ControllerManager`, wired to
+    the plant through the hardware interface."""
+    config, hardware, plant = world.controller_config, world.hardware, world.plant
     validate_joints(config, hardware.joint_names, config.source)
-    rate = config.update_rate
-    if scenario.controllers.update_rate:  # the scenario's override of the YAML's rate
-        try:
-            rate = check_update_rate(scenario.controllers.update_rate, f"{where}controllers")
-        except ControllerConfigError as error:
-            raise ScenarioError(str(error)) from None
-    world = World(
-        diagram=None,  # set below
-        plant=plant,
-        scene_graph=scene_graph,
-        robot=robot,
-        hardware=hardware,
-        controller_config=config,
-        update_rate=rate,
-        meshcat=meshcat,
-    )
     claimed: dict[str, str] = {}
     broadcaster = None
     managed = []  # ManagedController, in activation order
@@ -291,7 +348,7 @@ def MakeWorld(
             name,
             controller.type,
             ", ".join(joints),
-            rate,
+            world.update_rate,
         )
         cls = controller.controller_class
         if cls.broadcaster:
@@ -317,81 +374,86 @@ def MakeWorld(
             managed.append(_managed_controller(world, controller, joints))
         world.controller_joints[name] = list(joints)
         _log.info("activated controller %r", name)
+    if broadcaster is None and not managed:
+        return
 
     # The controller manager runs them all in one update at the update rate.
-    if broadcaster is not None or managed:
-        try:
-            manager = ControllerManager(
-                hardware=hardware, update_rate=rate, broadcaster=broadcaster, controllers=managed
-            )
-        except ValueError as error:
-            raise ScenarioError(f"{where}{error}") from None
-        builder.AddSystem(manager)
-        manager.set_name("controller_manager")
-        world.controller_manager = manager
-        builder.Connect(
-            plant.get_state_output_port(robot.model_instance), manager.GetInputPort("state")
+    try:
+        manager = ControllerManager(
+            hardware=hardware,
+            update_rate=world.update_rate,
+            broadcaster=broadcaster,
+            controllers=managed,
         )
-        builder.Connect(
-            plant.get_net_actuation_output_port(robot.model_instance),
-            manager.GetInputPort("effort"),
-        )
-        if broadcaster is not None:
-            builder.ExportOutput(manager.GetOutputPort("joint_states"), "joint_states")
-            world.broadcaster = manager
-        for controller in managed:
-            world.controllers[controller.name] = manager
-
+    except ValueError as error:
+        raise ScenarioError(f"{where}{error}") from None
+    builder.AddSystem(manager)
+    manager.set_name("controller_manager")
+    world.controller_manager = manager
+    instance = world.robot.model_instance
+    builder.Connect(plant.get_state_output_port(instance), manager.GetInputPort("state"))
+    builder.Connect(plant.get_net_actuation_output_port(instance), manager.GetInputPort("effort"))
+    if broadcaster is not None:
+        builder.ExportOutput(manager.GetOutputPort("joint_states"), "joint_states")
+        world.broadcaster = manager
+    for controller in managed:
+        world.controllers[controller.name] = manager
+    if not managed:
+        return
     # Desired state for the actuators: the controllers' commands, unclaimed joints
     # held at their initial positions; on the actuation input the effort commands and
     # the gravity feed-forward of the position joints.
-    if managed:
-        desired = manager.GetOutputPort("desired_state")
-        ConnectHardwareInterface(
-            builder,
-            plant,
-            robot,
-            hardware,
-            desired_state=desired,
-            effort=(
-                manager.GetOutputPort("effort_command")
-                if manager.HasOutputPort("effort_command")
-                else None
-            ),
-            gravity_feedforward=actuators.gravity_feedforward,
-        )
-        builder.ExportOutput(desired, "desired_state")
+    desired = manager.GetOutputPort("desired_state")
+    ConnectHardwareInterface(
+        builder,
+        plant,
+        world.robot,
+        hardware,
+        desired_state=desired,
+        effort=(
+            manager.GetOutputPort("effort_command")
+            if manager.HasOutputPort("effort_command")
+            else None
+        ),
+        gravity_feedforward=scenario.actuators.gravity_feedforward,
+    )
+    builder.ExportOutput(desired, "desired_state")
 
-    commands_csv = Path(output_dir) / "commands.csv" if output_dir and write_commands else None
-    _add_sequencer(builder, world, scenario, where, commands_csv)
-    _add_task(builder, world, scenario, where)
-    _add_logger(builder, world, scenario, output_dir, quiet)
-    _add_cameras(builder, world, scenario, meshcat, where)
+
+def _add_recorder_and_bridges(builder, world: World, scenario: Scenario, record) -> None:
+    """The ROS 2 bag recorder (``record``) and the live DDS / Foxglove bridge."""
     if record is not None:
         from armando_drake.outputs.recording import AddRosbagRecorder
 
         AddRosbagRecorder(builder, world, record)
-    if scenario.ros2.enabled or scenario.ros2.foxglove:  # ros2: live DDS / Foxglove (#21)
+    if scenario.ros2.enabled or scenario.ros2.foxglove:
         from armando_drake.ros2.bridge import AddRos2Bridge  # imports DDS only when on
 
         AddRos2Bridge(builder, world, scenario.ros2)
 
-    if meshcat is not None and scenario.visualization.enable_meshcat_creation:
-        ApplyVisualizationConfig(
-            scenario.visualization, builder, plant=plant, scene_graph=scene_graph, meshcat=meshcat
-        )
-        meshcat.SetProperty("/drake/proximity", "visible", False)
 
-    # Export what no system drives, for notebooks and tests.
+def _apply_visualization(builder, world: World, scenario: Scenario, meshcat) -> None:
+    """Drake's visualization of the plant in ``meshcat``, the collision layer hidden."""
+    if meshcat is None or not scenario.visualization.enable_meshcat_creation:
+        return
+    ApplyVisualizationConfig(
+        scenario.visualization,
+        builder,
+        plant=world.plant,
+        scene_graph=world.scene_graph,
+        meshcat=meshcat,
+    )
+    meshcat.SetProperty("/drake/proximity", "visible", False)
+
+
+def _export_free_ports(builder: DiagramBuilder, world: World) -> None:
+    """Each controller's command input that no system drives, and its status."""
     for name, system in world.controllers.items():
-        port_name = f"{name}.{config.controllers[name].topic}"
+        port_name = f"{name}.{world.controller_config.controllers[name].topic}"
         port = system.GetInputPort(port_name)
-        if not _is_connected(builder, port):
+        if not builder.IsConnectedOrExported(port):
             builder.ExportInput(port, port_name)
         builder.ExportOutput(system.GetOutputPort(f"{name}.status"), f"{name}.status")
-    world.diagram = builder.Build()
-    world.diagram.set_name("armando_world")
-    return world
 
 
 def _controller_name(entry: str, config: ControllerManagerConfig, where: str) -> str:
@@ -422,10 +484,6 @@ def _controller_name(entry: str, config: ControllerManagerConfig, where: str) ->
         f"{where}controllers.activate asks for a {wanted} controller; {config.source} "
         f"defines none (defined: {', '.join(config.controllers) or 'none'})"
     )
-
-
-def _is_connected(builder: DiagramBuilder, port) -> bool:
-    return builder.IsConnectedOrExported(port)
 
 
 def _managed_controller(world: World, controller: ControllerConfig, joints) -> ManagedController:
