@@ -175,6 +175,28 @@ def test_cartesian_trajectory_through_a_singularity_gives_finite_clamped_torques
     assert np.all(np.isfinite(world.joint_positions(context)))
 
 
+def test_too_fast_cartesian_trajectory_is_clamped_with_one_warning(at_repository, caplog):
+    """Half a metre in 50 ms from the upright (singular) start: the torques hit the
+    effort limits; they stay finite and within them, and the log says so once."""
+    world = _bare_world("operational_space_controller")
+    simulator = Simulator(world.diagram)
+    context = simulator.get_mutable_context()
+    world.publish(context, "operational_space_controller", _cartesian([(0.05, [0.5, 0.0, 0.8])]))
+    simulator.AdvanceTo(0.5)
+    status = world.status(context, "operational_space_controller")
+    assert status.accepted == 1 and status.detail["saturated_ticks"] > 0
+    effort = read_effort(world, context)
+    assert np.all(np.isfinite(effort)) and np.abs(effort).max() <= IIWA_EFFORT
+    assert caplog.text.count("torques clamped to the effort limits") == 1
+    assert "near a singularity or the workspace boundary" in caplog.text
+
+
+def read_effort(world, context) -> np.ndarray:
+    """[N m] the controller manager's effort command now."""
+    manager = world.controller_manager
+    return manager.GetOutputPort("effort_command").Eval(manager.GetMyContextFromRoot(context))
+
+
 def test_joint_trajectory_outside_the_limits_is_rejected(at_repository):
     world = _bare_world("joint_space_controller")
     simulator = Simulator(world.diagram)

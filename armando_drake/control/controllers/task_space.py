@@ -197,6 +197,8 @@ class _InverseDynamicsController(Controller):
         if status.state == "executing" and now >= reference.end:
             status = dataclasses.replace(status, state="succeeded", detail=dict(status.detail))
         if law.saturated_ticks != saturated or law.rejected_ticks != rejected:
+            if law.saturated_ticks != saturated and not status.detail.get("saturated_ticks"):
+                self.log_warning(self.name, _saturation_warning(law, now, q))
             detail = dict(status.detail)
             detail["saturated_ticks"] = detail.get("saturated_ticks", 0) + (
                 law.saturated_ticks - saturated
@@ -206,6 +208,19 @@ class _InverseDynamicsController(Controller):
             )
             status = dataclasses.replace(status, detail=detail)
         return TorqueMemory(memory.desired, status, trajectory=reference, effort=effort)
+
+
+def _saturation_warning(law, now: float, q: np.ndarray) -> str:
+    """The first clamped torque of a reference, said once: when, and how near a
+    singularity the arm is."""
+    text = f"torques clamped to the effort limits at t={now:.3f} s (q={np.round(q, 3).tolist()})"
+    sigma = getattr(law, "smallest_singular_value", None)
+    if sigma is not None and np.isfinite(sigma) and sigma < law.params.singular_threshold:
+        return text + (
+            f"; smallest singular value of the weighted Jacobian {sigma:.3g} (damped below "
+            f"{law.params.singular_threshold:g}): near a singularity or the workspace boundary"
+        )
+    return text + ": the reference asks for more than the actuators give"
 
 
 def _law_params(schema: type, params):
