@@ -18,7 +18,11 @@ same machine load:
    --duration 0`` from launch to exit, with an empty mesh cache and a full one;
 5. memory: resident memory at the start and after one simulated hour of the
    cyclic position scenario with the CSV logger at 100 Hz (fresh process);
-6. task-space torque control on the iiwa (``../shared`` beside the repository):
+6. perception: frames per second of the point cloud pipeline of
+   ``diagrams/perception.yaml`` on its 640 x 480 depth frame (rendering
+   excluded), and that scenario's real-time factor with the camera at 30 Hz,
+   without and with the pipeline at 10 Hz;
+7. task-space torque control on the iiwa (``../shared`` beside the repository):
    real-time factor of ``task_os`` (operational-space inverse dynamics) and
    ``task_js`` (joint-space) with the controller manager at 1 kHz, and the
    Python cost of one operational-space controller update (the law with M, C,
@@ -58,7 +62,7 @@ import numpy as np
 from armando_drake.control.sequencer import SEED_TARGETS
 from armando_drake.tools.cli import command_parser
 
-SECTIONS = ("pipeline", "mujoco", "camera", "startup", "memory", "task")
+SECTIONS = ("pipeline", "mujoco", "camera", "startup", "memory", "perception", "task")
 SCENARIOS = ("position", "trajectory", "sinusoid")
 # [rad] j0..j3: the seed targets (diagrams/position.yaml's), 3 s apart.
 TARGETS = [list(target) for target in SEED_TARGETS]
@@ -768,6 +772,128 @@ def bench_memory(report: Report, horizon: float) -> None:
     )
 
 
+# --- 6. perception (issue #19) -----------------------------------------------------
+
+
+def perception_fps(frames: int) -> tuple[float, float, dict[str, float], str]:
+    """(frames per wall-clock second, per CPU second of this process, median ms per
+    stage, what) of the perception scenario's pipeline on its camera's 640 x 480 depth
+    frame: Drake's depth-to-cloud conversion in the world frame, then every step. The
+    frame is rendered once; each repetition converts it again (its input set anew)."""
+    from pydrake.perception import PointCloud
+    from pydrake.systems.analysis import Simulator
+
+    from armando_drake.simulation.builder import MakeWorld
+    from armando_drake.simulation.scenario import load_scenario
+
+    world = MakeWorld(load_scenario("perception", NO_CONSOLE), quiet=True)
+    try:
+        added = world.perception
+        simulator = Simulator(world.diagram)
+        simulator.AdvanceTo(0.05)
+        context = simulator.get_context()
+        converter = added.points_in_world.get_system()
+        depth = world.diagram.GetOutputPort(f"{added.camera}.depth_image").Eval(context)
+        color = world.diagram.GetOutputPort(f"{added.camera}.color_image").Eval(context)
+        X_WC = added.camera_pose.Eval(added.camera_pose.get_system().GetMyContextFromRoot(context))
+        converter_context = converter.CreateDefaultContext()
+        converter.GetInputPort("color_image").FixValue(converter_context, color)
+        converter.GetInputPort("camera_pose").FixValue(converter_context, X_WC)
+        pipeline = added.pipeline.pipeline
+        stages: dict[str, list[float]] = {"depth to point cloud": []}
+        start, cpu_start = time.perf_counter(), time.process_time()
+        for _ in range(frames):
+            begin = time.perf_counter()
+            converter.GetInputPort("depth_image").FixValue(converter_context, depth)
+            cloud = PointCloud(converter.get_output_port().Eval(converter_context))
+            stages["depth to point cloud"].append(time.perf_counter() - begin)
+            result = pipeline.run(cloud, viewpoint=X_WC.translation(), frame="world")
+            for stage in result.stages[1:]:
+                stages.setdefault(stage.name, []).append(stage.seconds)
+        fps = frames / (time.perf_counter() - start)
+        cpu_fps = frames / (time.process_time() - cpu_start)
+        medians = {name: 1e3 * statistics.median(values) for name, values in stages.items()}
+        what = f"{depth.width()} x {depth.height()}, {len(result.clusters)} clusters"
+        return fps, cpu_fps, medians, what
+    finally:
+        world.close()
+
+
+def perception_world_rtf(duration: float, override: str = "") -> tuple[float, float]:
+    """(simulated per wall-clock second, simulated per CPU second of this process) of
+    the perception scenario run as fast as it goes, no viewer, from the first step
+    (which renders the first frame) to the end; building the world is not counted."""
+    from pydrake.systems.analysis import Simulator
+
+    from armando_drake.simulation.builder import MakeWorld
+    from armando_drake.simulation.scenario import load_scenario
+
+    world = MakeWorld(load_scenario("perception", f"{NO_CONSOLE}\n{override}"), quiet=True)
+    try:
+        simulator = Simulator(world.diagram)
+        simulator.set_target_realtime_rate(0.0)
+        start, cpu_start = time.perf_counter(), time.process_time()
+        simulator.AdvanceTo(duration)
+        wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
+        return duration / wall, duration / cpu
+    finally:
+        world.close()
+
+
+def bench_perception(report: Report, frames: int, duration: float) -> None:
+    fps, cpu_fps = [], []
+    worlds: dict[str, list[float]] = {}
+    stages: dict[str, list[float]] = {}
+    what = ""
+    for _ in range(report.repeat):
+        rate, cpu_rate, medians, what = perception_fps(max(frames, 10))
+        fps.append(rate)
+        cpu_fps.append(cpu_rate)
+        for name, value in medians.items():
+            stages.setdefault(name, []).append(value)
+        for key, override in (("with", ""), ("without", "perception: null")):
+            wall, cpu = perception_world_rtf(duration, override)
+            worlds.setdefault(key, []).append(wall)
+            worlds.setdefault(f"{key}, cpu", []).append(cpu)
+    scenario, camera_only = worlds["with"], worlds["without"]
+    report.add(
+        Row("perception", "perception pipeline, 640 x 480 depth frames", "frames/s", fps).check(
+            ">=", 15.0
+        )
+    )
+    report.add(
+        Row("perception", "perception pipeline, per CPU second of the process", "frames/s", cpu_fps)
+    )
+    report.add(
+        Row("perception", f"perception scenario, no pipeline, {duration:g} s", RTF, camera_only)
+    )
+    report.add(
+        Row(
+            "perception",
+            f"perception scenario, camera 30 Hz, pipeline 10 Hz, {duration:g} s",
+            RTF,
+            scenario,
+        ).check(">=", 1.0)
+    )
+    report.add(
+        Row(
+            "perception",
+            "perception scenario, pipeline 10 Hz, per CPU second of the process",
+            RTF,
+            worlds["with, cpu"],
+        )
+    )
+    steps = ", ".join(f"{name}: {statistics.median(v):.1f}" for name, v in stages.items())
+    report.notes.append(
+        f"Perception: diagrams/perception.yaml ({what}); the pipeline row converts the "
+        f"rendered depth frame and runs every step (rendering excluded); median ms per "
+        f"stage: {steps}. The scenario rows run the world with the camera at 30 Hz, "
+        "without and with the pipeline at 10 Hz (no viewer). 'Per CPU second' divides by "
+        "the process's CPU time instead of the wall time: what the frame rate would be "
+        "with the CPU to itself, on a machine shared with other jobs."
+    )
+
+
 # --- the suite ----------------------------------------------------------------------
 
 
@@ -807,6 +933,9 @@ def run_suite(
         "camera": lambda: bench_camera(report, settings.camera_frames, settings.camera_seconds),
         "startup": lambda: bench_startup(report),
         "memory": lambda: bench_memory(report, settings.memory_seconds),
+        "perception": lambda: bench_perception(
+            report, settings.camera_frames, settings.camera_seconds
+        ),
         "task": lambda: bench_task(report, settings.task_seconds, settings.task_ticks),
     }
     for section in sections:

@@ -89,6 +89,37 @@ DEFINITIONS = {
         "float64[] d\nfloat64[9] k\nfloat64[9] r\nfloat64[12] p\nuint32 binning_x\n"
         "uint32 binning_y\nsensor_msgs/RegionOfInterest roi\n"
     ),
+    # Point clouds and cluster markers (perception), with constants, as `ros2 bag record`
+    # writes them.
+    "sensor_msgs/PointField": (
+        "uint8 INT8=1\nuint8 UINT8=2\nuint8 INT16=3\nuint8 UINT16=4\nuint8 INT32=5\n"
+        "uint8 UINT32=6\nuint8 FLOAT32=7\nuint8 FLOAT64=8\nstring name\nuint32 offset\n"
+        "uint8 datatype\nuint32 count\n"
+    ),
+    "sensor_msgs/PointCloud2": (
+        "std_msgs/Header header\nuint32 height\nuint32 width\nsensor_msgs/PointField[] fields\n"
+        "bool is_bigendian\nuint32 point_step\nuint32 row_step\nuint8[] data\nbool is_dense\n"
+    ),
+    "geometry_msgs/Point": "float64 x\nfloat64 y\nfloat64 z\n",
+    "geometry_msgs/Pose": "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n",
+    "std_msgs/ColorRGBA": "float32 r\nfloat32 g\nfloat32 b\nfloat32 a\n",
+    "sensor_msgs/CompressedImage": "std_msgs/Header header\nstring format\nuint8[] data\n",
+    "visualization_msgs/UVCoordinate": "float32 u\nfloat32 v\n",
+    "visualization_msgs/MeshFile": "string filename\nuint8[] data\n",
+    "visualization_msgs/Marker": (
+        "int32 ARROW=0\nint32 CUBE=1\nint32 SPHERE=2\nint32 CYLINDER=3\nint32 LINE_STRIP=4\n"
+        "int32 LINE_LIST=5\nint32 CUBE_LIST=6\nint32 SPHERE_LIST=7\nint32 POINTS=8\n"
+        "int32 TEXT_VIEW_FACING=9\nint32 MESH_RESOURCE=10\nint32 TRIANGLE_LIST=11\nint32 ADD=0\n"
+        "int32 MODIFY=0\nint32 DELETE=2\nint32 DELETEALL=3\nstd_msgs/Header header\nstring ns\n"
+        "int32 id\nint32 type\nint32 action\ngeometry_msgs/Pose pose\n"
+        "geometry_msgs/Vector3 scale\nstd_msgs/ColorRGBA color\n"
+        "builtin_interfaces/Duration lifetime\nbool frame_locked\ngeometry_msgs/Point[] points\n"
+        "std_msgs/ColorRGBA[] colors\nstring texture_resource\n"
+        "sensor_msgs/CompressedImage texture\nvisualization_msgs/UVCoordinate[] uv_coordinates\n"
+        "string text\nstring mesh_resource\nvisualization_msgs/MeshFile mesh_file\n"
+        "bool mesh_use_embedded_materials\n"
+    ),
+    "visualization_msgs/MarkerArray": "visualization_msgs/Marker[] markers\n",
 }
 _SEPARATOR = "=" * 80 + "\n"
 
@@ -105,7 +136,11 @@ def fields(type_name: str) -> tuple[tuple[str, str], ...]:
     root = short_name(type_name)
     if root not in DEFINITIONS:
         raise KeyError(f"{type_name!r} is not one of the ROS 2 messages of {__name__}")
-    return tuple(tuple(line.split()[:2]) for line in DEFINITIONS[root].splitlines())
+    return tuple(
+        tuple(line.split()[:2])
+        for line in DEFINITIONS[root].splitlines()
+        if "=" not in line  # a constant (uint8 INT8=1) is no field
+    )
 
 
 def message_definition(type_name: str) -> str:

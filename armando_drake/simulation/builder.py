@@ -111,6 +111,7 @@ class World:
     broadcaster_name: str = ""  # the active joint state broadcaster's name in the YAML
     cameras: dict[str, AddedCamera] = field(default_factory=dict)  # by name
     image_view_url: str | None = None  # the live camera view, when served
+    perception: Any = None  # AddedPerception when the scenario has a perception block
     meshcat: Meshcat | None = None
     task: TaskReference | None = None  # the scenario's task-space motion, if any
     closers: list = field(default_factory=list)  # called by close()
@@ -240,6 +241,9 @@ def MakeWorld(
     _add_task(builder, world, scenario, where)
     _add_logger(builder, world, scenario, output_dir, quiet)
     _add_cameras(builder, world, scenario, meshcat, where)
+    _add_perception(
+        builder, world, scenario, meshcat, output_dir if write_commands else None, source
+    )
     _add_recorder_and_bridges(builder, world, scenario, record)
     # Meshcat draws the world.
     _apply_visualization(builder, world, scenario, meshcat)
@@ -418,6 +422,23 @@ def _add_controller_manager(builder, world: World, scenario: Scenario, where: st
         gravity_feedforward=scenario.actuators.gravity_feedforward,
     )
     builder.ExportOutput(desired, "desired_state")
+
+
+def _add_perception(builder, world: World, scenario: Scenario, meshcat, output_dir, source) -> None:
+    """Point clouds from a camera's depth and the pipeline of ``scenario.perception``
+    (``clusters.json`` in ``output_dir``); before the recorder, which records them."""
+    if scenario.perception is None:
+        return
+    from armando_drake.perception.systems import AddPerception
+
+    world.perception = AddPerception(
+        builder,
+        world,
+        scenario.perception,
+        meshcat=meshcat,
+        output_dir=output_dir,
+        source=source,
+    )
 
 
 def _add_recorder_and_bridges(builder, world: World, scenario: Scenario, record) -> None:

@@ -29,6 +29,7 @@ from pydrake.visualization import VisualizationConfig
 
 from armando_drake import DIAGRAMS_DIR
 from armando_drake.control.sequencer import JointTrajectoryTargets, PositionTargets, Sinusoid
+from armando_drake.perception.config import PerceptionConfig
 from armando_drake.ros2.config import Ros2Config  # ros2: live DDS / Foxglove (#21)
 from armando_drake.sensors.objects import SceneObject
 from armando_drake.task.motion import TaskSpaceMotion
@@ -169,6 +170,9 @@ class Scenario:
     task: TaskSpaceMotion | None = None
     # Camera sensors of the description.
     camera: CameraSettings = dc.field(default_factory=CameraSettings)
+    # Point clouds from a camera's depth and the pipeline run on them (clusters,
+    # planes); absent = none. See armando_drake/perception/config.py.
+    perception: PerceptionConfig | None = None
     # Joint-state logging.
     logging: LoggingConfig = dc.field(default_factory=LoggingConfig)
     # Run length.
@@ -217,9 +221,9 @@ def _keep_variants(data, current) -> None:
         if name not in hints or not hasattr(current, name):
             continue
         old = getattr(current, name)
-        # Only a Union of several dataclasses has variants (Optional[X] takes no tag).
-        variants = len(_union_members(hints[name])) > 1
-        if variants and isinstance(value, dict) and "_tag" not in value:
+        # Only a Union of several dataclasses is tagged (an Optional of one is not).
+        tagged = len(_union_members(hints[name])) > 1
+        if tagged and isinstance(value, dict) and "_tag" not in value:
             if dc.is_dataclass(old):
                 value["_tag"] = "!" + type(old).__name__
         _keep_variants(value, old)
@@ -236,8 +240,12 @@ def _one_line(error: Exception, current) -> str:
     )
     if match:
         tag, field = match.groups()
-        choices = _tag_choices(type(current), field)
-        text = f"{field}: unknown tag !{tag} (choose {', '.join(choices)})"
+        choices = ", ".join(_tag_choices(type(current), field))
+        if not choices:  # a Union inside a list: Drake's message lists the options
+            listed = re.search(r"options for '\w+' \(+([^()]*)\)+", text)
+            choices = listed.group(1) if listed else ""
+        where = "" if field == "_" else f"{field}: "
+        text = f"{where}unknown tag !{tag} (choose {choices})"
     return text
 
 
