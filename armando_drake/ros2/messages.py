@@ -52,8 +52,6 @@ DEFINITIONS = {
         "trajectory_msgs/JointTrajectoryPoint[] points\n"
     ),
     "geometry_msgs/Vector3": "float64 x\nfloat64 y\nfloat64 z\n",
-    "geometry_msgs/Point": "float64 x\nfloat64 y\nfloat64 z\n",
-    "geometry_msgs/Pose": "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n",
     "geometry_msgs/Twist": "geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n",
     "geometry_msgs/Accel": "geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n",
     # Universal Robots' cartesian_control_msgs (not in ROS 2's core messages).
