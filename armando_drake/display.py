@@ -23,8 +23,10 @@ import sys
 from armando_drake import DEFAULT_DESCRIPTION, DIAGRAMS_DIR
 from armando_drake.tools.cli import (
     add_description_arguments,
+    add_host_argument,
     command_parser,
     parse_xacro_args,
+    start_meshcat,
     user_errors,
 )
 
@@ -66,6 +68,7 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="build, publish once and exit 0 (for scripts and tests)",
     )
+    add_host_argument(parser)
     return parser
 
 
@@ -73,14 +76,12 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     with user_errors():
-        from pydrake.geometry import StartMeshcat
-
         from armando_drake.description.viewer import load_view_config, make_display
 
         view = load_view_config(args.view)
         view.show_collision |= args.show_collision
         view.show_frames |= args.show_frames
-        meshcat = StartMeshcat()
+        meshcat = start_meshcat(args.host)
         visualizer, robot = make_display(
             args.description,
             xacro_args=parse_xacro_args(args.xacro_arg),

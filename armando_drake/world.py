@@ -45,9 +45,11 @@ import sys
 
 from armando_drake.tools.cli import (
     UserError,
+    add_host_argument,
     add_scenario_arguments,
     apply_scenario_arguments,
     command_parser,
+    start_meshcat,
     user_errors,
 )
 
@@ -139,6 +141,7 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--quiet", action="store_true", help="print only errors and the final table"
     )
+    add_host_argument(parser)
     return parser
 
 
@@ -229,9 +232,7 @@ def main(argv: list[str] | None = None) -> int:
             _check_record(args.record)
         meshcat = None
         if not args.no_meshcat:
-            from pydrake.geometry import StartMeshcat
-
-            meshcat = StartMeshcat()
+            meshcat = start_meshcat(args.host)
         if args.output:
             _check_output(args.output)
         result = run(

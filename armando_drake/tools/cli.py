@@ -53,6 +53,30 @@ def add_scenario_arguments(parser) -> None:
     add_description_arguments(parser, default="the scenario's, i.e. the built-in Armando")
 
 
+def add_host_argument(parser) -> None:
+    """``--host ADDRESS``: where Meshcat listens; this machine only by default."""
+    parser.add_argument(
+        "--host",
+        default="127.0.0.1",
+        metavar="ADDRESS",
+        help="address Meshcat listens on (default 127.0.0.1: this machine only; 0.0.0.0 "
+        "opens it to every network interface)",
+    )
+
+
+def start_meshcat(host: str):
+    """A Meshcat server listening on ``host`` (see :func:`add_host_argument`)."""
+    import logging
+
+    from pydrake.geometry import Meshcat, MeshcatParams
+
+    if host not in ("127.0.0.1", "localhost", "::1"):
+        logging.getLogger("armando_drake").warning(
+            "--host %s: Meshcat is reachable from other machines", host
+        )
+    return Meshcat(MeshcatParams(host=host))
+
+
 def add_description_arguments(parser, default: str) -> None:
     """``--description PATH`` and repeatable ``--package-path DIR``."""
     parser.add_argument(
