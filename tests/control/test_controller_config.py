@@ -354,7 +354,9 @@ def test_unknown_type_is_noted_and_fails_only_when_used(tmp_path, caplog):
         "position_controllers/JointGroupPositionController, "
         "velocity_controllers/JointGroupVelocityController, "
         "effort_controllers/JointGroupEffortController, "
-        "joint_trajectory_controller/JointTrajectoryController"
+        "joint_trajectory_controller/JointTrajectoryController, "
+        "task_space_controllers/JointSpaceInverseDynamics, "
+        "task_space_controllers/OperationalSpaceInverseDynamics"
     )
 
 

@@ -431,7 +431,9 @@ def test_an_unsupported_type_in_the_package_config_fails_only_when_activated(tmp
         "position_controllers/JointGroupPositionController, "
         "velocity_controllers/JointGroupVelocityController, "
         "effort_controllers/JointGroupEffortController, "
-        "joint_trajectory_controller/JointTrajectoryController"
+        "joint_trajectory_controller/JointTrajectoryController, "
+        "task_space_controllers/JointSpaceInverseDynamics, "
+        "task_space_controllers/OperationalSpaceInverseDynamics"
     ), line
 
 

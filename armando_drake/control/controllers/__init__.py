@@ -394,6 +394,11 @@ class Controller:
         """Parameters when none are given (tests): the controller's joints."""
         return cls.parameters(joints=list(joints.names))
 
+    def connect_plant(self, plant, model_instance) -> None:
+        """Called by the world builder once the plant is finalized, before the run:
+        a controller that computes from the robot's model (inverse dynamics) keeps
+        what it needs; the others ignore it."""
+
     def initial_memory(self) -> ControllerMemory:
         return self._initial
 
@@ -426,6 +431,7 @@ from armando_drake.control.controllers import (  # noqa: E402  (after the regist
     forward_command,
     joint_trajectory,
     ros1,
+    task_space,
 )
 
 __all__ = [
@@ -440,6 +446,7 @@ __all__ = [
     "forward_command",
     "joint_trajectory",
     "joint_list",
+    "task_space",
     "load_parameters",
     "lookup",
     "non_negative",
