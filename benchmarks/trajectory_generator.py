@@ -10,18 +10,29 @@ made rare, the spline evaluated between knots by Drake's C++ systems.
 A polynomial segment q(t + tau) = sum_i c_i tau^i sampled every h evolves
 linearly: c -> Phi c, with Phi the binomial shift c'_j = sum_{i>=j} C(i, j) h^(i-j) c_i
 (exact for degree <= 5). The generator built here (:func:`AddSplineGenerator`)
-is, per row of [q_d; v_d], the 6 coefficients in a ``ZeroOrderHold`` (period h)
-fed through a ``PortSwitch`` either by ``MatrixGain(Phi)`` of its own output
-(propagate) or by coefficients the Python side holds in its state (reset:
-loaded exactly, no additive jump, so a held value stays bit-exact and no
-round-off carries across resets); a ``MatrixGain`` takes the constant terms and a
-``Saturation`` clamps them into the joint limits. Drake applies a time's
-unrestricted updates before its discrete updates, so coefficients written by
-the Python side at a tick are loaded at that same tick: the desired state
-changes at the event's tick, as today. The Python side (:class:`EventTicks`)
-still runs at 100 Hz but returns ``DidNothing`` except at an event (start,
-knots, end) and at the tick after it (to hand over to the generator): 2 writes
-per knot instead of one per tick.
+holds, per row of [q_d; v_d], 6 coefficients in a ``ZeroOrderHold`` that loads,
+just before each tick, ``MatrixGain(Phi)`` of either its own coefficients or
+(``PortSwitch``) those the Python side wrote at its latest event: a reset is a
+load, not an additive jump, so no round-off carries across resets. The desired
+state is their constant terms clamped into bounds the Python side writes: the
+joint limits while the generator runs, the desired state itself (lower = upper)
+at an event tick and while holding, so that the output is then bit-exact.
+
+Timing (today's to the bit, and checked): Drake applies a time's unrestricted
+updates (the manager's) before its discrete updates, but all discrete updates
+of a time (the plant's, a ``ZeroOrderHold``'s) read the same context; so the
+hold shifts ``ADVANCE`` before each tick (the plant's update at the tick reads
+the new sample), and an event, which only the manager sees at the tick, pins
+the output through the bounds. Cost: the output path uses only systems whose
+output depends on their inputs alone (``MatrixGain``, ``Saturation``,
+``Selector``): a ``PortSwitch``, ``Multiplexer`` or ``Adder`` output depends on
+time too, and on the output path it made everything downstream (the plant's
+desired state and the world's gravity feed-forward) re-evaluate at every plant
+step, which cost what the design saved (measured: 1.00x today's trajectory world).
+
+The Python side (:class:`EventTicks`) still runs at 100 Hz but returns
+``DidNothing`` except at an event (start, knots, end) and at the tick after it
+(to hand over to the generator): 2 writes per knot instead of one per tick.
 
 Rows, each the median over interleaved runs of ``--duration`` simulated seconds,
 as real-time factors by wall-clock time and by the process's CPU time:
@@ -36,9 +47,10 @@ as real-time factors by wall-clock time and by the process's CPU time:
   (:func:`generator_in_world`): what the scenario would reach;
 
 and each one's ratio to the bare-plant run just before it. ``--check`` instead
-compares the generator's output at every tick with the controller's spline.
+compares the generator's output at every tick with the controller's spline, and
+the arm's motion in the world with the design against today's.
 
-    python benchmarks/trajectory_generator.py [--duration 10] [--runs 5] [--check]
+    python benchmarks/trajectory_generator.py [--duration 10] [--runs 5] [--check] [--advance 0]
 """
 
 from __future__ import annotations
@@ -54,9 +66,20 @@ import time
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import DiagramBuilder, EventStatus, InputPortIndex, LeafSystem
-from pydrake.systems.primitives import MatrixGain, PortSwitch, Saturation, ZeroOrderHold
+from pydrake.systems.primitives import (
+    MatrixGain,
+    PortSwitch,
+    Saturation,
+    Selector,
+    SelectorParams,
+    ZeroOrderHold,
+)
 
 DEGREE = 5  # highest segment degree (quintic)
+# [s] the generator shifts its coefficients this long before each tick, so that the plant's
+# discrete update at the tick (simultaneous with any other discrete update) reads them;
+# less than any plant time step.
+ADVANCE = 1e-6
 RESET = InputPortIndex(1)  # both switches: input 1 = the Python side's values
 PROPAGATE = InputPortIndex(2)  # both switches: input 2 = the generator
 
@@ -91,18 +114,27 @@ class EventTicks(LeafSystem):
         output_ports:
         - coefficients
         - selector
+        - bounds
 
     - ``coefficients``: per row of [q_d; v_d], the 6 coefficients about the latest
-      event tick (12n), which the generator loads at that tick.
+      event tick (12n), which the generator loads shifted just before the next tick.
     - ``selector``: ``RESET`` at an event tick (and while holding), ``PROPAGATE``
       from the tick after it while the generator runs the spline.
-
-    Drake applies the unrestricted updates of a time before its discrete updates,
-    so the generator's ``ZeroOrderHold`` loads the coefficients written at the same
-    tick: the desired state follows an event at the event's tick, as today.
+    - ``bounds``: [lower; upper] of the desired state (4n) [rad, rad/s]: both the
+      desired state itself at an event tick and while holding (the output is
+      pinned there, bit-exact), the joint limits (made finite) while the generator
+      runs.
     """
 
-    def __init__(self, *, trajectory, period: float, lower: np.ndarray, upper: np.ndarray):
+    def __init__(
+        self,
+        *,
+        trajectory,
+        initial: np.ndarray,
+        period: float,
+        lower: np.ndarray,
+        upper: np.ndarray,
+    ):
         super().__init__()
         self._trajectory = trajectory
         self._period = period
@@ -110,13 +142,21 @@ class EventTicks(LeafSystem):
         # [s] start (the message's arrival), knots and end
         self._events = (*trajectory.breaks[:-1], trajectory.end_time)
         rows = trajectory.coefficients.shape[1]
-        # Held until the start (the selector starts at RESET).
+        # A finite bound of every row over every segment (the clamp below needs finite
+        # bounds): sum_i |c_i| T^i.
+        durations = np.diff(trajectory.breaks)[:, None, None] ** np.arange(DEGREE + 1)
+        bound = float(np.max(np.abs(trajectory.coefficients) * durations) * (DEGREE + 1)) + 1.0
+        bound = max(bound, float(np.max(np.abs(initial))) + 1.0)
+        self._open = np.concatenate([np.clip(lower, -bound, bound), np.clip(upper, -bound, bound)])
+        # The manager's initial desired state, held until the start.
         held = np.zeros((rows, DEGREE + 1))
-        held[:, 0] = trajectory.sample_state(0.0)
+        held[:, 0] = initial
         self._coefficients = self.DeclareDiscreteState(held.reshape(-1))
         self._selector = self.DeclareAbstractState(AbstractValue.Make(RESET))
+        self._bounds = self.DeclareDiscreteState(np.concatenate([initial, initial]))
         self.DeclareStateOutputPort("coefficients", self._coefficients)
         self.DeclareStateOutputPort("selector", self._selector)
+        self.DeclareStateOutputPort("bounds", self._bounds)
         self.writes = 0  # ticks that changed the state
         self.rows = rows  # rows of [q_d; v_d] (2n)
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._Update)
@@ -127,12 +167,20 @@ class EventTicks(LeafSystem):
         event = any(now - self._period < t <= now for t in self._events)
         running = self._trajectory.breaks[0] <= now < self._trajectory.end_time
         if event:
-            # The tick of an event: the segment's coefficients about now.
+            # The tick of an event: the output pinned to the controller's own (clamped)
+            # sample, as the manager writes it today; the segment's coefficients about
+            # now for the generator.
+            coefficients = coefficients_about(self._trajectory, now)
+            x_d = self._trajectory.sample_state(now) if running else coefficients[:, 0]
+            x_d = np.clip(x_d, self._lower, self._upper)
             state.get_mutable_discrete_state(self._coefficients).SetFromVector(
-                coefficients_about(self._trajectory, now).reshape(-1)
+                coefficients.reshape(-1)
             )
+            state.get_mutable_discrete_state(self._bounds).SetFromVector(np.concatenate([x_d, x_d]))
             state.get_mutable_abstract_state(self._selector).set_value(RESET)
         elif running and selector == RESET:
+            # The tick after: the generator takes over within the joint limits.
+            state.get_mutable_discrete_state(self._bounds).SetFromVector(self._open)
             state.get_mutable_abstract_state(self._selector).set_value(PROPAGATE)
         else:
             return EventStatus.DidNothing()
@@ -140,29 +188,76 @@ class EventTicks(LeafSystem):
         return EventStatus.Succeeded()
 
 
-def AddSplineGenerator(builder: DiagramBuilder, ticks: EventTicks, period: float, limits):
-    """The C++ side: ZeroOrderHold <- PortSwitch(reset | Phi x), output
-    Saturation(constant terms). Returns (output port, the ZeroOrderHold)."""
+def _stack(builder: DiagramBuilder, ports) -> object:
+    """``Selector`` concatenating ``ports`` (a Multiplexer's output depends on time
+    too, a Selector's on its inputs only)."""
+    P = SelectorParams
+    inputs = [P.InputPortParams(name=f"in{k}", size=port.size()) for k, port in enumerate(ports)]
+    selections = [
+        P.OutputSelection(input_port_index=k, input_offset=i)
+        for k, port in enumerate(ports)
+        for i in range(port.size())
+    ]
+    stack = builder.AddSystem(
+        Selector(P(inputs=inputs, outputs=[P.OutputPortParams(name="y", selections=selections)]))
+    )
+    for k, port in enumerate(ports):
+        builder.Connect(port, stack.get_input_port(k))
+    return stack.get_output_port()
+
+
+def _relu_of(builder: DiagramBuilder, gain: np.ndarray, port) -> object:
+    """max(gain @ port, 0): ``MatrixGain`` then ``Saturation`` [0, inf)."""
+    linear = builder.AddSystem(MatrixGain(gain))
+    builder.Connect(port, linear.get_input_port())
+    size = gain.shape[0]
+    relu = builder.AddSystem(Saturation(np.zeros(size), np.full(size, np.inf)))
+    builder.Connect(linear.get_output_port(), relu.get_input_port())
+    return relu.get_output_port()
+
+
+def AddSplineGenerator(builder: DiagramBuilder, ticks: EventTicks, period: float):
+    """The C++ side. A ``ZeroOrderHold`` (period h, offset h - ``ADVANCE``) loads, just
+    before each tick, ``MatrixGain(Phi)`` of ``PortSwitch(selector: the event ticks'
+    coefficients | its own)``, so it holds the coefficients about the coming tick;
+    g, their constant terms, is clamped into the event ticks' [L, U] by
+    y = L + max((U - L) - max(U - g, 0), 0), which is clamp(g, L, U) for L <= U and
+    exactly L when L = U whatever g is (the second max sees a value <= 0 in any
+    rounding). Every system on the output path depends on its inputs only
+    (``MatrixGain``, ``Saturation``, ``Selector``): a ``PortSwitch``'s,
+    ``Multiplexer``'s or ``Adder``'s output depends on time too, which would
+    re-evaluate everything downstream (the plant's desired state, the world's
+    gravity feed-forward) at every plant step; the ``PortSwitch`` sits where only
+    the hold's update reads it. (Drake's ``Saturation`` with min/max input ports
+    would do the clamp in one system, but pydrake 1.51 binds only its
+    constant-limit constructor.) Returns (desired-state port, the ZeroOrderHold)."""
     rows = ticks.rows
     size = rows * (DEGREE + 1)
-    hold = builder.AddSystem(ZeroOrderHold(period, size))
-    propagate = builder.AddSystem(MatrixGain(np.kron(np.eye(rows), shift_matrix(period))))
     load = builder.AddSystem(PortSwitch(size))
     builder.Connect(ticks.GetOutputPort("selector"), load.get_port_selector_input_port())
     builder.Connect(ticks.GetOutputPort("coefficients"), load.DeclareInputPort("reset"))
-    builder.Connect(propagate.get_output_port(), load.DeclareInputPort("propagate"))
-    builder.Connect(load.get_output_port(), hold.get_input_port())
-    builder.Connect(hold.get_output_port(), propagate.get_input_port())
+    hold = builder.AddSystem(ZeroOrderHold(period, size, period - ADVANCE))
+    builder.Connect(hold.get_output_port(), load.DeclareInputPort("propagate"))
+    shift = builder.AddSystem(MatrixGain(np.kron(np.eye(rows), shift_matrix(period))))
+    builder.Connect(load.get_output_port(), shift.get_input_port())
+    builder.Connect(shift.get_output_port(), hold.get_input_port())
     constant = builder.AddSystem(MatrixGain(np.kron(np.eye(rows), np.eye(1, DEGREE + 1))))
     builder.Connect(hold.get_output_port(), constant.get_input_port())
-    clamp = builder.AddSystem(Saturation(*limits))
-    builder.Connect(constant.get_output_port(), clamp.get_input_port())
-    return clamp.get_output_port(), hold
+    identity, zero = np.eye(rows), np.zeros((rows, rows))
+    # z = [g; L; U]
+    z = _stack(builder, [constant.get_output_port(), ticks.GetOutputPort("bounds")])
+    above = _relu_of(builder, np.hstack([-identity, zero, identity]), z)  # max(U - g, 0)
+    za = _stack(builder, [z, above])  # [g; L; U; max(U - g, 0)]
+    inside = _relu_of(builder, np.hstack([zero, -identity, identity, -identity]), za)
+    zc = _stack(builder, [z, inside])  # [g; L; U; max(...)]
+    output = builder.AddSystem(MatrixGain(np.hstack([zero, identity, zero, identity])))
+    builder.Connect(zc, output.get_input_port())
+    return output.get_output_port(), hold
 
 
 def controller_spline():
-    """The trajectory controller's ``_ActiveTrajectory`` in the trajectory scenario, and
-    its [q_d; v_d] bounds."""
+    """The trajectory controller's ``_ActiveTrajectory`` in the trajectory scenario, its
+    [q_d; v_d] bounds and initial value, and the manager's period [s]."""
     from pydrake.systems.analysis import Simulator
 
     from armando_drake.benchmarks.suite import NO_CONSOLE
@@ -178,7 +273,8 @@ def controller_spline():
     logic = manager.controllers[0].logic
     period = 1.0 / world.update_rate
     world.close(simulator.get_context())
-    return memory.trajectory, (logic._state_lower, logic._state_upper), period
+    limits = (logic._state_lower, logic._state_upper)
+    return memory.trajectory, limits, logic.initial_memory().desired, period
 
 
 def _timed(diagram, duration: float, prepare=None) -> tuple[float, float]:
@@ -215,25 +311,31 @@ def _plant(builder):
     return plant, robot
 
 
-def generator_diagram(spline, limits, period):
+def generator_diagram(spline, limits, initial, period):
     """(diagram, EventTicks, generator's ZeroOrderHold, desired-state port)."""
     builder = DiagramBuilder()
     plant, robot = _plant(builder)
     ticks = builder.AddSystem(
-        EventTicks(trajectory=spline, period=period, lower=limits[0], upper=limits[1])
+        EventTicks(
+            trajectory=spline,
+            initial=initial,
+            period=period,
+            lower=limits[0],
+            upper=limits[1],
+        )
     )
-    desired, hold = AddSplineGenerator(builder, ticks, period, limits)
+    desired, hold = AddSplineGenerator(builder, ticks, period)
     builder.Connect(desired, plant.get_desired_state_input_port(robot.model_instance))
     builder.ExportOutput(desired, "desired_state")
     diagram = builder.Build()
     return diagram, ticks, hold, diagram.GetOutputPort("desired_state")
 
 
-def check(spline, limits, period, duration: float) -> None:
+def check(spline, limits, initial, period, duration: float) -> None:
     """Largest |generator - controller spline| over the ticks."""
     from pydrake.systems.analysis import Simulator
 
-    diagram, ticks, _, desired = generator_diagram(spline, limits, period)
+    diagram, ticks, _, desired = generator_diagram(spline, limits, initial, period)
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
     worst, worst_exact = 0.0, 0.0
@@ -251,8 +353,33 @@ def check(spline, limits, period, duration: float) -> None:
     print(f"  ticks that wrote state: {ticks.writes} of {int(round(duration / period))}")
 
 
+def compare_worlds(spline, limits, initial, period, times=(1.0, 3.5, 6.5, 10.0)) -> None:
+    """Largest |q today - q with the generator| of the trajectory world's arm at ``times``."""
+    from pydrake.systems.analysis import Simulator
+
+    from armando_drake.benchmarks.suite import NO_CONSOLE
+    from armando_drake.simulation.builder import MakeWorld
+    from armando_drake.simulation.scenario import load_scenario
+
+    def positions(patch) -> np.ndarray:
+        rows = []
+        with patch():
+            world = MakeWorld(load_scenario("trajectory", NO_CONSOLE), quiet=True)
+            simulator = Simulator(world.diagram)
+            for time_ in times:
+                simulator.AdvanceTo(time_)
+                rows.append(np.array(world.joint_positions(simulator.get_context())))
+        world.close(simulator.get_context())
+        return np.array(rows)
+
+    today = positions(contextlib.nullcontext)
+    generated = positions(lambda: generator_in_world(spline, limits, initial, period))
+    for time_, error in zip(times, np.abs(today - generated).max(axis=1), strict=True):
+        print(f"world at {time_:g} s: max |q today - q with the generator| {error:.3g} rad")
+
+
 @contextlib.contextmanager
-def generator_in_world(spline, limits, period):
+def generator_in_world(spline, limits, initial, period):
     """While active, a world built by ``MakeWorld`` is the trajectory world as the
     design would make it, by patching (this experiment only):
 
@@ -304,9 +431,15 @@ def generator_in_world(spline, limits, period):
 
     def connect(builder, plant, robot, hardware, *, desired_state, **kwargs):
         ticks = builder.AddSystem(
-            EventTicks(trajectory=spline, period=period, lower=limits[0], upper=limits[1])
+            EventTicks(
+                trajectory=spline,
+                initial=initial,
+                period=period,
+                lower=limits[0],
+                upper=limits[1],
+            )
         )
-        generated, _ = AddSplineGenerator(builder, ticks, period, limits)
+        generated, _ = AddSplineGenerator(builder, ticks, period)
         return original_connect(builder, plant, robot, hardware, desired_state=generated, **kwargs)
 
     manager_class._Update = manager_update
@@ -320,19 +453,30 @@ def generator_in_world(spline, limits, period):
 
 
 def main() -> None:
+    global ADVANCE  # noqa: PLW0603 -- the experiment's one knob
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--duration", type=float, default=10.0, help="simulated time [s]")
     parser.add_argument("--runs", type=int, default=5, help="interleaved runs of each")
     parser.add_argument("--check", action="store_true", help="compare with the spline only")
+    parser.add_argument(
+        "--advance",
+        type=float,
+        default=ADVANCE,
+        help="[s] how long before each tick the generator shifts; 0 = at the tick, "
+        "which saves a simulator stop per tick but is WRONG (the plant reads the hold's "
+        "previous value for one step after each tick): for the cost comparison only",
+    )
     args = parser.parse_args()
+    ADVANCE = args.advance
 
     from armando_drake.benchmarks.suite import NO_CONSOLE
     from armando_drake.simulation.builder import MakeWorld
     from armando_drake.simulation.scenario import load_scenario
 
-    spline, limits, period = controller_spline()
+    spline, limits, initial, period = controller_spline()
     if args.check:
-        check(spline, limits, period, 15.0)
+        check(spline, limits, initial, period, 15.0)
+        compare_worlds(spline, limits, initial, period)
         return
 
     def world(name, patch=contextlib.nullcontext):
@@ -343,7 +487,7 @@ def main() -> None:
         return result
 
     def world_generator():
-        return world("trajectory", lambda: generator_in_world(spline, limits, period))
+        return world("trajectory", lambda: generator_in_world(spline, limits, initial, period))
 
     def bare():
         from pydrake.systems.primitives import TrajectorySource
@@ -366,7 +510,7 @@ def main() -> None:
         return _timed(builder.Build(), args.duration)
 
     def generator():
-        diagram, _, _, _ = generator_diagram(spline, limits, period)
+        diagram, _, _, _ = generator_diagram(spline, limits, initial, period)
         return _timed(diagram, args.duration)
 
     rows = {"bare": [], "position": [], "trajectory": [], "generator": [], "world+gen": []}
