@@ -5,6 +5,7 @@ the function on each task in parallel, and yield the results as they finish
 (in completion order; every result says which task it belongs to). Sweeps
 and data sets use them the same way; only the engine differs.
 
+- :class:`InProcess`: one task after another in this process, for debugging.
 - :class:`LocalPool`: ``workers`` processes of this machine
   (``concurrent.futures.ProcessPoolExecutor``, started with ``spawn`` so that no
   worker inherits a copy of a running Drake or thread state).
@@ -35,6 +36,29 @@ def available_cpus() -> int:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # not Linux
         return os.cpu_count() or 1
+
+
+class InProcess:
+    """Runs the tasks one after another in this process (for debugging and quick tests)."""
+
+    name = "in-process"
+    workers = 1
+
+    def describe(self) -> str:
+        return "this process, one task at a time"
+
+    def map_unordered(self, function: Callable[[Any], Any], tasks: Iterable[Any]) -> Iterator[Any]:
+        for task in tasks:
+            yield function(task)
+
+    def close(self) -> None:
+        pass
+
+    def __enter__(self) -> InProcess:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
 
 class LocalPool:

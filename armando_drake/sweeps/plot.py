@@ -119,8 +119,7 @@ def _heat_map(figure, ax, cells, levels, metric) -> None:
     for (x, y), (value, _, _) in cells.items():
         if value is not None:
             grid[ys.index(y), xs.index(x)] = value
-    cmap = colormaps["viridis"].copy()
-    cmap.set_bad("lightgrey")
+    cmap = colormaps["viridis"].with_extremes(bad="lightgrey")
     image = ax.imshow(np.ma.masked_invalid(grid), origin="lower", cmap=cmap, aspect="auto")
     figure.colorbar(image, ax=ax, label=_metric_label(metric))
     ax.set_xticks(range(len(xs)), [_label(x) for x in xs])
