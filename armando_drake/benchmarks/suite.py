@@ -17,7 +17,10 @@ same machine load:
 4. start-up: wall time of ``python -m armando_drake.world --no-meshcat
    --duration 0`` from launch to exit, with an empty mesh cache and a full one;
 5. memory: resident memory at the start and after one simulated hour of the
-   cyclic position scenario with the CSV logger at 100 Hz (fresh process).
+   cyclic position scenario with the CSV logger at 100 Hz (fresh process);
+6. sweep: throughput of ``python -m armando_drake.sweep`` (world runs per
+   minute) on the local pool with 1 and 2 workers, and on a local Ray instance
+   of 2 CPUs.
 
 Each figure is the median of ``--repeat`` repetitions, with min and max. The
 table is printed as markdown and written with the raw samples to a JSON file.
@@ -52,7 +55,7 @@ import numpy as np
 
 from armando_drake.tools.cli import command_parser
 
-SECTIONS = ("pipeline", "mujoco", "camera", "startup", "memory")
+SECTIONS = ("pipeline", "mujoco", "camera", "startup", "memory", "sweep")
 SCENARIOS = ("position", "trajectory", "sinusoid")
 # [rad] j0..j3: the seed targets of diagrams/position.yaml, 3 s apart.
 TARGETS = [
@@ -686,6 +689,75 @@ def bench_memory(report: Report, horizon: float) -> None:
     )
 
 
+# --- 6. sweep ------------------------------------------------------------------------
+
+
+def bench_sweep(report: Report) -> None:
+    """World runs per minute of a sweep: local pool with 1 and 2 workers, Ray on 2 CPUs.
+
+    The same variants each time (the position scenario, kp over a grid, no
+    console output), each run a fresh world process; the three engines are
+    interleaved per repetition. Ray's start-up is not timed (a cluster is
+    started once and serves many sweeps).
+    """
+    from armando_drake.sweeps.axes import make_variants, parse_grid
+    from armando_drake.sweeps.engines import LocalPool, RayEngine
+    from armando_drake.sweeps.errors import SweepError
+    from armando_drake.sweeps.sweep import Sweep, run_sweep
+
+    count, duration = (2, 0.1) if report.quick else (8, 2.0)
+    sweep = Sweep(
+        scenario="position",
+        variants=make_variants([parse_grid(f"actuators.kp=linspace(2, 16, {count})")]),
+        common_overrides=[NO_CONSOLE],
+        world_args=["--duration", repr(duration)],
+    )
+
+    def runs_per_minute(engine) -> float:
+        with tempfile.TemporaryDirectory(prefix="armando_bench_sweep_") as folder:
+            start = time.perf_counter()
+            outcome = run_sweep(sweep, folder, engine, progress=False)
+            seconds = time.perf_counter() - start
+        if outcome.failed:
+            raise RuntimeError(f"sweep benchmark: {outcome.failed} of {count} runs failed")
+        return 60.0 * count / seconds
+
+    load = [os.getloadavg()[0]]
+    ray_engine, ray_folder = None, tempfile.mkdtemp(prefix="armando_bench_ray_")
+    try:
+        ray_engine = RayEngine("local", workers=2, temp_dir=ray_folder)
+    except SweepError as error:
+        report.notes.append(f"Sweep: no Ray row ({error}).")
+    one, two, ray = [], [], []
+    try:
+        for _ in range(report.repeat):
+            one.append(runs_per_minute(LocalPool(workers=1)))
+            two.append(runs_per_minute(LocalPool(workers=2)))
+            if ray_engine is not None:
+                ray.append(runs_per_minute(ray_engine))
+            load.append(os.getloadavg()[0])
+    finally:
+        if ray_engine is not None:
+            ray_engine.close()
+    report.add(Row("sweep", "sweep, local pool, 1 worker", "runs/min", one))
+    report.add(Row("sweep", "sweep, local pool, 2 workers", "runs/min", two))
+    ratios = [b / a for a, b in zip(one, two, strict=True)]
+    report.add(Row("sweep", "sweep, 2 workers / 1 worker", "ratio", ratios).check(">=", 1.8))
+    if ray:
+        report.add(Row("sweep", "sweep, Ray on 2 CPUs", "runs/min", ray))
+        ratios = [r / b for r, b in zip(ray, two, strict=True)]
+        report.add(
+            Row("sweep", "sweep, Ray / local pool, 2 workers", "ratio", ratios).check(">=", 0.9)
+        )
+    report.notes.append(
+        f"Sweep: {count} variants of the position scenario (kp from 2 to 16), {duration:g} s "
+        "simulated each, every run a fresh `python -m armando_drake.world` process (start-up "
+        f"included); {os.cpu_count()} CPUs, 1-minute load average "
+        + ", ".join(f"{x:.2f}" for x in load)
+        + " (before, then after each repetition). The 2-worker target needs 2 idle CPUs."
+    )
+
+
 # --- the suite ----------------------------------------------------------------------
 
 
@@ -723,6 +795,7 @@ def run_suite(
         "camera": lambda: bench_camera(report, settings.camera_frames, settings.camera_seconds),
         "startup": lambda: bench_startup(report),
         "memory": lambda: bench_memory(report, settings.memory_seconds),
+        "sweep": lambda: bench_sweep(report),
     }
     for section in sections:
         print(f"[bench] {section} ...", file=sys.stderr, flush=True)

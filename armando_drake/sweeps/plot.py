@@ -121,7 +121,7 @@ def _heat_map(figure, ax, cells, levels, metric) -> None:
             grid[ys.index(y), xs.index(x)] = value
     cmap = colormaps["viridis"].with_extremes(bad="lightgrey")
     image = ax.imshow(np.ma.masked_invalid(grid), origin="lower", cmap=cmap, aspect="auto")
-    figure.colorbar(image, ax=ax, label=_metric_label(metric))
+    figure.colorbar(image, ax=ax, label=metric)
     ax.set_xticks(range(len(xs)), [_label(x) for x in xs])
     ax.set_yticks(range(len(ys)), [_label(y) for y in ys])
     if len(xs) * len(ys) <= 150:
@@ -139,7 +139,7 @@ def _heat_map(figure, ax, cells, levels, metric) -> None:
                 text,
                 ha="center",
                 va="center",
-                fontsize=8,
+                fontsize=10,
                 color="white" if dark else "black",
             )
 
@@ -150,7 +150,7 @@ def _scatter(figure, ax, cells, metric) -> None:
     if points:
         x, y, v = zip(*points, strict=True)
         image = ax.scatter(x, y, c=v, cmap="viridis", s=30)
-        figure.colorbar(image, ax=ax, label=_metric_label(metric))
+        figure.colorbar(image, ax=ax, label=metric)
     if missing:
         x, y = zip(*missing, strict=True)
         ax.scatter(x, y, marker="x", color="red", label="failed or n/a")

@@ -10,6 +10,7 @@ import os
 import subprocess
 import sys
 
+import pyarrow.parquet as pq
 import pytest
 from conftest import skip_or_fail
 
@@ -192,3 +193,16 @@ def test_ray_gives_the_same_table(ray_instance, local_sweep, tmp_path):
         assert {k: v for k, v in ours.items() if k not in TIMING} == {
             k: v for k, v in theirs.items() if k not in TIMING
         }
+
+
+def test_ray_makes_the_same_data_set(ray_instance, tmp_path):
+    from armando_drake.sweeps.dataset import IkSettings, RobotSpec, make_ik_dataset
+    from armando_drake.sweeps.engines import InProcess
+
+    ik = IkSettings(enabled=True)
+    with RayEngine() as engine:
+        on_ray = make_ik_dataset(RobotSpec(), 12, 5, tmp_path / "ray.parquet", engine, ik=ik)
+    here = make_ik_dataset(RobotSpec(), 12, 5, tmp_path / "here.parquet", InProcess(), ik=ik)
+    ray_table, local_table = pq.read_table(on_ray), pq.read_table(here)
+    assert ray_table.num_rows == 12
+    assert ray_table.equals(local_table)
