@@ -1,6 +1,6 @@
 """The sweep's main figure: one metric over one or two axes.
 
-- two axes whose values form a grid: a heat map, one cell per pair of values,
+- two axes whose values form a grid (at least half of the value pairs ran): a heat map, one cell per pair of values,
   the metric written in each cell (the median where other axes vary too);
   a cell whose runs all failed says so, a cell without the metric (a step that
   never settled) is grey;
@@ -87,7 +87,8 @@ def plot_sweep(
     ax = figure.add_subplot()
     levels = [_ordered([key[i] for key in cells]) for i in range(len(axes))]
     failed = sum(f for _, _, f in cells.values())
-    if len(axes) == 2 and max(len(v) for v in levels) <= MAX_GRID_VALUES:
+    grid = len(axes) == 2 and len(cells) >= 0.5 * len(levels[0]) * len(levels[1])
+    if grid and max(len(v) for v in levels) <= MAX_GRID_VALUES:
         _heat_map(figure, ax, cells, levels, metric)
     elif len(axes) == 2:
         _scatter(figure, ax, cells, metric)
@@ -165,8 +166,11 @@ def _line(ax, cells, xs, metric) -> None:
     style = "o-" if len(xs) <= MAX_GRID_VALUES else "o"
     ax.plot(positions, values, style, markersize=4)
     bad = [p for p, (_, v) in zip(positions, points, strict=True) if v is None]
-    if bad:
-        ax.plot(bad, [0.0] * len(bad), "x", color="red", label="failed or n/a")
+    if bad:  # at the bottom edge of the axes
+        from matplotlib.transforms import blended_transform_factory
+
+        edge = blended_transform_factory(ax.transData, ax.transAxes)
+        ax.plot(bad, [0.02] * len(bad), "x", color="red", transform=edge, label="failed or n/a")
         ax.legend(loc="best", fontsize=8)
     if not numeric:
         ax.set_xticks(positions, [_label(x) for x in xs])
