@@ -1,7 +1,8 @@
 """The sweep's main figure: one metric over one or two axes.
 
-- two axes whose values form a grid (at least half of the value pairs ran): a heat map, one cell per pair of values,
-  the metric written in each cell (the median where other axes vary too);
+- two axes whose values form a grid (at least half of the value pairs ran): a
+  heat map, one cell per pair of values, the metric written in each cell (the
+  median where other axes vary too);
   a cell whose runs all failed says so, a cell without the metric (a step that
   never settled) is grey;
 - two axes of random values: a scatter plot coloured by the metric;
