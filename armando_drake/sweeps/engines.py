@@ -6,9 +6,14 @@ the function on each task in parallel, and yield the results as they finish
 and data sets use them the same way; only the engine differs.
 
 - :class:`InProcess`: one task after another in this process, for debugging.
-- :class:`LocalPool`: ``workers`` processes of this machine
-  (``concurrent.futures.ProcessPoolExecutor``, started with ``spawn`` so that no
-  worker inherits a copy of a running Drake or thread state).
+- :class:`LocalPool`: ``workers`` at once on this machine. A function marked
+  :func:`waits_on_child_process` (a sweep variant: it starts a world process and
+  waits for it) runs in a thread of this process, so each of the ``workers``
+  world processes is the pool's process; any other function (a data set shard)
+  runs in a worker process of a ``concurrent.futures.ProcessPoolExecutor``
+  started with ``spawn`` (no copy of a running Drake or thread state; as with any
+  ``spawn`` pool, a script that uses it needs the ``if __name__ == "__main__":``
+  guard).
 - :class:`RayEngine`: Ray tasks (``ray.remote`` with ``num_cpus`` each),
   collected with ``ray.wait`` as they finish. ``address`` is ``auto`` (the
   cluster named by ``RAY_ADDRESS`` or the latest one started on this
@@ -28,6 +33,12 @@ from collections.abc import Callable, Iterable, Iterator
 from typing import Any
 
 from armando_drake.sweeps.errors import SweepError
+
+
+def waits_on_child_process(function: Callable) -> Callable:
+    """Marks a task function that only starts a process and waits for it: threads suffice."""
+    function.waits_on_child_process = True
+    return function
 
 
 def available_cpus() -> int:
@@ -78,10 +89,13 @@ class LocalPool:
         tasks = list(tasks)
         if not tasks:
             return
-        pool = concurrent.futures.ProcessPoolExecutor(
-            max_workers=min(self.workers, len(tasks)),
-            mp_context=multiprocessing.get_context("spawn"),
-        )
+        workers = min(self.workers, len(tasks))
+        if getattr(function, "waits_on_child_process", False):
+            pool = concurrent.futures.ThreadPoolExecutor(max_workers=workers)
+        else:
+            pool = concurrent.futures.ProcessPoolExecutor(
+                max_workers=workers, mp_context=multiprocessing.get_context("spawn")
+            )
         try:
             futures = [pool.submit(function, task) for task in tasks]
             for future in concurrent.futures.as_completed(futures):

@@ -28,6 +28,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from armando_drake.sweeps.engines import waits_on_child_process
+
 OK = "ok"  # exit code 0 and a summary.json
 FAILED = "failed"  # any other exit, or no summary.json
 TIMEOUT = "timeout"  # killed after the task's timeout
@@ -96,6 +98,7 @@ def _environment() -> dict[str, str]:
     return environment
 
 
+@waits_on_child_process
 def run_variant(task: VariantTask) -> VariantResult:
     """Runs one variant to its end and collects its result; never raises for a failed run."""
     output = Path(task.output)
