@@ -8,9 +8,10 @@ OUT/results.parquet: the variant's values, status, exit code, error line, wall
 time, metrics and every number of its summary.json (see
 armando_drake/sweeps/table.py for the columns). A failing variant is recorded
 with its error, and the others go on. --resume skips the variants OUT already
-holds a result for (OUT/variants/NNNN/result.json); --retry-failed runs the
-failed ones again. --plot draws the sweep's figure of --metric into
-OUT/<metric>.png: a heat map over two axes, a line over one.
+holds a result for (OUT/variants/NNNN/result.json) except the interrupted
+ones; --retry-failed runs the failed and timed-out ones again too. --plot
+draws the sweep's figure of --metric into OUT/<metric>.png: a heat map over
+two axes, a line over one.
 
 Axes: --grid KEY=[v1, v2, ...] (or linspace(a, b, n), geomspace(a, b, n)),
 --random KEY=uniform(a, b) | loguniform(a, b) | normal(mean, std) |
@@ -43,7 +44,7 @@ from pathlib import Path
 from armando_drake.sweeps.axes import Variant, make_variants, parse_grid, parse_random
 from armando_drake.sweeps.errors import SweepError, reported
 from armando_drake.sweeps.table import METRICS, ResultsTable, row
-from armando_drake.sweeps.variant import FAILED, OK, VariantResult, VariantTask, run_variant
+from armando_drake.sweeps.variant import INTERRUPTED, OK, VariantResult, VariantTask, run_variant
 
 SWEEP_FILE = "sweep.json"  # what the sweep is: scenario, axes, variants
 RESULT_FILE = "result.json"  # in each variant's folder: its values and result
@@ -130,8 +131,8 @@ def _progress(total: int, done: int, failed: int, enabled: bool, engine):
         disable=not enabled,
         dynamic_ncols=True,
         bar_format="{desc}: {n}/{total} runs{postfix} |{bar}| {elapsed} elapsed, {remaining} left",
+        postfix=f"{failed} failed",
     )
-    bar.set_postfix_str(f"{failed} failed")
     return bar
 
 
@@ -180,7 +181,7 @@ def run_sweep(
                     f"now {variant.values} with {identity}); choose another --output"
                 )
             result = VariantResult(**stored["result"])
-            if result.status in (OK, FAILED) and not (retry_failed and result.status != OK):
+            if result.status != INTERRUPTED and not (retry_failed and result.status != OK):
                 rows[variant.index] = row(variant.values, result)
                 continue
         todo.append(variant)

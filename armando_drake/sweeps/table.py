@@ -5,7 +5,7 @@ Columns, in this order:
 - ``variant``: the variant's index in the sweep (0, 1, ...);
 - one column per axis, named by its key path (``actuators.kp``), holding the
   variant's value (lists and mappings as their YAML text);
-- ``status``: ``ok``, ``failed`` or ``timeout``; ``exit_code``: the world's exit
+- ``status``: ``ok``, ``failed``, ``timeout`` or ``interrupted``; ``exit_code``: the world's exit
   code (2 for an input error, empty after a timeout); ``error``: the last line
   of its standard error when it failed, else empty; ``wall_time`` [s]: the
   process's wall time, start-up included; ``host``: the machine it ran on;

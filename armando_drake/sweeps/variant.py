@@ -33,6 +33,7 @@ from armando_drake.sweeps.engines import waits_on_child_process
 OK = "ok"  # exit code 0 and a summary.json
 FAILED = "failed"  # any other exit, or no summary.json
 TIMEOUT = "timeout"  # killed after the task's timeout
+INTERRUPTED = "interrupted"  # stopped by a signal (Ctrl-C: exit code 130, or killed)
 
 
 @dataclass
@@ -74,7 +75,7 @@ class VariantResult:
     """What one variant's run left."""
 
     index: int  # the variant's position in the sweep
-    status: str  # OK, FAILED or TIMEOUT
+    status: str  # OK, FAILED, TIMEOUT or INTERRUPTED
     exit_code: int | None  # the process's exit code (negative: killed by that signal)
     error: str  # the last non-empty line of stderr when the run failed, else ""
     wall_time: float  # [s] from process start to exit, start-up included
@@ -132,6 +133,8 @@ def run_variant(task: VariantTask) -> VariantResult:
             summary = json.loads(summary_path.read_text())
         except (OSError, ValueError):
             summary = None
+    if status is None and (exit_code == 130 or exit_code < 0):
+        status = INTERRUPTED
     if status is None:
         status = OK if exit_code == 0 and summary is not None else FAILED
     error = ""
