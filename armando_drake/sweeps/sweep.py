@@ -153,20 +153,6 @@ def run_sweep(
             f"--output {output} already holds a sweep ({SWEEP_FILE}); add --resume to continue "
             "it, or choose another folder"
         )
-    output.mkdir(parents=True, exist_ok=True)
-    _write_json(
-        sweep_file,
-        {
-            **sweep.identity(),
-            "axes": sweep.axes,
-            "timeout": sweep.timeout,
-            "written": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
-            "variants": [
-                {"variant": v.index, "values": v.values, "overrides": v.overrides()}
-                for v in sweep.variants
-            ],
-        },
-    )
     identity = sweep.identity()
     rows, todo = {}, []
     for variant in sweep.variants:
@@ -185,6 +171,20 @@ def run_sweep(
                 rows[variant.index] = row(variant.values, result)
                 continue
         todo.append(variant)
+    output.mkdir(parents=True, exist_ok=True)
+    _write_json(
+        sweep_file,
+        {
+            **sweep.identity(),
+            "axes": sweep.axes,
+            "timeout": sweep.timeout,
+            "written": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
+            "variants": [
+                {"variant": v.index, "values": v.values, "overrides": v.overrides()}
+                for v in sweep.variants
+            ],
+        },
+    )
     skipped = len(rows)
     failed = sum(r["status"] != OK for r in rows.values())
     by_index = {v.index: v for v in sweep.variants}

@@ -147,6 +147,8 @@ def test_failing_variant_is_recorded_resumed_and_plotted(tmp_path, capsys):
     with pytest.raises(SystemExit):
         sweep_command.main(["--grid", "actuators.kp=[5]", "--resume", *common])
     assert "is of another sweep" in capsys.readouterr().err
+    stored = json.loads((output / "sweep.json").read_text())["variants"]
+    assert [v["values"]["actuators.kp"] for v in stored] == [4, "fast", 8]  # left as it was
 
 
 def test_dry_run_prints_the_world_commands(capsys):
