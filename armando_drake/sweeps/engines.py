@@ -36,7 +36,11 @@ from armando_drake.sweeps.errors import SweepError
 
 
 def waits_on_child_process(function: Callable) -> Callable:
-    """Marks a task function that only starts a process and waits for it: threads suffice."""
+    """Marks a task function that only starts a process and waits for it: threads suffice.
+
+    Such a function may also carry ``on_interrupt``, a callable that stops the
+    processes it started; the local pool calls it when the caller is interrupted.
+    """
     function.waits_on_child_process = True
     return function
 
@@ -100,6 +104,11 @@ class LocalPool:
             futures = [pool.submit(function, task) for task in tasks]
             for future in concurrent.futures.as_completed(futures):
                 yield future.result()
+        except BaseException:  # Ctrl-C, or the caller stopped early: stop the running tasks
+            on_interrupt = getattr(function, "on_interrupt", None)
+            if on_interrupt is not None:
+                on_interrupt()
+            raise
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
 
@@ -189,8 +198,8 @@ class RayEngine:
                 done, running = ray.wait(running, num_returns=1)
                 yield ray.get(done[0])
         finally:
-            for ref in running:
-                ray.cancel(ref, force=True)
+            for ref in running:  # a KeyboardInterrupt in each task: runs stop cleanly
+                ray.cancel(ref)
 
     def close(self) -> None:
         if self._owner and self._ray.is_initialized():

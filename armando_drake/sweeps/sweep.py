@@ -33,8 +33,10 @@ Examples:
 from __future__ import annotations
 
 import argparse
+import contextlib
 import datetime
 import json
+import signal
 import sys
 import time
 from collections.abc import Sequence
@@ -348,8 +350,19 @@ def sweep_from_arguments(args: argparse.Namespace) -> Sweep:
     )
 
 
+def _stop_on_sigterm() -> None:
+    """SIGTERM stops the sweep as Ctrl-C does: the runs stop, the table is written."""
+
+    def handler(signum, frame):
+        raise KeyboardInterrupt
+
+    with contextlib.suppress(ValueError):  # not the main thread: leave the handler alone
+        signal.signal(signal.SIGTERM, handler)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    _stop_on_sigterm()
     with reported():
         sweep = sweep_from_arguments(args)
         if args.dry_run:

@@ -20,9 +20,11 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -99,6 +101,19 @@ def _environment() -> dict[str, str]:
     return environment
 
 
+_running: set[subprocess.Popen] = set()  # world processes of this process's variants
+_lock = threading.Lock()
+
+
+def interrupt_running() -> None:
+    """Sends SIGINT to every world run still going: each stops and writes its summary."""
+    with _lock:
+        processes = list(_running)
+    for process in processes:
+        if process.poll() is None:
+            process.send_signal(signal.SIGINT)
+
+
 @waits_on_child_process
 def run_variant(task: VariantTask) -> VariantResult:
     """Runs one variant to its end and collects its result; never raises for a failed run."""
@@ -110,19 +125,33 @@ def run_variant(task: VariantTask) -> VariantResult:
     start = time.perf_counter()
     status = None
     try:
-        done = subprocess.run(
+        process = subprocess.Popen(
             command,
-            capture_output=True,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            stdin=subprocess.DEVNULL,
             text=True,
             env=_environment(),
-            timeout=task.timeout,
-            stdin=subprocess.DEVNULL,
         )
-        exit_code, stdout, stderr = done.returncode, done.stdout, done.stderr
-    except subprocess.TimeoutExpired as expired:
+    except OSError as error:
+        raise RuntimeError(f"cannot start {command[0]}: {error}") from None
+    with _lock:
+        _running.add(process)
+    try:
+        stdout, stderr = process.communicate(timeout=task.timeout)
+        exit_code = process.returncode
+    except subprocess.TimeoutExpired:
+        process.kill()
+        stdout, stderr = process.communicate()
         status, exit_code = TIMEOUT, None
-        stdout = _text(expired.stdout)
-        stderr = _text(expired.stderr) + f"\ntimeout: killed after {task.timeout:g} s"
+        stderr += f"\ntimeout: killed after {task.timeout:g} s"
+    except BaseException:  # interrupted (a Ray task cancelled): let the run stop cleanly
+        process.send_signal(signal.SIGINT)
+        process.wait()
+        raise
+    finally:
+        with _lock:
+            _running.discard(process)
     wall_time = time.perf_counter() - start
     (output / "stdout.txt").write_text(stdout)
     (output / "stderr.txt").write_text(stderr)
@@ -155,7 +184,4 @@ def run_variant(task: VariantTask) -> VariantResult:
     )
 
 
-def _text(data: bytes | str | None) -> str:
-    if data is None:
-        return ""
-    return data.decode(errors="replace") if isinstance(data, bytes) else data
+run_variant.on_interrupt = interrupt_running
