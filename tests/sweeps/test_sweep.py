@@ -208,3 +208,31 @@ def test_ray_makes_the_same_data_set(ray_instance, tmp_path):
     ray_table, local_table = pq.read_table(on_ray), pq.read_table(here)
     assert ray_table.num_rows == 12
     assert ray_table.equals(local_table)
+
+
+def test_sigterm_stops_the_runs_and_leaves_them_to_resume(tmp_path):
+    import signal
+    import time
+
+    output = tmp_path / "sweep"
+    command = [sys.executable, "-m", "armando_drake.sweep", "--grid", "actuators.kp=[4, 8]"]
+    command += ["--duration", "600", "--workers", "2", "--output", str(output), "--quiet"]
+    sweep = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    logs = [output / "variants" / f"{i:04d}" / "joint_states.csv" for i in range(2)]
+    deadline = time.monotonic() + 120
+
+    def simulating(log):  # rows are written once a simulated second
+        return log.is_file() and len(log.read_text().splitlines()) > 2
+
+    while not all(simulating(log) for log in logs) and time.monotonic() < deadline:
+        time.sleep(0.2)  # both worlds are simulating their 600 s (about a minute each)
+    sweep.send_signal(signal.SIGTERM)
+    stdout, _ = sweep.communicate(timeout=60)
+    assert sweep.returncode == 130
+    assert "0 of 2 variants" in stdout and "[interrupted]" in stdout
+    for index in range(2):
+        folder = output / "variants" / f"{index:04d}"
+        assert not (folder / "result.json").exists()  # not done: resume runs it again
+        summary = json.loads((folder / "summary.json").read_text())
+        assert summary["interrupted"] is True and 0 < summary["sim_time"] < 600
+    assert read_table(output).num_rows == 0
