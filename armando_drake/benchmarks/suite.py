@@ -700,6 +700,8 @@ def bench_sweep(report: Report) -> None:
     interleaved per repetition. Ray's start-up is not timed (a cluster is
     started once and serves many sweeps).
     """
+    import shutil
+
     from armando_drake.sweeps.axes import make_variants, parse_grid
     from armando_drake.sweeps.engines import LocalPool, RayEngine
     from armando_drake.sweeps.errors import SweepError
@@ -739,6 +741,7 @@ def bench_sweep(report: Report) -> None:
     finally:
         if ray_engine is not None:
             ray_engine.close()
+        shutil.rmtree(ray_folder, ignore_errors=True)
     report.add(Row("sweep", "sweep, local pool, 1 worker", "runs/min", one))
     report.add(Row("sweep", "sweep, local pool, 2 workers", "runs/min", two))
     ratios = [b / a for a, b in zip(one, two, strict=True)]
