@@ -197,7 +197,7 @@ def _cpu_model() -> str:
     return platform.processor()
 
 
-# --- 6. task-space torque control --------------------------------------------
+# --- 7. task-space torque control --------------------------------------------
 
 # The course's iiwa, beside the repository (never shipped with it).
 IIWA_DESCRIPTION = (
