@@ -356,6 +356,11 @@ class Controller:
         """Parameters when none are given (tests): the controller's joints."""
         return cls.parameters(joints=list(joints.names))
 
+    def connect_plant(self, plant, model_instance) -> None:
+        """Called by the world builder once the plant is finalized, before the run:
+        a controller that computes from the robot's model (inverse dynamics) keeps
+        what it needs; the others ignore it."""
+
     def initial_memory(self) -> ControllerMemory:
         return self._initial
 

@@ -1,0 +1,44 @@
+"""The scenario's ``vision:`` block: which detectors run on which camera.
+
+::
+
+    vision:
+      blob: {camera: camera}                       # SimpleBlobDetector, the seed's parameters
+      aruco: {camera: flange_camera, dictionary: DICT_ARUCO_ORIGINAL, marker_id: 201,
+              side_length: 0.1}
+
+(No ``from __future__ import annotations``: ``yaml_load_typed`` needs real types.)
+"""
+
+from dataclasses import dataclass
+
+
+@dataclass
+class BlobDetectorConfig:
+    """``cv2.SimpleBlobDetector`` on a camera's colour image (the seed's parameters)."""
+
+    camera: str = "camera"  # the camera's name (a cameras: entry or the description's)
+    min_threshold: float = 1.0  # [grey level] first binarisation threshold
+    max_threshold: float = 250.0  # [grey level] last binarisation threshold
+    threshold_step: float = 1.0  # [grey level] between thresholds
+    min_area: float = 100.0  # [px^2] smallest blob kept
+    min_circularity: float = 0.8  # [-] 4 pi area / perimeter^2 of a blob kept, in [0, 1]
+    print_keypoints: bool = True  # print each frame's keypoints on the console (1 Hz)
+
+
+@dataclass
+class ArucoDetectorConfig:
+    """ArUco detection and pose estimation (``solvePnP``) on a camera's colour image."""
+
+    camera: str = "camera"  # the camera's name
+    dictionary: str = "DICT_ARUCO_ORIGINAL"  # OpenCV's predefined dictionary (DICT_*)
+    marker_id: int = 201  # the id of the marker whose pose is estimated
+    side_length: float = 0.1  # [m] side of the marker's black square
+
+
+@dataclass
+class VisionConfig:
+    """The detectors of the scenario; absent = none."""
+
+    blob: BlobDetectorConfig | None = None  # the blob detector, absent = none
+    aruco: ArucoDetectorConfig | None = None  # the ArUco detector, absent = none
