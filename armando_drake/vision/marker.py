@@ -67,7 +67,8 @@ class ArucoMarker:
         size = dictionary_size(dictionary)
         if not 0 <= self.id < size:
             raise MarkerError(
-                f"{prefix}id={self.id!r} is outside dictionary {self.dictionary} (ids 0..{size - 1})"
+                f"{prefix}id={self.id!r} is outside dictionary {self.dictionary} "
+                f"(ids 0..{size - 1})"
             )
         for label in ("side_length", "thickness"):
             value = getattr(self, label)
@@ -105,7 +106,7 @@ class ArucoMarker:
             from armando_drake.description.meshes import cache_dir
 
             folder = cache_dir()
-        key = f"{self.dictionary}-{self.id}-{self.side_length!r}-{self.margin!r}-{self.thickness!r}"
+        key = repr((self.dictionary, self.id, self.side_length, self.margin, self.thickness))
         stem = f"aruco_{self.dictionary.lower()}_{self.id}_{hashlib.sha1(key.encode()).hexdigest()[:10]}"
         obj = Path(folder) / f"{stem}.obj"
         if obj.is_file():
