@@ -107,7 +107,8 @@ class ArucoMarker:
 
             folder = cache_dir()
         key = repr((self.dictionary, self.id, self.side_length, self.margin, self.thickness))
-        stem = f"aruco_{self.dictionary.lower()}_{self.id}_{hashlib.sha1(key.encode()).hexdigest()[:10]}"
+        digest = hashlib.sha1(key.encode()).hexdigest()[:10]
+        stem = f"aruco_{self.dictionary.lower()}_{self.id}_{digest}"
         obj = Path(folder) / f"{stem}.obj"
         if obj.is_file():
             return obj
