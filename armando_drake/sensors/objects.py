@@ -166,13 +166,18 @@ def AddSceneObjects(plant: MultibodyPlant, objects: list[SceneObject]) -> None:
         X_WO = obj.X_WO()
         shape = obj.make_shape()
         if isinstance(obj.shape, ArucoMarker):  # the textured mesh: its MTL gives the colours
-            plant.RegisterVisualGeometry(
-                world,
-                X_WO,
-                geometry.Mesh(str(obj.shape.mesh_file())),
-                f"{obj.name}_visual",
-                geometry.IllustrationProperties(),
+            instance = geometry.GeometryInstance(
+                X_WO, geometry.Mesh(str(obj.shape.mesh_file())), f"{obj.name}_visual"
             )
+            texture = str(obj.shape.mesh_file().with_suffix(".png"))
+            for properties in (geometry.IllustrationProperties(), geometry.PerceptionProperties()):
+                properties.AddProperty("phong", "diffuse", geometry.Rgba(1.0, 1.0, 1.0, 1.0))
+                properties.AddProperty("phong", "diffuse_map", texture)
+                if isinstance(properties, geometry.PerceptionProperties):
+                    instance.set_perception_properties(properties)
+                else:
+                    instance.set_illustration_properties(properties)
+            plant.RegisterVisualGeometry(world, instance)
         else:
             plant.RegisterVisualGeometry(
                 world, X_WO, shape, f"{obj.name}_visual", np.asarray(obj.color, dtype=float)

@@ -10,7 +10,7 @@
 (No ``from __future__ import annotations``: ``yaml_load_typed`` needs real types.)
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 
 @dataclass
@@ -42,3 +42,6 @@ class VisionConfig:
 
     blob: BlobDetectorConfig | None = None  # the blob detector, absent = none
     aruco: ArucoDetectorConfig | None = None  # the ArUco detector, absent = none
+    # [rad] where the robot's joints start (hardware joint order); empty = their
+    # initial positions. (A vision scenario starts the arm looking away from the marker.)
+    start_positions: list[float] = field(default_factory=list)

@@ -259,7 +259,9 @@ class ArucoDetector(LeafSystem):
             raise DetectorError(f"side_length={side_length!r} must be positive [m]")
         if not frame_rate > 0:
             raise DetectorError(f"frame_rate={frame_rate!r} must be positive")
-        self._detector = cv2.aruco.ArucoDetector(self._dictionary, cv2.aruco.DetectorParameters())
+        parameters = cv2.aruco.DetectorParameters()
+        parameters.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX  # sub-pixel corners
+        self._detector = cv2.aruco.ArucoDetector(self._dictionary, parameters)
         self._K = np.asarray(K, dtype=float)
         self._marker_id = int(marker_id)
         self._side = float(side_length)
@@ -376,6 +378,24 @@ def _camera(world, name: str, key: str, where: str):
     )
 
 
+def _set_start_positions(world, positions, where: str) -> None:
+    """The hardware joints start at ``positions`` [rad] (hardware order)."""
+    hardware = world.hardware
+    if len(positions) != len(hardware.joints):
+        raise DetectorError(
+            f"{where}vision.start_positions={positions!r} must have {len(hardware.joints)} "
+            f"values ({', '.join(hardware.joint_names)})"
+        )
+    for joint, value in zip(hardware.joints, positions, strict=True):
+        if not joint.lower <= value <= joint.upper:
+            raise DetectorError(
+                f"{where}vision.start_positions: {value!r} of joint {joint.name!r} is outside "
+                f"its limits [{joint.lower:.4g}, {joint.upper:.4g}]"
+            )
+        plant_joint = world.plant.GetJointByName(joint.name, world.robot.model_instance)
+        plant_joint.set_default_positions([value])
+
+
 def AddDetectors(builder: DiagramBuilder, world, config, where: str = "") -> AddedDetectors:
     """The scenario's detectors (``config``: a :class:`~armando_drake.vision.config.VisionConfig`)
     on the world's cameras; exports ``<camera>.keypoints``, ``<camera>.cam_T_marker``,
@@ -383,6 +403,8 @@ def AddDetectors(builder: DiagramBuilder, world, config, where: str = "") -> Add
     ``cam_T_marker`` to every active controller that reads :class:`MarkerPose`."""
     added = AddedDetectors()
     annotated = {}
+    if config.start_positions:
+        _set_start_positions(world, config.start_positions, where)
     if config.blob is not None:
         blob = config.blob
         camera = _camera(world, blob.camera, "blob", where)

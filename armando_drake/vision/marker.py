@@ -106,31 +106,40 @@ class ArucoMarker:
             from armando_drake.description.meshes import cache_dir
 
             folder = cache_dir()
-        key = repr((self.dictionary, self.id, self.side_length, self.margin, self.thickness))
+        key = repr((5, self.dictionary, self.id, self.side_length, self.margin, self.thickness))
         digest = hashlib.sha1(key.encode()).hexdigest()[:10]
         stem = f"aruco_{self.dictionary.lower()}_{self.id}_{digest}"
         obj = Path(folder) / f"{stem}.obj"
         if obj.is_file():
             return obj
         obj.parent.mkdir(parents=True, exist_ok=True)
-        cv2.imwrite(str(obj.with_suffix(".png")), self.image())
+        # Drake's renderers read colour textures (a grey PNG is dropped); RGBA, because
+        # RenderEngineGl shears an RGB image whose rows are not a multiple of 4 bytes.
+        cv2.imwrite(str(obj.with_suffix(".png")), cv2.cvtColor(self.image(), cv2.COLOR_GRAY2BGRA))
         obj.with_suffix(".mtl").write_text(
             f"newmtl marker\nKa 1 1 1\nKd 1 1 1\nKs 0 0 0\nmap_Kd {stem}.png\n"
         )
         a, h = self.face / 2, self.thickness / 2
+        white = 0.5 * self.margin / self.face if self.margin > 0 else 0.5  # a margin pixel
+        # Vertices 1-8: the box's corners, all textured with a white pixel of the margin;
+        # 9-12: the top face's corners again, textured with the image's corners. One
+        # texture coordinate per vertex, as RenderEngineGl wants it.
         corners = [(x, y, z) for z in (-h, h) for y in (-a, a) for x in (-a, a)]
-        # uv: 1-4 the image's corners (the top face), 5 a white pixel of the margin.
-        white = 0.5 * self.margin / self.face if self.margin > 0 else 0.5
-        uvs = [(0, 0), (1, 0), (0, 1), (1, 1), (white, white)]
-        # Faces (counter-clockwise seen from outside), vertex/uv indices from 1.
-        top = "f 5/1 6/2 8/4\nf 5/1 8/4 7/3\n"
-        sides = [(1, 3, 4, 2), (1, 2, 6, 5), (2, 4, 8, 6), (4, 3, 7, 8), (3, 1, 5, 7)]
+        corners += [(-a, -a, h), (a, -a, h), (-a, a, h), (a, a, h)]
+        uvs = [(white, white)] * 8 + [(0, 0), (1, 0), (0, 1), (1, 1)]
+        # Faces (counter-clockwise seen from outside) as vertex/uv/normal indices from 1.
+        normals = [(0, 0, 1), (0, 0, -1), (0, -1, 0), (1, 0, 0), (0, 1, 0), (-1, 0, 0)]
+        faces = [(9, 10, 12, 11), (1, 3, 4, 2), (1, 2, 6, 5), (2, 4, 8, 6), (4, 3, 7, 8)]
+        faces.append((3, 1, 5, 7))
         lines = [f"mtllib {stem}.mtl", "usemtl marker"]
         lines += [f"v {x!r} {y!r} {z!r}" for x, y, z in corners]
         lines += [f"vt {u!r} {v!r}" for u, v in uvs]
-        lines.append(top.strip())
-        for a_, b, c, d in sides:
-            lines.append(f"f {a_}/5 {b}/5 {c}/5\nf {a_}/5 {c}/5 {d}/5")
+        lines += [f"vn {x} {y} {z}" for x, y, z in normals]
+        for k, (i, j, m, n) in enumerate(faces, start=1):
+            lines += [
+                f"f {i}/{i}/{k} {j}/{j}/{k} {m}/{m}/{k}",
+                f"f {i}/{i}/{k} {m}/{m}/{k} {n}/{n}/{k}",
+            ]
         tmp = obj.with_suffix(".obj.tmp")
         tmp.write_text("\n".join(lines) + "\n")
         tmp.replace(obj)

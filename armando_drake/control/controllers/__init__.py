@@ -392,6 +392,7 @@ from armando_drake.control.controllers import (  # noqa: E402  (after the regist
     broadcaster,
     forward_command,
     joint_trajectory,
+    look_at,  # vision (#15)
 )
 
 __all__ = [
@@ -406,6 +407,7 @@ __all__ = [
     "forward_command",
     "joint_trajectory",
     "joint_list",
+    "look_at",
     "load_parameters",
     "lookup",
     "non_negative",
