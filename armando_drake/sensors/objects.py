@@ -169,14 +169,14 @@ def AddSceneObjects(plant: MultibodyPlant, objects: list[SceneObject]) -> None:
             instance = geometry.GeometryInstance(
                 X_WO, geometry.Mesh(str(obj.shape.mesh_file())), f"{obj.name}_visual"
             )
-            texture = str(obj.shape.mesh_file().with_suffix(".png"))
-            for properties in (geometry.IllustrationProperties(), geometry.PerceptionProperties()):
-                properties.AddProperty("phong", "diffuse", geometry.Rgba(1.0, 1.0, 1.0, 1.0))
-                properties.AddProperty("phong", "diffuse_map", texture)
-                if isinstance(properties, geometry.PerceptionProperties):
-                    instance.set_perception_properties(properties)
-                else:
-                    instance.set_illustration_properties(properties)
+            # The cameras see the texture; Meshcat (illustration) shows the mesh's MTL.
+            perception = geometry.PerceptionProperties()
+            perception.AddProperty("phong", "diffuse", geometry.Rgba(1.0, 1.0, 1.0, 1.0))
+            perception.AddProperty(
+                "phong", "diffuse_map", str(obj.shape.mesh_file().with_suffix(".png"))
+            )
+            instance.set_perception_properties(perception)
+            instance.set_illustration_properties(geometry.IllustrationProperties())
             plant.RegisterVisualGeometry(world, instance)
         else:
             plant.RegisterVisualGeometry(

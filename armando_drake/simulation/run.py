@@ -63,6 +63,8 @@ class RunResult:
     tracking_error: float | None = None  # [rad] sinusoid: max |q - wave| after 1 s
     output_dir: str | None = None
     driven: str = ""  # the controller the sequencer drove, by its name in the YAML
+    # vision (#15): frames, detections, final_pointing_error [rad], marker_position_error [m]
+    vision: dict[str, Any] | None = None
 
     def summary(self) -> dict[str, Any]:
         """The ``summary.json`` contract."""
@@ -87,6 +89,7 @@ class RunResult:
                 }
                 for step in self.steps
             ],
+            "vision": self.vision,  # vision (#15)
         }
 
     def headline(self) -> str:
@@ -420,6 +423,10 @@ def run(
         result.steps = table.results(sim_time)
     elif isinstance(table, TrackingError):
         result.tracking_error = table.largest
+    if world.detectors is not None:  # vision (#15)
+        from armando_drake.vision.outputs import write_vision_outputs
+
+        result.vision = write_vision_outputs(world, simulator.get_context(), scenario, log_dir)
     if log_dir is not None:
         (log_dir / "summary.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
         if plots:

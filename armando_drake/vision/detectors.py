@@ -274,6 +274,9 @@ class ArucoDetector(LeafSystem):
         self._body = int(link_body_index)
         self.frames = 0
         self.detections = 0
+        # (time [s], marker position in the camera frame [m]) of every detection: the
+        # run's vision.csv (a statistic kept beside the state, as the counts are).
+        self.history: list[tuple[float, tuple[float, float, float]]] = []
         self.seconds = 0.0  # [s] wall-clock time in OpenCV
         self._input = self.DeclareAbstractInputPort(
             "color_image", AbstractValue.Make(ImageRgba8U(width, height))
@@ -337,6 +340,7 @@ class ArucoDetector(LeafSystem):
             return EventStatus.Succeeded()
         self.detections += 1
         now = context.get_time()
+        self.history.append((now, tuple(float(c) for c in X_CM.translation())))
         common = dict(stamp=now, marker_id=self._marker_id, link=self._link, X_LC=self._X_LC)
         in_camera = MarkerPose(frame_id=self._camera, pose=X_CM, **common)
         previous: Publication = context.get_abstract_state(self._camera_state).get_value()
@@ -365,6 +369,8 @@ class AddedDetectors:
     aruco: ArucoDetector | None = None
     blob_camera: str = ""
     aruco_camera: str = ""
+    commands: Any = None  # VectorLogSink of the desired state, with a look-at controller
+    command_joints: list = dataclasses.field(default_factory=list)  # its joints' names
     # Annotated image output ports, by camera name.
     annotated: dict = dataclasses.field(default_factory=dict)
 
@@ -462,7 +468,8 @@ def AddDetectors(builder: DiagramBuilder, world, config, where: str = "") -> Add
                 "give them different cameras"
             )
         annotated[info.name] = detector.GetOutputPort("annotated_image")
-        # The look-at-point controllers read the marker's pose.
+        # The look-at-point controllers read the marker's pose; their joint velocity
+        # commands are logged (C++ VectorLogSink) at the camera rate for vision.csv.
         for name, manager in world.controllers.items():
             entry = world.controller_config.controllers[name]
             if entry.controller_class.message is MarkerPose:
@@ -470,6 +477,14 @@ def AddDetectors(builder: DiagramBuilder, world, config, where: str = "") -> Add
                     detector.GetOutputPort("cam_T_marker"),
                     manager.GetInputPort(f"{name}.{entry.topic}"),
                 )
+                if added.commands is None:
+                    from pydrake.systems.primitives import LogVectorOutput
+
+                    added.commands = LogVectorOutput(
+                        manager.GetOutputPort("desired_state"), builder, 1.0 / info.frame_rate
+                    )
+                    added.commands.set_name("vision_command_log")
+                    added.command_joints = list(world.hardware.joint_names)
     for name, port in annotated.items():
         builder.ExportOutput(port, f"{name}.annotated_image")
     added.annotated = annotated
