@@ -37,7 +37,7 @@ def test_recording_holds_the_annotated_image_the_poses_and_the_intrinsics(tmp_pa
     world.close()
     topics = {}
     with AnyReader([path]) as reader:
-        for connection, log_time, raw in reader.messages():
+        for connection, _, raw in reader.messages():
             message = reader.deserialize(raw, connection.msgtype)
             topics.setdefault(connection.topic, []).append((connection.msgtype, message))
     poses = topics["/aruco_single/pose"]
