@@ -102,6 +102,7 @@ class World:
     image_view_url: str | None = None  # the live camera view, when served
     perception: Any = None  # AddedPerception when the scenario has a perception block
     detectors: Any = None  # vision (#15): AddedDetectors when the scenario has a vision block
+    image_view: Any = None  # vision (#15): the live camera view's server, when served
     meshcat: Meshcat | None = None
     closers: list = field(default_factory=list)  # called by close()
 
@@ -649,6 +650,7 @@ def _add_cameras(
     if settings.live_view or watched:
         server = AddImageView(builder, world.cameras, depth=settings.depth)
         world.image_view_url = server.url
+        world.image_view = server  # vision (#15): the detectors' annotated images join it
         world.closers.append(server.close)
     if settings.save_frames:
         for camera in world.cameras.values():

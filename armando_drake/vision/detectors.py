@@ -163,6 +163,7 @@ class BlobDetector(LeafSystem):
         self.frames = 0  # frames processed (a statistic, not state)
         self.detections = 0  # frames with at least one keypoint
         self.seconds = 0.0  # [s] wall-clock time spent in OpenCV
+        self.history: list[BlobDetection] = []  # every frame's keypoints (keypoints.csv)
         self._input = self.DeclareAbstractInputPort(
             "color_image", AbstractValue.Make(ImageRgba8U(width, height))
         )
@@ -199,6 +200,7 @@ class BlobDetector(LeafSystem):
         self.frames += 1
         self.detections += bool(keypoints)
         detection = BlobDetection(stamp=context.get_time(), keypoints=keypoints)
+        self.history.append(detection)
         state.get_mutable_abstract_state(self._keypoints).set_value(detection)
         state.get_mutable_abstract_state(self._annotated).set_value(_rgba_image(annotated))
         if self._on_detection is not None:
@@ -375,6 +377,22 @@ class AddedDetectors:
     annotated: dict = dataclasses.field(default_factory=dict)
 
 
+class _KeypointPrinter:
+    """Prints a frame's keypoints once a second of simulated time."""
+
+    def __init__(self, camera: str):
+        self._camera, self._next = camera, 0.0
+
+    def __call__(self, detection: BlobDetection) -> None:
+        if detection.stamp + 1e-9 < self._next:
+            return
+        self._next = detection.stamp + 1.0
+        found = ", ".join(
+            f"({k.u:.1f}, {k.v:.1f}) px, diameter {k.diameter:.1f} px" for k in detection.keypoints
+        )
+        print(f"t={detection.stamp:.2f} s {self._camera} keypoints: {found or 'none'}", flush=True)
+
+
 def _camera(world, name: str, key: str, where: str):
     if name in world.cameras:
         return world.cameras[name]
@@ -426,6 +444,7 @@ def AddDetectors(builder: DiagramBuilder, world, config, where: str = "") -> Add
                 threshold_step=blob.threshold_step,
                 min_area=blob.min_area,
                 min_circularity=blob.min_circularity,
+                on_detection=_KeypointPrinter(info.name) if blob.print_keypoints else None,
             ),
         )
         added.blob_camera = info.name
@@ -487,5 +506,18 @@ def AddDetectors(builder: DiagramBuilder, world, config, where: str = "") -> Add
                     added.command_joints = list(world.hardware.joint_names)
     for name, port in annotated.items():
         builder.ExportOutput(port, f"{name}.annotated_image")
+    if getattr(world, "image_view", None) is not None:
+        # The live camera view shows each annotated image beside its camera's raw one.
+        from types import SimpleNamespace
+
+        from armando_drake.sensors.image_view import AddImageView
+
+        views = {
+            f"{name}_annotated": SimpleNamespace(
+                info=world.cameras[name].info, color_image=port, depth_image=None
+            )
+            for name, port in annotated.items()
+        }
+        AddImageView(builder, views, server=world.image_view, depth=False)
     added.annotated = annotated
     return added

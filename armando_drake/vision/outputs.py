@@ -3,6 +3,8 @@
 - ``vision.csv``: per ArUco detection, the time [s], the unit vector
   ``s = p / |p|`` towards the marker in the camera frame (s_x, s_y, s_z) and, with
   a look-at-point controller, the joint velocity commands [rad/s] in force then;
+- ``keypoints.csv``: with a blob detector, every frame's keypoints: time [s],
+  centre u, v [px] and diameter [px];
 - ``vision.png``: the seed's figures, the joint velocity commands and the
   components of s against time (s tends to (0, 0, 1) as the camera looks at the
   marker).
@@ -16,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 VISION_CSV = "vision.csv"
+KEYPOINTS_CSV = "keypoints.csv"
 VISION_PLOT = "vision.png"
 
 
@@ -81,6 +84,15 @@ def write_vision_outputs(world, context, scenario, output_dir) -> dict:
     from armando_drake.vision.metrics import vision_summary
 
     summary = vision_summary(world, context, scenario)
+    blob = world.detectors.blob
+    if output_dir is not None and blob is not None:
+        with (Path(output_dir) / KEYPOINTS_CSV).open("w", newline="") as stream:
+            writer = csv.writer(stream)
+            writer.writerow(["time", "u", "v", "diameter"])  # [s], [px], [px], [px]
+            for detection in blob.history:
+                for k in detection.keypoints:
+                    writer.writerow([f"{detection.stamp:.6g}", f"{k.u:.3f}", f"{k.v:.3f}",
+                                     f"{k.diameter:.3f}"])  # fmt: skip
     if output_dir is not None:
         csv_path = write_vision_csv(world, context, Path(output_dir) / VISION_CSV)
         if csv_path is not None:

@@ -163,3 +163,19 @@ def test_bad_vision_input_is_a_one_line_error(override, message):
         MakeWorld(scenario, quiet=True)
     text = str(raised.value)
     assert message in text and "\n" not in text, text
+
+
+def test_live_view_serves_the_annotated_image_beside_the_raw_one():
+    import json
+    import urllib.request
+
+    scenario = load_scenario("vision_blob", "logging: {console_rate: 0}\ncamera: {live_view: true}")
+    world = MakeWorld(scenario, quiet=True)
+    try:
+        Simulator(world.diagram).AdvanceTo(0.1)
+        with urllib.request.urlopen(f"{world.image_view_url}cameras.json", timeout=5) as page:
+            names = [camera["name"] for camera in json.load(page)]
+        assert names == ["top_camera", "top_camera_annotated"]
+        assert world.image_view.frame_count("top_camera_annotated") >= 3
+    finally:
+        world.close()
