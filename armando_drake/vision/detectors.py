@@ -9,8 +9,8 @@ The image processing is OpenCV's (``opencv-python-headless``), not ours:
   (thresholds 1..250 step 1, area >= 100 px, circularity >= 0.8) on the grey
   image; outputs the keypoints (pixel centre, diameter) and an annotated image
   (the keypoints drawn, ``cv2.drawKeypoints``);
-- :class:`ArucoDetector`: ``cv2.aruco.ArucoDetector`` then ``cv2.solvePnP``
-  (``SOLVEPNP_IPPE_SQUARE``) with the camera's own intrinsics; publishes the
+- :class:`ArucoDetector`: ``cv2.aruco.ArucoDetector`` (AprilTag corners) then ``cv2.solvePnP``
+  (IPPE_SQUARE or iterative, refined by LM) with the camera's own intrinsics; publishes the
   marker's pose in the camera frame (``cam_T_marker``, a :class:`MarkerPose`
   that also names the camera's link and mount, which is what the look-at-point
   controllers read) and in the world, and an annotated image (marker outline
@@ -262,8 +262,14 @@ class ArucoDetector(LeafSystem):
         if not frame_rate > 0:
             raise DetectorError(f"frame_rate={frame_rate!r} must be positive")
         parameters = cv2.aruco.DetectorParameters()
-        parameters.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX  # sub-pixel corners
+        # AprilTag's corner refinement: on our renders at 0.5 m, 8 random poses gave at most
+        # 0.95 mm and 0.96 degrees of error, against 3.3 mm and 3.6 degrees with SUBPIX.
+        # OpenCV 5's AprilTag refinement may hand the corners back rotated by a multiple of
+        # 90 degrees (seen on a marker square to the image), so their order is taken from a
+        # detection without refinement (see estimate()).
+        parameters.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_APRILTAG
         self._detector = cv2.aruco.ArucoDetector(self._dictionary, parameters)
+        self._coarse = cv2.aruco.ArucoDetector(self._dictionary, cv2.aruco.DetectorParameters())
         self._K = np.asarray(K, dtype=float)
         self._marker_id = int(marker_id)
         self._side = float(side_length)
@@ -299,25 +305,61 @@ class ArucoDetector(LeafSystem):
         import cv2
 
         grey = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY)
-        corners, ids, _ = self._detector.detectMarkers(grey)
+        corners, ids, _ = self._coarse.detectMarkers(grey)
         if ids is None:
             return None, corners
+        refined, refined_ids, _ = self._detector.detectMarkers(grey)
+        refined_ids = [] if refined_ids is None else np.asarray(refined_ids).reshape(-1)
         for k, marker_id in enumerate(np.asarray(ids).reshape(-1)):
             if int(marker_id) != self._marker_id:
                 continue
             image_points = np.asarray(corners[k], dtype=float).reshape(4, 2)
-            ok, rvec, tvec = cv2.solvePnP(
-                self._object_points,
-                image_points,
-                self._K,
-                np.zeros(5),
-                flags=cv2.SOLVEPNP_IPPE_SQUARE,
-            )
-            if not ok:
+            image_points = self._refine(image_points, refined, refined_ids)
+            rvec, tvec = self._solve(image_points)
+            if rvec is None:
                 return None, corners
             R, _ = cv2.Rodrigues(rvec)
             return RigidTransform(RotationMatrix(R), np.asarray(tvec).reshape(3)), corners
         return None, corners
+
+    def _solve(self, image_points: np.ndarray):
+        """(rvec, tvec) of the marker from its corners: the candidates of IPPE_SQUARE
+        and of the iterative method (IPPE_SQUARE alone can return a wrong pose, with
+        78 px of reprojection error, for a marker seen exactly square on), the one that
+        reprojects best, refined by Levenberg-Marquardt; (None, None) if none fits."""
+        import cv2
+
+        candidates = []
+        for flags in (cv2.SOLVEPNP_IPPE_SQUARE, cv2.SOLVEPNP_ITERATIVE):
+            count, rvecs, tvecs, errors = cv2.solvePnPGeneric(
+                self._object_points, image_points, self._K, np.zeros(5), flags=flags
+            )
+            for k in range(count):
+                candidates.append((float(np.ravel(errors)[k]), rvecs[k], tvecs[k]))
+        if not candidates:
+            return None, None
+        error, rvec, tvec = min(candidates, key=lambda candidate: candidate[0])
+        if not np.isfinite(error) or error > 5.0:  # [px] RMS: not this marker's square
+            return None, None
+        rvec, tvec = cv2.solvePnPRefineLM(
+            self._object_points, image_points, self._K, np.zeros(5), rvec, tvec
+        )
+        return rvec, tvec
+
+    def _refine(self, coarse: np.ndarray, refined, refined_ids) -> np.ndarray:
+        """The refined corners of the marker at ``coarse`` (4 x 2 [px]), in the coarse
+        corners' order; ``coarse`` itself when the refined detection missed it."""
+        best, best_distance = coarse, np.inf
+        for k, marker_id in enumerate(refined_ids):
+            if int(marker_id) != self._marker_id:
+                continue
+            points = np.asarray(refined[k], dtype=float).reshape(4, 2)
+            for shift in range(4):
+                rolled = np.roll(points, shift, axis=0)
+                distance = float(np.abs(rolled - coarse).max())
+                if distance < best_distance:
+                    best, best_distance = rolled, distance
+        return best if best_distance < 3.0 else coarse  # [px]
 
     def _Update(self, context, state) -> EventStatus:
         import time

@@ -51,15 +51,13 @@ def write_vision_csv(world, context, path: str | Path) -> Path | None:
 
 def write_vision_plot(csv_path: str | Path, png_path: str | Path) -> Path:
     """``vision.png``: joint velocity commands and the components of s against time."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure  # no pyplot: the caller's backend is left alone
 
     with Path(csv_path).open() as stream:
         rows = list(csv.reader(stream))
     header, data = rows[0], np.array(rows[1:], dtype=float).reshape(-1, len(rows[0]))
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(10.0, 7.0), dpi=100, sharex=True)
+    fig = Figure(figsize=(10.0, 7.0), dpi=100)
+    top, bottom = fig.subplots(2, 1, sharex=True)
     for k, name in enumerate(header[4:], start=4):
         top.plot(data[:, 0], data[:, k], label=name.replace("_velocity_command", ""))
     top.set_ylabel("joint velocity command [rad/s]")
@@ -74,7 +72,6 @@ def write_vision_plot(csv_path: str | Path, png_path: str | Path) -> Path:
     bottom.grid(True)
     fig.tight_layout()
     fig.savefig(png_path)
-    plt.close(fig)
     return Path(png_path)
 
 
