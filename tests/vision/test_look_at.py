@@ -75,3 +75,51 @@ def test_iiwa_looks_at_the_marker_within_5_seconds(
     assert world.detectors.aruco.detections >= 140  # found in (nearly) every frame
     assert world.status(context, controller).state == "executing"
     world.close()
+
+
+def _armando_logic(controller_class):
+    """A look-at controller's logic on Armando's plant (no world: the logic alone)."""
+    from pydrake.multibody.plant import MultibodyPlant
+
+    from armando_drake.control.controllers import ControllerJoints
+    from armando_drake.description.loader import load_robot
+
+    plant = MultibodyPlant(0.0)
+    robot = load_robot(plant)
+    plant.Finalize()
+    joints = ControllerJoints.make(["j0", "j1", "j2", "j3"], velocity=[1.0] * 4)
+    logic = controller_class(
+        name="look", joints=joints, params=controller_class.parameters(joints=list(joints.names))
+    )
+    logic.connect_plant(plant, robot.model_instance)
+    return logic
+
+
+@pytest.mark.parametrize("kind", ["improved", "pose_offset"])
+def test_commands_turn_the_camera_towards_the_marker_and_stop_when_it_is_lost(kind):
+    from pydrake.math import RigidTransform
+
+    from armando_drake.control.controllers.look_at import (
+        ImprovedLookAtPointController,
+        LookAtPointController,
+    )
+    from armando_drake.vision.detectors import MarkerPose
+
+    cls = ImprovedLookAtPointController if kind == "improved" else LookAtPointController
+    logic = _armando_logic(cls)
+    p = np.array([0.15, -0.1, 0.5])  # [m] the marker, off the optical axis
+    message = MarkerPose(stamp=1.0, frame_id="c", pose=RigidTransform(p), link="wrist")
+    q = np.array([0.1, -0.4, 0.8, 0.3])
+    memory = logic.update(1.0, message, logic.initial_memory(), lambda desired: (q, q * 0))
+    qdot = memory.desired[4:]
+    assert memory.status.state == "executing" and np.abs(qdot).max() > 0.01
+    # The camera's motion under qdot turns s towards (0, 0, 1): s . s_d grows.
+    J = logic.camera_jacobian(q, "wrist", RigidTransform())
+    s_dot = interaction_matrix(p) @ J @ qdot
+    assert s_dot @ np.array([0.0, 0.0, 1.0]) > 0.0
+    assert np.abs(qdot).max() <= 1.0 + 1e-12  # the velocity limits
+    # No marker pose for longer than the timeout: the joints are commanded to stop.
+    held = logic.update(1.1, None, memory, lambda desired: (q, q * 0))
+    assert held is memory  # within the timeout the command holds
+    stopped = logic.update(1.0 + logic.params.timeout + 0.01, None, memory, lambda d: (q, q * 0))
+    assert stopped.status.state == "holding" and not np.any(stopped.desired[4:])
