@@ -187,7 +187,9 @@ GOOD_PARAMS = "    joints: [j0, j1]"
             "position_controllers/JointGroupPositionController, "
             "velocity_controllers/JointGroupVelocityController, "
             "effort_controllers/JointGroupEffortController, "
-            "joint_trajectory_controller/JointTrajectoryController",
+            "joint_trajectory_controller/JointTrajectoryController, "
+            "vision_controllers/LookAtPointController, "  # vision (#15)
+            "vision_controllers/ImprovedLookAtPointController",
         ),
         (
             "100",
