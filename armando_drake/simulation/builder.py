@@ -414,7 +414,8 @@ def _add_detectors(builder, world: World, scenario: Scenario, where: str) -> Non
     from armando_drake.vision.detectors import AddDetectors, DetectorError
 
     try:
-        world.detectors = AddDetectors(builder, world, scenario.vision, where)
+        console = scenario.logging.console_rate > 0  # no console output asked: no keypoints
+        world.detectors = AddDetectors(builder, world, scenario.vision, where, console=console)
     except DetectorError as error:
         raise ScenarioError(str(error)) from None
 

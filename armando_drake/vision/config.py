@@ -23,7 +23,8 @@ class BlobDetectorConfig:
     threshold_step: float = 1.0  # [grey level] between thresholds
     min_area: float = 100.0  # [px^2] smallest blob kept
     min_circularity: float = 0.8  # [-] 4 pi area / perimeter^2 of a blob kept, in [0, 1]
-    print_keypoints: bool = True  # print each frame's keypoints on the console (1 Hz)
+    # Print the keypoints on the console once a second (not when logging.console_rate is 0).
+    print_keypoints: bool = True
 
 
 @dataclass

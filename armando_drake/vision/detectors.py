@@ -462,11 +462,14 @@ def _set_start_positions(world, positions, where: str) -> None:
         plant_joint.set_default_positions([value])
 
 
-def AddDetectors(builder: DiagramBuilder, world, config, where: str = "") -> AddedDetectors:
+def AddDetectors(
+    builder: DiagramBuilder, world, config, where: str = "", *, console: bool = True
+) -> AddedDetectors:
     """The scenario's detectors (``config``: a :class:`~armando_drake.vision.config.VisionConfig`)
     on the world's cameras; exports ``<camera>.keypoints``, ``<camera>.cam_T_marker``,
     ``<camera>.marker_in_world`` and ``<camera>.annotated_image``, and feeds
-    ``cam_T_marker`` to every active controller that reads :class:`MarkerPose`."""
+    ``cam_T_marker`` to every active controller that reads :class:`MarkerPose`. Without
+    ``console`` the blob keypoints are not printed whatever ``print_keypoints`` says."""
     added = AddedDetectors()
     annotated = {}
     if config.start_positions:
@@ -486,7 +489,9 @@ def AddDetectors(builder: DiagramBuilder, world, config, where: str = "") -> Add
                 threshold_step=blob.threshold_step,
                 min_area=blob.min_area,
                 min_circularity=blob.min_circularity,
-                on_detection=_KeypointPrinter(info.name) if blob.print_keypoints else None,
+                on_detection=(
+                    _KeypointPrinter(info.name) if blob.print_keypoints and console else None
+                ),
             ),
         )
         added.blob_camera = info.name
