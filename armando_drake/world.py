@@ -14,7 +14,9 @@ velocity, effort per joint, one row per controller tick), DIR/commands.csv
 against commands, tracking error and efforts (positions.png,
 tracking_error.png, efforts.png), and DIR/replay.html, the run as a Meshcat
 animation that plays offline in any browser (recorded by a private Meshcat
-when --no-meshcat; --no-replay skips it).
+when --no-meshcat; --no-replay skips it). A scenario with a task: section
+(task_js, task_os, task_armando) also gets DIR/task_space.csv, task_error.png,
+joint_torques.png and task_path.png, and task_space errors in summary.json.
 
 With --record FILE.mcap it records the run as a ROS 2 bag (MCAP storage,
 CDR): /joint_states, the sequencer's commands (/position_controller/commands
@@ -32,6 +34,7 @@ Examples:
   python -m armando_drake.world --scenario camera --save-frames out/frames --save-rate 2
   python -m armando_drake.world --set "actuators: {kp: 4.0}" --set "sequencer: {period: 5}"
   python -m armando_drake.world --scenario sinusoid --set "sequencer: !Sinusoid {frequency: 0.1}"
+  python -m armando_drake.world --scenario task_os --set "task: {path: circular, profile: cubic}"
 """
 
 from __future__ import annotations
@@ -246,9 +249,21 @@ def main(argv: list[str] | None = None) -> int:
             print(format_table(result.joint_names, result.steps))
         if result.tracking_error is not None:
             print(f"sinusoid tracking error after 1 s: {result.tracking_error:.4f} rad")
+        if result.task_space and result.task_space["max_position_error"] is not None:
+            errors = result.task_space
+            print(
+                f"task space: max position error {errors['max_position_error'] * 1e3:.3f} mm "
+                f"(RMS {errors['rms_position_error'] * 1e3:.3f} mm), max orientation error "
+                f"{errors['max_orientation_error']:.4f} rad"
+            )
         if args.output:
             print(f"logs: {args.output}/joint_states.csv, commands.csv, summary.json")
             print(f"plots: {args.output}/positions.png, tracking_error.png, efforts.png")
+            if result.task_space:
+                print(
+                    f"task: {args.output}/task_space.csv, task_error.png, joint_torques.png, "
+                    "task_path.png"
+                )
             if not args.no_replay:
                 print(f"replay: {args.output}/replay.html")
         if args.record:

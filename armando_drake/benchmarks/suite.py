@@ -21,7 +21,12 @@ same machine load:
 6. perception: frames per second of the point cloud pipeline of
    ``diagrams/perception.yaml`` on its 640 x 480 depth frame (rendering
    excluded), and that scenario's real-time factor with the camera at 30 Hz,
-   without and with the pipeline at 10 Hz.
+   without and with the pipeline at 10 Hz;
+7. task-space torque control on the iiwa (``../shared`` beside the repository):
+   real-time factor of ``task_os`` (operational-space inverse dynamics) and
+   ``task_js`` (joint-space) with the controller manager at 1 kHz, and the
+   Python cost of one operational-space controller update (the law with M, C,
+   g, J, J-dot v from the plant) in microseconds.
 
 Each figure is the median of ``--repeat`` repetitions, with min and max. The
 table is printed as markdown and written with the raw samples to a JSON file.
@@ -57,7 +62,7 @@ import numpy as np
 from armando_drake.control.sequencer import SEED_TARGETS
 from armando_drake.tools.cli import command_parser
 
-SECTIONS = ("pipeline", "mujoco", "camera", "startup", "memory", "perception", "vision")
+SECTIONS = ("pipeline", "mujoco", "camera", "startup", "memory", "perception", "task", "vision")
 SCENARIOS = ("position", "trajectory", "sinusoid")
 # [rad] j0..j3: the seed targets (diagrams/position.yaml's), 3 s apart.
 TARGETS = [list(target) for target in SEED_TARGETS]
@@ -187,6 +192,77 @@ def _cpu_model() -> str:
             if line.startswith("model name"):
                 return line.split(":", 1)[1].strip()
     return platform.processor()
+
+
+# --- 6. task-space torque control --------------------------------------------
+
+# The course's iiwa, beside the repository (never shipped with it).
+IIWA_DESCRIPTION = (
+    Path(__file__).resolve().parents[2].parent / "shared" / "upstream" / "iiwa_description"
+)
+
+
+def _iiwa_task_overrides() -> tuple[str, ...]:
+    """The task scenarios' repository-relative paths made absolute."""
+    from armando_drake import MODELS_DIR
+
+    return (
+        f"robot: {{description: '{IIWA_DESCRIPTION / 'urdf' / 'iiwa14.urdf.xacro'}', "
+        f"package_paths: ['{IIWA_DESCRIPTION.parent}']}}",
+        f"controllers: {{config: '{MODELS_DIR / 'task_controllers' / 'iiwa_controllers.yaml'}'}}",
+    )
+
+
+def task_controller_cost(ticks: int) -> float:
+    """[us] the mean wall time of one update of the operational-space controller's logic
+    on the iiwa, in the middle of its task (the law, M, C, g, J, J-dot v, the
+    reference's evaluation), over ``ticks`` updates."""
+    from armando_drake.simulation.builder import MakeWorld
+    from armando_drake.simulation.scenario import load_scenario
+
+    scenario = load_scenario("task_os", NO_CONSOLE)
+    for override in _iiwa_task_overrides():
+        scenario = load_scenario_override(scenario, override)
+    world = MakeWorld(scenario, quiet=True)
+    from pydrake.systems.analysis import Simulator
+
+    simulator = Simulator(world.diagram)
+    simulator.AdvanceTo(1.0)  # mid-motion: a reference is being followed
+    manager = world.controller_manager
+    logic = manager.controllers[0].logic
+    context = manager.GetMyContextFromRoot(simulator.get_context())
+    memory = context.get_abstract_state(0).get_value().memories[0]
+    x = manager.GetInputPort("state").Eval(context)
+    q, v = x[:7].copy(), x[7:].copy()
+    begin = time.perf_counter()
+    for k in range(ticks):
+        logic.update(1.0 + k * 1e-6, None, memory, lambda desired: (q, v))
+    seconds = time.perf_counter() - begin
+    world.close()
+    return seconds / ticks * 1e6
+
+
+def bench_task(report: Report, duration: float, ticks: int) -> None:
+    if not IIWA_DESCRIPTION.is_dir():
+        report.notes.append(f"Task: skipped, no iiwa description at {IIWA_DESCRIPTION}.")
+        return
+    overrides = _iiwa_task_overrides()
+    rtf = {"task_os": [], "task_js": []}
+    cost = []
+    for _ in range(report.repeat):
+        for name in rtf:
+            rtf[name].append(pipeline_rtf(name, duration, overrides))
+        cost.append(task_controller_cost(ticks))
+    report.add(
+        Row("task", f"iiwa operational-space ID at 1 kHz, {duration:g} s", RTF, rtf["task_os"])
+    ).check(">=", 2.0)
+    report.add(Row("task", f"iiwa joint-space ID at 1 kHz, {duration:g} s", RTF, rtf["task_js"]))
+    report.add(Row("task", "operational-space controller update", "us/tick", cost))
+    report.notes.append(
+        "Task: the iiwa's task scenarios with the CSV logger on, not paced; the update row "
+        f"is the mean of {ticks} calls of the controller's logic mid-motion (pure Python: "
+        "the manager's event dispatch and the plant step come on top)."
+    )
 
 
 # --- 1. pipeline overhead ---------------------------------------------------
@@ -895,11 +971,13 @@ class Settings:
     camera_frames: int  # frames per render measurement
     camera_seconds: float  # [s] simulated with the camera
     memory_seconds: float  # [s] simulated in the memory soak
+    task_seconds: float = 3.0  # [s] simulated per task-space run (the motion is 2.5 s)
+    task_ticks: int = 2000  # controller updates timed
 
     @staticmethod
     def of(quick: bool) -> Settings:
         if quick:
-            return Settings(1.0, 1, 1.0, 5, 0.5, 20.0)
+            return Settings(1.0, 1, 1.0, 5, 0.5, 20.0, 0.5, 100)
         return Settings(10.0, 5, TARGET_PERIOD, 60, 5.0, 3600.0)
 
 
@@ -922,6 +1000,7 @@ def run_suite(
         "perception": lambda: bench_perception(
             report, settings.camera_frames, settings.camera_seconds
         ),
+        "task": lambda: bench_task(report, settings.task_seconds, settings.task_ticks),
         "vision": lambda: bench_vision(report, settings.camera_seconds),  # vision (#15)
     }
     for section in sections:

@@ -2,8 +2,8 @@
 
 The field names follow the ROS 2 messages users already know
 (``sensor_msgs/JointState``, ``std_msgs/Float64MultiArray``,
-``trajectory_msgs/JointTrajectory``), with times as float seconds of
-simulation time instead of ``builtin_interfaces/Time``.
+``trajectory_msgs/JointTrajectory``, ``cartesian_control_msgs/CartesianTrajectory``),
+with times as float seconds of simulation time instead of ``builtin_interfaces/Time``.
 
 A topic is a port whose value is a :class:`Publication`: the number of
 messages published on it so far and the latest one. A subscriber (a
@@ -74,6 +74,39 @@ class JointTrajectory:
     stamp: float = 0.0  # [s]
     joint_names: tuple[str, ...] = ()
     points: tuple[JointTrajectoryPoint, ...] = ()
+
+    def __deepcopy__(self, memo):
+        return self  # immutable: see the module docstring
+
+
+@dataclass(frozen=True)
+class CartesianTrajectoryPoint:
+    """cartesian_control_msgs/CartesianTrajectoryPoint: the pose, twist and acceleration
+    of the controlled frame E in the trajectory's frame B (``header.frame_id``)."""
+
+    time_from_start: float = 0.0  # [s] since the trajectory's start
+    position: tuple[float, ...] = ()  # [m] p_BE (x, y, z)
+    orientation: tuple[float, ...] = ()  # [-] R_BE as a unit quaternion (w, x, y, z)
+    twist: tuple[float, ...] = ()  # [rad/s, m/s] (w; v) of E in B, expressed in B (6)
+    acceleration: tuple[float, ...] = ()  # [rad/s^2, m/s^2] (alpha; a) of E in B (6)
+
+    def __deepcopy__(self, memo):
+        return self  # immutable: see the module docstring
+
+
+@dataclass(frozen=True)
+class CartesianTrajectory:
+    """cartesian_control_msgs/CartesianTrajectory: a Cartesian path for one frame.
+
+    ``stamp`` as in :class:`JointTrajectory`; ``frame_id`` is the frame B the
+    points are given in ("" or "world": Drake's world frame); ``controlled_frame``
+    the frame E that follows them (a frame of the robot's plant).
+    """
+
+    stamp: float = 0.0  # [s]
+    frame_id: str = ""
+    controlled_frame: str = ""
+    points: tuple[CartesianTrajectoryPoint, ...] = ()
 
     def __deepcopy__(self, memo):
         return self  # immutable: see the module docstring

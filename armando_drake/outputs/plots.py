@@ -14,6 +14,12 @@ quantity with one panel per joint:
   to the step table's error as each point comes due;
 - ``efforts.png``: joint efforts [N m] (the effort columns).
 
+A task-space run (``task_space.csv``, see :mod:`armando_drake.outputs.task_space`)
+also gets ``task_error.png`` (position [mm] and orientation [rad] error norms of
+the end effector against time, as the seed's figures), ``joint_torques.png``
+(the commanded torque of every joint [N m], one axis) and ``task_path.png``
+(desired and actual end-effector path in three projections: x-y, x-z, y-z [m]).
+
 Each step's start (``summary.json`` steps[*].start) is marked by a dotted
 vertical line. The figures are :data:`FIGURE_SIZE` at :data:`DPI`, so each PNG
 is 1000 x 700 pixels whatever the number of joints. Matplotlib runs with
@@ -148,7 +154,54 @@ def write_plots(output_dir: str | Path) -> list[Path]:
     for j, axis in enumerate(axes):
         axis.plot(times, effort[:, j], color="tab:green")
     save(fig, "efforts.png")
+    if (folder / "task_space.csv").is_file():
+        _task_space_plots(folder, title, times, effort, joints, save)
     return written
+
+
+def _task_space_plots(folder: Path, title: str, times, effort, joints, save) -> None:
+    from matplotlib.figure import Figure
+
+    header, rows = read_csv(folder / "task_space.csv")
+    if not len(rows):
+        return
+    column = {name: rows[:, header.index(name)] for name in header}
+    fig = Figure(figsize=FIGURE_SIZE, dpi=DPI)
+    top, bottom = fig.subplots(2, 1, sharex=True)
+    fig.suptitle(f"End-effector tracking error: {title}")
+    top.plot(column["time"], column["position_error"] * 1e3, color="tab:red")
+    top.set_ylabel("|position error| [mm]")
+    bottom.plot(column["time"], column["orientation_error"], color="tab:purple")
+    bottom.set_ylabel("|orientation error| [rad]")
+    bottom.set_xlabel("time [s]")
+    for axis in (top, bottom):
+        axis.grid(True, alpha=0.3)
+    save(fig, "task_error.png")
+
+    fig = Figure(figsize=FIGURE_SIZE, dpi=DPI)
+    axis = fig.subplots()
+    fig.suptitle(f"Commanded joint torques: {title}")
+    for j, name in enumerate(joints):
+        axis.plot(times, effort[:, j], label=name)
+    axis.set_xlabel("time [s]")
+    axis.set_ylabel("torque [N m]")
+    axis.grid(True, alpha=0.3)
+    axis.legend(loc="upper right", fontsize="small")
+    save(fig, "joint_torques.png")
+
+    fig = Figure(figsize=FIGURE_SIZE, dpi=DPI)
+    axes = fig.subplots(1, 3)
+    fig.suptitle(f"End-effector path, desired and actual [m]: {title}")
+    for axis, (a, b) in zip(axes, (("x", "y"), ("x", "z"), ("y", "z")), strict=True):
+        axis.plot(column[f"desired_{a}"], column[f"desired_{b}"], "--", label="desired")
+        axis.plot(column[f"actual_{a}"], column[f"actual_{b}"], label="actual", alpha=0.8)
+        axis.set_xlabel(f"{a} [m]")
+        axis.set_ylabel(f"{b} [m]")
+        axis.set_aspect("equal", adjustable="datalim")
+        axis.grid(True, alpha=0.3)
+    axes[0].legend(loc="best", fontsize="small")
+    fig.tight_layout()
+    save(fig, "task_path.png")
 
 
 def main(argv: list[str] | None = None) -> int:

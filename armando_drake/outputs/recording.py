@@ -46,6 +46,7 @@ from pydrake.systems.sensors import ImageRgba8U
 
 from armando_drake.control.messages import JointState, PublicationValue
 from armando_drake.ros2.messages import (  # the message definitions, shared with the bridge
+    cartesian_trajectory_message,
     float64_multi_array_message,
     header,
     image_message,
@@ -123,6 +124,7 @@ class RosbagRecorder(LeafSystem):
         - joint_states
         - commands
         - joint_trajectory
+        - cartesian_trajectory
         - <camera>.color_image (one per camera)
 
     - ``joint_states``: a :class:`~armando_drake.control.messages.JointState`; a
@@ -135,6 +137,9 @@ class RosbagRecorder(LeafSystem):
       ``trajectory_topic`` whenever the publication's count grows, stamped
       with its publication time. Unconnected: nothing recorded. Publications
       closer together than 1/``update_rate`` keep only the latest;
+    - ``cartesian_trajectory``: a Publication of CartesianTrajectory (the task's
+      reference), recorded the same way on ``cartesian_topic``
+      (``cartesian_control_msgs/msg/CartesianTrajectory``);
     - ``<camera>.color_image``: an ImageRgba8U held at the camera's rate;
       each frame is recorded as ``<topic>/image_raw`` (rgb8) plus
       ``<topic>/camera_info``, stamped with the time the frame was taken.
@@ -154,6 +159,7 @@ class RosbagRecorder(LeafSystem):
         joint_states_topic: str = "/joint_states",
         commands_topic: str = "/position_controller/commands",
         trajectory_topic: str = "/trajectory_controller/joint_trajectory",
+        cartesian_topic: str = "/operational_space_controller/cartesian_trajectory",
         cameras: Sequence[CameraStream] = (),
     ):
         super().__init__()
@@ -166,6 +172,7 @@ class RosbagRecorder(LeafSystem):
             "joint_states": joint_states_topic,
             "commands": commands_topic,
             "joint_trajectory": trajectory_topic,
+            "cartesian_trajectory": cartesian_topic,
         }
         try:
             self._file: IO[bytes] | None = open(self._path, "wb")
@@ -175,14 +182,14 @@ class RosbagRecorder(LeafSystem):
         self._schemas: dict[str, Any] = {}
         self._counts: dict[str, int] = {}  # messages written, by topic
         self._last_stamp: float | None = None
-        self._last_publication = {"commands": 0, "joint_trajectory": 0}
+        self._last_publication = {"commands": 0, "joint_trajectory": 0, "cartesian_trajectory": 0}
 
         self._joint_states = self.DeclareAbstractInputPort(
             "joint_states", AbstractValue.Make(JointState())
         )
         self._publications = {
             name: self.DeclareAbstractInputPort(name, PublicationValue())
-            for name in ("commands", "joint_trajectory")
+            for name in ("commands", "joint_trajectory", "cartesian_trajectory")
         }
         self.DeclarePeriodicPublishEvent(1.0 / update_rate, 0.0, self._PublishTopics)
         from armando_drake.sensors.image_view import PUBLISH_OFFSET_FRACTION
@@ -259,6 +266,9 @@ class RosbagRecorder(LeafSystem):
             if name == "commands":
                 type_name = "std_msgs/msg/Float64MultiArray"
                 message = float64_multi_array_message(publication.message)
+            elif name == "cartesian_trajectory":
+                type_name = "cartesian_control_msgs/msg/CartesianTrajectory"
+                message = cartesian_trajectory_message(publication.message)
             else:
                 type_name = "trajectory_msgs/msg/JointTrajectory"
                 message = joint_trajectory_message(publication.message)
@@ -311,14 +321,19 @@ def AddRosbagRecorder(builder, world, path: str | os.PathLike) -> RosbagRecorder
     closes the file when it closes.
     """
     target = world.sequencer_target or "position_controller"
+    task = world.task
+    trajectory_owner = world.sequencer_target or "trajectory_controller"
+    if task is not None and task.topic == "joint_trajectory" and world.sequencer is None:
+        trajectory_owner = task.controller
     cameras = [camera_stream(name, camera) for name, camera in world.cameras.items()]
     recorder = builder.AddSystem(
         RosbagRecorder(
             path=path,
             update_rate=world.update_rate,
             commands_topic=f"/{target}/commands",
-            trajectory_topic=f"/{world.sequencer_target or 'trajectory_controller'}"
-            "/joint_trajectory",
+            trajectory_topic=f"/{trajectory_owner}/joint_trajectory",
+            cartesian_topic=f"/{task.controller if task else 'operational_space_controller'}"
+            "/cartesian_trajectory",
             cameras=cameras,
         )
     )
@@ -332,6 +347,8 @@ def AddRosbagRecorder(builder, world, path: str | os.PathLike) -> RosbagRecorder
     if world.sequencer is not None:
         for port in ("commands", "joint_trajectory"):
             builder.Connect(world.sequencer.GetOutputPort(port), recorder.GetInputPort(port))
+    if task is not None and not builder.IsConnectedOrExported(recorder.GetInputPort(task.topic)):
+        builder.Connect(task.source.get_output_port(), recorder.GetInputPort(task.topic))
     for stream in cameras:
         builder.Connect(
             world.cameras[stream.name].color_image,

@@ -22,6 +22,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from armando_drake.control.messages import (
+    CartesianTrajectory,
     Float64MultiArray,
     JointState,
     JointTrajectory,
@@ -51,6 +52,21 @@ DEFINITIONS = {
         "trajectory_msgs/JointTrajectoryPoint[] points\n"
     ),
     "geometry_msgs/Vector3": "float64 x\nfloat64 y\nfloat64 z\n",
+    "geometry_msgs/Twist": "geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n",
+    "geometry_msgs/Accel": "geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n",
+    # Universal Robots' cartesian_control_msgs (not in ROS 2's core messages).
+    "cartesian_control_msgs/CartesianPosture": (
+        "string[] posture_joint_names\nfloat64[] posture_joint_values\n"
+    ),
+    "cartesian_control_msgs/CartesianTrajectoryPoint": (
+        "builtin_interfaces/Duration time_from_start\ngeometry_msgs/Pose pose\n"
+        "geometry_msgs/Twist twist\ngeometry_msgs/Accel acceleration\n"
+        "geometry_msgs/Accel jerk\ncartesian_control_msgs/CartesianPosture posture\n"
+    ),
+    "cartesian_control_msgs/CartesianTrajectory": (
+        "std_msgs/Header header\ncartesian_control_msgs/CartesianTrajectoryPoint[] points\n"
+        "string controlled_frame\n"
+    ),
     "geometry_msgs/Quaternion": "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n",
     "geometry_msgs/Transform": (
         "geometry_msgs/Vector3 translation\ngeometry_msgs/Quaternion rotation\n"
@@ -209,6 +225,42 @@ def joint_trajectory_message(message: JointTrajectory) -> dict[str, Any]:
                 "accelerations": list(point.accelerations),
                 "effort": list(point.effort),
                 "time_from_start": ros_time(point.time_from_start),
+            }
+            for point in message.points
+        ],
+    }
+
+
+def _vector3(values: Sequence[float]) -> dict[str, float]:
+    x, y, z = (float(v) for v in values)
+    return {"x": x, "y": y, "z": z}
+
+
+def _spatial(values: Sequence[float]) -> dict[str, Any]:
+    """geometry_msgs/Twist or Accel of a Drake spatial vector (rotation first)."""
+    values = tuple(values) if len(values) == 6 else (0.0,) * 6
+    return {"linear": _vector3(values[3:]), "angular": _vector3(values[:3])}
+
+
+def cartesian_trajectory_message(message: CartesianTrajectory) -> dict[str, Any]:
+    """cartesian_control_msgs/CartesianTrajectory of ours (jerk zero: not planned; no
+    posture)."""
+    return {
+        "header": header(message.stamp, message.frame_id),
+        "controlled_frame": message.controlled_frame,
+        "points": [
+            {
+                "time_from_start": ros_time(point.time_from_start),
+                "pose": {
+                    "position": _vector3(point.position),
+                    "orientation": dict(
+                        zip("wxyz", (float(v) for v in point.orientation), strict=True)
+                    ),
+                },
+                "twist": _spatial(point.twist),
+                "acceleration": _spatial(point.acceleration),
+                "jerk": _spatial(()),
+                "posture": {"posture_joint_names": [], "posture_joint_values": []},
             }
             for point in message.points
         ],

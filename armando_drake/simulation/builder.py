@@ -77,6 +77,17 @@ _log = logging.getLogger("armando_drake.world")
 
 
 @dataclass
+class TaskReference:
+    """The scenario's task-space motion as the world publishes it."""
+
+    controller: str  # the controller it is published to
+    topic: str  # on its input "<controller>.<topic>"
+    trajectory: Any  # the CartesianTrajectory of the end effector (in the world frame)
+    arm: Any  # the ArmModel of the end effector (FK of logged joint states)
+    source: Any  # the system that publishes it (output: the Publication)
+
+
+@dataclass
 class World:
     """The built diagram and handles to its parts."""
 
@@ -104,6 +115,7 @@ class World:
     detectors: Any = None  # vision (#15): AddedDetectors when the scenario has a vision block
     image_view: Any = None  # vision (#15): the live camera view's server, when served
     meshcat: Meshcat | None = None
+    task: TaskReference | None = None  # the scenario's task-space motion, if any
     closers: list = field(default_factory=list)  # called by close()
 
     def publish(self, context: Context, controller: str, message: Any) -> None:
@@ -210,7 +222,7 @@ def MakeWorld(
     # Spawn the robot (its base welded at the spawn pose), the ground and the objects.
     robot = _add_robot_and_scene(plant, scenario, where)
     # The hardware interface: an actuator per commanded joint; then the plant is final.
-    hardware = _add_hardware(plant, scene_graph, robot, scenario)
+    hardware = _add_hardware(plant, scene_graph, robot, scenario, where)
     # The controller YAML and its update rate (the scenario may override the rate).
     config = _controller_config(scenario, robot, hardware)
     world = World(
@@ -228,6 +240,7 @@ def MakeWorld(
     # What drives and watches them: sequencer, logger, cameras, recorder, bridges.
     commands_csv = Path(output_dir) / "commands.csv" if output_dir and write_commands else None
     _add_sequencer(builder, world, scenario, where, commands_csv)
+    _add_task(builder, world, scenario, where)
     _add_logger(builder, world, scenario, output_dir, quiet)
     _add_cameras(builder, world, scenario, meshcat, where, source)
     _add_detectors(builder, world, scenario, where)  # vision (#15)
@@ -279,9 +292,14 @@ def _add_robot_and_scene(plant: MultibodyPlant, scenario: Scenario, where: str) 
 
 
 def _add_hardware(
-    plant: MultibodyPlant, scene_graph: SceneGraph, robot: LoadedRobot, scenario: Scenario
+    plant: MultibodyPlant,
+    scene_graph: SceneGraph,
+    robot: LoadedRobot,
+    scenario: Scenario,
+    where: str,
 ) -> HardwareInterface:
-    """The actuators of the hardware interface; finalizes the plant."""
+    """The actuators of the hardware interface; finalizes the plant; the task's start
+    positions, if it gives them."""
     actuators = scenario.actuators
     hardware = AddHardwareInterface(
         plant, robot, kp=actuators.kp, kd=actuators.kd, kv=actuators.kv, gains=actuators.gains
@@ -290,6 +308,8 @@ def _add_hardware(
     if not scenario.robot.self_collision:
         _exclude_self_collision(plant, scene_graph, robot)
     FinishHardwareInterface(plant, robot, hardware)
+    if scenario.task is not None and scenario.task.start_positions:
+        _set_start_positions(plant, robot, hardware, scenario.task.start_positions, where)
     _log.info(
         "hardware interface %r (%s): %s",
         hardware.name,
@@ -525,6 +545,141 @@ def _managed_controller(world: World, controller: ControllerConfig, joints) -> M
     except ValueError as error:
         raise ScenarioError(f"{controller.name}: {error}") from None
     return ManagedController(name=controller.name, logic=logic)
+
+
+def _set_start_positions(plant, robot, hardware, positions, where: str) -> None:
+    """The hardware joints start at ``positions`` [rad] (hardware order), inside their limits."""
+    if len(positions) != len(hardware.joints):
+        raise ScenarioError(
+            f"{where}task.start_positions={positions!r} must have {len(hardware.joints)} values "
+            f"({', '.join(hardware.joint_names)})"
+        )
+    for joint, value in zip(hardware.joints, positions, strict=True):
+        if not joint.lower <= value <= joint.upper:
+            raise ScenarioError(
+                f"{where}task.start_positions: {value!r} of joint {joint.name!r} is outside its "
+                f"limits [{joint.lower:.4g}, {joint.upper:.4g}]"
+            )
+        plant.GetJointByName(joint.name, robot.model_instance).set_default_positions([value])
+        joint.initial_position = float(value)
+
+
+def _add_task(builder, world: World, scenario: Scenario, where: str) -> None:
+    """The scenario's task-space motion, published once at t = 0 to the controller that
+    takes it (a Drake ``ConstantValueSource`` of the publication: no per-step cost)."""
+    motion = scenario.task
+    if motion is None:
+        return
+    from pydrake.common.value import AbstractValue
+    from pydrake.systems.primitives import ConstantValueSource
+
+    from armando_drake.control.messages import CartesianTrajectory
+    from armando_drake.task.arm import ArmModel, TaskSpaceError
+    from armando_drake.task.motion import make_cartesian_trajectory
+    from armando_drake.task.paths import PathError
+    from armando_drake.task.time_laws import TimeLawError
+
+    config = world.controller_config.controllers
+    targets = [
+        n for n in world.controllers if config[n].controller_class.message is CartesianTrajectory
+    ]
+    targets += [
+        n for n in world.controllers if config[n].controller_class.message is JointTrajectory
+    ]
+    if not targets:
+        raise ScenarioError(
+            f"{where}task needs an active controller that takes a CartesianTrajectory or a "
+            f"JointTrajectory; active: {', '.join(world.controllers) or 'none'}"
+        )
+    name = targets[0]
+    plant, instance = world.plant, world.robot.model_instance
+    try:
+        frame = motion.end_effector or _last_link_frame(plant, instance)
+        arm = ArmModel(plant=plant, end_effector_frame=frame, model_instance=instance)
+        arm.set_state(arm.default_positions())
+        trajectory = make_cartesian_trajectory(motion, arm.pose())
+        period = 1.0 / world.update_rate
+        if config[name].controller_class.message is CartesianTrajectory:
+            message = cartesian_trajectory_message(trajectory, period, arm.frame_E.name())
+        else:
+            from armando_drake.task.inverse_kinematics import plan_joint_reference
+
+            plan = plan_joint_reference(arm, trajectory, arm.default_positions(), period=period)
+            message = joint_trajectory_message(plan, arm.joint_names)
+    except (TaskSpaceError, PathError, TimeLawError) as error:
+        raise ScenarioError(f"{where}task: {error}") from None
+    source = builder.AddNamedSystem(
+        "task_reference",
+        ConstantValueSource(AbstractValue.Make(Publication(1, message, 0.0))),
+    )
+    topic = config[name].controller_class.topic
+    builder.Connect(
+        source.get_output_port(), world.controllers[name].GetInputPort(f"{name}.{topic}")
+    )
+    world.task = TaskReference(
+        controller=name, topic=topic, trajectory=trajectory, arm=arm, source=source
+    )
+    _log.info(
+        "task: %s path, %s profile, %.3g s, end effector %s, to %s (%s)",
+        motion.path,
+        motion.profile,
+        trajectory.duration,
+        arm.frame_E.name(),
+        name,
+        type(message).__name__,
+    )
+    if world.meshcat is not None:
+        from pydrake.geometry import Rgba
+
+        times = np.linspace(0.0, trajectory.duration, 400)
+        path = trajectory.reference(times)[:, 4:7].T
+        world.meshcat.SetLine("task/desired_path", path, 3.0, Rgba(0.1, 0.4, 1.0, 1.0))
+
+
+def _last_link_frame(plant, instance):
+    """The body frame of the child link of the robot's last moving joint."""
+    moving = [plant.get_joint(i) for i in plant.GetJointIndices(instance)]
+    moving = [j for j in moving if j.num_velocities() > 0]
+    return max(moving, key=lambda j: j.velocity_start()).child_body().body_frame()
+
+
+def cartesian_trajectory_message(trajectory, period: float, frame: str):
+    """The CartesianTrajectory message of ``trajectory`` sampled every ``period`` [s]."""
+    from armando_drake.control.messages import CartesianTrajectory, CartesianTrajectoryPoint
+
+    count = int(np.ceil(trajectory.duration / period - 1e-9)) + 1
+    times = np.arange(count) * period
+    references = trajectory.reference(times)
+    points = tuple(
+        CartesianTrajectoryPoint(
+            time_from_start=float(t),
+            position=tuple(row[4:7].tolist()),
+            orientation=tuple(row[0:4].tolist()),
+            twist=tuple(row[7:13].tolist()),
+            acceleration=tuple(row[13:19].tolist()),
+        )
+        for t, row in zip(times, references, strict=True)
+    )
+    return CartesianTrajectory(stamp=0.0, frame_id="world", controlled_frame=frame, points=points)
+
+
+def joint_trajectory_message(plan, joint_names) -> JointTrajectory:
+    """The JointTrajectory message of a planned joint reference. Its last point is at
+    rest (the plan's residual velocity there is tiny; a trajectory controller
+    rejects a last point that is not)."""
+    from armando_drake.control.messages import JointTrajectoryPoint
+
+    last = len(plan.times) - 1
+    points = tuple(
+        JointTrajectoryPoint(
+            positions=tuple(plan.q[k].tolist()),
+            velocities=tuple(0.0 * plan.v[k] if k == last else plan.v[k]),
+            accelerations=tuple(0.0 * plan.a[k] if k == last else plan.a[k]),
+            time_from_start=float(t),
+        )
+        for k, t in enumerate(plan.times)
+    )
+    return JointTrajectory(stamp=0.0, joint_names=tuple(joint_names), points=points)
 
 
 def _add_sequencer(builder, world: World, scenario: Scenario, where: str, commands_csv) -> None:

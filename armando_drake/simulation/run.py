@@ -61,6 +61,8 @@ class RunResult:
     joint_names: list[str]
     steps: list[StepResult] = field(default_factory=list)
     tracking_error: float | None = None  # [rad] sinusoid: max |q - wave| after 1 s
+    # task: max_position_error, rms_position_error [m], max_orientation_error [rad]
+    task_space: dict[str, Any] | None = None
     output_dir: str | None = None
     driven: str = ""  # the controller the sequencer drove, by its name in the YAML
     # vision (#15): frames, detections, final_pointing_error [rad], marker_position_error [m]
@@ -78,6 +80,7 @@ class RunResult:
             "interrupted": self.interrupted,
             "joint_names": self.joint_names,
             "tracking_error": self.tracking_error,
+            "task_space": self.task_space,
             "steps": [
                 {
                     "target": step.target,
@@ -96,7 +99,9 @@ class RunResult:
         """One line naming what ran and how fast, e.g. ``position.yaml with the
         trajectory controller: 15.00 s simulated in 2.10 s (7.14x real time)``."""
         name = Path(self.scenario).name if self.scenario else "the scenario"
-        if self.controller == "none":
+        if self.controller == "task":
+            what = f"{name} with a task-space motion"
+        elif self.controller == "none":
             what = f"{name} with no controller driving the arm"
         elif self.controller == "sinusoid":
             what = f"{name} with a sinusoid on the position controller"
@@ -112,16 +117,17 @@ class RunResult:
 
 
 def controller_mode(scenario: Scenario) -> str:
-    """position | trajectory | sinusoid | none: what drives the arm."""
+    """position | trajectory | sinusoid | task | none: what drives the arm."""
     if scenario.sequencer is None:
-        return "none"
+        return "none" if scenario.task is None else "task"
     return mode_of(scenario.sequencer)
 
 
 def default_duration(scenario: Scenario) -> float:
-    """[s] one pass of the command sequence (2 s without one)."""
+    """[s] one pass of the command sequence; the task's motion and 0.5 s of holding
+    without one; 2 s without either."""
     if scenario.sequencer is None:
-        return 2.0
+        return 2.0 if scenario.task is None else scenario.task.duration + 0.5
     return one_pass(scenario.sequencer)
 
 
@@ -374,6 +380,7 @@ def run(
         start_replay(replay_meshcat, live=replay_meshcat is meshcat)
     # The step table (or the sinusoid's tracking error) from the logger's rows.
     table = _table_of(world)
+    tracker = _task_tracker_of(world)
     joint_names = world.hardware.joint_names
     simulator = Simulator(world.diagram)
     ApplySimulatorConfig(scenario.simulator_config, simulator)
@@ -417,12 +424,25 @@ def run(
         interrupted=interrupted,
         joint_names=joint_names,
         output_dir=None if output_dir is None else str(output_dir),
-        driven=world.sequencer_target,
+        driven=world.sequencer_target or (world.task.controller if world.task else ""),
     )
     if isinstance(table, StepTable):
         result.steps = table.results(sim_time)
     elif isinstance(table, TrackingError):
         result.tracking_error = table.largest
+    if tracker is not None:
+        errors = tracker.errors()
+        result.task_space = errors.summary()
+        if log_dir is not None:
+            from armando_drake.outputs.task_space import TASK_SPACE_CSV, write_task_space_csv
+
+            write_task_space_csv(errors, log_dir / TASK_SPACE_CSV)
+        if world.meshcat is not None and len(errors.times):
+            from pydrake.geometry import Rgba
+
+            world.meshcat.SetLine(
+                "task/end_effector_trace", errors.actual.T, 2.0, Rgba(1.0, 0.3, 0.1, 1.0)
+            )
     if world.detectors is not None:  # vision (#15)
         from armando_drake.vision.outputs import write_vision_outputs
 
@@ -438,6 +458,19 @@ def run(
 
         write_replay(replay_meshcat, log_dir / REPLAY_FILE)
     return result
+
+
+def _task_tracker_of(world):
+    """A listener on the world's joint-state logger that follows the end effector of the
+    scenario's task (:class:`~armando_drake.outputs.task_space.TaskSpaceTracker`);
+    None without a task."""
+    if world.task is None or world.logger is None:
+        return None
+    from armando_drake.outputs.task_space import TaskSpaceTracker
+
+    tracker = TaskSpaceTracker(world.task, list(world.logger.joint_names))
+    world.logger.add_listener(tracker.add)
+    return tracker
 
 
 def _table_of(world) -> StepTable | TrackingError | None:

@@ -32,6 +32,7 @@ from armando_drake.control.sequencer import JointTrajectoryTargets, PositionTarg
 from armando_drake.perception.config import PerceptionConfig
 from armando_drake.ros2.config import Ros2Config  # ros2: live DDS / Foxglove (#21)
 from armando_drake.sensors.objects import SceneObject
+from armando_drake.task.motion import TaskSpaceMotion
 from armando_drake.vision.cameras import ScenarioCamera  # vision (#15)
 from armando_drake.vision.config import VisionConfig  # vision (#15)
 
@@ -164,6 +165,11 @@ class Scenario:
     # !JointTrajectoryTargets or !Sinusoid (control/sequencer.py); absent or
     # null = nothing (commands come from the diagram's input ports).
     sequencer: PositionTargets | JointTrajectoryTargets | Sinusoid | None = None
+    # A task-space motion of the end effector (path, time law, start positions):
+    # published once at t = 0 to the active controller that takes a Cartesian
+    # trajectory (as a CartesianTrajectory) or else a joint trajectory (planned by
+    # closed-loop inverse kinematics, as a JointTrajectory); absent = none.
+    task: TaskSpaceMotion | None = None
     # Camera sensors of the description.
     camera: CameraSettings = dc.field(default_factory=CameraSettings)
     # vision (#15): cameras on links of the robot, with the fields of a <gazebo><sensor>

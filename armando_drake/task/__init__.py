@@ -9,6 +9,9 @@
   poses, the joint reference along a path by closed-loop inverse kinematics;
 - :mod:`~armando_drake.task.control_laws`: joint-space and operational-space inverse
   dynamics with their parameter dataclasses;
-- :mod:`~armando_drake.task.controller`: the law as a discrete-update Drake system;
+- :mod:`~armando_drake.task.controller`: the law as a discrete-update Drake system of
+  its own (for bare diagrams; the world runs the laws as the registered controller
+  types of :mod:`armando_drake.control.controllers.task_space`, in the controller
+  manager);
 - :mod:`~armando_drake.task.motion`: a motion as a scenario file gives it (YAML).
 """

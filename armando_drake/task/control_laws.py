@@ -231,7 +231,8 @@ class OperationalSpaceInverseDynamics(_TorqueLaw):
 
 @dataclass(frozen=True)
 class TorqueLawType:
-    """What a controller registry needs to register a torque law (nothing registers it yet)."""
+    """What a controller registry needs to register a torque law (registered by
+    :mod:`armando_drake.control.controllers.task_space`)."""
 
     type: str  # the ROS-style type string a controller YAML names
     params: type  # the parameters dataclass, the yaml_load_typed schema of ros__parameters

@@ -48,22 +48,29 @@ class TaskSpaceMotion:
     # [rad] rotation vector (base frame) from the start orientation to the goal's,
     # slerped along the path; zero holds the orientation (arms with < 6 joints: zero)
     rotation: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
-    time_law: str = "trapezoidal"  # trapezoidal | cubic | quintic
+    profile: str = "trapezoidal"  # the time law: trapezoidal | cubic | quintic
     duration: float = 3.0  # [s] the motion's duration T
     acceleration_time: float = 0.6  # [s] trapezoidal: t_c, 0 < t_c <= T/2
+    # The frame that follows the path: a frame of the robot ("" = the child link of
+    # its last moving joint).
+    end_effector: str = ""
+    # [rad] the joint positions at the start, in the hardware interface's joint
+    # order; empty = the description's initial positions. The path starts at the
+    # end effector's pose there.
+    start_positions: list[float] = field(default_factory=list)
 
 
 def make_time_law(motion: TaskSpaceMotion) -> TimeLaw:
     """The time law the motion names."""
-    if motion.time_law == "trapezoidal":
+    if motion.profile == "trapezoidal":
         return TrapezoidalTimeLaw(
             duration=motion.duration, acceleration_time=motion.acceleration_time
         )
-    if motion.time_law == "cubic":
+    if motion.profile == "cubic":
         return CubicTimeLaw(duration=motion.duration)
-    if motion.time_law == "quintic":
+    if motion.profile == "quintic":
         return QuinticTimeLaw(duration=motion.duration)
-    raise PathError(f"time_law={motion.time_law!r} must be one of {', '.join(TIME_LAWS)}")
+    raise PathError(f"profile={motion.profile!r} must be one of {', '.join(TIME_LAWS)}")
 
 
 def make_cartesian_trajectory(motion: TaskSpaceMotion, X_start: RigidTransform):

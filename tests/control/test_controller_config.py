@@ -189,7 +189,9 @@ GOOD_PARAMS = "    joints: [j0, j1]"
             "effort_controllers/JointGroupEffortController, "
             "joint_trajectory_controller/JointTrajectoryController, "
             "vision_controllers/LookAtPointController, "  # vision (#15)
-            "vision_controllers/ImprovedLookAtPointController",
+            "vision_controllers/ImprovedLookAtPointController, "
+            "task_space_controllers/JointSpaceInverseDynamics, "
+            "task_space_controllers/OperationalSpaceInverseDynamics",
         ),
         (
             "100",

@@ -177,12 +177,18 @@ def test_registry_knows_the_shipped_types_and_answers_by_message():
         "joint_trajectory_controller/JointTrajectoryController",
         "vision_controllers/LookAtPointController",  # vision (#15)
         "vision_controllers/ImprovedLookAtPointController",
+        "task_space_controllers/JointSpaceInverseDynamics",
+        "task_space_controllers/OperationalSpaceInverseDynamics",
     )
     assert types_accepting(Float64MultiArray, "velocity") == (
         "forward_command_controller/ForwardCommandController",
         "velocity_controllers/JointGroupVelocityController",
     )
     assert types_accepting(JointTrajectory) == (
+        "joint_trajectory_controller/JointTrajectoryController",
+        "task_space_controllers/JointSpaceInverseDynamics",
+    )
+    assert types_accepting(JointTrajectory, "position") == (
         "joint_trajectory_controller/JointTrajectoryController",
     )
     with pytest.raises(KeyError, match="unknown controller type 'x/Y'; supported: joint_state"):

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import nbclient
 import nbformat
-from conftest import COURSE_PACKAGE
+from conftest import COURSE_PACKAGE, SHARED, skip_or_fail
 
 NOTEBOOKS = Path(__file__).resolve().parents[2] / "notebooks"
 
@@ -105,3 +105,23 @@ def test_your_robot(monkeypatch):
     assert "joints: j0 [-2.57, 2.57], j1 [-3.14, 3.14]" in text
     match = re.search(r"^largest final error: (\S+) rad$", text, re.M)
     assert match and float(match[1]) <= 0.01
+
+
+def test_task_space(monkeypatch):
+    if not (SHARED / "upstream" / "iiwa_description").is_dir():
+        skip_or_fail(f"05_task_space compares the controllers on the iiwa of {SHARED}/upstream")
+    text, pictures = execute("05_task_space", monkeypatch)
+    assert pictures == 6  # four comparisons, two paths
+    rows = re.findall(
+        r"^(linear|circular)\s+(trapezoidal|cubic)\s+(joint space|operational space)"
+        r"\s+(\S+)\s+(\S+)\s+(\S+)\s+\S+$",
+        text,
+        re.M,
+    )
+    assert len(rows) == 8
+    for *_, largest, rms, orientation in rows:
+        assert float(largest) <= 1.0 and 0 < float(rms) <= float(largest)  # [mm]
+        assert float(orientation) <= 0.01  # [rad]
+    for path in ("linear", "circular"):
+        match = re.search(rf"^Armando {path}: max position error (\S+) mm$", text, re.M)
+        assert match and float(match[1]) <= 2.0

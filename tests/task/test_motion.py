@@ -19,7 +19,7 @@ def test_linear_motion_with_rotation_from_yaml():
 path: linear
 offset: [-0.1, 0.25, 0.15]
 rotation: [0.0, 0.0, 0.6]
-time_law: trapezoidal
+profile: trapezoidal
 duration: 2.0
 acceleration_time: 0.5
 """,
@@ -35,7 +35,7 @@ acceleration_time: 0.5
 
 def test_circular_motion_defaults_to_the_seeds_plane():
     motion = yaml_load_typed(
-        schema=TaskSpaceMotion, data="{path: circular, radius: 0.1, time_law: cubic}"
+        schema=TaskSpaceMotion, data="{path: circular, radius: 0.1, profile: cubic}"
     )
     trajectory = make_cartesian_trajectory(motion, X_START)
     reference = trajectory.reference(np.linspace(0, motion.duration, 40))
@@ -49,7 +49,7 @@ def test_circular_motion_defaults_to_the_seeds_plane():
     "data, error, text",
     [
         ("path: spiral", PathError, "path='spiral' must be one of linear, circular"),
-        ("time_law: bang", PathError, "time_law='bang' must be one of"),
+        ("profile: bang", PathError, "profile='bang' must be one of"),
         ("{duration: 1.0, acceleration_time: 0.8}", TimeLawError, "acceleration_time=0.8"),
         ("{path: circular, radius: -0.1}", PathError, "radius=-0.1"),
         ("rotation: [0.1, 0.2]", PathError, "rotation=[0.1, 0.2]"),

@@ -393,6 +393,7 @@ from armando_drake.control.controllers import (  # noqa: E402  (after the regist
     forward_command,
     joint_trajectory,
     look_at,  # vision (#15)
+    task_space,
 )
 
 __all__ = [
@@ -407,6 +408,7 @@ __all__ = [
     "forward_command",
     "joint_trajectory",
     "joint_list",
+    "task_space",
     "look_at",
     "load_parameters",
     "lookup",
