@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-COMMANDS = ("world", "display", "graph", "plots", "bench")
+COMMANDS = ("world", "display", "graph", "plots", "bench", "sweep", "dataset")
 
 
 def test_every_subpackage_is_listed_in_pyproject():

@@ -26,7 +26,10 @@ same machine load:
    real-time factor of ``task_os`` (operational-space inverse dynamics) and
    ``task_js`` (joint-space) with the controller manager at 1 kHz, and the
    Python cost of one operational-space controller update (the law with M, C,
-   g, J, J-dot v from the plant) in microseconds.
+   g, J, J-dot v from the plant) in microseconds;
+8. sweep: throughput of ``python -m armando_drake.sweep`` (world runs per
+   minute) on the local pool with 1 and 2 workers, and on a local Ray instance
+   of 2 CPUs.
 
 Each figure is the median of ``--repeat`` repetitions, with min and max. The
 table is printed as markdown and written with the raw samples to a JSON file.
@@ -62,7 +65,17 @@ import numpy as np
 from armando_drake.control.sequencer import SEED_TARGETS
 from armando_drake.tools.cli import command_parser
 
-SECTIONS = ("pipeline", "mujoco", "camera", "startup", "memory", "perception", "task", "vision")
+SECTIONS = (
+    "pipeline",
+    "mujoco",
+    "camera",
+    "startup",
+    "memory",
+    "perception",
+    "task",
+    "sweep",
+    "vision",
+)
 SCENARIOS = ("position", "trajectory", "sinusoid")
 # [rad] j0..j3: the seed targets (diagrams/position.yaml's), 3 s apart.
 TARGETS = [list(target) for target in SEED_TARGETS]
@@ -194,7 +207,7 @@ def _cpu_model() -> str:
     return platform.processor()
 
 
-# --- 6. task-space torque control --------------------------------------------
+# --- 7. task-space torque control --------------------------------------------
 
 # The course's iiwa, beside the repository (never shipped with it).
 IIWA_DESCRIPTION = (
@@ -958,6 +971,78 @@ def bench_vision(report: Report, duration: float) -> None:
     )
 
 
+# --- 8. sweep ------------------------------------------------------------------------
+
+
+def bench_sweep(report: Report) -> None:
+    """World runs per minute of a sweep: local pool with 1 and 2 workers, Ray on 2 CPUs.
+
+    The same variants each time (the position scenario, kp over a grid, no
+    console output), each run a fresh world process; the three engines are
+    interleaved per repetition. Ray's start-up is not timed (a cluster is
+    started once and serves many sweeps).
+    """
+    import shutil
+
+    from armando_drake.sweeps.axes import make_variants, parse_grid
+    from armando_drake.sweeps.engines import LocalPool, RayEngine
+    from armando_drake.sweeps.errors import SweepError
+    from armando_drake.sweeps.sweep import Sweep, run_sweep
+
+    count, duration = (2, 0.1) if report.quick else (8, 2.0)
+    sweep = Sweep(
+        scenario="position",
+        variants=make_variants([parse_grid(f"actuators.kp=linspace(2, 16, {count})")]),
+        common_overrides=[NO_CONSOLE],
+        world_args=["--duration", repr(duration)],
+    )
+
+    def runs_per_minute(engine) -> float:
+        with tempfile.TemporaryDirectory(prefix="armando_bench_sweep_") as folder:
+            start = time.perf_counter()
+            outcome = run_sweep(sweep, folder, engine, progress=False)
+            seconds = time.perf_counter() - start
+        if outcome.failed:
+            raise RuntimeError(f"sweep benchmark: {outcome.failed} of {count} runs failed")
+        return 60.0 * count / seconds
+
+    load = [os.getloadavg()[0]]
+    ray_engine, ray_folder = None, tempfile.mkdtemp(prefix="armando_bench_ray_")
+    try:
+        ray_engine = RayEngine("local", workers=2, temp_dir=ray_folder)
+    except SweepError as error:
+        report.notes.append(f"Sweep: no Ray row ({error}).")
+    one, two, ray = [], [], []
+    try:
+        for _ in range(report.repeat):
+            one.append(runs_per_minute(LocalPool(workers=1)))
+            two.append(runs_per_minute(LocalPool(workers=2)))
+            if ray_engine is not None:
+                ray.append(runs_per_minute(ray_engine))
+            load.append(os.getloadavg()[0])
+    finally:
+        if ray_engine is not None:
+            ray_engine.close()
+        shutil.rmtree(ray_folder, ignore_errors=True)
+    report.add(Row("sweep", "sweep, local pool, 1 worker", "runs/min", one))
+    report.add(Row("sweep", "sweep, local pool, 2 workers", "runs/min", two))
+    ratios = [b / a for a, b in zip(one, two, strict=True)]
+    report.add(Row("sweep", "sweep, 2 workers / 1 worker", "ratio", ratios).check(">=", 1.8))
+    if ray:
+        report.add(Row("sweep", "sweep, Ray on 2 CPUs", "runs/min", ray))
+        ratios = [r / b for r, b in zip(ray, two, strict=True)]
+        report.add(
+            Row("sweep", "sweep, Ray / local pool, 2 workers", "ratio", ratios).check(">=", 0.9)
+        )
+    report.notes.append(
+        f"Sweep: {count} variants of the position scenario (kp from 2 to 16), {duration:g} s "
+        "simulated each, every run a fresh `python -m armando_drake.world` process (start-up "
+        f"included); {os.cpu_count()} CPUs, 1-minute load average "
+        + ", ".join(f"{x:.2f}" for x in load)
+        + " (before, then after each repetition). The 2-worker target needs 2 idle CPUs."
+    )
+
+
 # --- the suite ----------------------------------------------------------------------
 
 
@@ -1001,6 +1086,7 @@ def run_suite(
             report, settings.camera_frames, settings.camera_seconds
         ),
         "task": lambda: bench_task(report, settings.task_seconds, settings.task_ticks),
+        "sweep": lambda: bench_sweep(report),
         "vision": lambda: bench_vision(report, settings.camera_seconds),  # vision (#15)
     }
     for section in sections:
