@@ -65,7 +65,17 @@ import numpy as np
 from armando_drake.control.sequencer import SEED_TARGETS
 from armando_drake.tools.cli import command_parser
 
-SECTIONS = ("pipeline", "mujoco", "camera", "startup", "memory", "perception", "task", "sweep")
+SECTIONS = (
+    "pipeline",
+    "mujoco",
+    "camera",
+    "startup",
+    "memory",
+    "perception",
+    "task",
+    "sweep",
+    "vision",
+)
 SCENARIOS = ("position", "trajectory", "sinusoid")
 # [rad] j0..j3: the seed targets (diagrams/position.yaml's), 3 s apart.
 TARGETS = [list(target) for target in SEED_TARGETS]
@@ -897,6 +907,70 @@ def bench_perception(report: Report, frames: int, duration: float) -> None:
     )
 
 
+def vision_world_rtf(duration: float, override: str) -> tuple[float, float, float, int]:
+    """(simulated per wall-clock second, per CPU second of this process, detector
+    seconds per frame, frames) of diagrams/vision_blob.yaml with ``override``, as fast
+    as it goes, no viewer; building the world is not counted. (vision, #15)"""
+    from pydrake.systems.analysis import Simulator
+
+    from armando_drake.simulation.builder import MakeWorld
+    from armando_drake.simulation.scenario import load_scenario
+
+    text = f"{NO_CONSOLE}\ncamera: {{live_view: false}}\n{override}"
+    world = MakeWorld(load_scenario("vision_blob", text), quiet=True)
+    try:
+        simulator = Simulator(world.diagram)
+        simulator.set_target_realtime_rate(0.0)
+        start, cpu_start = time.perf_counter(), time.process_time()
+        simulator.AdvanceTo(duration)
+        wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
+        detectors = world.detectors
+        detector = None if detectors is None else (detectors.blob or detectors.aruco)
+        per_frame = detector.seconds / max(1, detector.frames) if detector else 0.0
+        return duration / wall, duration / cpu, per_frame, detector.frames if detector else 0
+    finally:
+        world.close()
+
+
+# (row label, override of diagrams/vision_blob.yaml) of the vision section.
+VISION_CASES = (
+    ("no detector", "vision: null"),
+    ("blob detector, the seed's 249 thresholds", ""),
+    ("blob detector, threshold step 10", "vision: {blob: {threshold_step: 10}}"),
+    (
+        "ArUco detector + solvePnP",
+        "objects: [{name: marker, shape: !ArucoMarker {}, xyz: [0.45, 0.0, 0.0025]}]\n"
+        "vision: {blob: null, aruco: {camera: top_camera}}",
+    ),
+)
+
+
+def bench_vision(report: Report, duration: float) -> None:
+    """vision (#15): the blob scenario (640 x 480 at 30 Hz, detection on every frame)."""
+    results: dict[str, dict[str, list[float]]] = {}
+    for _ in range(report.repeat):
+        for label, override in VISION_CASES:
+            wall, cpu, per_frame, _frames = vision_world_rtf(duration, override)
+            entry = results.setdefault(label, {"wall": [], "cpu": [], "ms": []})
+            entry["wall"].append(wall)
+            entry["cpu"].append(cpu)
+            entry["ms"].append(per_frame * 1000.0)
+    for label, _ in VISION_CASES:
+        entry = results[label]
+        row = Row("vision", f"vision scenario, {label}, {duration:g} s", RTF, entry["wall"])
+        report.add(row.check(">=", 1.0) if "seed" in label else row)
+        if "seed" in label:
+            report.add(Row("vision", f"{label}, per CPU second of the process", RTF, entry["cpu"]))
+        if label != "no detector":
+            report.add(Row("vision", f"{label}: cost per frame", "ms", entry["ms"]))
+    report.notes.append(
+        "Vision: diagrams/vision_blob.yaml (a 640 x 480 camera at 30 Hz looking down at the "
+        "blue disc; RenderEngineGl when a display can be had), run as fast as it goes, no "
+        "viewer; the detector runs on every frame; 'cost per frame' is the OpenCV time of "
+        "the detector (wall clock, annotated image included)."
+    )
+
+
 # --- 8. sweep ------------------------------------------------------------------------
 
 
@@ -1013,6 +1087,7 @@ def run_suite(
         ),
         "task": lambda: bench_task(report, settings.task_seconds, settings.task_ticks),
         "sweep": lambda: bench_sweep(report),
+        "vision": lambda: bench_vision(report, settings.camera_seconds),  # vision (#15)
     }
     for section in sections:
         print(f"[bench] {section} ...", file=sys.stderr, flush=True)

@@ -356,6 +356,10 @@ def AddRosbagRecorder(builder, world, path: str | os.PathLike) -> RosbagRecorder
         )
     if getattr(world, "perception", None) is not None:  # issue #19: point clouds, clusters
         AddPerceptionRecorder(builder, world, recorder)
+    if getattr(world, "detectors", None) is not None:  # vision (#15): detections
+        from armando_drake.vision.recording import AddVisionRecorder
+
+        AddVisionRecorder(builder, world, recorder)
     return recorder
 
 

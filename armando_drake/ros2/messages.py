@@ -118,6 +118,8 @@ DEFINITIONS = {
         "bool mesh_use_embedded_materials\n"
     ),
     "visualization_msgs/MarkerArray": "visualization_msgs/Marker[] markers\n",
+    # vision (#15): the ArUco detector's marker pose, /aruco_single/pose as aruco_ros.
+    "geometry_msgs/PoseStamped": "std_msgs/Header header\ngeometry_msgs/Pose pose\n",
 }
 _SEPARATOR = "=" * 80 + "\n"
 
@@ -320,6 +322,19 @@ def transform_stamped(stamp: float, parent: str, child: str, X_PC) -> dict[str, 
         "transform": {
             "translation": {"x": float(p[0]), "y": float(p[1]), "z": float(p[2])},
             "rotation": {"x": q.x(), "y": q.y(), "z": q.z(), "w": q.w()},
+        },
+    }
+
+
+def pose_stamped_message(stamp: float, frame_id: str, X_FM) -> dict[str, Any]:
+    """geometry_msgs/PoseStamped: the pose ``X_FM`` (a Drake RigidTransform) in ``frame_id``."""
+    p = X_FM.translation()
+    q = X_FM.rotation().ToQuaternion()
+    return {
+        "header": header(stamp, frame_id),
+        "pose": {
+            "position": {"x": float(p[0]), "y": float(p[1]), "z": float(p[2])},
+            "orientation": {"x": q.x(), "y": q.y(), "z": q.z(), "w": q.w()},
         },
     }
 

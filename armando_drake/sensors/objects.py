@@ -29,6 +29,8 @@ from pydrake import geometry
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
 
+from armando_drake.vision.marker import ArucoMarker, MarkerError  # vision (#15)
+
 
 class SceneObjectError(ValueError):
     """A scenario object with a bad shape, size, pose or colour."""
@@ -57,8 +59,9 @@ class Sphere:
     radius: float = 0.05  # [m]
 
 
-# The shape of a scene object; a YAML tag chooses (!Box, !Cylinder, !Sphere).
-ObjectShape = Box | Cylinder | Sphere
+# The shape of a scene object; a YAML tag chooses (!Box, !Cylinder, !Sphere,
+# !ArucoMarker: a thin box showing an OpenCV ArUco marker, see vision/marker.py).
+ObjectShape = Box | Cylinder | Sphere | ArucoMarker
 
 
 @dataclass
@@ -66,7 +69,8 @@ class SceneObject:
     """A static object of the scenario, welded to the world."""
 
     name: str = ""  # unique name (geometry names derive from it)
-    # !Box {size: [x, y, z]} | !Cylinder {radius, length} | !Sphere {radius}, in metres.
+    # !Box {size: [x, y, z]} | !Cylinder {radius, length} | !Sphere {radius}, in metres;
+    # !ArucoMarker {dictionary, id, side_length, margin, thickness}.
     shape: ObjectShape = field(default_factory=Box)
     xyz: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # [m] centre in world
     rpy: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # [rad] roll pitch yaw
@@ -85,6 +89,8 @@ class SceneObject:
             return geometry.Box(*shape.size)
         if isinstance(shape, Cylinder):
             return geometry.Cylinder(shape.radius, shape.length)
+        if isinstance(shape, ArucoMarker):  # the box of the marker (collision)
+            return geometry.Box(shape.face, shape.face, shape.thickness)
         return geometry.Sphere(shape.radius)
 
 
@@ -108,8 +114,14 @@ def _dimensions(obj: SceneObject) -> dict[str, float]:
         return {"radius": shape.radius, "length": shape.length}
     if isinstance(shape, Sphere):
         return {"radius": shape.radius}
+    if isinstance(shape, ArucoMarker):
+        try:
+            shape.check(f"object {obj.name!r}: ArucoMarker")
+        except MarkerError as error:
+            raise SceneObjectError(str(error)) from None
+        return {"side_length": shape.side_length, "thickness": shape.thickness}
     raise SceneObjectError(
-        f"object {obj.name!r}: shape={shape!r} is not one of !Box, !Cylinder, !Sphere"
+        f"object {obj.name!r}: shape={shape!r} is not one of !Box, !Cylinder, !Sphere, !ArucoMarker"
     )
 
 
@@ -153,9 +165,23 @@ def AddSceneObjects(plant: MultibodyPlant, objects: list[SceneObject]) -> None:
     for obj in objects:
         X_WO = obj.X_WO()
         shape = obj.make_shape()
-        plant.RegisterVisualGeometry(
-            world, X_WO, shape, f"{obj.name}_visual", np.asarray(obj.color, dtype=float)
-        )
+        if isinstance(obj.shape, ArucoMarker):  # the textured mesh: its MTL gives the colours
+            instance = geometry.GeometryInstance(
+                X_WO, geometry.Mesh(str(obj.shape.mesh_file())), f"{obj.name}_visual"
+            )
+            # The cameras see the texture; Meshcat (illustration) shows the mesh's MTL.
+            perception = geometry.PerceptionProperties()
+            perception.AddProperty("phong", "diffuse", geometry.Rgba(1.0, 1.0, 1.0, 1.0))
+            perception.AddProperty(
+                "phong", "diffuse_map", str(obj.shape.mesh_file().with_suffix(".png"))
+            )
+            instance.set_perception_properties(perception)
+            instance.set_illustration_properties(geometry.IllustrationProperties())
+            plant.RegisterVisualGeometry(world, instance)
+        else:
+            plant.RegisterVisualGeometry(
+                world, X_WO, shape, f"{obj.name}_visual", np.asarray(obj.color, dtype=float)
+            )
         if obj.collision:
             friction = CoulombFriction(obj.friction, obj.friction)
             plant.RegisterCollisionGeometry(world, X_WO, shape, f"{obj.name}_collision", friction)

@@ -114,6 +114,8 @@ class World:
     cameras: dict[str, AddedCamera] = field(default_factory=dict)  # by name
     image_view_url: str | None = None  # the live camera view, when served
     perception: Any = None  # AddedPerception when the scenario has a perception block
+    detectors: Any = None  # vision (#15): AddedDetectors when the scenario has a vision block
+    image_view: Any = None  # vision (#15): the live camera view's server, when served
     meshcat: Meshcat | None = None
     task: TaskReference | None = None  # the scenario's task-space motion, if any
     closers: list = field(default_factory=list)  # called by close()
@@ -284,7 +286,8 @@ def MakeWorld(
     _add_sequencer(builder, world, scenario, where, commands_csv)
     _add_task(builder, world, scenario, where)
     _add_logger(builder, world, scenario, output_dir, quiet)
-    _add_cameras(builder, world, scenario, meshcat, where)
+    _add_cameras(builder, world, scenario, meshcat, where, source)
+    _add_detectors(builder, world, scenario, where)  # vision (#15)
     _add_perception(
         builder, world, scenario, meshcat, output_dir if write_commands else None, source
     )
@@ -473,6 +476,19 @@ def _add_controller_manager(builder, world: World, scenario: Scenario, where: st
         gravity_feedforward=scenario.actuators.gravity_feedforward,
     )
     builder.ExportOutput(desired, "desired_state")
+
+
+def _add_detectors(builder, world: World, scenario: Scenario, where: str) -> None:
+    """vision (#15): the scenario's OpenCV detectors on its cameras (after the cameras)."""
+    if scenario.vision is None:
+        return
+    from armando_drake.vision.detectors import AddDetectors, DetectorError
+
+    try:
+        console = scenario.logging.console_rate > 0  # no console output asked: no keypoints
+        world.detectors = AddDetectors(builder, world, scenario.vision, where, console=console)
+    except DetectorError as error:
+        raise ScenarioError(str(error)) from None
 
 
 def _add_perception(builder, world: World, scenario: Scenario, meshcat, output_dir, source) -> None:
@@ -857,13 +873,17 @@ def _add_logger(builder, world: World, scenario: Scenario, output_dir, quiet: bo
     world.closers.append(logger.close)
 
 
-def _add_cameras(builder, world: World, scenario: Scenario, meshcat, where: str) -> None:
+def _add_cameras(
+    builder, world: World, scenario: Scenario, meshcat, where: str, source: str = ""
+) -> None:
     """RgbdSensors from the URDF's camera blocks, a live view and a frame saver."""
     settings = scenario.camera
-    if not settings.enabled:
-        return
-    if not world.robot.cameras:
+    # vision (#15): the scenario's cameras are added whether or not camera.enabled is on.
+    sensors = list(world.robot.cameras) if settings.enabled else []
+    if settings.enabled and not world.robot.cameras and not scenario.cameras:
         _log.warning("camera enabled, but %s describes no camera sensor", world.robot.source)
+        return
+    if not settings.enabled and not scenario.cameras:
         return
     from armando_drake.sensors.camera import (
         AddCameraSensors,
@@ -874,19 +894,20 @@ def _add_cameras(builder, world: World, scenario: Scenario, meshcat, where: str)
     from armando_drake.sensors.image_view import AddFrameSaver, AddImageView
 
     try:
+        sensors += [camera.sensor_info(source or "scenario") for camera in scenario.cameras]
         renderer = choose_renderer(settings.renderer)
+        world.cameras = AddCameraSensors(
+            builder,
+            world.plant,
+            world.scene_graph,
+            world.robot.model_instance,
+            sensors,
+            renderer=renderer,
+            enable_depth=settings.depth,
+            export=True,
+        )
     except CameraError as error:
         raise ScenarioError(f"{where}{error}") from None
-    world.cameras = AddCameraSensors(
-        builder,
-        world.plant,
-        world.scene_graph,
-        world.robot.model_instance,
-        world.robot.cameras,
-        renderer=renderer,
-        enable_depth=settings.depth,
-        export=True,
-    )
     engine = {"gl": "RenderEngineGl", "vtk": "RenderEngineVtk"}[renderer]
     for camera in world.cameras.values():
         _log.info("camera %s, rendered by %s", describe(camera.info), engine)
@@ -895,6 +916,7 @@ def _add_cameras(builder, world: World, scenario: Scenario, meshcat, where: str)
     if settings.live_view or watched:
         server = AddImageView(builder, world.cameras, depth=settings.depth)
         world.image_view_url = server.url
+        world.image_view = server  # vision (#15): the detectors' annotated images join it
         world.closers.append(server.close)
     if settings.save_frames:
         for camera in world.cameras.values():

@@ -33,6 +33,8 @@ from armando_drake.perception.config import PerceptionConfig
 from armando_drake.ros2.config import Ros2Config  # ros2: live DDS / Foxglove (#21)
 from armando_drake.sensors.objects import SceneObject
 from armando_drake.task.motion import TaskSpaceMotion
+from armando_drake.vision.cameras import ScenarioCamera  # vision (#15)
+from armando_drake.vision.config import VisionConfig  # vision (#15)
 
 
 class ScenarioError(ValueError):
@@ -170,6 +172,12 @@ class Scenario:
     task: TaskSpaceMotion | None = None
     # Camera sensors of the description.
     camera: CameraSettings = dc.field(default_factory=CameraSettings)
+    # vision (#15): cameras on links of the robot, with the fields of a <gazebo><sensor>
+    # block (armando_drake/vision/cameras.py); added even when camera.enabled is off
+    # (which switches the description's cameras), rendered and shown as camera: says.
+    cameras: list[ScenarioCamera] = dc.field(default_factory=list)
+    # vision (#15): OpenCV detectors on the cameras (blob, ArUco); absent = none.
+    vision: VisionConfig | None = None
     # Point clouds from a camera's depth and the pipeline run on them (clusters,
     # planes); absent = none. See armando_drake/perception/config.py.
     perception: PerceptionConfig | None = None

@@ -355,6 +355,8 @@ def test_unknown_type_is_noted_and_fails_only_when_used(tmp_path, caplog):
         "velocity_controllers/JointGroupVelocityController, "
         "effort_controllers/JointGroupEffortController, "
         "joint_trajectory_controller/JointTrajectoryController, "
+        "vision_controllers/LookAtPointController, "
+        "vision_controllers/ImprovedLookAtPointController, "
         "task_space_controllers/JointSpaceInverseDynamics, "
         "task_space_controllers/OperationalSpaceInverseDynamics"
     )

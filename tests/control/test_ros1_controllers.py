@@ -432,6 +432,8 @@ def test_an_unsupported_type_in_the_package_config_fails_only_when_activated(tmp
         "velocity_controllers/JointGroupVelocityController, "
         "effort_controllers/JointGroupEffortController, "
         "joint_trajectory_controller/JointTrajectoryController, "
+        "vision_controllers/LookAtPointController, "
+        "vision_controllers/ImprovedLookAtPointController, "
         "task_space_controllers/JointSpaceInverseDynamics, "
         "task_space_controllers/OperationalSpaceInverseDynamics"
     ), line

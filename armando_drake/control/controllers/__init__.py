@@ -430,6 +430,7 @@ from armando_drake.control.controllers import (  # noqa: E402  (after the regist
     broadcaster,
     forward_command,
     joint_trajectory,
+    look_at,  # vision (#15)
     ros1,
     task_space,
 )
@@ -447,6 +448,7 @@ __all__ = [
     "joint_trajectory",
     "joint_list",
     "task_space",
+    "look_at",
     "load_parameters",
     "lookup",
     "non_negative",

@@ -1,0 +1,48 @@
+"""The scenario's ``vision:`` block: which detectors run on which camera.
+
+::
+
+    vision:
+      blob: {camera: camera}                       # SimpleBlobDetector, the seed's parameters
+      aruco: {camera: flange_camera, dictionary: DICT_ARUCO_ORIGINAL, marker_id: 201,
+              side_length: 0.1}
+
+(No ``from __future__ import annotations``: ``yaml_load_typed`` needs real types.)
+"""
+
+from dataclasses import dataclass, field
+
+
+@dataclass
+class BlobDetectorConfig:
+    """``cv2.SimpleBlobDetector`` on a camera's colour image (the seed's parameters)."""
+
+    camera: str = "camera"  # the camera's name (a cameras: entry or the description's)
+    min_threshold: float = 1.0  # [grey level] first binarisation threshold
+    max_threshold: float = 250.0  # [grey level] last binarisation threshold
+    threshold_step: float = 1.0  # [grey level] between thresholds
+    min_area: float = 100.0  # [px^2] smallest blob kept
+    min_circularity: float = 0.8  # [-] 4 pi area / perimeter^2 of a blob kept, in [0, 1]
+    # Print the keypoints on the console once a second (not when logging.console_rate is 0).
+    print_keypoints: bool = True
+
+
+@dataclass
+class ArucoDetectorConfig:
+    """ArUco detection and pose estimation (``solvePnP``) on a camera's colour image."""
+
+    camera: str = "camera"  # the camera's name
+    dictionary: str = "DICT_ARUCO_ORIGINAL"  # OpenCV's predefined dictionary (DICT_*)
+    marker_id: int = 201  # the id of the marker whose pose is estimated
+    side_length: float = 0.1  # [m] side of the marker's black square
+
+
+@dataclass
+class VisionConfig:
+    """The detectors of the scenario; absent = none."""
+
+    blob: BlobDetectorConfig | None = None  # the blob detector, absent = none
+    aruco: ArucoDetectorConfig | None = None  # the ArUco detector, absent = none
+    # [rad] where the robot's joints start (hardware joint order); empty = their
+    # initial positions. (A vision scenario starts the arm looking away from the marker.)
+    start_positions: list[float] = field(default_factory=list)

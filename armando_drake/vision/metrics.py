@@ -1,0 +1,80 @@
+"""How well the vision loop does, against the truth the simulation knows.
+
+- pointing error: the angle [rad] between the camera's optical axis (z of its frame
+  C) and the direction from the camera to the marker (or a disc), from the plant's
+  true poses;
+- marker position error: the detector's latest estimate of the marker's position in
+  the world minus the true one [m].
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pydrake.math import RigidTransform
+
+
+def camera_pose(world, context, camera: str) -> RigidTransform:
+    """X_WC: the camera's true pose in the world (``context``: the root context)."""
+    info = world.cameras[camera].info
+    plant = world.plant
+    body = plant.GetBodyByName(info.link, world.robot.model_instance)
+    X_WL = body.EvalPoseInWorld(plant.GetMyContextFromRoot(context))
+    return X_WL @ info.X_LC()
+
+
+def marker_object(scenario):
+    """The scenario's first ArUco marker object, or None."""
+    from armando_drake.vision.marker import ArucoMarker
+
+    for obj in scenario.objects:
+        if isinstance(obj.shape, ArucoMarker):
+            return obj
+    return None
+
+
+def true_marker_position(scenario) -> np.ndarray | None:
+    """p_WM [m]: the centre of the first marker's face, or None without a marker."""
+    obj = marker_object(scenario)
+    if obj is None:
+        return None
+    return (obj.X_WO() @ obj.shape.X_OM()).translation()
+
+
+def pointing_error(world, context, camera: str, p_W) -> float:
+    """The angle [rad] between the camera's optical axis and the direction to ``p_W``."""
+    X_WC = camera_pose(world, context, camera)
+    direction = np.asarray(p_W, dtype=float) - X_WC.translation()
+    direction /= np.linalg.norm(direction)
+    axis = X_WC.rotation().matrix()[:, 2]
+    return float(math.acos(np.clip(axis @ direction, -1.0, 1.0)))
+
+
+def vision_summary(world, context, scenario) -> dict | None:
+    """summary.json's ``vision``: frames and detections of the detectors, the final
+    pointing error at the marker [rad] and the marker's estimated minus true position
+    [m] (None where there is no marker or no estimate); None without detectors."""
+    detectors = world.detectors
+    if detectors is None:
+        return None
+    systems = [s for s in (detectors.blob, detectors.aruco) if s is not None]
+    summary = {
+        "frames": sum(s.frames for s in systems),
+        "detections": sum(s.detections for s in systems),
+        "detector_seconds_per_frame": (
+            sum(s.seconds for s in systems) / max(1, sum(s.frames for s in systems))
+        ),
+        "final_pointing_error": None,
+        "marker_position_error": None,
+    }
+    p_WM = true_marker_position(scenario)
+    if p_WM is None or detectors.aruco is None:
+        return summary
+    camera = detectors.aruco_camera
+    summary["final_pointing_error"] = pointing_error(world, context, camera, p_WM)
+    published = world.diagram.GetOutputPort(f"{camera}.marker_in_world").Eval(context)
+    if published.count:
+        error = published.message.pose.translation() - p_WM
+        summary["marker_position_error"] = [float(e) for e in error]
+    return summary

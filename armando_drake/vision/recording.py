@@ -1,0 +1,112 @@
+"""The detectors' results in the run's MCAP recording (``--record``), as the seed's
+ROS nodes publish them:
+
+=================================  ====================================================
+``/image_converter/output_video``  ``sensor_msgs/msg/Image`` (``rgb8``): the annotated
+                                   image (keypoints, or the marker's outline and axes)
+``/aruco_single/pose``             ``geometry_msgs/msg/PoseStamped``: ``cam_T_marker``,
+                                   in the camera frame, one per detection
+``/aruco_single/pose_world``       ``geometry_msgs/msg/PoseStamped``: the marker in the
+                                   world
+=================================  ====================================================
+
+The camera's own ``image_raw`` and ``camera_info`` (its intrinsics) are recorded by the
+recorder for every camera, the scenario's included.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import EventStatus, LeafSystem
+from pydrake.systems.sensors import ImageRgba8U
+
+from armando_drake.control.messages import PublicationValue
+from armando_drake.ros2.messages import image_message, pose_stamped_message
+from armando_drake.vision.detectors import FRAME_DELAY
+
+ANNOTATED_TOPIC = "/image_converter/output_video"
+POSE_TOPIC = "/aruco_single/pose"
+WORLD_POSE_TOPIC = "/aruco_single/pose_world"
+
+
+class VisionRecorder(LeafSystem):
+    """Writes a detector's outputs to a :class:`~armando_drake.outputs.recording.RosbagRecorder`.
+
+    .. pydrake_system::
+
+        name: VisionRecorder
+        input_ports:
+        - annotated_image
+        - cam_T_marker
+        - marker_in_world
+
+    Publishes at the camera rate, just after the detector's update; a pose is
+    written only when a new one was published (``count`` grew).
+    """
+
+    def __init__(self, *, recorder, frame_rate: float, camera: str):
+        super().__init__()
+        self._recorder, self._camera = recorder, camera
+        self._image = self.DeclareAbstractInputPort(
+            "annotated_image", AbstractValue.Make(ImageRgba8U())
+        )
+        self._poses = {
+            POSE_TOPIC: self.DeclareAbstractInputPort("cam_T_marker", PublicationValue()),
+            WORLD_POSE_TOPIC: self.DeclareAbstractInputPort("marker_in_world", PublicationValue()),
+        }
+        self._written = {topic: 0 for topic in self._poses}
+        self.DeclarePeriodicPublishEvent(1.0 / frame_rate, 2 * FRAME_DELAY, self._Publish)
+
+    def _Publish(self, context) -> EventStatus:
+        stamp = context.get_time()
+        if self._image.HasValue(context):
+            rgb = np.ascontiguousarray(self._image.Eval(context).data[:, :, :3])
+            self._recorder.write(
+                ANNOTATED_TOPIC,
+                "sensor_msgs/msg/Image",
+                image_message(stamp, self._camera, rgb),
+                stamp,
+            )
+        for topic, port in self._poses.items():
+            if not port.HasValue(context):
+                continue
+            publication = port.Eval(context)
+            if publication.count > self._written[topic]:
+                self._written[topic] = publication.count
+                pose = publication.message
+                self._recorder.write(
+                    topic,
+                    "geometry_msgs/msg/PoseStamped",
+                    pose_stamped_message(pose.stamp, pose.frame_id, pose.pose),
+                    pose.stamp,
+                )
+        return EventStatus.Succeeded()
+
+
+def AddVisionRecorder(builder, world, recorder) -> list[VisionRecorder]:
+    """A :class:`VisionRecorder` per detector of ``world.detectors``."""
+    detectors = world.detectors
+    added = []
+    for detector, camera in (
+        (detectors.blob, detectors.blob_camera),
+        (detectors.aruco, detectors.aruco_camera),
+    ):
+        if detector is None:
+            continue
+        system = builder.AddNamedSystem(
+            f"vision_recorder_{camera}",
+            VisionRecorder(
+                recorder=recorder,
+                frame_rate=world.cameras[camera].info.frame_rate,
+                camera=camera,
+            ),
+        )
+        builder.Connect(
+            detector.GetOutputPort("annotated_image"), system.GetInputPort("annotated_image")
+        )
+        if detector is detectors.aruco:
+            for port in ("cam_T_marker", "marker_in_world"):
+                builder.Connect(detector.GetOutputPort(port), system.GetInputPort(port))
+        added.append(system)
+    return added
