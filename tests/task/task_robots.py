@@ -57,9 +57,10 @@ def iiwa_urdf(hardware_interface: str = "EffortJointInterface") -> str:
 
 def add_iiwa(plant: MultibodyPlant):
     """Adds the iiwa (7 actuated joints, welded to the world by its URDF); its instance."""
+    urdf = iiwa_urdf()  # first: it skips (or fails under CI) without ../shared
     parser = Parser(plant)
     parser.package_map().Add("iiwa_description", str(IIWA_PACKAGE))
-    (instance,) = parser.AddModelsFromString(iiwa_urdf(), "urdf")
+    (instance,) = parser.AddModelsFromString(urdf, "urdf")
     return instance
 
 
