@@ -122,7 +122,7 @@ def _parser() -> argparse.ArgumentParser:
         metavar="FILE.mcap",
         help="record the run's topics as a ROS 2 bag (MCAP) for ros2 bag and Foxglove",
     )
-    # ros2: live DDS / Foxglove (#21)
+
     parser.add_argument(
         "--ros2",
         action="store_true",
@@ -207,7 +207,7 @@ def main(argv: list[str] | None = None) -> int:
             if args.realtime_rate < 0:
                 raise UserError(f"--realtime-rate {args.realtime_rate} must not be negative")
             scenario.simulator_config.target_realtime_rate = args.realtime_rate
-        if args.ros2 or args.foxglove is not None:  # ros2: live DDS / Foxglove (#21)
+        if args.ros2 or args.foxglove is not None:
             scenario.ros2.enabled = scenario.ros2.enabled or args.ros2
             if args.foxglove is not None:
                 scenario.ros2.foxglove, scenario.ros2.foxglove_port = True, args.foxglove

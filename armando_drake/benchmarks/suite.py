@@ -785,7 +785,7 @@ def bench_memory(report: Report, horizon: float) -> None:
     )
 
 
-# --- 6. perception (issue #19) -----------------------------------------------------
+# --- 6. perception -----------------------------------------------------
 
 
 def perception_fps(frames: int) -> tuple[float, float, dict[str, float], str]:
@@ -946,7 +946,7 @@ VISION_CASES = (
 
 
 def bench_vision(report: Report, duration: float) -> None:
-    """vision (#15): the blob scenario (640 x 480 at 30 Hz, detection on every frame)."""
+    """The blob scenario (640 x 480 at 30 Hz, detection on every frame)."""
     results: dict[str, dict[str, list[float]]] = {}
     for _ in range(report.repeat):
         for label, override in VISION_CASES:
@@ -1087,7 +1087,7 @@ def run_suite(
         ),
         "task": lambda: bench_task(report, settings.task_seconds, settings.task_ticks),
         "sweep": lambda: bench_sweep(report),
-        "vision": lambda: bench_vision(report, settings.camera_seconds),  # vision (#15)
+        "vision": lambda: bench_vision(report, settings.camera_seconds),
     }
     for section in sections:
         print(f"[bench] {section} ...", file=sys.stderr, flush=True)

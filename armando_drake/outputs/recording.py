@@ -354,9 +354,9 @@ def AddRosbagRecorder(builder, world, path: str | os.PathLike) -> RosbagRecorder
             world.cameras[stream.name].color_image,
             recorder.GetInputPort(f"{stream.name}.color_image"),
         )
-    if getattr(world, "perception", None) is not None:  # issue #19: point clouds, clusters
+    if getattr(world, "perception", None) is not None:  # point clouds, clusters
         AddPerceptionRecorder(builder, world, recorder)
-    if getattr(world, "detectors", None) is not None:  # vision (#15): detections
+    if getattr(world, "detectors", None) is not None:  # detections
         from armando_drake.vision.recording import AddVisionRecorder
 
         AddVisionRecorder(builder, world, recorder)
@@ -364,7 +364,7 @@ def AddRosbagRecorder(builder, world, path: str | os.PathLike) -> RosbagRecorder
 
 
 # --------------------------------------------------------------------------
-# Perception (issue #19): /camera/points and /perception/clusters
+# Perception: /camera/points and /perception/clusters
 # --------------------------------------------------------------------------
 
 # PointCloud2 layout of /camera/points: x, y, z as float32 and rgb packed as in

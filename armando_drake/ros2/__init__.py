@@ -1,1 +1,1 @@
-"""Live ROS 2: messages, the DDS bridge, Foxglove (issue #21)."""
+"""Live ROS 2: messages, the DDS bridge, Foxglove."""

@@ -118,7 +118,7 @@ DEFINITIONS = {
         "bool mesh_use_embedded_materials\n"
     ),
     "visualization_msgs/MarkerArray": "visualization_msgs/Marker[] markers\n",
-    # vision (#15): the ArUco detector's marker pose, /aruco_single/pose as aruco_ros.
+    # The ArUco detector's marker pose, /aruco_single/pose as aruco_ros.
     "geometry_msgs/PoseStamped": "std_msgs/Header header\ngeometry_msgs/Pose pose\n",
 }
 _SEPARATOR = "=" * 80 + "\n"

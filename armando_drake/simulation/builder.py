@@ -114,8 +114,8 @@ class World:
     cameras: dict[str, AddedCamera] = field(default_factory=dict)  # by name
     image_view_url: str | None = None  # the live camera view, when served
     perception: Any = None  # AddedPerception when the scenario has a perception block
-    detectors: Any = None  # vision (#15): AddedDetectors when the scenario has a vision block
-    image_view: Any = None  # vision (#15): the live camera view's server, when served
+    detectors: Any = None  # AddedDetectors when the scenario has a vision block
+    image_view: Any = None  # the live camera view's server, when served
     meshcat: Meshcat | None = None
     task: TaskReference | None = None  # the scenario's task-space motion, if any
     closers: list = field(default_factory=list)  # called by close()
@@ -287,7 +287,7 @@ def MakeWorld(
     _add_task(builder, world, scenario, where)
     _add_logger(builder, world, scenario, output_dir, quiet)
     _add_cameras(builder, world, scenario, meshcat, where, source)
-    _add_detectors(builder, world, scenario, where)  # vision (#15)
+    _add_detectors(builder, world, scenario, where)
     _add_perception(
         builder, world, scenario, meshcat, output_dir if write_commands else None, source
     )
@@ -479,7 +479,7 @@ def _add_controller_manager(builder, world: World, scenario: Scenario, where: st
 
 
 def _add_detectors(builder, world: World, scenario: Scenario, where: str) -> None:
-    """vision (#15): the scenario's OpenCV detectors on its cameras (after the cameras)."""
+    """The scenario's OpenCV detectors on its cameras (after the cameras)."""
     if scenario.vision is None:
         return
     from armando_drake.vision.detectors import AddDetectors, DetectorError
@@ -878,7 +878,7 @@ def _add_cameras(
 ) -> None:
     """RgbdSensors from the URDF's camera blocks, a live view and a frame saver."""
     settings = scenario.camera
-    # vision (#15): the scenario's cameras are added whether or not camera.enabled is on.
+    # The scenario's cameras are added whether or not camera.enabled is on.
     sensors = list(world.robot.cameras) if settings.enabled else []
     if settings.enabled and not world.robot.cameras and not scenario.cameras:
         _log.warning("camera enabled, but %s describes no camera sensor", world.robot.source)
@@ -916,7 +916,7 @@ def _add_cameras(
     if settings.live_view or watched:
         server = AddImageView(builder, world.cameras, depth=settings.depth)
         world.image_view_url = server.url
-        world.image_view = server  # vision (#15): the detectors' annotated images join it
+        world.image_view = server  # the detectors' annotated images join it
         world.closers.append(server.close)
     if settings.save_frames:
         for camera in world.cameras.values():

@@ -65,7 +65,7 @@ class RunResult:
     task_space: dict[str, Any] | None = None
     output_dir: str | None = None
     driven: str = ""  # the controller the sequencer drove, by its name in the YAML
-    # vision (#15): frames, detections, final_pointing_error [rad], marker_position_error [m]
+    # Vision: frames, detections, final_pointing_error [rad], marker_position_error [m]
     vision: dict[str, Any] | None = None
 
     def summary(self) -> dict[str, Any]:
@@ -92,7 +92,7 @@ class RunResult:
                 }
                 for step in self.steps
             ],
-            "vision": self.vision,  # vision (#15)
+            "vision": self.vision,
         }
 
     def headline(self) -> str:
@@ -443,7 +443,7 @@ def run(
             world.meshcat.SetLine(
                 "task/end_effector_trace", errors.actual.T, 2.0, Rgba(1.0, 0.3, 0.1, 1.0)
             )
-    if world.detectors is not None:  # vision (#15)
+    if world.detectors is not None:
         from armando_drake.vision.outputs import write_vision_outputs
 
         result.vision = write_vision_outputs(world, simulator.get_context(), scenario, log_dir)

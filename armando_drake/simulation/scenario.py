@@ -30,11 +30,11 @@ from pydrake.visualization import VisualizationConfig
 from armando_drake import DIAGRAMS_DIR
 from armando_drake.control.sequencer import JointTrajectoryTargets, PositionTargets, Sinusoid
 from armando_drake.perception.config import PerceptionConfig
-from armando_drake.ros2.config import Ros2Config  # ros2: live DDS / Foxglove (#21)
+from armando_drake.ros2.config import Ros2Config
 from armando_drake.sensors.objects import SceneObject
 from armando_drake.task.motion import TaskSpaceMotion
-from armando_drake.vision.cameras import ScenarioCamera  # vision (#15)
-from armando_drake.vision.config import VisionConfig  # vision (#15)
+from armando_drake.vision.cameras import ScenarioCamera
+from armando_drake.vision.config import VisionConfig
 
 
 class ScenarioError(ValueError):
@@ -172,11 +172,11 @@ class Scenario:
     task: TaskSpaceMotion | None = None
     # Camera sensors of the description.
     camera: CameraSettings = dc.field(default_factory=CameraSettings)
-    # vision (#15): cameras on links of the robot, with the fields of a <gazebo><sensor>
+    # Cameras on links of the robot, with the fields of a <gazebo><sensor>
     # block (armando_drake/vision/cameras.py); added even when camera.enabled is off
     # (which switches the description's cameras), rendered and shown as camera: says.
     cameras: list[ScenarioCamera] = dc.field(default_factory=list)
-    # vision (#15): OpenCV detectors on the cameras (blob, ArUco); absent = none.
+    # OpenCV detectors on the cameras (blob, ArUco); absent = none.
     vision: VisionConfig | None = None
     # Point clouds from a camera's depth and the pipeline run on them (clusters,
     # planes); absent = none. See armando_drake/perception/config.py.
@@ -194,7 +194,7 @@ class Scenario:
     )
     # Meshcat visualization (Drake's VisualizationConfig).
     visualization: VisualizationConfig = dc.field(default_factory=VisualizationConfig)
-    # The running world on DDS as a ROS 2 robot, and on Foxglove (#21).
+    # The running world on DDS as a ROS 2 robot, and on Foxglove.
     ros2: Ros2Config = dc.field(default_factory=Ros2Config)
 
 

@@ -1,4 +1,4 @@
-"""Task-space motion and torque control (issue #14).
+"""Task-space motion and torque control.
 
 - :mod:`~armando_drake.task.time_laws`: s(t) with s', s'' (trapezoidal, cubic, quintic);
 - :mod:`~armando_drake.task.paths`: linear and circular paths, held or slerped

@@ -175,7 +175,7 @@ def test_registry_knows_the_shipped_types_and_answers_by_message():
         "velocity_controllers/JointGroupVelocityController",
         "effort_controllers/JointGroupEffortController",
         "joint_trajectory_controller/JointTrajectoryController",
-        "vision_controllers/LookAtPointController",  # vision (#15)
+        "vision_controllers/LookAtPointController",
         "vision_controllers/ImprovedLookAtPointController",
         "task_space_controllers/JointSpaceInverseDynamics",
         "task_space_controllers/OperationalSpaceInverseDynamics",

@@ -430,7 +430,7 @@ from armando_drake.control.controllers import (  # noqa: E402  (after the regist
     broadcaster,
     forward_command,
     joint_trajectory,
-    look_at,  # vision (#15)
+    look_at,
     ros1,
     task_space,
 )
