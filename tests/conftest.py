@@ -109,3 +109,32 @@ def make_mini_package(root: Path, extra: str = "") -> Path:
 @pytest.fixture
 def mini_package(tmp_path) -> Path:
     return make_mini_package(tmp_path)
+
+
+NOTEBOOKS = REPO / "notebooks"
+
+
+def run_notebook(name: str, monkeypatch, timeout: int = 120) -> tuple[str, int]:
+    """Runs notebooks/<name>.ipynb top to bottom in short mode (``ARMANDO_DRAKE_SHORT=1``,
+    the ``python3`` kernel, from the notebooks folder): the text its cells printed and its
+    image count. A notebook committed with outputs, or a cell that raises, fails."""
+    import nbclient
+    import nbformat
+
+    monkeypatch.setenv("ARMANDO_DRAKE_SHORT", "1")
+    notebook = nbformat.read(NOTEBOOKS / f"{name}.ipynb", as_version=4)
+    assert all(
+        not cell.get("outputs") and cell.get("execution_count") is None
+        for cell in notebook.cells
+        if cell.cell_type == "code"
+    ), f"{name}.ipynb is committed with outputs; clear them"
+    nbclient.NotebookClient(
+        notebook,
+        kernel_name="python3",
+        timeout=timeout,
+        resources={"metadata": {"path": str(NOTEBOOKS)}},
+    ).execute()
+    outputs = [output for cell in notebook.cells for output in cell.get("outputs", [])]
+    text = "\n".join(output.text for output in outputs if output.output_type == "stream")
+    pictures = sum("image/png" in output.get("data", {}) for output in outputs)
+    return text, pictures

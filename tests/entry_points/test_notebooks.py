@@ -12,35 +12,14 @@ from pathlib import Path
 
 import nbclient
 import nbformat
-from conftest import COURSE_PACKAGE, SHARED, skip_or_fail
+from conftest import COURSE_PACKAGE, SHARED, run_notebook, skip_or_fail
 
 NOTEBOOKS = Path(__file__).resolve().parents[2] / "notebooks"
 
 
 def execute(name: str, monkeypatch) -> tuple[str, int]:
     """Runs notebooks/<name>.ipynb in short mode: the text its cells printed, its image count."""
-    monkeypatch.setenv("ARMANDO_DRAKE_SHORT", "1")
-    notebook = nbformat.read(NOTEBOOKS / f"{name}.ipynb", as_version=4)
-    assert all(
-        not cell.get("outputs") and cell.get("execution_count") is None
-        for cell in notebook.cells
-        if cell.cell_type == "code"
-    ), f"{name}.ipynb is committed with outputs; clear them"
-    client = nbclient.NotebookClient(
-        notebook,
-        kernel_name="python3",
-        timeout=120,
-        resources={"metadata": {"path": str(NOTEBOOKS)}},
-    )
-    client.execute()
-    texts = []
-    pictures = 0
-    for cell in notebook.cells:
-        for output in cell.get("outputs", []):
-            if output.output_type == "stream":
-                texts.append(output.text)
-            pictures += "image/png" in output.get("data", {})
-    return "\n".join(texts), pictures
+    return run_notebook(name, monkeypatch)
 
 
 def test_kernel_runs_this_interpreter_in_the_notebooks_folder():

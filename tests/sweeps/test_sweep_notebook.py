@@ -6,33 +6,15 @@ fails the test.
 """
 
 import re
-from pathlib import Path
 
-import nbclient
-import nbformat
+from conftest import run_notebook
 
 from armando_drake import PROJECT_ROOT
 from armando_drake.sweeps.table import read_table
 
-NOTEBOOK = Path(__file__).resolve().parents[2] / "notebooks" / "08_sweep.ipynb"
-
 
 def test_gain_sweep_notebook(monkeypatch):
-    monkeypatch.setenv("ARMANDO_DRAKE_SHORT", "1")
-    notebook = nbformat.read(NOTEBOOK, as_version=4)
-    code = [cell for cell in notebook.cells if cell.cell_type == "code"]
-    assert all(not c.get("outputs") and c.get("execution_count") is None for c in code), (
-        "08_sweep.ipynb is committed with outputs; clear them"
-    )
-    nbclient.NotebookClient(
-        notebook,
-        kernel_name="python3",
-        timeout=180,
-        resources={"metadata": {"path": str(NOTEBOOK.parent)}},
-    ).execute()
-    outputs = [output for cell in notebook.cells for output in cell.get("outputs", [])]
-    text = "\n".join(o.text for o in outputs if o.output_type == "stream")
-    pictures = sum("image/png" in o.get("data", {}) for o in outputs)
+    text, pictures = run_notebook("08_sweep", monkeypatch, timeout=180)
     assert pictures == 2  # the settle_time and max_error heat maps
     assert "4 variants, e.g." in text
     assert "--set 'actuators: {kp: 4, kd: 0.4}'" in text
