@@ -118,6 +118,7 @@ class World:
     image_view: Any = None  # the live camera view's server, when served
     meshcat: Meshcat | None = None
     task: TaskReference | None = None  # the scenario's task-space motion, if any
+    jog: Any = None  # the MeshcatJog when the scenario has a jog block and a Meshcat
     closers: list = field(default_factory=list)  # called by close()
 
     def publish(self, context: Context, controller: str, message: Any) -> None:
@@ -285,6 +286,7 @@ def MakeWorld(
     commands_csv = Path(output_dir) / "commands.csv" if output_dir and write_commands else None
     _add_sequencer(builder, world, scenario, where, commands_csv)
     _add_task(builder, world, scenario, where)
+    _add_jog(builder, world, scenario, where)
     _add_logger(builder, world, scenario, output_dir, quiet)
     _add_cameras(builder, world, scenario, meshcat, where, source)
     _add_detectors(builder, world, scenario, where)
@@ -358,6 +360,10 @@ def _add_hardware(
     FinishHardwareInterface(plant, robot, hardware)
     if scenario.task is not None and scenario.task.start_positions:
         _set_start_positions(plant, robot, hardware, scenario.task.start_positions, where)
+    if scenario.jog is not None and scenario.jog.home_positions:
+        _set_start_positions(
+            plant, robot, hardware, scenario.jog.home_positions, where, "jog.home_positions"
+        )
     _log.info(
         "hardware interface %r (%s): %s",
         hardware.name,
@@ -614,17 +620,20 @@ def _managed_controller(world: World, controller: ControllerConfig, joints) -> M
     return ManagedController(name=controller.name, logic=logic)
 
 
-def _set_start_positions(plant, robot, hardware, positions, where: str) -> None:
-    """The hardware joints start at ``positions`` [rad] (hardware order), inside their limits."""
+def _set_start_positions(
+    plant, robot, hardware, positions, where: str, key: str = "task.start_positions"
+) -> None:
+    """The hardware joints start at ``positions`` [rad] (hardware order), inside their
+    limits; ``key`` names them in errors."""
     if len(positions) != len(hardware.joints):
         raise ScenarioError(
-            f"{where}task.start_positions={positions!r} must have {len(hardware.joints)} values "
+            f"{where}{key}={positions!r} must have {len(hardware.joints)} values "
             f"({', '.join(hardware.joint_names)})"
         )
     for joint, value in zip(hardware.joints, positions, strict=True):
         if not joint.lower <= value <= joint.upper:
             raise ScenarioError(
-                f"{where}task.start_positions: {value!r} of joint {joint.name!r} is outside its "
+                f"{where}{key}: {value!r} of joint {joint.name!r} is outside its "
                 f"limits [{joint.lower:.4g}, {joint.upper:.4g}]"
             )
         plant.GetJointByName(joint.name, robot.model_instance).set_default_positions([value])
@@ -701,6 +710,21 @@ def _add_task(builder, world: World, scenario: Scenario, where: str) -> None:
         times = np.linspace(0.0, trajectory.duration, 400)
         path = trajectory.reference(times)[:, 4:7].T
         world.meshcat.SetLine("task/desired_path", path, 3.0, Rgba(0.1, 0.4, 1.0, 1.0))
+
+
+def _add_jog(builder, world: World, scenario: Scenario, where: str) -> None:
+    """The live jog of the scenario's ``jog:`` block (Meshcat sliders, jog buttons,
+    gamepad) on a position controller's command input."""
+    if scenario.jog is None:
+        return
+    from armando_drake.teleop.config import JogError, check_jog
+    from armando_drake.teleop.jog import AddJog
+
+    try:
+        check_jog(scenario.jog, where)
+        world.jog = AddJog(builder, world, scenario.jog, where=where)
+    except JogError as error:
+        raise ScenarioError(str(error)) from None
 
 
 def _last_link_frame(plant, instance):

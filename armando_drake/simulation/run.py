@@ -101,6 +101,8 @@ class RunResult:
         name = Path(self.scenario).name if self.scenario else "the scenario"
         if self.controller == "task":
             what = f"{name} with a task-space motion"
+        elif self.controller == "jog":
+            what = f"{name} jogged from the viewer"
         elif self.controller == "none":
             what = f"{name} with no controller driving the arm"
         elif self.controller == "sinusoid":
@@ -117,9 +119,11 @@ class RunResult:
 
 
 def controller_mode(scenario: Scenario) -> str:
-    """position | trajectory | sinusoid | task | none: what drives the arm."""
+    """position | trajectory | sinusoid | task | jog | none: what drives the arm."""
     if scenario.sequencer is None:
-        return "none" if scenario.task is None else "task"
+        if scenario.task is not None:
+            return "task"
+        return "none" if scenario.jog is None else "jog"
     return mode_of(scenario.sequencer)
 
 
@@ -424,7 +428,9 @@ def run(
         interrupted=interrupted,
         joint_names=joint_names,
         output_dir=None if output_dir is None else str(output_dir),
-        driven=world.sequencer_target or (world.task.controller if world.task else ""),
+        driven=world.sequencer_target
+        or (world.task.controller if world.task else "")
+        or (world.jog.controller if world.jog else ""),
     )
     if isinstance(table, StepTable):
         result.steps = table.results(sim_time)

@@ -33,6 +33,7 @@ from armando_drake.perception.config import PerceptionConfig
 from armando_drake.ros2.config import Ros2Config
 from armando_drake.sensors.objects import SceneObject
 from armando_drake.task.motion import TaskSpaceMotion
+from armando_drake.teleop.config import JogConfig
 from armando_drake.vision.cameras import ScenarioCamera
 from armando_drake.vision.config import VisionConfig
 
@@ -170,6 +171,10 @@ class Scenario:
     # trajectory (as a CartesianTrajectory) or else a joint trajectory (planned by
     # closed-loop inverse kinematics, as a JointTrajectory); absent = none.
     task: TaskSpaceMotion | None = None
+    # Live jog from the Meshcat page: joint sliders, Cartesian jog buttons and keys,
+    # a gamepad, home; publishing on a position controller's command topic
+    # (armando_drake/teleop/config.py); absent = none.
+    jog: JogConfig | None = None
     # Camera sensors of the description.
     camera: CameraSettings = dc.field(default_factory=CameraSettings)
     # Cameras on links of the robot, with the fields of a <gazebo><sensor>
