@@ -271,6 +271,9 @@ class MeshcatJog(LeafSystem):
         self._cartesian = cartesian
         self._period = 1.0 / config.rate
         self._trajectory = trajectory
+        # Where the gamepad state comes from (a callable returning a Meshcat.Gamepad):
+        # the page's first gamepad; a test may feed synthetic states instead.
+        self.gamepad_source = meshcat.GetGamepad
         self._buttons: dict[str, tuple[str, int, str]] = {}  # name -> (kind, sign, axis)
         self._sliders: list[str] = []
         sliders = self._add_controls()
@@ -374,17 +377,20 @@ class MeshcatJog(LeafSystem):
         if changed:
             publication = context.get_abstract_state(self._publication).get_value()
             state.get_mutable_abstract_state(self._publication).set_value(
-                publication.publish(self._message(jog.command), stamp=now)
+                publication.publish(self._message(jog.command, before), stamp=now)
             )
         return EventStatus.Succeeded()
 
-    def _message(self, command: np.ndarray):
+    def _message(self, command: np.ndarray, before: np.ndarray):
+        """The command as the jogged controller reads it: a Float64MultiArray, or a
+        one-point JointTrajectory reached at joint_speed (at least one jog period)."""
         if not self._trajectory:
             return Float64MultiArray(data=tuple(float(v) for v in command))
+        duration = np.abs(command - before).max() / self._config.joint_speed
         point = JointTrajectoryPoint(
             positions=tuple(float(v) for v in command),
             velocities=(0.0,) * len(command),
-            time_from_start=self._period,
+            time_from_start=max(self._period, float(duration)),
         )
         return JointTrajectory(stamp=0.0, joint_names=tuple(self._joints), points=(point,))
 
@@ -437,7 +443,7 @@ class MeshcatJog(LeafSystem):
             return
         rotations = [] if self._cartesian is None else self._cartesian.rotations
         command = read_gamepad(
-            self._meshcat.GetGamepad(),
+            self.gamepad_source(),
             self._config.gamepad_mapping,
             num_joints=len(self._joints),
             num_rotations=len(rotations),
