@@ -316,13 +316,15 @@ def camera_stream(name: str, camera) -> CameraStream:
 def AddRosbagRecorder(builder, world, path: str | os.PathLike) -> RosbagRecorder:
     """Adds a :class:`RosbagRecorder` writing ``path`` to a world being built.
 
-    Connects the broadcaster's joint states, the sequencer's command topic
-    (named after the controller it drives) and every camera; the world
+    Connects the broadcaster's joint states, the sequencer's (or the live jog's)
+    command topic (named after the controller it drives) and every camera; the world
     closes the file when it closes.
     """
-    target = world.sequencer_target or "position_controller"
+    jog = getattr(world, "jog", None)  # the live jog, when no sequencer drives
+    jogged = jog.controller if jog is not None and world.sequencer is None else ""
+    target = world.sequencer_target or jogged or "position_controller"
     task = world.task
-    trajectory_owner = world.sequencer_target or "trajectory_controller"
+    trajectory_owner = world.sequencer_target or jogged or "trajectory_controller"
     if task is not None and task.topic == "joint_trajectory" and world.sequencer is None:
         trajectory_owner = task.controller
     cameras = [camera_stream(name, camera) for name, camera in world.cameras.items()]
@@ -347,6 +349,9 @@ def AddRosbagRecorder(builder, world, path: str | os.PathLike) -> RosbagRecorder
     if world.sequencer is not None:
         for port in ("commands", "joint_trajectory"):
             builder.Connect(world.sequencer.GetOutputPort(port), recorder.GetInputPort(port))
+    if jogged:
+        port = "joint_trajectory" if jog.sends_trajectories else "commands"
+        builder.Connect(jog.GetOutputPort("commands"), recorder.GetInputPort(port))
     if task is not None and not builder.IsConnectedOrExported(recorder.GetInputPort(task.topic)):
         builder.Connect(task.source.get_output_port(), recorder.GetInputPort(task.topic))
     for stream in cameras:

@@ -305,6 +305,11 @@ class MeshcatJog(LeafSystem):
         return list(self._sliders)
 
     @property
+    def sends_trajectories(self) -> bool:
+        """Whether ``commands`` carries JointTrajectory messages (else Float64MultiArray)."""
+        return self._trajectory
+
+    @property
     def cartesian(self) -> CartesianJog | None:
         return self._cartesian
 

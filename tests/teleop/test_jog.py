@@ -7,9 +7,12 @@ import sys
 import numpy as np
 import pytest
 from jog_worlds import Pad, jog_world
+from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform
+from pydrake.systems.analysis import Simulator
 
-from armando_drake.simulation.scenario import ScenarioError
+from armando_drake.simulation.builder import MakeWorld
+from armando_drake.simulation.scenario import ScenarioError, load_scenario
 from armando_drake.teleop.config import GamepadMapping
 from armando_drake.teleop.jog import CartesianJog, followable_rotations
 
@@ -275,3 +278,26 @@ def test_world_cli_runs_the_jog_scenario():
     output = result.stdout + result.stderr
     assert "jog: no Meshcat to read" in output
     assert "jog.yaml jogged from the viewer: 0.30 s simulated" in output
+
+
+def test_the_jog_commands_are_recorded_on_the_controller_topic(tmp_path):
+    from rosbags.highlevel import AnyReader
+
+    bag = tmp_path / "jog.mcap"
+    scenario = load_scenario("jog", "logging: {console_rate: 0}")
+    scenario.simulator_config.target_realtime_rate = 0
+    meshcat = Meshcat()
+    world = MakeWorld(scenario, meshcat=meshcat, quiet=True, record=bag)
+    simulator = Simulator(world.diagram)
+    simulator.AdvanceTo(0.2)
+    meshcat.SetSliderValue("j3", -0.25)
+    simulator.AdvanceTo(0.5)
+    world.close(simulator.get_context())
+    with AnyReader([bag]) as reader:
+        messages = [
+            reader.deserialize(raw, connection.msgtype)
+            for connection, _, raw in reader.messages()
+            if connection.topic == "/position_controller/commands"
+        ]
+    assert messages, "no /position_controller/commands in the bag"
+    np.testing.assert_allclose(messages[-1].data, [0.0, 0.4, 0.9, -0.25])
