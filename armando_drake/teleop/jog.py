@@ -547,19 +547,30 @@ def AddJog(builder, world, config: JogConfig, *, where: str = "") -> MeshcatJog 
         _log.warning("jog: no Meshcat to read (--no-meshcat?): the arm holds its home posture")
         return None
     controllers = world.controller_config.controllers
+
+    def driven(name: str) -> bool:  # by the sequencer or the task
+        port = world.controllers[name].GetInputPort(f"{name}.{controllers[name].topic}")
+        return builder.IsConnectedOrExported(port)
+
     candidates = [
         name
         for name in world.controllers
         if controllers[name].position_targets
         and controllers[name].controller_class.message in (Float64MultiArray, JointTrajectory)
     ]
-    name = config.controller or (candidates[0] if candidates else "")
-    if name not in candidates:
-        wanted = f"jog.controller={config.controller!r}" if config.controller else "jog"
+    free = [name for name in candidates if not driven(name)]
+    name = config.controller or (free[0] if free else "")
+    wanted = f"jog.controller={config.controller!r}" if config.controller else "jog"
+    if name in candidates and name not in free:
+        raise JogError(
+            f"{where}{wanted}: {name} already takes its commands from the scenario's "
+            "sequencer or task; jog a controller nothing else drives (sequencer: null)"
+        )
+    if name not in free:
         raise JogError(
             f"{where}{wanted} needs an active controller that takes joint positions "
-            f"(Float64MultiArray or JointTrajectory); such active controllers: "
-            f"{', '.join(candidates) or 'none'}"
+            f"(Float64MultiArray or JointTrajectory) and that nothing else drives; such "
+            f"controllers: {', '.join(free) or 'none'}"
         )
     joints = world.controller_joints[name]
     rows = [world.hardware.joints[i] for i in world.hardware.find(joints)]

@@ -242,8 +242,19 @@ def test_the_trajectory_controller_takes_the_jog_too():
         (
             "jog: {controller: arm}",
             "jog.yaml: jog.controller='arm' needs an active controller that takes joint "
-            "positions (Float64MultiArray or JointTrajectory); such active controllers: "
-            "position_controller",
+            "positions (Float64MultiArray or JointTrajectory) and that nothing else drives; "
+            "such controllers: position_controller",
+        ),
+        (
+            "sequencer: !PositionTargets {}",
+            "jog.yaml: jog needs an active controller that takes joint positions "
+            "(Float64MultiArray or JointTrajectory) and that nothing else drives; such "
+            "controllers: none",
+        ),
+        (
+            "{sequencer: !PositionTargets {}, jog: {controller: position_controller}}",
+            "jog.yaml: jog.controller='position_controller': position_controller already "
+            "takes its commands from the scenario's sequencer or task",
         ),
         (
             "jog: {home_positions: [0, 0]}",
