@@ -542,10 +542,6 @@ def AddJog(builder, world, config: JogConfig, *, where: str = "") -> MeshcatJog 
     from armando_drake.simulation.builder import _last_link_frame
     from armando_drake.task.arm import TaskSpaceError
 
-    meshcat = world.meshcat
-    if meshcat is None or getattr(meshcat, "recording_only", False):
-        _log.warning("jog: no Meshcat to read (--no-meshcat?): the arm holds its home posture")
-        return None
     controllers = world.controller_config.controllers
 
     def driven(name: str) -> bool:  # by the sequencer or the task
@@ -572,6 +568,10 @@ def AddJog(builder, world, config: JogConfig, *, where: str = "") -> MeshcatJog 
             f"(Float64MultiArray or JointTrajectory) and that nothing else drives; such "
             f"controllers: {', '.join(free) or 'none'}"
         )
+    meshcat = world.meshcat
+    if meshcat is None or getattr(meshcat, "recording_only", False):
+        _log.warning("jog: no Meshcat to read (--no-meshcat?): the arm holds its home posture")
+        return None
     joints = world.controller_joints[name]
     rows = [world.hardware.joints[i] for i in world.hardware.find(joints)]
     plant, instance = world.plant, world.robot.model_instance
