@@ -182,6 +182,22 @@ class CartesianJog:
         self.arm.set_state(q)
         return q, self._reached(self._task(X_target)[1])
 
+    def blocking(self, q_arm: np.ndarray, X_target: RigidTransform) -> list[int]:
+        """The jogged joints (indices into ``joints``) at a limit that the way to
+        ``X_target`` (the least-squares joint velocity of the task) pushes past it, by
+        more than 5 % of its largest joint speed."""
+        self.arm.set_state(q_arm)
+        J, error = self._task(X_target)
+        velocity = np.linalg.pinv(J, rcond=1e-6) @ error
+        significant = 0.05 * np.abs(velocity).max(initial=0.0)  # not numerical noise
+        q = q_arm[self.columns]
+        return [
+            k
+            for k in range(len(q))
+            if (q[k] - self.lower[k] < LIMIT_MARGIN and velocity[k] < -significant)
+            or (self.upper[k] - q[k] < LIMIT_MARGIN and velocity[k] > significant)
+        ]
+
     @staticmethod
     def _reached(error: np.ndarray) -> bool:
         linear, angular = error[:3], error[3:]
@@ -404,10 +420,7 @@ class MeshcatJog(LeafSystem):
         clamped = np.clip(wanted, self._lower, self._upper)
         for k in np.flatnonzero(np.abs(clamped - wanted) > 1e-12):
             side = "upper" if wanted[k] > self._upper[k] else "lower"
-            notes.append(
-                f"{why}: {self._joints[k]}={wanted[k]:.3f} clamped to its {side} limit "
-                f"{clamped[k]:.3f}"
-            )
+            notes.append(f"{why}: {self._joints[k]} clamped to its {side} limit {clamped[k]:.3f}")
         jog.command = clamped
 
     def _read_sliders(self, jog: JogState, notes: list[str]) -> np.ndarray:
@@ -495,11 +508,7 @@ class MeshcatJog(LeafSystem):
             jog.anchor = X_target
             return
         jog.anchor = None  # start again from where it stopped
-        at_limit = [
-            self._joints[k]
-            for k in range(len(self._joints))
-            if min(jog.command[k] - self._lower[k], self._upper[k] - jog.command[k]) < LIMIT_MARGIN
-        ]
+        at_limit = [self._joints[k] for k in cartesian.blocking(solution, X_target)]
         where = (
             f"{', '.join(at_limit)} at {'its limit' if len(at_limit) == 1 else 'their limits'}"
             if at_limit

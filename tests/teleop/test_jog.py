@@ -117,11 +117,11 @@ def test_a_step_past_a_joint_limit_stops_at_the_limit():
         from pydrake.math import RollPitchYaw, RotationMatrix
 
         turn = RotationMatrix(RollPitchYaw(0.1, 0.0, 0.0))
-        q, reached = jog.solve(
-            q_start, RigidTransform(X.rotation().multiply(turn), X.translation())
-        )
+        target = RigidTransform(X.rotation().multiply(turn), X.translation())
+        q, reached = jog.solve(q_start, target)
         assert not reached
         assert np.all(q <= jog.upper + 1e-9) and np.all(q >= jog.lower - 1e-9)
+        assert jog.blocking(q, target) == [3]  # j3, at its upper limit
     finally:
         run.close()
 
@@ -169,8 +169,7 @@ def test_gamepad_command_past_a_limit_is_clamped_with_a_note_in_the_viewer():
         upper = run.world.hardware.joints[0].upper
         assert run.jog.command(run.context)[0] == pytest.approx(upper)
         (note,) = run.notes()
-        assert note.startswith("note: gamepad: j0=")
-        assert f"clamped to its upper limit {upper:.3f}" in note
+        assert note == f"note: gamepad: j0 clamped to its upper limit {upper:.3f}"
         assert run.jog.note(run.context) == note
         run.advance(1.0)
         assert abs(run.q()[0] - upper) < 0.01
@@ -195,6 +194,18 @@ def test_gamepad_cartesian_mode_moves_the_end_effector_along_the_stick():
         assert moved[0] / np.linalg.norm(moved) > 0.95, moved
         # 0.05 m/s for 1 s
         assert np.linalg.norm(moved) == pytest.approx(0.05, rel=0.1)
+    finally:
+        run.close()
+
+
+def test_a_cartesian_jog_stopped_by_a_joint_limit_names_the_joint():
+    run = jog_world("jog: {home_positions: [0.0, 0.4, 0.9, 3.0]}")
+    pad = fed(run)
+    try:
+        pad.set(axes=(0.0, 0.0, 1.0, 0.0), pressed=[DEADMAN])  # turn about the gripper's x
+        run.advance(1.0)
+        assert run.notes() == ["note: gamepad: end effector stopped, j3 at its limit"]
+        assert run.jog.command(run.context)[3] == pytest.approx(run.world.hardware.joints[3].upper)
     finally:
         run.close()
 

@@ -109,7 +109,7 @@ def test_a_gamepad_in_the_page_moves_the_joint_and_a_clamp_shows_a_note(chromium
             run.advance(1.0)
             send()
             run.advance(1.0)
-            note = page.locator("li.cr.function", has_text="note: gamepad: j0=")
+            note = page.locator("li.cr.function", has_text="note: gamepad: j0 clamped")
             note.wait_for(state="visible", timeout=5000)
             text = note.inner_text()
         upper = run.world.hardware.joints[0].upper
