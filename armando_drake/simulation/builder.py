@@ -7,13 +7,13 @@ interface (position, velocity or effort actuators), start the ros2_control
 controllers of its YAML, found by type in the controller registry (all of them
 in one :class:`~armando_drake.control.manager.ControllerManager` system, as
 upstream's controller_manager runs them in one loop), then add
-what drives and watches them (command sequencer, joint-state logger,
-camera, Meshcat).
+what drives and watches them (command sequencer, live jog, joint-state
+logger, camera, Meshcat).
 
 Ports of the diagram, by name:
 
 - ``<controller>.<topic>`` (``commands``, ``joint_trajectory``, ...): command
-  inputs of the active controllers that no sequencer drives (a
+  inputs of the active controllers that no sequencer, task or live jog drives (a
   :class:`~armando_drake.control.messages.Publication`; see
   :meth:`World.publish`);
 - ``<controller>.status``: each command controller's ControllerStatus;

@@ -144,9 +144,10 @@ def check_jog(config: JogConfig, where: str = "") -> None:
                 f"{prefix}gamepad_mapping.angular_buttons: {pair!r} must be a pair "
                 "[positive, negative] of button indices"
             )
-    for name in ("deadman_button", "home_button", "joint_mode_button"):
+    buttons = ("deadman_button", "home_button", "joint_mode_button", "cartesian_mode_button")
+    for name in (*buttons, "shift_button"):
         if getattr(mapping, name) < 0:
-            raise JogError(f"{prefix}gamepad_mapping.{name}={getattr(mapping, name)!r} is < 0")
-    for name in ("cartesian_mode_button", "shift_button"):
-        if getattr(mapping, name) < 0:
-            raise JogError(f"{prefix}gamepad_mapping.{name}={getattr(mapping, name)!r} is < 0")
+            raise JogError(
+                f"{prefix}gamepad_mapping.{name}={getattr(mapping, name)!r}: button indices "
+                "are >= 0"
+            )
