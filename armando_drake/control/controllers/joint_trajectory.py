@@ -117,7 +117,7 @@ class JointTrajectoryControllerParams:
         "stopped_velocity_tolerance": "constraints.stopped_velocity_tolerance",
         "trajectory_tolerance": "constraints.<joint>.trajectory",
         "goal_tolerance": "constraints.<joint>.goal",
-        "gains": "gains.<joint>.<p|i|d|...>",
+        "gains": "gains",
     }
 
     # Controller joints, in the controller's order.
@@ -146,6 +146,9 @@ class JointTrajectoryControllerParams:
     # [Hz] upstream's action-status polling rate (>= 0.1); the status output here
     # changes at the update that decides it, so this rate moves nothing.
     action_monitor_rate: float = 20.0
+    # The hardware's speed-scaling state interface; the simulated hardware has none, so
+    # the trajectory runs at upstream's default scaling factor 1.0.
+    speed_scaling_interface_name: str = "speed_scaling/speed_scaling_factor"
     # splines (linear / cubic / quintic per segment) | none (the next point's values).
     interpolation_method: str = "splines"
     # Accept a last point with non-zero velocities (commanded after the end).
@@ -423,9 +426,6 @@ _REFUSED = {
     "speed_scaling": "speed scaling is not simulated (the trajectory runs at speed 1.0)",
     "decelerate_on_cancel": "not a parameter of upstream's Jazzy schema (rolling's)",
 }
-# Parameters that select a hardware interface the simulated hardware does not have;
-# upstream then runs at its default, and so do we (the name is checked, nothing else).
-_SPEED_SCALING_INTERFACE = "speed_scaling_interface_name"
 
 
 @register("joint_trajectory_controller/JointTrajectoryController")
@@ -445,7 +445,7 @@ class JointTrajectoryController(Controller):
         names = {f.name for f in dataclasses.fields(cls.parameters)}
         names -= {"goal_time", "stopped_velocity_tolerance", "trajectory_tolerance"}
         names -= {"goal_tolerance"}
-        return frozenset(names | {"constraints", _SPEED_SCALING_INTERFACE})
+        return frozenset(names | {"constraints"})
 
     @classmethod
     def ros_layout(cls, raw: dict[str, Any]) -> dict[str, Any]:
@@ -461,9 +461,6 @@ class JointTrajectoryController(Controller):
                 f"{command_joints!r} differs from joints {joints}; command joints other than "
                 "the joints (controller chains, passive joints) are not simulated",
             )
-        scaling = raw.pop(_SPEED_SCALING_INTERFACE, None)
-        if scaling is not None and not isinstance(scaling, str):
-            raise ParameterError(_SPEED_SCALING_INTERFACE, f"expected a string, got {scaling!r}")
         constraints = raw.pop("constraints", None) or {}
         if not isinstance(constraints, dict):
             raise ParameterError("constraints", f"expected a mapping, got {constraints!r}")
