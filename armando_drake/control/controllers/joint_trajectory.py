@@ -51,7 +51,7 @@ from armando_drake.control.controllers import (
     non_negative,
     register,
 )
-from armando_drake.control.messages import JointTrajectory
+from armando_drake.control.messages import JointTrajectory, JointTrajectoryPoint
 
 # Upstream's "is this velocity zero" threshold: std::numeric_limits<float>::epsilon().
 _FLOAT_EPSILON = float(np.finfo(np.float32).eps)
@@ -298,6 +298,38 @@ def _segment_coefficients(a: _Point, b: _Point) -> np.ndarray:
     return table
 
 
+def interpolate_between_points(
+    time_a: float,
+    state_a: JointTrajectoryPoint,
+    time_b: float,
+    state_b: JointTrajectoryPoint,
+    sample_time: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Upstream's ``Trajectory::interpolate_between_points``: positions, velocities and
+    accelerations at ``sample_time`` on the segment a -> b (times [s]), of the degree
+    both ends allow; clamped to the segment's ends."""
+
+    def point(time, state):
+        def array(values):
+            return np.asarray(values, float) if len(values) else None
+
+        return _Point(
+            time, array(state.positions), array(state.velocities), array(state.accelerations)
+        )
+
+    a, b = point(time_a, state_a), point(time_b, state_b)
+    tau = min(max(sample_time - time_a, 0.0), time_b - time_a)
+    if not time_a <= sample_time <= time_b:  # upstream clamps, and goes linear
+        b = dataclasses.replace(b, velocities=None, accelerations=None)
+    coefficients = _segment_coefficients(a, b)
+    powers = tau**_EXPONENTS
+    velocity = coefficients[:, 1:] @ (_DERIVATIVE * tau ** (_DERIVATIVE - 1))
+    acceleration = coefficients[:, 2:] @ (
+        _DERIVATIVE[1:] * _DERIVATIVE[:-1] * tau ** (_DERIVATIVE[:-1] - 1)
+    )
+    return coefficients @ powers, velocity, acceleration
+
+
 def _deduce_from_derivatives(a: _Point, b: _Point) -> None:
     """Upstream's ``deduce_from_derivatives``: b's missing positions (and velocities)
     integrated from a's, with the trapezoid rule (a's missing ones are zero)."""
@@ -312,6 +344,16 @@ def _deduce_from_derivatives(a: _Point, b: _Point) -> None:
             a.accelerations = np.zeros(n)
         b.velocities = a.velocities + (a.accelerations + b.filled("accelerations")) * 0.5 * dt
     b.positions = a.positions + (a.velocities + b.velocities) * 0.5 * dt
+
+
+@dataclasses.dataclass(frozen=True)
+class TrajectorySample:
+    """What upstream's ``Trajectory::sample`` returns, in controller joint order."""
+
+    positions: np.ndarray  # [rad] (n)
+    velocities: np.ndarray  # [rad/s] (n)
+    accelerations: np.ndarray  # [rad/s^2] (n)
+    segment: tuple[int, int]  # indices of the points around the sample (see sample())
 
 
 _DEGREE = 5  # highest segment degree (quintic)
@@ -339,6 +381,11 @@ class SampledTrajectory:
     final: np.ndarray
     # [rad/s^2] per segment the constant accelerations of interpolation_method none (s, n).
     held_accelerations: np.ndarray | None = None
+    # [s] time of the state before the trajectory (the update that first sampled it).
+    before_time: float = -math.inf
+    # Whether the first segment runs from the state before the trajectory to the first
+    # point (the first point was still to come when the trajectory was first sampled).
+    from_before: bool = False
 
     def __deepcopy__(self, memo):
         return self
@@ -369,6 +416,57 @@ class SampledTrajectory:
             return self.held_accelerations[k]
         tau = max(time - self.breaks[k], 0.0)
         return self.coefficients[k, n:, 1:] @ (_DERIVATIVE * tau ** (_DERIVATIVE - 1))
+
+    def sample(self, time: float) -> "TrajectorySample | None":
+        """Upstream's ``Trajectory::sample`` at ``time`` [s]: None before the state
+        before the trajectory, else the positions, velocities, accelerations and the
+        segment's point indices (upstream's start and end iterators: (0, 0) before the
+        first point, (i, i + 1) from point i to i + 1, (last, count) after the end)."""
+        if time < self.before_time:
+            return None
+        n = self.n
+        x = self.state(time)
+        count = len(self.breaks) - (1 if self.from_before else 0)
+        if self.ended(time):
+            segment = (count - 1, count)
+        else:
+            k = max(bisect.bisect_right(self.breaks, time) - 1, 0)
+            k -= 1 if self.from_before else 0
+            segment = (0, 0) if k < 0 else (k, k + 1)
+        return TrajectorySample(x[:n].copy(), x[n:].copy(), self.acceleration(time), segment)
+
+    @staticmethod
+    def from_message(
+        message: JointTrajectory,
+        *,
+        time: float,
+        positions,
+        velocities=None,
+        accelerations=None,
+        interpolation_method: str = "splines",
+    ) -> "SampledTrajectory":
+        """Upstream's ``Trajectory(current_time, current_point, msg)`` first sampled at
+        ``time`` [s] (the start, when the message's stamp is 0): ``message`` (its joints in
+        the controller's order) from the state before it, ``positions`` [rad] and, when
+        given, ``velocities`` [rad/s] and ``accelerations`` [rad/s^2]."""
+        start = message.stamp if message.stamp != 0.0 else time
+
+        def array(values):
+            return None if values is None or len(values) == 0 else np.asarray(values, float)
+
+        points = [
+            _Point(
+                start + point.time_from_start,
+                array(point.positions),
+                array(point.velocities),
+                array(point.accelerations),
+            )
+            for point in message.points
+        ]
+        before = _Point(time, array(positions), array(velocities), array(accelerations))
+        return SampledTrajectory.build(
+            before, points, interpolate=interpolation_method == "splines"
+        )
 
     @staticmethod
     def hold(positions: np.ndarray, velocities: np.ndarray | None = None) -> "SampledTrajectory":
@@ -417,7 +515,9 @@ class SampledTrajectory:
             coefficients = _segment_coefficients(a, b)
             table[k, :n] = coefficients
             table[k, n:, :_DEGREE] = coefficients[:, 1:] * _DERIVATIVE
-        return SampledTrajectory(breaks, table, breaks[-1], final, held)
+        return SampledTrajectory(
+            breaks, table, breaks[-1], final, held, before.time, knots[0] is before
+        )
 
 
 # Upstream parameters the simulation cannot honour: refused with the reason.
