@@ -24,6 +24,7 @@ from armando_drake.control.controllers.broadcaster import (
 )
 from armando_drake.control.controllers.forward_command import ForwardCommandController
 from armando_drake.control.controllers.joint_trajectory import (
+    JointGains,
     JointTrajectoryController,
     JointTrajectoryControllerParams,
     SampledTrajectory,
@@ -454,6 +455,59 @@ def test_interpolate_from_desired_state():
         np.testing.assert_allclose(h.desired[:3], [0.5] * 3, atol=1e-12)
 
 
+def pid_harness(interface, gains, initial=(0.0, 0.0, 0.0)) -> Harness:
+    controller = JointTrajectoryController(
+        name="ctl",
+        joints=ControllerJoints.make(NAMES, initial_positions=initial),
+        params=JointTrajectoryControllerParams(
+            joints=list(NAMES),
+            command_interfaces=[interface],
+            state_interfaces=["position", "velocity"],
+            gains={joint: JointGains(**gains) for joint in NAMES},
+        ),
+    )
+    assert controller.interface == interface
+    return Harness(controller)
+
+
+def test_velocity_command_interface_is_the_pid_on_the_tracking_error():
+    """command_interfaces [velocity]: u = ff_velocity_scale v_d(t + dt) + p (q_d(t) - q)
+    + d (v_d(t) - v) (upstream's closed-loop adapter, use_closed_loop_pid_adapter)."""
+    h = pid_harness("velocity", {"p": 2.0, "d": 0.1, "ff_velocity_scale": 1.0})
+    measured_q, measured_v = np.array([0.1, -0.1, 0.0]), np.array([0.2, 0.0, -0.2])
+    h.set_measured(measured_q, measured_v)
+    # Holding the start (0) before any goal: the PID already runs.
+    h.step()
+    np.testing.assert_allclose(h.desired[3:], 2.0 * (0.0 - measured_q) + 0.1 * (0.0 - measured_v))
+    start = h.publish(trajectory(message_point(1.0, [1.0] * 3)))
+    h.advance(start + 0.5)
+    # Linear from the measured position: q_d(t) and v_d.
+    q_d = measured_q + (1.0 - measured_q) * 0.5
+    v_d = 1.0 - measured_q
+    np.testing.assert_allclose(
+        h.desired[3:], 1.0 * v_d + 2.0 * (q_d - measured_q) + 0.1 * (v_d - measured_v), atol=1e-12
+    )
+
+
+def test_effort_command_interface_is_the_pid_and_checks_the_stopped_velocity():
+    """command_interfaces [effort]: u = p e + d e_dot; with an effort command interface the
+    stopped velocity tolerance is checked (upstream computes the velocity error then)."""
+    h = pid_harness("effort", {"p": 10.0, "d": 1.0})
+    h.set_measured(np.array([0.5, 0.5, 0.5]), np.array([0.0, 0.0, 0.3]))
+    start = h.publish(trajectory(message_point(0.2, [0.5] * 3)))
+    h.advance(start + 0.1)
+    effort = h.system.GetOutputPort("effort_command").Eval(h.context)
+    expected_q = 0.5  # from the measured position to the same: q_d = 0.5, v_d = 0
+    np.testing.assert_allclose(
+        effort, 10.0 * (expected_q - 0.5) + 1.0 * (0.0 - np.array([0, 0, 0.3]))
+    )
+    h.advance(start + 1.0)
+    assert h.status.state == "executing"  # j2 still moves at 0.3 rad/s > 0.01
+    h.set_measured(np.array([0.5, 0.5, 0.5]))
+    h.step()
+    assert h.status.state == "succeeded"
+
+
 # ----------------------------------------------------------------------------------------------
 # Parameters: implemented or refused
 
@@ -478,7 +532,17 @@ arm_controller:
         ("speed_scaling: {initial_scaling_factor: 0.5}", "speed_scaling: not simulated"),
         ("is_async: true", "is_async: is_async=True is not simulated"),
         ("update_rate: 50", "update_rate: update_rate=50 differs from controller_manager's 100"),
-        ("command_interfaces: [velocity]", "command_interfaces: ['velocity']: the trajectory"),
+        (
+            "command_interfaces: [velocity]\nstate_interfaces: [position]",
+            "'velocity' command interface can only be used alone if 'velocity' and 'position' "
+            "state interfaces are present",
+        ),
+        (
+            "command_interfaces: [effort]\nstate_interfaces: [position]",
+            "'effort' command interface can only be used alone if 'velocity' and 'position' "
+            "state interfaces are present",
+        ),
+        ("command_interfaces: [acceleration]", "'acceleration' command interface can only be"),
         (
             "command_interfaces: [position, effort]",
             "'effort' command interface has to be used alone",

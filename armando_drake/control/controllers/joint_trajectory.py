@@ -1,7 +1,7 @@
 """``joint_trajectory_controller/JointTrajectoryController``.
 
 Reads ``trajectory_msgs/JointTrajectory`` on ``/<controller>/joint_trajectory``
-and drives its joints' position interfaces along it, as upstream's
+and drives its joints along it, as upstream's
 controller (ros2_controllers, Jazzy, with its PR #1306) does at every update
 ``t`` of period ``dt``:
 
@@ -23,16 +23,18 @@ controller (ros2_controllers, Jazzy, with its PR #1306) does at every update
   before the trajectory until the first point). After the last point it
   commands the last point, its velocities included (zero where not given).
 - The command written at ``t`` is the trajectory sampled at ``t + dt``, the
-  end of the control period; the tolerances compare the measured state with
-  the sample at ``t``. The goal is checked once ``t + dt`` is past the last
-  point: every joint within its ``goal`` tolerance (and, with a velocity or
-  effort command interface, within ``stopped_velocity_tolerance`` of the
-  desired velocity) -> ``succeeded``, the last point held; still outside
-  ``goal_time`` after the end -> ``aborted`` ("goal tolerance violated"). While
-  running (and on the first sample), a joint further than its ``trajectory``
-  tolerance from the desired position aborts with "path tolerance violated".
-  An abort (and ``cmd_timeout``) keeps the update's command and holds the
-  measured position from the next update on.
+  end of the control period (with a velocity-only or effort command interface,
+  ``ff_velocity_scale v_d(t + dt)`` plus a PID per joint on the error at
+  ``t``); the tolerances compare the measured state with the sample at ``t``.
+  The goal is checked once ``t + dt`` is past the last point: every joint
+  within its ``goal`` tolerance (and, with a velocity or effort command
+  interface, within ``stopped_velocity_tolerance`` of the desired velocity) ->
+  ``succeeded``, the last point held; still outside ``goal_time`` after the
+  end -> ``aborted`` ("goal tolerance violated"). While running (and on the
+  first sample), a joint further than its ``trajectory`` tolerance from the
+  desired position aborts with "path tolerance violated". An abort (and
+  ``cmd_timeout``) keeps the update's command and holds the measured position
+  from the next update on.
 """
 
 import bisect
@@ -64,7 +66,8 @@ INTERPOLATION_METHODS = ("splines", "none")
 @dataclasses.dataclass
 class JointGains:
     """Upstream's PID gains of one joint (``gains.<joint>``), as its schema has them.
-    Upstream uses them only with a velocity-only or an effort command interface."""
+    Used only with a velocity-only or an effort command interface; the gains beyond p, i,
+    d, i_clamp and ff_velocity_scale are refused unless left at their defaults."""
 
     # [command unit/rad] proportional gain.
     p: float = 0.0
@@ -125,7 +128,8 @@ class JointTrajectoryControllerParams:
     # Joints commanded; empty or equal to joints (other command joints are not simulated).
     command_joints: list[str] = dataclasses.field(default_factory=list)
     # Command interfaces: [position], [position, velocity] or [position, velocity,
-    # acceleration] (velocity and acceleration commands are the desired state's).
+    # acceleration] (the desired state's positions and velocities drive the position
+    # actuators); [velocity] or [effort]: a PID per joint on the tracking error (gains).
     command_interfaces: list[str] = dataclasses.field(default_factory=lambda: ["position"])
     # State interfaces read: position [, velocity [, acceleration]]; the first segment
     # starts from the measured velocity only with velocity (acceleration reads 0 rad/s^2).
@@ -165,9 +169,9 @@ class JointTrajectoryControllerParams:
     trajectory_tolerance: dict[str, float] = dataclasses.field(default_factory=dict)
     # [rad] per joint: allowed |measured - desired| after the end; absent or 0 = unchecked.
     goal_tolerance: dict[str, float] = dataclasses.field(default_factory=dict)
-    # Per joint, upstream's PID gains ({p, i, d, i_clamp, ff_velocity_scale, ...}); upstream
-    # uses them only for a velocity-only or effort command interface, so with position
-    # commands they move nothing there either.
+    # Per joint, the PID gains of a velocity-only or effort command interface
+    # (u = ff_velocity_scale v_d + p e + clamp(integral of i e, +-i_clamp) + d de/dt);
+    # upstream uses none with position commands, neither do we.
     gains: dict[str, JointGains] = dataclasses.field(default_factory=dict)
 
     @property
@@ -194,6 +198,23 @@ class JointTrajectoryControllerParams:
                 "action_monitor_rate",
                 f"action_monitor_rate={self.action_monitor_rate!r} must be >= 0.1 [Hz]",
             )
+        implemented = {"p", "i", "d", "i_clamp", "ff_velocity_scale"}
+        for joint, gains in self.gains.items():
+            if not isinstance(gains, JointGains):
+                continue  # a subclass's own gains (ROS 1's effort trajectory controller)
+            for field in dataclasses.fields(JointGains):
+                value = getattr(gains, field.name)
+                if field.name in implemented:
+                    if not math.isfinite(value):
+                        raise ParameterError(
+                            f"gains.{joint}.{field.name}", f"{field.name}={value!r} must be finite"
+                        )
+                elif value != field.default:
+                    raise ParameterError(
+                        f"gains.{joint}.{field.name}",
+                        f"{field.name}={value!r} is not simulated; the PID has p, i, d, "
+                        "i_clamp and ff_velocity_scale",
+                    )
         if not math.isfinite(self.cmd_timeout):
             raise ParameterError("cmd_timeout", f"cmd_timeout={self.cmd_timeout!r} must be finite")
 
@@ -242,11 +263,12 @@ def _check_combinations(command: list[str], state: list[str]) -> None:
             "'acceleration' state interface cannot be used if 'position' and 'velocity' "
             "interfaces are not present",
         )
-    if "position" not in command:
+    alone = "velocity" if command == ["velocity"] else "effort" if "effort" in command else None
+    if alone and not ("velocity" in state and "position" in state):
         raise ParameterError(
-            "command_interfaces",
-            f"{command!r}: the trajectory controller's velocity-only and effort command "
-            "interfaces (upstream's PID on the tracking error) are not simulated; use position",
+            "state_interfaces",
+            f"'{alone}' command interface can only be used alone if 'velocity' and "
+            "'position' state interfaces are present",
         )
 
 
@@ -528,6 +550,17 @@ _REFUSED = {
 }
 
 
+@dataclasses.dataclass(frozen=True)
+class _PidState:
+    """What the closed-loop adapter keeps between updates."""
+
+    integral: np.ndarray  # [command unit] the PIDs' integral terms, unclamped (n)
+    tracked: np.ndarray  # [rad, rad/s] the tracked desired state [q_d; v_d] (2n)
+    # Whether the tracking has work at the next update whatever arrives: an abort's hold,
+    # or reading the measured position at activation.
+    pending: bool = False
+
+
 @register("joint_trajectory_controller/JointTrajectoryController")
 class JointTrajectoryController(Controller):
     """The logic of ``joint_trajectory_controller/JointTrajectoryController`` (see the
@@ -644,6 +677,31 @@ class JointTrajectoryController(Controller):
         self._state_upper = np.concatenate([self.upper, np.full(self.n, np.inf)])
         # [s] the update period, set by the controller manager (upstream's update_period_).
         self.update_period = 0.0
+        # The PID gains per joint (arrays) with a velocity-only or effort command
+        # interface, else None.
+        self._pid = None
+        if commands == ["velocity"] or "effort" in commands:
+            gains = [params.gains.get(joint, JointGains()) for joint in names]
+            self._pid = {
+                "p": np.array([g.p for g in gains]),
+                "i": np.array([g.i for g in gains]),
+                "d": np.array([g.d for g in gains]),
+                "i_clamp": np.array([abs(g.i_clamp) for g in gains]),
+                "ff": np.array([g.ff_velocity_scale for g in gains]),
+            }
+
+    @classmethod
+    def command_interface(cls, params) -> str:
+        """The joints' command interface: position (with velocity and acceleration
+        commands as the desired state's), or velocity or effort alone (a PID per joint
+        on the tracking error, upstream's closed-loop adapter)."""
+        if params.command_interfaces == ["velocity"]:
+            return "velocity"
+        return "effort" if "effort" in params.command_interfaces else "position"
+
+    @classmethod
+    def position_targets(cls, params) -> bool:
+        return True  # its trajectories are positions, whatever interface it commands
 
     def configure(self, *, update_rate: int) -> None:
         """The controller manager's rate: the trajectory is sampled one period ahead."""
@@ -651,10 +709,64 @@ class JointTrajectoryController(Controller):
 
     def initial_memory(self) -> ControllerMemory:
         memory = super().initial_memory()
+        if self._pid is not None:
+            # The PID runs at every update, from activation on (holding the start).
+            activation = not self._params.set_last_command_interface_value_as_state_on_activation
+            state = _PidState(np.zeros(self.n), memory.desired, pending=activation)
+            return dataclasses.replace(memory, running=True, internal=state)
         if self._params.set_last_command_interface_value_as_state_on_activation:
             return memory  # the hardware's command interfaces hold their initial values
         # Hold the measured position read at activation (the first update).
         return dataclasses.replace(memory, running=True)
+
+    def update(self, now, message, memory, measure):
+        if self._pid is None:
+            return self._Track(now, message, memory, measure)
+        # Upstream's closed-loop adapter: the trajectory tracked as with position commands,
+        # then u = ff_velocity_scale v_d(t + dt) + PID(q_d(t) - q, v_d(t) - v) per joint.
+        state = memory.internal
+        # _Track's own "work at the next update": an abort's hold, the activation's read.
+        own = dataclasses.replace(
+            memory, desired=state.tracked, running=state.pending, internal=None
+        )
+        tracked = self._Track(now, message, own, measure)
+        n = self.n
+        if tracked.status.state == "aborted" and tracked.running:
+            # The aborting update writes nothing: the previous command stays.
+            return dataclasses.replace(
+                memory,
+                status=tracked.status,
+                trajectory=tracked.trajectory,
+                running=True,
+                reference=tracked.reference,
+                internal=_PidState(state.integral, tracked.desired, pending=True),
+            )
+        q, v = measure(tracked.desired)
+        if tracked.trajectory is None:
+            reference = tracked.desired
+        elif tracked.status.state == "executing":
+            reference = tracked.trajectory.state(now)
+        else:
+            reference = tracked.trajectory.final[: 2 * n]
+        gains = self._pid
+        error, error_dot = reference[:n] - q, reference[n:] - v
+        integral = state.integral + gains["i"] * self.update_period * error
+        integral_term = np.clip(integral, -gains["i_clamp"], gains["i_clamp"])
+        command = (
+            gains["ff"] * tracked.desired[n:]
+            + gains["p"] * error
+            + integral_term
+            + gains["d"] * error_dot
+        )
+        internal = _PidState(integral, tracked.desired)
+        if self.interface == "effort":
+            limit = self.joints.effort
+            return dataclasses.replace(
+                tracked, effort=np.clip(command, -limit, limit), internal=internal, running=True
+            )
+        limit = self.joints.velocity
+        desired = np.concatenate([tracked.desired[:n], np.clip(command, -limit, limit)])
+        return dataclasses.replace(tracked, desired=desired, internal=internal, running=True)
 
     def _Validate(self, message, now: float) -> list[int]:
         """Controller index of each message joint; raises Rejected in upstream's order."""
@@ -769,7 +881,8 @@ class JointTrajectoryController(Controller):
         """[q_d; v_d] written to the hardware: positions clamped into the joint limits."""
         return np.minimum(np.maximum(x, self._state_lower), self._state_upper)
 
-    def update(self, now, message, memory, measure):
+    def _Track(self, now, message, memory, measure):
+        """The update of the trajectory tracking (upstream's, position commands)."""
         if message is None and not memory.busy:
             return memory  # nothing new and nothing running: the commands hold
         ahead = now + self.update_period

@@ -419,6 +419,10 @@ class EffortJointTrajectoryController(Ros1JointTrajectoryController):
     fixed_interface = "effort"
 
     @classmethod
+    def command_interface(cls, params) -> str:
+        return "effort"  # its own PIDs (ROS 1's adapter), not the ROS 2 closed loop
+
+    @classmethod
     def known_parameters(cls) -> frozenset[str]:
         return super().known_parameters() | {"gains"}
 
