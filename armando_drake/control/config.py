@@ -320,6 +320,7 @@ def parse_controller_config(data: Any, source: str) -> ControllerManagerConfig:
             raise _fail(
                 source, f"{node_key}.type", f"type {params['type']!r} differs from {type_!r}"
             )
+        _check_node_parameters(params, source, node_key, update_rate)
         config.controllers[name] = _controller(
             name, type_, params, source, node_key, type_key=f"{key}.type"
         )
@@ -331,6 +332,27 @@ def parse_controller_config(data: Any, source: str) -> ControllerManagerConfig:
             name,
         )
     return config
+
+
+def _check_node_parameters(params: dict[str, Any], source: str, key: str, update_rate: int) -> None:
+    """The parameters every ros2_control controller node has (``update_rate``,
+    ``is_async``), refused where they would change the timing: every controller runs
+    in the manager's update at its rate."""
+    own = params.get("update_rate")
+    if own is not None and own != update_rate:
+        raise _fail(
+            source,
+            f"{key}.update_rate",
+            f"update_rate={own!r} differs from controller_manager's {update_rate}; a "
+            "controller's own rate is not simulated (each runs at the manager's)",
+        )
+    if params.get("is_async", False) is not False:
+        raise _fail(
+            source,
+            f"{key}.is_async",
+            f"is_async={params['is_async']!r} is not simulated: every controller runs "
+            "synchronously in the manager's update",
+        )
 
 
 def _holds_key(data: Any, key: str) -> bool:

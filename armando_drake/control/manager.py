@@ -200,6 +200,7 @@ class ControllerManager(LeafSystem):
             self._effort_rows.append(
                 np.asarray(rows, dtype=int) if logic.interface == "effort" else None
             )
+            logic.configure(update_rate=update_rate)
             memory = logic.initial_memory()
             initial[desired_rows] = memory.desired
             memories.append(memory)

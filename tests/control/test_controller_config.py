@@ -231,7 +231,7 @@ GOOD_PARAMS = "    joints: [j0, j1]"
             "    joints: [j0]\n    gains: {j0: {p: 1}}",
             "pos.ros__parameters.gains",
             "unknown parameter for position_controllers/JointGroupPositionController; "
-            "known: ['joints']",
+            "known: ['interface_name', 'joints']",
         ),
         (
             "100",

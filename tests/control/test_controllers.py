@@ -394,7 +394,8 @@ def test_trajectory_controller_rejection_keeps_running_trajectory():
     harness.advance(start + 0.3)
     harness.publish(trajectory())
     harness.advance(start + 0.5)
-    np.testing.assert_allclose(harness.desired, [0.5, 0.5, 0.5, 1.0, 1.0, 1.0], atol=1e-12)
+    # The command of the update at t is the sample at t + dt (upstream PR #1306).
+    np.testing.assert_allclose(harness.desired, [0.51, 0.51, 0.51, 1.0, 1.0, 1.0], atol=1e-12)
     assert (harness.status.state, harness.status.last_error) == (
         "executing",
         "Empty trajectory received.",
@@ -410,18 +411,19 @@ def test_trajectory_controller_holds_on_start_up():
 
 
 def test_linear_from_measured_state():
-    """Positions only: a straight line from the measured position to each point."""
+    """Positions only: a straight line from the measured position to each point (the
+    measured velocity is kept, but the first point has none: linear)."""
     harness = trajectory_harness()
     q0 = np.array([0.2, -0.4, 0.1])
-    harness.set_measured(q0, np.array([1.0, 1.0, 1.0]))  # velocity unused: linear segment
+    harness.set_measured(q0, np.array([1.0, 1.0, 1.0]))
     harness.advance(0.2)
     p1, p2 = np.array([1.0, 0.6, -1.1]), np.array([2.0, -0.4, 0.9])
     start = harness.publish(trajectory(point(p1, 0.4), point(p2, 1.0)))
     harness.advance(start + 0.2)
-    np.testing.assert_allclose(harness.desired[:3], (q0 + p1) / 2, atol=1e-12)
+    np.testing.assert_allclose(harness.desired[:3], q0 + (p1 - q0) * 0.21 / 0.4, atol=1e-12)
     np.testing.assert_allclose(harness.desired[3:], (p1 - q0) / 0.4, atol=1e-12)
     harness.advance(start + 0.7)
-    np.testing.assert_allclose(harness.desired[:3], (p1 + p2) / 2, atol=1e-12)
+    np.testing.assert_allclose(harness.desired[:3], p1 + (p2 - p1) * 0.31 / 0.6, atol=1e-12)
     np.testing.assert_allclose(harness.desired[3:], (p2 - p1) / 0.6, atol=1e-12)
     harness.set_measured(p2)  # stopped at the goal
     harness.advance(start + 1.5)
@@ -452,10 +454,10 @@ def test_cubic_hermite_with_velocities():
     )
     # The first segment starts from the measured position and velocity.
     harness.advance(start + 0.2)
-    np.testing.assert_allclose(harness.desired[:3], hermite(q0, v0, p1, v1, 0.5, 0.2), atol=1e-9)
+    np.testing.assert_allclose(harness.desired[:3], hermite(q0, v0, p1, v1, 0.5, 0.21), atol=1e-9)
     harness.advance(start + 0.9)
     np.testing.assert_allclose(
-        harness.desired[:3], hermite(p1, v1, p2, np.zeros(3), 1.0, 0.4), atol=1e-9
+        harness.desired[:3], hermite(p1, v1, p2, np.zeros(3), 1.0, 0.41), atol=1e-9
     )
 
 
@@ -487,24 +489,35 @@ def test_quintic_with_accelerations():
             point(p2, 1.3, velocities=v2, accelerations=a2),
         )
     )
+    # The first segment is quintic too: from the measured state (at rest, no
+    # acceleration measured: zero) to the first point.
+    harness.advance(start + 0.2)
+    zeros = np.zeros(3)
+    np.testing.assert_allclose(
+        harness.desired[:3], quintic(zeros, zeros, zeros, p1, v1, a1, 0.5, 0.21), atol=1e-9
+    )
     harness.advance(start + 0.9)
-    expected = quintic(p1, v1, a1, p2, v2, a2, 0.8, 0.4)
+    expected = quintic(p1, v1, a1, p2, v2, a2, 0.8, 0.41)
     np.testing.assert_allclose(harness.desired[:3], expected, atol=1e-9)
     # A quintic, not the cubic through the same ends.
-    assert np.max(np.abs(expected - hermite(p1, v1, p2, v2, 0.8, 0.4))) > 1e-3
+    assert np.max(np.abs(expected - hermite(p1, v1, p2, v2, 0.8, 0.41))) > 1e-3
 
 
-def test_interpolation_none_holds_each_point():
+def test_interpolation_none_commands_the_next_point():
+    """Upstream's ``interpolation_method: none``: the state before the trajectory until
+    the first point, then from each point on the *next* point's values."""
     harness = trajectory_harness(interpolation_method="none")
     q0 = np.array([0.1, 0.2, 0.3])
     harness.set_measured(q0)
     harness.advance(0.1)
     p1, p2 = np.array([1.0, 1.0, 1.0]), np.array([-1.0, -1.0, -1.0])
     start = harness.publish(trajectory(point(p1, 0.3, velocities=(0.5, 0.5, 0.5)), point(p2, 0.6)))
-    harness.advance(start + 0.2)
+    harness.advance(start + 0.2)  # samples 0.21 s: before the first point
     np.testing.assert_array_equal(harness.desired, [*q0, 0.0, 0.0, 0.0])
-    harness.advance(start + 0.5)
-    np.testing.assert_array_equal(harness.desired, [*p1, 0.5, 0.5, 0.5])
+    harness.advance(start + 0.28)  # samples 0.29 s: still before it
+    np.testing.assert_array_equal(harness.desired, [*q0, 0.0, 0.0, 0.0])
+    harness.advance(start + 0.29)  # samples 0.30 s: between point 1 and 2 -> point 2
+    np.testing.assert_array_equal(harness.desired, [*p2, 0.0, 0.0, 0.0])
     harness.advance(start + 0.7)
     np.testing.assert_array_equal(harness.desired, [*p2, 0.0, 0.0, 0.0])
 
@@ -516,7 +529,7 @@ def test_stamped_trajectory_starts_at_its_stamp():
     assert start == pytest.approx(0.21)
     # The first segment runs from the state at acceptance (0.21 s) to the point (1.0 s).
     harness.advance(0.61)
-    np.testing.assert_allclose(harness.desired[:3], [0.4 / 0.79] * 3, atol=1e-12)
+    np.testing.assert_allclose(harness.desired[:3], [0.41 / 0.79] * 3, atol=1e-12)
     np.testing.assert_allclose(harness.desired[3:], [1.0 / 0.79] * 3, atol=1e-12)
     assert harness.status.detail["end_time"] == 1.0
 
@@ -525,24 +538,33 @@ def test_replacement_starts_from_current_state():
     harness = trajectory_harness()
     first = harness.publish(trajectory(point((2.0, 2.0, 2.0), 2.0)))
     harness.advance(first + 0.5)
+    np.testing.assert_allclose(harness.desired[:3], [0.51, 0.51, 0.51], atol=1e-12)
     harness.set_measured(harness.desired[:3])  # perfect tracking
-    np.testing.assert_allclose(harness.desired[:3], [0.5, 0.5, 0.5], atol=1e-12)
-    second = harness.publish(trajectory(point((-1.0, 0.0, 1.5), 1.0)))
+    target = np.array([-1.0, 0.0, 1.5])
+    second = harness.publish(trajectory(point(target, 1.0)))
     harness.advance(second + 0.5)
-    np.testing.assert_allclose(harness.desired[:3], [-0.25, 0.25, 1.0], atol=1e-12)
+    np.testing.assert_allclose(harness.desired[:3], 0.51 + (target - 0.51) * 0.51, atol=1e-12)
     harness.advance(second + 2.5)  # past the first trajectory's end too
-    np.testing.assert_array_equal(harness.desired, [-1.0, 0.0, 1.5, 0.0, 0.0, 0.0])
+    np.testing.assert_array_equal(harness.desired, [*target, 0.0, 0.0, 0.0])
     status = harness.status
     assert (status.state, status.accepted, status.rejected) == ("succeeded", 2, 0)
 
 
-def test_partial_goal_allowed_holds_other_joints():
+def test_partial_goal_allowed_starts_from_measured_state():
+    """The joints a partial goal leaves out go from their measured position to their
+    last command over the first segment (upstream's fill_partial_goal and
+    set_point_before_trajectory_msg)."""
     harness = trajectory_harness(initial=(0.1, 0.2, 0.3), allow_partial_joints_goal=True)
-    harness.set_measured(np.array([-0.5, -0.5, -0.5]))
+    measured = np.array([-0.5, -0.5, -0.5])
+    harness.set_measured(measured)
     harness.advance(0.1)
     start = harness.publish(trajectory(point((1.0,), 1.0), names=("j1",)))
     harness.advance(start + 0.5)
-    np.testing.assert_allclose(harness.desired, [0.1, 0.25, 0.3, 0.0, 1.5, 0.0], atol=1e-12)
+    goal = np.array([0.1, 1.0, 0.3])
+    np.testing.assert_allclose(
+        harness.desired, [*(measured + (goal - measured) * 0.51), *(goal - measured)], atol=1e-12
+    )
+    harness.set_measured(goal)
     harness.advance(start + 1.5)
     np.testing.assert_array_equal(harness.desired, [0.1, 1.0, 0.3, 0.0, 0.0, 0.0])
     assert harness.status.state == "succeeded"
@@ -568,8 +590,9 @@ def test_jumbled_joint_order_is_mapped():
             point((0.3, 0.1, 0.2), 0.5, velocities=(0.0, 0.0, 0.0)), names=("j2", "j0", "j1")
         )
     )
-    harness.advance(start + 0.25)
-    np.testing.assert_allclose(harness.desired[:3], [0.05, 0.1, 0.15], atol=1e-12)
+    harness.advance(start + 0.25)  # samples 0.26 s of a cubic from rest to rest
+    expected = hermite(np.zeros(3), np.zeros(3), np.array([0.1, 0.2, 0.3]), np.zeros(3), 0.5, 0.26)
+    np.testing.assert_allclose(harness.desired[:3], expected, atol=1e-12)
     harness.advance(start + 0.6)
     np.testing.assert_array_equal(harness.desired, [0.1, 0.2, 0.3, 0.0, 0.0, 0.0])
 
@@ -602,37 +625,37 @@ def test_goal_tolerance_met_succeeds(offset, velocity):
     np.testing.assert_array_equal(harness.desired, [*GOAL, 0.0, 0.0, 0.0])
 
 
-@pytest.mark.parametrize(
-    "offset, velocity, reason",
-    [
-        (
-            (0.0, 0.2, 0.0),
-            (0.0, 0.0, 0.0),
-            "goal tolerance violated: joint 'j1' is 0.2 rad from its goal -0.5 "
-            "(goal tolerance 0.05)",
-        ),
-        (
-            (0.0, 0.0, 0.0),
-            (0.0, 0.0, 0.1),
-            "goal tolerance violated: joint 'j2' still moves at 0.1 rad/s "
-            "(stopped_velocity_tolerance 0.01)",
-        ),
-    ],
-    ids=["position", "velocity"],
-)
-def test_goal_tolerance_violated_after_goal_time(offset, velocity, reason):
+def test_goal_tolerance_violated_after_goal_time():
     harness = trajectory_harness(goal_time=0.305, goal_tolerance={"j0": 0.05, "j1": 0.05})
     start = harness.publish(trajectory(point(GOAL, 0.5)))
-    measured = np.add(GOAL, offset)
-    harness.set_measured(measured, np.array(velocity))
+    measured = np.add(GOAL, (0.0, 0.2, 0.0))
+    harness.set_measured(measured)
     harness.advance(start + 0.8)  # 0.3 s after the end: still waiting
     assert harness.status.state == "executing"
     np.testing.assert_array_equal(harness.desired, [*GOAL, 0.0, 0.0, 0.0])
     harness.step()
     status = harness.status
     assert status.state == "aborted"
-    assert status.last_error == reason + " 0.31 s after the end"
+    assert status.last_error == (
+        "goal tolerance violated: joint 'j1' is 0.2 rad from its desired position -0.5 "
+        "(goal tolerance 0.05) 0.31 s after the end"
+    )
+    # Upstream writes nothing at the aborting update, and holds the measured position
+    # from the next one on.
+    np.testing.assert_array_equal(harness.desired, [*GOAL, 0.0, 0.0, 0.0])
+    harness.step()
     np.testing.assert_allclose(harness.desired, [*measured, 0.0, 0.0, 0.0], atol=1e-15)
+
+
+def test_stopped_velocity_is_not_checked_with_position_commands():
+    """Upstream computes the velocity error only with a velocity or effort command
+    interface (compute_error_for_joint), so a position-commanded joint still moving at
+    the goal succeeds."""
+    harness = trajectory_harness(goal_time=0.305, goal_tolerance={"j0": 0.05, "j1": 0.05})
+    start = harness.publish(trajectory(point(GOAL, 0.5)))
+    harness.set_measured(np.array(GOAL), np.array([0.0, 0.0, 0.1]))
+    harness.advance(start + 0.5)
+    assert harness.status.state == "succeeded"
 
 
 def test_goal_time_zero_waits_forever():
@@ -654,6 +677,8 @@ def test_path_tolerance_violated_aborts_and_holds_measured():
     # j1's desired position runs from -0.01 at 1.01 rad/s; 0.101 rad off after 0.1 s.
     harness.advance(start + 0.1)
     assert harness.status.state == "executing"
+    command = harness.desired  # the sample at 0.11 s
+    np.testing.assert_allclose(command[:3], measured + (np.array([0, 1, 0]) - measured) * 0.11)
     harness.step()
     status = harness.status
     assert status.state == "aborted"
@@ -661,6 +686,8 @@ def test_path_tolerance_violated_aborts_and_holds_measured():
         "path tolerance violated: joint 'j1' is 0.1111 rad from its desired position 0.1011 "
         "(trajectory tolerance 0.105)"
     )
+    np.testing.assert_array_equal(harness.desired, command)  # nothing written at the abort
+    harness.step()
     np.testing.assert_array_equal(harness.desired, [*measured, 0.0, 0.0, 0.0])
     harness.step(50)
     np.testing.assert_array_equal(harness.desired, [*measured, 0.0, 0.0, 0.0])

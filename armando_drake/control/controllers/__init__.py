@@ -12,6 +12,7 @@ here and never compare type strings. A controller class declares:
   with unit and meaning); its ``check()`` method validates ranges once, raising
   :class:`ParameterError` with the parameter's name;
 - ``ignored_parameters``: upstream parameters it accepts and does not simulate;
+- ``refused_parameters``: upstream parameters it refuses, each with the reason;
 - ``command_interface(params)``: the command interface it claims on each of its
   joints (``position``, ``velocity`` or ``effort``; ``None`` for a broadcaster);
 - ``message`` and ``topic``: the command message class it reads and the
@@ -177,6 +178,9 @@ def load_parameters(cls: type[Controller], raw: dict[str, Any]):
     """``cls.parameters`` from the ``ros__parameters`` mapping ``raw`` (dotted names
     already nested): unknown names are errors, ignored ones are dropped, the rest
     is read with ``yaml_load_typed`` and checked by the dataclass's ``check()``."""
+    for name, reason in cls.refused_parameters.items():
+        if name in raw:
+            raise ParameterError(name, f"not simulated: {reason}")
     raw = cls.ros_layout(dict(raw))
     fields = {f.name for f in dataclasses.fields(cls.parameters)}
     known = cls.known_parameters()
@@ -307,6 +311,9 @@ class ControllerMemory:
     internal: Any = None
     # Whether the controller works at every update whatever arrives (a PID loop).
     running: bool = False
+    # A value the controller keeps for its next update (the trajectory controller: the
+    # time and [q; v] of its latest sample), if any.
+    reference: Any = None
     # Whether the controller has work at every update, without a new message: a
     # trajectory being executed, or a running loop. Derived from the fields above.
     busy: bool = dataclasses.field(init=False, repr=False, compare=False)
@@ -332,6 +339,8 @@ class Controller:
 
     parameters: ClassVar[type] = NoParameters  # the parameters dataclass
     ignored_parameters: ClassVar[frozenset[str]] = frozenset()  # accepted, not simulated
+    # Upstream parameters refused, with the reason (the error names the parameter).
+    refused_parameters: ClassVar[dict[str, str]] = {}
     message: ClassVar[type | None] = None  # the command message class
     topic: ClassVar[str | None] = None  # the command topic: /<controller>/<topic>
     fixed_interface: ClassVar[str | None] = None  # the interface claimed, if fixed
@@ -393,6 +402,10 @@ class Controller:
     def default_parameters(cls, joints: ControllerJoints):
         """Parameters when none are given (tests): the controller's joints."""
         return cls.parameters(joints=list(joints.names))
+
+    def configure(self, *, update_rate: int) -> None:
+        """Called by the controller manager with its ``update_rate`` [Hz] before the run
+        (upstream's ``on_configure`` reads ``get_update_rate()``); the default ignores it."""
 
     def connect_plant(self, plant, model_instance) -> None:
         """Called by the world builder once the plant is finalized, before the run:

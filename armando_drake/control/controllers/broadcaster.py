@@ -4,24 +4,99 @@ It commands nothing. The controller manager publishes ``sensor_msgs/JointState``
 (``name``, ``position``, ``velocity``, ``effort``) of the broadcaster's joints,
 in its order, at ``update_rate``; and the same numbers as one vector
 ``[q; v; effort]``, which Drake's C++ ``VectorLogSink`` records without Python.
+
+As upstream, with ``joints`` or ``interfaces`` empty it publishes every joint of
+the hardware and all its interfaces; with both given, the listed joints, and
+NaN in the arrays of the standard interfaces (position, velocity, effort) not
+listed; ``extra_joints`` are appended with zero position, velocity and effort.
+The C++ vector view (the joint-state CSV) records the measured values of the
+broadcaster's joints, without the extra joints.
 """
 
 import dataclasses
+import math
 from typing import Any
 
-from armando_drake.control.controllers import Controller, joint_list, register
+from armando_drake.control.controllers import (
+    Controller,
+    ParameterError,
+    joint_list,
+    register,
+)
 from armando_drake.control.messages import JointState
+
+_DEFAULT_MAPPING = {"position": "position", "velocity": "velocity", "effort": "effort"}
+
+
+@dataclasses.dataclass
+class InterfaceMapping:
+    """``map_interface_to_joint_state``: the state interface behind each JointState field."""
+
+    # Interface published as JointState.position; only "position" is simulated.
+    position: str = "position"
+    # Interface published as JointState.velocity; only "velocity" is simulated.
+    velocity: str = "velocity"
+    # Interface published as JointState.effort; only "effort" is simulated.
+    effort: str = "effort"
 
 
 @dataclasses.dataclass
 class JointStateBroadcasterParameters:
     """The parameters of the joint state broadcaster."""
 
-    # Joints published, in this order; empty = every joint of the hardware interface.
+    # Joints published, in this order; empty (or interfaces empty) = every joint of the
+    # hardware interface.
     joints: list[str] = dataclasses.field(default_factory=list)
+    # State interfaces published (position, velocity, effort, ...); a standard one not
+    # listed is NaN in JointState; empty (or joints empty) = all of them.
+    interfaces: list[str] = dataclasses.field(default_factory=list)
+    # Names appended to JointState with zero position, velocity and effort (joints the
+    # hardware does not have, e.g. a passive gripper finger).
+    extra_joints: list[str] = dataclasses.field(default_factory=list)
+    # Publish on ~/joint_states instead of /joint_states; only false is simulated (the
+    # DDS bridge publishes /joint_states).
+    use_local_topics: bool = False
+    # Publish only joints the URDF has; every simulated joint is a URDF joint, so both
+    # values publish the same.
+    use_urdf_to_filter: bool = True
+    # JointState header.frame_id; only upstream's default base_link is simulated.
+    frame_id: str = "base_link"
+    # The state interface behind each JointState field; only the identity is simulated.
+    map_interface_to_joint_state: InterfaceMapping = dataclasses.field(
+        default_factory=InterfaceMapping
+    )
 
     def check(self, raw: dict[str, Any]) -> None:
         joint_list(raw.get("joints"), allow_empty=True)
+        joint_list(raw.get("extra_joints"), "extra_joints", allow_empty=True)
+        joint_list(raw.get("interfaces"), "interfaces", allow_empty=True)
+        for name in self.extra_joints:
+            if name in self.joints:
+                raise ParameterError("extra_joints", f"'{name}' is also one of the joints")
+        if self.use_local_topics:
+            raise ParameterError(
+                "use_local_topics",
+                "not simulated: the DDS bridge publishes /joint_states (use_local_topics: false)",
+            )
+        if self.frame_id != "base_link":
+            raise ParameterError(
+                "frame_id",
+                f"frame_id={self.frame_id!r} is not simulated: JointState carries upstream's "
+                "default base_link",
+            )
+        for field, interface in _DEFAULT_MAPPING.items():
+            given = getattr(self.map_interface_to_joint_state, field)
+            if given != interface:
+                raise ParameterError(
+                    f"map_interface_to_joint_state.{field}",
+                    f"{given!r} is not simulated: the hardware's {field} interface is "
+                    f"published as JointState.{field}",
+                )
+
+    @property
+    def all_interfaces(self) -> bool:
+        """Upstream's ``use_all_available_interfaces``: joints or interfaces empty."""
+        return not self.joints or not self.interfaces
 
 
 @register("joint_state_broadcaster/JointStateBroadcaster")
@@ -29,31 +104,45 @@ class JointStateBroadcaster(Controller):
     """The broadcaster's message: a :class:`JointState` of its joints."""
 
     parameters = JointStateBroadcasterParameters
-    ignored_parameters = frozenset(
-        {
-            "interfaces",
-            "extra_joints",
-            "use_local_topics",
-            "use_urdf_to_filter",
-            "map_interface_to_joint_state",
-            "frame_id",
-        }
-    )
     broadcaster = True
     initial_state = "active"
 
+    @classmethod
+    def joints_of(cls, params) -> list[str]:
+        return [] if params.all_interfaces else list(params.joints)
+
+    @classmethod
+    def default_parameters(cls, joints):
+        return cls.parameters()
+
+    def __init__(self, *, name, joints, params=None):
+        super().__init__(name=name, joints=joints, params=params)
+        params = self.params
+        # (ROS 1's JointStateController has none of these parameters: every interface.)
+        every = getattr(params, "all_interfaces", True)
+        listed = set(getattr(params, "interfaces", ()))
+        # Which standard interfaces are published (the others are NaN).
+        self._published = {field: every or field in listed for field in _DEFAULT_MAPPING}
+        self._extra = tuple(getattr(params, "extra_joints", ()))
+        self.names = self.joint_names + self._extra  # the JointState names
+
     def initial_message(self) -> JointState:
         n = self.n
-        return JointState(
-            stamp=0.0, name=self.joint_names, position=(0.0,) * n, velocity=(0.0,) * n
-        )
+        return self.message(0.0, [0.0] * n, [0.0] * n, [])
 
     def message(self, stamp: float, positions: list, velocities: list, effort: list) -> JointState:
         """The sample at ``stamp`` [s] from lists of Python floats, joint order (effort may be
-        empty)."""
+        empty: no effort measured)."""
+        if self._extra or not all(self._published.values()):
+            nan = [math.nan] * self.n
+            zeros = [0.0] * len(self._extra)
+            positions = (positions if self._published["position"] else nan) + zeros
+            velocities = (velocities if self._published["velocity"] else nan) + zeros
+            if effort or not self._published["effort"]:
+                effort = (effort if self._published["effort"] else nan) + zeros
         return JointState(
             stamp=stamp,
-            name=self.joint_names,
+            name=self.names,
             position=tuple(positions),
             velocity=tuple(velocities),
             effort=tuple(effort),

@@ -148,6 +148,23 @@ class JointGroupPositionController(ForwardCommandController):
     fixed_interface = "position"
 
     @classmethod
+    def known_parameters(cls) -> frozenset[str]:
+        return super().known_parameters() | {"interface_name"}
+
+    @classmethod
+    def ros_layout(cls, raw: dict[str, Any]) -> dict[str, Any]:
+        """Upstream's schema has ``interface_name`` here too, and the type overrides it
+        with its own interface; a different one is refused rather than overridden."""
+        given = raw.pop("interface_name", None)
+        if given is not None and given != cls.fixed_interface:
+            raise ParameterError(
+                "interface_name",
+                f"interface_name={given!r}: {cls.type_name()} commands the "
+                f"{cls.fixed_interface!r} interface (upstream overrides the parameter)",
+            )
+        return raw
+
+    @classmethod
     def default_parameters(cls, joints):
         return cls.parameters(joints=list(joints.names))
 

@@ -1,29 +1,46 @@
 """``joint_trajectory_controller/JointTrajectoryController``.
 
 Reads ``trajectory_msgs/JointTrajectory`` on ``/<controller>/joint_trajectory``
-and drives its joints' position interfaces along it.
+and drives its joints along it, as upstream's
+controller (ros2_controllers, Jazzy, with its PR #1306) does at every update
+``t`` of period ``dt``:
 
-A message is validated as upstream does, in upstream's order, and then
-more strictly: a joint named twice, a negative ``time_from_start`` and
-NaN/Inf anywhere are rejected too. An accepted trajectory replaces the
-running one. Its first segment runs from the measured state at the update
-that accepts it (the state's velocities only if ``state_interfaces``
-lists velocity; accelerations are not measured) to the first point;
-joints a partial goal leaves out hold their current command. Each segment
-is linear, cubic or quintic as the data at both ends allow
-(``interpolation_method: none`` holds each point's values instead). After
-the last point the controller holds it and checks the goal: every joint
-within ``goal_tolerance`` and slower than ``stopped_velocity_tolerance``
--> ``succeeded``; still not so ``goal_time`` after the end ->
-``aborted`` ("goal tolerance violated"). While running, a joint further
-than ``trajectory_tolerance`` from the desired position aborts with "path
-tolerance violated". An abort holds the measured position of that moment.
+- A message is validated as upstream does, in upstream's order, and then more
+  strictly: a joint named twice, a negative ``time_from_start`` and NaN/Inf
+  anywhere are rejected too. An accepted trajectory replaces the running one.
+  Joints a partial goal leaves out get the last commanded position at every
+  point (zero velocity and acceleration where the points give them), the
+  message's joint order is mapped onto the controller's.
+- The first update that sees it takes "the state before the trajectory": the
+  measured positions (and velocities with a ``velocity`` state interface);
+  with ``interpolate_from_desired_state`` (or ``open_loop_control``) the last
+  command instead. Where that state lacks velocities or accelerations that the
+  first point has, they are zero, so the first segment has the trajectory's
+  degree (``set_point_before_trajectory_msg``).
+- Each segment is linear (positions only at either end), cubic (velocities at
+  both ends) or quintic (accelerations too); ``interpolation_method: none``
+  commands the *next* point's values from one point to the next (the state
+  before the trajectory until the first point). After the last point it
+  commands the last point, its velocities included (zero where not given).
+- The command written at ``t`` is the trajectory sampled at ``t + dt``, the
+  end of the control period (with a velocity-only or effort command interface,
+  ``ff_velocity_scale v_d(t + dt)`` plus a PID per joint on the error at
+  ``t``); the tolerances compare the measured state with the sample at ``t``.
+  The goal is checked once ``t + dt`` is past the last point: every joint
+  within its ``goal`` tolerance (and, with a velocity or effort command
+  interface, within ``stopped_velocity_tolerance`` of the desired velocity) ->
+  ``succeeded``, the last point held; still outside ``goal_time`` after the
+  end -> ``aborted`` ("goal tolerance violated"). While running (and on the
+  first sample), a joint further than its ``trajectory`` tolerance from the
+  desired position aborts with "path tolerance violated". An abort (and
+  ``cmd_timeout``) keeps the update's command and holds the measured position
+  from the next update on.
 """
 
 import bisect
 import dataclasses
 import math
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -36,7 +53,7 @@ from armando_drake.control.controllers import (
     non_negative,
     register,
 )
-from armando_drake.control.messages import JointTrajectory
+from armando_drake.control.messages import JointTrajectory, JointTrajectoryPoint
 
 # Upstream's "is this velocity zero" threshold: std::numeric_limits<float>::epsilon().
 _FLOAT_EPSILON = float(np.finfo(np.float32).eps)
@@ -47,37 +64,120 @@ INTERPOLATION_METHODS = ("splines", "none")
 
 
 @dataclasses.dataclass
+class JointGains:
+    """Upstream's PID gains of one joint (``gains.<joint>``), as its schema has them.
+    Used only with a velocity-only or an effort command interface; the gains beyond p, i,
+    d, i_clamp and ff_velocity_scale are refused unless left at their defaults."""
+
+    # [command unit/rad] proportional gain.
+    p: float = 0.0
+    # [command unit/(rad s)] integral gain.
+    i: float = 0.0
+    # [command unit s/rad] derivative gain.
+    d: float = 0.0
+    # [command unit] symmetric bound of the integral term (Humble/Jazzy).
+    i_clamp: float = 0.0
+    # Feed-forward scale of the desired velocity.
+    ff_velocity_scale: float = 0.0
+    # Normalize the position error into [-pi, pi] (deprecated upstream).
+    normalize_error: bool = False
+    # Normalize the position error into [-pi, pi] (deprecated upstream).
+    angle_wraparound: bool = False
+    # [command unit] upper bound of the integral term (newer control_toolbox).
+    i_clamp_max: float = math.inf
+    # [command unit] lower bound of the integral term (newer control_toolbox).
+    i_clamp_min: float = -math.inf
+    # [command unit] upper bound of the output (newer control_toolbox).
+    u_clamp_max: float = math.inf
+    # [command unit] lower bound of the output (newer control_toolbox).
+    u_clamp_min: float = -math.inf
+    # Anti-windup on (older control_toolbox).
+    antiwindup: bool = False
+    # none | back_calculation | conditional_integration (newer control_toolbox).
+    antiwindup_strategy: str = "none"
+    # [s] back-calculation tracking time constant (newer control_toolbox).
+    tracking_time_constant: float = 0.0
+    # [rad] error below which the integral stops (newer control_toolbox).
+    error_deadband: float = 0.0
+    # Saturate the output (newer control_toolbox).
+    saturation: bool = False
+
+
+@dataclasses.dataclass
 class JointTrajectoryControllerParams:
     """The parameters of ``joint_trajectory_controller/JointTrajectoryController``.
 
     In the YAML the tolerances sit under ``constraints`` as upstream has them
     (``constraints.goal_time``, ``constraints.stopped_velocity_tolerance``,
-    ``constraints.<joint>.trajectory`` / ``.goal``); they are read into the flat
-    fields below.
+    ``constraints.<joint>.trajectory`` / ``.goal``) and the PID gains under
+    ``gains.<joint>``; they are read into the flat fields below
+    (:attr:`ROS_NAMES`).
     """
+
+    # The ROS parameter name of each field whose name differs (for errors and the README).
+    ROS_NAMES: ClassVar[dict[str, str]] = {
+        "goal_time": "constraints.goal_time",
+        "stopped_velocity_tolerance": "constraints.stopped_velocity_tolerance",
+        "trajectory_tolerance": "constraints.<joint>.trajectory",
+        "goal_tolerance": "constraints.<joint>.goal",
+        "gains": "gains",
+    }
 
     # Controller joints, in the controller's order.
     joints: list[str] = dataclasses.field(default_factory=list)
-    # Command interfaces; must hold position (the simulation drives positions).
+    # Joints commanded; empty or equal to joints (other command joints are not simulated).
+    command_joints: list[str] = dataclasses.field(default_factory=list)
+    # Command interfaces: [position], [position, velocity] or [position, velocity,
+    # acceleration] (the desired state's positions and velocities drive the position
+    # actuators); [velocity] or [effort]: a PID per joint on the tracking error (gains).
     command_interfaces: list[str] = dataclasses.field(default_factory=lambda: ["position"])
-    # State interfaces used; with velocity, a trajectory starts from the measured velocity.
+    # State interfaces read: position [, velocity [, acceleration]]; the first segment
+    # starts from the measured velocity only with velocity (acceleration reads 0 rad/s^2).
     state_interfaces: list[str] = dataclasses.field(
         default_factory=lambda: ["position", "velocity"]
     )
-    # Accept goals naming only some joints (the others hold their command).
+    # Accept goals naming only some joints (the others get their last command).
     allow_partial_joints_goal: bool = False
-    # splines (linear / cubic / quintic per segment) | none (hold each point).
+    # Start each trajectory from the last command instead of the measured state.
+    interpolate_from_desired_state: bool = False
+    # The older name of interpolate_from_desired_state (either one turns it on).
+    open_loop_control: bool = False
+    # Accept points without positions (or velocities) and integrate them from the
+    # velocities and accelerations given.
+    allow_integration_in_goal_trajectories: bool = False
+    # Hold the last command at activation (true) or the measured position (false).
+    set_last_command_interface_value_as_state_on_activation: bool = True
+    # [Hz] upstream's action-status polling rate (>= 0.1); the status output here
+    # changes at the update that decides it, so this rate moves nothing.
+    action_monitor_rate: float = 20.0
+    # The hardware's speed-scaling state interface; the simulated hardware has none, so
+    # the trajectory runs at upstream's default scaling factor 1.0.
+    speed_scaling_interface_name: str = "speed_scaling/speed_scaling_factor"
+    # splines (linear / cubic / quintic per segment) | none (the next point's values).
     interpolation_method: str = "splines"
-    # Accept a last point with non-zero velocities.
+    # Accept a last point with non-zero velocities (commanded after the end).
     allow_nonzero_velocity_at_trajectory_end: bool = False
+    # [s] after the end, hold the measured position if the goal is not reached; 0 = off,
+    # and off unless greater than goal_time (as upstream).
+    cmd_timeout: float = 0.0
     # [s] after the end to reach the goal; 0 = wait forever.
     goal_time: float = 0.0
-    # [rad/s] "stopped" at the goal; 0 = unchecked.
+    # [rad/s] allowed |desired - measured| velocity at the goal; 0 = unchecked. Upstream
+    # compares velocities only with a velocity or effort command interface; so do we.
     stopped_velocity_tolerance: float = 0.01
     # [rad] per joint: allowed |measured - desired| while running; absent or 0 = unchecked.
     trajectory_tolerance: dict[str, float] = dataclasses.field(default_factory=dict)
-    # [rad] per joint: allowed |measured - goal| after the end; absent or 0 = unchecked.
+    # [rad] per joint: allowed |measured - desired| after the end; absent or 0 = unchecked.
     goal_tolerance: dict[str, float] = dataclasses.field(default_factory=dict)
+    # Per joint, the PID gains of a velocity-only or effort command interface
+    # (u = ff_velocity_scale v_d + p e + clamp(integral of i e, +-i_clamp) + d de/dt);
+    # upstream uses none with position commands, neither do we.
+    gains: dict[str, JointGains] = dataclasses.field(default_factory=dict)
+
+    @property
+    def from_desired_state(self) -> bool:
+        """Whether trajectories start from the last command (open loop)."""
+        return self.interpolate_from_desired_state or self.open_loop_control
 
     def check(self, raw: dict[str, Any]) -> None:
         """Ranges and choices, each error naming its parameter."""
@@ -86,17 +186,37 @@ class JointTrajectoryControllerParams:
             ("state_interfaces", STATE_INTERFACES),
         ):
             _interfaces(raw.get(name), allowed, name)
-        if "effort" in self.command_interfaces:
-            raise ParameterError(
-                "command_interfaces",
-                "the 'effort' command interface is not simulated; use position",
-            )
+        _check_combinations(self.command_interfaces, self.state_interfaces)
         if self.interpolation_method not in INTERPOLATION_METHODS:
             raise ParameterError(
                 "interpolation_method",
                 f"unknown method {self.interpolation_method!r}; expected one of "
                 f"{list(INTERPOLATION_METHODS)}",
             )
+        if not self.action_monitor_rate >= 0.1:
+            raise ParameterError(
+                "action_monitor_rate",
+                f"action_monitor_rate={self.action_monitor_rate!r} must be >= 0.1 [Hz]",
+            )
+        implemented = {"p", "i", "d", "i_clamp", "ff_velocity_scale"}
+        for joint, gains in self.gains.items():
+            if not isinstance(gains, JointGains):
+                continue  # a subclass's own gains (ROS 1's effort trajectory controller)
+            for field in dataclasses.fields(JointGains):
+                value = getattr(gains, field.name)
+                if field.name in implemented:
+                    if not math.isfinite(value):
+                        raise ParameterError(
+                            f"gains.{joint}.{field.name}", f"{field.name}={value!r} must be finite"
+                        )
+                elif value != field.default:
+                    raise ParameterError(
+                        f"gains.{joint}.{field.name}",
+                        f"{field.name}={value!r} is not simulated; the PID has p, i, d, "
+                        "i_clamp and ff_velocity_scale",
+                    )
+        if not math.isfinite(self.cmd_timeout):
+            raise ParameterError("cmd_timeout", f"cmd_timeout={self.cmd_timeout!r} must be finite")
 
 
 def _interfaces(value: Any, allowed: tuple[str, ...], parameter: str) -> list[str]:
@@ -113,121 +233,332 @@ def _interfaces(value: Any, allowed: tuple[str, ...], parameter: str) -> list[st
             )
     if len(set(value)) != len(value):
         raise ParameterError(parameter, f"interfaces listed more than once: {value!r}")
-    if "position" not in value:
-        raise ParameterError(
-            parameter, f"{value!r} has no 'position'; the simulation drives positions"
-        )
     return list(value)
 
 
-@dataclasses.dataclass(frozen=True)
-class _Knot:
-    """One knot of the desired trajectory, in controller joint order."""
+def _check_combinations(command: list[str], state: list[str]) -> None:
+    """Upstream's interface combination rules (``validate_jtc_parameters``), then ours:
+    the simulated trajectory controller commands positions."""
+    if "effort" in command and len(command) > 1:
+        raise ParameterError(
+            "command_interfaces", "'effort' command interface has to be used alone"
+        )
+    if "velocity" in command and len(command) > 1 and "position" not in command:
+        raise ParameterError(
+            "command_interfaces",
+            "'velocity' command interface can be used either alone or 'position' command "
+            "interface has to be present",
+        )
+    if "acceleration" in command and not ("velocity" in command and "position" in command):
+        raise ParameterError(
+            "command_interfaces",
+            "'acceleration' command interface can only be used if 'velocity' and 'position' "
+            "command interfaces are present",
+        )
+    if "position" not in state:
+        raise ParameterError("state_interfaces", f"{state!r} has no 'position' state interface")
+    if "acceleration" in state and "velocity" not in state:
+        raise ParameterError(
+            "state_interfaces",
+            "'acceleration' state interface cannot be used if 'position' and 'velocity' "
+            "interfaces are not present",
+        )
+    alone = "velocity" if command == ["velocity"] else "effort" if "effort" in command else None
+    if alone and not ("velocity" in state and "position" in state):
+        raise ParameterError(
+            "state_interfaces",
+            f"'{alone}' command interface can only be used alone if 'velocity' and "
+            "'position' state interfaces are present",
+        )
+
+
+# --------------------------------------------------------------------------------------
+# The trajectory: upstream's trajectory.cpp, precomputed per segment
+
+
+@dataclasses.dataclass
+class _Point:
+    """One point in controller joint order; None = not given (upstream's empty vector)."""
 
     time: float  # [s] simulation time
-    positions: np.ndarray  # [rad] (n)
-    velocities: np.ndarray | None  # [rad/s] (n), None when not given
-    accelerations: np.ndarray | None  # [rad/s^2] (n), None when not given
+    positions: np.ndarray | None  # [rad] (n)
+    velocities: np.ndarray | None  # [rad/s] (n)
+    accelerations: np.ndarray | None  # [rad/s^2] (n)
+
+    def filled(self, field: str) -> np.ndarray:
+        values = getattr(self, field)
+        return np.zeros(len(self.positions)) if values is None else values
 
 
-def _segment_coefficients(a: _Knot, b: _Knot) -> np.ndarray:
-    """Per joint, the ascending coefficients in (t - a.time) of the segment a -> b.
-
-    Linear with positions only at either end, cubic Hermite when both ends give
-    velocities, quintic when both also give accelerations (upstream's rule).
-    """
+def _segment_coefficients(a: _Point, b: _Point) -> np.ndarray:
+    """Per joint, the ascending coefficients in (t - a.time) of the position on a -> b
+    (upstream's ``interpolate_between_points``): cubic when both ends give velocities,
+    quintic when both also give accelerations, else linear. (n, 6)"""
     T = b.time - a.time
     p0, p1 = a.positions, b.positions
+    table = np.zeros((len(p0), 6))
+    table[:, 0] = p0
     if a.velocities is None or b.velocities is None:
-        return np.stack([p0, (p1 - p0) / T], axis=1)
+        # Linear; also for accelerations without velocities, where upstream has no
+        # branch and commands zeros (one of our documented differences).
+        table[:, 1] = (p1 - p0) / T
+        return table
     v0, v1 = a.velocities, b.velocities
+    table[:, 1] = v0
     if a.accelerations is None or b.accelerations is None:
-        c2 = (3.0 * (p1 - p0) - (2.0 * v0 + v1) * T) / T**2
-        c3 = (2.0 * (p0 - p1) + (v0 + v1) * T) / T**3
-        return np.stack([p0, v0, c2, c3], axis=1)
+        table[:, 2] = (3.0 * (p1 - p0) - (2.0 * v0 + v1) * T) / T**2
+        table[:, 3] = (2.0 * (p0 - p1) + (v0 + v1) * T) / T**3
+        return table
     a0, a1 = a.accelerations, b.accelerations
-    c3 = (20.0 * (p1 - p0) - (8.0 * v1 + 12.0 * v0) * T - (3.0 * a0 - a1) * T**2) / (2.0 * T**3)
-    c4 = (30.0 * (p0 - p1) + (14.0 * v1 + 16.0 * v0) * T + (3.0 * a0 - 2.0 * a1) * T**2) / (
-        2.0 * T**4
+    table[:, 2] = 0.5 * a0
+    table[:, 3] = (20.0 * (p1 - p0) - (8.0 * v1 + 12.0 * v0) * T - (3.0 * a0 - a1) * T**2) / (
+        2.0 * T**3
     )
-    c5 = (12.0 * (p1 - p0) - 6.0 * (v1 + v0) * T - (a0 - a1) * T**2) / (2.0 * T**5)
-    return np.stack([p0, v0, 0.5 * a0, c3, c4, c5], axis=1)
+    c4 = 30.0 * (p0 - p1) + (14.0 * v1 + 16.0 * v0) * T + (3.0 * a0 - 2.0 * a1) * T**2
+    table[:, 4] = c4 / (2.0 * T**4)
+    table[:, 5] = (12.0 * (p1 - p0) - 6.0 * (v1 + v0) * T - (a0 - a1) * T**2) / (2.0 * T**5)
+    return table
+
+
+def interpolate_between_points(
+    time_a: float,
+    state_a: JointTrajectoryPoint,
+    time_b: float,
+    state_b: JointTrajectoryPoint,
+    sample_time: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Upstream's ``Trajectory::interpolate_between_points``: positions, velocities and
+    accelerations at ``sample_time`` on the segment a -> b (times [s]), of the degree
+    both ends allow; clamped to the segment's ends."""
+
+    def point(time, state):
+        def array(values):
+            return np.asarray(values, float) if len(values) else None
+
+        return _Point(
+            time, array(state.positions), array(state.velocities), array(state.accelerations)
+        )
+
+    a, b = point(time_a, state_a), point(time_b, state_b)
+    tau = min(max(sample_time - time_a, 0.0), time_b - time_a)
+    if not time_a <= sample_time <= time_b:  # upstream clamps, and goes linear
+        b = dataclasses.replace(b, velocities=None, accelerations=None)
+    coefficients = _segment_coefficients(a, b)
+    powers = tau**_EXPONENTS
+    velocity = coefficients[:, 1:] @ (_DERIVATIVE * tau ** (_DERIVATIVE - 1))
+    acceleration = coefficients[:, 2:] @ (
+        _DERIVATIVE[1:] * _DERIVATIVE[:-1] * tau ** (_DERIVATIVE[:-1] - 1)
+    )
+    return coefficients @ powers, velocity, acceleration
+
+
+def _deduce_from_derivatives(a: _Point, b: _Point) -> None:
+    """Upstream's ``deduce_from_derivatives``: b's missing positions (and velocities)
+    integrated from a's, with the trapezoid rule (a's missing ones are zero)."""
+    if b.positions is not None:
+        return
+    n = len(a.positions)
+    dt = b.time - a.time
+    if a.velocities is None:
+        a.velocities = np.zeros(n)
+    if b.velocities is None:
+        if a.accelerations is None:
+            a.accelerations = np.zeros(n)
+        b.velocities = a.velocities + (a.accelerations + b.filled("accelerations")) * 0.5 * dt
+    b.positions = a.positions + (a.velocities + b.velocities) * 0.5 * dt
+
+
+@dataclasses.dataclass(frozen=True)
+class TrajectorySample:
+    """What upstream's ``Trajectory::sample`` returns, in controller joint order."""
+
+    positions: np.ndarray  # [rad] (n)
+    velocities: np.ndarray  # [rad/s] (n)
+    accelerations: np.ndarray  # [rad/s^2] (n)
+    segment: tuple[int, int]  # indices of the points around the sample (see sample())
 
 
 _DEGREE = 5  # highest segment degree (quintic)
 _EXPONENTS = np.arange(_DEGREE + 1)
+_DERIVATIVE = np.arange(1, _DEGREE + 1)  # d/dt of c_k t^k is k c_k t^(k-1)
 
 
 @dataclasses.dataclass(frozen=True)
-class _ActiveTrajectory:
-    """An accepted trajectory, sampled at each update. Never mutated.
+class SampledTrajectory:
+    """An accepted trajectory as upstream's ``Trajectory::sample`` sees it, with each
+    segment's coefficients computed once. Never mutated.
 
-    The segments are kept as one coefficient table and sampled with one matrix
-    product (no pybind call: inside a simulation each costs tens of microseconds,
-    so Drake's ``PiecewisePolynomial.value`` here cost more than the rest of the
-    tick).
+    The segments are one coefficient table sampled with one matrix product (no
+    pybind call: inside a simulation each costs tens of microseconds, so Drake's
+    ``PiecewisePolynomial.value`` here cost more than the rest of the tick).
     """
 
-    breaks: tuple[float, ...]  # [s] knot times (segments + 1); () if it has ended on arrival
-    # Per segment, ascending coefficients in (t - break) of [q_d; v_d] (2n rows): (s, 2n, 6);
-    # for interpolation_method none, the held positions and velocities.
+    breaks: tuple[float, ...]  # [s] segment start times, then the last point's time
+    # Per segment, ascending coefficients in (t - break) of [q; v] (2n rows): (s, 2n, 6).
+    # For interpolation_method none each segment is constant (column 0).
     coefficients: np.ndarray
     end_time: float  # [s] time of the last point
-    goal: np.ndarray  # [rad] positions of the last point (n)
+    # [rad, rad/s, rad/s^2] what upstream commands after the last point: its positions,
+    # velocities and accelerations (zero where not given), as [q; v; a] (3n).
+    final: np.ndarray
+    # [rad/s^2] per segment the constant accelerations of interpolation_method none (s, n).
+    held_accelerations: np.ndarray | None = None
+    # [s] time of the state before the trajectory (the update that first sampled it).
+    before_time: float = -math.inf
+    # Whether the first segment runs from the state before the trajectory to the first
+    # point (the first point was still to come when the trajectory was first sampled).
+    from_before: bool = False
 
     def __deepcopy__(self, memo):
         return self
 
-    def sample(self, time: float) -> tuple[np.ndarray, np.ndarray, bool]:
-        """Desired (q, v) at ``time`` and whether the trajectory has ended."""
-        if not self.breaks or time >= self.end_time:
-            return self.goal.copy(), np.zeros_like(self.goal), True
-        x_d = self.sample_state(time)
-        n = len(self.goal)
-        return x_d[:n], x_d[n:], False
+    @property
+    def n(self) -> int:
+        return len(self.final) // 3
 
-    def sample_state(self, time: float) -> np.ndarray:
-        """[q_d; v_d] (2n) at ``time`` before the end (one matrix product)."""
+    def ended(self, time: float) -> bool:
+        """Whether ``time`` is at or past the last point (upstream: "whole animation has
+        played out", the end segment iterator at ``end()``)."""
+        return time >= self.end_time
+
+    def state(self, time: float) -> np.ndarray:
+        """[q; v] (2n) at ``time`` [s]: the segment's polynomial, or the last point."""
+        if time >= self.end_time:
+            return self.final[: 2 * self.n]
         k = max(bisect.bisect_right(self.breaks, time) - 1, 0)
         return self.coefficients[k] @ (max(time - self.breaks[k], 0.0) ** _EXPONENTS)
 
+    def acceleration(self, time: float) -> np.ndarray:
+        """[rad/s^2] (n) at ``time`` [s]."""
+        n = self.n
+        if time >= self.end_time:
+            return self.final[2 * n :]
+        k = max(bisect.bisect_right(self.breaks, time) - 1, 0)
+        if self.held_accelerations is not None:
+            return self.held_accelerations[k]
+        tau = max(time - self.breaks[k], 0.0)
+        return self.coefficients[k, n:, 1:] @ (_DERIVATIVE * tau ** (_DERIVATIVE - 1))
+
+    def sample(self, time: float) -> "TrajectorySample | None":
+        """Upstream's ``Trajectory::sample`` at ``time`` [s]: None before the state
+        before the trajectory, else the positions, velocities, accelerations and the
+        segment's point indices (upstream's start and end iterators: (0, 0) before the
+        first point, (i, i + 1) from point i to i + 1, (last, count) after the end)."""
+        if time < self.before_time:
+            return None
+        n = self.n
+        x = self.state(time)
+        count = len(self.breaks) - (1 if self.from_before else 0)
+        if self.ended(time):
+            segment = (count - 1, count)
+        else:
+            k = max(bisect.bisect_right(self.breaks, time) - 1, 0)
+            k -= 1 if self.from_before else 0
+            segment = (0, 0) if k < 0 else (k, k + 1)
+        return TrajectorySample(x[:n].copy(), x[n:].copy(), self.acceleration(time), segment)
+
     @staticmethod
-    def build(knots: list[_Knot], hold: bool) -> "_ActiveTrajectory":
-        goal = knots[-1].positions.copy()
-        n = len(goal)
-        if len(knots) < 2:
-            empty = np.zeros((0, 2 * n, _DEGREE + 1))
-            return _ActiveTrajectory((), empty, knots[-1].time, goal)
+    def from_message(
+        message: JointTrajectory,
+        *,
+        time: float,
+        positions,
+        velocities=None,
+        accelerations=None,
+        interpolation_method: str = "splines",
+    ) -> "SampledTrajectory":
+        """Upstream's ``Trajectory(current_time, current_point, msg)`` first sampled at
+        ``time`` [s] (the start, when the message's stamp is 0): ``message`` (its joints in
+        the controller's order) from the state before it, ``positions`` [rad] and, when
+        given, ``velocities`` [rad/s] and ``accelerations`` [rad/s^2]."""
+        start = message.stamp if message.stamp != 0.0 else time
+
+        def array(values):
+            return None if values is None or len(values) == 0 else np.asarray(values, float)
+
+        points = [
+            _Point(
+                start + point.time_from_start,
+                array(point.positions),
+                array(point.velocities),
+                array(point.accelerations),
+            )
+            for point in message.points
+        ]
+        before = _Point(time, array(positions), array(velocities), array(accelerations))
+        return SampledTrajectory.build(
+            before, points, interpolate=interpolation_method == "splines"
+        )
+
+    @staticmethod
+    def hold(positions: np.ndarray, velocities: np.ndarray | None = None) -> "SampledTrajectory":
+        """Upstream's hold trajectory: one point at ``positions`` (zero velocities unless
+        given, zero accelerations), commanded from its start on."""
+        n = len(positions)
+        velocities = np.zeros(n) if velocities is None else velocities
+        final = np.concatenate([positions, velocities, np.zeros(n)])
+        return SampledTrajectory((), np.zeros((0, 2 * n, _DEGREE + 1)), -math.inf, final)
+
+    @staticmethod
+    def build(before: _Point, points: list[_Point], *, interpolate: bool) -> "SampledTrajectory":
+        """The trajectory through ``points`` (controller order, absolute times) that
+        starts from ``before``, the state before the trajectory at the update that
+        first samples it. ``points`` are not changed."""
+        points = [dataclasses.replace(point) for point in points]
+        before = dataclasses.replace(before)
+        first = points[0]
+        # set_point_before_trajectory_msg: the first segment gets the trajectory's degree.
+        if before.velocities is None and first.velocities is not None:
+            before.velocities = np.zeros(len(before.positions))
+        if before.accelerations is None and first.accelerations is not None:
+            before.accelerations = np.zeros(len(before.positions))
+        knots = [before, *points] if first.time > before.time else points
+        for a, b in zip(knots[:-1], knots[1:], strict=True):
+            _deduce_from_derivatives(a, b)
+        if knots[0].positions is None:  # the first point is already due: nothing to integrate
+            knots[0].positions = before.positions.copy()
+        last = knots[-1]
+        n = len(last.positions)
+        final = np.concatenate(
+            [last.positions, last.filled("velocities"), last.filled("accelerations")]
+        )
         breaks = tuple(float(knot.time) for knot in knots)
         table = np.zeros((len(knots) - 1, 2 * n, _DEGREE + 1))
+        held = None if interpolate else np.zeros((len(knots) - 1, n))
         for k, (a, b) in enumerate(zip(knots[:-1], knots[1:], strict=True)):
-            if hold:
-                # interpolation_method: none -- each point's values until the next one.
-                table[k, :n, 0] = a.positions
-                if a.velocities is not None:
-                    table[k, n:, 0] = a.velocities
+            if not interpolate:
+                # interpolation_method none: the next point's values until it is reached;
+                # before the first point, the state before the trajectory.
+                shown = a if a is before else b
+                table[k, :n, 0] = shown.positions
+                table[k, n:, 0] = shown.filled("velocities")
+                held[k] = shown.filled("accelerations")
                 continue
             coefficients = _segment_coefficients(a, b)
-            degree = coefficients.shape[1] - 1
-            table[k, :n, : degree + 1] = coefficients
-            table[k, n:, :degree] = coefficients[:, 1:] * np.arange(1, degree + 1)
-        return _ActiveTrajectory(breaks, table, breaks[-1], goal)
+            table[k, :n] = coefficients
+            table[k, n:, :_DEGREE] = coefficients[:, 1:] * _DERIVATIVE
+        return SampledTrajectory(
+            breaks, table, breaks[-1], final, held, before.time, knots[0] is before
+        )
 
 
-_IGNORED = frozenset(
-    {
-        "open_loop_control",
-        "state_publish_rate",
-        "action_monitor_rate",
-        "allow_integration_in_goal_trajectories",
-        "gains",
-        "cmd_timeout",
-        "set_last_command_interface_value_as_state_on_activation",
-        "interpolate_from_desired_state",
-        "speed_scaling",
-        "speed_scaling_interface_name",
-    }
-)
+# Upstream parameters the simulation cannot honour: refused with the reason.
+_REFUSED = {
+    "state_publish_rate": "not a parameter of upstream's Jazzy schema (Humble's; removed)",
+    "speed_scaling": "speed scaling is not simulated (the trajectory runs at speed 1.0)",
+    "decelerate_on_cancel": "not a parameter of upstream's Jazzy schema (rolling's)",
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class _PidState:
+    """What the closed-loop adapter keeps between updates."""
+
+    integral: np.ndarray  # [command unit] the PIDs' integral terms, unclamped (n)
+    tracked: np.ndarray  # [rad, rad/s] the tracked desired state [q_d; v_d] (2n)
+    # Whether the tracking has work at the next update whatever arrives: an abort's hold,
+    # or reading the measured position at activation.
+    pending: bool = False
 
 
 @register("joint_trajectory_controller/JointTrajectoryController")
@@ -236,7 +567,7 @@ class JointTrajectoryController(Controller):
     module docstring); the controller manager runs it."""
 
     parameters = JointTrajectoryControllerParams
-    ignored_parameters = _IGNORED
+    refused_parameters = _REFUSED
     message = JointTrajectory
     topic = "joint_trajectory"
     fixed_interface = "position"
@@ -244,29 +575,24 @@ class JointTrajectoryController(Controller):
 
     @classmethod
     def known_parameters(cls) -> frozenset[str]:
-        return frozenset(
-            {
-                "joints",
-                "command_joints",
-                "command_interfaces",
-                "state_interfaces",
-                "allow_partial_joints_goal",
-                "interpolation_method",
-                "allow_nonzero_velocity_at_trajectory_end",
-                "constraints",
-            }
-        )
+        names = {f.name for f in dataclasses.fields(cls.parameters)}
+        names -= {"goal_time", "stopped_velocity_tolerance", "trajectory_tolerance"}
+        names -= {"goal_tolerance"}
+        return frozenset(names | {"constraints"})
 
     @classmethod
     def ros_layout(cls, raw: dict[str, Any]) -> dict[str, Any]:
-        """ROS's ``constraints`` mapping as the flat fields of the parameters."""
+        """ROS's ``constraints`` and ``gains`` mappings as the flat fields of the
+        parameters."""
         if "joints" not in raw:
             raise ParameterError("joints", "'joints' parameter is missing")
         joints = joint_list(raw["joints"])
-        command_joints = raw.pop("command_joints", None)
+        command_joints = raw.get("command_joints")
         if command_joints not in (None, [], joints):
             raise ParameterError(
-                "command_joints", f"{command_joints!r} differs from joints {joints}; not simulated"
+                "command_joints",
+                f"{command_joints!r} differs from joints {joints}; command joints other than "
+                "the joints (controller chains, passive joints) are not simulated",
             )
         constraints = raw.pop("constraints", None) or {}
         if not isinstance(constraints, dict):
@@ -276,6 +602,8 @@ class JointTrajectoryController(Controller):
             where = f"constraints.{name}"
             if name in ("goal_time", "stopped_velocity_tolerance"):
                 raw[name] = non_negative(value, where)
+            elif name == "decelerate_on_cancel":
+                raise ParameterError(where, _REFUSED["decelerate_on_cancel"])
             elif name in joints:
                 if not isinstance(value, dict):
                     raise ParameterError(where, f"expected 'trajectory' and 'goal', got {value!r}")
@@ -296,6 +624,17 @@ class JointTrajectoryController(Controller):
                 )
         raw["trajectory_tolerance"] = trajectory_tolerance
         raw["goal_tolerance"] = goal_tolerance
+        gains = raw.get("gains")
+        if gains is not None:
+            if not isinstance(gains, dict):
+                raise ParameterError("gains", f"expected a mapping of joints, got {gains!r}")
+            for joint, values in gains.items():
+                if joint not in joints:
+                    raise ParameterError(
+                        f"gains.{joint}", f"'{joint}' is not one of the controller's joints"
+                    )
+                if not isinstance(values, dict):
+                    raise ParameterError(f"gains.{joint}", f"expected a mapping, got {values!r}")
         return raw
 
     def __init__(self, *, name, joints, params=None):
@@ -309,18 +648,128 @@ class JointTrajectoryController(Controller):
                 f"interpolation_method={params.interpolation_method!r} must be splines or none"
             )
         self._params = params
+        self._interpolate = params.interpolation_method == "splines"
         self._path_tolerance = np.array(
             [params.trajectory_tolerance.get(name, 0.0) for name in names]
         )
         self._goal_tolerance = np.array([params.goal_tolerance.get(name, 0.0) for name in names])
-        # [rad] the path tolerance as a bound to compare with (inf where unchecked).
+        # [rad] the tolerances as bounds to compare with (inf where unchecked).
         self._path_limit = np.where(self._path_tolerance > 0, self._path_tolerance, np.inf)
+        self._goal_limit = np.where(self._goal_tolerance > 0, self._goal_tolerance, np.inf)
+        # Upstream's velocity error exists only with a velocity state interface and a
+        # velocity or effort command interface; else stopped_velocity_tolerance is moot.
+        commands, states = params.command_interfaces, params.state_interfaces
+        self._velocity_error = "velocity" in states and (
+            "velocity" in commands or "effort" in commands
+        )
+        self._measured_velocity = "velocity" in states
+        self._measured_acceleration = "acceleration" in states
+        # [s] cmd_timeout, 0 when off (upstream: only when greater than goal_time).
+        self._cmd_timeout = params.cmd_timeout if params.cmd_timeout > params.goal_time else 0.0
+        if params.cmd_timeout > 0 and not self._cmd_timeout:
+            self.log_warning(
+                name,
+                f"Command timeout must be higher than goal_time tolerance "
+                f"({params.cmd_timeout:f} vs. {params.goal_time:f})",
+            )
         # [rad, rad/s] bounds of [q_d; v_d]: the position limits, velocities unbounded.
         self._state_lower = np.concatenate([self.lower, np.full(self.n, -np.inf)])
         self._state_upper = np.concatenate([self.upper, np.full(self.n, np.inf)])
+        # [s] the update period, set by the controller manager (upstream's update_period_).
+        self.update_period = 0.0
+        # The PID gains per joint (arrays) with a velocity-only or effort command
+        # interface, else None.
+        self._pid = None
+        if commands == ["velocity"] or "effort" in commands:
+            gains = [params.gains.get(joint, JointGains()) for joint in names]
+            self._pid = {
+                "p": np.array([g.p for g in gains]),
+                "i": np.array([g.i for g in gains]),
+                "d": np.array([g.d for g in gains]),
+                "i_clamp": np.array([abs(g.i_clamp) for g in gains]),
+                "ff": np.array([g.ff_velocity_scale for g in gains]),
+            }
+
+    @classmethod
+    def command_interface(cls, params) -> str:
+        """The joints' command interface: position (with velocity and acceleration
+        commands as the desired state's), or velocity or effort alone (a PID per joint
+        on the tracking error, upstream's closed-loop adapter)."""
+        if params.command_interfaces == ["velocity"]:
+            return "velocity"
+        return "effort" if "effort" in params.command_interfaces else "position"
+
+    @classmethod
+    def position_targets(cls, params) -> bool:
+        return True  # its trajectories are positions, whatever interface it commands
+
+    def configure(self, *, update_rate: int) -> None:
+        """The controller manager's rate: the trajectory is sampled one period ahead."""
+        self.update_period = 1.0 / update_rate
+
+    def initial_memory(self) -> ControllerMemory:
+        memory = super().initial_memory()
+        if self._pid is not None:
+            # The PID runs at every update, from activation on (holding the start).
+            activation = not self._params.set_last_command_interface_value_as_state_on_activation
+            state = _PidState(np.zeros(self.n), memory.desired, pending=activation)
+            return dataclasses.replace(memory, running=True, internal=state)
+        if self._params.set_last_command_interface_value_as_state_on_activation:
+            return memory  # the hardware's command interfaces hold their initial values
+        # Hold the measured position read at activation (the first update).
+        return dataclasses.replace(memory, running=True)
+
+    def update(self, now, message, memory, measure):
+        if self._pid is None:
+            return self._Track(now, message, memory, measure)
+        # Upstream's closed-loop adapter: the trajectory tracked as with position commands,
+        # then u = ff_velocity_scale v_d(t + dt) + PID(q_d(t) - q, v_d(t) - v) per joint.
+        state = memory.internal
+        # _Track's own "work at the next update": an abort's hold, the activation's read.
+        own = dataclasses.replace(
+            memory, desired=state.tracked, running=state.pending, internal=None
+        )
+        tracked = self._Track(now, message, own, measure)
+        n = self.n
+        if tracked.status.state == "aborted" and tracked.running:
+            # The aborting update writes nothing: the previous command stays.
+            return dataclasses.replace(
+                memory,
+                status=tracked.status,
+                trajectory=tracked.trajectory,
+                running=True,
+                reference=tracked.reference,
+                internal=_PidState(state.integral, tracked.desired, pending=True),
+            )
+        q, v = measure(tracked.desired)
+        if tracked.trajectory is None:
+            reference = tracked.desired
+        elif tracked.status.state == "executing":
+            reference = tracked.trajectory.state(now)
+        else:
+            reference = tracked.trajectory.final[: 2 * n]
+        gains = self._pid
+        error, error_dot = reference[:n] - q, reference[n:] - v
+        integral = state.integral + gains["i"] * self.update_period * error
+        integral_term = np.clip(integral, -gains["i_clamp"], gains["i_clamp"])
+        command = (
+            gains["ff"] * tracked.desired[n:]
+            + gains["p"] * error
+            + integral_term
+            + gains["d"] * error_dot
+        )
+        internal = _PidState(integral, tracked.desired)
+        if self.interface == "effort":
+            limit = self.joints.effort
+            return dataclasses.replace(
+                tracked, effort=np.clip(command, -limit, limit), internal=internal, running=True
+            )
+        limit = self.joints.velocity
+        desired = np.concatenate([tracked.desired[:n], np.clip(command, -limit, limit)])
+        return dataclasses.replace(tracked, desired=desired, internal=internal, running=True)
 
     def _Validate(self, message, now: float) -> list[int]:
-        """Controller index of each message joint; raises _Rejected in upstream's order."""
+        """Controller index of each message joint; raises Rejected in upstream's order."""
         if not isinstance(message, JointTrajectory):
             raise Rejected(f"expected a JointTrajectory message, got {type(message).__name__}")
         names = list(message.joint_names)
@@ -352,6 +801,7 @@ class JointTrajectoryController(Controller):
                     f"Received trajectory with non-zero start time ({message.stamp:f}) "
                     f"that ends in the past ({end:f})"
                 )
+        integrate = self._params.allow_integration_in_goal_trajectories
         for i, point in enumerate(points):
             time = point.time_from_start
             if not math.isfinite(time):
@@ -363,9 +813,12 @@ class JointTrajectoryController(Controller):
                     f"Time between points {i - 1} and {i} is not strictly increasing, "
                     f"it is {points[i - 1].time_from_start:f} and {time:f} respectively"
                 )
+            if integrate and not (point.positions or point.velocities or point.accelerations):
+                raise Rejected(f"Point #{i} has no positions, velocities or accelerations.")
             for field in ("positions", "velocities", "accelerations"):
                 values = getattr(point, field)
-                if field != "positions" and len(values) == 0:
+                optional = field != "positions" or integrate
+                if optional and len(values) == 0:
                     continue
                 if len(values) != len(names):
                     raise Rejected(
@@ -382,13 +835,13 @@ class JointTrajectoryController(Controller):
                     raise Rejected(f"Non-finite value in {field} at point #{i}.")
         return [self.joint_names.index(name) for name in names]
 
-    def _Knots(self, message, indices, now, desired, q, v) -> list[_Knot]:
-        """The trajectory's knots in controller order, starting from the current state."""
+    def _Points(self, message, indices, now, desired) -> list[_Point]:
+        """The message's points in controller order (``fill_partial_goal``: a joint it
+        leaves out gets its last command, zero velocity and acceleration)."""
         n = self.n
-        named = np.zeros(n, dtype=bool)
-        named[indices] = True
-        command = desired[:n]
         start = message.stamp if message.stamp != 0.0 else now
+        command = desired[:n]
+        zeros = np.zeros(n)
 
         def full(values, fill):
             if len(values) == 0:
@@ -397,120 +850,148 @@ class JointTrajectoryController(Controller):
             result[indices] = values
             return result
 
-        knots = [
-            _Knot(
+        return [
+            _Point(
                 time=start + point.time_from_start,
                 positions=full(point.positions, command),
-                velocities=full(point.velocities, np.zeros(n)),
-                accelerations=full(point.accelerations, np.zeros(n)),
+                velocities=full(point.velocities, zeros),
+                accelerations=full(point.accelerations, zeros),
             )
             for point in message.points
         ]
-        if knots[0].time > now:
-            hold = self._params.interpolation_method == "none"
-            measured_velocity = "velocity" in self._params.state_interfaces and not hold
-            current = _Knot(
-                time=now,
-                positions=np.where(named, q, command),
-                velocities=np.where(named, v, 0.0) if measured_velocity else None,
-                accelerations=None,
-            )
-            knots.insert(0, current)
-        return knots
 
-    def update(self, now, message, memory, measure):
-        if message is None and not memory.busy:
-            return memory  # nothing new and nothing running: the desired state holds
-        if message is None and now < memory.trajectory.end_time and memory.trajectory.breaks:
-            # The common tick: sample the running trajectory, check the path tolerance
-            # (vectorised), nothing else; any event goes the long way below.
-            x_d = memory.trajectory.sample_state(now)
-            q, _ = measure(memory.desired)
-            if not (np.abs(q - x_d[: self.n]) > self._path_limit).any():
-                x_d = np.minimum(np.maximum(x_d, self._state_lower), self._state_upper)
-                return ControllerMemory(x_d, memory.status, memory.trajectory)
+    def _Before(self, now, memory, q, v) -> _Point:
+        """The state before the trajectory: measured, or the last command (open loop)."""
         n = self.n
-        desired = memory.desired
-        status, trajectory = memory.status, memory.trajectory
+        if self._params.from_desired_state:
+            trajectory = memory.trajectory
+            if trajectory is not None and memory.status.state == "executing":
+                x = trajectory.state(now)
+                return _Point(now, x[:n].copy(), x[n:].copy(), trajectory.acceleration(now))
+            if trajectory is not None:  # holding: the hold point
+                final = trajectory.final
+                return _Point(now, final[:n].copy(), final[n : 2 * n].copy(), final[2 * n :])
+            return _Point(now, memory.desired[:n].copy(), memory.desired[n:].copy(), np.zeros(n))
+        velocities = v.copy() if self._measured_velocity else None
+        # No acceleration is measured: an acceleration state interface reads zero.
+        accelerations = np.zeros(n) if self._measured_acceleration else None
+        return _Point(now, q.copy(), velocities, accelerations)
+
+    def _Command(self, x: np.ndarray) -> np.ndarray:
+        """[q_d; v_d] written to the hardware: positions clamped into the joint limits."""
+        return np.minimum(np.maximum(x, self._state_lower), self._state_upper)
+
+    def _Track(self, now, message, memory, measure):
+        """The update of the trajectory tracking (upstream's, position commands)."""
+        if message is None and not memory.busy:
+            return memory  # nothing new and nothing running: the commands hold
+        ahead = now + self.update_period
+        trajectory = memory.trajectory
+        if message is None and memory.status.state == "executing":
+            # The common tick: the command at t + dt, the path check against the sample
+            # at t (the previous tick's command, kept unclamped), nothing else.
+            reference = memory.reference
+            if not trajectory.ended(ahead):
+                x_d = reference[1] if abs(reference[0] - now) < 1e-9 else trajectory.state(now)
+                q, _ = measure(memory.desired)
+                if not (np.abs(q - x_d[: self.n]) > self._path_limit).any():
+                    x_next = trajectory.state(ahead)
+                    return ControllerMemory(
+                        self._Command(x_next), memory.status, trajectory, reference=(ahead, x_next)
+                    )
+        n = self.n
+        desired, status = memory.desired, memory.status
         q, v = measure(desired)
+        first_sample = False
         if message is not None:
             try:
                 indices = self._Validate(message, now)
             except Rejected as rejection:
                 status = self.reject(status, str(rejection))
+                message = None
             else:
-                knots = self._Knots(message, indices, now, desired, q, v)
-                trajectory = _ActiveTrajectory.build(
-                    knots, self._params.interpolation_method == "none"
-                )
-                detail = {"start_time": knots[0].time, "end_time": trajectory.end_time}
+                points = self._Points(message, indices, now, desired)
+                before = self._Before(now, memory, q, v)
+                trajectory = SampledTrajectory.build(before, points, interpolate=self._interpolate)
+                first_sample = True
+                detail = {"start_time": trajectory.breaks[0], "end_time": trajectory.end_time}
                 outside = [
                     f"point positions of joint '{name}' leave its limits [{lo!r}, {hi!r}]; "
                     f"the desired position is clamped"
                     for j, (name, lo, hi) in enumerate(
                         zip(self.joint_names, self.lower.tolist(), self.upper.tolist(), strict=True)
                     )
-                    if any(not lo <= k.positions[j] <= hi for k in knots[-len(message.points) :])
+                    if any(
+                        p.positions is not None and not lo <= p.positions[j] <= hi for p in points
+                    )
                 ]
                 if outside:
                     detail["warning"] = "; ".join(outside)
                     self.log_warning(self.name, detail["warning"])
-                status = dataclasses.replace(
-                    status, state="executing", accepted=status.accepted + 1, detail=detail
-                )
-        if trajectory is None or status.state != "executing":
-            return ControllerMemory(desired, status, trajectory)
-        q_d, v_d, ended = trajectory.sample(now)
+                status = self.accept(status, "executing", detail)
+        if status.state != "executing":
+            if memory.running and trajectory is not None:
+                # An abort's hold, from the update after it.
+                hold = self._Command(trajectory.final[: 2 * n])
+                return ControllerMemory(hold, status, trajectory)
+            if memory.running:  # activation without the command interfaces' values
+                return ControllerMemory(np.concatenate([q, np.zeros(n)]), status)
+            return ControllerMemory(desired, status, trajectory, reference=memory.reference)
+        reference = memory.reference if message is None else None
+        x_now = (
+            reference[1]
+            if reference is not None and abs(reference[0] - now) < 1e-9
+            else trajectory.state(now)
+        )
+        ended = trajectory.ended(ahead)
+        x_next = trajectory.state(ahead)
+        error = np.abs(x_now[:n] - q)
         outcome = None
-        if not ended:
-            error = np.abs(q - q_d)
-            violated = (self._path_tolerance > 0) & (error > self._path_tolerance)
-            if np.any(violated):
-                j = int(np.argmax(violated))
+        if (not ended or first_sample) and (error > self._path_limit).any():
+            j = int(np.argmax(error > self._path_limit))
+            outcome = (
+                f"path tolerance violated: joint '{self.joint_names[j]}' is "
+                f"{error[j]:.6g} rad from its desired position {x_now[j]:.6g} (trajectory "
+                f"tolerance {self._path_tolerance[j]:g})"
+            )
+        elif ended:
+            late = now - trajectory.end_time
+            far = error > self._goal_limit
+            velocity_error = np.abs(x_now[n:] - v) if self._velocity_error else np.zeros(n)
+            tolerance = self._params.stopped_velocity_tolerance
+            moving = (tolerance > 0) & (velocity_error > tolerance)
+            if not far.any() and not moving.any():
+                status = dataclasses.replace(status, state="succeeded", detail=dict(status.detail))
+                hold = SampledTrajectory.hold(trajectory.final[:n], trajectory.final[n : 2 * n])
+                return ControllerMemory(self._Command(x_next), status, hold)
+            goal_time = self._params.goal_time
+            if goal_time > 0 and late > goal_time:
+                if far.any():
+                    j = int(np.argmax(far))
+                    problem = (
+                        f"joint '{self.joint_names[j]}' is {error[j]:.6g} rad from its desired "
+                        f"position {x_now[j]:.6g} (goal tolerance {self._goal_tolerance[j]:g})"
+                    )
+                else:
+                    j = int(np.argmax(moving))
+                    problem = (
+                        f"joint '{self.joint_names[j]}' moves at {v[j]:.6g} rad/s, "
+                        f"{velocity_error[j]:.6g} rad/s from its desired velocity "
+                        f"(stopped_velocity_tolerance {tolerance:g})"
+                    )
+                outcome = f"goal tolerance violated: {problem} {late:.6g} s after the end"
+            elif self._cmd_timeout > 0 and late > self._cmd_timeout:
                 outcome = (
-                    "aborted",
-                    f"path tolerance violated: joint '{self.joint_names[j]}' is "
-                    f"{error[j]:.6g} rad from its desired position {q_d[j]:.6g} (trajectory "
-                    f"tolerance {self._path_tolerance[j]:g})",
+                    f"Aborted due to command timeout: the goal is not reached {late:.6g} s "
+                    f"after the end (cmd_timeout {self._cmd_timeout:g})"
                 )
-        else:
-            outcome = self._GoalOutcome(now, trajectory, q, v)
-        if outcome is not None and outcome[0] == "aborted":
-            q_d, v_d = q.copy(), np.zeros(n)
-            self.log_warning(self.name, outcome[1])
-            status = dataclasses.replace(
-                status, state="aborted", last_error=outcome[1], detail=dict(status.detail)
-            )
-        elif outcome is not None:
-            status = dataclasses.replace(status, state="succeeded", detail=dict(status.detail))
         if outcome is not None:
-            trajectory = None
-        q_d = np.clip(q_d, self.lower, self.upper)
-        return ControllerMemory(np.concatenate([q_d, v_d]), status, trajectory)
-
-    def _GoalOutcome(self, now, trajectory, q, v) -> tuple[str, str] | None:
-        """("succeeded", "") at the goal, ("aborted", reason) past goal_time, else None."""
-        goal = np.clip(trajectory.goal, self.lower, self.upper)
-        error = np.abs(q - goal)
-        far = (self._goal_tolerance > 0) & (error > self._goal_tolerance)
-        stopped_tolerance = self._params.stopped_velocity_tolerance
-        moving = (stopped_tolerance > 0) & (np.abs(v) > stopped_tolerance)
-        if not np.any(far) and not np.any(moving):
-            return ("succeeded", "")
-        goal_time = self._params.goal_time
-        late = now - trajectory.end_time
-        if goal_time <= 0 or late <= goal_time:
-            return None
-        if np.any(far):
-            j = int(np.argmax(far))
-            problem = (
-                f"joint '{self.joint_names[j]}' is {error[j]:.6g} rad from its goal {goal[j]:.6g} "
-                f"(goal tolerance {self._goal_tolerance[j]:g})"
+            # Upstream writes nothing at this update and holds the measured position
+            # from the next one on.
+            self.log_warning(self.name, outcome)
+            status = dataclasses.replace(
+                status, state="aborted", last_error=outcome, detail=dict(status.detail)
             )
-        else:
-            j = int(np.argmax(moving))
-            problem = (
-                f"joint '{self.joint_names[j]}' still moves at {v[j]:.6g} rad/s "
-                f"(stopped_velocity_tolerance {stopped_tolerance:g})"
-            )
-        return ("aborted", f"goal tolerance violated: {problem} {late:.6g} s after the end")
+            return ControllerMemory(desired, status, SampledTrajectory.hold(q.copy()), running=True)
+        command = self._Command(x_next)
+        return ControllerMemory(command, status, trajectory, reference=(ahead, x_next))

@@ -195,9 +195,17 @@ class Ros1JointTrajectoryController(JointTrajectoryController):
     parameters (no interface lists; any velocity at the last point accepted)."""
 
     topic = ROS1_TOPIC
-    ignored_parameters = JointTrajectoryController.ignored_parameters | frozenset(
-        {"stop_trajectory_duration", "hold_trajectory_duration", "velocity_ff"}
+    # ROS 1's own parameters that do not change the motion here.
+    ignored_parameters = frozenset(
+        {
+            "stop_trajectory_duration",
+            "hold_trajectory_duration",
+            "velocity_ff",
+            "state_publish_rate",
+            "action_monitor_rate",
+        }
     )
+    refused_parameters = {}
 
     @classmethod
     def known_parameters(cls) -> frozenset[str]:
@@ -409,6 +417,10 @@ class EffortJointTrajectoryController(Ros1JointTrajectoryController):
 
     parameters = EffortTrajectoryParameters
     fixed_interface = "effort"
+
+    @classmethod
+    def command_interface(cls, params) -> str:
+        return "effort"  # its own PIDs (ROS 1's adapter), not the ROS 2 closed loop
 
     @classmethod
     def known_parameters(cls) -> frozenset[str]:

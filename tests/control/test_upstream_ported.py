@@ -1,0 +1,685 @@
+"""Upstream's tests, ported: ros2_controllers (Jazzy, with PR #1306) test_trajectory.cpp,
+test_trajectory_controller.cpp, test_forward_command_controller.cpp and
+test_joint_state_broadcaster.cpp.
+
+Each test is named after the upstream test it mirrors (``test_<upstream name>``), with the
+same inputs and the same assertions where our API observes them; what a port asserts
+differently, because we deliberately differ (README, "Where we knowingly differ"), its
+docstring says. Controller tests run the controller in a controller manager at 100 Hz
+(``Harness``), so "the command at the update at t" is the sample at t + 10 ms.
+"""
+
+import logging
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+from armando_drake.control.config import ControllerConfigError, parse_controller_config
+from armando_drake.control.controllers import ControllerJoints
+from armando_drake.control.controllers.broadcaster import (
+    JointStateBroadcaster,
+    JointStateBroadcasterParameters,
+)
+from armando_drake.control.controllers.forward_command import ForwardCommandController
+from armando_drake.control.controllers.joint_trajectory import (
+    JointGains,
+    JointTrajectoryController,
+    JointTrajectoryControllerParams,
+    SampledTrajectory,
+    interpolate_between_points,
+)
+from armando_drake.control.messages import (
+    Float64MultiArray,
+    JointTrajectory,
+    JointTrajectoryPoint,
+)
+from tests.control.test_controllers import NAMES, PERIOD, Harness, hermite
+
+EPS = 1e-8  # upstream's test_trajectory.cpp threshold
+
+
+def message_point(time, positions=(), velocities=(), accelerations=(), effort=()):
+    return JointTrajectoryPoint(
+        positions=tuple(positions),
+        velocities=tuple(velocities),
+        accelerations=tuple(accelerations),
+        effort=tuple(effort),
+        time_from_start=time,
+    )
+
+
+def one_joint(*points, stamp=0.0):
+    return JointTrajectory(stamp=stamp, joint_names=("j0",), points=tuple(points))
+
+
+# ----------------------------------------------------------------------------------------------
+# test_trajectory.cpp (Trajectory::sample, interpolate_between_points)
+
+TIME_NOW = 100.0  # [s] upstream's rclcpp::Clock().now(), any time
+
+
+def test_sample_trajectory_positions():
+    p1, p2, p3 = (message_point(t, [float(t)]) for t in (1.0, 2.0, 3.0))
+    traj = SampledTrajectory.from_message(one_joint(p1, p2, p3), time=TIME_NOW, positions=[0.0])
+    velocity = (1.0 - 0.0) / 1.0
+    sample = traj.sample(TIME_NOW)  # at trajectory starting time
+    assert sample.segment == (0, 0)
+    assert sample.positions[0] == pytest.approx(0.0, abs=EPS)
+    assert sample.velocities[0] == pytest.approx(velocity, abs=EPS)
+    assert sample.accelerations[0] == pytest.approx(0.0, abs=EPS)
+    assert traj.sample(TIME_NOW - 0.5) is None  # before time_now
+    sample = traj.sample(TIME_NOW + 0.5)
+    assert sample.segment == (0, 0)
+    assert sample.positions[0] == pytest.approx(0.5, abs=EPS)
+    assert sample.velocities[0] == pytest.approx(velocity, abs=EPS)
+    sample = traj.sample(TIME_NOW + 1.0)
+    assert sample.segment == (0, 1)
+    assert sample.positions[0] == pytest.approx(1.0, abs=EPS)
+    assert sample.velocities[0] == pytest.approx(velocity, abs=EPS)
+    assert traj.sample(TIME_NOW + 1.5).segment == (0, 1)
+    assert traj.sample(TIME_NOW + 1.5).positions[0] == pytest.approx(1.5, abs=EPS)
+    assert traj.sample(TIME_NOW + 2.5).positions[0] == pytest.approx(2.5, abs=EPS)
+    assert traj.sample(TIME_NOW + 3.0).positions[0] == pytest.approx(3.0, abs=EPS)
+    sample = traj.sample(TIME_NOW + 3.125)  # past the given points
+    assert sample.segment == (2, 3)
+    assert sample.positions[0] == pytest.approx(3.0, abs=EPS)
+
+
+def test_interpolation_pos_vel():
+    """From x^3 - 2x: cubic, the end's acceleration ignored (the start has none)."""
+    start = message_point(1.0, [0.0], [-2.0])
+    end = message_point(3.0, [4.0], [10.0], [0.0])
+    q, v, a = interpolate_between_points(1.0, start, 3.0, end, 1.0)
+    assert (q[0], v[0], a[0]) == pytest.approx((0.0, -2.0, 0.0), abs=EPS)
+    q, v, a = interpolate_between_points(1.0, start, 3.0, end, 1.0 + math.sqrt(2.0))
+    assert (q[0], v[0], a[0]) == pytest.approx((0.0, 4.0, 6.0 * math.sqrt(2.0)), abs=EPS)
+    q, v, a = interpolate_between_points(1.0, start, 3.0, end, 3.0)
+    assert (q[0], v[0], a[0]) == pytest.approx((4.0, 10.0, 12.0), abs=EPS)
+
+
+def test_interpolation_pos_vel_accel():
+    """From x(x-1)(x-2)(x-3)(x-4): quintic."""
+    start = message_point(1.0, [0.0], [24.0], [-100.0])
+    end = message_point(3.0, [0.0], [4.0], [0.0])
+    q, v, a = interpolate_between_points(1.0, start, 3.0, end, 1.0)
+    assert (q[0], v[0], a[0]) == pytest.approx((0.0, 24.0, -100.0), abs=EPS)
+    q, v, a = interpolate_between_points(1.0, start, 3.0, end, 2.0)
+    assert (q[0], v[0], a[0]) == pytest.approx((0.0, -6.0, 10.0), abs=EPS)
+    q, v, a = interpolate_between_points(1.0, start, 3.0, end, 3.0)
+    assert (q[0], v[0], a[0]) == pytest.approx((0.0, 4.0, 0.0), abs=EPS)
+
+
+@pytest.mark.parametrize("before_velocity", [[0.0], None], ids=["", "strange_without_vel"])
+def test_sample_trajectory_velocity_with_interpolation(before_velocity):
+    """Also upstream's ..._strange_without_vel: a state without velocity gets zero."""
+    v1, v2, v3 = 1.0, 2.0, 1.0
+    message = one_joint(
+        message_point(1.0, velocities=[v1]),
+        message_point(2.0, velocities=[v2]),
+        message_point(3.0, velocities=[v3]),
+    )
+    traj = SampledTrajectory.from_message(
+        message, time=TIME_NOW, positions=[0.0], velocities=before_velocity
+    )
+    sample = traj.sample(TIME_NOW)
+    assert sample.segment == (0, 0)
+    assert (sample.positions[0], sample.velocities[0]) == pytest.approx((0.0, 0.0), abs=EPS)
+    assert sample.accelerations[0] == pytest.approx(v1 / 1.0, abs=EPS)
+    assert traj.sample(TIME_NOW - 0.5) is None
+    sample = traj.sample(TIME_NOW + 0.5)
+    assert sample.positions[0] == pytest.approx(0.0 + (0.0 + ((0.0 + v1) / 2) / 2) * 0.5, abs=EPS)
+    assert sample.velocities[0] == pytest.approx(v1 / 2, abs=EPS)
+    first = 0.0 + (0.0 + v1) / 2 * 1.0
+    sample = traj.sample(TIME_NOW + 1.0)
+    assert sample.segment == (0, 1)
+    assert (sample.positions[0], sample.velocities[0]) == pytest.approx((first, v1), abs=EPS)
+    if before_velocity is None:
+        return  # upstream's strange_without_vel case ends here
+    assert sample.accelerations[0] == pytest.approx(v2 - v1 / 1.0, abs=EPS)
+    sample = traj.sample(TIME_NOW + 1.5)
+    assert sample.positions[0] == pytest.approx(first + (v1 + ((v1 + v2) / 2 - v1) / 2) * 0.5)
+    assert sample.velocities[0] == pytest.approx((v1 + v2) / 2, abs=EPS)
+    second = first + (v1 + v2) / 2 * 1.0
+    sample = traj.sample(TIME_NOW + 2.0)
+    assert sample.segment == (1, 2)
+    assert (sample.positions[0], sample.velocities[0]) == pytest.approx((second, v2), abs=EPS)
+    assert sample.accelerations[0] == pytest.approx(v3 - v2 / 1.0, abs=EPS)
+    third = second + (v2 + v3) / 2 * 1.0
+    for time in (3.0, 3.125):  # the goal is reached: no acceleration any more
+        sample = traj.sample(TIME_NOW + time)
+        assert sample.segment == (2, 3)
+        assert (sample.positions[0], sample.velocities[0]) == pytest.approx((third, v3), abs=EPS)
+        assert sample.accelerations[0] == pytest.approx(0.0, abs=EPS)
+
+
+def test_sample_trajectory_acceleration_with_interpolation():
+    a1, a2, a3 = 1.0, 2.0, 1.0
+    message = one_joint(
+        message_point(1.0, accelerations=[a1]),
+        message_point(2.0, accelerations=[a2]),
+        message_point(3.0, accelerations=[a3]),
+    )
+    traj = SampledTrajectory.from_message(message, time=TIME_NOW, positions=[0.0], velocities=[0.0])
+    sample = traj.sample(TIME_NOW)
+    assert sample.segment == (0, 0)
+    assert (sample.positions[0], sample.velocities[0], sample.accelerations[0]) == pytest.approx(
+        (0.0, 0.0, 0.0), abs=EPS
+    )
+    assert traj.sample(TIME_NOW - 0.5) is None
+    velocity, position = 0.0, 0.0
+    for k, (time, (a_prev, a_next)) in enumerate(
+        zip((1.0, 2.0, 3.0), ((0.0, a1), (a1, a2), (a2, a3)), strict=True)
+    ):
+        new_velocity = velocity + (a_prev + a_next) / 2 * 1.0
+        position += (velocity + new_velocity) / 2 * 1.0
+        velocity = new_velocity
+        sample = traj.sample(TIME_NOW + time)
+        assert sample.segment == ((k, k + 1) if k < 2 else (2, 3))
+        assert (sample.positions[0], sample.velocities[0]) == pytest.approx(
+            (position, velocity), abs=EPS
+        )
+        assert sample.accelerations[0] == pytest.approx(a_next, abs=EPS)
+    sample = traj.sample(TIME_NOW + 3.125)  # past the points: the last point
+    assert (sample.positions[0], sample.velocities[0], sample.accelerations[0]) == pytest.approx(
+        (position, velocity, a3), abs=EPS
+    )
+
+
+def test_skip_interpolation():
+    """interpolation_method none: the state before until the first point, then the next
+    point. Upstream's empty velocities and accelerations are zeros in our samples (our
+    desired state always has velocities)."""
+    p1, p2, p3 = (message_point(t, [float(t)]) for t in (1.0, 2.0, 3.0))
+    traj = SampledTrajectory.from_message(
+        one_joint(p1, p2, p3), time=TIME_NOW, positions=[0.0], interpolation_method="none"
+    )
+    expected = {0.0: 0.0, 0.5: 0.0, 1.0: 2.0, 1.5: 2.0, 2.5: 3.0, 3.0: 3.0, 3.125: 3.0}
+    for time, position in expected.items():
+        sample = traj.sample(TIME_NOW + time)
+        assert sample.positions[0] == pytest.approx(position, abs=EPS), time
+        assert (sample.velocities[0], sample.accelerations[0]) == (0.0, 0.0)
+    assert traj.sample(TIME_NOW - 0.5) is None
+    assert traj.sample(TIME_NOW + 0.5).segment == (0, 0)
+    assert traj.sample(TIME_NOW + 1.0).segment == (0, 1)
+
+
+# ----------------------------------------------------------------------------------------------
+# test_trajectory_controller.cpp, through the controller manager
+
+
+def harness(initial=(0.0, 0.0, 0.0), names=NAMES, **params) -> Harness:
+    controller = JointTrajectoryController(
+        name="ctl",
+        joints=ControllerJoints.make(names, initial_positions=initial),
+        params=JointTrajectoryControllerParams(joints=list(names), **params),
+    )
+    return Harness(controller)
+
+
+def trajectory(*points, names=NAMES, stamp=0.0):
+    return JointTrajectory(stamp=stamp, joint_names=tuple(names), points=tuple(points))
+
+
+def test_sample_at_t_plus_dt():
+    """PR #1306 ("Sample at t + dT instead of the beginning of the control cycle"): halfway
+    along a 1 s move at 100 Hz upstream writes 1.61, not 1.60."""
+    h = harness(initial=(1.0, 1.0, 1.0))
+    h.set_measured(np.array([1.0, 1.0, 1.0]))
+    start = h.publish(trajectory(message_point(1.0, [2.2, 2.2, 2.2])))
+    h.advance(start + 0.5)
+    np.testing.assert_allclose(h.desired[:3], [1.0 + 1.2 * 0.51] * 3, atol=1e-12)
+    # The update that accepts the goal already commands the sample at + dt.
+    h2 = harness()
+    first = h2.publish(trajectory(message_point(1.0, [1.0, 1.0, 1.0])))
+    h2.advance(first)
+    np.testing.assert_allclose(h2.desired[:3], [0.01] * 3, atol=1e-12)
+
+
+def test_interpolation_method_none_commands_the_next_point():
+    """test_trajectory.cpp's skip_interpolation, through the controller: points at 1, 2,
+    3 s, commands written at the updates at 0.99, 1.49, 2.49 s (samples at 1.0, 1.5,
+    2.5 s) are 2, 2, 3."""
+    h = harness(interpolation_method="none")
+    start = h.publish(trajectory(*(message_point(t, [t, t, t]) for t in (1.0, 2.0, 3.0))))
+    for time, value in ((0.5, 0.0), (0.99, 2.0), (1.49, 2.0), (2.49, 3.0), (3.5, 3.0)):
+        h.advance(start + time)
+        np.testing.assert_allclose(h.desired[:3], [value] * 3, atol=1e-12, err_msg=str(time))
+
+
+QUINTIC_AT_QUARTER = 10 * 0.25**3 - 15 * 0.25**4 + 6 * 0.25**5  # 0.1035: rest to rest
+CUBIC_AT_QUARTER = 3 * 0.25**2 - 2 * 0.25**3  # 0.15625
+
+
+@pytest.mark.parametrize(
+    "state_interfaces",
+    [["position"], ["position", "velocity"], ["position", "velocity", "acceleration"]],
+)
+def test_first_segment_has_the_trajectory_degree(state_interfaces):
+    """set_point_before_trajectory_msg: the state before the trajectory gets zero velocities
+    and accelerations where the first point has them, so a point with positions,
+    velocities and accelerations makes a quintic first segment whatever the state
+    interfaces (0.104 at a quarter, where a cubic gives 0.156)."""
+    h = harness(state_interfaces=state_interfaces)
+    start = h.publish(trajectory(message_point(1.0, [1.0] * 3, [0.0] * 3, [0.0] * 3)))
+    h.advance(start + 0.25 - PERIOD)  # the command sampled at 0.25 s
+    np.testing.assert_allclose(h.desired[:3], [QUINTIC_AT_QUARTER] * 3, atol=1e-12)
+    assert abs(QUINTIC_AT_QUARTER - CUBIC_AT_QUARTER) > 0.05
+    # And the first command's velocity starts from zero, not (p1 - p0) / T = 1.0.
+    h2 = harness(state_interfaces=state_interfaces)
+    first = h2.publish(trajectory(message_point(1.0, [1.0] * 3, [0.0] * 3)))
+    h2.advance(first)
+    np.testing.assert_allclose(h2.desired[3:], [6 * 0.01 - 6 * 0.01**2] * 3, atol=1e-12)
+
+
+def test_first_segment_uses_the_measured_velocity_only_with_a_velocity_state_interface():
+    measured_velocity = np.array([0.5, -0.5, 0.2])
+    for interfaces, v0 in ((["position"], np.zeros(3)), (["position", "velocity"], None)):
+        h = harness(state_interfaces=interfaces)
+        h.set_measured(np.zeros(3), measured_velocity)
+        start = h.publish(trajectory(message_point(1.0, [1.0] * 3, [0.0] * 3)))
+        h.advance(start + 0.3)
+        v0 = measured_velocity if v0 is None else v0
+        expected = hermite(np.zeros(3), v0, np.ones(3), np.zeros(3), 1.0, 0.31)
+        np.testing.assert_allclose(h.desired[:3], expected, atol=1e-12)
+
+
+def test_partial_joint_list():
+    """Joints left out of a partial goal: from the measured position (state before the
+    trajectory) to the last command (fill_partial_goal)."""
+    h = harness(initial=(0.1, 0.2, 0.3), allow_partial_joints_goal=True)
+    measured = np.array([0.0, 0.5, 0.0])
+    h.set_measured(measured)
+    start = h.publish(trajectory(message_point(1.0, [2.0]), names=("j1",)))
+    h.advance(start + 0.49)
+    goal = np.array([0.1, 2.0, 0.3])
+    np.testing.assert_allclose(h.desired[:3], measured + (goal - measured) * 0.5, atol=1e-12)
+
+
+def test_partial_joint_list_not_allowed():
+    h = harness(initial=(0.1, 0.2, 0.3))
+    h.publish(trajectory(message_point(1.0, [2.0]), names=("j1",)))
+    h.step(20)
+    np.testing.assert_array_equal(h.desired[:3], [0.1, 0.2, 0.3])
+    assert h.status.last_error == "Joints on incoming trajectory don't match the controller joints."
+
+
+def test_jumbled_joint_order():
+    h = harness()
+    start = h.publish(trajectory(message_point(0.5, [3.0, 1.0, 2.0]), names=("j2", "j0", "j1")))
+    h.advance(start + 1.0)
+    np.testing.assert_array_equal(h.desired[:3], [1.0, 2.0, 3.0])
+
+
+def test_ignore_old_trajectory():
+    h = harness()
+    h.advance(1.0)
+    h.publish(trajectory(message_point(0.5, [1.0] * 3), stamp=0.2))
+    h.step(5)
+    assert h.status.rejected == 1
+    assert h.status.last_error.startswith("Received trajectory with non-zero start time")
+    np.testing.assert_array_equal(h.desired[:3], [0.0] * 3)
+
+
+def test_execute_partial_traj_in_future():
+    """A stamp in the future: the first segment runs from the state at acceptance to the
+    first point at stamp + time_from_start."""
+    h = harness()
+    accepted = h.publish(trajectory(message_point(0.5, [1.0] * 3), stamp=1.0))
+    h.advance(1.0)
+    np.testing.assert_allclose(h.desired[:3], [(1.01 - accepted) / (1.5 - accepted)] * 3)
+
+
+def test_state_tolerances_fail():
+    """A path tolerance violated: aborted, then holding the measured position."""
+    h = harness(trajectory_tolerance={"j0": 0.1, "j1": 0.1, "j2": 0.1})
+    measured = np.array([0.0, 0.0, 0.0])
+    start = h.publish(trajectory(message_point(0.2, [1.0, 1.0, 1.0])))
+    h.advance(start + 0.2)
+    assert h.status.state == "aborted"
+    assert h.status.last_error.startswith("path tolerance violated")
+    h.step()
+    np.testing.assert_array_equal(h.desired, [*measured, 0.0, 0.0, 0.0])
+
+
+def test_goal_tolerances_fail():
+    """Outside the goal tolerance goal_time after the end: aborted, holding the measured
+    position."""
+    h = harness(goal_time=0.1, goal_tolerance={"j0": 0.1, "j1": 0.1, "j2": 0.1})
+    measured = np.array([0.5, 0.5, 0.5])
+    h.set_measured(measured)
+    start = h.publish(trajectory(message_point(0.2, [1.0, 1.0, 1.0])))
+    h.advance(start + 0.3)
+    assert h.status.state == "executing"
+    h.step()
+    assert h.status.state == "aborted"
+    assert h.status.last_error.startswith("goal tolerance violated")
+    h.step()
+    np.testing.assert_array_equal(h.desired, [*measured, 0.0, 0.0, 0.0])
+
+
+def test_hold_on_startup():
+    h = harness(initial=(0.1, 0.2, 0.3))
+    h.advance(0.25)
+    np.testing.assert_array_equal(h.desired, [0.1, 0.2, 0.3, 0.0, 0.0, 0.0])
+
+
+def test_hold_on_startup_without_command_interface_values():
+    """set_last_command_interface_value_as_state_on_activation: false -- the measured
+    position at activation is held."""
+    h = harness(
+        initial=(0.1, 0.2, 0.3), set_last_command_interface_value_as_state_on_activation=False
+    )
+    h.set_measured(np.array([0.5, 0.4, 0.3]))
+    h.advance(0.25)  # the harness was built with measured zeros: the t = 0 update read them
+    np.testing.assert_array_equal(h.desired, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+
+
+def test_trajectory_replace():
+    h = harness()
+    start = h.publish(trajectory(message_point(1.0, [1.0] * 3)))
+    h.advance(start + 0.3)
+    h.set_measured(np.array([0.3, 0.3, 0.3]))
+    second = h.publish(trajectory(message_point(1.0, [-1.0] * 3)))
+    h.advance(second + 0.49)
+    np.testing.assert_allclose(h.desired[:3], [0.3 - 1.3 * 0.5] * 3, atol=1e-12)
+
+
+def test_allow_nonzero_velocity_at_trajectory_end_true():
+    """After the last point upstream keeps commanding it, its velocity included."""
+    h = harness(allow_nonzero_velocity_at_trajectory_end=True)
+    start = h.publish(trajectory(message_point(0.5, [1.0] * 3, [0.2, 0.3, 0.4])))
+    h.set_measured(np.ones(3))
+    h.advance(start + 1.0)
+    np.testing.assert_allclose(h.desired, [1.0, 1.0, 1.0, 0.2, 0.3, 0.4], atol=1e-12)
+    assert h.status.state == "succeeded"
+
+
+def test_allow_nonzero_velocity_at_trajectory_end_false(caplog):
+    h = harness()
+    with caplog.at_level(logging.ERROR, logger="armando_drake.control.controllers"):
+        h.publish(trajectory(message_point(0.5, [1.0] * 3, [0.2, 0.0, 0.0])))
+        h.step()
+    assert h.status.last_error == (
+        "Velocity of last trajectory point of joint j0 is not zero: 0.200000000000000"
+    )
+
+
+def test_timeout():
+    """cmd_timeout: not at the goal cmd_timeout after the end -> hold the measured position."""
+    h = harness(cmd_timeout=0.3, goal_tolerance={"j0": 0.01})
+    measured = np.array([0.5, 0.0, 0.0])
+    h.set_measured(measured)
+    start = h.publish(trajectory(message_point(0.2, [1.0, 0.0, 0.0])))
+    h.advance(start + 0.5)
+    assert h.status.state == "executing"
+    h.step(2)
+    assert h.status.state == "aborted"
+    assert h.status.last_error.startswith("Aborted due to command timeout")
+    np.testing.assert_array_equal(h.desired, [*measured, 0.0, 0.0, 0.0])
+
+
+@pytest.mark.parametrize("allowed", [False, True])
+def test_allow_integration_in_goal_trajectories(allowed):
+    """Velocity-only points: rejected without allow_integration_in_goal_trajectories,
+    integrated with it (deduce_from_derivatives)."""
+    h = harness(allow_integration_in_goal_trajectories=allowed)
+    start = h.publish(
+        trajectory(
+            message_point(1.0, velocities=[1.0] * 3), message_point(2.0, velocities=[0.0] * 3)
+        )
+    )
+    h.advance(start + 0.49)
+    if not allowed:
+        assert h.status.last_error == (
+            "Mismatch between joint_names size (3) and positions (0) at point #0."
+        )
+        return
+    # From rest at 0 the first point is at (0 + 1) / 2 * 1 s = 0.5 rad, reached with
+    # 1 rad/s on a cubic: 0.125 rad at 0.5 s; the second at 0.5 + (1 + 0) / 2 = 1 rad.
+    assert h.status.accepted == 1
+    np.testing.assert_allclose(h.desired[:3], [0.125] * 3, atol=1e-12)
+    h.advance(start + 2.5)
+    np.testing.assert_allclose(h.desired, [1.0, 1.0, 1.0, 0.0, 0.0, 0.0], atol=1e-12)
+
+
+def test_interpolate_from_desired_state():
+    """interpolate_from_desired_state (open_loop_control): the next trajectory starts from
+    the last command, not from the measured state."""
+    for name in ("interpolate_from_desired_state", "open_loop_control"):
+        h = harness(**{name: True})
+        h.set_measured(np.array([-1.0, -1.0, -1.0]))  # the arm lags far behind
+        start = h.publish(trajectory(message_point(1.0, [1.0] * 3)))
+        h.advance(start + 0.49)
+        np.testing.assert_allclose(h.desired[:3], [0.5] * 3, atol=1e-12)
+
+
+def pid_harness(interface, gains, initial=(0.0, 0.0, 0.0)) -> Harness:
+    controller = JointTrajectoryController(
+        name="ctl",
+        joints=ControllerJoints.make(NAMES, initial_positions=initial),
+        params=JointTrajectoryControllerParams(
+            joints=list(NAMES),
+            command_interfaces=[interface],
+            state_interfaces=["position", "velocity"],
+            gains={joint: JointGains(**gains) for joint in NAMES},
+        ),
+    )
+    assert controller.interface == interface
+    return Harness(controller)
+
+
+def test_velocity_command_interface_is_the_pid_on_the_tracking_error():
+    """command_interfaces [velocity]: u = ff_velocity_scale v_d(t + dt) + p (q_d(t) - q)
+    + d (v_d(t) - v) (upstream's closed-loop adapter, use_closed_loop_pid_adapter)."""
+    h = pid_harness("velocity", {"p": 2.0, "d": 0.1, "ff_velocity_scale": 1.0})
+    measured_q, measured_v = np.array([0.1, -0.1, 0.0]), np.array([0.2, 0.0, -0.2])
+    h.set_measured(measured_q, measured_v)
+    # Holding the start (0) before any goal: the PID already runs.
+    h.step()
+    np.testing.assert_allclose(h.desired[3:], 2.0 * (0.0 - measured_q) + 0.1 * (0.0 - measured_v))
+    start = h.publish(trajectory(message_point(1.0, [1.0] * 3)))
+    h.advance(start + 0.5)
+    # Linear from the measured position: q_d(t) and v_d.
+    q_d = measured_q + (1.0 - measured_q) * 0.5
+    v_d = 1.0 - measured_q
+    np.testing.assert_allclose(
+        h.desired[3:], 1.0 * v_d + 2.0 * (q_d - measured_q) + 0.1 * (v_d - measured_v), atol=1e-12
+    )
+
+
+def test_effort_command_interface_is_the_pid_and_checks_the_stopped_velocity():
+    """command_interfaces [effort]: u = p e + d e_dot; with an effort command interface the
+    stopped velocity tolerance is checked (upstream computes the velocity error then)."""
+    h = pid_harness("effort", {"p": 10.0, "d": 1.0})
+    h.set_measured(np.array([0.5, 0.5, 0.5]), np.array([0.0, 0.0, 0.3]))
+    start = h.publish(trajectory(message_point(0.2, [0.5] * 3)))
+    h.advance(start + 0.1)
+    effort = h.system.GetOutputPort("effort_command").Eval(h.context)
+    expected_q = 0.5  # from the measured position to the same: q_d = 0.5, v_d = 0
+    np.testing.assert_allclose(
+        effort, 10.0 * (expected_q - 0.5) + 1.0 * (0.0 - np.array([0, 0, 0.3]))
+    )
+    h.advance(start + 1.0)
+    assert h.status.state == "executing"  # j2 still moves at 0.3 rad/s > 0.01
+    h.set_measured(np.array([0.5, 0.5, 0.5]))
+    h.step()
+    assert h.status.state == "succeeded"
+
+
+# ----------------------------------------------------------------------------------------------
+# Parameters: implemented or refused
+
+
+CONFIG = """
+controller_manager:
+  ros__parameters:
+    update_rate: 100
+    arm_controller: {type: joint_trajectory_controller/JointTrajectoryController}
+arm_controller:
+  ros__parameters:
+    joints: [j0]
+    command_interfaces: [position]
+    state_interfaces: [position, velocity]
+"""
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        ("bogus: 1", "arm_controller.ros__parameters.bogus: unknown parameter"),
+        ("speed_scaling: {initial_scaling_factor: 0.5}", "speed_scaling: not simulated"),
+        ("is_async: true", "is_async: is_async=True is not simulated"),
+        ("update_rate: 50", "update_rate: update_rate=50 differs from controller_manager's 100"),
+        (
+            "command_interfaces: [velocity]\nstate_interfaces: [position]",
+            "'velocity' command interface can only be used alone if 'velocity' and 'position' "
+            "state interfaces are present",
+        ),
+        (
+            "command_interfaces: [effort]\nstate_interfaces: [position]",
+            "'effort' command interface can only be used alone if 'velocity' and 'position' "
+            "state interfaces are present",
+        ),
+        ("command_interfaces: [acceleration]", "'acceleration' command interface can only be"),
+        (
+            "command_interfaces: [position, effort]",
+            "'effort' command interface has to be used alone",
+        ),
+        ("state_interfaces: [velocity]", "has no 'position' state interface"),
+        ("interpolation_method: cubic", "unknown method 'cubic'"),
+        ("action_monitor_rate: 0.01", "action_monitor_rate=0.01 must be >= 0.1"),
+        ("gains: {j9: {p: 1.0}}", "gains.j9: 'j9' is not one of the controller's joints"),
+    ],
+)
+def test_trajectory_parameters_refused_name_the_parameter(extra, message):
+    text = CONFIG + "".join(f"    {line}\n" for line in extra.splitlines())
+    with pytest.raises(ControllerConfigError) as error:
+        parse_controller_config(yaml.safe_load(text), "c.yaml")
+    assert message in str(error.value)
+    assert "\n" not in str(error.value)
+
+
+def test_trajectory_parameters_accepted():
+    text = CONFIG + (
+        "    allow_integration_in_goal_trajectories: true\n"
+        "    interpolate_from_desired_state: true\n"
+        "    cmd_timeout: 2.0\n"
+        "    speed_scaling_interface_name: speed_scaling/speed_scaling_factor\n"
+        "    gains: {j0: {p: 10.0, i: 0.1, d: 0.5, i_clamp: 1.0, ff_velocity_scale: 1.0}}\n"
+        "    update_rate: 100\n"
+    )
+    params = (
+        parse_controller_config(yaml.safe_load(text), "c.yaml").controllers["arm_controller"].params
+    )
+    assert params.allow_integration_in_goal_trajectories and params.from_desired_state
+    assert params.cmd_timeout == 2.0 and params.gains["j0"].p == 10.0
+
+
+# ----------------------------------------------------------------------------------------------
+# test_forward_command_controller.cpp
+
+
+def forward(**params):
+    return ForwardCommandController(
+        name="fwd",
+        joints=ControllerJoints.make(("joint1", "joint2", "joint3")),
+        params=ForwardCommandController.parameters(joints=["joint1", "joint2", "joint3"], **params),
+    )
+
+
+def test_CommandSuccessTest():  # noqa: N802 (upstream's name)
+    h = Harness(forward(interface_name="position"))
+    h.publish(Float64MultiArray(data=(10.0, 20.0, 30.0)))
+    h.step()
+    np.testing.assert_array_equal(h.desired[:3], [10.0, 20.0, 30.0])
+
+
+def test_WrongCommandCheckTest():  # noqa: N802 (upstream's name)
+    h = Harness(forward(interface_name="position"))
+    h.publish(Float64MultiArray(data=(10.0, 20.0)))
+    h.step()
+    np.testing.assert_array_equal(h.desired[:3], [0.0, 0.0, 0.0])
+    assert h.status.last_error == "command size (2) does not match number of interfaces (3)"
+
+
+def test_DropInfiniteCommandCallbackTest():  # noqa: N802 (upstream's name)
+    h = Harness(forward(interface_name="position"))
+    h.publish(Float64MultiArray(data=(10.0, math.inf, 30.0)))
+    h.step()
+    np.testing.assert_array_equal(h.desired[:3], [0.0, 0.0, 0.0])
+    assert h.status.last_error == "Non-finite value received. Dropping message"
+
+
+@pytest.mark.parametrize(
+    "params, message",
+    [
+        ("interface_name: position", "'joints' parameter is missing"),
+        ("joints: []\n    interface_name: position", "'joints' parameter is empty"),
+        ("joints: [j0]", "'interface_name' parameter is missing"),
+        ("joints: [j0]\n    interface_name: ''", "'interface_name' parameter is missing"),
+    ],
+    ids=[
+        "JointsParameterNotSet",
+        "JointsParameterIsEmpty",
+        "InterfaceParameterNotSet",
+        "InterfaceParameterEmpty",
+    ],
+)
+def test_forward_command_parameters(params, message):
+    text = (
+        "controller_manager:\n  ros__parameters:\n"
+        "    fwd: {type: forward_command_controller/ForwardCommandController}\n"
+        f"fwd:\n  ros__parameters:\n    {params}\n"
+    )
+    with pytest.raises(ControllerConfigError) as error:
+        parse_controller_config(yaml.safe_load(text), "c.yaml")
+    assert message in str(error.value)
+
+
+# ----------------------------------------------------------------------------------------------
+# test_joint_state_broadcaster.cpp
+
+
+def broadcaster(**params) -> JointStateBroadcaster:
+    parameters = JointStateBroadcasterParameters(**params)
+    parameters.check({k: v for k, v in params.items()})
+    joints = JointStateBroadcaster.joints_of(parameters) or ["joint1", "joint2", "joint3"]
+    return JointStateBroadcaster(
+        name="jsb", joints=ControllerJoints.make(joints), params=parameters
+    )
+
+
+def test_ActivateTest():  # noqa: N802 (upstream's name)
+    """No joints, no interfaces: every joint, every interface."""
+    jsb = broadcaster()
+    message = jsb.message(1.0, [1.1, 2.1, 3.1], [0.1, 0.2, 0.3], [1.0, 2.0, 3.0])
+    assert message.name == ("joint1", "joint2", "joint3")
+    assert message.position == (1.1, 2.1, 3.1)
+    assert message.velocity == (0.1, 0.2, 0.3)
+    assert message.effort == (1.0, 2.0, 3.0)
+
+
+def test_ActivateTestWithoutInterfacesParameter():  # noqa: N802 (upstream's name)
+    """Joints given but no interfaces: upstream publishes all joints and interfaces."""
+    params = JointStateBroadcasterParameters(joints=["joint1"])
+    assert JointStateBroadcaster.joints_of(params) == []
+
+
+def test_ActivateTestTwoJointsOneInterface():  # noqa: N802 (upstream's name)
+    jsb = broadcaster(joints=["joint1", "joint3"], interfaces=["position"])
+    message = jsb.message(0.0, [1.1, 3.1], [0.1, 0.3], [1.0, 3.0])
+    assert message.name == ("joint1", "joint3")
+    assert message.position == (1.1, 3.1)
+    assert all(math.isnan(value) for value in message.velocity + message.effort)
+    assert len(message.velocity) == len(message.effort) == 2
+
+
+def test_ExtraJointStatePublishTest():  # noqa: N802 (upstream's name)
+    jsb = broadcaster(extra_joints=["extra1", "extra2", "extra3"])
+    message = jsb.message(0.0, [1.1, 2.1, 3.1], [0.1, 0.2, 0.3], [1.0, 2.0, 3.0])
+    assert message.name == ("joint1", "joint2", "joint3", "extra1", "extra2", "extra3")
+    assert message.position == (1.1, 2.1, 3.1, 0.0, 0.0, 0.0)
+    assert message.velocity == (0.1, 0.2, 0.3, 0.0, 0.0, 0.0)
+    assert message.effort == (1.0, 2.0, 3.0, 0.0, 0.0, 0.0)
