@@ -47,10 +47,13 @@ from armando_drake.tools.cli import (
     UserError,
     add_host_argument,
     add_scenario_arguments,
+    add_viewer_arguments,
     apply_scenario_arguments,
     command_parser,
+    keeps_serving,
     start_meshcat,
     user_errors,
+    wait_seconds,
 )
 
 CONTROLLER_TYPES = {
@@ -83,6 +86,7 @@ def _parser() -> argparse.ArgumentParser:
         help="target simulated/wall time ratio; 0 = as fast as possible (default: 1)",
     )
     parser.add_argument("--no-meshcat", action="store_true", help="run without the viewer")
+    add_viewer_arguments(parser)
     parser.add_argument(
         "--camera",
         action=argparse.BooleanOptionalAction,
@@ -242,6 +246,7 @@ def main(argv: list[str] | None = None) -> int:
             quiet=args.quiet,
             replay=not args.no_replay,
             record=args.record,
+            wait_for_browser=0.0 if meshcat is None else wait_seconds(args),
         )
         print(f"\n{result.headline()}")
         if result.steps:
@@ -267,6 +272,10 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"replay: {args.output}/replay.html")
         if args.record:
             print(f"recording: {args.record}")
+        if meshcat is not None and not result.interrupted and keeps_serving(args):
+            from armando_drake.outputs.view import serve_until_interrupted
+
+            serve_until_interrupted(meshcat)
     return 130 if result.interrupted else 0
 
 
