@@ -34,6 +34,7 @@ from pydrake.systems.framework import LeafSystem
 REPLAY_FILE = "replay.html"
 REPLAY_RATE = 32.0  # [frames/s] sampling rate of a replay until it outgrows its frames
 MAX_REPLAY_FRAMES = 2048  # frames a replay keeps at most, whatever the run's length
+REPLAY_LAYER = "illustration"  # the geometry layer the replay animates (the others stay)
 RECORDING_ONLY_PUBLISH_PERIOD = 3600.0  # [s] the visualizers' period with nobody watching
 
 
@@ -131,13 +132,13 @@ def AddReplaySampler(builder, plant, *, rate: float = REPLAY_RATE, max_frames=No
 
 
 def _visualizers(diagram) -> list:
-    """The systems of ``diagram`` that draw into Meshcat: geometry and contact visualizers."""
-    from pydrake.multibody.meshcat import ContactVisualizer
-
+    """The Meshcat visualizers of ``diagram``'s illustration layer (the one shown by
+    default; ``ApplyVisualizationConfig`` names them ``meshcat_visualizer(illustration)``)."""
     return [
         system
         for system in diagram.GetSystems()
-        if isinstance(system, (MeshcatVisualizer, ContactVisualizer))
+        if isinstance(system, MeshcatVisualizer)
+        and system.get_name().endswith(f"({REPLAY_LAYER})")
     ]
 
 
@@ -168,14 +169,30 @@ def publish_replay(meshcat: Meshcat, diagram, plant, sampler: ReplaySampler, con
                 system.ForcedPublish(system_context)
     finally:
         meshcat.StopRecording()
-    meshcat.PublishRecording()
+    meshcat.PublishRecording()  # Meshcat keeps the animation for the page and StaticHtml
+    meshcat.DeleteRecording()  # the recording's frames themselves are no longer needed
+    _release_freed_memory()
     return len(times)
+
+
+def _release_freed_memory() -> None:
+    """Hands the heap's free pages back to the system (glibc's ``malloc_trim``): the
+    recording is many small blocks, which ``free`` keeps in the process otherwise."""
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("c")
+    try:
+        ctypes.CDLL(name).malloc_trim(0)
+    except (OSError, AttributeError, TypeError):  # not glibc: nothing to do
+        pass
 
 
 def write_replay(meshcat: Meshcat, path: str | Path) -> Path:
     """Writes the scene with the published animation to ``path``, one self-contained page."""
     path = Path(path)
     path.write_text(meshcat.StaticHtml(), encoding="utf-8")
+    _release_freed_memory()  # the page's text, built and copied in pieces
     return path
 
 
