@@ -95,6 +95,12 @@ def _parser() -> argparse.ArgumentParser:
         "their live view is served on localhost; default: as the scenario says)",
     )
     parser.add_argument(
+        "--camera-view",
+        action="store_true",
+        help="serve the camera's live view on localhost even with --no-meshcat (with "
+        "Meshcat on it is served anyway; implies --camera)",
+    )
+    parser.add_argument(
         "--save-frames",
         metavar="DIR",
         help="save camera frames: colour PNG and depth 16-bit PNG in millimetres (implies "
@@ -221,6 +227,8 @@ def main(argv: list[str] | None = None) -> int:
             _apply_controller(scenario, args.controller)
         if args.camera is not None:
             scenario.camera.enabled = args.camera
+        if args.camera_view:
+            scenario.camera.enabled = scenario.camera.live_view = True
         if args.save_frames:
             scenario.camera.enabled = True
             scenario.camera.save_frames = args.save_frames

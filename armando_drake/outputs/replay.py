@@ -137,8 +137,7 @@ def _visualizers(diagram) -> list:
     return [
         system
         for system in diagram.GetSystems()
-        if isinstance(system, MeshcatVisualizer)
-        and system.get_name().endswith(f"({REPLAY_LAYER})")
+        if isinstance(system, MeshcatVisualizer) and system.get_name().endswith(f"({REPLAY_LAYER})")
     ]
 
 

@@ -114,9 +114,9 @@ def scene_bounds(query, frames) -> np.ndarray | None:
 def camera_pose_for(points: np.ndarray, direction) -> tuple[np.ndarray, np.ndarray]:
     """Camera position and target [m] that show ``points`` (n, 3) from ``direction``
     (camera minus target; any length): the camera looks at the middle of their extents
-    across the view from the nearest distance at which every point lies within :data:`FILL` of the half field
-    of view, up and down and left and right (on a view :data:`VIEW_ASPECT` times as
-    wide as high)."""
+    across the view from the nearest distance at which every point lies within
+    :data:`FILL` of the half field of view, up and down and left and right (on a view
+    :data:`VIEW_ASPECT` times as wide as high)."""
     direction = np.asarray(direction, dtype=float)
     norm = np.linalg.norm(direction)
     if not norm > 0:
