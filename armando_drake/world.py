@@ -8,6 +8,13 @@ a table per step: target, reached position, final error, largest error after
 settling, settling time (within 0.01 rad). Ctrl-C stops cleanly and still
 writes the table and the logs.
 
+The viewer opens on the robot. On a terminal the run waits (up to 60 s,
+--wait, --no-wait) for a browser to open the printed URL before the clock
+starts, and after the run Meshcat keeps serving the run as an animation to
+scrub until Ctrl-C (--exit-when-done exits at once); not on a terminal it
+neither waits nor stays unless --wait / --keep-serving say so. Faster than
+real time, a progress bar shows on a terminal.
+
 With --output DIR it writes DIR/joint_states.csv (time, then position,
 velocity, effort per joint, one row per controller tick), DIR/commands.csv
 (time and commanded positions) and DIR/summary.json, plots of positions
@@ -27,6 +34,7 @@ ros2 bag info/play and Foxglove open it.
 Examples:
   python -m armando_drake.world
   python -m armando_drake.world --controller trajectory
+  python -m armando_drake.world --no-wait --exit-when-done       # from a script
   python -m armando_drake.world --controller sinusoid --duration 40
   python -m armando_drake.world --no-meshcat --realtime-rate 0 --output out/run1
   python -m armando_drake.world --no-meshcat --realtime-rate 0 --record out/run1.mcap

@@ -479,18 +479,18 @@ def run(
             from armando_drake.outputs.plots import write_plots
 
             write_plots(log_dir)
-    if replay_meshcat is not None and (replay_meshcat is meshcat or log_dir is not None):
+    if replay and replay_meshcat is not None and world.replay_sampler is not None:
+        # The run as an animation in Meshcat (the live page keeps it) and in replay.html.
         from armando_drake.outputs.replay import REPLAY_FILE, publish_replay, write_replay
 
-        if replay:
-            publish_replay(
-                replay_meshcat,
-                world.diagram,
-                world.plant,
-                world.replay_sampler,
-                simulator.get_context(),
-            )
-        if replay and log_dir is not None:
+        publish_replay(
+            replay_meshcat,
+            world.diagram,
+            world.plant,
+            world.replay_sampler,
+            simulator.get_context(),
+        )
+        if log_dir is not None:
             write_replay(replay_meshcat, log_dir / REPLAY_FILE)
     return result
 
