@@ -225,24 +225,22 @@ def AddViewFramer(
 
 def wait_for_browser(meshcat: Meshcat, timeout: float, stream: TextIO = sys.stdout) -> bool:
     """Waits until a browser has ``meshcat``'s page open, up to ``timeout`` [s]; says so
-    on ``stream``. Returns whether one is connected. Ctrl-C stops the wait."""
+    on ``stream``. Returns whether one is connected. Ctrl-C raises KeyboardInterrupt (the
+    run ends there, as it would during the simulation)."""
     if meshcat.GetNumActiveConnections() > 0 or timeout <= 0:
         return meshcat.GetNumActiveConnections() > 0
     print(
-        f"waiting up to {timeout:g} s for a browser on {meshcat.web_url()} "
+        f"waiting up to {timeout:g} s for a browser to open the Meshcat page "
         "(--no-wait starts at once) ...",
         file=stream,
         flush=True,
     )
     deadline = time.monotonic() + timeout
-    try:
-        while time.monotonic() < deadline:
-            if meshcat.GetNumActiveConnections() > 0:
-                time.sleep(0.5)  # the page loads the scene
-                return True
-            time.sleep(0.1)
-    except KeyboardInterrupt:
-        pass
+    while time.monotonic() < deadline:
+        if meshcat.GetNumActiveConnections() > 0:
+            time.sleep(0.5)  # the page loads the scene
+            return True
+        time.sleep(0.1)
     print("no browser connected: starting anyway", file=stream, flush=True)
     return False
 
@@ -250,8 +248,7 @@ def wait_for_browser(meshcat: Meshcat, timeout: float, stream: TextIO = sys.stdo
 def serve_until_interrupted(meshcat: Meshcat, stream: TextIO = sys.stdout) -> None:
     """Keeps the process (and so ``meshcat``'s server) up until Ctrl-C or SIGTERM."""
     print(
-        f"Meshcat keeps serving the run as a replay (Animations: play, scrub) on "
-        f"{meshcat.web_url()}; Ctrl-C to exit",
+        "Meshcat keeps serving the run as a replay (Animations: play, scrub); Ctrl-C to exit",
         file=stream,
         flush=True,
     )

@@ -88,6 +88,7 @@ def test_the_run_waits_for_a_browser_then_starts(chromium):
         # The run started when the page opened, and ran to its end.
         assert "no browser connected" not in rest
         assert "1.00 s simulated" in rest
+        assert len(re.findall(r"http://\S+", "".join(lines) + rest)) == 1
     finally:
         if process.poll() is None:
             process.kill()
@@ -113,6 +114,7 @@ def test_after_the_run_the_page_answers_frames_the_robot_and_holds_the_replay(ch
                 break
         output = "".join(lines)
         assert "2.00 s simulated" in output, output
+        assert len(re.findall(r"http://\S+", output)) == 1, output
         url = re.search(r"Meshcat: (\S+)", output).group(1)
         time.sleep(1.0)
         assert process.poll() is None, "the process ended with the run"
