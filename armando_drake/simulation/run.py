@@ -3,9 +3,9 @@
 :func:`run` builds the world of a scenario with :func:`~armando_drake.simulation.builder.MakeWorld`,
 simulates it with Drake's ``Simulator`` set up by ``ApplySimulatorConfig``
 (paced to real time or as fast as possible, with a progress bar on a
-terminal when not paced), survives Ctrl-C, and reports per command step the target, the reached
-position, the final error, the largest error after settling and the settling
-time (within :data:`SETTLE_TOLERANCE`). The table is computed in memory from
+terminal when faster than real time), survives Ctrl-C, and reports per
+command step the target, the reached position, the final error, the largest
+error after settling and the settling time (within :data:`SETTLE_TOLERANCE`). The table is computed in memory from
 the rows the joint-state logger records, with or without an output folder.
 With an output folder it writes ``joint_states.csv`` (the logger),
 ``commands.csv`` (every command published) and ``summary.json``.
@@ -285,7 +285,7 @@ def format_table(joint_names: list[str], steps: list[StepResult]) -> str:
 
 
 class Progress:
-    """A tqdm progress bar on stderr for runs not paced to real time: simulated time,
+    """A tqdm progress bar on stderr for runs faster than real time: simulated time,
     real-time factor and time left; silent when stderr is not a terminal."""
 
     def __init__(self, duration: float, stream: TextIO | None = None):
@@ -389,7 +389,7 @@ def run(
         replay_meshcat = RecordingMeshcat()
     world = MakeWorld(
         scenario,
-        meshcat=meshcat if replay_meshcat is None else replay_meshcat,
+        meshcat=replay_meshcat,
         output_dir=log_dir,
         quiet=quiet,
         source=scenario_name,
