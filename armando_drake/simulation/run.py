@@ -5,8 +5,9 @@ simulates it with Drake's ``Simulator`` set up by ``ApplySimulatorConfig``
 (paced to real time or as fast as possible, with a progress bar on a
 terminal when faster than real time), survives Ctrl-C, and reports per
 command step the target, the reached position, the final error, the largest
-error after settling and the settling time (within :data:`SETTLE_TOLERANCE`). The table is computed in memory from
-the rows the joint-state logger records, with or without an output folder.
+error after settling and the settling time (within :data:`SETTLE_TOLERANCE`).
+The table is computed in memory from the rows the joint-state logger records,
+with or without an output folder.
 With an output folder it writes ``joint_states.csv`` (the logger),
 ``commands.csv`` (every command published) and ``summary.json``.
 """
