@@ -55,7 +55,10 @@ def _shape_corners(shape) -> np.ndarray:
     elif isinstance(shape, Ellipsoid):
         half = np.array([shape.a(), shape.b(), shape.c()])
     elif isinstance(shape, (Mesh, Convex)):
-        hull = shape.GetConvexHull()
+        try:
+            hull = shape.GetConvexHull()
+        except RuntimeError:  # a mesh format Drake cannot read: its origin only
+            return np.zeros((1, 3))
         vertices = np.array([hull.vertex(i) for i in range(hull.num_vertices())])
         low, high = vertices.min(axis=0), vertices.max(axis=0)
         return np.array(
