@@ -1,15 +1,14 @@
 """The world's Meshcat view: framed on the robot, waited for, kept after the run.
 
 :class:`ViewFramer` points the Meshcat camera at the robot when the
-simulation starts: it looks at the robot's bounding box (its illustration
-geometry at the initial state) from the direction of the view preset
-(``diagrams/display.yaml``, :class:`~armando_drake.description.viewer.ViewConfig`)
-from the nearest distance at which the box fills :data:`FILL` of the
-camera's field of view, and draws the ground
-(:data:`GROUND_PATH`) as a slab :data:`GROUND_MARGIN` times the size of
-the scene's footprint (robot and objects). The world, the replay (which
-saves the camera and the ground with the scene) and the notebooks all get
-it from the world builder.
+simulation starts: it looks at the robot's illustration geometry (at the
+initial state) from the direction of the view preset (``diagrams/display.yaml``,
+:class:`~armando_drake.description.viewer.ViewConfig`), from the nearest
+distance at which the robot fills :data:`FILL` of the camera's field of view,
+and draws the ground (:data:`GROUND_PATH`) as a square slab
+:data:`GROUND_MARGIN` times the scene's largest extent (robot and objects,
+height included). The world, the replay (which saves the camera and the
+ground with the scene) and the notebooks all get it from the world builder.
 
 :func:`wait_for_browser` holds the start of a run until a browser shows the
 page (or a timeout); :func:`serve_until_interrupted` keeps the Meshcat
@@ -32,7 +31,7 @@ from pydrake.systems.framework import LeafSystem
 GROUND_COLOR = (0.85, 0.85, 0.82, 1.0)  # RGBA of the ground, in Meshcat and in cameras
 GROUND_PATH = "/ground"  # Meshcat path of the ground drawn to fit the scene
 GROUND_THICKNESS = 0.01  # [m] of the drawn ground slab (its top face is z = 0)
-GROUND_MARGIN = 2.0  # the drawn ground's side over the scene footprint's larger side
+GROUND_MARGIN = 1.5  # the drawn ground's side over the scene's largest extent
 GROUND_MIN_SIDE = 0.5  # [m] smallest side of the drawn ground
 FIELD_OF_VIEW = math.radians(75.0)  # vertical field of view of Meshcat's default camera
 FILL = 0.9  # share of the half field of view the robot may fill
@@ -168,8 +167,10 @@ def frame_scene(
     scene = None if scene_frames is None else scene_bounds(query, scene_frames)
     if scene is not None:
         center = (scene[0, :2] + scene[1, :2]) / 2
-        footprint = (scene[1, :2] - scene[0, :2]).max()
-        side = max(GROUND_MIN_SIDE, GROUND_MARGIN * footprint)
+        # The scene's largest extent, its height included: an arm reaches about as far
+        # as it stands tall.
+        extent = (scene[1] - scene[0]).max()
+        side = max(GROUND_MIN_SIDE, GROUND_MARGIN * extent)
         meshcat.SetObject(GROUND_PATH, Box(side, side, GROUND_THICKNESS), Rgba(*GROUND_COLOR))
         meshcat.SetTransform(
             GROUND_PATH, RigidTransform([center[0], center[1], -GROUND_THICKNESS / 2])
