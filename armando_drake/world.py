@@ -8,6 +8,13 @@ a table per step: target, reached position, final error, largest error after
 settling, settling time (within 0.01 rad). Ctrl-C stops cleanly and still
 writes the table and the logs.
 
+The viewer opens on the robot. On a terminal the run waits (up to 60 s,
+--wait, --no-wait) for a browser to open the printed URL before the clock
+starts, and after the run Meshcat keeps serving the run as an animation to
+scrub until Ctrl-C (--exit-when-done exits at once); not on a terminal it
+neither waits nor stays unless --wait / --keep-serving say so. Faster than
+real time, a progress bar shows on a terminal.
+
 With --output DIR it writes DIR/joint_states.csv (time, then position,
 velocity, effort per joint, one row per controller tick), DIR/commands.csv
 (time and commanded positions) and DIR/summary.json, plots of positions
@@ -27,6 +34,7 @@ ros2 bag info/play and Foxglove open it.
 Examples:
   python -m armando_drake.world
   python -m armando_drake.world --controller trajectory
+  python -m armando_drake.world --no-wait --exit-when-done       # from a script
   python -m armando_drake.world --controller sinusoid --duration 40
   python -m armando_drake.world --no-meshcat --realtime-rate 0 --output out/run1
   python -m armando_drake.world --no-meshcat --realtime-rate 0 --record out/run1.mcap
@@ -47,10 +55,13 @@ from armando_drake.tools.cli import (
     UserError,
     add_host_argument,
     add_scenario_arguments,
+    add_viewer_arguments,
     apply_scenario_arguments,
     command_parser,
+    keeps_serving,
     start_meshcat,
     user_errors,
+    wait_seconds,
 )
 
 CONTROLLER_TYPES = {
@@ -83,12 +94,19 @@ def _parser() -> argparse.ArgumentParser:
         help="target simulated/wall time ratio; 0 = as fast as possible (default: 1)",
     )
     parser.add_argument("--no-meshcat", action="store_true", help="run without the viewer")
+    add_viewer_arguments(parser)
     parser.add_argument(
         "--camera",
         action=argparse.BooleanOptionalAction,
         default=None,
         help="turn the URDF's camera sensors into Drake RgbdSensors (with Meshcat on, "
         "their live view is served on localhost; default: as the scenario says)",
+    )
+    parser.add_argument(
+        "--camera-view",
+        action="store_true",
+        help="serve the camera's live view on localhost even with --no-meshcat (with "
+        "Meshcat on it is served anyway; implies --camera)",
     )
     parser.add_argument(
         "--save-frames",
@@ -217,6 +235,8 @@ def main(argv: list[str] | None = None) -> int:
             _apply_controller(scenario, args.controller)
         if args.camera is not None:
             scenario.camera.enabled = args.camera
+        if args.camera_view:
+            scenario.camera.enabled = scenario.camera.live_view = True
         if args.save_frames:
             scenario.camera.enabled = True
             scenario.camera.save_frames = args.save_frames
@@ -242,6 +262,7 @@ def main(argv: list[str] | None = None) -> int:
             quiet=args.quiet,
             replay=not args.no_replay,
             record=args.record,
+            wait_for_browser=0.0 if meshcat is None else wait_seconds(args),
         )
         print(f"\n{result.headline()}")
         if result.steps:
@@ -267,6 +288,10 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"replay: {args.output}/replay.html")
         if args.record:
             print(f"recording: {args.record}")
+        if meshcat is not None and not result.interrupted and keeps_serving(args):
+            from armando_drake.outputs.view import serve_until_interrupted
+
+            serve_until_interrupted(meshcat)
     return 130 if result.interrupted else 0
 
 

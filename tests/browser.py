@@ -87,3 +87,36 @@ def running(args: list[str], url_pattern: str, timeout: float = 120.0) -> Iterat
             process.wait(timeout=10)
         except subprocess.TimeoutExpired:
             process.kill()
+
+
+def robot_span(page, path=("drake", "illustration", "armando")) -> tuple[float, float]:
+    """Share of the view's height and width that the Meshcat object at ``path`` covers:
+    a screenshot of the page as it is, one with that object hidden (the scene without
+    it), and the box around the pixels that differ."""
+    import io
+
+    import numpy as np
+    from PIL import Image
+
+    def shot():
+        page.wait_for_timeout(500)  # a frame drawn after the change
+        image = Image.open(io.BytesIO(page.screenshot())).convert("RGB")
+        return np.asarray(image).astype(int)
+
+    import json
+
+    hide = (
+        "(visible) => { viewer.scene_tree.find("
+        + json.dumps(list(path))
+        + ").set_property('visible', visible); viewer.set_dirty(); }"
+    )
+    page.evaluate("() => viewer.animator.pause && viewer.animator.pause()")
+    with_robot = shot()
+    page.evaluate(hide, False)
+    without = shot()
+    page.evaluate(hide, True)
+    rows, columns = np.nonzero(np.abs(with_robot - without).sum(axis=2) > 30)
+    if not len(rows):
+        return 0.0, 0.0
+    height, width = with_robot.shape[:2]
+    return (rows.max() - rows.min() + 1) / height, (columns.max() - columns.min() + 1) / width

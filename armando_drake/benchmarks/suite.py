@@ -17,7 +17,8 @@ same machine load:
 4. start-up: wall time of ``python -m armando_drake.world --no-meshcat
    --duration 0`` from launch to exit, with an empty mesh cache and a full one;
 5. memory: resident memory at the start and after one simulated hour of the
-   cyclic position scenario with the CSV logger at 100 Hz (fresh process);
+   cyclic position scenario with the CSV logger at 100 Hz and the replay
+   (fresh process), and the size of its replay.html;
 6. perception: frames per second of the point cloud pipeline of
    ``diagrams/perception.yaml`` on its 640 x 480 depth frame (rendering
    excluded), and that scenario's real-time factor with the camera at 30 Hz,
@@ -736,18 +737,26 @@ def rss_mb() -> float:
 def memory_soak(horizon: float) -> dict:
     """Runs the cyclic position scenario for ``horizon`` simulated seconds; RSS samples.
 
-    The CSV logger writes joint_states.csv at the controller rate (100 Hz) to
-    a temporary folder; console logging off; as fast as it goes.
+    As ``python -m armando_drake.world --no-meshcat --output DIR`` does: the CSV
+    logger writes joint_states.csv at the controller rate (100 Hz) to a temporary
+    folder and the replay is sampled into a private Meshcat, then written as
+    replay.html after the run; console logging off; as fast as it goes.
     """
     from pydrake.systems.analysis import Simulator
 
+    from armando_drake.outputs.replay import (
+        RecordingMeshcat,
+        publish_replay,
+        write_replay,
+    )
     from armando_drake.simulation.builder import MakeWorld
     from armando_drake.simulation.scenario import load_scenario
 
     logging.disable(logging.WARNING)
     scenario = load_scenario("position", f"sequencer: {{cyclic: true}}\n{NO_CONSOLE}")
     with tempfile.TemporaryDirectory(prefix="armando_bench_soak_") as folder:
-        world = MakeWorld(scenario, output_dir=folder, quiet=True)
+        meshcat = RecordingMeshcat()
+        world = MakeWorld(scenario, output_dir=folder, quiet=True, meshcat=meshcat)
         simulator = Simulator(world.diagram)
         simulator.Initialize()
         samples = [(0.0, rss_mb())]
@@ -757,9 +766,26 @@ def memory_soak(horizon: float) -> dict:
             simulator.AdvanceTo(horizon * k / chunks)
             samples.append((horizon * k / chunks, rss_mb()))
         wall = time.perf_counter() - start
-        csv_bytes = (Path(folder) / "joint_states.csv").stat().st_size
         world.close()
-    return {"horizon": horizon, "wall": wall, "samples": samples, "csv_bytes": csv_bytes}
+        csv_bytes = (Path(folder) / "joint_states.csv").stat().st_size
+        replay_start = time.perf_counter()
+        frames = publish_replay(
+            meshcat, world.diagram, world.plant, world.replay_sampler, simulator.get_context()
+        )
+        replay = write_replay(meshcat, Path(folder) / "replay.html")
+        replay_wall = time.perf_counter() - replay_start
+        replay_bytes = replay.stat().st_size
+        after_replay = rss_mb()
+    return {
+        "horizon": horizon,
+        "wall": wall,
+        "samples": samples,
+        "csv_bytes": csv_bytes,
+        "replay_bytes": replay_bytes,
+        "replay_frames": frames,
+        "replay_wall": replay_wall,
+        "rss_after_replay": after_replay,
+    }
 
 
 def bench_memory(report: Report, horizon: float) -> None:
@@ -771,17 +797,31 @@ def bench_memory(report: Report, horizon: float) -> None:
     ).stdout
     soak = json.loads(output.strip().splitlines()[-1])
     samples = soak["samples"]
-    start, end = samples[0][1], samples[-1][1]
+    start, end = samples[0][1], soak["rss_after_replay"]
     label = f"{horizon / 3600:g} h" if horizon >= 3600 else f"{horizon:g} s"
+    hours = horizon / 3600.0
     report.add(Row("memory", "resident memory at the start", "MB", [start]))
-    report.add(Row("memory", f"resident memory after {label} simulated", "MB", [end]))
-    report.add(Row("memory", f"growth over {label}", "MB", [end - start]).check("<=", 20.0))
+    report.add(
+        Row("memory", f"resident memory after {label} simulated and replay.html", "MB", [end])
+    )
+    report.add(
+        Row("memory", f"growth over {label}, replay on", "MB", [end - start]).check(
+            "<=", 20.0 * max(hours, 1.0)
+        )
+    )
+    report.add(
+        Row(
+            "memory", f"replay.html after {label} simulated", "MB", [soak["replay_bytes"] / 1e6]
+        ).check("<=", 50.0)
+    )
     report.notes.append(
-        f"Memory: one fresh process, cyclic position scenario, joint_states.csv at 100 Hz "
-        f"({soak['csv_bytes'] / 1e6:.1f} MB written), {label} simulated in {soak['wall']:.0f} s; "
-        "RSS [MB] at 0, 25, 50, 75, 100 %: "
+        f"Memory: one fresh process, cyclic position scenario as `--no-meshcat --output` "
+        f"runs it: joint_states.csv at 100 Hz ({soak['csv_bytes'] / 1e6:.1f} MB written) and "
+        f"the replay ({soak['replay_frames']} frames, drawn and written in "
+        f"{soak['replay_wall']:.1f} s after the run), {label} simulated in "
+        f"{soak['wall']:.0f} s; RSS [MB] at 0, 25, 50, 75, 100 % of the run: "
         + ", ".join(f"{samples[i][1]:.1f}" for i in (0, 5, 10, 15, 20))
-        + "."
+        + f", after writing replay.html {end:.1f}."
     )
 
 

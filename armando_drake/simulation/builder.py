@@ -117,6 +117,7 @@ class World:
     detectors: Any = None  # AddedDetectors when the scenario has a vision block
     image_view: Any = None  # the live camera view's server, when served
     meshcat: Meshcat | None = None
+    replay_sampler: Any = None  # ReplaySampler of the plant's state, with Meshcat on
     task: TaskReference | None = None  # the scenario's task-space motion, if any
     jog: Any = None  # the MeshcatJog when the scenario has a jog block and a Meshcat
     closers: list = field(default_factory=list)  # called by close()
@@ -218,15 +219,26 @@ def _yaml_gains(
 
 
 def _add_ground(plant: MultibodyPlant) -> None:
-    """A 2 m x 2 m slab whose top face is the plane z = 0."""
+    """A 2 m x 2 m slab whose top face is the plane z = 0.
+
+    Cameras see it (perception role); Meshcat does not (no illustration role):
+    :class:`~armando_drake.outputs.view.ViewFramer` draws a ground there that
+    fits the scene.
+    """
+    from pydrake.geometry import GeometryInstance, PerceptionProperties, Rgba
+
+    from armando_drake.outputs.view import GROUND_COLOR
+
     X_WG = RigidTransform([0.0, 0.0, -0.025])
     ground = Box(2.0, 2.0, 0.05)
     plant.RegisterCollisionGeometry(
         plant.world_body(), X_WG, ground, "ground", CoulombFriction(0.8, 0.8)
     )
-    plant.RegisterVisualGeometry(
-        plant.world_body(), X_WG, ground, "ground", np.array([0.85, 0.85, 0.82, 1.0])
-    )
+    instance = GeometryInstance(X_WG, ground, "ground")
+    perception = PerceptionProperties()
+    perception.AddProperty("phong", "diffuse", Rgba(*GROUND_COLOR))
+    instance.set_perception_properties(perception)
+    plant.RegisterVisualGeometry(plant.world_body(), instance)
 
 
 def _exclude_self_collision(plant: MultibodyPlant, scene_graph, robot: LoadedRobot) -> None:
@@ -530,14 +542,28 @@ def _apply_visualization(builder, world: World, scenario: Scenario, meshcat) -> 
     """Drake's visualization of the plant in ``meshcat``, the collision layer hidden."""
     if meshcat is None or not scenario.visualization.enable_meshcat_creation:
         return
+    from armando_drake.outputs.replay import AddReplaySampler, visualization_for
+    from armando_drake.outputs.view import AddViewFramer
+
     ApplyVisualizationConfig(
-        scenario.visualization,
+        visualization_for(scenario.visualization, meshcat),
         builder,
         plant=world.plant,
         scene_graph=world.scene_graph,
         meshcat=meshcat,
     )
     meshcat.SetProperty("/drake/proximity", "visible", False)
+    # The camera on the robot and the ground to the scene's size, when the run starts.
+    AddViewFramer(
+        builder,
+        world.plant,
+        world.scene_graph,
+        meshcat,
+        robot_instances=[world.robot.model_instance],
+        ground=scenario.ground,
+    )
+    # The plant's state at a bounded number of instants, for the replay after the run.
+    world.replay_sampler = AddReplaySampler(builder, world.plant)
 
 
 def _export_free_ports(builder: DiagramBuilder, world: World) -> None:

@@ -2,11 +2,12 @@
 
 :func:`run` builds the world of a scenario with :func:`~armando_drake.simulation.builder.MakeWorld`,
 simulates it with Drake's ``Simulator`` set up by ``ApplySimulatorConfig``
-(paced to real time or as fast as possible, with a progress line when not
-paced), survives Ctrl-C, and reports per command step the target, the reached
-position, the final error, the largest error after settling and the settling
-time (within :data:`SETTLE_TOLERANCE`). The table is computed in memory from
-the rows the joint-state logger records, with or without an output folder.
+(paced to real time or as fast as possible, with a progress bar on a
+terminal when faster than real time), survives Ctrl-C, and reports per
+command step the target, the reached position, the final error, the largest
+error after settling and the settling time (within :data:`SETTLE_TOLERANCE`).
+The table is computed in memory from the rows the joint-state logger records,
+with or without an output folder.
 With an output folder it writes ``joint_states.csv`` (the logger),
 ``commands.csv`` (every command published) and ``summary.json``.
 """
@@ -288,33 +289,47 @@ def format_table(joint_names: list[str], steps: list[StepResult]) -> str:
     return "\n".join(lines)
 
 
-class _Progress:
-    """A one-line progress indication on stderr for runs not paced to real time."""
+class Progress:
+    """A tqdm progress bar on stderr for runs faster than real time: simulated time,
+    real-time factor and time left; silent when stderr is not a terminal."""
 
-    def __init__(self, duration: float, stream: TextIO = sys.stderr):
+    def __init__(self, duration: float, stream: TextIO | None = None):
         self._duration = duration
-        self._stream = stream
-        self._tty = stream.isatty()
+        self._stream = stream if stream is not None else sys.stderr
+        self._bar = None
         self._start = time.monotonic()
-        self._last_percent = -1
+        if not self._stream.isatty():
+            return
+        from tqdm import tqdm
+
+        self._bar = tqdm(
+            total=duration,
+            unit="s",
+            unit_scale=False,
+            file=self._stream,
+            leave=False,
+            dynamic_ncols=True,
+            bar_format="{l_bar}{bar}| {n:.2f}/{total:.2f} s simulated "
+            "[{elapsed}<{remaining}, {postfix}]",
+        )
+
+    def restart(self) -> None:
+        """The wall clock starts now (after a wait for a browser)."""
+        self._start = time.monotonic()
+        if self._bar is not None:
+            self._bar.reset(total=self._duration)
 
     def update(self, sim_time: float) -> None:
-        percent = int(100 * sim_time / self._duration) if self._duration > 0 else 100
-        if not self._tty and percent // 10 == self._last_percent // 10:
+        if self._bar is None:
             return
-        self._last_percent = percent
         wall = time.monotonic() - self._start
         rate = sim_time / wall if wall > 0 else math.inf
-        end = "\r" if self._tty else "\n"
-        self._stream.write(
-            f"[{percent:3d}%] t = {sim_time:7.2f} / {self._duration:.2f} s "
-            f"({rate:5.1f}x real time){end}"
-        )
-        self._stream.flush()
+        self._bar.set_postfix_str(f"{rate:.1f}x real time", refresh=False)
+        self._bar.update(sim_time - self._bar.n)
 
     def finish(self) -> None:
-        if self._tty:
-            self._stream.write("\n")
+        if self._bar is not None:
+            self._bar.close()
 
 
 @contextlib.contextmanager
@@ -346,6 +361,7 @@ def run(
     replay: bool = True,
     record: str | Path | None = None,
     plots: bool = True,
+    wait_for_browser: float = 0.0,
 ) -> RunResult:
     """Builds and simulates ``scenario``; returns (and, with ``output_dir``, writes) results.
 
@@ -354,6 +370,9 @@ def run(
     (:mod:`armando_drake.outputs.replay`; without ``meshcat`` a private Meshcat
     records it). ``record``: an
     ``.mcap`` file for the ROS 2 recording (:mod:`armando_drake.outputs.recording`).
+    With ``meshcat`` and ``replay``, the run is published there as an animation at the
+    end; ``wait_for_browser`` [s]: how long to wait for a browser on ``meshcat``
+    before the clock starts (0: not at all).
     """
     from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
@@ -366,22 +385,22 @@ def run(
     if output_dir is not None:
         log_dir = Path(output_dir)
         log_dir.mkdir(parents=True, exist_ok=True)
-    replay_meshcat = None
-    if output_dir is not None and replay:
-        from armando_drake.outputs.replay import RecordingMeshcat, start_replay
+    # The replay: into the live Meshcat when there is one (kept after the run), else,
+    # for replay.html, into a private one.
+    replay_meshcat = meshcat
+    if replay_meshcat is None and output_dir is not None and replay:
+        from armando_drake.outputs.replay import RecordingMeshcat
 
-        replay_meshcat = meshcat if meshcat is not None else RecordingMeshcat()
+        replay_meshcat = RecordingMeshcat()
     world = MakeWorld(
         scenario,
-        meshcat=meshcat if replay_meshcat is None else replay_meshcat,
+        meshcat=replay_meshcat,
         output_dir=log_dir,
         quiet=quiet,
         source=scenario_name,
         write_commands=output_dir is not None,
         record=record,
     )
-    if replay_meshcat is not None:
-        start_replay(replay_meshcat, live=replay_meshcat is meshcat)
     # The step table (or the sinusoid's tracking error) from the logger's rows.
     table = _table_of(world)
     tracker = _task_tracker_of(world)
@@ -389,7 +408,7 @@ def run(
     simulator = Simulator(world.diagram)
     ApplySimulatorConfig(scenario.simulator_config, simulator)
     realtime_rate = scenario.simulator_config.target_realtime_rate
-    progress = None if (realtime_rate > 0 or quiet) else _Progress(duration)
+    progress = None if (0 < realtime_rate <= 1 or quiet) else Progress(duration)
     if meshcat is not None:
         print(f"Meshcat: {meshcat.web_url()}", file=stream, flush=True)
     if world.image_view_url:
@@ -399,6 +418,14 @@ def run(
     with _sigterm_as_interrupt():
         try:
             simulator.Initialize()
+            if meshcat is not None and wait_for_browser > 0:
+                from armando_drake.outputs.view import wait_for_browser as wait
+
+                wait(meshcat, wait_for_browser, stream)
+                simulator.ResetStatistics()  # the pacing to real time starts now
+                wall_start = time.monotonic()
+                if progress:
+                    progress.restart()
             # Advance in slices of about 1 % (at least 50 ms) for the progress
             # line; slice ends are computed, not accumulated, so the last one
             # is exactly ``duration`` and its final controller tick runs.
@@ -459,10 +486,19 @@ def run(
             from armando_drake.outputs.plots import write_plots
 
             write_plots(log_dir)
-    if replay_meshcat is not None:
-        from armando_drake.outputs.replay import REPLAY_FILE, write_replay
+    if replay and replay_meshcat is not None and world.replay_sampler is not None:
+        # The run as an animation in Meshcat (the live page keeps it) and in replay.html.
+        from armando_drake.outputs.replay import REPLAY_FILE, publish_replay, write_replay
 
-        write_replay(replay_meshcat, log_dir / REPLAY_FILE)
+        publish_replay(
+            replay_meshcat,
+            world.diagram,
+            world.plant,
+            world.replay_sampler,
+            simulator.get_context(),
+        )
+        if log_dir is not None:
+            write_replay(replay_meshcat, log_dir / REPLAY_FILE)
     return result
 
 

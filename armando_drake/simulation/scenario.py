@@ -107,7 +107,8 @@ class CameraSettings:
     enabled: bool = False
     # Whether depth images are rendered too.
     depth: bool = True
-    # Whether a live view of the camera is served on localhost.
+    # Whether the live view of the camera is served on localhost without Meshcat too
+    # (with Meshcat on it always is; the CLI's --camera-view sets it).
     live_view: bool = False
     # Folder where colour frames (PNG) and depth (16-bit PNG, millimetres) are
     # saved; "" = not saved.

@@ -74,7 +74,69 @@ def start_meshcat(host: str):
         logging.getLogger("armando_drake").warning(
             "--host %s: Meshcat is reachable from other machines", host
         )
-    return Meshcat(MeshcatParams(host=host))
+    # Drake logs "Meshcat listening for connections at URL"; the run prints the URL once.
+    drake_logger = logging.getLogger("drake")
+    level = drake_logger.level
+    drake_logger.setLevel(logging.WARNING)
+    try:
+        return Meshcat(MeshcatParams(host=host))
+    finally:
+        drake_logger.setLevel(level)
+
+
+def interactive() -> bool:
+    """Whether a person is at the terminal: standard input and output are both terminals."""
+    return sys.stdin.isatty() and sys.stdout.isatty()
+
+
+def add_viewer_arguments(parser) -> None:
+    """``--wait SECONDS`` / ``--no-wait`` before the run and ``--exit-when-done`` /
+    ``--keep-serving`` after it, for a run with Meshcat."""
+    from armando_drake.outputs.view import WAIT_TIMEOUT
+
+    parser.add_argument(
+        "--wait",
+        type=float,
+        metavar="SECONDS",
+        help="with Meshcat, wait up to SECONDS for a browser to open the page before the "
+        f"clock starts (default: {WAIT_TIMEOUT:g} on a terminal, 0 otherwise)",
+    )
+    parser.add_argument(
+        "--no-wait", action="store_true", help="start at once (the same as --wait 0)"
+    )
+    serve = parser.add_mutually_exclusive_group()
+    serve.add_argument(
+        "--exit-when-done",
+        dest="keep_serving",
+        action="store_false",
+        default=None,
+        help="exit when the run ends (default when not on a terminal)",
+    )
+    serve.add_argument(
+        "--keep-serving",
+        dest="keep_serving",
+        action="store_true",
+        help="after the run, keep Meshcat serving the run as a replay until Ctrl-C "
+        "(default on a terminal)",
+    )
+
+
+def wait_seconds(args) -> float:
+    """[s] how long to wait for a browser, from ``--wait`` / ``--no-wait``."""
+    from armando_drake.outputs.view import WAIT_TIMEOUT
+
+    if args.no_wait:
+        return 0.0
+    if args.wait is not None:
+        if not args.wait >= 0:
+            raise UserError(f"--wait {args.wait} must not be negative [s]")
+        return args.wait
+    return WAIT_TIMEOUT if interactive() else 0.0
+
+
+def keeps_serving(args) -> bool:
+    """Whether Meshcat stays up after the run (``--keep-serving`` / ``--exit-when-done``)."""
+    return interactive() if args.keep_serving is None else args.keep_serving
 
 
 def add_description_arguments(parser, default: str) -> None:

@@ -79,6 +79,7 @@ def test_live_view_during_a_run_shows_the_camera_image(chromium):
         "--scenario",
         "camera",
         "--no-meshcat",
+        "--camera-view",
         "--duration",
         "60",
         "--quiet",

@@ -1,0 +1,214 @@
+"""The world's viewer as a user meets it: framed on the robot, waiting for a browser,
+still serving the run after it, printed once; the replay bounded; the progress bar."""
+
+import io
+import re
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource
+
+from armando_drake.outputs.replay import ReplaySampler
+from armando_drake.outputs.view import camera_pose_for
+from armando_drake.simulation.run import Progress
+
+HALF = 0.5  # the robot's image spans at least this share of the view's height or width
+
+
+def world(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "armando_drake.world", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        stdin=subprocess.DEVNULL,
+    )
+
+
+def test_url_is_printed_once_and_the_run_exits_when_done():
+    start = time.monotonic()
+    result = world("--exit-when-done", "--no-wait", "--duration", "1", "--realtime-rate", "0")
+    assert result.returncode == 0, result.stderr
+    output = result.stdout + result.stderr
+    assert len(re.findall(r"http://\S+", output)) == 1, output
+    assert "keeps serving" not in output
+    assert time.monotonic() - start < 120
+
+
+def test_without_a_terminal_the_run_neither_waits_nor_stays():
+    # stdin is not a terminal: no wait for a browser, no serving after the run.
+    result = world("--duration", "0.5", "--realtime-rate", "0")
+    assert result.returncode == 0, result.stderr
+    assert "waiting up to" not in result.stdout
+    assert "keeps serving" not in result.stdout
+
+
+def test_camera_view_only_with_meshcat_or_when_asked():
+    fast = ["--scenario", "camera", "--duration", "0.1", "--realtime-rate", "0", "--quiet"]
+    without = world("--no-meshcat", *fast)
+    assert without.returncode == 0, without.stderr
+    assert "Camera view:" not in without.stdout
+    asked = world("--no-meshcat", "--camera-view", *fast)
+    assert asked.returncode == 0, asked.stderr
+    assert re.search(r"^Camera view: http://127\.0\.0\.1:\d+", asked.stdout, re.M)
+    with_meshcat = world("--exit-when-done", *fast)
+    assert with_meshcat.returncode == 0, with_meshcat.stderr
+    assert "Camera view: http://" in with_meshcat.stdout
+
+
+@pytest.mark.browser
+def test_the_run_waits_for_a_browser_then_starts(chromium):
+    from browser import browser_page
+
+    process = subprocess.Popen(
+        [sys.executable, "-m", "armando_drake.world", "--wait", "60", "--exit-when-done"]
+        + ["--duration", "1", "--realtime-rate", "0", "--quiet"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        lines = []
+        for line in process.stdout:
+            lines.append(line)
+            if "waiting up to 60 s for a browser" in line:
+                break
+        url = re.search(r"Meshcat: (\S+)", "".join(lines)).group(1)
+        time.sleep(3.0)
+        assert process.poll() is None, "the run did not wait for a browser"
+        with browser_page(chromium) as page:
+            page.goto(url)
+            rest, _ = process.communicate(timeout=60)
+        assert process.returncode == 0
+        # The run started when the page opened, and ran to its end.
+        assert "no browser connected" not in rest
+        assert "1.00 s simulated" in rest
+        assert len(re.findall(r"http://\S+", "".join(lines) + rest)) == 1
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+
+
+@pytest.mark.browser
+def test_after_the_run_the_page_answers_frames_the_robot_and_holds_the_replay(chromium):
+    from browser import browser_page, robot_span, wait_for_scene_paths
+
+    process = subprocess.Popen(
+        [sys.executable, "-m", "armando_drake.world", "--keep-serving", "--no-wait"]
+        + ["--duration", "2", "--realtime-rate", "0", "--quiet"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        lines = []
+        for line in process.stdout:
+            lines.append(line)
+            if "keeps serving the run" in line:
+                break
+        output = "".join(lines)
+        assert "2.00 s simulated" in output, output
+        assert len(re.findall(r"http://\S+", output)) == 1, output
+        url = re.search(r"Meshcat: (\S+)", output).group(1)
+        time.sleep(1.0)
+        assert process.poll() is None, "the process ended with the run"
+        with browser_page(chromium) as page:
+            page.goto(url)
+            paths = wait_for_scene_paths(
+                page, lambda p: any(x.startswith("/drake/illustration/armando/") for x in p)
+            )
+            assert any(x.startswith("/drake/illustration/armando/") for x in paths)
+            assert "/ground" in paths
+            duration = page.evaluate("() => viewer.animator.duration")
+            height, width = robot_span(page)
+    finally:
+        process.terminate()
+        process.wait(timeout=10)
+    assert duration == pytest.approx(2.0, abs=0.1)  # the whole run, to scrub
+    assert max(height, width) >= HALF, (height, width)
+
+
+@pytest.mark.browser
+def test_replay_html_opens_framed_on_the_robot(tmp_path, chromium):
+    from browser import browser_page, robot_span, wait_for_scene_paths
+
+    result = world(
+        "--no-meshcat", "--realtime-rate", "0", "--duration", "1", "--output", str(tmp_path)
+    )
+    assert result.returncode == 0, result.stderr
+    with browser_page(chromium) as page:
+        page.goto((tmp_path / "replay.html").as_uri())
+        wait_for_scene_paths(
+            page, lambda p: any(x.startswith("/drake/illustration/armando/") for x in p)
+        )
+        height, width = robot_span(page)
+    assert max(height, width) >= HALF, (height, width)
+    assert height < 1.0 and width < 1.0  # not cut by the view's edges
+
+
+def test_camera_sees_every_point_within_the_field_of_view():
+    rng = np.random.default_rng(3)
+    points = rng.uniform([-0.1, -0.2, 0.0], [0.7, 0.2, 0.5], size=(200, 3))
+    camera, target = camera_pose_for(points, [0.45, -0.45, 0.23])
+    back = (camera - target) / np.linalg.norm(camera - target)
+    assert np.allclose(np.cross(back, [0.45, -0.45, 0.23]), 0, atol=1e-9)  # the preset's side
+    up = np.array([0, 0, 1.0]) - back[2] * back
+    up /= np.linalg.norm(up)
+    right = np.cross(up, back)
+    depth = (camera - points) @ back
+    vertical = np.abs((points - camera) @ up) / depth
+    horizontal = np.abs((points - camera) @ right) / depth
+    slope = np.tan(np.radians(75) / 2)
+    # Every point in the view (16:9 and 4:3 screens); the nearest such distance, so the
+    # extreme points reach 90 % of the half view (up-down or, at 3:2, left-right).
+    assert vertical.max() <= 0.9 * slope + 1e-9
+    assert horizontal.max() <= 1.5 * 0.9 * slope + 1e-9
+    assert max(vertical.max(), horizontal.max() / 1.5) == pytest.approx(0.9 * slope, rel=0.05)
+
+
+def test_replay_sampler_keeps_a_bounded_evenly_spaced_set_of_frames():
+    builder = DiagramBuilder()
+    source = builder.AddSystem(ConstantVectorSource([1.0, 2.0]))
+    sampler = builder.AddSystem(ReplaySampler(state_size=2, rate=32.0, max_frames=64))
+    builder.Connect(source.get_output_port(), sampler.get_input_port())
+    simulator = Simulator(builder.Build())
+    simulator.AdvanceTo(100.0)  # 3201 samples at 32 per second without thinning
+    times, states = sampler.frames()
+    assert 32 <= len(times) <= 64
+    assert times[0] == 0.0 and times[-1] >= 100.0 - sampler.interval
+    assert np.allclose(np.diff(times), sampler.interval)
+    assert sampler.interval == pytest.approx(2.0)  # 1/32 s doubled six times
+    assert np.array_equal(states, np.tile([1.0, 2.0], (len(times), 1)))
+    short = Simulator(simulator.get_system())
+    short.AdvanceTo(1.0)  # a new simulation starts a new set, at the full rate
+    times, _ = sampler.frames()
+    assert len(times) == 33 and sampler.interval == pytest.approx(1 / 32)
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_progress_bar_on_a_terminal_silent_elsewhere():
+    quiet = io.StringIO()
+    progress = Progress(10.0, stream=quiet)
+    progress.update(5.0)
+    progress.finish()
+    assert quiet.getvalue() == ""
+    terminal = _Terminal()
+    progress = Progress(10.0, stream=terminal)
+    time.sleep(0.05)
+    progress.update(5.0)
+    progress._bar.refresh()
+    text = terminal.getvalue()
+    progress.finish()
+    assert "5.00/10.00 s simulated" in text, text
+    assert re.search(r"\d+\.\dx real time", text), text
+    assert re.search(r"<\d\d:\d\d", text), text  # time left
