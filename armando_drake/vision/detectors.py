@@ -7,8 +7,9 @@ The image processing is OpenCV's (``opencv-python-headless``), not ours:
 
 - :class:`BlobDetector`: ``cv2.SimpleBlobDetector`` with the seed's parameters
   (thresholds 1..250 step 1, area >= 100 px, circularity >= 0.8) on the grey
-  image; outputs the keypoints (pixel centre, diameter) and an annotated image
-  (the keypoints drawn, ``cv2.drawKeypoints``);
+  image, run once per distinct binary image rather than once per threshold
+  (:mod:`armando_drake.vision.blobs`: the same keypoints); outputs the keypoints
+  (pixel centre, diameter) and an annotated image (the keypoints drawn, ``cv2.drawKeypoints``);
 - :class:`ArucoDetector`: ``cv2.aruco.ArucoDetector`` (AprilTag corners) then ``cv2.solvePnP``
   (IPPE_SQUARE or iterative, refined by LM) with the camera's own intrinsics; publishes the
   marker's pose in the camera frame (``cam_T_marker``, a :class:`MarkerPose`
@@ -34,6 +35,7 @@ from pydrake.systems.framework import DiagramBuilder, EventStatus, LeafSystem
 from pydrake.systems.sensors import ImageRgba8U
 
 from armando_drake.control.messages import Publication, PublicationValue
+from armando_drake.vision.blobs import LevelBlobDetector
 from armando_drake.vision.marker import MarkerError, aruco_dictionary, dictionary_size
 
 _log = logging.getLogger("armando_drake.vision")
@@ -140,6 +142,7 @@ class BlobDetector(LeafSystem):
         threshold_step: float = 1.0,
         min_area: float = 100.0,
         min_circularity: float = 0.8,
+        skip_repeated_thresholds: bool = True,
         on_detection=None,
     ):
         super().__init__()
@@ -159,6 +162,7 @@ class BlobDetector(LeafSystem):
         params.filterByConvexity = False
         params.filterByInertia = False
         self._detector = cv2.SimpleBlobDetector_create(params)
+        self._levels = LevelBlobDetector(params) if skip_repeated_thresholds else None
         self._on_detection = on_detection
         self.frames = 0  # frames processed (a statistic, not state)
         self.detections = 0  # frames with at least one keypoint
@@ -178,6 +182,8 @@ class BlobDetector(LeafSystem):
         import cv2
 
         grey = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY) if bgr.ndim == 3 else bgr
+        if self._levels is not None:
+            return tuple(Keypoint(u, v, d) for u, v, d in self._levels.detect(grey))
         found = self._detector.detect(grey)
         return tuple(Keypoint(float(k.pt[0]), float(k.pt[1]), float(k.size)) for k in found)
 
@@ -489,6 +495,7 @@ def AddDetectors(
                 threshold_step=blob.threshold_step,
                 min_area=blob.min_area,
                 min_circularity=blob.min_circularity,
+                skip_repeated_thresholds=blob.skip_repeated_thresholds,
                 on_detection=(
                     _KeypointPrinter(info.name) if blob.print_keypoints and console else None
                 ),
