@@ -28,6 +28,10 @@ class BlobDetectorConfig:
     # as SimpleBlobDetector over every threshold, much cheaper on a rendered frame.
     # false = SimpleBlobDetector as it is (for comparison).
     skip_repeated_thresholds: bool = True
+    # [m] the true diameter of the blob's object (a disc): > 0 makes the largest
+    # keypoint a target point for the look-at-point controllers (its ray, at the
+    # distance where that diameter has the keypoint's size); 0 = no target.
+    target_diameter: float = 0.0
     # Print the keypoints on the console once a second (not when logging.console_rate is 0).
     print_keypoints: bool = True
 

@@ -1,7 +1,7 @@
 """The vision outputs of a run: ``vision.csv`` and ``vision.png``.
 
-- ``vision.csv``: per ArUco detection, the time [s], the unit vector
-  ``s = p / |p|`` towards the marker in the camera frame (s_x, s_y, s_z) and, with
+- ``vision.csv``: per ArUco detection (or per blob target), the time [s], the unit
+  vector ``s = p / |p|`` towards the marker (the disc) in the camera frame (s_x, s_y, s_z) and, with
   a look-at-point controller, the joint velocity commands [rad/s] in force then;
 - ``keypoints.csv``: with a blob detector, every frame's keypoints: time [s],
   centre u, v [px] and diameter [px];
@@ -23,11 +23,16 @@ VISION_PLOT = "vision.png"
 
 
 def write_vision_csv(world, context, path: str | Path) -> Path | None:
-    """``vision.csv`` from the world's ArUco detector (None without one)."""
+    """``vision.csv`` from the world's ArUco detector or blob target (None without)."""
     detectors = world.detectors
-    if detectors is None or detectors.aruco is None:
+    if detectors is None:
         return None
-    history = detectors.aruco.history
+    if detectors.aruco is not None:
+        history = detectors.aruco.history
+    elif detectors.blob is not None and detectors.blob.target is not None:
+        history = detectors.blob.target_history
+    else:
+        return None
     joints = detectors.command_joints
     commands = None
     if detectors.commands is not None:
