@@ -66,7 +66,8 @@ def vision_summary(world, context, scenario) -> dict | None:
     """summary.json's ``vision``: frames and detections of the detectors, the final
     pointing error at the marker (or, with a blob target, at the first disc) [rad] and
     the marker's estimated minus true position [m] (None where there is no marker or no
-    estimate); None without detectors."""
+    estimate); with a dynamic look-at controller also ``max_path_error``, the camera's
+    largest distance from its linear path [m]; None without detectors."""
     detectors = world.detectors
     if detectors is None:
         return None
@@ -87,6 +88,11 @@ def vision_summary(world, context, scenario) -> dict | None:
             camera = detectors.blob_camera
             summary["final_pointing_error"] = pointing_error(world, context, camera, p_WD)
         return summary
+    for name in world.controllers:
+        # A dynamic look-at controller: how far the camera strayed from its linear path.
+        detail = world.status(context, name).detail
+        if "max_path_error" in detail:
+            summary["max_path_error"] = float(detail["max_path_error"])
     p_WM = true_marker_position(scenario)
     if p_WM is None:
         return summary
