@@ -329,29 +329,6 @@ def _effort(law, q, v, reference) -> np.ndarray:
     return tau[law.controller_order]
 
 
-@register("vision_controllers/OperationalSpaceLookAtController")
-class OperationalSpaceLookAtController(_DynamicLookAt):
-    """The camera's linear path and the look-at orientation through operational-space
-    inverse dynamics."""
-
-    parameters = OperationalSpaceLookAtParameters
-    law_type = "task_space_controllers/OperationalSpaceInverseDynamics"
-    _hold = OperationalSpaceInverseDynamicsController._hold  # before the marker is seen
-
-    def _torque(self, motion, q, v, now):
-        law = motion.law
-        law.arm.set_state(*self._arm_state(law, q, v))
-        X_WC = law.arm.pose()
-        p_d, v_d, a_d = self._path(motion, now)
-        e_o, w_d = self._look_at(X_WC, motion.target, v_d)
-        angle = float(np.linalg.norm(e_o))
-        turn = RotationMatrix(AngleAxis(angle, e_o / angle)) if angle > 0 else RotationMatrix()
-        R_d = turn.multiply(X_WC.rotation())
-        reference = np.concatenate([R_d.ToQuaternion().wxyz(), p_d, w_d, v_d, np.zeros(3), a_d])
-        error = float(np.linalg.norm(X_WC.translation() - p_d))
-        return _effort(law, q, v, reference), motion, error
-
-
 @register("vision_controllers/JointSpaceLookAtController")
 class JointSpaceLookAtController(_DynamicLookAt):
     """The camera's linear path and the look-at orientation by closed-loop inverse
@@ -384,6 +361,29 @@ class JointSpaceLookAtController(_DynamicLookAt):
         effort = _effort(law, q, v, reference)  # (leaves the measured state in the arm)
         error = float(np.linalg.norm(arm.pose().translation() - p_d))
         return effort, motion, error
+
+
+@register("vision_controllers/OperationalSpaceLookAtController")
+class OperationalSpaceLookAtController(_DynamicLookAt):
+    """The camera's linear path and the look-at orientation through operational-space
+    inverse dynamics."""
+
+    parameters = OperationalSpaceLookAtParameters
+    law_type = "task_space_controllers/OperationalSpaceInverseDynamics"
+    _hold = OperationalSpaceInverseDynamicsController._hold  # before the marker is seen
+
+    def _torque(self, motion, q, v, now):
+        law = motion.law
+        law.arm.set_state(*self._arm_state(law, q, v))
+        X_WC = law.arm.pose()
+        p_d, v_d, a_d = self._path(motion, now)
+        e_o, w_d = self._look_at(X_WC, motion.target, v_d)
+        angle = float(np.linalg.norm(e_o))
+        turn = RotationMatrix(AngleAxis(angle, e_o / angle)) if angle > 0 else RotationMatrix()
+        R_d = turn.multiply(X_WC.rotation())
+        reference = np.concatenate([R_d.ToQuaternion().wxyz(), p_d, w_d, v_d, np.zeros(3), a_d])
+        error = float(np.linalg.norm(X_WC.translation() - p_d))
+        return _effort(law, q, v, reference), motion, error
 
 
 __all__ = [
