@@ -481,6 +481,8 @@ class AddedDetectors:
     aruco_camera: str = ""
     commands: Any = None  # VectorLogSink of the desired state, with a look-at controller
     command_joints: list = dataclasses.field(default_factory=list)  # its joints' names
+    # What it logs: "velocity" (desired state [q; v], v logged) or "effort" (torques).
+    command_kind: str = "velocity"
     # Annotated image output ports, by camera name.
     annotated: dict = dataclasses.field(default_factory=dict)
 
@@ -530,8 +532,9 @@ def _set_start_positions(world, positions, where: str) -> None:
 
 def _feed_look_at(builder, world, added: AddedDetectors, port, info) -> None:
     """Connects ``port`` (a Publication of :class:`MarkerPose`) to every active
-    controller that reads one (the look-at-point controllers); their joint velocity
-    commands are logged (C++ VectorLogSink) at the camera rate for vision.csv."""
+    controller that reads one (the look-at-point controllers); their commands are
+    logged (C++ VectorLogSink) at the camera rate for vision.csv: the joint velocities
+    (desired state) of the kinematic ones, the torques of the dynamic ones (effort)."""
     for name, manager in world.controllers.items():
         entry = world.controller_config.controllers[name]
         if entry.controller_class.message is not MarkerPose:
@@ -540,11 +543,14 @@ def _feed_look_at(builder, world, added: AddedDetectors, port, info) -> None:
         if added.commands is None:
             from pydrake.systems.primitives import LogVectorOutput
 
+            effort = entry.controller_class.command_interface(entry.params) == "effort"
+            source = "effort_command" if effort else "desired_state"
             added.commands = LogVectorOutput(
-                manager.GetOutputPort("desired_state"), builder, 1.0 / info.frame_rate
+                manager.GetOutputPort(source), builder, 1.0 / info.frame_rate
             )
             added.commands.set_name("vision_command_log")
             added.command_joints = list(world.hardware.joint_names)
+            added.command_kind = "effort" if effort else "velocity"
 
 
 def AddDetectors(

@@ -113,3 +113,25 @@ def test_bad_path_parameters_are_a_parameter_error(parameters, message):
     with pytest.raises(ControllerConfigError, match=re.escape(message)) as raised:
         parse_controller_config(data, source="look.yaml")
     assert "\n" not in str(raised.value)
+
+
+def test_run_outputs_give_the_torques_and_the_path_error(iiwa_package, monkeypatch, tmp_path):
+    import csv
+    import json
+
+    from armando_drake.simulation.run import run
+
+    monkeypatch.chdir(REPO)
+    scenario = load_scenario(
+        "vision_dynamic",
+        "logging: {console_rate: 0}\ncamera: {live_view: false}\nsimulation: {duration: 0.5}",
+    )
+    run(scenario, scenario_name="vision_dynamic.yaml", output_dir=tmp_path, quiet=True,
+        replay=False, plots=False)  # fmt: skip
+    vision = json.loads((tmp_path / "summary.json").read_text())["vision"]
+    assert 0 < vision["max_path_error"] <= 0.002
+    assert vision["detections"] == vision["frames"] == 15
+    with (tmp_path / "vision.csv").open() as stream:
+        rows = list(csv.reader(stream))
+    assert rows[0][4:] == [f"iiwa_joint_{k}_effort_command" for k in range(1, 8)]
+    assert len(rows) == 16 and any(abs(float(x)) > 1.0 for x in rows[-1][4:])  # [N m]
