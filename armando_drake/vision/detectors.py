@@ -513,7 +513,8 @@ def _camera(world, name: str, key: str, where: str):
 
 
 def _set_start_positions(world, positions, where: str) -> None:
-    """The hardware joints start at ``positions`` [rad] (hardware order)."""
+    """The hardware joints start at ``positions`` [rad] (hardware order); velocity and
+    effort joints only (position servos hold their description's initial positions)."""
     hardware = world.hardware
     if len(positions) != len(hardware.joints):
         raise DetectorError(
@@ -521,6 +522,13 @@ def _set_start_positions(world, positions, where: str) -> None:
             f"values ({', '.join(hardware.joint_names)})"
         )
     for joint, value in zip(hardware.joints, positions, strict=True):
+        if joint.command_interface == "position":
+            # Its controllers were built holding the description's initial position.
+            raise DetectorError(
+                f"{where}vision.start_positions: joint {joint.name!r} takes position commands, "
+                "which hold the description's initial positions: set those instead (e.g. "
+                "robot.xacro_args initial_j0..)"
+            )
         if not joint.lower <= value <= joint.upper:
             raise DetectorError(
                 f"{where}vision.start_positions: {value!r} of joint {joint.name!r} is outside "

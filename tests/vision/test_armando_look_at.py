@@ -71,8 +71,12 @@ def test_blob_target_point_is_at_the_distance_of_the_known_diameter():
             "aruco: {camera: wrist_camera}}",
             "both give the look-at-point controllers a target",
         ),
+        (
+            "vision: {blob: {camera: wrist_camera}, start_positions: [0.0, 0.1, 0.2, 0.3]}",
+            "vision.start_positions: joint 'j0' takes position commands",
+        ),
     ],
-    ids=["negative_diameter", "two_targets"],
+    ids=["negative_diameter", "two_targets", "start_positions_on_position_joints"],
 )
 def test_bad_blob_target_is_a_one_line_error(override, message):
     with pytest.raises(ScenarioError) as raised:
