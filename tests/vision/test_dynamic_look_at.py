@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import REPO
 from pydrake.common.eigen_geometry import AngleAxis
-from pydrake.math import RotationMatrix
+from pydrake.math import RollPitchYaw, RotationMatrix
 from pydrake.systems.analysis import Simulator
 
 from armando_drake.control.config import ControllerConfigError, parse_controller_config
@@ -135,3 +135,58 @@ def test_run_outputs_give_the_torques_and_the_path_error(iiwa_package, monkeypat
         rows = list(csv.reader(stream))
     assert rows[0][4:] == [f"iiwa_joint_{k}_effort_command" for k in range(1, 8)]
     assert len(rows) == 16 and any(abs(float(x)) > 1.0 for x in rows[-1][4:])  # [N m]
+
+
+@pytest.mark.parametrize("kind", ["joint_space", "operational_space"])
+def test_logic_holds_until_the_marker_then_follows_it_and_rejects_bad_poses(kind):
+    """The logic alone on Armando's plant (4 joints: the general case, no iiwa needed)."""
+    from pydrake.math import RigidTransform
+    from pydrake.multibody.plant import MultibodyPlant
+
+    from armando_drake.control.controllers import ControllerJoints
+    from armando_drake.control.controllers.look_at_dynamic import (
+        JointSpaceLookAtController,
+        OperationalSpaceLookAtController,
+    )
+    from armando_drake.description.loader import load_robot
+    from armando_drake.vision.detectors import MarkerPose
+
+    plant = MultibodyPlant(0.0)
+    robot = load_robot(plant)
+    for info in robot.joints:  # a torque actuator per joint, as on the effort interface
+        plant.AddJointActuator(f"{info.name}_motor", plant.GetJointByName(info.name), info.effort)
+    plant.Finalize()
+    cls = JointSpaceLookAtController if kind == "joint_space" else OperationalSpaceLookAtController
+    joints = ControllerJoints.make(["j0", "j1", "j2", "j3"])
+    params = cls.parameters(joints=list(joints.names), offset=[0.02, 0.0, 0.0], duration=1.0,
+                            acceleration_time=0.3)  # fmt: skip
+    logic = cls(name="look", joints=joints, params=params)
+    logic.connect_plant(plant, robot.model_instance)
+    q = np.array([0.0, 0.0, 0.0, 2.3])
+
+    def measure(desired):
+        return q, np.zeros(4)
+
+    memory = logic.update(0.0, None, logic.initial_memory(), measure)
+    assert memory.status.state == "holding" and np.all(np.isfinite(memory.effort))
+    memory = logic.update(0.001, "not a pose", memory, measure)
+    assert memory.status.rejected == 1 and memory.status.state == "holding"
+    X_LC = RigidTransform(RollPitchYaw([-np.pi / 2, -np.pi / 2, 0.0]), [0.0, 0.0, 0.06])
+    pose = MarkerPose(stamp=0.002, frame_id="c", pose=RigidTransform([0.05, 0.0, 0.3]),
+                      link="crawer_base", X_LC=X_LC)  # fmt: skip
+    memory = logic.update(0.002, pose, memory, measure)
+    detail = memory.status.detail
+    assert memory.status.state == "executing" and memory.status.accepted == 1
+    context = plant.CreateDefaultContext()
+    plant.SetPositions(context, robot.model_instance, q)
+    X_WC = plant.GetBodyByName("crawer_base").EvalPoseInWorld(context) @ X_LC
+    assert np.allclose(detail["path_start"], X_WC.translation(), atol=1e-12)
+    assert np.allclose(np.subtract(detail["path_goal"], detail["path_start"]), [0.02, 0, 0])
+    assert np.allclose(detail["target"], X_WC @ np.array([0.05, 0.0, 0.3]), atol=1e-12)
+    assert detail["path_start_time"] == 0.002
+    bad = MarkerPose(stamp=0.003, frame_id="c", pose=RigidTransform([0, 0, 0.3]), link="nope")
+    memory = logic.update(0.003, bad, memory, measure)
+    assert memory.status.rejected == 2 and "link 'nope'" in memory.status.last_error
+    memory = logic.update(0.004, None, memory, measure)  # between frames: the estimate holds
+    assert memory.status.state == "executing" and np.all(np.isfinite(memory.effort))
+    assert np.allclose(memory.internal.target, detail["target"])

@@ -268,6 +268,8 @@ class _DynamicLookAt(_InverseDynamicsController):
         """(e_o, w_d): the look-at error and the angular velocity that keeps it at zero."""
         offset = target - X_WC.translation()
         distance = float(np.linalg.norm(offset))
+        if distance < 1e-6:  # [m] at the marker: no direction to look in
+            return np.zeros(3), np.zeros(3)
         d = offset / distance
         e_o = look_at_rotation(X_WC.rotation().matrix()[:, 2], d)
         d_dot = -(v_d - d * (d @ v_d)) / distance
@@ -288,13 +290,16 @@ class _DynamicLookAt(_InverseDynamicsController):
         if message is not None:
             if not isinstance(message, MarkerPose):
                 status = self.reject(status, f"expected a MarkerPose, got {type(message).__name__}")
-                if motion is None:
-                    return dataclasses.replace(memory, status=status)
+                if motion is None:  # still holding
+                    return super().update(now, None, dataclasses.replace(memory, status=status),
+                                          measure)  # fmt: skip
             else:
                 try:
+                    # The marker in the world through the camera that saw it (the path
+                    # and the pointing are those of the camera of the first pose).
+                    law = self._camera_law(message.link, message.X_LC)
                     if motion is None:
                         motion = self._start(message, q, v, now)
-                    law = motion.law
                     law.arm.set_state(*self._arm_state(law, q, v))
                     target = law.arm.pose() @ message.pose.translation()
                     motion = dataclasses.replace(motion, target=target)
@@ -309,8 +314,10 @@ class _DynamicLookAt(_InverseDynamicsController):
                     status = self.accept(status, "executing", detail)
                 except TaskSpaceError as error:
                     status = self.reject(status, str(error))
-                    if motion is None:
-                        return dataclasses.replace(memory, status=status)
+                    if motion is None:  # still holding
+                        return super().update(
+                            now, None, dataclasses.replace(memory, status=status), measure
+                        )
         effort, motion, error = self._torque(motion, q, v, now)
         if error > status.detail.get("max_path_error", 0.0):
             # [m] the largest distance so far of the camera from its path (measured joints)
