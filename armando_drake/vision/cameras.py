@@ -50,8 +50,12 @@ class ScenarioCamera:
 
     def sensor_info(self, source: str = "scenario") -> CameraSensorInfo:
         """The checked camera as a :class:`CameraSensorInfo`; :class:`CameraError`
-        naming the camera and the bad value otherwise."""
-        where = f"{source}: cameras: {self.name or '(unnamed)'!r}"
+        naming the camera and the bad value otherwise. ``source`` is the scenario file,
+        which the world builder already puts in front of the errors: the messages and the
+        info's source say ``cameras`` (the scenario's list) only, so no error names the
+        file twice."""
+        del source  # named by the caller
+        where = f"cameras: {self.name or '(unnamed)'!r}"
         if not self.name:
             raise CameraError(f"{where}: a camera needs a name")
         if not self.link:
@@ -84,5 +88,5 @@ class ScenarioCamera:
             update_rate=self.update_rate,
             xyz=list(self.xyz),
             rpy=list(self.rpy),
-            source=source,
+            source="cameras",
         )

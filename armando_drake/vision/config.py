@@ -23,6 +23,15 @@ class BlobDetectorConfig:
     threshold_step: float = 1.0  # [grey level] between thresholds
     min_area: float = 100.0  # [px^2] smallest blob kept
     min_circularity: float = 0.8  # [-] 4 pi area / perimeter^2 of a blob kept, in [0, 1]
+    # Run OpenCV once per distinct binary image (thresholds between the same two grey
+    # levels of the frame give the same one) and repeat its centres: the same keypoints
+    # as SimpleBlobDetector over every threshold, much cheaper on a rendered frame.
+    # false = SimpleBlobDetector as it is (for comparison).
+    skip_repeated_thresholds: bool = True
+    # [m] the true diameter of the blob's object (a disc): > 0 makes the largest
+    # keypoint a target point for the look-at-point controllers (its ray, at the
+    # distance where that diameter has the keypoint's size); 0 = no target.
+    target_diameter: float = 0.0
     # Print the keypoints on the console once a second (not when logging.console_rate is 0).
     print_keypoints: bool = True
 

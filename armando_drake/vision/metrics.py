@@ -42,6 +42,17 @@ def true_marker_position(scenario) -> np.ndarray | None:
     return (obj.X_WO() @ obj.shape.X_OM()).translation()
 
 
+def true_disc_position(scenario) -> np.ndarray | None:
+    """p_WD [m]: the centre of the top face (+z) of the first cylinder object (the
+    disc a blob target points at), or None without one."""
+    from armando_drake.sensors.objects import Cylinder
+
+    for obj in scenario.objects:
+        if isinstance(obj.shape, Cylinder):
+            return obj.X_WO() @ np.array([0.0, 0.0, obj.shape.length / 2])
+    return None
+
+
 def pointing_error(world, context, camera: str, p_W) -> float:
     """The angle [rad] between the camera's optical axis and the direction to ``p_W``."""
     X_WC = camera_pose(world, context, camera)
@@ -53,8 +64,10 @@ def pointing_error(world, context, camera: str, p_W) -> float:
 
 def vision_summary(world, context, scenario) -> dict | None:
     """summary.json's ``vision``: frames and detections of the detectors, the final
-    pointing error at the marker [rad] and the marker's estimated minus true position
-    [m] (None where there is no marker or no estimate); None without detectors."""
+    pointing error at the marker (or, with a blob target, at the first disc) [rad] and
+    the marker's estimated minus true position [m] (None where there is no marker or no
+    estimate); with a dynamic look-at controller also ``max_path_error``, the camera's
+    largest distance from its linear path [m]; None without detectors."""
     detectors = world.detectors
     if detectors is None:
         return None
@@ -68,8 +81,20 @@ def vision_summary(world, context, scenario) -> dict | None:
         "final_pointing_error": None,
         "marker_position_error": None,
     }
+    if detectors.aruco is None:
+        # A blob target for the look-at-point controllers: the pointing error at the disc.
+        p_WD = true_disc_position(scenario)
+        if detectors.blob is not None and detectors.blob.target is not None and p_WD is not None:
+            camera = detectors.blob_camera
+            summary["final_pointing_error"] = pointing_error(world, context, camera, p_WD)
+        return summary
+    for name in world.controllers:
+        # A dynamic look-at controller: how far the camera strayed from its linear path.
+        detail = world.status(context, name).detail
+        if "max_path_error" in detail:
+            summary["max_path_error"] = float(detail["max_path_error"])
     p_WM = true_marker_position(scenario)
-    if p_WM is None or detectors.aruco is None:
+    if p_WM is None:
         return summary
     camera = detectors.aruco_camera
     summary["final_pointing_error"] = pointing_error(world, context, camera, p_WM)

@@ -1,8 +1,9 @@
 """The vision outputs of a run: ``vision.csv`` and ``vision.png``.
 
-- ``vision.csv``: per ArUco detection, the time [s], the unit vector
-  ``s = p / |p|`` towards the marker in the camera frame (s_x, s_y, s_z) and, with
-  a look-at-point controller, the joint velocity commands [rad/s] in force then;
+- ``vision.csv``: per ArUco detection (or per blob target), the time [s], the unit
+  vector ``s = p / |p|`` towards the marker (the disc) in the camera frame (s_x,
+  s_y, s_z) and, with a look-at-point controller, the joint velocity commands
+  [rad/s] in force then (the torques [N m] with a dynamic one);
 - ``keypoints.csv``: with a blob detector, every frame's keypoints: time [s],
   centre u, v [px] and diameter [px];
 - ``vision.png``: the seed's figures, the joint velocity commands and the
@@ -23,22 +24,29 @@ VISION_PLOT = "vision.png"
 
 
 def write_vision_csv(world, context, path: str | Path) -> Path | None:
-    """``vision.csv`` from the world's ArUco detector (None without one)."""
+    """``vision.csv`` from the world's ArUco detector or blob target (None without)."""
     detectors = world.detectors
-    if detectors is None or detectors.aruco is None:
+    if detectors is None:
         return None
-    history = detectors.aruco.history
+    if detectors.aruco is not None:
+        history = detectors.aruco.history
+    elif detectors.blob is not None and detectors.blob.target is not None:
+        history = detectors.blob.target_history
+    else:
+        return None
     joints = detectors.command_joints
     commands = None
     if detectors.commands is not None:
         log = detectors.commands.FindLog(context)
         times, data = log.sample_times(), log.data()
         n = len(joints)
-        commands = (times, data[n : 2 * n].T)
+        rows = data[:n] if detectors.command_kind == "effort" else data[n : 2 * n]
+        commands = (times, rows.T)
     path = Path(path)
     with path.open("w", newline="") as stream:
         writer = csv.writer(stream)
-        writer.writerow(["time", "s_x", "s_y", "s_z", *[f"{j}_velocity_command" for j in joints]])
+        kind = detectors.command_kind  # velocity | effort
+        writer.writerow(["time", "s_x", "s_y", "s_z", *[f"{j}_{kind}_command" for j in joints]])
         for t, p in history:
             p = np.asarray(p)
             row = [t, *(p / np.linalg.norm(p)).tolist()]
@@ -58,9 +66,11 @@ def write_vision_plot(csv_path: str | Path, png_path: str | Path) -> Path:
     header, data = rows[0], np.array(rows[1:], dtype=float).reshape(-1, len(rows[0]))
     fig = Figure(figsize=(10.0, 7.0), dpi=100)
     top, bottom = fig.subplots(2, 1, sharex=True)
+    effort = any(name.endswith("_effort_command") for name in header[4:])
     for k, name in enumerate(header[4:], start=4):
-        top.plot(data[:, 0], data[:, k], label=name.replace("_velocity_command", ""))
-    top.set_ylabel("joint velocity command [rad/s]")
+        label = name.replace("_effort_command", "").replace("_velocity_command", "")
+        top.plot(data[:, 0], data[:, k], label=label)
+    top.set_ylabel("joint torque command [N m]" if effort else "joint velocity command [rad/s]")
     if len(header) > 4:
         top.legend(fontsize="small", ncol=4)
     for k, name in enumerate(("s_x", "s_y", "s_z"), start=1):

@@ -358,7 +358,9 @@ def test_unknown_type_is_noted_and_fails_only_when_used(tmp_path, caplog):
         "vision_controllers/LookAtPointController, "
         "vision_controllers/ImprovedLookAtPointController, "
         "task_space_controllers/JointSpaceInverseDynamics, "
-        "task_space_controllers/OperationalSpaceInverseDynamics"
+        "task_space_controllers/OperationalSpaceInverseDynamics, "
+        "vision_controllers/JointSpaceLookAtController, "
+        "vision_controllers/OperationalSpaceLookAtController"
     )
 
 

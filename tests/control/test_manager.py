@@ -179,6 +179,8 @@ def test_registry_knows_the_shipped_types_and_answers_by_message():
         "vision_controllers/ImprovedLookAtPointController",
         "task_space_controllers/JointSpaceInverseDynamics",
         "task_space_controllers/OperationalSpaceInverseDynamics",
+        "vision_controllers/JointSpaceLookAtController",
+        "vision_controllers/OperationalSpaceLookAtController",
     )
     assert types_accepting(Float64MultiArray, "velocity") == (
         "forward_command_controller/ForwardCommandController",

@@ -435,7 +435,9 @@ def test_an_unsupported_type_in_the_package_config_fails_only_when_activated(tmp
         "vision_controllers/LookAtPointController, "
         "vision_controllers/ImprovedLookAtPointController, "
         "task_space_controllers/JointSpaceInverseDynamics, "
-        "task_space_controllers/OperationalSpaceInverseDynamics"
+        "task_space_controllers/OperationalSpaceInverseDynamics, "
+        "vision_controllers/JointSpaceLookAtController, "
+        "vision_controllers/OperationalSpaceLookAtController"
     ), line
 
 

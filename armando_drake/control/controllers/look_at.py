@@ -20,6 +20,12 @@ the camera frame C, expressed in C) comes from the plant
 ``L J``), ``A^+`` its damped pseudo-inverse. The velocities are scaled down
 together to the joints' velocity limits. Without a new marker pose for
 ``timeout`` seconds (marker lost) the joints are commanded to stop.
+
+On the position interface (``interface: position``, a robot whose servos take
+positions, as Armando's) the same velocities are integrated into the position
+command at every controller update (``q_d += qdot dt``, from the measured
+positions at the first pose, clamped into the joint limits), with ``qdot`` as the
+desired velocity; the marker lost, ``q_d`` holds.
 """
 
 import dataclasses
@@ -53,6 +59,9 @@ class LookAtPointParameters:
     rest_positions: list[float] = dataclasses.field(default_factory=list)
     damping: float = 0.01  # [-] damping of the pseudo-inverse (A^T (A A^T + d^2 I)^-1)
     timeout: float = 0.2  # [s] without a new marker pose, the joints stop
+    # The command interface of the joints: velocity (commands qdot) or position
+    # (commands the integral of qdot, for position servos).
+    interface: str = "velocity"
     # LookAtPointController only: the desired camera pose in the marker frame
     # (OpenCV's: z out of the face): [m] position and [rad] roll pitch yaw. The default
     # is 0.5 m in front of the face, looking at it.
@@ -65,6 +74,10 @@ class LookAtPointParameters:
             non_negative(getattr(self, name), name)
         if self.gain <= 0:
             raise ParameterError("gain", f"gain={self.gain!r} must be > 0")
+        if self.interface not in ("velocity", "position"):
+            raise ParameterError(
+                "interface", f"interface={self.interface!r} must be velocity or position"
+            )
         if self.rest_positions and len(self.rest_positions) != len(self.joints):
             raise ParameterError(
                 "rest_positions",
@@ -100,8 +113,12 @@ class _LookAt(Controller):
     parameters = LookAtPointParameters
     message = MarkerPose
     topic = "marker_pose"
-    fixed_interface = "velocity"
+    fixed_interface = None  # velocity or position, from the parameters
     initial_state = "holding"
+
+    @classmethod
+    def command_interface(cls, params) -> str:
+        return params.interface
 
     def connect_plant(self, plant, model_instance) -> None:
         self._plant = plant
@@ -150,6 +167,8 @@ class _LookAt(Controller):
         return qdot, detail
 
     def update(self, now, message, memory, measure):
+        if self.interface == "position":
+            return self._update_position(now, message, memory, measure)
         n = self.n
         if message is None:
             last = memory.trajectory
@@ -163,6 +182,31 @@ class _LookAt(Controller):
         qdot, detail = self.command(message, np.asarray(q, dtype=float))
         status = self.accept(memory.status, "executing", detail)
         return ControllerMemory(np.concatenate([q, qdot]), status, trajectory=message)
+
+    def _update_position(self, now, message, memory, measure):
+        """Position servos: q_d integrates the commanded velocities at every update
+        (``internal``: the time of the previous update [s])."""
+        n = self.n
+        q_d, qdot = memory.desired[:n], memory.desired[n:]
+        if memory.trajectory is not None and memory.internal is not None:
+            q_d = np.clip(q_d + qdot * (now - memory.internal), self.lower, self.upper)
+        if message is None:
+            last = memory.trajectory
+            if last is None:
+                return memory
+            if now - last.stamp > self.params.timeout:  # lost: hold where it is
+                status = dataclasses.replace(memory.status, state="holding")
+                return ControllerMemory(np.concatenate([q_d, np.zeros(n)]), status)
+            return dataclasses.replace(memory, desired=np.concatenate([q_d, qdot]), internal=now)
+        q, _ = measure(memory.desired)
+        q = np.asarray(q, dtype=float)
+        if memory.trajectory is None:  # (re)starting: from where the joints are
+            q_d = q
+        qdot, detail = self.command(message, q)
+        status = self.accept(memory.status, "executing", detail)
+        return ControllerMemory(
+            np.concatenate([q_d, qdot]), status, trajectory=message, internal=now
+        )
 
 
 @register("vision_controllers/LookAtPointController")
@@ -196,3 +240,6 @@ __all__ = [
     "LookAtPointParameters",
     "interaction_matrix",
 ]
+
+# The dynamic versions (on the inverse-dynamics laws) register themselves with these.
+from armando_drake.control.controllers import look_at_dynamic  # noqa: E402, F401
