@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 import sys
 
 from armando_drake.tools.cli import (
@@ -49,6 +50,7 @@ from armando_drake.tools.cli import (
     add_scenario_arguments,
     apply_scenario_arguments,
     command_parser,
+    note_option,
     start_meshcat,
     user_errors,
 )
@@ -196,16 +198,24 @@ def main(argv: list[str] | None = None) -> int:
         from armando_drake.simulation.scenario import load_scenario, resolve_scenario_path
 
         path = resolve_scenario_path(args.scenario)
-        scenario = apply_scenario_arguments(load_scenario(path), args)
+        scenario = load_scenario(path)
+        # --controller first, so that --set edits the sequencer it chose.
+        if args.controller is not None:
+            _apply_controller(scenario, args.controller)
+            note_option(scenario, ("sequencer", "controllers.activate"), "--controller")
+        scenario = apply_scenario_arguments(scenario, args)
         if args.duration is not None:
-            if args.duration < 0:
-                raise UserError(f"--duration {args.duration} must not be negative")
+            if not (math.isfinite(args.duration) and args.duration >= 0):
+                raise UserError(f"--duration {args.duration} must be a finite number >= 0 [s]")
             scenario.simulation.duration = args.duration
             if args.duration == 0:
                 scenario.simulation.duration = 1e-9
+            note_option(scenario, ("simulation.duration",), "--duration")
         if args.realtime_rate is not None:
-            if args.realtime_rate < 0:
-                raise UserError(f"--realtime-rate {args.realtime_rate} must not be negative")
+            if not (math.isfinite(args.realtime_rate) and args.realtime_rate >= 0):
+                raise UserError(
+                    f"--realtime-rate {args.realtime_rate} must be a finite number >= 0"
+                )
             scenario.simulator_config.target_realtime_rate = args.realtime_rate
         if args.ros2 or args.foxglove is not None:
             scenario.ros2.enabled = scenario.ros2.enabled or args.ros2
@@ -213,17 +223,16 @@ def main(argv: list[str] | None = None) -> int:
                 scenario.ros2.foxglove, scenario.ros2.foxglove_port = True, args.foxglove
             if args.realtime_rate is None:
                 scenario.simulator_config.target_realtime_rate = 1.0
-        if args.controller is not None:
-            _apply_controller(scenario, args.controller)
         if args.camera is not None:
             scenario.camera.enabled = args.camera
         if args.save_frames:
             scenario.camera.enabled = True
             scenario.camera.save_frames = args.save_frames
         if args.save_rate is not None:
-            if args.save_rate <= 0:
+            if not (math.isfinite(args.save_rate) and args.save_rate > 0):
                 raise UserError(f"--save-rate {args.save_rate} must be positive [Hz]")
             scenario.camera.save_rate = args.save_rate
+            note_option(scenario, ("camera.save_rate",), "--save-rate")
         if args.renderer is not None:
             scenario.camera.renderer = args.renderer
 

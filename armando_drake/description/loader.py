@@ -296,7 +296,13 @@ def expand_description(
     if search is None:
         search = find_packages(near=path)
     if path.suffix != ".xacro":
-        text = path.read_text()
+        try:
+            text = path.read_text(encoding="utf-8")
+        except UnicodeDecodeError as error:
+            raise DescriptionError(
+                f"{path}: not a text (UTF-8) file: byte {error.start} is "
+                f"{error.object[error.start]:#x}"
+            ) from None
         if "xmlns:xacro" not in text and not mappings:
             return text
     import xacro

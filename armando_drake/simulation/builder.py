@@ -70,6 +70,7 @@ from armando_drake.description.importer import default_controller_config
 from armando_drake.description.loader import LoadedRobot, load_robot, package_of
 from armando_drake.sensors.objects import AddSceneObjects, SceneObjectError
 from armando_drake.simulation.scenario import Scenario, ScenarioError
+from armando_drake.simulation.validation import check_against_world, check_scenario
 
 if TYPE_CHECKING:
     from armando_drake.outputs.logger import JointStateLogger
@@ -259,6 +260,8 @@ def MakeWorld(
     (:func:`~armando_drake.outputs.recording.AddRosbagRecorder`).
     """
     where = f"{source}: " if source else ""
+    # Every value of the scenario checked before Drake sees it.
+    check_scenario(scenario, source)
     builder = DiagramBuilder()
     # The physics: a MultibodyPlant and its SceneGraph, as the scenario configures them.
     plant, scene_graph = _add_plant(builder, scenario, where)
@@ -267,6 +270,13 @@ def MakeWorld(
     # The controller YAML (before the actuators: a ROS 1 file's gazebo_ros_control gains
     # are theirs); its update rate, which the scenario may override, below.
     config = _controller_config(scenario, robot)
+    # Rates, gains and periods checked against the robot and the controller YAML.
+    check_against_world(
+        scenario,
+        update_rate=_update_rate(config, scenario, where),
+        update_rate_source=config.source,
+        joints=command_interfaces(robot, warn=False)[2],
+    )
     # The hardware interface: an actuator per commanded joint; then the plant is final.
     hardware = _add_hardware(plant, scene_graph, robot, scenario, config, where)
     world = World(

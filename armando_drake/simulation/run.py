@@ -28,6 +28,7 @@ import numpy as np
 from armando_drake.control.sequencer import Sinusoid, mode_of, one_pass, wave_of
 from armando_drake.simulation.scenario import Scenario
 
+SCENARIO_FILE = "scenario.yaml"  # the effective scenario, in the output folder
 SETTLE_TOLERANCE = 0.01  # [rad] "reached" band of the step table
 TRACKING_SKIP = 1.0  # [s] the sinusoid's tracking error counts from start_delay + this
 
@@ -114,6 +115,17 @@ class RunResult:
             f"({self.realtime_factor:.2f}x real time)"
             + (" [interrupted]" if self.interrupted else "")
         )
+
+
+def write_scenario(scenario: Scenario, path: Path) -> None:
+    """Writes ``scenario`` as YAML that :func:`~armando_drake.simulation.scenario.load_scenario`
+    reads back to an equal scenario."""
+    from pydrake.common.yaml import yaml_dump_typed
+
+    path.write_text(
+        "# The effective scenario of this run: the file with every override applied.\n"
+        + yaml_dump_typed(scenario)
+    )
 
 
 def controller_mode(scenario: Scenario) -> str:
@@ -216,7 +228,9 @@ class StepTable:
 
     def results(self, end_time: float) -> list[StepResult]:
         """One :class:`StepResult` per step that has rows, the last ending at ``end_time``."""
-        keys = sorted(self._steps)
+        # A step that begins when the run ends never ran.
+        keys = [k for k in sorted(self._steps) if self._steps[k].start < end_time - 1e-9]
+        keys = keys or sorted(self._steps)[:1]
         results = []
         for position, k in enumerate(keys):
             step = self._steps[k]
@@ -331,6 +345,30 @@ def _sigterm_as_interrupt():
         signal.signal(signal.SIGTERM, previous)
 
 
+@contextlib.contextmanager
+def _deferred_interrupts():
+    """Holds Ctrl-C and SIGTERM back while the logs are written, so a second Ctrl-C
+    cannot cut a file in half; one that came is raised (as KeyboardInterrupt) at the
+    end."""
+    received = []
+
+    def handler(signum, frame):
+        received.append(signum)
+
+    try:
+        previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+    if received:
+        raise KeyboardInterrupt
+
+
 def run(
     scenario: Scenario,
     *,
@@ -376,12 +414,13 @@ def run(
         write_commands=output_dir is not None,
         record=record,
     )
+    if log_dir is not None:  # what ran: the scenario after every override
+        write_scenario(scenario, log_dir / SCENARIO_FILE)
     if replay_meshcat is not None:
         start_replay(replay_meshcat, live=replay_meshcat is meshcat)
     # The step table (or the sinusoid's tracking error) from the logger's rows.
     table = _table_of(world)
     tracker = _task_tracker_of(world)
-    joint_names = world.hardware.joint_names
     simulator = Simulator(world.diagram)
     ApplySimulatorConfig(scenario.simulator_config, simulator)
     realtime_rate = scenario.simulator_config.target_realtime_rate
@@ -413,17 +452,40 @@ def run(
     if progress:
         progress.finish()
     sim_time = simulator.get_context().get_time()
-    world.close(simulator.get_context())  # the logger's last rows reach the table too
+    with _deferred_interrupts():  # the logs and the summary are written whole
+        world.close(simulator.get_context())  # the logger's last rows reach the table too
+        result = _result(scenario, world, simulator, table, tracker, log_dir)
+        result.scenario, result.sim_time, result.wall_time = scenario_name, sim_time, wall_time
+        result.realtime_factor = sim_time / wall_time if wall_time > 0 else math.inf
+        result.interrupted = interrupted
+        result.output_dir = None if output_dir is None else str(output_dir)
+        if log_dir is not None:
+            (log_dir / "summary.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
+    # A Ctrl-C from here on stops the plots and the replay; the logs are complete.
+    if log_dir is not None and plots:
+        from armando_drake.outputs.plots import write_plots
+
+        write_plots(log_dir)
+    if replay_meshcat is not None:
+        from armando_drake.outputs.replay import REPLAY_FILE, write_replay
+
+        write_replay(replay_meshcat, log_dir / REPLAY_FILE)
+    return result
+
+
+def _result(scenario, world, simulator, table, tracker, log_dir) -> RunResult:
+    """The run's result, with the step table, the task-space errors (task_space.csv in
+    ``log_dir``) and the vision outputs; the caller fills in names and times."""
+    sim_time = simulator.get_context().get_time()
 
     result = RunResult(
-        scenario=scenario_name,
+        scenario="",
         controller=controller_mode(scenario),
         sim_time=sim_time,
-        wall_time=wall_time,
-        realtime_factor=sim_time / wall_time if wall_time > 0 else math.inf,
-        interrupted=interrupted,
-        joint_names=joint_names,
-        output_dir=None if output_dir is None else str(output_dir),
+        wall_time=0.0,
+        realtime_factor=0.0,
+        interrupted=False,
+        joint_names=world.hardware.joint_names,
         driven=world.sequencer_target or (world.task.controller if world.task else ""),
     )
     if isinstance(table, StepTable):
@@ -447,16 +509,6 @@ def run(
         from armando_drake.vision.outputs import write_vision_outputs
 
         result.vision = write_vision_outputs(world, simulator.get_context(), scenario, log_dir)
-    if log_dir is not None:
-        (log_dir / "summary.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
-        if plots:
-            from armando_drake.outputs.plots import write_plots
-
-            write_plots(log_dir)
-    if replay_meshcat is not None:
-        from armando_drake.outputs.replay import REPLAY_FILE, write_replay
-
-        write_replay(replay_meshcat, log_dir / REPLAY_FILE)
     return result
 
 

@@ -286,17 +286,70 @@ def _merge(scenario: Scenario, text: str) -> Scenario:
     return yaml_load_typed(data=yaml_dump(data), defaults=scenario)
 
 
+@dc.dataclass
+class ScenarioSources:
+    """Where the values of a scenario came from, for error messages: a file, and the
+    override (``--set '...'``) or command-line option that last set each key."""
+
+    # The scenario file, or "<defaults>".
+    file: str = "<defaults>"
+    # Dotted key ("actuators.kp", "objects") -> its origin ("--set 'actuators: {kp: -1}'").
+    keys: dict[str, str] = dc.field(default_factory=dict)
+
+    def of(self, key: str) -> str:
+        """The origin of the dotted ``key``: the override that set it or a key above
+        it, else the file."""
+        parts = key.split(".")
+        for end in range(len(parts), 0, -1):
+            origin = self.keys.get(".".join(parts[:end]))
+            if origin is not None:
+                return origin
+        return self.file
+
+    def note(self, key: str, origin: str) -> None:
+        """Records that ``origin`` set ``key`` (and everything below it)."""
+        self.keys = {k: v for k, v in self.keys.items() if not k.startswith(f"{key}.")}
+        self.keys[key] = origin
+
+
+def sources_of(scenario: Scenario) -> ScenarioSources:
+    """The :class:`ScenarioSources` kept with ``scenario`` (made empty on first use)."""
+    sources = scenario.__dict__.get("_sources")
+    if sources is None:
+        sources = scenario.__dict__["_sources"] = ScenarioSources()
+    return sources
+
+
+def _leaf_keys(data, prefix: str = "") -> list[str]:
+    """The dotted keys of the leaves of a ``yaml_load`` mapping (a tagged mapping, a
+    list or a scalar is a leaf: it replaces what was there)."""
+    if not isinstance(data, dict) or (prefix and "_tag" in data):
+        return [prefix] if prefix else []
+    keys = []
+    for name, value in data.items():
+        if name == "_tag":
+            continue
+        keys += _leaf_keys(value, f"{prefix}.{name}" if prefix else str(name))
+    return keys
+
+
 def merge_overrides(scenario: Scenario, overrides, label: str = "--set") -> Scenario:
     """``scenario`` with each YAML string of ``overrides`` merged over it in turn.
 
     An untagged mapping keeps the variant of a Union field (see the module's
-    docstring); a tag chooses one.
+    docstring); a tag chooses one. The keys each override sets are noted, with
+    it, in :func:`sources_of` the result.
     """
+    sources = sources_of(scenario)
     for override in [overrides] if isinstance(overrides, str) else overrides:
         try:
             scenario = _merge(scenario, override)
+            keys = _leaf_keys(yaml_load(data=override))
         except Exception as error:  # yaml_load_typed raises RuntimeError, KeyError, ...
             raise ScenarioError(f"{label} {override!r}: {_one_line(error, scenario)}") from None
+        for key in keys:
+            sources.note(key, f"{label} {override!r}")
+    scenario.__dict__["_sources"] = sources
     return scenario
 
 
@@ -317,6 +370,10 @@ def load_scenario(
         raise
     except OSError as error:
         raise ScenarioError(f"{filename}: cannot read the scenario: {error.strerror}") from None
+    except UnicodeDecodeError:
+        raise ScenarioError(f"{source}: not a text (UTF-8) YAML file") from None
     except Exception as error:  # yaml_load_typed raises RuntimeError, KeyError, ...
         raise ScenarioError(f"{source}: {_one_line(error, scenario)}") from None
+    if source != "<defaults>":
+        sources_of(scenario).file = source
     return scenario
