@@ -39,10 +39,15 @@ Examples:
 
 from __future__ import annotations
 
+import signal
+import sys
+
+if __name__ == "__main__":  # Ctrl-C while the command starts: exit 130, quietly
+    signal.signal(signal.SIGINT, lambda signum, frame: sys.exit(130))
+
 import argparse
 import logging
 import math
-import sys
 
 from armando_drake.tools.cli import (
     UserError,

@@ -503,8 +503,9 @@ def _link_of(joint: ET.Element, tag: str) -> str:
     return "" if element is None else element.get("link", "")
 
 
-def parse_joints(root: ET.Element) -> list[JointInfo]:
-    """The non-fixed joints of a URDF, with their limits as written."""
+def parse_joints(root: ET.Element, source: str | os.PathLike = "") -> list[JointInfo]:
+    """The non-fixed joints of a URDF, with their limits as written; errors name
+    ``source``."""
     joints = []
     for element in root.findall("joint"):
         kind = element.get("type", "")
@@ -536,7 +537,8 @@ def parse_joints(root: ET.Element) -> list[JointInfo]:
                 )
             )
         except ValueError as error:
-            raise DescriptionError(f"joint {name!r}: {error}") from None
+            where = f"{source}: " if source else ""
+            raise DescriptionError(f"{where}joint {name!r}: {error}") from None
     return joints
 
 
@@ -860,7 +862,7 @@ def load_robot(
     search.report_shadowed()
     urdf = expand_description(source, xacro_args, search)
     root = parse_urdf(urdf, source)
-    joints = parse_joints(root)
+    joints = parse_joints(root, source)
     hardware = parse_ros2_control(root, source=str(source))
     cameras = parse_camera_sensors(root, source=str(source))
     warnings: list[str] = []

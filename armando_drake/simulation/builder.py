@@ -173,7 +173,13 @@ def _controller_config(scenario: Scenario, robot: LoadedRobot) -> ControllerMana
     candidates = sorted((package_dir / "config").glob("*controllers*.yaml")) if package_dir else []
     if candidates:
         return load_controller_config(candidates[0])
-    data = default_controller_config(list(command_interfaces(robot, warn=False)[2]))
+    actuated = list(command_interfaces(robot, warn=False)[2])
+    if not actuated:
+        raise ScenarioError(
+            f"{robot.source}: the description actuates no joint (read from "
+            f"{robot.actuation_source}): nothing for a controller to command"
+        )
+    data = default_controller_config(actuated)
     return parse_controller_config(data, source=f"<default controllers of {robot.name}>")
 
 

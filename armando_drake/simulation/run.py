@@ -327,46 +327,40 @@ class _Progress:
             self._stream.write("\n")
 
 
-@contextlib.contextmanager
-def _sigterm_as_interrupt():
-    """Treats SIGTERM like Ctrl-C so a terminated run still writes its logs."""
+class _Interrupts:
+    """Ctrl-C (SIGINT) and SIGTERM during a run: the first one raises KeyboardInterrupt
+    (the simulation stops, and a terminated run still writes its logs); any later
+    one is only counted, so it cannot cut the logs in half, and :meth:`raise_pending`
+    raises it once they are written."""
 
-    def handler(signum, frame):
-        raise KeyboardInterrupt
+    def __init__(self):
+        self.received = 0  # signals received
+        self.raised = 0  # of them raised as KeyboardInterrupt
+        self.raising = True  # whether the next one raises
 
-    try:
-        previous = signal.signal(signal.SIGTERM, handler)
-    except ValueError:  # not the main thread
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
+    def _handler(self, signum, frame):
+        self.received += 1
+        if self.raising:
+            self.raising = False
+            self.raised += 1
+            raise KeyboardInterrupt
 
+    @contextlib.contextmanager
+    def installed(self):
+        try:
+            previous = {s: signal.signal(s, self._handler) for s in (signal.SIGINT, signal.SIGTERM)}
+        except ValueError:  # not the main thread
+            yield self
+            return
+        try:
+            yield self
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
 
-@contextlib.contextmanager
-def _deferred_interrupts():
-    """Holds Ctrl-C and SIGTERM back while the logs are written, so a second Ctrl-C
-    cannot cut a file in half; one that came is raised (as KeyboardInterrupt) at the
-    end."""
-    received = []
-
-    def handler(signum, frame):
-        received.append(signum)
-
-    try:
-        previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
-    except ValueError:  # not the main thread
-        yield
-        return
-    try:
-        yield
-    finally:
-        for sig, old in previous.items():
-            signal.signal(sig, old)
-    if received:
-        raise KeyboardInterrupt
+    def raise_pending(self, what: str) -> None:
+        if self.received > self.raised:
+            raise KeyboardInterrupt(what)
 
 
 def run(
@@ -431,7 +425,8 @@ def run(
         print(f"Camera view: {world.image_view_url}", file=stream, flush=True)
     interrupted = False
     wall_start = time.monotonic()
-    with _sigterm_as_interrupt():
+    signals = _Interrupts()
+    with signals.installed():
         try:
             simulator.Initialize()
             # Advance in slices of about 1 % (at least 50 ms) for the progress
@@ -445,14 +440,15 @@ def run(
                 simulator.AdvanceTo(target)
                 if progress:
                     progress.update(target)
+            signals.raising = False  # from here on a Ctrl-C waits for the logs
         except KeyboardInterrupt:
             interrupted = True
             print("\ninterrupted: writing the logs and the summary", file=stream, flush=True)
-    wall_time = time.monotonic() - wall_start
-    if progress:
-        progress.finish()
-    sim_time = simulator.get_context().get_time()
-    with _deferred_interrupts():  # the logs and the summary are written whole
+        wall_time = time.monotonic() - wall_start
+        if progress:
+            progress.finish()
+        sim_time = simulator.get_context().get_time()
+        # The logs and the summary are written whole, whatever signal comes.
         world.close(simulator.get_context())  # the logger's last rows reach the table too
         result = _result(scenario, world, simulator, table, tracker, log_dir)
         result.scenario, result.sim_time, result.wall_time = scenario_name, sim_time, wall_time
@@ -461,7 +457,8 @@ def run(
         result.output_dir = None if output_dir is None else str(output_dir)
         if log_dir is not None:
             (log_dir / "summary.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
-    # A Ctrl-C from here on stops the plots and the replay; the logs are complete.
+    # A Ctrl-C that came while they were written stops the plots and the replay.
+    signals.raise_pending(f"the logs are complete in {log_dir}" if log_dir else "")
     if log_dir is not None and plots:
         from armando_drake.outputs.plots import write_plots
 

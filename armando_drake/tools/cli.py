@@ -170,6 +170,23 @@ def _unexpected(error: BaseException) -> str:
 
 
 @contextlib.contextmanager
+def _held_interrupts() -> Iterator[None]:
+    """Ctrl-C waits until the block is done, then raises KeyboardInterrupt."""
+    held = []
+    try:
+        previous = signal.signal(signal.SIGINT, lambda signum, frame: held.append(signum))
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if held:
+        raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
 def user_errors() -> Iterator[None]:
     """What a command does on an error, whatever its origin.
 
@@ -181,18 +198,21 @@ def user_errors() -> Iterator[None]:
       traceback)``, one line, exit 1; with ``--debug`` the traceback first.
     """
     interrupted = []
+    previous = None
 
     def on_sigint(signum, frame):
         interrupted.append(signum)
         raise KeyboardInterrupt
 
-    with contextlib.suppress(ValueError):  # not the main thread: leave SIGINT alone
-        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-            signal.signal(signal.SIGINT, on_sigint)
     try:
+        # pydrake's C++ start-up, cut by a Ctrl-C, logs a stack dump: it is let finish.
+        with _held_interrupts():
+            import pydrake  # noqa: F401
+        with contextlib.suppress(ValueError):  # not the main thread: leave SIGINT alone
+            previous = signal.signal(signal.SIGINT, on_sigint)
         yield
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
+    except KeyboardInterrupt as interrupt:
+        print(f"interrupted: {interrupt}" if str(interrupt) else "interrupted", file=sys.stderr)
         sys.exit(130)
     except SystemExit:
         raise
@@ -212,3 +232,6 @@ def user_errors() -> Iterator[None]:
                 file=sys.stderr,
             )
         sys.exit(1)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
