@@ -69,7 +69,7 @@ from armando_drake.control.messages import Float64MultiArray, JointTrajectory, P
 from armando_drake.description.importer import default_controller_config
 from armando_drake.description.loader import LoadedRobot, load_robot, package_of
 from armando_drake.sensors.objects import AddSceneObjects, SceneObjectError
-from armando_drake.simulation.scenario import Scenario, ScenarioError
+from armando_drake.simulation.scenario import Scenario, ScenarioError, sources_of
 from armando_drake.simulation.validation import check_against_world, check_scenario
 
 if TYPE_CHECKING:
@@ -284,7 +284,9 @@ def MakeWorld(
         joints=command_interfaces(robot, warn=False)[2],
     )
     # The hardware interface: an actuator per commanded joint; then the plant is final.
-    hardware = _add_hardware(plant, scene_graph, robot, scenario, config, where)
+    hardware = _add_hardware(
+        plant, scene_graph, robot, scenario, config, _origin(scenario, "task.start_positions")
+    )
     world = World(
         diagram=None,  # set by Build() below
         plant=plant,
@@ -292,18 +294,18 @@ def MakeWorld(
         robot=robot,
         hardware=hardware,
         controller_config=config,
-        update_rate=_update_rate(config, scenario, where),
+        update_rate=_update_rate(config, scenario, _origin(scenario, "controllers.update_rate")),
         meshcat=meshcat,
     )
     # The controller manager: the activated controllers of the YAML, in one system.
-    _add_controller_manager(builder, world, scenario, where)
+    _add_controller_manager(builder, world, scenario, _origin(scenario, "controllers"))
     # What drives and watches them: sequencer, logger, cameras, recorder, bridges.
     commands_csv = Path(output_dir) / "commands.csv" if output_dir and write_commands else None
-    _add_sequencer(builder, world, scenario, where, commands_csv)
-    _add_task(builder, world, scenario, where)
+    _add_sequencer(builder, world, scenario, _origin(scenario, "sequencer"), commands_csv)
+    _add_task(builder, world, scenario, _origin(scenario, "task"))
     _add_logger(builder, world, scenario, output_dir, quiet)
     _add_cameras(builder, world, scenario, meshcat, where, source)
-    _add_detectors(builder, world, scenario, where)
+    _add_detectors(builder, world, scenario, _origin(scenario, "vision"))
     _add_perception(
         builder, world, scenario, meshcat, output_dir if write_commands else None, source
     )
@@ -315,6 +317,11 @@ def MakeWorld(
     world.diagram = builder.Build()
     world.diagram.set_name("armando_world")
     return world
+
+
+def _origin(scenario: Scenario, key: str) -> str:
+    """``"<origin>: "``: the file, ``--set`` or option the scenario's ``key`` came from."""
+    return f"{sources_of(scenario).of(key)}: "
 
 
 def _add_plant(builder: DiagramBuilder, scenario: Scenario, where: str):
@@ -401,7 +408,7 @@ def _add_controller_manager(builder, world: World, scenario: Scenario, where: st
     controllers, each joint claimed once) in one :class:`ControllerManager`, wired to
     the plant through the hardware interface."""
     config, hardware, plant = world.controller_config, world.hardware, world.plant
-    validate_joints(config, hardware.joint_names, config.source)
+    validate_joints(config, hardware.joint_names, str(world.robot.source))
     claimed: dict[str, str] = {}
     broadcaster = None
     managed = []  # ManagedController, in activation order

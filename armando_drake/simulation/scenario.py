@@ -298,17 +298,18 @@ class ScenarioSources:
 
     def of(self, key: str) -> str:
         """The origin of the dotted ``key``: the override that set it or a key above
-        it, else the file."""
+        it; else the latest that set a key below it; else the file."""
         parts = key.split(".")
         for end in range(len(parts), 0, -1):
             origin = self.keys.get(".".join(parts[:end]))
             if origin is not None:
                 return origin
-        return self.file
+        below = [origin for k, origin in self.keys.items() if k.startswith(f"{key}.")]
+        return below[-1] if below else self.file
 
     def note(self, key: str, origin: str) -> None:
-        """Records that ``origin`` set ``key`` (and everything below it)."""
-        self.keys = {k: v for k, v in self.keys.items() if not k.startswith(f"{key}.")}
+        """Records that ``origin`` set ``key`` (and everything below it), as the latest."""
+        self.keys = {k: v for k, v in self.keys.items() if k != key and not k.startswith(f"{key}.")}
         self.keys[key] = origin
 
 
