@@ -13,8 +13,11 @@ import sys
 import textwrap
 
 import pytest
+from conftest import MINI_URDF
 
 from armando_drake import DIAGRAMS_DIR, world
+
+URDF = MINI_URDF.replace("</robot>", "  EXTRA\n</robot>")
 
 FAST = ["--no-meshcat", "--realtime-rate", "0", "--duration", "0.05", "--quiet"]
 POSITION = str(DIAGRAMS_DIR / "position.yaml")
@@ -219,36 +222,6 @@ def test_a_bad_controller_yaml_is_one_line_naming_the_file(tmp_path, capsys, tex
     assert_one_line(err, str(path), *needles)
 
 
-URDF = """\
-<?xml version="1.0"?>
-<robot name="mini">
-  <link name="base_link">
-    <inertial><mass value="1"/>
-      <inertia ixx="1e-3" iyy="1e-3" izz="1e-3" ixy="0" ixz="0" iyz="0"/></inertial>
-  </link>
-  <link name="upper">
-    <visual><geometry><box size="0.03 0.03 0.2"/></geometry></visual>
-    <inertial><mass value="0.1"/>
-      <inertia ixx="1e-4" iyy="1e-4" izz="1e-4" ixy="0" ixz="0" iyz="0"/></inertial>
-  </link>
-  <link name="lower">
-    <visual><geometry><box size="0.03 0.03 0.2"/></geometry></visual>
-    <inertial><mass value="0.1"/>
-      <inertia ixx="1e-4" iyy="1e-4" izz="1e-4" ixy="0" ixz="0" iyz="0"/></inertial>
-  </link>
-  <joint name="q1" type="revolute">
-    <parent link="base_link"/><child link="upper"/>
-    <origin xyz="0 0 0.125"/><axis xyz="0 1 0"/>
-    <limit lower="-2" upper="2" effort="10" velocity="3"/>
-  </joint>
-  <joint name="q2" type="revolute">
-    <parent link="upper"/><child link="lower"/>
-    <origin xyz="0 0 0.2"/><axis xyz="0 1 0"/>
-    <limit lower="-2.5" upper="2.5" effort="10" velocity="3"/>
-  </joint>
-  EXTRA
-</robot>
-"""
 HARDWARE = "<hardware><plugin>mock_components/GenericSystem</plugin></hardware>"
 JOINT = '<joint name="{}"><command_interface name="position"/>{}</joint>'
 
