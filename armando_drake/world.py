@@ -222,10 +222,12 @@ def main(argv: list[str] | None = None) -> int:
                     f"--realtime-rate {args.realtime_rate} must be a finite number >= 0"
                 )
             scenario.simulator_config.target_realtime_rate = args.realtime_rate
+            note_option(scenario, ("simulator_config.target_realtime_rate",), "--realtime-rate")
         if args.ros2 or args.foxglove is not None:
             scenario.ros2.enabled = scenario.ros2.enabled or args.ros2
             if args.foxglove is not None:
                 scenario.ros2.foxglove, scenario.ros2.foxglove_port = True, args.foxglove
+                note_option(scenario, ("ros2.foxglove_port",), f"--foxglove {args.foxglove}")
             if args.realtime_rate is None:
                 scenario.simulator_config.target_realtime_rate = 1.0
         if args.camera is not None:

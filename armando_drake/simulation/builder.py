@@ -304,7 +304,7 @@ def MakeWorld(
     _add_sequencer(builder, world, scenario, _origin(scenario, "sequencer"), commands_csv)
     _add_task(builder, world, scenario, _origin(scenario, "task"))
     _add_logger(builder, world, scenario, output_dir, quiet)
-    _add_cameras(builder, world, scenario, meshcat, where, source)
+    _add_cameras(builder, world, scenario, meshcat, where, sources_of(scenario).of("cameras"))
     _add_detectors(builder, world, scenario, _origin(scenario, "vision"))
     _add_perception(
         builder, world, scenario, meshcat, output_dir if write_commands else None, source
@@ -929,8 +929,11 @@ def _add_cameras(
             enable_depth=settings.depth,
             export=True,
         )
-    except CameraError as error:
-        raise ScenarioError(f"{where}{error}") from None
+    except CameraError as error:  # a scenario camera's error names its source already
+        text = str(error)
+        raise ScenarioError(
+            text if source and text.startswith(source) else f"{where}{text}"
+        ) from None
     engine = {"gl": "RenderEngineGl", "vtk": "RenderEngineVtk"}[renderer]
     for camera in world.cameras.values():
         _log.info("camera %s, rendered by %s", describe(camera.info), engine)

@@ -40,6 +40,14 @@ MAX_GAIN = 1e6
 # [N m s/rad] (or N s/m) the largest derivative (and velocity) gain accepted.
 MAX_DAMPING = 1e5
 
+# [s] the shortest plant step accepted: below it a simulated second takes hours.
+MIN_TIME_STEP = 1e-5
+# The slowest pacing accepted (besides 0, as fast as possible): slower, a second lasts hours.
+MIN_REALTIME_RATE = 1e-3
+# [s] the longest run taken from the sequence itself (no simulation.duration or
+# --duration given): one pass of a sequence longer than this is surely a typo.
+MAX_DEFAULT_DURATION = 3600.0
+
 # Names with a fixed set of choices: dotted key -> the choices.
 CHOICES = {
     "robot.collision": ("auto", "boxes", "convex", "as-is", "none"),
@@ -152,6 +160,54 @@ def check_scenario(scenario: Scenario, source: str = "") -> None:
     _check_sim_settings(scenario)
     _check_actuators(scenario)
     _check_objects(scenario)
+    _check_bounded(scenario)
+
+
+def _check_bounded(scenario: Scenario) -> None:
+    """The values that would make a run last for ever: a tiny plant step, a crawling
+    pacing, a publication faster than the plant, a sequence that never ends."""
+    step = scenario.plant_config.time_step
+    if step < MIN_TIME_STEP:
+        raise _fail(
+            scenario,
+            "plant_config.time_step",
+            f"={step!r} s is below {MIN_TIME_STEP:g} s: a simulated second would take hours",
+        )
+    pacing = scenario.simulator_config.target_realtime_rate
+    if 0 < pacing < MIN_REALTIME_RATE:
+        raise _fail(
+            scenario,
+            "simulator_config.target_realtime_rate",
+            f"={pacing!r} is below {MIN_REALTIME_RATE:g} (0 = as fast as possible): a "
+            "simulated second would take hours",
+        )
+    plant_rate = 1.0 / step
+    for key, rate in [("ros2.clock_rate", scenario.ros2.clock_rate)] + [
+        (f"cameras.{i}.update_rate", camera.update_rate)
+        for i, camera in enumerate(scenario.cameras)
+    ]:
+        if rate > plant_rate * (1 + 1e-9):
+            raise _fail(scenario, key, f"={rate!r} Hz is above the plant's rate {plant_rate:g} Hz")
+    if not 0 <= scenario.ros2.domain_id <= 232:
+        raise _fail(scenario, "ros2.domain_id", f"={scenario.ros2.domain_id!r} is not in [0, 232]")
+    if not 0 <= scenario.ros2.foxglove_port <= 65535:
+        raise _fail(
+            scenario,
+            "ros2.foxglove_port",
+            f"={scenario.ros2.foxglove_port!r} is not a TCP port (0 to 65535)",
+        )
+    if scenario.simulation.duration <= 0:
+        from armando_drake.simulation.run import default_duration
+
+        duration = default_duration(scenario)
+        if duration > MAX_DEFAULT_DURATION:
+            key = "task" if scenario.sequencer is None else "sequencer"
+            raise _fail(
+                scenario,
+                key,
+                f": one pass lasts {duration:.4g} s, over {MAX_DEFAULT_DURATION:g} s; give "
+                "simulation.duration (or --duration) to run that long",
+            )
 
 
 def _check_sim_settings(scenario: Scenario) -> None:
@@ -247,6 +303,13 @@ def check_against_world(
             "plant_config.time_step",
             f"={step!r} s is longer than the controller period 1/{update_rate} s (update_rate "
             f"from {where}): the controllers would see one state per several ticks",
+        )
+    publish = scenario.visualization.publish_period
+    if publish < step * (1 - 1e-9):
+        raise _fail(
+            scenario,
+            "visualization.publish_period",
+            f"={publish!r} s is shorter than the plant step {step!r} s",
         )
     ticks = period / step
     if abs(ticks - round(ticks)) > 1e-6 * ticks:

@@ -121,6 +121,27 @@ SCENARIO_CASES = [
         [*set_("simulator_config: {integration_scheme: rk9}")],
         ["integration_scheme='rk9'", "--set"],
     ),
+    (
+        "tiny-time-step",
+        [*set_("plant_config: {time_step: 1e-9}")],
+        ["plant_config.time_step=1e-09", "hours", "--set"],
+    ),
+    (
+        "crawling-pacing",
+        ["--realtime-rate", "1e-9"],
+        ["target_realtime_rate=1e-09", "--realtime-rate"],
+    ),
+    (
+        "publish-period",
+        [*set_("visualization: {publish_period: 1e-9}")],
+        ["visualization.publish_period=1e-09", "--set"],
+    ),
+    ("foxglove-port", ["--foxglove", "99999"], ["ros2.foxglove_port=99999", "--foxglove 99999"]),
+    (
+        "camera-size",
+        [*set_("cameras: [{name: c, link: j0_link, width: -5}]")],
+        ["width=-5", "--set 'cameras"],
+    ),
     ("unknown-key", [*set_("actuators: {kq: 1}")], ["kq", "--set 'actuators: {kq: 1}'"]),
     ("wrong-type", [*set_("actuators: {kp: abc}")], ["abc", "--set"]),
     (
@@ -384,3 +405,17 @@ def test_the_numbers_of_objects_cameras_and_tasks_are_checked_too(value):
         with pytest.raises(InputError) as error:
             check_scenario(scenario)
         assert f"--set {text!r}: {key}=" in str(error.value)
+
+
+def test_a_sequence_that_would_never_end_is_refused_unless_a_duration_is_given():
+    from armando_drake.simulation.scenario import load_scenario, merge_overrides
+    from armando_drake.simulation.validation import InputError, check_scenario
+
+    scenario = merge_overrides(load_scenario("position"), ["sequencer: {period: 1e300}"])
+    with pytest.raises(InputError) as error:
+        check_scenario(scenario)
+    assert str(error.value) == (
+        "--set 'sequencer: {period: 1e300}': sequencer: one pass lasts 5e+300 s, over 3600 s; "
+        "give simulation.duration (or --duration) to run that long"
+    )
+    check_scenario(merge_overrides(scenario, ["simulation: {duration: 2}"]))  # asked for
