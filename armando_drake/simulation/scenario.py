@@ -275,6 +275,25 @@ def _tag_choices(schema, field: str, seen=()) -> list[str]:
     return []
 
 
+def _check_lists(data, schema, prefix: str = "") -> None:
+    """Fails where ``data`` (a ``yaml_load`` mapping for the dataclass ``schema``) gives a
+    scalar or a mapping for a list field: Drake's loader would take ``""`` as ``[]``."""
+    if not (isinstance(data, dict) and dc.is_dataclass(schema)):
+        return
+    hints = typing.get_type_hints(schema)
+    for name, value in data.items():
+        hint = hints.get(name)
+        if hint is None:
+            continue
+        key = f"{prefix}{name}"
+        if typing.get_origin(hint) is list and not isinstance(value, list):
+            raise ScenarioError(f"{key}: expected a list, got {value!r}")
+        members = [hint, *typing.get_args(hint)]
+        nested = [m for m in members if dc.is_dataclass(m)]
+        if len(nested) == 1:  # a dataclass, or an Optional one (not a tagged union)
+            _check_lists(value, nested[0], f"{key}.")
+
+
 def _merge(scenario: Scenario, text: str) -> Scenario:
     """``scenario`` with the YAML ``text`` merged over it (see :func:`_keep_variants`)."""
     data = yaml_load(data=text)
@@ -282,6 +301,7 @@ def _merge(scenario: Scenario, text: str) -> Scenario:
         return scenario
     if not isinstance(data, dict):
         raise ScenarioError(f"expected a YAML mapping, got {data!r}")
+    _check_lists(data, Scenario)
     _keep_variants(data, scenario)
     return yaml_load_typed(data=yaml_dump(data), defaults=scenario)
 
