@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, settings
 # nightly run (`pytest --hypothesis-profile long`), draws many more, at random.
 _SLOW_OK = [HealthCheck.too_slow, HealthCheck.function_scoped_fixture, HealthCheck.data_too_large]
 settings.register_profile(
-    "default", max_examples=25, derandomize=True, deadline=None, suppress_health_check=_SLOW_OK
+    "default", max_examples=50, derandomize=True, deadline=None, suppress_health_check=_SLOW_OK
 )
 settings.register_profile(
     "long", max_examples=1000, derandomize=False, deadline=None, suppress_health_check=_SLOW_OK

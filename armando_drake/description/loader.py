@@ -891,7 +891,8 @@ def load_robot(
     try:
         (model_instance,) = parser.AddModelsFromString(prepared.urdf, "urdf")
     except Exception as error:  # Drake's parser raises RuntimeError with its diagnostic
-        raise DescriptionError(f"{source}: Drake could not load the URDF: {error}") from None
+        text = " ".join(str(error).split())  # Drake's diagnostic spans lines
+        raise DescriptionError(f"{source}: Drake could not load the URDF: {text}") from None
     X_WD = X_WB if X_WB is not None else RigidTransform()
     if weld:
         for base in welds:

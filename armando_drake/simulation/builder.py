@@ -279,7 +279,7 @@ def MakeWorld(
     # Rates, gains and periods checked against the robot and the controller YAML.
     check_against_world(
         scenario,
-        update_rate=_update_rate(config, scenario, where),
+        update_rate=_update_rate(config, scenario, _origin(scenario, "controllers.update_rate")),
         update_rate_source=config.source,
         joints=command_interfaces(robot, warn=False)[2],
     )

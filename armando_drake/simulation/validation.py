@@ -68,7 +68,6 @@ RANGES = {
     "actuators.kp": POSITIVE,
     "actuators.kd": NON_NEGATIVE,
     "actuators.kv": NON_NEGATIVE,
-    "controllers.update_rate": NON_NEGATIVE,
     "sequencer.period": POSITIVE,
     "sequencer.start_delay": NON_NEGATIVE,
     "sequencer.frequency": POSITIVE,
@@ -137,11 +136,10 @@ def _pattern(key: str) -> str:
 def check_scenario(scenario: Scenario, source: str = "") -> None:
     """Raises :class:`InputError` for the first value of ``scenario`` that is not a
     finite number, out of its range, the wrong length or not one of its choices.
-    ``source``: the scenario's file, if it was not loaded with
-    :func:`~armando_drake.simulation.scenario.load_scenario`."""
-    sources = sources_of(scenario)
-    if source and sources.file == "<defaults>":
-        sources.file = source
+    ``source``: the scenario file's name in the messages (default: the file
+    :func:`~armando_drake.simulation.scenario.load_scenario` read)."""
+    if source:  # the caller's name for the file wins
+        sources_of(scenario).file = source
     for key, value in _walk(scenario, ""):
         pattern = _pattern(key)
         if _is_number(value):
@@ -225,12 +223,6 @@ def _check_sim_settings(scenario: Scenario) -> None:
             scenario,
             "plant_config.discrete_contact_approximation",
             "='tamsi' ignores PD actuator gains; use 'lagged', 'sap' or 'similar'",
-        )
-    if not isinstance(scenario.controllers.update_rate, int):
-        raise _fail(
-            scenario,
-            "controllers.update_rate",
-            f"={scenario.controllers.update_rate!r} must be a whole number [Hz]",
         )
 
 

@@ -319,6 +319,16 @@ class JointTrajectoryController(Controller):
         self._state_lower = np.concatenate([self.lower, np.full(self.n, -np.inf)])
         self._state_upper = np.concatenate([self.upper, np.full(self.n, np.inf)])
 
+    def _clamped(self, x_d: np.ndarray) -> np.ndarray:
+        """[q_d; v_d] with q_d clamped into the position limits; a clamped joint's (and
+        a non-finite) desired velocity is 0: a spline through a point far outside the
+        limits (1e300 rad in 1e-12 s) would otherwise send inf or NaN to the plant."""
+        x = np.minimum(np.maximum(x_d, self._state_lower), self._state_upper)
+        n = self.n
+        hold = (x[:n] != x_d[:n]) | ~np.isfinite(x[n:])
+        x[n:][hold] = 0.0
+        return x
+
     def _Validate(self, message, now: float) -> list[int]:
         """Controller index of each message joint; raises _Rejected in upstream's order."""
         if not isinstance(message, JointTrajectory):
@@ -427,7 +437,7 @@ class JointTrajectoryController(Controller):
             x_d = memory.trajectory.sample_state(now)
             q, _ = measure(memory.desired)
             if not (np.abs(q - x_d[: self.n]) > self._path_limit).any():
-                x_d = np.minimum(np.maximum(x_d, self._state_lower), self._state_upper)
+                x_d = self._clamped(x_d)
                 return ControllerMemory(x_d, memory.status, memory.trajectory)
         n = self.n
         desired = memory.desired
@@ -485,8 +495,7 @@ class JointTrajectoryController(Controller):
             status = dataclasses.replace(status, state="succeeded", detail=dict(status.detail))
         if outcome is not None:
             trajectory = None
-        q_d = np.clip(q_d, self.lower, self.upper)
-        return ControllerMemory(np.concatenate([q_d, v_d]), status, trajectory)
+        return ControllerMemory(self._clamped(np.concatenate([q_d, v_d])), status, trajectory)
 
     def _GoalOutcome(self, now, trajectory, q, v) -> tuple[str, str] | None:
         """("succeeded", "") at the goal, ("aborted", reason) past goal_time, else None."""
