@@ -277,7 +277,8 @@ def _tag_choices(schema, field: str, seen=()) -> list[str]:
 
 def _check_lists(data, schema, prefix: str = "") -> None:
     """Fails where ``data`` (a ``yaml_load`` mapping for the dataclass ``schema``) gives a
-    scalar or a mapping for a list field: Drake's loader would take ``""`` as ``[]``."""
+    scalar for a list or a mapping field: Drake's loader would take ``""`` as ``[]``, and
+    fails on others with Python's own words (``'float' object is not iterable``)."""
     if not (isinstance(data, dict) and dc.is_dataclass(schema)):
         return
     hints = typing.get_type_hints(schema)
@@ -288,10 +289,25 @@ def _check_lists(data, schema, prefix: str = "") -> None:
         key = f"{prefix}{name}"
         if typing.get_origin(hint) is list and not isinstance(value, list):
             raise ScenarioError(f"{key}: expected a list, got {value!r}")
-        members = [hint, *typing.get_args(hint)]
-        nested = [m for m in members if dc.is_dataclass(m)]
-        if len(nested) == 1:  # a dataclass, or an Optional one (not a tagged union)
-            _check_lists(value, nested[0], f"{key}.")
+        if typing.get_origin(hint) is dict and not isinstance(value, dict):
+            raise ScenarioError(f"{key}: expected a mapping, got {value!r}")
+        if typing.get_origin(hint) in (list, dict):
+            inner = typing.get_args(hint)[-1] if typing.get_args(hint) else None
+            items = value if isinstance(value, list) else list(value.values())
+            for index, item in enumerate(items):
+                if dc.is_dataclass(inner) and not isinstance(item, dict):
+                    raise ScenarioError(f"{key}.{index}: expected a mapping, got {item!r}")
+                if dc.is_dataclass(inner):
+                    _check_lists(item, inner, f"{key}.{index}.")
+            continue
+        members = [m for m in [hint, *typing.get_args(hint)] if dc.is_dataclass(m)]
+        if members and value is not None and not isinstance(value, dict):
+            raise ScenarioError(f"{key}: expected a mapping, got {value!r}")
+        if isinstance(value, dict) and len(members) > 1:  # a tagged union: the tag's member
+            tag = str(value.get("_tag", "")).lstrip("!")
+            members = [m for m in members if m.__name__ == tag] or members
+        for member in members:
+            _check_lists(value, member, f"{key}.")
 
 
 def _merge(scenario: Scenario, text: str) -> Scenario:

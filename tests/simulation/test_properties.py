@@ -119,8 +119,27 @@ SIDE_EFFECTS = (
 )
 
 
-def value_like(current):
-    """Values for a field that now holds ``current``: of its type, nasty, or of another."""
+def plausible(key: str, current):
+    """Values a user would mean for the field ``key`` that now holds ``current``: near it,
+    of its type, one of its choices."""
+    from armando_drake.simulation.validation import CHOICES
+
+    if key in CHOICES:
+        return st.sampled_from(CHOICES[key])
+    if isinstance(current, bool):
+        return st.booleans()
+    if isinstance(current, int):
+        return st.integers(0, 2 * max(current, 1))
+    if isinstance(current, float):
+        scale = abs(current) or 1.0
+        return st.floats(0.5 * scale, 2.0 * scale) if current >= 0 else st.floats(-scale, scale)
+    if isinstance(current, (list, tuple)) and current and isinstance(current[0], float):
+        return st.lists(st.floats(-0.1, 0.1), min_size=len(current), max_size=len(current))
+    return st.just(current)
+
+
+def value_like(key: str, current):
+    """Values for the field ``key``: plausible ones, of its type but nasty, or of another type."""
     if isinstance(current, bool):
         typed = st.booleans()
     elif isinstance(current, (int, float)):
@@ -133,7 +152,7 @@ def value_like(current):
         typed = st.lists(st.one_of(FLOATS, st.lists(FLOATS, max_size=5)), max_size=6)
     else:
         typed = ANY_SCALAR
-    return st.one_of(typed, typed, ANY_SCALAR, st.lists(ANY_SCALAR, max_size=3))
+    return st.one_of(plausible(key, current), typed, ANY_SCALAR, st.lists(ANY_SCALAR, max_size=3))
 
 
 @st.composite
@@ -142,12 +161,12 @@ def overrides(draw, keys=tuple(BASE_KEYS), allow_unknown=True) -> str:
     unknown key or a tagged sequencer."""
     parts = []
     for key in draw(st.lists(st.sampled_from(sorted(keys)), min_size=1, max_size=3, unique=True)):
-        parts.append(nested(key, draw(value_like(BASE_KEYS[key]))))
+        parts.append(nested(key, draw(value_like(key, BASE_KEYS[key]))))
     text = "\n".join(yaml_text(part)[1:-1] for part in parts)
     choice = draw(st.integers(0, 9))
-    if allow_unknown and choice == 0:
+    if allow_unknown and choice == 8:
         text += f"\nactuators: {{{draw(st.sampled_from(['kq', 'gain', 'kp_']))}: 1}}"
-    elif choice == 1:
+    elif choice == 9:
         tag = draw(st.sampled_from(["Sinusoid", "PositionTargets", "JointTrajectoryTargets"]))
         field = draw(st.sampled_from(["frequency", "period", "rate", "start_delay", "amplitude"]))
         text += f"\nsequencer: !{tag} {{{field}: {yaml_text(draw(FLOATS))}}}"
