@@ -204,11 +204,19 @@ def main(argv: list[str] | None = None) -> int:
 
         path = resolve_scenario_path(args.scenario)
         scenario = load_scenario(path)
-        # --controller first, so that --set edits the sequencer it chose.
-        if args.controller is not None:
+        # --controller first, so that --set edits the sequencer it chose; "none" last:
+        # nothing drives the arm, whatever --set said of the sequencer.
+        if args.controller not in (None, "none"):
             _apply_controller(scenario, args.controller)
             note_option(scenario, ("sequencer", "controllers.activate"), "--controller")
         scenario = apply_scenario_arguments(scenario, args)
+        if args.controller == "none":
+            if any(origin.startswith("--set") for origin in _sequencer_origins(scenario)):
+                logging.getLogger("armando_drake.world").warning(
+                    "--controller none: the sequencer that --set describes is not run"
+                )
+            _apply_controller(scenario, "none")
+            note_option(scenario, ("sequencer", "controllers.activate"), "--controller none")
         if args.duration is not None:
             if not (math.isfinite(args.duration) and args.duration >= 0):
                 raise UserError(f"--duration {args.duration} must be a finite number >= 0 [s]")
@@ -284,6 +292,14 @@ def main(argv: list[str] | None = None) -> int:
         if args.record:
             print(f"recording: {args.record}")
     return 130 if result.interrupted else 0
+
+
+def _sequencer_origins(scenario) -> list[str]:
+    """Where the sequencer's values came from (files, --set texts, options)."""
+    from armando_drake.simulation.scenario import sources_of
+
+    sources = sources_of(scenario)
+    return [o for k, o in sources.keys.items() if k == "sequencer" or k.startswith("sequencer.")]
 
 
 def _check_record(record: str) -> None:
