@@ -419,3 +419,16 @@ def test_a_sequence_that_would_never_end_is_refused_unless_a_duration_is_given()
         "give simulation.duration (or --duration) to run that long"
     )
     check_scenario(merge_overrides(scenario, ["simulation: {duration: 2}"]))  # asked for
+
+
+def test_controller_none_wins_over_a_set_sequencer_with_a_warning(tmp_path, capsys, caplog):
+    with caplog.at_level("WARNING"):
+        code, _, err = run_main(
+            "--controller", "none", "--set", "sequencer: {period: 2}", "--output", str(tmp_path),
+            "--no-replay", capsys=capsys,
+        )  # fmt: skip
+    assert code == 0, err
+    import json
+
+    assert json.loads((tmp_path / "summary.json").read_text())["controller"] == "none"
+    assert "--controller none: the sequencer that --set describes is not run" in caplog.text
