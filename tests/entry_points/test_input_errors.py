@@ -136,7 +136,7 @@ SCENARIO_CASES = [
         [*set_("visualization: {publish_period: 1e-9}")],
         ["visualization.publish_period=1e-09", "--set"],
     ),
-    ("foxglove-port", ["--foxglove", "99999"], ["ros2.foxglove_port=99999", "--foxglove 99999"]),
+    ("foxglove-port", ["--foxglove", "99999"], ["ros2.foxglove_port=99999"]),
     (
         "camera-size",
         [*set_("cameras: [{name: c, link: j0_link, width: -5}]")],
