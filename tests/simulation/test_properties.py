@@ -232,6 +232,8 @@ def _get(data, key):
 def _typed(asked, got):
     """``asked`` as the field's type made it (an int written for a float field; a
     scalar ``yaml_load`` left as text, as ``1e+300``)."""
+    if isinstance(asked, str) and isinstance(got, bool):  # "false" for a bool: Drake's YAML
+        return {"true": True, "false": False}.get(asked.lower(), asked)
     if isinstance(asked, str) and isinstance(got, (int, float)) and not isinstance(got, bool):
         return type(got)(float(asked)) if isinstance(got, float) else type(got)(asked)
     if isinstance(got, float) and isinstance(asked, int) and not isinstance(asked, bool):
