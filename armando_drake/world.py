@@ -47,9 +47,15 @@ Examples:
 
 from __future__ import annotations
 
+import signal
+import sys
+
+if __name__ == "__main__":  # Ctrl-C while the command starts: exit 130, quietly
+    signal.signal(signal.SIGINT, lambda signum, frame: sys.exit(130))
+
 import argparse
 import logging
-import sys
+import math
 
 from armando_drake.tools.cli import (
     UserError,
@@ -59,6 +65,7 @@ from armando_drake.tools.cli import (
     apply_scenario_arguments,
     command_parser,
     keeps_serving,
+    note_option,
     start_meshcat,
     user_errors,
     wait_seconds,
@@ -214,25 +221,41 @@ def main(argv: list[str] | None = None) -> int:
         from armando_drake.simulation.scenario import load_scenario, resolve_scenario_path
 
         path = resolve_scenario_path(args.scenario)
-        scenario = apply_scenario_arguments(load_scenario(path), args)
+        scenario = load_scenario(path)
+        # --controller first, so that --set edits the sequencer it chose; "none" last:
+        # nothing drives the arm, whatever --set said of the sequencer.
+        if args.controller not in (None, "none"):
+            _apply_controller(scenario, args.controller)
+            note_option(scenario, ("sequencer", "controllers.activate"), "--controller")
+        scenario = apply_scenario_arguments(scenario, args)
+        if args.controller == "none":
+            if any(origin.startswith("--set") for origin in _sequencer_origins(scenario)):
+                logging.getLogger("armando_drake.world").warning(
+                    "--controller none: the sequencer that --set describes is not run"
+                )
+            _apply_controller(scenario, "none")
+            note_option(scenario, ("sequencer", "controllers.activate"), "--controller none")
         if args.duration is not None:
-            if args.duration < 0:
-                raise UserError(f"--duration {args.duration} must not be negative")
+            if not (math.isfinite(args.duration) and args.duration >= 0):
+                raise UserError(f"--duration {args.duration} must be a finite number >= 0 [s]")
             scenario.simulation.duration = args.duration
             if args.duration == 0:
                 scenario.simulation.duration = 1e-9
+            note_option(scenario, ("simulation.duration",), "--duration")
         if args.realtime_rate is not None:
-            if args.realtime_rate < 0:
-                raise UserError(f"--realtime-rate {args.realtime_rate} must not be negative")
+            if not (math.isfinite(args.realtime_rate) and args.realtime_rate >= 0):
+                raise UserError(
+                    f"--realtime-rate {args.realtime_rate} must be a finite number >= 0"
+                )
             scenario.simulator_config.target_realtime_rate = args.realtime_rate
+            note_option(scenario, ("simulator_config.target_realtime_rate",), "--realtime-rate")
         if args.ros2 or args.foxglove is not None:
             scenario.ros2.enabled = scenario.ros2.enabled or args.ros2
             if args.foxglove is not None:
                 scenario.ros2.foxglove, scenario.ros2.foxglove_port = True, args.foxglove
+                note_option(scenario, ("ros2.foxglove_port",), f"--foxglove {args.foxglove}")
             if args.realtime_rate is None:
                 scenario.simulator_config.target_realtime_rate = 1.0
-        if args.controller is not None:
-            _apply_controller(scenario, args.controller)
         if args.camera is not None:
             scenario.camera.enabled = args.camera
         if args.camera_view:
@@ -241,9 +264,10 @@ def main(argv: list[str] | None = None) -> int:
             scenario.camera.enabled = True
             scenario.camera.save_frames = args.save_frames
         if args.save_rate is not None:
-            if args.save_rate <= 0:
+            if not (math.isfinite(args.save_rate) and args.save_rate > 0):
                 raise UserError(f"--save-rate {args.save_rate} must be positive [Hz]")
             scenario.camera.save_rate = args.save_rate
+            note_option(scenario, ("camera.save_rate",), "--save-rate")
         if args.renderer is not None:
             scenario.camera.renderer = args.renderer
 
@@ -293,6 +317,14 @@ def main(argv: list[str] | None = None) -> int:
 
             serve_until_interrupted(meshcat)
     return 130 if result.interrupted else 0
+
+
+def _sequencer_origins(scenario) -> list[str]:
+    """Where the sequencer's values came from (files, --set texts, options)."""
+    from armando_drake.simulation.scenario import sources_of
+
+    sources = sources_of(scenario)
+    return [o for k, o in sources.keys.items() if k == "sequencer" or k.startswith("sequencer.")]
 
 
 def _check_record(record: str) -> None:

@@ -6,6 +6,19 @@ import textwrap
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, settings
+
+# Hypothesis profiles (tests/simulation/test_properties.py): "default", run by every
+# `pytest`, is derandomized (the same examples every run) and small; "long", for a
+# nightly run (`pytest --hypothesis-profile long`), draws many more, at random.
+_SLOW_OK = [HealthCheck.too_slow, HealthCheck.function_scoped_fixture, HealthCheck.data_too_large]
+settings.register_profile(
+    "default", max_examples=50, derandomize=True, deadline=None, suppress_health_check=_SLOW_OK
+)
+settings.register_profile(
+    "long", max_examples=1000, derandomize=False, deadline=None, suppress_health_check=_SLOW_OK
+)
+settings.load_profile("default")
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
@@ -43,6 +56,38 @@ def chromium() -> str:
     if not os.path.exists(CHROMIUM):
         skip_or_fail("Debian's chromium is not installed (apt-get install chromium)")
     return CHROMIUM
+
+
+# A two-joint URDF without xacro or package: the robot the input tests mutate.
+MINI_URDF = """\
+<?xml version="1.0"?>
+<robot name="mini">
+  <link name="base_link">
+    <inertial><mass value="1"/>
+      <inertia ixx="1e-3" iyy="1e-3" izz="1e-3" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <link name="upper">
+    <visual><geometry><box size="0.03 0.03 0.2"/></geometry></visual>
+    <inertial><mass value="0.1"/>
+      <inertia ixx="1e-4" iyy="1e-4" izz="1e-4" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <link name="lower">
+    <visual><geometry><box size="0.03 0.03 0.2"/></geometry></visual>
+    <inertial><mass value="0.1"/>
+      <inertia ixx="1e-4" iyy="1e-4" izz="1e-4" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <joint name="q1" type="revolute">
+    <parent link="base_link"/><child link="upper"/>
+    <origin xyz="0 0 0.125"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" effort="10" velocity="3"/>
+  </joint>
+  <joint name="q2" type="revolute">
+    <parent link="upper"/><child link="lower"/>
+    <origin xyz="0 0 0.2"/><axis xyz="0 1 0"/>
+    <limit lower="-2.5" upper="2.5" effort="10" velocity="3"/>
+  </joint>
+</robot>
+"""
 
 
 MINI_XACRO = """\

@@ -491,11 +491,13 @@ def mujoco_job(model, hardware, period: float) -> tuple[float, list[float]]:
 
 def drake_job(time_step: float, period: float) -> tuple[float, list[float]]:
     """(real-time factor, final error of each target [rad]) of the position scenario."""
-    result = run_scenario(
-        "position",
-        len(TARGETS) * period,
-        (f"plant_config: {{time_step: {time_step!r}}}", f"sequencer: {{period: {period!r}}}"),
-    )
+    overrides = [
+        f"plant_config: {{time_step: {time_step!r}}}",
+        f"sequencer: {{period: {period!r}}}",
+    ]
+    if time_step > 0.01:  # the controllers at the plant's rate, no faster (100 Hz at most)
+        overrides.append(f"controllers: {{update_rate: {round(1 / time_step)}}}")
+    result = run_scenario("position", len(TARGETS) * period, tuple(overrides))
     errors = [step.final_error for step in result.steps]
     if len(errors) != len(TARGETS):
         errors.append(np.inf)

@@ -439,6 +439,11 @@ def load_controller_config(path: str | Path) -> ControllerManagerConfig:
         text = path.read_text(encoding="utf-8")
     except OSError as error:
         raise ControllerConfigError(f"{path}: cannot read controller file: {error}") from None
+    except UnicodeDecodeError as error:
+        raise ControllerConfigError(
+            f"{path}: not a text (UTF-8) YAML file: byte {error.start} is "
+            f"{error.object[error.start]:#x}"
+        ) from None
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as error:

@@ -296,7 +296,13 @@ def expand_description(
     if search is None:
         search = find_packages(near=path)
     if path.suffix != ".xacro":
-        text = path.read_text()
+        try:
+            text = path.read_text(encoding="utf-8")
+        except UnicodeDecodeError as error:
+            raise DescriptionError(
+                f"{path}: not a text (UTF-8) file: byte {error.start} is "
+                f"{error.object[error.start]:#x}"
+            ) from None
         if "xmlns:xacro" not in text and not mappings:
             return text
     import xacro
@@ -497,8 +503,9 @@ def _link_of(joint: ET.Element, tag: str) -> str:
     return "" if element is None else element.get("link", "")
 
 
-def parse_joints(root: ET.Element) -> list[JointInfo]:
-    """The non-fixed joints of a URDF, with their limits as written."""
+def parse_joints(root: ET.Element, source: str | os.PathLike = "") -> list[JointInfo]:
+    """The non-fixed joints of a URDF, with their limits as written; errors name
+    ``source``."""
     joints = []
     for element in root.findall("joint"):
         kind = element.get("type", "")
@@ -530,7 +537,8 @@ def parse_joints(root: ET.Element) -> list[JointInfo]:
                 )
             )
         except ValueError as error:
-            raise DescriptionError(f"joint {name!r}: {error}") from None
+            where = f"{source}: " if source else ""
+            raise DescriptionError(f"{where}joint {name!r}: {error}") from None
     return joints
 
 
@@ -854,7 +862,7 @@ def load_robot(
     search.report_shadowed()
     urdf = expand_description(source, xacro_args, search)
     root = parse_urdf(urdf, source)
-    joints = parse_joints(root)
+    joints = parse_joints(root, source)
     hardware = parse_ros2_control(root, source=str(source))
     cameras = parse_camera_sensors(root, source=str(source))
     warnings: list[str] = []
@@ -883,7 +891,8 @@ def load_robot(
     try:
         (model_instance,) = parser.AddModelsFromString(prepared.urdf, "urdf")
     except Exception as error:  # Drake's parser raises RuntimeError with its diagnostic
-        raise DescriptionError(f"{source}: Drake could not load the URDF: {error}") from None
+        text = " ".join(str(error).split())  # Drake's diagnostic spans lines
+        raise DescriptionError(f"{source}: Drake could not load the URDF: {text}") from None
     X_WD = X_WB if X_WB is not None else RigidTransform()
     if weld:
         for base in welds:

@@ -157,7 +157,11 @@ def _interface(element: ET.Element, owner: str, where: str) -> InterfaceInfo:
     for key in ("min", "max", "initial_value"):
         if key in parameters:
             label = f"{element.tag} '{name}' of '{owner}' {key}"
-            setattr(info, key, _number(parameters[key], label, where))
+            value = _number(parameters[key], label, where)
+            # min/max may be +-inf (no limit); nothing may be NaN, nor an initial value inf.
+            if math.isnan(value) or (key == "initial_value" and not math.isfinite(value)):
+                raise Ros2ControlError(f"{where}{label}={parameters[key]!r} is not a finite number")
+            setattr(info, key, value)
     if info.min is not None and info.max is not None and info.min > info.max:
         raise Ros2ControlError(
             f"{where}{element.tag} '{name}' of '{owner}' has min={info.min} > max={info.max}"

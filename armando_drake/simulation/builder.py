@@ -69,7 +69,8 @@ from armando_drake.control.messages import Float64MultiArray, JointTrajectory, P
 from armando_drake.description.importer import default_controller_config
 from armando_drake.description.loader import LoadedRobot, load_robot, package_of
 from armando_drake.sensors.objects import AddSceneObjects, SceneObjectError
-from armando_drake.simulation.scenario import Scenario, ScenarioError
+from armando_drake.simulation.scenario import Scenario, ScenarioError, sources_of
+from armando_drake.simulation.validation import check_against_world, check_scenario
 
 if TYPE_CHECKING:
     from armando_drake.outputs.logger import JointStateLogger
@@ -174,7 +175,13 @@ def _controller_config(scenario: Scenario, robot: LoadedRobot) -> ControllerMana
     candidates = sorted((package_dir / "config").glob("*controllers*.yaml")) if package_dir else []
     if candidates:
         return load_controller_config(candidates[0])
-    data = default_controller_config(list(command_interfaces(robot, warn=False)[2]))
+    actuated = list(command_interfaces(robot, warn=False)[2])
+    if not actuated:
+        raise ScenarioError(
+            f"{robot.source}: the description actuates no joint (read from "
+            f"{robot.actuation_source}): nothing for a controller to command"
+        )
+    data = default_controller_config(actuated)
     return parse_controller_config(data, source=f"<default controllers of {robot.name}>")
 
 
@@ -272,6 +279,8 @@ def MakeWorld(
     (:func:`~armando_drake.outputs.recording.AddRosbagRecorder`).
     """
     where = f"{source}: " if source else ""
+    # Every value of the scenario checked before Drake sees it.
+    check_scenario(scenario, source)
     builder = DiagramBuilder()
     # The physics: a MultibodyPlant and its SceneGraph, as the scenario configures them.
     plant, scene_graph = _add_plant(builder, scenario, where)
@@ -280,8 +289,17 @@ def MakeWorld(
     # The controller YAML (before the actuators: a ROS 1 file's gazebo_ros_control gains
     # are theirs); its update rate, which the scenario may override, below.
     config = _controller_config(scenario, robot)
+    # Rates, gains and periods checked against the robot and the controller YAML.
+    check_against_world(
+        scenario,
+        update_rate=_update_rate(config, scenario, _origin(scenario, "controllers.update_rate")),
+        update_rate_source=config.source,
+        joints=command_interfaces(robot, warn=False)[2],
+    )
     # The hardware interface: an actuator per commanded joint; then the plant is final.
-    hardware = _add_hardware(plant, scene_graph, robot, scenario, config, where)
+    hardware = _add_hardware(
+        plant, scene_graph, robot, scenario, config, _origin(scenario, "task.start_positions")
+    )
     world = World(
         diagram=None,  # set by Build() below
         plant=plant,
@@ -289,19 +307,19 @@ def MakeWorld(
         robot=robot,
         hardware=hardware,
         controller_config=config,
-        update_rate=_update_rate(config, scenario, where),
+        update_rate=_update_rate(config, scenario, _origin(scenario, "controllers.update_rate")),
         meshcat=meshcat,
     )
     # The controller manager: the activated controllers of the YAML, in one system.
-    _add_controller_manager(builder, world, scenario, where)
+    _add_controller_manager(builder, world, scenario, _origin(scenario, "controllers"))
     # What drives and watches them: sequencer, logger, cameras, recorder, bridges.
     commands_csv = Path(output_dir) / "commands.csv" if output_dir and write_commands else None
-    _add_sequencer(builder, world, scenario, where, commands_csv)
-    _add_task(builder, world, scenario, where)
-    _add_jog(builder, world, scenario, where)
+    _add_sequencer(builder, world, scenario, _origin(scenario, "sequencer"), commands_csv)
+    _add_task(builder, world, scenario, _origin(scenario, "task"))
+    _add_jog(builder, world, scenario, _origin(scenario, "jog"))
     _add_logger(builder, world, scenario, output_dir, quiet)
-    _add_cameras(builder, world, scenario, meshcat, where, source)
-    _add_detectors(builder, world, scenario, where)
+    _add_cameras(builder, world, scenario, meshcat, where, sources_of(scenario).of("cameras"))
+    _add_detectors(builder, world, scenario, _origin(scenario, "vision"))
     _add_perception(
         builder, world, scenario, meshcat, output_dir if write_commands else None, source
     )
@@ -313,6 +331,11 @@ def MakeWorld(
     world.diagram = builder.Build()
     world.diagram.set_name("armando_world")
     return world
+
+
+def _origin(scenario: Scenario, key: str) -> str:
+    """``"<origin>: "``: the file, ``--set`` or option the scenario's ``key`` came from."""
+    return f"{sources_of(scenario).of(key)}: "
 
 
 def _add_plant(builder: DiagramBuilder, scenario: Scenario, where: str):
@@ -403,7 +426,7 @@ def _add_controller_manager(builder, world: World, scenario: Scenario, where: st
     controllers, each joint claimed once) in one :class:`ControllerManager`, wired to
     the plant through the hardware interface."""
     config, hardware, plant = world.controller_config, world.hardware, world.plant
-    validate_joints(config, hardware.joint_names, config.source)
+    validate_joints(config, hardware.joint_names, str(world.robot.source))
     claimed: dict[str, str] = {}
     broadcaster = None
     managed = []  # ManagedController, in activation order
@@ -956,8 +979,11 @@ def _add_cameras(
             enable_depth=settings.depth,
             export=True,
         )
-    except CameraError as error:
-        raise ScenarioError(f"{where}{error}") from None
+    except CameraError as error:  # a scenario camera's error names its source already
+        text = str(error)
+        raise ScenarioError(
+            text if source and text.startswith(source) else f"{where}{text}"
+        ) from None
     engine = {"gl": "RenderEngineGl", "vtk": "RenderEngineVtk"}[renderer]
     for camera in world.cameras.values():
         _log.info("camera %s, rendered by %s", describe(camera.info), engine)

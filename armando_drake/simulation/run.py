@@ -29,6 +29,7 @@ import numpy as np
 from armando_drake.control.sequencer import Sinusoid, mode_of, one_pass, wave_of
 from armando_drake.simulation.scenario import Scenario
 
+SCENARIO_FILE = "scenario.yaml"  # the effective scenario, in the output folder
 SETTLE_TOLERANCE = 0.01  # [rad] "reached" band of the step table
 TRACKING_SKIP = 1.0  # [s] the sinusoid's tracking error counts from start_delay + this
 
@@ -117,6 +118,17 @@ class RunResult:
             f"({self.realtime_factor:.2f}x real time)"
             + (" [interrupted]" if self.interrupted else "")
         )
+
+
+def write_scenario(scenario: Scenario, path: Path) -> None:
+    """Writes ``scenario`` as YAML that :func:`~armando_drake.simulation.scenario.load_scenario`
+    reads back to an equal scenario."""
+    from pydrake.common.yaml import yaml_dump_typed
+
+    path.write_text(
+        "# The effective scenario of this run: the file with every override applied.\n"
+        + yaml_dump_typed(scenario)
+    )
 
 
 def controller_mode(scenario: Scenario) -> str:
@@ -221,7 +233,9 @@ class StepTable:
 
     def results(self, end_time: float) -> list[StepResult]:
         """One :class:`StepResult` per step that has rows, the last ending at ``end_time``."""
-        keys = sorted(self._steps)
+        # A step that begins when the run ends never ran.
+        keys = [k for k in sorted(self._steps) if self._steps[k].start < end_time - 1e-9]
+        keys = keys or sorted(self._steps)[:1]
         results = []
         for position, k in enumerate(keys):
             step = self._steps[k]
@@ -332,22 +346,40 @@ class Progress:
             self._bar.close()
 
 
-@contextlib.contextmanager
-def _sigterm_as_interrupt():
-    """Treats SIGTERM like Ctrl-C so a terminated run still writes its logs."""
+class _Interrupts:
+    """Ctrl-C (SIGINT) and SIGTERM during a run: the first one raises KeyboardInterrupt
+    (the simulation stops, and a terminated run still writes its logs); any later
+    one is only counted, so it cannot cut the logs in half, and :meth:`raise_pending`
+    raises it once they are written."""
 
-    def handler(signum, frame):
-        raise KeyboardInterrupt
+    def __init__(self):
+        self.received = 0  # signals received
+        self.raised = 0  # of them raised as KeyboardInterrupt
+        self.raising = True  # whether the next one raises
 
-    try:
-        previous = signal.signal(signal.SIGTERM, handler)
-    except ValueError:  # not the main thread
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
+    def _handler(self, signum, frame):
+        self.received += 1
+        if self.raising:
+            self.raising = False
+            self.raised += 1
+            raise KeyboardInterrupt
+
+    @contextlib.contextmanager
+    def installed(self):
+        try:
+            previous = {s: signal.signal(s, self._handler) for s in (signal.SIGINT, signal.SIGTERM)}
+        except ValueError:  # not the main thread
+            yield self
+            return
+        try:
+            yield self
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+
+    def raise_pending(self, what: str) -> None:
+        if self.received > self.raised:
+            raise KeyboardInterrupt(what)
 
 
 def run(
@@ -401,10 +433,11 @@ def run(
         write_commands=output_dir is not None,
         record=record,
     )
+    if log_dir is not None:  # what ran: the scenario after every override
+        write_scenario(scenario, log_dir / SCENARIO_FILE)
     # The step table (or the sinusoid's tracking error) from the logger's rows.
     table = _table_of(world)
     tracker = _task_tracker_of(world)
-    joint_names = world.hardware.joint_names
     simulator = Simulator(world.diagram)
     ApplySimulatorConfig(scenario.simulator_config, simulator)
     realtime_rate = scenario.simulator_config.target_realtime_rate
@@ -415,7 +448,8 @@ def run(
         print(f"Camera view: {world.image_view_url}", file=stream, flush=True)
     interrupted = False
     wall_start = time.monotonic()
-    with _sigterm_as_interrupt():
+    signals = _Interrupts()
+    with signals.installed():
         try:
             simulator.Initialize()
             if meshcat is not None and wait_for_browser > 0:
@@ -437,24 +471,58 @@ def run(
                 simulator.AdvanceTo(target)
                 if progress:
                     progress.update(target)
+            signals.raising = False  # from here on a Ctrl-C waits for the logs
         except KeyboardInterrupt:
             interrupted = True
             print("\ninterrupted: writing the logs and the summary", file=stream, flush=True)
-    wall_time = time.monotonic() - wall_start
-    if progress:
-        progress.finish()
+        wall_time = time.monotonic() - wall_start
+        if progress:
+            progress.finish()
+        sim_time = simulator.get_context().get_time()
+        # The logs and the summary are written whole, whatever signal comes.
+        world.close(simulator.get_context())  # the logger's last rows reach the table too
+        result = _result(scenario, world, simulator, table, tracker, log_dir)
+        result.scenario, result.sim_time, result.wall_time = scenario_name, sim_time, wall_time
+        result.realtime_factor = sim_time / wall_time if wall_time > 0 else math.inf
+        result.interrupted = interrupted
+        result.output_dir = None if output_dir is None else str(output_dir)
+        if log_dir is not None:
+            (log_dir / "summary.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
+    # A Ctrl-C that came while they were written stops the plots and the replay.
+    signals.raise_pending(f"the logs are complete in {log_dir}" if log_dir else "")
+    if log_dir is not None and plots:
+        from armando_drake.outputs.plots import write_plots
+
+        write_plots(log_dir)
+    if replay and replay_meshcat is not None and world.replay_sampler is not None:
+        # The run as an animation in Meshcat (the live page keeps it) and in replay.html.
+        from armando_drake.outputs.replay import REPLAY_FILE, publish_replay, write_replay
+
+        publish_replay(
+            replay_meshcat,
+            world.diagram,
+            world.plant,
+            world.replay_sampler,
+            simulator.get_context(),
+        )
+        if log_dir is not None:
+            write_replay(replay_meshcat, log_dir / REPLAY_FILE)
+    return result
+
+
+def _result(scenario, world, simulator, table, tracker, log_dir) -> RunResult:
+    """The run's result, with the step table, the task-space errors (task_space.csv in
+    ``log_dir``) and the vision outputs; the caller fills in names and times."""
     sim_time = simulator.get_context().get_time()
-    world.close(simulator.get_context())  # the logger's last rows reach the table too
 
     result = RunResult(
-        scenario=scenario_name,
+        scenario="",
         controller=controller_mode(scenario),
         sim_time=sim_time,
-        wall_time=wall_time,
-        realtime_factor=sim_time / wall_time if wall_time > 0 else math.inf,
-        interrupted=interrupted,
-        joint_names=joint_names,
-        output_dir=None if output_dir is None else str(output_dir),
+        wall_time=0.0,
+        realtime_factor=0.0,
+        interrupted=False,
+        joint_names=world.hardware.joint_names,
         driven=world.sequencer_target
         or (world.task.controller if world.task else "")
         or (world.jog.controller if world.jog else ""),
@@ -480,25 +548,6 @@ def run(
         from armando_drake.vision.outputs import write_vision_outputs
 
         result.vision = write_vision_outputs(world, simulator.get_context(), scenario, log_dir)
-    if log_dir is not None:
-        (log_dir / "summary.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
-        if plots:
-            from armando_drake.outputs.plots import write_plots
-
-            write_plots(log_dir)
-    if replay and replay_meshcat is not None and world.replay_sampler is not None:
-        # The run as an animation in Meshcat (the live page keeps it) and in replay.html.
-        from armando_drake.outputs.replay import REPLAY_FILE, publish_replay, write_replay
-
-        publish_replay(
-            replay_meshcat,
-            world.diagram,
-            world.plant,
-            world.replay_sampler,
-            simulator.get_context(),
-        )
-        if log_dir is not None:
-            write_replay(replay_meshcat, log_dir / REPLAY_FILE)
     return result
 
 

@@ -281,6 +281,41 @@ def _tag_choices(schema, field: str, seen=()) -> list[str]:
     return []
 
 
+def _check_lists(data, schema, prefix: str = "") -> None:
+    """Fails where ``data`` (a ``yaml_load`` mapping for the dataclass ``schema``) gives a
+    scalar for a list or a mapping field: Drake's loader would take ``""`` as ``[]``, and
+    fails on others with Python's own words (``'float' object is not iterable``)."""
+    if not (isinstance(data, dict) and dc.is_dataclass(schema)):
+        return
+    hints = typing.get_type_hints(schema)
+    for name, value in data.items():
+        hint = hints.get(name)
+        if hint is None:
+            continue
+        key = f"{prefix}{name}"
+        if typing.get_origin(hint) is list and not isinstance(value, list):
+            raise ScenarioError(f"{key}: expected a list, got {value!r}")
+        if typing.get_origin(hint) is dict and not isinstance(value, dict):
+            raise ScenarioError(f"{key}: expected a mapping, got {value!r}")
+        if typing.get_origin(hint) in (list, dict):
+            inner = typing.get_args(hint)[-1] if typing.get_args(hint) else None
+            items = value if isinstance(value, list) else list(value.values())
+            for index, item in enumerate(items):
+                if dc.is_dataclass(inner) and not isinstance(item, dict):
+                    raise ScenarioError(f"{key}.{index}: expected a mapping, got {item!r}")
+                if dc.is_dataclass(inner):
+                    _check_lists(item, inner, f"{key}.{index}.")
+            continue
+        members = [m for m in [hint, *typing.get_args(hint)] if dc.is_dataclass(m)]
+        if members and value is not None and not isinstance(value, dict):
+            raise ScenarioError(f"{key}: expected a mapping, got {value!r}")
+        if isinstance(value, dict) and len(members) > 1:  # a tagged union: the tag's member
+            tag = str(value.get("_tag", "")).lstrip("!")
+            members = [m for m in members if m.__name__ == tag] or members
+        for member in members:
+            _check_lists(value, member, f"{key}.")
+
+
 def _merge(scenario: Scenario, text: str) -> Scenario:
     """``scenario`` with the YAML ``text`` merged over it (see :func:`_keep_variants`)."""
     data = yaml_load(data=text)
@@ -288,21 +323,76 @@ def _merge(scenario: Scenario, text: str) -> Scenario:
         return scenario
     if not isinstance(data, dict):
         raise ScenarioError(f"expected a YAML mapping, got {data!r}")
+    _check_lists(data, Scenario)
     _keep_variants(data, scenario)
     return yaml_load_typed(data=yaml_dump(data), defaults=scenario)
+
+
+@dc.dataclass
+class ScenarioSources:
+    """Where the values of a scenario came from, for error messages: a file, and the
+    override (``--set '...'``) or command-line option that last set each key."""
+
+    # The scenario file, or "<defaults>".
+    file: str = "<defaults>"
+    # Dotted key ("actuators.kp", "objects") -> its origin ("--set 'actuators: {kp: -1}'").
+    keys: dict[str, str] = dc.field(default_factory=dict)
+
+    def of(self, key: str) -> str:
+        """The origin of the dotted ``key``: the override that set it or a key above
+        it; else the latest that set a key below it; else the file."""
+        parts = key.split(".")
+        for end in range(len(parts), 0, -1):
+            origin = self.keys.get(".".join(parts[:end]))
+            if origin is not None:
+                return origin
+        below = [origin for k, origin in self.keys.items() if k.startswith(f"{key}.")]
+        return below[-1] if below else self.file
+
+    def note(self, key: str, origin: str) -> None:
+        """Records that ``origin`` set ``key`` (and everything below it), as the latest."""
+        self.keys = {k: v for k, v in self.keys.items() if k != key and not k.startswith(f"{key}.")}
+        self.keys[key] = origin
+
+
+def sources_of(scenario: Scenario) -> ScenarioSources:
+    """The :class:`ScenarioSources` kept with ``scenario`` (made empty on first use)."""
+    sources = scenario.__dict__.get("_sources")
+    if sources is None:
+        sources = scenario.__dict__["_sources"] = ScenarioSources()
+    return sources
+
+
+def _leaf_keys(data, prefix: str = "") -> list[str]:
+    """The dotted keys of the leaves of a ``yaml_load`` mapping (a tagged mapping, a
+    list or a scalar is a leaf: it replaces what was there)."""
+    if not isinstance(data, dict) or (prefix and "_tag" in data):
+        return [prefix] if prefix else []
+    keys = []
+    for name, value in data.items():
+        if name == "_tag":
+            continue
+        keys += _leaf_keys(value, f"{prefix}.{name}" if prefix else str(name))
+    return keys
 
 
 def merge_overrides(scenario: Scenario, overrides, label: str = "--set") -> Scenario:
     """``scenario`` with each YAML string of ``overrides`` merged over it in turn.
 
     An untagged mapping keeps the variant of a Union field (see the module's
-    docstring); a tag chooses one.
+    docstring); a tag chooses one. The keys each override sets are noted, with
+    it, in :func:`sources_of` the result.
     """
+    sources = sources_of(scenario)
     for override in [overrides] if isinstance(overrides, str) else overrides:
         try:
             scenario = _merge(scenario, override)
+            keys = _leaf_keys(yaml_load(data=override))
         except Exception as error:  # yaml_load_typed raises RuntimeError, KeyError, ...
             raise ScenarioError(f"{label} {override!r}: {_one_line(error, scenario)}") from None
+        for key in keys:
+            sources.note(key, f"{label} {override!r}")
+    scenario.__dict__["_sources"] = sources
     return scenario
 
 
@@ -323,6 +413,10 @@ def load_scenario(
         raise
     except OSError as error:
         raise ScenarioError(f"{filename}: cannot read the scenario: {error.strerror}") from None
+    except UnicodeDecodeError:
+        raise ScenarioError(f"{source}: not a text (UTF-8) YAML file") from None
     except Exception as error:  # yaml_load_typed raises RuntimeError, KeyError, ...
         raise ScenarioError(f"{source}: {_one_line(error, scenario)}") from None
+    if source != "<defaults>":
+        sources_of(scenario).file = source
     return scenario

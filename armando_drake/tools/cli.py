@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import os
+import signal
 import sys
+import traceback
 from collections.abc import Iterable, Iterator
 
 
@@ -12,16 +15,36 @@ class UserError(Exception):
     """A mistake in the user's input, reported as one line without a traceback."""
 
 
+# Whether an unexpected error prints its traceback (``--debug``, or ARMANDO_DRAKE_DEBUG=1).
+_debug = bool(os.environ.get("ARMANDO_DRAKE_DEBUG"))
+
+
+class _DebugAction(argparse.Action):
+    def __call__(self, parser, namespace, values, option_string=None):
+        global _debug
+        _debug = True
+        setattr(namespace, self.dest, True)
+
+
 def command_parser(module: str, doc: str) -> argparse.ArgumentParser:
     """The argument parser of ``python -m <module>``: the first paragraph of the module's
-    ``doc`` as description, the rest (usage notes, examples) as epilog, verbatim."""
+    ``doc`` as description, the rest (usage notes, examples) as epilog, verbatim; with
+    ``--debug`` (see :func:`user_errors`)."""
     description, _, epilog = doc.partition("\n\n")
-    return argparse.ArgumentParser(
+    parser = argparse.ArgumentParser(
         prog=f"python -m {module}",
         description=description,
         epilog=epilog,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    parser.add_argument(
+        "--debug",
+        action=_DebugAction,
+        nargs=0,
+        default=False,
+        help="print the traceback of an unexpected error (input errors stay one line)",
+    )
+    return parser
 
 
 def parse_xacro_args(items: Iterable[str]) -> dict[str, str]:
@@ -156,6 +179,15 @@ def add_description_arguments(parser, default: str) -> None:
     )
 
 
+def note_option(scenario, keys: Iterable[str], option: str) -> None:
+    """Records that the command-line ``option`` set the scenario's dotted ``keys``, for
+    the messages of :mod:`armando_drake.simulation.validation`."""
+    from armando_drake.simulation.scenario import sources_of
+
+    for key in keys:
+        sources_of(scenario).note(key, option)
+
+
 def apply_scenario_arguments(scenario, args):
     """The scenario with ``--set``, ``--description`` and ``--package-path`` applied."""
     from armando_drake.simulation.scenario import merge_overrides
@@ -163,27 +195,105 @@ def apply_scenario_arguments(scenario, args):
     scenario = merge_overrides(scenario, args.set)
     if args.description is not None:
         scenario.robot.description = args.description
+        note_option(scenario, ("robot.description",), "--description")
     scenario.robot.package_paths += args.package_path
     return scenario
 
 
-@contextlib.contextmanager
-def user_errors() -> Iterator[None]:
-    """Turns the project's input errors into ``error: ...`` on stderr and exit 2."""
-    from armando_drake.description.loader import DescriptionError
-    from armando_drake.description.ros2_control import Ros2ControlError
-
-    errors: tuple[type[BaseException], ...] = (UserError, DescriptionError, Ros2ControlError)
+def _input_errors() -> tuple[type[BaseException], ...]:
+    """The exception types that mean a mistake in the user's input."""
+    errors: tuple[type[BaseException], ...] = (UserError,)
     for module, name in (
+        ("armando_drake.description.loader", "DescriptionError"),
+        ("armando_drake.description.ros2_control", "Ros2ControlError"),
         ("armando_drake.control.config", "ControllerConfigError"),
         ("armando_drake.sensors.camera", "CameraError"),
+        ("armando_drake.sensors.objects", "SceneObjectError"),
         ("armando_drake.control.sequencer", "SequencerError"),
         ("armando_drake.simulation.scenario", "ScenarioError"),
     ):
         with contextlib.suppress(ImportError, AttributeError):
             errors += (getattr(__import__(module, fromlist=[name]), name),)
+    return errors
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def _unexpected(error: BaseException) -> str:
+    """One line for an error that is not an input error: Drake's ``Failure at
+    <file>:<line> in <function>(): condition '...' failed.`` keeps only its condition."""
+    text = _one_line(error)
+    if text.startswith("Failure at "):
+        condition = text.partition(": ")[2] or text
+        return f"Drake refused an input ({condition})"
+    return f"{type(error).__name__}: {text}" if text else type(error).__name__
+
+
+@contextlib.contextmanager
+def _held_interrupts() -> Iterator[None]:
+    """Ctrl-C waits until the block is done, then raises KeyboardInterrupt."""
+    held = []
+    try:
+        previous = signal.signal(signal.SIGINT, lambda signum, frame: held.append(signum))
+    except ValueError:  # not the main thread
+        yield
+        return
     try:
         yield
-    except errors as error:
-        print(f"error: {error}", file=sys.stderr)
-        sys.exit(2)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if held:
+        raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def user_errors() -> Iterator[None]:
+    """What a command does on an error, whatever its origin.
+
+    - an input error (:class:`UserError`, a description, controller YAML, scenario,
+      camera, object or sequencer error): ``error: ...`` on stderr, one line, exit 2;
+    - Ctrl-C (SIGINT), also one that breaks an import half way (``ImportError:
+      initialization failed``): ``interrupted`` on stderr, exit 130;
+    - anything else: ``error: <type>: <message> (run with --debug for the
+      traceback)``, one line, exit 1; with ``--debug`` the traceback first.
+    """
+    interrupted = []
+    previous = None
+
+    def on_sigint(signum, frame):
+        interrupted.append(signum)
+        raise KeyboardInterrupt
+
+    try:
+        # pydrake's C++ start-up, cut by a Ctrl-C, logs a stack dump: it is let finish.
+        with _held_interrupts():
+            import pydrake  # noqa: F401
+        with contextlib.suppress(ValueError):  # not the main thread: leave SIGINT alone
+            previous = signal.signal(signal.SIGINT, on_sigint)
+        yield
+    except KeyboardInterrupt as interrupt:
+        print(f"interrupted: {interrupt}" if str(interrupt) else "interrupted", file=sys.stderr)
+        sys.exit(130)
+    except SystemExit:
+        raise
+    except Exception as error:
+        if interrupted:  # Ctrl-C inside an extension's import surfaces as ImportError
+            print("interrupted", file=sys.stderr)
+            sys.exit(130)
+        if isinstance(error, _input_errors()):
+            print(f"error: {_one_line(error)}", file=sys.stderr)
+            sys.exit(2)
+        if _debug:
+            traceback.print_exc()
+            print(f"error: {_unexpected(error)}", file=sys.stderr)
+        else:
+            print(
+                f"error: {_unexpected(error)} (run with --debug for the traceback)",
+                file=sys.stderr,
+            )
+        sys.exit(1)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)

@@ -152,8 +152,10 @@ def test_position_controller_on_an_effort_joint_is_refused(tmp_path):
     )
     with pytest.raises(ScenarioError) as error:
         MakeWorld(scenario, quiet=True)
-    assert str(error.value) == (
-        "controller 'spin_controller' commands the position interface of joint 'spin', "
+    # Named after the override that activated it.
+    assert str(error.value).startswith("override 'robot: {description: ")
+    assert str(error.value).endswith(
+        ": controller 'spin_controller' commands the position interface of joint 'spin', "
         "which the hardware interface 'SpinnerSystem' drives through effort"
     )
 

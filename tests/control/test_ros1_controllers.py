@@ -443,15 +443,15 @@ def test_an_unsupported_type_in_the_package_config_fails_only_when_activated(tmp
 
 def test_activating_an_unsupported_ros1_controller_names_file_key_and_type(tmp_path):
     path = write(tmp_path, ARMANDO_ROS1)
-    scenario = load_scenario(
-        "position",
+    override = (
         "sequencer: null\nlogging: {console_rate: 0}\n"
-        f"controllers: {{config: {path}, activate: [gripper_controller]}}",
+        f"controllers: {{config: {path}, activate: [gripper_controller]}}"
     )
+    scenario = load_scenario("position", override)
     with pytest.raises(ScenarioError) as error:
         MakeWorld(scenario, quiet=True, source="position.yaml")
-    assert str(error.value).startswith(
-        f"position.yaml: controllers.activate: 'gripper_controller': {path}: "
+    assert str(error.value).startswith(  # the override that activated it, the YAML's file
+        f"override {override!r}: controllers.activate: 'gripper_controller': {path}: "
         "armando/gripper_controller.type: unknown controller type "
         "'position_controllers/GripperActionController'; supported: "
         "joint_state_controller/JointStateController, "

@@ -302,4 +302,6 @@ def test_bad_task_sections_are_one_line_errors(override, message):
     with pytest.raises(ScenarioError, match="task") as error:
         MakeWorld(scenario, quiet=True, source="task_armando.yaml")
     assert message in str(error.value)
-    assert str(error.value).startswith("task_armando.yaml: ")
+    # The origin of the task: the override that set it, else the file.
+    origin = f"override {QUIET + chr(10) + override!r}" if override.startswith("task") else None
+    assert str(error.value).startswith(f"{origin or 'task_armando.yaml'}: ")

@@ -84,5 +84,9 @@ def test_an_unknown_renderer_in_a_scenario_names_the_file():
     from armando_drake.simulation.builder import MakeWorld
 
     scenario = load_scenario("camera", "camera: {renderer: opengl, live_view: false}")
-    with pytest.raises(ScenarioError, match=r"camera\.yaml: camera\.renderer='opengl'"):
+    with pytest.raises(ScenarioError, match=r"override 'camera: .*': camera\.renderer='opengl'"):
+        MakeWorld(scenario, quiet=True, source="diagrams/camera.yaml")
+    scenario = load_scenario("camera")
+    scenario.camera.renderer = "opengl"
+    with pytest.raises(ScenarioError, match=r"^diagrams/camera\.yaml: camera\.renderer='opengl'"):
         MakeWorld(scenario, quiet=True, source="diagrams/camera.yaml")

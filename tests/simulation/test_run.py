@@ -56,10 +56,14 @@ def test_cyclic_steps_and_columns():
     q = np.array([[9, 0.0], [9, 1.0], [9, 0.0], [9, 1.0], [9, 0.0]])
     table = StepTable(targets=[[0.0], [1.0]], period=1.0, cyclic=True, columns=[1])
     table.add(times, q)
-    results = table.results(4.0)
+    results = table.results(4.5)
     assert [r.start for r in results] == [0.0, 1.0, 2.0, 3.0, 4.0]
     assert [r.target for r in results] == [[0.0], [1.0], [0.0], [1.0], [0.0]]
     assert all(r.final_error == 0.0 for r in results)
+    # A run that ends at 4 s never ran the step that begins then (its row at t = 4
+    # is the state before the command).
+    assert [r.start for r in table.results(4.0)] == [0.0, 1.0, 2.0, 3.0]
+    assert table.results(4.0)[-1].end == 4.0
 
 
 def test_tracking_error_counts_from_its_start():

@@ -140,5 +140,14 @@ def test_a_bad_object_dimension_is_one_line_naming_the_file_and_object():
     with pytest.raises(ScenarioError) as error:
         MakeWorld(scenario, quiet=True, source="mine.yaml")
     assert str(error.value) == (
-        "mine.yaml: objects: object 'ball': Sphere radius=-0.1 must be positive [m]"
+        "override 'objects: [{name: ball, shape: !Sphere {radius: -0.1}}]': objects.0: "
+        "object 'ball': Sphere radius=-0.1 must be positive [m]"
     )
+    # Written in the file, the file is named (as the caller names it).
+    scenario = load_scenario("world")
+    scenario.objects = load_scenario(
+        "world", "objects: [{name: ball, shape: !Sphere {radius: -0.1}}]"
+    ).objects
+    with pytest.raises(ScenarioError) as error:
+        MakeWorld(scenario, quiet=True, source="mine.yaml")
+    assert str(error.value).startswith("mine.yaml: objects.0: object 'ball'")

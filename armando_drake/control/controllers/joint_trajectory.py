@@ -878,8 +878,15 @@ class JointTrajectoryController(Controller):
         return _Point(now, q.copy(), velocities, accelerations)
 
     def _Command(self, x: np.ndarray) -> np.ndarray:
-        """[q_d; v_d] written to the hardware: positions clamped into the joint limits."""
-        return np.minimum(np.maximum(x, self._state_lower), self._state_upper)
+        """[q_d; v_d] written to the hardware: positions clamped into the joint limits; a
+        clamped joint's (and a non-finite) desired velocity is 0: a spline through a point
+        far outside the limits (1e300 rad in 1e-12 s) would otherwise send inf or NaN to
+        the plant."""
+        clamped = np.minimum(np.maximum(x, self._state_lower), self._state_upper)
+        n = self.n
+        hold = (clamped[:n] != x[:n]) | ~np.isfinite(clamped[n:])
+        clamped[n:][hold] = 0.0
+        return clamped
 
     def _Track(self, now, message, memory, measure):
         """The update of the trajectory tracking (upstream's, position commands)."""
