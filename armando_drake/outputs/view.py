@@ -36,7 +36,6 @@ GROUND_MIN_SIDE = 0.5  # [m] smallest side of the drawn ground
 FIELD_OF_VIEW = math.radians(75.0)  # vertical field of view of Meshcat's default camera
 FILL = 0.9  # share of the half field of view the robot may fill
 VIEW_ASPECT = 1.5  # width over height assumed of the browser's view (4:3 to 16:9 screens)
-WAIT_TIMEOUT = 60.0  # [s] how long a run on a terminal waits for a browser by default
 
 
 def _shape_corners(shape) -> np.ndarray:

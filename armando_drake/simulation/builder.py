@@ -297,9 +297,7 @@ def MakeWorld(
         joints=command_interfaces(robot, warn=False)[2],
     )
     # The hardware interface: an actuator per commanded joint; then the plant is final.
-    hardware = _add_hardware(
-        plant, scene_graph, robot, scenario, config, _origin(scenario, "task.start_positions")
-    )
+    hardware = _add_hardware(plant, scene_graph, robot, scenario, config)
     world = World(
         diagram=None,  # set by Build() below
         plant=plant,
@@ -378,7 +376,6 @@ def _add_hardware(
     robot: LoadedRobot,
     scenario: Scenario,
     config: ControllerManagerConfig,
-    where: str,
 ) -> HardwareInterface:
     """The actuators of the hardware interface (gains: the scenario's, per joint the
     controller YAML's ``gazebo_ros_control`` ones unless the scenario names the joint);
@@ -394,10 +391,21 @@ def _add_hardware(
         _exclude_self_collision(plant, scene_graph, robot)
     FinishHardwareInterface(plant, robot, hardware)
     if scenario.task is not None and scenario.task.start_positions:
-        _set_start_positions(plant, robot, hardware, scenario.task.start_positions, where)
+        _set_start_positions(
+            plant,
+            robot,
+            hardware,
+            scenario.task.start_positions,
+            _origin(scenario, "task.start_positions"),
+        )
     if scenario.jog is not None and scenario.jog.home_positions:
         _set_start_positions(
-            plant, robot, hardware, scenario.jog.home_positions, where, "jog.home_positions"
+            plant,
+            robot,
+            hardware,
+            scenario.jog.home_positions,
+            _origin(scenario, "jog.home_positions"),
+            "jog.home_positions",
         )
     _log.info(
         "hardware interface %r (%s): %s",
@@ -967,7 +975,7 @@ def _add_cameras(
     from armando_drake.sensors.image_view import AddFrameSaver, AddImageView
 
     try:
-        sensors += [camera.sensor_info(source or "scenario") for camera in scenario.cameras]
+        sensors += [camera.sensor_info(source) for camera in scenario.cameras]
         renderer = choose_renderer(settings.renderer)
         world.cameras = AddCameraSensors(
             builder,
@@ -979,11 +987,10 @@ def _add_cameras(
             enable_depth=settings.depth,
             export=True,
         )
-    except CameraError as error:  # a scenario camera's error names its source already
+    except CameraError as error:  # a scenario camera's error names its origin already
         text = str(error)
-        raise ScenarioError(
-            text if source and text.startswith(source) else f"{where}{text}"
-        ) from None
+        named = source and text.startswith(f"{source}: cameras")
+        raise ScenarioError(text if named else f"{where}{text}") from None
     engine = {"gl": "RenderEngineGl", "vtk": "RenderEngineVtk"}[renderer]
     for camera in world.cameras.values():
         _log.info("camera %s, rendered by %s", describe(camera.info), engine)

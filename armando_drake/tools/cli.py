@@ -112,11 +112,12 @@ def interactive() -> bool:
     return sys.stdin.isatty() and sys.stdout.isatty()
 
 
+WAIT_TIMEOUT = 60.0  # [s] how long a run on a terminal waits for a browser by default
+
+
 def add_viewer_arguments(parser) -> None:
     """``--wait SECONDS`` / ``--no-wait`` before the run and ``--exit-when-done`` /
     ``--keep-serving`` after it, for a run with Meshcat."""
-    from armando_drake.outputs.view import WAIT_TIMEOUT
-
     parser.add_argument(
         "--wait",
         type=float,
@@ -146,8 +147,6 @@ def add_viewer_arguments(parser) -> None:
 
 def wait_seconds(args) -> float:
     """[s] how long to wait for a browser, from ``--wait`` / ``--no-wait``."""
-    from armando_drake.outputs.view import WAIT_TIMEOUT
-
     if args.no_wait:
         return 0.0
     if args.wait is not None:

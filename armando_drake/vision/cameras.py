@@ -48,14 +48,13 @@ class ScenarioCamera:
     # Gazebo sensor type: "camera" (colour) or "rgbd_camera" (colour + depth).
     type: str = "camera"
 
-    def sensor_info(self, source: str = "scenario") -> CameraSensorInfo:
+    def sensor_info(self, origin: str = "") -> CameraSensorInfo:
         """The checked camera as a :class:`CameraSensorInfo`; :class:`CameraError`
-        naming the camera and the bad value otherwise. ``source`` is the scenario file,
-        which the world builder already puts in front of the errors: the messages and the
-        info's source say ``cameras`` (the scenario's list) only, so no error names the
-        file twice."""
-        del source  # named by the caller
-        where = f"cameras: {self.name or '(unnamed)'!r}"
+        naming the camera and the bad value otherwise. ``origin`` is where the scenario's
+        cameras came from (its file, or the ``--set`` override): the messages, and those
+        about the info later (a link that does not exist), start with it."""
+        within = f"{origin}: cameras" if origin else "cameras"
+        where = f"{within}: {self.name or '(unnamed)'!r}"
         if not self.name:
             raise CameraError(f"{where}: a camera needs a name")
         if not self.link:
@@ -88,5 +87,5 @@ class ScenarioCamera:
             update_rate=self.update_rate,
             xyz=list(self.xyz),
             rpy=list(self.rpy),
-            source="cameras",
+            source=within,
         )

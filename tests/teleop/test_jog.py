@@ -247,45 +247,49 @@ def test_the_trajectory_controller_takes_the_jog_too():
 
 
 @pytest.mark.parametrize(
-    "override, message",
+    "override, from_override, message",
     [
-        ("jog: {rate: 0}", "jog.yaml: jog.rate=0.0 must be positive"),
+        ("jog: {rate: 0}", True, "jog.rate=0.0 must be positive"),
         (
             "jog: {controller: arm}",
-            "jog.yaml: jog.controller='arm' needs an active controller that takes joint "
+            True,
+            "jog.controller='arm' needs an active controller that takes joint "
             "positions (Float64MultiArray or JointTrajectory) and that nothing else drives; "
             "such controllers: position_controller",
         ),
         (
             "sequencer: !PositionTargets {}",
-            "jog.yaml: jog needs an active controller that takes joint positions "
+            False,  # the jog block at fault is the file's
+            "jog needs an active controller that takes joint positions "
             "(Float64MultiArray or JointTrajectory) and that nothing else drives; such "
             "controllers: none",
         ),
         (
             "{sequencer: !PositionTargets {}, jog: {controller: position_controller}}",
-            "jog.yaml: jog.controller='position_controller': position_controller already "
+            True,
+            "jog.controller='position_controller': position_controller already "
             "takes its commands from the scenario's sequencer or task",
         ),
         (
             "jog: {home_positions: [0, 0]}",
-            "jog.yaml: jog.home_positions=[0.0, 0.0] must have 4 values (j0, j1, j2, j3)",
+            True,
+            "jog.home_positions=[0.0, 0.0] must have 4 values (j0, j1, j2, j3)",
         ),
-        (
-            "jog: {end_effector: hand}",
-            "jog.yaml: jog: frame 'hand' is not in the plant",
-        ),
+        ("jog: {end_effector: hand}", True, "jog: frame 'hand' is not in the plant"),
         (
             "jog: {gamepad_mapping: {joint_signs: [1, 1]}}",
-            "jog.yaml: jog.gamepad_mapping.joint_signs=[1.0, 1.0] must have one sign per "
+            True,
+            "jog.gamepad_mapping.joint_signs=[1.0, 1.0] must have one sign per "
             "entry of joint_axes=[0, 1, 3, 2]",
         ),
     ],
 )
-def test_a_bad_jog_block_is_one_line_naming_it(override, message):
+def test_a_bad_jog_block_is_one_line_naming_it(override, from_override, message):
+    """The message names where the bad value came from: the override, or jog.yaml."""
     with pytest.raises(ScenarioError) as error:
         jog_world(override)
-    assert str(error.value).startswith(message)
+    source = f"--set {override!r}" if from_override else "jog.yaml"
+    assert str(error.value).startswith(f"{source}: {message}")
 
 
 def test_world_cli_runs_the_jog_scenario():
