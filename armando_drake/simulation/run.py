@@ -15,11 +15,13 @@ With an output folder it writes ``joint_states.csv`` (the logger),
 from __future__ import annotations
 
 import contextlib
+import io
 import json
 import math
 import signal
 import sys
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
@@ -103,8 +105,10 @@ class RunResult:
         name = Path(self.scenario).name if self.scenario else "the scenario"
         if self.controller == "task":
             what = f"{name} with a task-space motion"
-        elif self.controller == "jog":
+        elif self.controller == "jog" and self.driven:
             what = f"{name} jogged from the viewer"
+        elif self.controller == "jog":
+            what = f"{name} with no viewer to jog from (the arm held its home posture)"
         elif self.controller == "none":
             what = f"{name} with no controller driving the arm"
         elif self.controller == "sinusoid":
@@ -323,9 +327,20 @@ class Progress:
             file=self._stream,
             leave=False,
             dynamic_ncols=True,
+            # tqdm puts ", " in front of the postfix itself.
             bar_format="{l_bar}{bar}| {n:.2f}/{total:.2f} s simulated "
-            "[{elapsed}<{remaining}, {postfix}]",
+            "[{elapsed}<{remaining}{postfix}]",
         )
+
+    @contextlib.contextmanager
+    def printing_above(self) -> Iterator[None]:
+        """Within it, what is printed to standard output (the console log once a
+        second) goes above the bar, which is cleared and redrawn around it."""
+        if self._bar is None:
+            yield
+            return
+        with contextlib.redirect_stdout(_AboveBar(sys.stdout, self._bar)):
+            yield
 
     def restart(self) -> None:
         """The wall clock starts now (after a wait for a browser)."""
@@ -344,6 +359,25 @@ class Progress:
     def finish(self) -> None:
         if self._bar is not None:
             self._bar.close()
+
+
+class _AboveBar(io.TextIOBase):
+    """A text stream that writes to ``stream`` with the progress ``bar`` cleared first."""
+
+    def __init__(self, stream: TextIO, bar):
+        self._stream, self._bar = stream, bar
+
+    def write(self, text: str) -> int:
+        with self._bar.external_write_mode(file=self._bar.fp):
+            self._stream.write(text)
+            self._stream.flush()
+        return len(text)
+
+    def flush(self) -> None:
+        self._stream.flush()
+
+    def isatty(self) -> bool:
+        return self._stream.isatty()
 
 
 class _Interrupts:
@@ -449,7 +483,7 @@ def run(
     interrupted = False
     wall_start = time.monotonic()
     signals = _Interrupts()
-    with signals.installed():
+    with signals.installed(), progress.printing_above() if progress else contextlib.nullcontext():
         try:
             simulator.Initialize()
             if meshcat is not None and wait_for_browser > 0:

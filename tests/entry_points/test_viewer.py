@@ -211,4 +211,22 @@ def test_progress_bar_on_a_terminal_silent_elsewhere():
     progress.finish()
     assert "5.00/10.00 s simulated" in text, text
     assert re.search(r"\d+\.\dx real time", text), text
+    assert ", ," not in text, text
     assert re.search(r"<\d\d:\d\d", text), text  # time left
+
+
+def test_console_lines_print_above_the_progress_bar(capsys):
+    """The once-a-second console log does not land on the bar's line: the bar is
+    cleared before the line is written and drawn again after it."""
+    terminal = _Terminal()
+    progress = Progress(10.0, stream=terminal)
+    progress.update(2.0)
+    progress._bar.refresh()
+    drawn = len(terminal.getvalue())
+    with progress.printing_above():
+        print("[t=2.000 s] Joint positions:")
+    progress.finish()
+    assert capsys.readouterr().out == "[t=2.000 s] Joint positions:\n"
+    after = terminal.getvalue()[drawn:]
+    assert re.match(r"\r +\r", after), repr(after)  # cleared first
+    assert "2.00/10.00 s simulated" in after, repr(after)  # then drawn again
