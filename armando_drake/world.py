@@ -56,6 +56,7 @@ if __name__ == "__main__":  # Ctrl-C while the command starts: exit 130, quietly
 import argparse
 import logging
 import math
+import time
 
 from armando_drake.tools.cli import (
     UserError,
@@ -210,6 +211,7 @@ def _apply_controller(scenario, mode: str) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    started = time.time()  # the files of --output written since then are this run's
     args = _parser().parse_args(argv)
     logging.basicConfig(
         level=logging.WARNING if args.quiet else logging.INFO,
@@ -300,16 +302,10 @@ def main(argv: list[str] | None = None) -> int:
                 f"(RMS {errors['rms_position_error'] * 1e3:.3f} mm), max orientation error "
                 f"{errors['max_orientation_error']:.4f} rad"
             )
+        if result.vision:
+            print(_vision_line(result.vision))
         if args.output:
-            print(f"logs: {args.output}/joint_states.csv, commands.csv, summary.json")
-            print(f"plots: {args.output}/positions.png, tracking_error.png, efforts.png")
-            if result.task_space:
-                print(
-                    f"task: {args.output}/task_space.csv, task_error.png, joint_torques.png, "
-                    "task_path.png"
-                )
-            if not args.no_replay:
-                print(f"replay: {args.output}/replay.html")
+            _print_outputs(args.output, started)
         if args.record:
             print(f"recording: {args.record}")
         if meshcat is not None and not result.interrupted and keeps_serving(args):
@@ -317,6 +313,41 @@ def main(argv: list[str] | None = None) -> int:
 
             serve_until_interrupted(meshcat)
     return 130 if result.interrupted else 0
+
+
+def _vision_line(vision: dict) -> str:
+    """summary.json's ``vision`` in one line."""
+    parts = [f"{vision['detections']} detections in {vision['frames']} frames"]
+    if vision.get("final_pointing_error") is not None:
+        parts.append(f"final pointing error {vision['final_pointing_error']:.4f} rad")
+    if vision.get("marker_position_error") is not None:
+        error = math.sqrt(sum(e * e for e in vision["marker_position_error"]))
+        parts.append(f"marker position error {error * 1e3:.2f} mm")
+    if vision.get("max_path_error") is not None:
+        parts.append(f"largest path error {vision['max_path_error'] * 1e3:.3f} mm")
+    return "vision: " + ", ".join(parts)
+
+
+def _print_outputs(output: str, since: float) -> None:
+    """The files the run wrote to ``output`` (modified after ``since``, a ``time.time()``),
+    by kind: what it wrote, not what it might have."""
+    from pathlib import Path
+
+    written = sorted(
+        p.name for p in Path(output).iterdir() if p.is_file() and p.stat().st_mtime >= since
+    )
+    kinds = (
+        ("logs", (".csv", ".json", ".yaml")),
+        ("plots", (".png",)),
+        ("replay", (".html",)),
+    )
+    for label, suffixes in kinds:
+        names = [name for name in written if name.endswith(suffixes)]
+        if label == "replay":
+            for name in names:
+                print(f"replay: {output}/{name}")
+        elif names:
+            print(f"{label}: {output}/{names[0]}" + "".join(f", {n}" for n in names[1:]))
 
 
 def _sequencer_origins(scenario) -> list[str]:

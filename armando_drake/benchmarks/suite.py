@@ -30,7 +30,11 @@ same machine load:
    g, J, J-dot v from the plant) in microseconds;
 8. sweep: throughput of ``python -m armando_drake.sweep`` (world runs per
    minute) on the local pool with 1 and 2 workers, and on a local Ray instance
-   of 2 CPUs.
+   of 2 CPUs;
+9. vision: real-time factor of ``diagrams/vision_blob.yaml`` (a 640 x 480
+   camera at 30 Hz) with no detector, with the seed's blob detector on every
+   frame, with OpenCV's SimpleBlobDetector as it is and with ArUco + solvePnP,
+   and each detector's cost per frame in milliseconds.
 
 Each figure is the median of ``--repeat`` repetitions, with min and max. The
 table is printed as markdown and written with the raw samples to a JSON file.

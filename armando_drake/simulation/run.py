@@ -57,7 +57,7 @@ class RunResult:
     """What a run did."""
 
     scenario: str
-    controller: str  # position | trajectory | sinusoid | none (controller_mode)
+    controller: str  # position | trajectory | sinusoid | task | jog | vision | none
     sim_time: float  # [s]
     wall_time: float  # [s]
     realtime_factor: float
@@ -109,6 +109,8 @@ class RunResult:
             what = f"{name} jogged from the viewer"
         elif self.controller == "jog":
             what = f"{name} with no viewer to jog from (the arm held its home posture)"
+        elif self.controller == "vision":
+            what = f"{name} with the camera's detections driving the arm"
         elif self.controller == "none":
             what = f"{name} with no controller driving the arm"
         elif self.controller == "sinusoid":
@@ -549,9 +551,10 @@ def _result(scenario, world, simulator, table, tracker, log_dir) -> RunResult:
     ``log_dir``) and the vision outputs; the caller fills in names and times."""
     sim_time = simulator.get_context().get_time()
 
+    vision_driven = world.detectors.driven if world.detectors is not None else []
     result = RunResult(
         scenario="",
-        controller=controller_mode(scenario),
+        controller="vision" if vision_driven else controller_mode(scenario),
         sim_time=sim_time,
         wall_time=0.0,
         realtime_factor=0.0,
@@ -559,7 +562,8 @@ def _result(scenario, world, simulator, table, tracker, log_dir) -> RunResult:
         joint_names=world.hardware.joint_names,
         driven=world.sequencer_target
         or (world.task.controller if world.task else "")
-        or (world.jog.controller if world.jog else ""),
+        or (world.jog.controller if world.jog else "")
+        or ", ".join(vision_driven),
     )
     if isinstance(table, StepTable):
         result.steps = table.results(sim_time)

@@ -481,6 +481,8 @@ class AddedDetectors:
     aruco_camera: str = ""
     commands: Any = None  # VectorLogSink of the desired state, with a look-at controller
     command_joints: list = dataclasses.field(default_factory=list)  # its joints' names
+    # The controllers the marker's pose drives (the look-at controllers), by YAML name.
+    driven: list = dataclasses.field(default_factory=list)
     # What it logs: "velocity" (desired state [q; v], v logged) or "effort" (torques).
     command_kind: str = "velocity"
     # Annotated image output ports, by camera name.
@@ -548,6 +550,7 @@ def _feed_look_at(builder, world, added: AddedDetectors, port, info) -> None:
         if entry.controller_class.message is not MarkerPose:
             continue
         builder.Connect(port, manager.GetInputPort(f"{name}.{entry.topic}"))
+        added.driven.append(name)
         if added.commands is None:
             from pydrake.systems.primitives import LogVectorOutput
 

@@ -83,3 +83,42 @@ def test_bad_blob_target_is_a_one_line_error(override, message):
         MakeWorld(load_scenario("vision_armando", QUIET + override), quiet=True)
     text = str(raised.value)
     assert message in text and "\n" not in text, text
+
+
+def test_world_cli_names_the_vision_controller_and_lists_what_it_wrote(tmp_path):
+    """The headline names what drove the arm (the look-at controller fed by the camera),
+    the vision figures are printed, and the file list is what the run wrote."""
+    import json
+    import subprocess
+    import sys
+
+    out = tmp_path / "out"
+    result = subprocess.run(
+        [sys.executable, "-m", "armando_drake.world", "--scenario", "vision_armando"]
+        + ["--no-meshcat", "--realtime-rate", "0", "--duration", "1", "--quiet"]
+        + ["--no-replay", "--output", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert any(
+        line.startswith(
+            "vision_armando.yaml with the camera's detections driving the arm "
+            "(improved_look_at_point_controller):"
+        )
+        for line in lines
+    ), result.stdout
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["controller"] == "vision"
+    assert summary["driven_controller"] == "improved_look_at_point_controller"
+    vision = summary["vision"]
+    assert f"vision: {vision['detections']} detections in {vision['frames']} frames" in (
+        result.stdout
+    )
+    assert vision["frames"] == 30 and vision["detections"] == 30
+    logs = next(line for line in lines if line.startswith("logs: "))
+    assert "vision.csv" in logs and "keypoints.csv" in logs and "commands.csv" not in logs
+    assert not (out / "commands.csv").exists()
+    assert not any(line.startswith("replay: ") for line in lines)
