@@ -9,6 +9,7 @@ import signal
 import sys
 import traceback
 from collections.abc import Iterable, Iterator
+from typing import NoReturn
 
 
 class UserError(Exception):
@@ -247,6 +248,17 @@ def _held_interrupts() -> Iterator[None]:
         raise KeyboardInterrupt
 
 
+def _exit_interrupted(message: str) -> NoReturn:
+    """Prints ``message`` and exits 130 at once. pydrake runs part of its start-up through
+    pybind11's exec, which marks a KeyboardInterrupt raised there as unhandled: Python
+    would then end the process by SIGINT (exit -2) whatever it exits with. What a run
+    keeps (logs, summary) is written before a KeyboardInterrupt gets here."""
+    print(message, file=sys.stderr)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(130)
+
+
 @contextlib.contextmanager
 def user_errors() -> Iterator[None]:
     """What a command does on an error, whatever its origin.
@@ -273,14 +285,12 @@ def user_errors() -> Iterator[None]:
             previous = signal.signal(signal.SIGINT, on_sigint)
         yield
     except KeyboardInterrupt as interrupt:
-        print(f"interrupted: {interrupt}" if str(interrupt) else "interrupted", file=sys.stderr)
-        sys.exit(130)
+        _exit_interrupted(f"interrupted: {interrupt}" if str(interrupt) else "interrupted")
     except SystemExit:
         raise
     except Exception as error:
         if interrupted:  # Ctrl-C inside an extension's import surfaces as ImportError
-            print("interrupted", file=sys.stderr)
-            sys.exit(130)
+            _exit_interrupted("interrupted")
         if isinstance(error, _input_errors()):
             print(f"error: {_one_line(error)}", file=sys.stderr)
             sys.exit(2)

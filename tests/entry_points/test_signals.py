@@ -38,7 +38,7 @@ def loading_drake(process: subprocess.Popen) -> bool:
         return process.poll() is not None
 
 
-@pytest.mark.parametrize("delay", [0.0, 0.05, 0.2, 0.5, 1.0])
+@pytest.mark.parametrize("delay", [0.0, 0.05, 0.2, 0.5, 0.7, 0.8, 1.0])
 def test_ctrl_c_during_start_up_exits_130_quietly(tmp_path, delay):
     """SIGINT while pydrake is imported and the world is built (delays after Drake's
     library is mapped): exit 130, no traceback, no stack dump of pydrake's start-up."""
