@@ -508,6 +508,77 @@ def test_effort_command_interface_is_the_pid_and_checks_the_stopped_velocity():
     assert h.status.state == "succeeded"
 
 
+def effort_command(h: Harness) -> np.ndarray:
+    return np.array(h.system.GetOutputPort("effort_command").Eval(h.context))
+
+
+def test_effort_fields_feed_forward_with_the_effort_command_interface():
+    """validate_trajectory_msg accepts efforts with the effort command interface; update()
+    writes ff_velocity_scale v(t + dt) + effort(t + dt) + pid(error), the effort linear
+    between points (interpolate_between_points' has_effort), the last point's effort held
+    after the end and after success (set_success_trajectory_point)."""
+    h = pid_harness("effort", {})  # no gains: the command is the feed-forward alone
+    start = h.publish(
+        trajectory(
+            message_point(1.0, [0.0] * 3, effort=[2.0, 4.0, 6.0]),
+            message_point(2.0, [0.0] * 3, effort=[4.0, 4.0, 4.0]),
+        )
+    )
+    h.advance(start)
+    assert h.status.state == "executing"
+    # The state before the trajectory has the effort command interface's value (0 here).
+    np.testing.assert_allclose(effort_command(h), [0.02, 0.04, 0.06], atol=1e-12)
+    h.advance(start + 0.49)  # sampled at 0.5 s
+    np.testing.assert_allclose(effort_command(h), [1.0, 2.0, 3.0], atol=1e-12)
+    h.advance(start + 1.49)  # sampled at 1.5 s
+    np.testing.assert_allclose(effort_command(h), [3.0, 4.0, 5.0], atol=1e-12)
+    h.advance(start + 2.5)
+    assert h.status.state == "succeeded"
+    np.testing.assert_allclose(effort_command(h), [4.0, 4.0, 4.0], atol=1e-12)
+
+
+def test_effort_first_segment_starts_from_the_effort_command():
+    """Upstream reads the state's effort from the effort command interface
+    (read_state_from_state_interfaces), so the first segment's effort runs from the last
+    effort command (here the PID holding against an offset: 10 * 0.1 = 1) to the first
+    point's; the PID adds nothing along a trajectory that stays at the measured position."""
+    h = pid_harness("effort", {"p": 10.0})
+    measured = np.array([-0.1, -0.1, -0.1])
+    h.set_measured(measured)
+    h.step()
+    np.testing.assert_allclose(effort_command(h), [1.0] * 3, atol=1e-12)
+    start = h.publish(trajectory(message_point(1.0, measured, effort=[2.0] * 3)))
+    h.advance(start)
+    np.testing.assert_allclose(effort_command(h), [1.0 + 1.0 * 0.01] * 3, atol=1e-12)
+    h.advance(start + 0.49)
+    np.testing.assert_allclose(effort_command(h), [1.5] * 3, atol=1e-12)
+
+
+@pytest.mark.parametrize("interface", ["position", "velocity"])
+def test_invalid_message_effort_without_the_effort_command_interface(interface):
+    """invalid_message's "Effort is not supported in trajectory message" case: rejected
+    unless the command interface is effort (has_effort_command_interface_)."""
+    h = harness() if interface == "position" else pid_harness("velocity", {"p": 1.0})
+    h.publish(trajectory(message_point(0.25, [1.0, 2.0, 3.0], effort=[1.0, 2.0, 3.0])))
+    h.step()
+    assert h.status.rejected == 1
+    assert h.status.last_error == (
+        "Trajectories with effort fields are only supported for controllers using the "
+        "'effort' command interface."
+    )
+
+
+def test_invalid_message_too_few_efforts():
+    """invalid_message's "too few efforts" case, with the effort command interface (upstream
+    does not check the size; we reject it as the other fields' sizes, our stricter rule)."""
+    h = pid_harness("effort", {})
+    h.publish(trajectory(message_point(0.25, [1.0, 2.0, 3.0], effort=[1.0, 2.0])))
+    h.step()
+    assert h.status.last_error == (
+        "Mismatch between joint_names size (3) and effort (2) at point #0."
+    )
+
+
 # ----------------------------------------------------------------------------------------------
 # Parameters: implemented or refused
 
