@@ -600,7 +600,10 @@ arm_controller:
     "extra, message",
     [
         ("bogus: 1", "arm_controller.ros__parameters.bogus: unknown parameter"),
-        ("speed_scaling: {initial_scaling_factor: 0.5}", "speed_scaling: not simulated"),
+        (
+            "speed_scaling: {initial_scaling_factor: 0.5}",
+            "speed_scaling: not simulated: the trajectory runs at speed 1.0",
+        ),
         ("is_async: true", "is_async: is_async=True is not simulated"),
         ("update_rate: 50", "update_rate: update_rate=50 differs from controller_manager's 100"),
         (

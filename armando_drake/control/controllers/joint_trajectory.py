@@ -72,6 +72,12 @@ class JointGains:
     Used only with a velocity-only or an effort command interface; the gains beyond p, i,
     d, i_clamp and ff_velocity_scale are refused unless left at their defaults."""
 
+    # The gains the simulated PID has; any other is refused unless left at its default
+    # (the README's parameter table says so).
+    IMPLEMENTED: ClassVar[frozenset[str]] = frozenset(
+        {"p", "i", "d", "i_clamp", "ff_velocity_scale"}
+    )
+
     # [command unit/rad] proportional gain.
     p: float = 0.0
     # [command unit/(rad s)] integral gain.
@@ -201,7 +207,7 @@ class JointTrajectoryControllerParams:
                 "action_monitor_rate",
                 f"action_monitor_rate={self.action_monitor_rate!r} must be >= 0.1 [Hz]",
             )
-        implemented = {"p", "i", "d", "i_clamp", "ff_velocity_scale"}
+        implemented = JointGains.IMPLEMENTED
         for joint, gains in self.gains.items():
             if not isinstance(gains, JointGains):
                 continue  # a subclass's own gains (ROS 1's effort trajectory controller)
@@ -601,7 +607,7 @@ class SampledTrajectory:
 # Upstream parameters the simulation cannot honour: refused with the reason.
 _REFUSED = {
     "state_publish_rate": "not a parameter of upstream's Jazzy schema (Humble's; removed)",
-    "speed_scaling": "speed scaling is not simulated (the trajectory runs at speed 1.0)",
+    "speed_scaling": "not simulated: the trajectory runs at speed 1.0",
     "decelerate_on_cancel": "not a parameter of upstream's Jazzy schema (rolling's)",
 }
 
