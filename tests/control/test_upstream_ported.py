@@ -288,7 +288,9 @@ def test_first_segment_uses_the_measured_velocity_only_with_a_velocity_state_int
 def test_partial_joint_list():
     """Joints left out of a partial goal: from the measured position (state before the
     trajectory) to the last command (fill_partial_goal)."""
-    h = harness(initial=(0.1, 0.2, 0.3), allow_partial_joints_goal=True)
+    h = harness(
+        initial=(0.1, 0.2, 0.3), allow_partial_joints_goal=True, state_interfaces=["position"]
+    )
     measured = np.array([0.0, 0.5, 0.0])
     h.set_measured(measured)
     start = h.publish(trajectory(message_point(1.0, [2.0]), names=("j1",)))
@@ -298,7 +300,7 @@ def test_partial_joint_list():
 
 
 def test_partial_joint_list_not_allowed():
-    h = harness(initial=(0.1, 0.2, 0.3))
+    h = harness(initial=(0.1, 0.2, 0.3), state_interfaces=["position"])
     h.publish(trajectory(message_point(1.0, [2.0]), names=("j1",)))
     h.step(20)
     np.testing.assert_array_equal(h.desired[:3], [0.1, 0.2, 0.3])
@@ -360,9 +362,72 @@ def test_goal_tolerances_fail():
 
 
 def test_hold_on_startup():
-    h = harness(initial=(0.1, 0.2, 0.3))
+    h = harness(initial=(0.1, 0.2, 0.3), state_interfaces=["position"])
     h.advance(0.25)
     np.testing.assert_array_equal(h.desired, [0.1, 0.2, 0.3, 0.0, 0.0, 0.0])
+
+
+# (command_interfaces, state_interfaces) -> whether upstream's on_activate reads the state
+# from the command interfaces (read_state_from_command_interfaces succeeds)
+OFFSET_CASES = [
+    (["position"], ["position"], True),
+    (["position"], ["position", "velocity"], False),
+    (["position"], ["position", "velocity", "acceleration"], False),
+    (["position", "velocity"], ["position"], True),
+    (["position", "velocity"], ["position", "velocity"], True),
+    (["position", "velocity"], ["position", "velocity", "acceleration"], False),
+    (["position", "velocity", "acceleration"], ["position", "velocity", "acceleration"], True),
+    (["velocity"], ["position", "velocity"], False),
+    (["effort"], ["position", "velocity"], False),
+]
+
+
+@pytest.mark.parametrize("commands, states, from_commands", OFFSET_CASES)
+def test_hw_states_has_offset_later_controller_start(commands, states, from_commands):
+    """open_loop_control, the command interfaces holding values (3.1, 4.1, 5.1) that differ
+    from the measured state: the state at activation is the command interfaces' only when
+    every interface the state has can be read from a command interface; else the state
+    interfaces'. Observed through the first trajectory's start (open loop: from that
+    state) and the hold at activation."""
+    initial = (3.1, 4.1, 5.1)
+    controller = JointTrajectoryController(
+        name="ctl",
+        joints=ControllerJoints.make(NAMES, initial_positions=initial),
+        params=JointTrajectoryControllerParams(
+            joints=list(NAMES),
+            command_interfaces=commands,
+            state_interfaces=states,
+            open_loop_control=True,
+            gains={joint: JointGains() for joint in NAMES},
+        ),
+    )
+    h = Harness(controller)  # measured zeros at activation
+    measured_at_activation = np.zeros(3)
+    h.step()
+    expected = np.array(initial) if from_commands else measured_at_activation
+    np.testing.assert_allclose(h.desired[:3], expected, atol=1e-12)
+    start = h.publish(trajectory(message_point(1.0, [10.0] * 3)))
+    h.advance(start + 0.49)
+    np.testing.assert_allclose(h.desired[:3], expected + (10.0 - expected) * 0.5, atol=1e-12)
+
+
+def test_hw_states_has_offset_first_controller_start():
+    """Command interfaces without values at the first start (upstream: NaN; here
+    set_last_command_interface_value_as_state_on_activation: false makes activation ignore
+    them): the state is read from the state interfaces."""
+    controller = JointTrajectoryController(
+        name="ctl",
+        joints=ControllerJoints.make(NAMES, initial_positions=(3.1, 4.1, 5.1)),
+        params=JointTrajectoryControllerParams(
+            joints=list(NAMES),
+            state_interfaces=["position"],
+            open_loop_control=True,
+            set_last_command_interface_value_as_state_on_activation=False,
+        ),
+    )
+    h = Harness(controller)
+    h.step()
+    np.testing.assert_array_equal(h.desired, [0.0] * 6)
 
 
 def test_hold_on_startup_without_command_interface_values():
@@ -487,6 +552,34 @@ def test_velocity_command_interface_is_the_pid_on_the_tracking_error():
     np.testing.assert_allclose(
         h.desired[3:], 1.0 * v_d + 2.0 * (q_d - measured_q) + 0.1 * (v_d - measured_v), atol=1e-12
     )
+
+
+def test_use_closed_loop_pid():
+    """use_closed_loop_pid_adapter_: velocity alone (unless open_loop_control) or effort.
+    Velocity alone with open_loop_control writes the desired velocity, no PID."""
+    h = pid_harness("velocity", {"p": 2.0})
+    h.set_measured(np.array([0.1, 0.1, 0.1]))
+    h.step(2)
+    np.testing.assert_allclose(h.desired[3:], [-0.2] * 3)  # the PID holding
+    controller = JointTrajectoryController(
+        name="ctl",
+        joints=ControllerJoints.make(NAMES),
+        params=JointTrajectoryControllerParams(
+            joints=list(NAMES),
+            command_interfaces=["velocity"],
+            state_interfaces=["position", "velocity"],
+            open_loop_control=True,
+            gains={joint: JointGains(p=2.0) for joint in NAMES},
+        ),
+    )
+    h = Harness(controller)
+    h.set_measured(np.array([0.1, 0.1, 0.1]))
+    h.step(2)
+    np.testing.assert_allclose(h.desired[3:], [0.0] * 3)  # no PID
+    start = h.publish(trajectory(message_point(1.0, [1.1] * 3)))
+    h.advance(start + 0.5)
+    # v_d alone, open loop from the state held since activation (measured 0 then).
+    np.testing.assert_allclose(h.desired[3:], [1.1] * 3, atol=1e-12)
 
 
 def test_effort_command_interface_is_the_pid_and_checks_the_stopped_velocity():

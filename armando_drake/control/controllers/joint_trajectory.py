@@ -154,7 +154,10 @@ class JointTrajectoryControllerParams:
     # Accept points without positions (or velocities) and integrate them from the
     # velocities and accelerations given.
     allow_integration_in_goal_trajectories: bool = False
-    # Hold the last command at activation (true) or the measured position (false).
+    # Hold the last command at activation (true) or the measured position (false). As
+    # upstream, true reads the command interfaces only when they hold the whole state: a
+    # position one, and velocity (acceleration) ones wherever velocity (acceleration) is a
+    # state interface; otherwise, and with velocity or effort alone, the measured position.
     set_last_command_interface_value_as_state_on_activation: bool = True
     # [Hz] upstream's action-status polling rate (>= 0.1); the status output here
     # changes at the update that decides it, so this rate moves nothing.
@@ -744,7 +747,9 @@ class JointTrajectoryController(Controller):
         # The PID gains per joint (arrays) with a velocity-only or effort command
         # interface, else None.
         self._pid = None
-        if commands == ["velocity"] or "effort" in commands:
+        # (upstream's use_closed_loop_pid_adapter_: velocity alone and not open_loop_control,
+        # or effort; velocity alone with open_loop_control writes the desired velocity).
+        if (commands == ["velocity"] and not params.open_loop_control) or "effort" in commands:
             gains = [params.gains.get(joint, JointGains()) for joint in names]
             self._pid = {
                 "p": np.array([g.p for g in gains]),
@@ -771,14 +776,27 @@ class JointTrajectoryController(Controller):
         """The controller manager's rate: the trajectory is sampled one period ahead."""
         self.update_period = 1.0 / update_rate
 
+    def _holds_command_values(self) -> bool:
+        """Whether activation holds the command interfaces' values (upstream's on_activate:
+        ``set_last_command_interface_value_as_state_on_activation`` and
+        ``read_state_from_command_interfaces`` succeeding, which needs a position command
+        interface, and a velocity (acceleration) command interface wherever there is a
+        velocity (acceleration) state interface); else the measured state."""
+        commands, states = self._params.command_interfaces, self._params.state_interfaces
+        return (
+            self._params.set_last_command_interface_value_as_state_on_activation
+            and "position" in commands
+            and all(name in commands for name in ("velocity", "acceleration") if name in states)
+        )
+
     def initial_memory(self) -> ControllerMemory:
         memory = super().initial_memory()
         if self._pid is not None:
-            # The PID runs at every update, from activation on (holding the start).
-            activation = not self._params.set_last_command_interface_value_as_state_on_activation
-            state = _PidState(np.zeros(self.n), memory.desired, pending=activation)
+            # The PID runs at every update, from activation on (holding the measured
+            # position read at activation: no position command interface to read).
+            state = _PidState(np.zeros(self.n), memory.desired, pending=True)
             return dataclasses.replace(memory, running=True, internal=state)
-        if self._params.set_last_command_interface_value_as_state_on_activation:
+        if self._holds_command_values():
             return memory  # the hardware's command interfaces hold their initial values
         # Hold the measured position read at activation (the first update).
         return dataclasses.replace(memory, running=True)
