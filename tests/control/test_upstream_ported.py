@@ -315,13 +315,102 @@ def test_jumbled_joint_order():
 
 
 def test_ignore_old_trajectory():
+    """Points [2, 3, 4] and [4, 5, 6] 0.5 s apart; at the first point a trajectory whose
+    stamp makes it end 0.1 s in the past is rejected and the old one ends at [4, 5, 6]."""
     h = harness()
-    h.advance(1.0)
-    h.publish(trajectory(message_point(0.5, [1.0] * 3), stamp=0.2))
-    h.step(5)
+    start = h.publish(
+        trajectory(message_point(0.5, [2.0, 3.0, 4.0]), message_point(1.0, [4, 5, 6]))
+    )
+    h.advance(start + 0.49)  # the command sampled at the first point
+    np.testing.assert_allclose(h.desired[:3], [2.0, 3.0, 4.0], atol=1e-12)
+    h.publish(trajectory(message_point(0.5, [-1.0, -2.0, -3.0]), stamp=h.time - 0.5 - 0.1))
+    h.advance(start + 1.0)
     assert h.status.rejected == 1
     assert h.status.last_error.startswith("Received trajectory with non-zero start time")
-    np.testing.assert_array_equal(h.desired[:3], [0.0] * 3)
+    np.testing.assert_allclose(h.desired[:3], [4.0, 5.0, 6.0], atol=1e-12)
+
+
+def test_ignore_partial_old_trajectory():
+    """A trajectory whose first point is in the past and second in the future. Upstream's
+    test expects it ignored, but only because its stamps are steady-clock times while the
+    controller's now() is the system clock (so it ends "in the past" for the controller);
+    upstream's code (validate_trajectory_msg rejects only a trajectory that *ends* in the
+    past) accepts it and samples it from its current segment, and so do we: here the
+    command jumps onto the segment from [-1, -2, -3] to [-2, -4, -6] and ends there."""
+    h = harness()
+    start = h.publish(
+        trajectory(message_point(0.5, [2.0, 3.0, 4.0]), message_point(1.0, [4, 5, 6]))
+    )
+    h.advance(start + 0.49)
+    np.testing.assert_allclose(h.desired[:3], [2.0, 3.0, 4.0], atol=1e-12)
+    p0, p1 = np.array([-1.0, -2.0, -3.0]), np.array([-2.0, -4.0, -6.0])
+    stamp = h.time - 0.5 - 0.1
+    second = h.publish(trajectory(message_point(0.5, p0), message_point(1.0, p1), stamp=stamp))
+    h.advance(second)
+    assert h.status.accepted == 2
+    fraction = (second + PERIOD - (stamp + 0.5)) / 0.5
+    np.testing.assert_allclose(h.desired[:3], p0 + (p1 - p0) * fraction, atol=1e-12)
+    h.advance(second + 0.5)
+    np.testing.assert_allclose(h.desired[:3], p1, atol=1e-12)
+
+
+THREE_POINTS = ([3.3, 4.4, 6.6], [7.7, 8.8, 9.9], [10.10, 11.11, 12.12])
+THREE_VELOCITIES = ([0.01] * 3, [0.05] * 3, [0.06] * 3)
+
+
+def test_no_timeout():
+    """cmd_timeout 0: a second after three points 0.25 s apart (nonzero end velocity
+    allowed) the last point is still commanded, with its velocity. Upstream keeps the
+    trajectory active on the topic path; we report it succeeded and hold the last point,
+    velocity included (README: a goal reached on the topic is reported succeeded)."""
+    h = harness(cmd_timeout=0.0, allow_nonzero_velocity_at_trajectory_end=True)
+    start = h.publish(
+        trajectory(
+            *(
+                message_point(0.25 * (k + 1), p, v)
+                for k, (p, v) in enumerate(zip(THREE_POINTS, THREE_VELOCITIES, strict=True))
+            )
+        )
+    )
+    h.advance(start + 1.0)
+    np.testing.assert_allclose(h.desired[:3], THREE_POINTS[2], atol=1e-2)
+    assert (h.desired[3:] > 0.0).all()
+    assert h.status.state == "succeeded"
+
+
+def test_jump_when_state_tracking_error_updated():
+    """Closed loop (open_loop_control false): a new trajectory starts from the measured
+    state, so with the arm 0.3 rad behind the command the first commands jump back
+    towards it."""
+    h = harness(allow_nonzero_velocity_at_trajectory_end=True)
+    first, second = np.array([3.3, 4.4, 5.5]), np.array([6.6, 8.8, 11.0])
+    start = h.publish(trajectory(message_point(1.0, first, first / 10)))
+    h.advance(start + 1.1)
+    np.testing.assert_allclose(h.desired[0], first[0], atol=1e-3)
+    measured = first - 0.3
+    h.set_measured(measured)
+    start = h.publish(trajectory(message_point(1.0, second, second / 10)))
+    h.advance(start)
+    q = h.desired[0]
+    assert abs(q - (measured[0] + (second[0] - measured[0]) * 0.01)) < 0.1
+    for _ in range(2):
+        assert measured[0] < h.desired[0] < first[0]
+        h.step()
+    assert measured[0] < h.desired[0] < first[0]
+    h.advance(start + 1.1)
+    np.testing.assert_allclose(h.desired[0], second[0], atol=1e-3)
+    measured = second - 0.3
+    h.set_measured(measured)
+    start = h.publish(trajectory(message_point(1.0, first)))
+    h.advance(start)
+    np.testing.assert_allclose(
+        h.desired[0], measured[0] + (first[0] - measured[0]) * 0.01, atol=1e-3
+    )
+    for _ in range(3):
+        assert first[0] < h.desired[0] < measured[0]
+        h.step()
+    h.advance(start + 1.1)
+    np.testing.assert_allclose(h.desired[0], first[0], atol=1e-3)
 
 
 def test_execute_partial_traj_in_future():
