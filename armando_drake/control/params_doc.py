@@ -95,6 +95,9 @@ def parameter_rows(schema: type, prefix: str = "") -> list[tuple[str, str, str, 
         if "<joint>" in name and inner is not annotation:
             annotation = inner  # one value per joint
         meaning = comments.get(field.name, "")
+        implemented = getattr(schema, "IMPLEMENTED", None)
+        if implemented is not None and field.name not in implemented:
+            meaning += " Refused unless left at the default."
         default = getattr(defaults, field.name)
         if "<joint>" in name and isinstance(default, dict):
             default = 0.0  # a joint left out

@@ -403,11 +403,17 @@ def test_trajectory_controller_rejection_keeps_running_trajectory():
 
 
 def test_trajectory_controller_holds_on_start_up():
-    harness = trajectory_harness(initial=(0.3, -0.3, 1.0))
+    """The command interfaces' values, when upstream can read the whole state from them
+    (a position command interface and no velocity state interface without a velocity
+    command interface); else the measured position read at activation."""
+    harness = trajectory_harness(initial=(0.3, -0.3, 1.0), state_interfaces=["position"])
     harness.set_measured(np.array([0.1, 0.1, 0.1]))
     harness.advance(0.5)
     np.testing.assert_array_equal(harness.desired, [0.3, -0.3, 1.0, 0.0, 0.0, 0.0])
     assert (harness.status.state, harness.status.accepted) == ("idle", 0)
+    measured = trajectory_harness(initial=(0.3, -0.3, 1.0))  # measured zeros at activation
+    measured.advance(0.5)
+    np.testing.assert_array_equal(measured.desired, [0.0] * 6)
 
 
 def test_linear_from_measured_state():
@@ -554,7 +560,9 @@ def test_partial_goal_allowed_starts_from_measured_state():
     """The joints a partial goal leaves out go from their measured position to their
     last command over the first segment (upstream's fill_partial_goal and
     set_point_before_trajectory_msg)."""
-    harness = trajectory_harness(initial=(0.1, 0.2, 0.3), allow_partial_joints_goal=True)
+    harness = trajectory_harness(
+        initial=(0.1, 0.2, 0.3), allow_partial_joints_goal=True, state_interfaces=["position"]
+    )
     measured = np.array([-0.5, -0.5, -0.5])
     harness.set_measured(measured)
     harness.advance(0.1)
@@ -571,7 +579,7 @@ def test_partial_goal_allowed_starts_from_measured_state():
 
 
 def test_partial_goal_forbidden():
-    harness = trajectory_harness(initial=(0.1, 0.2, 0.3))
+    harness = trajectory_harness(initial=(0.1, 0.2, 0.3), state_interfaces=["position"])
     harness.publish(trajectory(point((1.0,), 1.0), names=("j1",)))
     harness.step(50)
     np.testing.assert_array_equal(harness.desired, [0.1, 0.2, 0.3, 0.0, 0.0, 0.0])

@@ -288,7 +288,9 @@ def test_first_segment_uses_the_measured_velocity_only_with_a_velocity_state_int
 def test_partial_joint_list():
     """Joints left out of a partial goal: from the measured position (state before the
     trajectory) to the last command (fill_partial_goal)."""
-    h = harness(initial=(0.1, 0.2, 0.3), allow_partial_joints_goal=True)
+    h = harness(
+        initial=(0.1, 0.2, 0.3), allow_partial_joints_goal=True, state_interfaces=["position"]
+    )
     measured = np.array([0.0, 0.5, 0.0])
     h.set_measured(measured)
     start = h.publish(trajectory(message_point(1.0, [2.0]), names=("j1",)))
@@ -298,7 +300,7 @@ def test_partial_joint_list():
 
 
 def test_partial_joint_list_not_allowed():
-    h = harness(initial=(0.1, 0.2, 0.3))
+    h = harness(initial=(0.1, 0.2, 0.3), state_interfaces=["position"])
     h.publish(trajectory(message_point(1.0, [2.0]), names=("j1",)))
     h.step(20)
     np.testing.assert_array_equal(h.desired[:3], [0.1, 0.2, 0.3])
@@ -313,13 +315,102 @@ def test_jumbled_joint_order():
 
 
 def test_ignore_old_trajectory():
+    """Points [2, 3, 4] and [4, 5, 6] 0.5 s apart; at the first point a trajectory whose
+    stamp makes it end 0.1 s in the past is rejected and the old one ends at [4, 5, 6]."""
     h = harness()
-    h.advance(1.0)
-    h.publish(trajectory(message_point(0.5, [1.0] * 3), stamp=0.2))
-    h.step(5)
+    start = h.publish(
+        trajectory(message_point(0.5, [2.0, 3.0, 4.0]), message_point(1.0, [4, 5, 6]))
+    )
+    h.advance(start + 0.49)  # the command sampled at the first point
+    np.testing.assert_allclose(h.desired[:3], [2.0, 3.0, 4.0], atol=1e-12)
+    h.publish(trajectory(message_point(0.5, [-1.0, -2.0, -3.0]), stamp=h.time - 0.5 - 0.1))
+    h.advance(start + 1.0)
     assert h.status.rejected == 1
     assert h.status.last_error.startswith("Received trajectory with non-zero start time")
-    np.testing.assert_array_equal(h.desired[:3], [0.0] * 3)
+    np.testing.assert_allclose(h.desired[:3], [4.0, 5.0, 6.0], atol=1e-12)
+
+
+def test_ignore_partial_old_trajectory():
+    """A trajectory whose first point is in the past and second in the future. Upstream's
+    test expects it ignored, but only because its stamps are steady-clock times while the
+    controller's now() is the system clock (so it ends "in the past" for the controller);
+    upstream's code (validate_trajectory_msg rejects only a trajectory that *ends* in the
+    past) accepts it and samples it from its current segment, and so do we: here the
+    command jumps onto the segment from [-1, -2, -3] to [-2, -4, -6] and ends there."""
+    h = harness()
+    start = h.publish(
+        trajectory(message_point(0.5, [2.0, 3.0, 4.0]), message_point(1.0, [4, 5, 6]))
+    )
+    h.advance(start + 0.49)
+    np.testing.assert_allclose(h.desired[:3], [2.0, 3.0, 4.0], atol=1e-12)
+    p0, p1 = np.array([-1.0, -2.0, -3.0]), np.array([-2.0, -4.0, -6.0])
+    stamp = h.time - 0.5 - 0.1
+    second = h.publish(trajectory(message_point(0.5, p0), message_point(1.0, p1), stamp=stamp))
+    h.advance(second)
+    assert h.status.accepted == 2
+    fraction = (second + PERIOD - (stamp + 0.5)) / 0.5
+    np.testing.assert_allclose(h.desired[:3], p0 + (p1 - p0) * fraction, atol=1e-12)
+    h.advance(second + 0.5)
+    np.testing.assert_allclose(h.desired[:3], p1, atol=1e-12)
+
+
+THREE_POINTS = ([3.3, 4.4, 6.6], [7.7, 8.8, 9.9], [10.10, 11.11, 12.12])
+THREE_VELOCITIES = ([0.01] * 3, [0.05] * 3, [0.06] * 3)
+
+
+def test_no_timeout():
+    """cmd_timeout 0: a second after three points 0.25 s apart (nonzero end velocity
+    allowed) the last point is still commanded, with its velocity. Upstream keeps the
+    trajectory active on the topic path; we report it succeeded and hold the last point,
+    velocity included (README: a goal reached on the topic is reported succeeded)."""
+    h = harness(cmd_timeout=0.0, allow_nonzero_velocity_at_trajectory_end=True)
+    start = h.publish(
+        trajectory(
+            *(
+                message_point(0.25 * (k + 1), p, v)
+                for k, (p, v) in enumerate(zip(THREE_POINTS, THREE_VELOCITIES, strict=True))
+            )
+        )
+    )
+    h.advance(start + 1.0)
+    np.testing.assert_allclose(h.desired[:3], THREE_POINTS[2], atol=1e-2)
+    assert (h.desired[3:] > 0.0).all()
+    assert h.status.state == "succeeded"
+
+
+def test_jump_when_state_tracking_error_updated():
+    """Closed loop (open_loop_control false): a new trajectory starts from the measured
+    state, so with the arm 0.3 rad behind the command the first commands jump back
+    towards it."""
+    h = harness(allow_nonzero_velocity_at_trajectory_end=True)
+    first, second = np.array([3.3, 4.4, 5.5]), np.array([6.6, 8.8, 11.0])
+    start = h.publish(trajectory(message_point(1.0, first, first / 10)))
+    h.advance(start + 1.1)
+    np.testing.assert_allclose(h.desired[0], first[0], atol=1e-3)
+    measured = first - 0.3
+    h.set_measured(measured)
+    start = h.publish(trajectory(message_point(1.0, second, second / 10)))
+    h.advance(start)
+    q = h.desired[0]
+    assert abs(q - (measured[0] + (second[0] - measured[0]) * 0.01)) < 0.1
+    for _ in range(2):
+        assert measured[0] < h.desired[0] < first[0]
+        h.step()
+    assert measured[0] < h.desired[0] < first[0]
+    h.advance(start + 1.1)
+    np.testing.assert_allclose(h.desired[0], second[0], atol=1e-3)
+    measured = second - 0.3
+    h.set_measured(measured)
+    start = h.publish(trajectory(message_point(1.0, first)))
+    h.advance(start)
+    np.testing.assert_allclose(
+        h.desired[0], measured[0] + (first[0] - measured[0]) * 0.01, atol=1e-3
+    )
+    for _ in range(3):
+        assert first[0] < h.desired[0] < measured[0]
+        h.step()
+    h.advance(start + 1.1)
+    np.testing.assert_allclose(h.desired[0], first[0], atol=1e-3)
 
 
 def test_execute_partial_traj_in_future():
@@ -360,9 +451,72 @@ def test_goal_tolerances_fail():
 
 
 def test_hold_on_startup():
-    h = harness(initial=(0.1, 0.2, 0.3))
+    h = harness(initial=(0.1, 0.2, 0.3), state_interfaces=["position"])
     h.advance(0.25)
     np.testing.assert_array_equal(h.desired, [0.1, 0.2, 0.3, 0.0, 0.0, 0.0])
+
+
+# (command_interfaces, state_interfaces) -> whether upstream's on_activate reads the state
+# from the command interfaces (read_state_from_command_interfaces succeeds)
+OFFSET_CASES = [
+    (["position"], ["position"], True),
+    (["position"], ["position", "velocity"], False),
+    (["position"], ["position", "velocity", "acceleration"], False),
+    (["position", "velocity"], ["position"], True),
+    (["position", "velocity"], ["position", "velocity"], True),
+    (["position", "velocity"], ["position", "velocity", "acceleration"], False),
+    (["position", "velocity", "acceleration"], ["position", "velocity", "acceleration"], True),
+    (["velocity"], ["position", "velocity"], False),
+    (["effort"], ["position", "velocity"], False),
+]
+
+
+@pytest.mark.parametrize("commands, states, from_commands", OFFSET_CASES)
+def test_hw_states_has_offset_later_controller_start(commands, states, from_commands):
+    """open_loop_control, the command interfaces holding values (3.1, 4.1, 5.1) that differ
+    from the measured state: the state at activation is the command interfaces' only when
+    every interface the state has can be read from a command interface; else the state
+    interfaces'. Observed through the first trajectory's start (open loop: from that
+    state) and the hold at activation."""
+    initial = (3.1, 4.1, 5.1)
+    controller = JointTrajectoryController(
+        name="ctl",
+        joints=ControllerJoints.make(NAMES, initial_positions=initial),
+        params=JointTrajectoryControllerParams(
+            joints=list(NAMES),
+            command_interfaces=commands,
+            state_interfaces=states,
+            open_loop_control=True,
+            gains={joint: JointGains() for joint in NAMES},
+        ),
+    )
+    h = Harness(controller)  # measured zeros at activation
+    measured_at_activation = np.zeros(3)
+    h.step()
+    expected = np.array(initial) if from_commands else measured_at_activation
+    np.testing.assert_allclose(h.desired[:3], expected, atol=1e-12)
+    start = h.publish(trajectory(message_point(1.0, [10.0] * 3)))
+    h.advance(start + 0.49)
+    np.testing.assert_allclose(h.desired[:3], expected + (10.0 - expected) * 0.5, atol=1e-12)
+
+
+def test_hw_states_has_offset_first_controller_start():
+    """Command interfaces without values at the first start (upstream: NaN; here
+    set_last_command_interface_value_as_state_on_activation: false makes activation ignore
+    them): the state is read from the state interfaces."""
+    controller = JointTrajectoryController(
+        name="ctl",
+        joints=ControllerJoints.make(NAMES, initial_positions=(3.1, 4.1, 5.1)),
+        params=JointTrajectoryControllerParams(
+            joints=list(NAMES),
+            state_interfaces=["position"],
+            open_loop_control=True,
+            set_last_command_interface_value_as_state_on_activation=False,
+        ),
+    )
+    h = Harness(controller)
+    h.step()
+    np.testing.assert_array_equal(h.desired, [0.0] * 6)
 
 
 def test_hold_on_startup_without_command_interface_values():
@@ -489,6 +643,34 @@ def test_velocity_command_interface_is_the_pid_on_the_tracking_error():
     )
 
 
+def test_use_closed_loop_pid():
+    """use_closed_loop_pid_adapter_: velocity alone (unless open_loop_control) or effort.
+    Velocity alone with open_loop_control writes the desired velocity, no PID."""
+    h = pid_harness("velocity", {"p": 2.0})
+    h.set_measured(np.array([0.1, 0.1, 0.1]))
+    h.step(2)
+    np.testing.assert_allclose(h.desired[3:], [-0.2] * 3)  # the PID holding
+    controller = JointTrajectoryController(
+        name="ctl",
+        joints=ControllerJoints.make(NAMES),
+        params=JointTrajectoryControllerParams(
+            joints=list(NAMES),
+            command_interfaces=["velocity"],
+            state_interfaces=["position", "velocity"],
+            open_loop_control=True,
+            gains={joint: JointGains(p=2.0) for joint in NAMES},
+        ),
+    )
+    h = Harness(controller)
+    h.set_measured(np.array([0.1, 0.1, 0.1]))
+    h.step(2)
+    np.testing.assert_allclose(h.desired[3:], [0.0] * 3)  # no PID
+    start = h.publish(trajectory(message_point(1.0, [1.1] * 3)))
+    h.advance(start + 0.5)
+    # v_d alone, open loop from the state held since activation (measured 0 then).
+    np.testing.assert_allclose(h.desired[3:], [1.1] * 3, atol=1e-12)
+
+
 def test_effort_command_interface_is_the_pid_and_checks_the_stopped_velocity():
     """command_interfaces [effort]: u = p e + d e_dot; with an effort command interface the
     stopped velocity tolerance is checked (upstream computes the velocity error then)."""
@@ -506,6 +688,77 @@ def test_effort_command_interface_is_the_pid_and_checks_the_stopped_velocity():
     h.set_measured(np.array([0.5, 0.5, 0.5]))
     h.step()
     assert h.status.state == "succeeded"
+
+
+def effort_command(h: Harness) -> np.ndarray:
+    return np.array(h.system.GetOutputPort("effort_command").Eval(h.context))
+
+
+def test_effort_fields_feed_forward_with_the_effort_command_interface():
+    """validate_trajectory_msg accepts efforts with the effort command interface; update()
+    writes ff_velocity_scale v(t + dt) + effort(t + dt) + pid(error), the effort linear
+    between points (interpolate_between_points' has_effort), the last point's effort held
+    after the end and after success (set_success_trajectory_point)."""
+    h = pid_harness("effort", {})  # no gains: the command is the feed-forward alone
+    start = h.publish(
+        trajectory(
+            message_point(1.0, [0.0] * 3, effort=[2.0, 4.0, 6.0]),
+            message_point(2.0, [0.0] * 3, effort=[4.0, 4.0, 4.0]),
+        )
+    )
+    h.advance(start)
+    assert h.status.state == "executing"
+    # The state before the trajectory has the effort command interface's value (0 here).
+    np.testing.assert_allclose(effort_command(h), [0.02, 0.04, 0.06], atol=1e-12)
+    h.advance(start + 0.49)  # sampled at 0.5 s
+    np.testing.assert_allclose(effort_command(h), [1.0, 2.0, 3.0], atol=1e-12)
+    h.advance(start + 1.49)  # sampled at 1.5 s
+    np.testing.assert_allclose(effort_command(h), [3.0, 4.0, 5.0], atol=1e-12)
+    h.advance(start + 2.5)
+    assert h.status.state == "succeeded"
+    np.testing.assert_allclose(effort_command(h), [4.0, 4.0, 4.0], atol=1e-12)
+
+
+def test_effort_first_segment_starts_from_the_effort_command():
+    """Upstream reads the state's effort from the effort command interface
+    (read_state_from_state_interfaces), so the first segment's effort runs from the last
+    effort command (here the PID holding against an offset: 10 * 0.1 = 1) to the first
+    point's; the PID adds nothing along a trajectory that stays at the measured position."""
+    h = pid_harness("effort", {"p": 10.0})
+    measured = np.array([-0.1, -0.1, -0.1])
+    h.set_measured(measured)
+    h.step()
+    np.testing.assert_allclose(effort_command(h), [1.0] * 3, atol=1e-12)
+    start = h.publish(trajectory(message_point(1.0, measured, effort=[2.0] * 3)))
+    h.advance(start)
+    np.testing.assert_allclose(effort_command(h), [1.0 + 1.0 * 0.01] * 3, atol=1e-12)
+    h.advance(start + 0.49)
+    np.testing.assert_allclose(effort_command(h), [1.5] * 3, atol=1e-12)
+
+
+@pytest.mark.parametrize("interface", ["position", "velocity"])
+def test_invalid_message_effort_without_the_effort_command_interface(interface):
+    """invalid_message's "Effort is not supported in trajectory message" case: rejected
+    unless the command interface is effort (has_effort_command_interface_)."""
+    h = harness() if interface == "position" else pid_harness("velocity", {"p": 1.0})
+    h.publish(trajectory(message_point(0.25, [1.0, 2.0, 3.0], effort=[1.0, 2.0, 3.0])))
+    h.step()
+    assert h.status.rejected == 1
+    assert h.status.last_error == (
+        "Trajectories with effort fields are only supported for controllers using the "
+        "'effort' command interface."
+    )
+
+
+def test_invalid_message_too_few_efforts():
+    """invalid_message's "too few efforts" case, with the effort command interface (upstream
+    does not check the size; we reject it as the other fields' sizes, our stricter rule)."""
+    h = pid_harness("effort", {})
+    h.publish(trajectory(message_point(0.25, [1.0, 2.0, 3.0], effort=[1.0, 2.0])))
+    h.step()
+    assert h.status.last_error == (
+        "Mismatch between joint_names size (3) and effort (2) at point #0."
+    )
 
 
 # ----------------------------------------------------------------------------------------------
@@ -529,7 +782,10 @@ arm_controller:
     "extra, message",
     [
         ("bogus: 1", "arm_controller.ros__parameters.bogus: unknown parameter"),
-        ("speed_scaling: {initial_scaling_factor: 0.5}", "speed_scaling: not simulated"),
+        (
+            "speed_scaling: {initial_scaling_factor: 0.5}",
+            "speed_scaling: not simulated: the trajectory runs at speed 1.0",
+        ),
         ("is_async: true", "is_async: is_async=True is not simulated"),
         ("update_rate: 50", "update_rate: update_rate=50 differs from controller_manager's 100"),
         (

@@ -12,7 +12,8 @@ here and never compare type strings. A controller class declares:
   with unit and meaning); its ``check()`` method validates ranges once, raising
   :class:`ParameterError` with the parameter's name;
 - ``ignored_parameters``: upstream parameters it accepts and does not simulate;
-- ``refused_parameters``: upstream parameters it refuses, each with the reason;
+- ``refused_parameters``: upstream parameters it refuses, each with the reason (the
+  whole error after the parameter's name);
 - ``command_interface(params)``: the command interface it claims on each of its
   joints (``position``, ``velocity`` or ``effort``; ``None`` for a broadcaster);
 - ``message`` and ``topic``: the command message class it reads and the
@@ -180,7 +181,7 @@ def load_parameters(cls: type[Controller], raw: dict[str, Any]):
     is read with ``yaml_load_typed`` and checked by the dataclass's ``check()``."""
     for name, reason in cls.refused_parameters.items():
         if name in raw:
-            raise ParameterError(name, f"not simulated: {reason}")
+            raise ParameterError(name, reason)
     raw = cls.ros_layout(dict(raw))
     fields = {f.name for f in dataclasses.fields(cls.parameters)}
     known = cls.known_parameters()

@@ -24,8 +24,11 @@ controller (ros2_controllers, Jazzy, with its PR #1306) does at every update
   commands the last point, its velocities included (zero where not given).
 - The command written at ``t`` is the trajectory sampled at ``t + dt``, the
   end of the control period (with a velocity-only or effort command interface,
-  ``ff_velocity_scale v_d(t + dt)`` plus a PID per joint on the error at
-  ``t``); the tolerances compare the measured state with the sample at ``t``.
+  ``ff_velocity_scale v_d(t + dt)``, plus with the effort interface the points'
+  ``effort`` sampled at ``t + dt`` (linear between points, zero where a point gives
+  none; the state before the trajectory has the last effort command), plus a PID per
+  joint on the error at ``t``; points with efforts are rejected with any other command
+  interface); the tolerances compare the measured state with the sample at ``t``.
   The goal is checked once ``t + dt`` is past the last point: every joint
   within its ``goal`` tolerance (and, with a velocity or effort command
   interface, within ``stopped_velocity_tolerance`` of the desired velocity) ->
@@ -68,6 +71,12 @@ class JointGains:
     """Upstream's PID gains of one joint (``gains.<joint>``), as its schema has them.
     Used only with a velocity-only or an effort command interface; the gains beyond p, i,
     d, i_clamp and ff_velocity_scale are refused unless left at their defaults."""
+
+    # The gains the simulated PID has; any other is refused unless left at its default
+    # (the README's parameter table says so).
+    IMPLEMENTED: ClassVar[frozenset[str]] = frozenset(
+        {"p", "i", "d", "i_clamp", "ff_velocity_scale"}
+    )
 
     # [command unit/rad] proportional gain.
     p: float = 0.0
@@ -145,7 +154,10 @@ class JointTrajectoryControllerParams:
     # Accept points without positions (or velocities) and integrate them from the
     # velocities and accelerations given.
     allow_integration_in_goal_trajectories: bool = False
-    # Hold the last command at activation (true) or the measured position (false).
+    # Hold the last command at activation (true) or the measured position (false). As
+    # upstream, true reads the command interfaces only when they hold the whole state: a
+    # position one, and velocity (acceleration) ones wherever velocity (acceleration) is a
+    # state interface; otherwise, and with velocity or effort alone, the measured position.
     set_last_command_interface_value_as_state_on_activation: bool = True
     # [Hz] upstream's action-status polling rate (>= 0.1); the status output here
     # changes at the update that decides it, so this rate moves nothing.
@@ -198,7 +210,7 @@ class JointTrajectoryControllerParams:
                 "action_monitor_rate",
                 f"action_monitor_rate={self.action_monitor_rate!r} must be >= 0.1 [Hz]",
             )
-        implemented = {"p", "i", "d", "i_clamp", "ff_velocity_scale"}
+        implemented = JointGains.IMPLEMENTED
         for joint, gains in self.gains.items():
             if not isinstance(gains, JointGains):
                 continue  # a subclass's own gains (ROS 1's effort trajectory controller)
@@ -284,6 +296,8 @@ class _Point:
     positions: np.ndarray | None  # [rad] (n)
     velocities: np.ndarray | None  # [rad/s] (n)
     accelerations: np.ndarray | None  # [rad/s^2] (n)
+    # [N m] (n): the feed-forward effort of the effort command interface.
+    effort: np.ndarray | None = None
 
     def filled(self, field: str) -> np.ndarray:
         values = getattr(self, field)
@@ -376,6 +390,7 @@ class TrajectorySample:
     velocities: np.ndarray  # [rad/s] (n)
     accelerations: np.ndarray  # [rad/s^2] (n)
     segment: tuple[int, int]  # indices of the points around the sample (see sample())
+    effort: np.ndarray | None = None  # [N m] (n), zero where no point gives one
 
 
 _DEGREE = 5  # highest segment degree (quintic)
@@ -408,6 +423,12 @@ class SampledTrajectory:
     # Whether the first segment runs from the state before the trajectory to the first
     # point (the first point was still to come when the trajectory was first sampled).
     from_before: bool = False
+    # [N m] per segment, the effort at its start and its slope [N m/s] (s, n, 2): linear
+    # between points, an effort not given read as zero (upstream's has_effort after
+    # deduce_from_derivatives fills empty efforts with zeros); None: zero throughout.
+    effort_coefficients: np.ndarray | None = None
+    # [N m] (n) the effort after the last point: its effort, zero where not given.
+    final_effort: np.ndarray | None = None
 
     def __deepcopy__(self, memo):
         return self
@@ -439,6 +460,17 @@ class SampledTrajectory:
         tau = max(time - self.breaks[k], 0.0)
         return self.coefficients[k, n:, 1:] @ (_DERIVATIVE * tau ** (_DERIVATIVE - 1))
 
+    def effort(self, time: float) -> np.ndarray:
+        """[N m] (n) the feed-forward effort at ``time`` [s]."""
+        if time >= self.end_time:
+            return np.zeros(self.n) if self.final_effort is None else self.final_effort
+        if self.effort_coefficients is None:
+            return np.zeros(self.n)
+        k = max(bisect.bisect_right(self.breaks, time) - 1, 0)
+        tau = min(max(time - self.breaks[k], 0.0), self.breaks[k + 1] - self.breaks[k])
+        start, slope = self.effort_coefficients[k, :, 0], self.effort_coefficients[k, :, 1]
+        return start + slope * tau
+
     def sample(self, time: float) -> "TrajectorySample | None":
         """Upstream's ``Trajectory::sample`` at ``time`` [s]: None before the state
         before the trajectory, else the positions, velocities, accelerations and the
@@ -455,7 +487,13 @@ class SampledTrajectory:
             k = max(bisect.bisect_right(self.breaks, time) - 1, 0)
             k -= 1 if self.from_before else 0
             segment = (0, 0) if k < 0 else (k, k + 1)
-        return TrajectorySample(x[:n].copy(), x[n:].copy(), self.acceleration(time), segment)
+        return TrajectorySample(
+            x[:n].copy(),
+            x[n:].copy(),
+            self.acceleration(time),
+            segment,
+            np.array(self.effort(time), dtype=float),
+        )
 
     @staticmethod
     def from_message(
@@ -465,12 +503,13 @@ class SampledTrajectory:
         positions,
         velocities=None,
         accelerations=None,
+        effort=None,
         interpolation_method: str = "splines",
     ) -> "SampledTrajectory":
         """Upstream's ``Trajectory(current_time, current_point, msg)`` first sampled at
         ``time`` [s] (the start, when the message's stamp is 0): ``message`` (its joints in
         the controller's order) from the state before it, ``positions`` [rad] and, when
-        given, ``velocities`` [rad/s] and ``accelerations`` [rad/s^2]."""
+        given, ``velocities`` [rad/s], ``accelerations`` [rad/s^2] and ``effort`` [N m]."""
         start = message.stamp if message.stamp != 0.0 else time
 
         def array(values):
@@ -482,22 +521,30 @@ class SampledTrajectory:
                 array(point.positions),
                 array(point.velocities),
                 array(point.accelerations),
+                array(point.effort),
             )
             for point in message.points
         ]
-        before = _Point(time, array(positions), array(velocities), array(accelerations))
+        before = _Point(
+            time, array(positions), array(velocities), array(accelerations), array(effort)
+        )
         return SampledTrajectory.build(
             before, points, interpolate=interpolation_method == "splines"
         )
 
     @staticmethod
-    def hold(positions: np.ndarray, velocities: np.ndarray | None = None) -> "SampledTrajectory":
-        """Upstream's hold trajectory: one point at ``positions`` (zero velocities unless
-        given, zero accelerations), commanded from its start on."""
+    def hold(
+        positions: np.ndarray,
+        velocities: np.ndarray | None = None,
+        effort: np.ndarray | None = None,
+    ) -> "SampledTrajectory":
+        """Upstream's hold trajectory: one point at ``positions`` (zero velocities and
+        efforts unless given, zero accelerations), commanded from its start on."""
         n = len(positions)
         velocities = np.zeros(n) if velocities is None else velocities
         final = np.concatenate([positions, velocities, np.zeros(n)])
-        return SampledTrajectory((), np.zeros((0, 2 * n, _DEGREE + 1)), -math.inf, final)
+        table = np.zeros((0, 2 * n, _DEGREE + 1))
+        return SampledTrajectory((), table, -math.inf, final, final_effort=effort)
 
     @staticmethod
     def build(before: _Point, points: list[_Point], *, interpolate: bool) -> "SampledTrajectory":
@@ -525,6 +572,9 @@ class SampledTrajectory:
         breaks = tuple(float(knot.time) for knot in knots)
         table = np.zeros((len(knots) - 1, 2 * n, _DEGREE + 1))
         held = None if interpolate else np.zeros((len(knots) - 1, n))
+        efforts = None
+        if any(knot.effort is not None for knot in knots):
+            efforts = np.zeros((len(knots) - 1, n, 2))
         for k, (a, b) in enumerate(zip(knots[:-1], knots[1:], strict=True)):
             if not interpolate:
                 # interpolation_method none: the next point's values until it is reached;
@@ -533,19 +583,34 @@ class SampledTrajectory:
                 table[k, :n, 0] = shown.positions
                 table[k, n:, 0] = shown.filled("velocities")
                 held[k] = shown.filled("accelerations")
+                if efforts is not None:
+                    efforts[k, :, 0] = shown.filled("effort")
                 continue
             coefficients = _segment_coefficients(a, b)
             table[k, :n] = coefficients
             table[k, n:, :_DEGREE] = coefficients[:, 1:] * _DERIVATIVE
+            if efforts is not None:
+                # Linear, from zero where an end gives none (deduce_from_derivatives).
+                efforts[k, :, 0] = a.filled("effort")
+                efforts[k, :, 1] = (b.filled("effort") - a.filled("effort")) / (b.time - a.time)
+        final_effort = None if last.effort is None else last.effort.copy()
         return SampledTrajectory(
-            breaks, table, breaks[-1], final, held, before.time, knots[0] is before
+            breaks,
+            table,
+            breaks[-1],
+            final,
+            held,
+            before.time,
+            knots[0] is before,
+            efforts,
+            final_effort,
         )
 
 
 # Upstream parameters the simulation cannot honour: refused with the reason.
 _REFUSED = {
     "state_publish_rate": "not a parameter of upstream's Jazzy schema (Humble's; removed)",
-    "speed_scaling": "speed scaling is not simulated (the trajectory runs at speed 1.0)",
+    "speed_scaling": "not simulated: the trajectory runs at speed 1.0",
     "decelerate_on_cancel": "not a parameter of upstream's Jazzy schema (rolling's)",
 }
 
@@ -663,6 +728,8 @@ class JointTrajectoryController(Controller):
             "velocity" in commands or "effort" in commands
         )
         self._measured_velocity = "velocity" in states
+        # Upstream's has_effort_command_interface_: points may give efforts, fed forward.
+        self._has_effort = "effort" in commands
         self._measured_acceleration = "acceleration" in states
         # [s] cmd_timeout, 0 when off (upstream: only when greater than goal_time).
         self._cmd_timeout = params.cmd_timeout if params.cmd_timeout > params.goal_time else 0.0
@@ -680,7 +747,9 @@ class JointTrajectoryController(Controller):
         # The PID gains per joint (arrays) with a velocity-only or effort command
         # interface, else None.
         self._pid = None
-        if commands == ["velocity"] or "effort" in commands:
+        # (upstream's use_closed_loop_pid_adapter_: velocity alone and not open_loop_control,
+        # or effort; velocity alone with open_loop_control writes the desired velocity).
+        if (commands == ["velocity"] and not params.open_loop_control) or "effort" in commands:
             gains = [params.gains.get(joint, JointGains()) for joint in names]
             self._pid = {
                 "p": np.array([g.p for g in gains]),
@@ -707,14 +776,27 @@ class JointTrajectoryController(Controller):
         """The controller manager's rate: the trajectory is sampled one period ahead."""
         self.update_period = 1.0 / update_rate
 
+    def _holds_command_values(self) -> bool:
+        """Whether activation holds the command interfaces' values (upstream's on_activate:
+        ``set_last_command_interface_value_as_state_on_activation`` and
+        ``read_state_from_command_interfaces`` succeeding, which needs a position command
+        interface, and a velocity (acceleration) command interface wherever there is a
+        velocity (acceleration) state interface); else the measured state."""
+        commands, states = self._params.command_interfaces, self._params.state_interfaces
+        return (
+            self._params.set_last_command_interface_value_as_state_on_activation
+            and "position" in commands
+            and all(name in commands for name in ("velocity", "acceleration") if name in states)
+        )
+
     def initial_memory(self) -> ControllerMemory:
         memory = super().initial_memory()
         if self._pid is not None:
-            # The PID runs at every update, from activation on (holding the start).
-            activation = not self._params.set_last_command_interface_value_as_state_on_activation
-            state = _PidState(np.zeros(self.n), memory.desired, pending=activation)
+            # The PID runs at every update, from activation on (holding the measured
+            # position read at activation: no position command interface to read).
+            state = _PidState(np.zeros(self.n), memory.desired, pending=True)
             return dataclasses.replace(memory, running=True, internal=state)
-        if self._params.set_last_command_interface_value_as_state_on_activation:
+        if self._holds_command_values():
             return memory  # the hardware's command interfaces hold their initial values
         # Hold the measured position read at activation (the first update).
         return dataclasses.replace(memory, running=True)
@@ -752,8 +834,14 @@ class JointTrajectoryController(Controller):
         error, error_dot = reference[:n] - q, reference[n:] - v
         integral = state.integral + gains["i"] * self.update_period * error
         integral_term = np.clip(integral, -gains["i_clamp"], gains["i_clamp"])
+        # The effort sampled at t + dt (command_next_.effort), fed forward only with the
+        # effort command interface.
+        effort_next = np.zeros(n)
+        if self._has_effort and tracked.trajectory is not None:
+            effort_next = tracked.trajectory.effort(now + self.update_period)
         command = (
             gains["ff"] * tracked.desired[n:]
+            + effort_next
             + gains["p"] * error
             + integral_term
             + gains["d"] * error_dot
@@ -825,12 +913,17 @@ class JointTrajectoryController(Controller):
                         f"Mismatch between joint_names size ({len(names)}) and {field} "
                         f"({len(values)}) at point #{i}."
                     )
-            if len(point.effort) != 0:
+            if not self._has_effort and len(point.effort) != 0:
                 raise Rejected(
                     "Trajectories with effort fields are only supported for controllers using "
                     "the 'effort' command interface."
                 )
-            for field in ("positions", "velocities", "accelerations"):
+            if len(point.effort) not in (0, len(names)):
+                raise Rejected(
+                    f"Mismatch between joint_names size ({len(names)}) and effort "
+                    f"({len(point.effort)}) at point #{i}."
+                )
+            for field in ("positions", "velocities", "accelerations", "effort"):
                 if not np.all(np.isfinite(np.asarray(getattr(point, field), dtype=float))):
                     raise Rejected(f"Non-finite value in {field} at point #{i}.")
         return [self.joint_names.index(name) for name in names]
@@ -856,6 +949,7 @@ class JointTrajectoryController(Controller):
                 positions=full(point.positions, command),
                 velocities=full(point.velocities, zeros),
                 accelerations=full(point.accelerations, zeros),
+                effort=full(point.effort, zeros),
             )
             for point in message.points
         ]
@@ -863,19 +957,30 @@ class JointTrajectoryController(Controller):
     def _Before(self, now, memory, q, v) -> _Point:
         """The state before the trajectory: measured, or the last command (open loop)."""
         n = self.n
+        # With the effort command interface upstream's state has an effort: the effort
+        # command interface's value (read_state_from_state_interfaces, and
+        # read_state_from_command_interfaces at activation), or the last sampled one
+        # (open loop's last_commanded_state_).
+        effort = None
+        if self._has_effort:
+            effort = np.zeros(n) if memory.effort is None else memory.effort.copy()
         if self._params.from_desired_state:
             trajectory = memory.trajectory
             if trajectory is not None and memory.status.state == "executing":
                 x = trajectory.state(now)
-                return _Point(now, x[:n].copy(), x[n:].copy(), trajectory.acceleration(now))
+                last = trajectory.effort(now).copy() if self._has_effort else None
+                return _Point(now, x[:n].copy(), x[n:].copy(), trajectory.acceleration(now), last)
             if trajectory is not None:  # holding: the hold point
                 final = trajectory.final
-                return _Point(now, final[:n].copy(), final[n : 2 * n].copy(), final[2 * n :])
-            return _Point(now, memory.desired[:n].copy(), memory.desired[n:].copy(), np.zeros(n))
+                last = trajectory.effort(now).copy() if self._has_effort else None
+                return _Point(now, final[:n].copy(), final[n : 2 * n].copy(), final[2 * n :], last)
+            return _Point(
+                now, memory.desired[:n].copy(), memory.desired[n:].copy(), np.zeros(n), effort
+            )
         velocities = v.copy() if self._measured_velocity else None
         # No acceleration is measured: an acceleration state interface reads zero.
         accelerations = np.zeros(n) if self._measured_acceleration else None
-        return _Point(now, q.copy(), velocities, accelerations)
+        return _Point(now, q.copy(), velocities, accelerations, effort)
 
     def _Command(self, x: np.ndarray) -> np.ndarray:
         """[q_d; v_d] written to the hardware: positions clamped into the joint limits; a
@@ -969,7 +1074,10 @@ class JointTrajectoryController(Controller):
             moving = (tolerance > 0) & (velocity_error > tolerance)
             if not far.any() and not moving.any():
                 status = dataclasses.replace(status, state="succeeded", detail=dict(status.detail))
-                hold = SampledTrajectory.hold(trajectory.final[:n], trajectory.final[n : 2 * n])
+                # set_success_trajectory_point: the last point, its effort included.
+                hold = SampledTrajectory.hold(
+                    trajectory.final[:n], trajectory.final[n : 2 * n], trajectory.final_effort
+                )
                 return ControllerMemory(self._Command(x_next), status, hold)
             goal_time = self._params.goal_time
             if goal_time > 0 and late > goal_time:
