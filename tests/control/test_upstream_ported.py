@@ -22,7 +22,12 @@ from armando_drake.control.controllers.broadcaster import (
     JointStateBroadcaster,
     JointStateBroadcasterParameters,
 )
-from armando_drake.control.controllers.forward_command import ForwardCommandController
+from armando_drake.control.controllers.forward_command import (
+    ForwardCommandController,
+    JointGroupEffortController,
+    JointGroupPositionController,
+    JointGroupVelocityController,
+)
 from armando_drake.control.controllers.joint_trajectory import (
     JointGains,
     JointTrajectoryController,
@@ -30,12 +35,13 @@ from armando_drake.control.controllers.joint_trajectory import (
     SampledTrajectory,
     interpolate_between_points,
 )
+from armando_drake.control.manager import ControllerManager, ManagedController
 from armando_drake.control.messages import (
     Float64MultiArray,
     JointTrajectory,
     JointTrajectoryPoint,
 )
-from tests.control.test_controllers import NAMES, PERIOD, Harness, hermite
+from tests.control.test_controllers import NAMES, PERIOD, Harness, bare_hardware, hermite
 
 EPS = 1e-8  # upstream's test_trajectory.cpp threshold
 
@@ -846,17 +852,25 @@ def forward(**params):
 
 
 def test_CommandSuccessTest():  # noqa: N802 (upstream's name)
-    h = Harness(forward(interface_name="position"))
+    """An update before any command keeps the defaults (1.1, 2.1, 3.1); then the command
+    is written."""
+    h = Harness(forward_with_initial("position"))
+    h.step()
+    np.testing.assert_array_equal(h.desired[:3], FWD_INITIAL)
     h.publish(Float64MultiArray(data=(10.0, 20.0, 30.0)))
     h.step()
     np.testing.assert_array_equal(h.desired[:3], [10.0, 20.0, 30.0])
 
 
 def test_WrongCommandCheckTest():  # noqa: N802 (upstream's name)
-    h = Harness(forward(interface_name="position"))
+    """Two values for three joints: nothing written, the defaults stay. Upstream's update
+    returns ERROR (Jazzy then deactivates the controller); ours stays active with the
+    previous command (README, stricter)."""
+    h = Harness(forward_with_initial("position"))
     h.publish(Float64MultiArray(data=(10.0, 20.0)))
     h.step()
-    np.testing.assert_array_equal(h.desired[:3], [0.0, 0.0, 0.0])
+    np.testing.assert_array_equal(h.desired[:3], FWD_INITIAL)
+    assert h.status.state == "holding"
     assert h.status.last_error == "command size (2) does not match number of interfaces (3)"
 
 
@@ -892,6 +906,243 @@ def test_forward_command_parameters(params, message):
     with pytest.raises(ControllerConfigError) as error:
         parse_controller_config(yaml.safe_load(text), "c.yaml")
     assert message in str(error.value)
+
+
+FWD_JOINTS = ("joint1", "joint2", "joint3")
+FWD_INITIAL = (1.1, 2.1, 3.1)  # upstream's command interfaces' initial values
+
+
+def forward_config(params: str, type_name="forward_command_controller/ForwardCommandController"):
+    text = (
+        "controller_manager:\n  ros__parameters:\n"
+        f"    fwd: {{type: {type_name}}}\n"
+        f"fwd:\n  ros__parameters:\n{params}"
+    )
+    return parse_controller_config(yaml.safe_load(text), "c.yaml")
+
+
+def configure_fails(params: str, type_name="forward_command_controller/ForwardCommandController"):
+    with pytest.raises(ControllerConfigError) as error:
+        forward_config(params, type_name)
+    assert "\n" not in str(error.value)
+    return str(error.value)
+
+
+def test_JointsParameterNotSet():  # noqa: N802 (upstream's name)
+    """test_forward_command_controller.cpp: interface_name 'dummy', no joints -> configure
+    fails."""
+    assert "'joints' parameter is missing" in configure_fails("    interface_name: dummy\n")
+
+
+def test_InterfaceParameterNotSet():  # noqa: N802 (upstream's name)
+    """joints [] and no interface_name -> configure fails (on the empty joints first, as
+    upstream's on_configure checks joints before interface_name)."""
+    assert "joints" in configure_fails("    joints: []\n")
+
+
+def test_JointsParameterIsEmpty():  # noqa: N802 (upstream's name)
+    message = configure_fails("    joints: []\n    interface_name: ''\n")
+    assert "'joints' parameter is empty" in message
+
+
+def test_InterfaceParameterEmpty():  # noqa: N802 (upstream's name)
+    message = configure_fails("    joints: [joint1, joint2]\n    interface_name: ''\n")
+    assert "'interface_name' parameter is missing" in message
+
+
+def test_ConfigureParamsSuccess():  # noqa: N802 (upstream's name)
+    config = forward_config("    joints: [joint1, joint2]\n    interface_name: position\n")
+    params = config.controllers["fwd"].params
+    assert (params.joints, params.interface_name) == (["joint1", "joint2"], "position")
+
+
+def forward_on(joints, interface_name, hardware_names=FWD_JOINTS, hardware_interface="position"):
+    """A forward-command controller on ``joints`` activated in a controller manager whose
+    hardware has ``hardware_names`` with ``hardware_interface``: activation is building
+    the manager (it claims the joints' command interfaces)."""
+    logic = ForwardCommandController(
+        name="fwd",
+        joints=ControllerJoints.make(joints),
+        params=ForwardCommandController.parameters(
+            joints=list(joints), interface_name=interface_name
+        ),
+    )
+    return ControllerManager(
+        hardware=bare_hardware(hardware_names, hardware_interface),
+        update_rate=100,
+        controllers=[ManagedController("fwd", logic)],
+    )
+
+
+def test_ActivateWithWrongJointsNamesFails():  # noqa: N802 (upstream's name)
+    """'joint4' is not a joint of the hardware: activation fails. (Upstream's second half,
+    joints [joint1, joint2] failing too, fails only because its fixture hands the
+    controller three interfaces for two joints; a controller manager hands it those it
+    claims, as ours does, so that half is not ported.)"""
+    with pytest.raises(ValueError, match=r"claims \['joint4'\]"):
+        forward_on(("joint1", "joint4"), "position")
+
+
+def test_ActivateWithWrongInterfaceNameFails():  # noqa: N802 (upstream's name)
+    """interface_name 'acceleration' on position joints: activation fails. Upstream
+    configures it and fails at activation; our YAML loading refuses it already at
+    configuration (no acceleration command interface is simulated; README, stricter)."""
+    with pytest.raises(ValueError, match="commands the acceleration interface"):
+        forward_on(FWD_JOINTS, "acceleration")
+    message = configure_fails(
+        "    joints: [joint1, joint2, joint3]\n    interface_name: acceleration\n"
+    )
+    assert "interface_name='acceleration' is not supported" in message
+
+
+def test_ActivateSuccess():  # noqa: N802 (upstream's name)
+    forward_on(FWD_JOINTS, "position")
+    h = Harness(forward_with_initial("position"))
+    assert h.status.state == "holding"
+
+
+def forward_with_initial(interface_name, initial=FWD_INITIAL):
+    return ForwardCommandController(
+        name="fwd",
+        joints=ControllerJoints.make(FWD_JOINTS, initial_positions=initial),
+        params=ForwardCommandController.parameters(
+            joints=list(FWD_JOINTS), interface_name=interface_name
+        ),
+    )
+
+
+def test_NoCommandCheckTest():  # noqa: N802 (upstream's name)
+    """An update with no command received: the command interfaces keep their values."""
+    h = Harness(forward_with_initial("position"))
+    h.step()
+    np.testing.assert_array_equal(h.desired[:3], FWD_INITIAL)
+    assert h.status.rejected == 0
+
+
+def test_CommandCallbackTest():  # noqa: N802 (upstream's name)
+    """A command published on the topic is written at the next update."""
+    h = Harness(forward_with_initial("position"))
+    np.testing.assert_array_equal(h.desired[:3], FWD_INITIAL)
+    h.publish(Float64MultiArray(data=(10.0, 20.0, 30.0)))
+    h.step()
+    np.testing.assert_array_equal(h.desired[:3], [10.0, 20.0, 30.0])
+
+
+# ----------------------------------------------------------------------------------------------
+# position_controllers / velocity_controllers / effort_controllers test_joint_group_*.cpp
+
+GROUP_TYPES = {
+    "position": JointGroupPositionController,
+    "velocity": JointGroupVelocityController,
+    "effort": JointGroupEffortController,
+}
+
+
+def group_harness(interface) -> Harness:
+    """Upstream's fixture gives the command interfaces 1.1, 2.1, 3.1; our position joints
+    start at their initial positions (1.1, 2.1, 3.1 here), our velocity and effort command
+    interfaces at 0 (the simulated hardware has no other initial velocity or effort
+    command), so for those the "default values" are zeros."""
+    logic = GROUP_TYPES[interface](
+        name="fwd",
+        joints=ControllerJoints.make(FWD_JOINTS, initial_positions=FWD_INITIAL),
+        params=GROUP_TYPES[interface].parameters(joints=list(FWD_JOINTS)),
+    )
+    return Harness(logic)
+
+
+def group_command(h: Harness, interface) -> np.ndarray:
+    if interface == "position":
+        return h.desired[:3]
+    if interface == "velocity":
+        return h.desired[3:]
+    return np.array(h.system.GetOutputPort("effort_command").Eval(h.context))
+
+
+def group_default(interface):
+    return np.array(FWD_INITIAL) if interface == "position" else np.zeros(3)
+
+
+@pytest.mark.parametrize("interface", list(GROUP_TYPES))
+def test_joint_group_JointsParameterNotSet(interface):  # noqa: N802 (upstream's name)
+    """test_joint_group_{position,velocity,effort}_controller.cpp JointsParameterNotSet."""
+    message = configure_fails("    {}\n", GROUP_TYPES[interface].type_name())
+    assert "'joints' parameter is missing" in message
+
+
+@pytest.mark.parametrize("interface", list(GROUP_TYPES))
+def test_joint_group_JointsParameterIsEmpty(interface):  # noqa: N802 (upstream's name)
+    message = configure_fails("    joints: []\n", GROUP_TYPES[interface].type_name())
+    assert "'joints' parameter is empty" in message
+
+
+@pytest.mark.parametrize("interface", list(GROUP_TYPES))
+def test_joint_group_ConfigureParamsSuccess(interface):  # noqa: N802 (upstream's name)
+    config = forward_config(
+        "    joints: [joint1, joint2, joint3]\n", GROUP_TYPES[interface].type_name()
+    )
+    assert config.controllers["fwd"].params.joints == list(FWD_JOINTS)
+
+
+@pytest.mark.parametrize("interface", list(GROUP_TYPES))
+def test_joint_group_ActivateWithWrongJointsNamesFails(interface):  # noqa: N802
+    """joints [joint1, joint4]: 'joint4' is not a hardware joint, activation fails."""
+    logic = GROUP_TYPES[interface](
+        name="fwd",
+        joints=ControllerJoints.make(("joint1", "joint4")),
+        params=GROUP_TYPES[interface].parameters(joints=["joint1", "joint4"]),
+    )
+    with pytest.raises(ValueError, match=r"claims \['joint4'\]"):
+        ControllerManager(
+            hardware=bare_hardware(FWD_JOINTS, interface),
+            update_rate=100,
+            controllers=[ManagedController("fwd", logic)],
+        )
+
+
+@pytest.mark.parametrize("interface", list(GROUP_TYPES))
+def test_joint_group_ActivateSuccess(interface):  # noqa: N802 (upstream's name)
+    assert group_harness(interface).status.state == "holding"
+
+
+@pytest.mark.parametrize("interface", list(GROUP_TYPES))
+def test_joint_group_CommandSuccessTest(interface):  # noqa: N802 (upstream's name)
+    """No command yet: the defaults stay; then [10, 20, 30] is written. (Our position,
+    velocity and effort limits are infinite on the bare hardware, so nothing clamps.)"""
+    h = group_harness(interface)
+    h.step()
+    np.testing.assert_array_equal(group_command(h, interface), group_default(interface))
+    h.publish(Float64MultiArray(data=(10.0, 20.0, 30.0)))
+    h.step()
+    np.testing.assert_array_equal(group_command(h, interface), [10.0, 20.0, 30.0])
+
+
+@pytest.mark.parametrize("interface", list(GROUP_TYPES))
+def test_joint_group_WrongCommandCheckTest(interface):  # noqa: N802 (upstream's name)
+    """A command of two values for three joints: rejected, the defaults stay. Upstream's
+    update returns ERROR (Jazzy then deactivates the controller); ours stays active
+    (README, stricter)."""
+    h = group_harness(interface)
+    h.publish(Float64MultiArray(data=(10.0, 20.0)))
+    h.step()
+    np.testing.assert_array_equal(group_command(h, interface), group_default(interface))
+    assert h.status.last_error == "command size (2) does not match number of interfaces (3)"
+    assert h.status.state == "holding"
+
+
+@pytest.mark.parametrize("interface", list(GROUP_TYPES))
+def test_joint_group_NoCommandCheckTest(interface):  # noqa: N802 (upstream's name)
+    h = group_harness(interface)
+    h.step(3)
+    np.testing.assert_array_equal(group_command(h, interface), group_default(interface))
+
+
+@pytest.mark.parametrize("interface", list(GROUP_TYPES))
+def test_joint_group_CommandCallbackTest(interface):  # noqa: N802 (upstream's name)
+    h = group_harness(interface)
+    h.publish(Float64MultiArray(data=(10.0, 20.0, 30.0)))
+    h.step()
+    np.testing.assert_array_equal(group_command(h, interface), [10.0, 20.0, 30.0])
 
 
 # ----------------------------------------------------------------------------------------------
