@@ -46,7 +46,7 @@ class Harness:
     """Runs one controller in a controller manager alone, with its topic and measured
     state as fixed inputs."""
 
-    def __init__(self, logic, update_rate=RATE):
+    def __init__(self, logic, update_rate=RATE, measured=None):
         self.system = ControllerManager(
             hardware=bare_hardware(logic.joint_names, logic.interface),
             update_rate=update_rate,
@@ -57,7 +57,7 @@ class Harness:
         self.context = self.simulator.get_mutable_context()
         self.publication = Publication()
         self.system.GetInputPort(self.topic).FixValue(self.context, self.publication)
-        self.set_measured(np.zeros(len(logic.joint_names)))
+        self.set_measured(np.zeros(len(logic.joint_names)) if measured is None else measured)
         self.time = 0.0  # [s] time of the latest update
         self.simulator.AdvanceTo(PERIOD / 2)
 

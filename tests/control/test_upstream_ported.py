@@ -291,7 +291,7 @@ def test_first_segment_uses_the_measured_velocity_only_with_a_velocity_state_int
         np.testing.assert_allclose(h.desired[:3], expected, atol=1e-12)
 
 
-def test_partial_joint_list():
+def test_partial_joint_list_first_segment_from_the_measured_state():
     """Joints left out of a partial goal: from the measured position (state before the
     trajectory) to the last command (fill_partial_goal)."""
     h = harness(
@@ -303,21 +303,6 @@ def test_partial_joint_list():
     h.advance(start + 0.49)
     goal = np.array([0.1, 2.0, 0.3])
     np.testing.assert_allclose(h.desired[:3], measured + (goal - measured) * 0.5, atol=1e-12)
-
-
-def test_partial_joint_list_not_allowed():
-    h = harness(initial=(0.1, 0.2, 0.3), state_interfaces=["position"])
-    h.publish(trajectory(message_point(1.0, [2.0]), names=("j1",)))
-    h.step(20)
-    np.testing.assert_array_equal(h.desired[:3], [0.1, 0.2, 0.3])
-    assert h.status.last_error == "Joints on incoming trajectory don't match the controller joints."
-
-
-def test_jumbled_joint_order():
-    h = harness()
-    start = h.publish(trajectory(message_point(0.5, [3.0, 1.0, 2.0]), names=("j2", "j0", "j1")))
-    h.advance(start + 1.0)
-    np.testing.assert_array_equal(h.desired[:3], [1.0, 2.0, 3.0])
 
 
 def test_ignore_old_trajectory():
@@ -428,7 +413,7 @@ def test_execute_partial_traj_in_future():
     np.testing.assert_allclose(h.desired[:3], [(1.01 - accepted) / (1.5 - accepted)] * 3)
 
 
-def test_state_tolerances_fail():
+def test_state_tolerances_fail_then_hold_the_measured_position():
     """A path tolerance violated: aborted, then holding the measured position."""
     h = harness(trajectory_tolerance={"j0": 0.1, "j1": 0.1, "j2": 0.1})
     measured = np.array([0.0, 0.0, 0.0])
@@ -440,7 +425,7 @@ def test_state_tolerances_fail():
     np.testing.assert_array_equal(h.desired, [*measured, 0.0, 0.0, 0.0])
 
 
-def test_goal_tolerances_fail():
+def test_goal_tolerances_fail_then_hold_the_measured_position():
     """Outside the goal tolerance goal_time after the end: aborted, holding the measured
     position."""
     h = harness(goal_time=0.1, goal_tolerance={"j0": 0.1, "j1": 0.1, "j2": 0.1})
@@ -536,7 +521,7 @@ def test_hold_on_startup_without_command_interface_values():
     np.testing.assert_array_equal(h.desired, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
 
 
-def test_trajectory_replace():
+def test_trajectory_replace_from_the_measured_state():
     h = harness()
     start = h.publish(trajectory(message_point(1.0, [1.0] * 3)))
     h.advance(start + 0.3)
@@ -566,7 +551,7 @@ def test_allow_nonzero_velocity_at_trajectory_end_false(caplog):
     )
 
 
-def test_timeout():
+def test_timeout_not_at_the_goal():
     """cmd_timeout: not at the goal cmd_timeout after the end -> hold the measured position."""
     h = harness(cmd_timeout=0.3, goal_tolerance={"j0": 0.01})
     measured = np.array([0.5, 0.0, 0.0])
@@ -765,6 +750,455 @@ def test_invalid_message_too_few_efforts():
     assert h.status.last_error == (
         "Mismatch between joint_names size (3) and effort (2) at point #0."
     )
+
+
+# ----------------------------------------------------------------------------------------------
+# test_trajectory_controller.cpp with its fixture's inputs: the command interfaces start at
+# INITIAL_POS_JOINTS (1.1, 2.1, 3.1), the state reads them (or, with separate command and
+# state values, stays there), the fixture sets allow_nonzero_velocity_at_trajectory_end true
+# and constraints.stopped_velocity_tolerance 0.
+
+INITIAL_POS_JOINTS = (1.1, 2.1, 3.1)
+COMMON_THRESHOLD = 0.0011
+FIXTURE = {"allow_nonzero_velocity_at_trajectory_end": True, "stopped_velocity_tolerance": 0.0}
+# (command_interfaces, state_interfaces) of upstream's position instantiations
+POSITION_CASES = [
+    (["position"], ["position"]),
+    (["position"], ["position", "velocity"]),
+    (["position"], ["position", "velocity", "acceleration"]),
+    (["position", "velocity"], ["position"]),
+    (["position", "velocity"], ["position", "velocity"]),
+    (["position", "velocity"], ["position", "velocity", "acceleration"]),
+    (["position", "velocity", "acceleration"], ["position"]),
+    (["position", "velocity", "acceleration"], ["position", "velocity"]),
+    (["position", "velocity", "acceleration"], ["position", "velocity", "acceleration"]),
+]
+# upstream's OnlyVelocity and OnlyEffort instantiations (the fixture's PID: p 0, ff 1)
+PID_CASES = [
+    (["velocity"], ["position", "velocity"]),
+    (["velocity"], ["position", "velocity", "acceleration"]),
+    (["effort"], ["position", "velocity"]),
+    (["effort"], ["position", "velocity", "acceleration"]),
+]
+ALL_CASES = POSITION_CASES + PID_CASES
+
+
+def case_id(case):
+    return "-".join("".join(word[0] for word in side) for side in case)
+
+
+def upstream_harness(commands=("position",), states=("position", "velocity"), p=0.0, **params):
+    """Upstream's SetUpAndActivateTrajectoryController: measured = commanded = 1.1, 2.1,
+    3.1 at activation."""
+    gains = {}
+    if commands in (["velocity"], ["effort"], ("velocity",), ("effort",)):
+        gains = {name: JointGains(p=p, ff_velocity_scale=1.0) for name in NAMES}
+    controller = JointTrajectoryController(
+        name="ctl",
+        joints=ControllerJoints.make(NAMES, initial_positions=INITIAL_POS_JOINTS),
+        params=JointTrajectoryControllerParams(
+            joints=list(NAMES),
+            command_interfaces=list(commands),
+            state_interfaces=list(states),
+            gains=gains,
+            **{**FIXTURE, **params},
+        ),
+    )
+    h = Harness(controller, measured=np.array(INITIAL_POS_JOINTS))
+    h.step()
+    return h
+
+
+def commanded(h: Harness, interface: str) -> np.ndarray:
+    """joint_pos_, joint_vel_ or joint_eff_: what the controller writes."""
+    if interface == "position":
+        return h.desired[:3]
+    if interface == "velocity":
+        return h.desired[3:]
+    return np.array(h.system.GetOutputPort("effort_command").Eval(h.context))
+
+
+def points_message(delay, positions, velocities=(), stamp=0.0, names=NAMES):
+    """Upstream's publish(): point k at (k + 1) * delay."""
+    return trajectory(
+        *(
+            message_point(delay * (k + 1), p, velocities[k] if velocities else (), ())
+            for k, p in enumerate(positions)
+        ),
+        names=names,
+        stamp=stamp,
+    )
+
+
+def accepted(h: Harness, message) -> bool:
+    """validate_trajectory_msg, through the topic: whether the next update accepts it."""
+    before = h.status.accepted
+    h.publish(message)
+    h.step()
+    return h.status.accepted == before + 1
+
+
+GOOD_POINT = message_point(0.25, [1.0, 2.0, 3.0], [-1.0, -2.0, -3.0])
+INVALID_MESSAGES = {
+    "incompatible joint names": trajectory(GOOD_POINT, names=("bad_name",)),
+    "empty message": trajectory(),
+    "no position data": trajectory(message_point(0.25, [], [-1.0, -2.0, -3.0])),
+    "too few positions": trajectory(message_point(0.25, [1.0, 2.0], [-1.0, -2.0, -3.0])),
+    "too many positions": trajectory(message_point(0.25, [1.0, 2.0, 3.0, 4.0], [-1, -2, -3])),
+    "too few velocities": trajectory(message_point(0.25, [1.0, 2.0, 3.0], [1.0, 2.0])),
+    "too few accelerations": trajectory(
+        message_point(0.25, [1.0, 2.0, 3.0], [-1.0, -2.0, -3.0], [1.0, 2.0])
+    ),
+    "effort is not supported": trajectory(
+        message_point(0.25, [1.0, 2.0, 3.0], [-1.0, -2.0, -3.0], effort=[1.0, 2.0, 3.0])
+    ),
+    "non-strictly increasing waypoint times": trajectory(GOOD_POINT, GOOD_POINT),
+}
+
+
+@pytest.mark.parametrize("case", list(INVALID_MESSAGES))
+def test_invalid_message(case):
+    """allow_partial_joints_goal and allow_integration_in_goal_trajectories false: the good
+    message is accepted, each broken copy of it rejected."""
+    h = upstream_harness(allow_partial_joints_goal=False)
+    assert not accepted(h, INVALID_MESSAGES[case])
+    assert h.status.rejected == 1
+    assert accepted(h, trajectory(GOOD_POINT))
+
+
+def test_invalid_message_end_time():
+    """invalid_message's last two cases: a stamp of 1 ns ("End time in the past", the
+    controller's clock long past it) is rejected; stamped now with the point at 10 s ("End
+    time in the future") accepted."""
+    h = upstream_harness()
+    h.advance(1.0)
+    assert not accepted(h, trajectory(GOOD_POINT, stamp=1e-9))
+    assert h.status.last_error.startswith("Received trajectory with non-zero start time")
+    assert accepted(h, trajectory(message_point(10.0, [1.0, 2.0, 3.0], [-1, -2, -3]), stamp=h.time))
+
+
+def test_expect_invalid_when_message_with_nonzero_end_velocity_and_when_param_false():
+    h = upstream_harness(allow_nonzero_velocity_at_trajectory_end=False)
+    assert not accepted(h, trajectory())  # empty message: rejected, no exception
+    assert not accepted(h, trajectory(GOOD_POINT))
+    assert h.status.last_error.startswith("Velocity of last trajectory point of joint j0")
+
+
+MISSING_POSITIONS = {
+    "good": (message_point(0.25, [1.0, 2.0, 3.0], [-1.0, -2.0, -3.0], [1.0, 2.0, 3.0]), True),
+    "no position data": (message_point(0.25, [], [-1.0, -2.0, -3.0], [1.0, 2.0, 3.0]), True),
+    "no position and velocity data": (message_point(0.25, [], [], [1.0, 2.0, 3.0]), True),
+    "all empty": (message_point(0.25), False),
+    "too few positions": (message_point(0.25, [1.0, 2.0], [-1, -2, -3], [1, 2, 3]), False),
+    "too many positions": (message_point(0.25, [1, 2, 3, 4], [-1, -2, -3], [1, 2, 3]), False),
+    "too few velocities": (message_point(0.25, [1, 2, 3], [1.0], [1, 2, 3]), False),
+    "too few accelerations": (message_point(0.25, [1, 2, 3], [-1, -2, -3], [2.0]), False),
+}
+
+
+@pytest.mark.parametrize("case", list(MISSING_POSITIONS))
+def test_missing_positions_message_accepted(case):
+    """allow_integration_in_goal_trajectories true: points without positions (or without
+    positions and velocities) are accepted, all-empty points and wrong sizes are not."""
+    point, valid = MISSING_POSITIONS[case]
+    h = upstream_harness(allow_integration_in_goal_trajectories=True)
+    assert accepted(h, trajectory(point)) == valid
+
+
+@pytest.mark.parametrize("case", ALL_CASES, ids=case_id)
+def test_jumbled_joint_order(case):
+    """Joints [j1, j2, j0], positions [2, 3, 1], velocities (p - joint_pos) / dt and
+    accelerations v / dt, dt 0.25 s: after 0.25 s the joints are at 1, 2, 3; the
+    velocity, acceleration and effort commands are negative (all velocities are)."""
+    commands, states = case
+    h = upstream_harness(commands, states)
+    dt = 0.25
+    jumble = [1, 2, 0]
+    positions = [[1.0, 2.0, 3.0][j] for j in jumble]
+    velocities = [(p - INITIAL_POS_JOINTS[j]) / dt for p, j in zip(positions, jumble, strict=True)]
+    accelerations = [v / dt for v in velocities]
+    start = h.publish(
+        trajectory(
+            message_point(dt, positions, velocities, accelerations),
+            names=tuple(NAMES[j] for j in jumble),
+        )
+    )
+    h.advance(start + dt - PERIOD)  # the update whose command is the sample at dt
+    if "position" in commands:
+        np.testing.assert_allclose(commanded(h, "position"), [1.0, 2.0, 3.0], atol=COMMON_THRESHOLD)
+    if "velocity" in commands:
+        assert (commanded(h, "velocity") < 0.0).all()
+    if "effort" in commands:
+        assert (commanded(h, "effort") < 0.0).all()
+
+
+def same_sign_or_zero(a, b):
+    return a * b > 0.0 or (a == 0.0 and b == 0.0)
+
+
+@pytest.mark.parametrize("case", ALL_CASES, ids=case_id)
+def test_partial_joint_list(case):
+    """allow_partial_joints_goal: joints [j1, j0] to [2, 1] with velocities (p - joint_pos)
+    / dt and accelerations v / dt in 0.25 s; j2, not in the goal, stays at its command
+    with zero velocity (and effort)."""
+    commands, states = case
+    h = upstream_harness(commands, states, allow_partial_joints_goal=True)
+    dt = 0.25
+    jumble = [1, 0]
+    positions = [2.0, 1.0]
+    velocities = [(p - INITIAL_POS_JOINTS[j]) / dt for p, j in zip(positions, jumble, strict=True)]
+    accelerations = [v / dt for v in velocities]
+    start = h.publish(
+        trajectory(message_point(dt, positions, velocities, accelerations), names=("j1", "j0"))
+    )
+    h.advance(start + dt - PERIOD)
+    if "position" in commands:
+        np.testing.assert_allclose(
+            commanded(h, "position"), [1.0, 2.0, INITIAL_POS_JOINTS[2]], atol=COMMON_THRESHOLD
+        )
+    for interface in ("velocity", "effort"):
+        if interface in commands:
+            command = commanded(h, interface)
+            assert same_sign_or_zero(positions[0] - INITIAL_POS_JOINTS[1], command[0])
+            assert same_sign_or_zero(positions[1] - INITIAL_POS_JOINTS[0], command[1])
+            assert command[2] == pytest.approx(0.0, abs=COMMON_THRESHOLD)
+
+
+@pytest.mark.parametrize("case", ALL_CASES, ids=case_id)
+def test_partial_joint_list_not_allowed(case):
+    """Without allow_partial_joints_goal the same partial goal is rejected: the commands
+    stay at their initial values (velocities and efforts zero)."""
+    commands, states = case
+    h = upstream_harness(commands, states, allow_partial_joints_goal=False)
+    start = h.publish(trajectory(message_point(0.25, [2.0, 1.0], [2.0, 1.0]), names=("j1", "j0")))
+    h.advance(start + 0.25)
+    assert h.status.last_error == "Joints on incoming trajectory don't match the controller joints."
+    if "position" in commands:
+        np.testing.assert_allclose(
+            commanded(h, "position"), INITIAL_POS_JOINTS, atol=COMMON_THRESHOLD
+        )
+    for interface in ("velocity", "effort"):
+        if interface in commands:
+            np.testing.assert_allclose(commanded(h, interface), 0.0, atol=COMMON_THRESHOLD)
+
+
+def test_trajectory_replace():
+    """allow_partial_joints_goal: [2, 3, 4] with velocities [0.2, 0.3, 0.4] at 0.5 s is
+    reached; then a partial goal for j0 alone, 1.5 with velocity copysign(0.15, 1.5 -
+    q0): the result mixes the new goal and the old one, [1.5, 3, 4] with velocities
+    [-0.15, 0, 0] (the measured state follows the commands, as upstream's fixture)."""
+    h = upstream_harness(allow_partial_joints_goal=True)
+    old, old_velocities = [2.0, 3.0, 4.0], [0.2, 0.3, 0.4]
+    start = h.publish(points_message(0.5, [old], [old_velocities]))
+    h.advance(start + 0.5)
+    np.testing.assert_allclose(h.desired, old + old_velocities, atol=0.1)
+    h.set_measured(h.desired[:3], h.desired[3:])
+    velocity = math.copysign(0.15, 1.5 - h.desired[0])
+    second = h.publish(points_message(0.5, [[1.5]], [[velocity]], names=("j0",)))
+    h.advance(second + 0.5)
+    np.testing.assert_allclose(h.desired, [1.5, 3.0, 4.0, -0.15, 0.0, 0.0], atol=0.1)
+
+
+THREE = ([3.3, 4.4, 5.5], [7.7, 8.8, 9.9], [10.10, 11.11, 12.12])
+
+
+@pytest.mark.parametrize("case", ALL_CASES, ids=case_id)
+def test_state_tolerances_fail(case):
+    """constraints.<joint>.trajectory 0.0001, the state stays at 1.1, 2.1, 3.1 (separate
+    command and state values), kp 1: three points 0.1 s apart; after 0.1 s the path
+    tolerance has aborted the goal and the command holds the measured position (zero
+    velocity)."""
+    commands, states = case
+    tolerance = {name: 0.0001 for name in NAMES}
+    h = upstream_harness(commands, states, p=1.0, trajectory_tolerance=tolerance)
+    start = h.publish(points_message(0.1, THREE, THREE_VELOCITIES))
+    h.advance(start + 0.1)
+    assert h.status.state == "aborted"
+    assert h.status.last_error.startswith("path tolerance violated")
+    expect_command_point(h, commands, INITIAL_POS_JOINTS)
+
+
+def expect_command_point(h: Harness, commands, positions, measured=INITIAL_POS_JOINTS):
+    """Upstream's expectCommandPoint: without the PID, the position commands at
+    ``positions`` and velocity commands zero; with it (velocity alone or effort), each
+    command of the sign of ``positions - measured``, or zero where that is zero."""
+    if list(commands) in (["velocity"], ["effort"]):
+        command = commanded(h, commands[0])
+        for j in range(3):
+            assert same_sign_or_zero(positions[j] - measured[j], command[j]), (j, command)
+        return
+    if "position" in commands:
+        np.testing.assert_allclose(commanded(h, "position"), positions, atol=COMMON_THRESHOLD)
+    if "velocity" in commands:
+        np.testing.assert_array_equal(commanded(h, "velocity"), [0.0, 0.0, 0.0])
+
+
+@pytest.mark.parametrize("case", ALL_CASES, ids=case_id)
+def test_goal_tolerances_fail(case):
+    """constraints.<joint>.goal 0.1 and goal_time 1e-6, the state stays at 1.1, 2.1, 3.1:
+    after the three points (0.4 s) the goal is aborted and the measured position held;
+    the measured j0 then jumping to -3.3 does not move the hold."""
+    commands, states = case
+    tolerance = {name: 0.1 for name in NAMES}
+    h = upstream_harness(commands, states, p=1.0, goal_tolerance=tolerance, goal_time=0.000001)
+    start = h.publish(points_message(0.1, THREE, THREE_VELOCITIES))
+    h.advance(start + 0.4)
+    assert h.status.state == "aborted"
+    assert h.status.last_error.startswith("goal tolerance violated")
+    expect_command_point(h, commands, INITIAL_POS_JOINTS)
+    measured = (-3.3, INITIAL_POS_JOINTS[1], INITIAL_POS_JOINTS[2])
+    h.set_measured(np.array(measured))
+    h.advance(start + 0.5)
+    expect_command_point(h, commands, INITIAL_POS_JOINTS, measured)
+
+
+def test_decline_false_cmd_timeout(caplog):
+    """cmd_timeout 1.0 with constraints.goal_time 2.0: the timeout is off (get_cmd_timeout
+    0), with upstream's warning."""
+    with caplog.at_level(logging.WARNING, logger="armando_drake.control.controllers"):
+        h = upstream_harness(cmd_timeout=1.0, goal_time=2.0)
+    assert "Command timeout must be higher than goal_time tolerance (1.000000 vs. 2.000000)" in (
+        caplog.text
+    )
+    # Off: far from the goal (goal tolerance 0.01) 1.5 s after the end nothing times out,
+    # and goal_time aborts it after 2 s.
+    h2 = upstream_harness(cmd_timeout=1.0, goal_time=2.0, goal_tolerance={"j0": 0.01})
+    start = h2.publish(points_message(0.25, [[5.0, 2.1, 3.1]]))
+    h2.advance(start + 0.25 + 1.5)
+    assert h2.status.state == "executing"
+    h2.advance(start + 0.25 + 2.1)
+    assert h2.status.last_error.startswith("goal tolerance violated")
+    assert h.status.state == "idle"
+
+
+def test_accept_correct_cmd_timeout():
+    """cmd_timeout 3.0 with goal_time 2.0 is kept; here it never fires first, goal_time
+    does (so it is observed only through the absence of the warning)."""
+    controller = JointTrajectoryController(
+        name="ctl",
+        joints=ControllerJoints.make(NAMES),
+        params=JointTrajectoryControllerParams(joints=list(NAMES), cmd_timeout=3.0, goal_time=2.0),
+    )
+    assert controller._cmd_timeout == 3.0  # upstream's get_cmd_timeout()
+
+
+@pytest.mark.parametrize("case", ALL_CASES, ids=case_id)
+def test_timeout(case):
+    """cmd_timeout 0.1, kp 1, three points 0.25 s apart with velocities. After 0.75 s the
+    trajectory is still running. Upstream's topic path then, 0.1 s after the end, replaces
+    it with a hold of the measured position (zero velocity) whether or not the goal is
+    reached. Ours (README: a goal reached on the topic is reported succeeded and the last
+    point held, as for an action goal, whose success upstream holds too): with no goal
+    tolerance and constraints.stopped_velocity_tolerance 0 (the fixture's) the goal is
+    reached at the end and the last point held, so cmd_timeout, which only fires on a
+    goal not reached (test_timeout_not_at_the_goal), does not follow. With position
+    commands the commanded positions are upstream's (the last point); upstream's zero
+    velocity command and, with the PID, its hold at 1.1, 2.1, 3.1 are not."""
+    commands, states = case
+    h = upstream_harness(commands, states, p=1.0, cmd_timeout=0.1)
+    start = h.publish(points_message(0.25, THREE_POINTS, THREE_VELOCITIES))
+    h.advance(start + 0.75 - 2 * PERIOD)
+    assert h.status.state == "executing"
+    h.advance(start + 1.0)
+    assert h.status.state == "succeeded"
+    np.testing.assert_allclose(h.desired[:3], THREE_POINTS[2], atol=COMMON_THRESHOLD)
+    if "position" in commands:
+        np.testing.assert_allclose(h.desired[3:], THREE_VELOCITIES[2], atol=1e-12)
+
+
+@pytest.mark.parametrize("case", PID_CASES, ids=case_id)
+def test_timeout_with_the_pid_not_at_the_goal(case):
+    """test_timeout's PID instantiations with a goal tolerance (0.1) the arm, left at 1.1,
+    2.1, 3.1, does not reach: 0.1 s after the end the measured position is held, every
+    command 0 (upstream's expectCommandPoint(INITIAL_POS_JOINTS))."""
+    commands, states = case
+    tolerance = {name: 0.1 for name in NAMES}
+    h = upstream_harness(commands, states, p=1.0, cmd_timeout=0.1, goal_tolerance=tolerance)
+    start = h.publish(points_message(0.25, THREE_POINTS, THREE_VELOCITIES))
+    h.advance(start + 0.75 - 2 * PERIOD)
+    assert h.status.state == "executing"
+    h.advance(start + 1.0)
+    assert h.status.state == "aborted"
+    assert h.status.last_error.startswith("Aborted due to command timeout")
+    expect_command_point(h, commands, INITIAL_POS_JOINTS)
+
+
+def test_no_jump_when_state_tracking_error_not_updated():
+    """open_loop_control: with the measured position 0.3 behind the command, the next
+    trajectory starts from the last command (no jump back), on to 6.6, then back to 3.3."""
+    h = upstream_harness(open_loop_control=True)
+    first, second = [3.3, 4.4, 5.5], [6.6, 8.8, 11.0]
+    trajectory_frac = 0.01 / 1.0
+    start = h.publish(points_message(1.0, [first]))
+    h.advance(start + 1.1)
+    np.testing.assert_allclose(h.desired[0], first[0], atol=COMMON_THRESHOLD)
+    h.set_measured(np.array([first[0] - 0.3, *INITIAL_POS_JOINTS[1:]]))
+    for goal, previous in ((second, first), (first, second)):
+        start = h.publish(points_message(1.0, [goal]))
+        h.advance(start)
+        low, high = sorted((previous[0], goal[0]))
+        np.testing.assert_allclose(
+            h.desired[0],
+            previous[0] + (goal[0] - previous[0]) * trajectory_frac,
+            atol=COMMON_THRESHOLD,
+        )
+        for _ in range(3):
+            assert low < h.desired[0] < high
+            h.step()
+        h.advance(start + 1.1)
+        np.testing.assert_allclose(h.desired[0], goal[0], atol=COMMON_THRESHOLD)
+        h.set_measured(np.array([goal[0] - 0.3, *INITIAL_POS_JOINTS[1:]]))
+
+
+@pytest.mark.parametrize("case", POSITION_CASES, ids=case_id)
+def test_correct_initialization_using_parameters(case):
+    """After activation the commands are 1.1, 2.1, 3.1; three points 0.25 s apart (with
+    velocities): at 0.25 s the command is within 0.05 of the first point. (Deactivation
+    and cleanup are not modelled.)"""
+    commands, states = case
+    h = upstream_harness(commands, states)
+    np.testing.assert_array_equal(h.desired[:3], INITIAL_POS_JOINTS)
+    start = h.publish(points_message(0.25, THREE, THREE_VELOCITIES))
+    h.advance(start + 0.25 - PERIOD)
+    np.testing.assert_allclose(h.desired[:3], THREE[0], atol=0.05)
+
+
+@pytest.mark.parametrize(
+    "commands, states",
+    [
+        ([], ["position"]),
+        (["bad_name"], ["position"]),
+        (["effort", "position"], ["position"]),
+        (["velocity", "acceleration"], ["position"]),
+        (["acceleration"], ["position"]),
+        (["position"], []),
+        (["position"], ["effort"]),
+        (["position"], ["bad_name"]),
+        (["position"], ["velocity"]),
+        (["position"], ["velocity", "acceleration"]),
+        (["position"], ["acceleration"]),
+        (["velocity"], ["position"]),
+        (["velocity"], ["velocity"]),
+        (["effort"], ["position"]),
+        (["effort"], ["velocity"]),
+    ],
+)
+def test_incorrect_initialization_using_interface_parameters(commands, states):
+    """Each combination upstream refuses at init or configure is refused at loading, with
+    an error naming the parameter. (Upstream's state cases keep the command interfaces of
+    its previous case; here the other side is a valid [position].)"""
+    text = CONFIG.replace(
+        "    command_interfaces: [position]\n    state_interfaces: [position, velocity]\n",
+        f"    command_interfaces: {json_list(commands)}\n"
+        f"    state_interfaces: {json_list(states)}\n",
+    )
+    with pytest.raises(ControllerConfigError) as error:
+        parse_controller_config(yaml.safe_load(text), "c.yaml")
+    assert "_interfaces" in str(error.value)
+
+
+def json_list(values):
+    return "[" + ", ".join(values) + "]"
 
 
 # ----------------------------------------------------------------------------------------------
