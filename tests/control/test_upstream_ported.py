@@ -91,6 +91,10 @@ def test_sample_trajectory_positions():
     sample = traj.sample(TIME_NOW + 3.125)  # past the given points
     assert sample.segment == (2, 3)
     assert sample.positions[0] == pytest.approx(3.0, abs=EPS)
+    # Long past them (upstream: 30 s, the same end point).
+    sample = traj.sample(TIME_NOW + 30.0)
+    assert sample.segment == (2, 3)
+    assert sample.positions[0] == pytest.approx(3.0, abs=EPS)
 
 
 def test_interpolation_pos_vel():
@@ -209,6 +213,58 @@ def test_skip_interpolation():
     assert traj.sample(TIME_NOW - 0.5) is None
     assert traj.sample(TIME_NOW + 0.5).segment == (0, 0)
     assert traj.sample(TIME_NOW + 1.0).segment == (0, 1)
+
+
+def test_fill_point_before_with_same_degree_as_traj():
+    """Points with positions, velocities and accelerations, the state before with a
+    position alone: quintic, so at the start velocity and acceleration are 0."""
+    message = one_joint(
+        message_point(1.0, [1.0], [0.0], [0.0]), message_point(2.0, [2.0], [0.0], [0.0])
+    )
+    traj = SampledTrajectory.from_message(message, time=TIME_NOW, positions=[0.0])
+    sample = traj.sample(TIME_NOW)
+    assert sample.segment == (0, 0)
+    assert (sample.positions[0], sample.velocities[0], sample.accelerations[0]) == pytest.approx(
+        (0.0, 0.0, 0.0), abs=EPS
+    )
+
+
+def test_update_trajectory():
+    """Upstream's Trajectory::update replaces the message of a trajectory object and keeps
+    its state before; ours are immutable, and a new message makes a new SampledTrajectory
+    from the same state before: sampled as upstream's updated one."""
+    p1, p2, p3 = (message_point(t, [float(t)]) for t in (1.0, 2.0, 3.0))
+    first = SampledTrajectory.from_message(one_joint(p1, p2, p3), time=TIME_NOW, positions=[0.0])
+    first.sample(TIME_NOW)
+    assert first.sample(TIME_NOW + 2.5).segment == (1, 2)
+    traj = SampledTrajectory.from_message(one_joint(p1, p2, p3), time=TIME_NOW, positions=[0.0])
+    sample = traj.sample(TIME_NOW)
+    assert sample.segment == (0, 0)
+    assert sample.positions[0] == pytest.approx(0.0, abs=EPS)
+    assert sample.velocities[0] == pytest.approx(1.0 - 0.0, abs=EPS)
+    assert sample.accelerations[0] == pytest.approx(0.0, abs=EPS)
+    sample = traj.sample(TIME_NOW + 1.5)
+    assert sample.segment == (0, 1)
+    assert sample.positions[0] == pytest.approx((1.0 + 2.0) / 2, abs=EPS)
+
+
+def test_sample_velocity_only_skipped_last_segment_deduces_positions():
+    """Regression test of upstream's #2282: p1 (position 0, velocity 1, also the state
+    before), then velocity-only points at 2 s and 2.001 s; sampled at 1.5 s and then past
+    the end, the sample has a position (here 0 + 1 * 1 + 1 * 0.001: the velocities
+    integrated, deduce_from_derivatives)."""
+    p1 = message_point(1.0, [0.0], [1.0])
+    p2 = message_point(2.0, velocities=[1.0])
+    p3 = message_point(2.001, velocities=[1.0])
+    traj = SampledTrajectory.from_message(
+        one_joint(p1, p2, p3), time=TIME_NOW, positions=[0.0], velocities=[1.0]
+    )
+    traj.sample(TIME_NOW)
+    assert len(traj.sample(TIME_NOW + 1.5).positions) == 1
+    sample = traj.sample(TIME_NOW + 3.0)
+    assert sample is not None
+    assert len(sample.positions) == 1
+    assert sample.positions[0] == pytest.approx(1.0 + 0.001, abs=EPS)
 
 
 # ----------------------------------------------------------------------------------------------
