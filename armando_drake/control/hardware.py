@@ -53,6 +53,9 @@ class HardwareJoint:
     initial_position: float  # [rad]
     command_interface: str = "position"  # position | velocity | effort
     velocity: float = np.inf  # [rad/s] URDF velocity limit (inf: none)
+    # Whether the URDF joint is continuous (upstream's trajectory controller wraps its
+    # position errors into [-pi, pi]).
+    continuous: bool = False
 
 
 @dataclass
@@ -190,6 +193,7 @@ def AddHardwareInterface(
                 initial_position=q0,
                 command_interface=interface,
                 velocity=velocity,
+                continuous=info.type == "continuous",
             )
         )
     return HardwareInterface(

@@ -667,6 +667,7 @@ def _managed_controller(world: World, controller: ControllerConfig, joints) -> M
             velocity=[joint.velocity for joint in rows],
             effort=[joint.effort for joint in rows],
             initial_positions=[joint.initial_position for joint in rows],
+            continuous=[joint.continuous for joint in rows],
         ),
         params=controller.params,
     )

@@ -37,7 +37,6 @@ Not ported, and why:
   sample_velocity_only_all_segments_skipped_returns_false: an empty trajectory, or one
   whose state before has no positions, never reaches our sampler (empty trajectories are
   rejected; the state before always has the measured or commanded positions).
-  TestWrapAroundJoint (angle_wraparound of continuous joints; README: not wrapped),
   fill_cubic_spline_velocities_* and sample_after_fill_is_smooth_not_staircase (rolling,
   not Jazzy), test_execute_partial_traj_in_future's body (disabled upstream: it returns
   before its assertions; our port asserts the future stamp's first segment instead).
@@ -73,6 +72,7 @@ from armando_drake.control.controllers.joint_trajectory import (
     JointTrajectoryControllerParams,
     SampledTrajectory,
     interpolate_between_points,
+    wraparound_joint,
 )
 from armando_drake.control.manager import ControllerManager, ManagedController
 from armando_drake.control.messages import (
@@ -304,6 +304,33 @@ def test_sample_velocity_only_skipped_last_segment_deduces_positions():
     assert sample is not None
     assert len(sample.positions) == 1
     assert sample.positions[0] == pytest.approx(1.0 + 0.001, abs=EPS)
+
+
+# TestWrapAroundJoint (test_trajectory.cpp): wraparound_joint moves the state before the
+# trajectory of each continuous joint to within pi of the first point.
+
+WRAP_INITIAL = [0.0, 0.0, 0.0]
+WRAP_NEXT = [math.pi * 3.0 / 2.0] * 3
+
+
+def test_no_wraparound():
+    current = wraparound_joint(WRAP_INITIAL, WRAP_NEXT, [False, False, False])
+    assert current.tolist() == WRAP_INITIAL
+
+
+def test_wraparound_single_joint():
+    current = wraparound_joint(WRAP_INITIAL, WRAP_NEXT, [True, False, False])
+    assert current.tolist() == [WRAP_INITIAL[0] + 2 * math.pi, WRAP_INITIAL[1], WRAP_INITIAL[2]]
+
+
+def test_wraparound_all_joints():
+    current = wraparound_joint(WRAP_INITIAL, WRAP_NEXT, [True, True, True])
+    assert current.tolist() == [q + 2 * math.pi for q in WRAP_INITIAL]
+
+
+def test_wraparound_all_joints_no_offset():
+    current = wraparound_joint(WRAP_NEXT, WRAP_NEXT, [True, True, True])
+    assert current.tolist() == WRAP_NEXT
 
 
 # ----------------------------------------------------------------------------------------------

@@ -239,10 +239,17 @@ class ControllerJoints:
     velocity: np.ndarray  # [rad/s] velocity limits (n); inf = none
     effort: np.ndarray  # [N m] effort limits (n); inf = none
     initial_positions: np.ndarray  # [rad] positions held until the first command (n)
+    # Whether each joint is continuous in the robot description (n), or () for none.
+    continuous: tuple[bool, ...] = ()
 
     @property
     def n(self) -> int:
         return len(self.names)
+
+    @property
+    def wraparound(self) -> np.ndarray:
+        """Per joint whether it is continuous (upstream's ``joints_angle_wraparound_``)."""
+        return np.array(self.continuous or (False,) * self.n, dtype=bool)
 
     @staticmethod
     def make(
@@ -253,6 +260,7 @@ class ControllerJoints:
         velocity: Sequence[float] | None = None,
         effort: Sequence[float] | None = None,
         initial_positions: Sequence[float] | None = None,
+        continuous: Sequence[bool] | None = None,
     ) -> ControllerJoints:
         """Checked joints: names non-empty and unique, limits intervals, initial
         positions finite (clamped into the limits, with a warning)."""
@@ -293,7 +301,10 @@ class ControllerJoints:
                         name,
                         inside,
                     )
-        return ControllerJoints(names, low, high, limits["velocity"], limits["effort"], q0)
+        wraps = (False,) * n if continuous is None else tuple(bool(c) for c in continuous)
+        if len(wraps) != n:
+            raise ValueError(f"continuous={continuous!r} must have {n} values")
+        return ControllerJoints(names, low, high, limits["velocity"], limits["effort"], q0, wraps)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -382,6 +382,30 @@ def _deduce_from_derivatives(a: _Point, b: _Point) -> None:
     b.positions = a.positions + (a.velocities + b.velocities) * 0.5 * dt
 
 
+def shortest_angular_distance(start, end) -> np.ndarray:
+    """[rad] ROS angles' ``shortest_angular_distance(start, end)``: ``end - start``
+    normalized into (-pi, pi] (``normalize_angle``: fmod(a + pi, 2 pi), shifted back)."""
+    angle = np.asarray(end, dtype=float) - np.asarray(start, dtype=float)
+    result = np.fmod(angle + math.pi, 2.0 * math.pi)
+    return np.where(result <= 0.0, result + math.pi, result - math.pi)
+
+
+def wraparound_joint(current, next_positions, wraparound) -> np.ndarray:
+    """Upstream's ``wraparound_joint``: ``current`` [rad] with each joint flagged in
+    ``wraparound`` moved by a multiple of 2 pi to within pi of ``next_positions`` (the first
+    point), so a continuous joint's first segment is its shortest rotation; at exactly pi
+    away (within 1e-9) the distance takes the sign of ``next - current``."""
+    current = np.array(current, dtype=float)
+    mask = np.asarray(wraparound, dtype=bool)
+    if not mask.any():
+        return current
+    target = np.asarray(next_positions, dtype=float)
+    distance = shortest_angular_distance(current, target)
+    tie = np.abs(np.abs(distance) - math.pi) < 1e-9
+    distance = np.where(tie, np.where(target > current, 1.0, -1.0) * np.abs(distance), distance)
+    return np.where(mask, target - distance, current)
+
+
 @dataclasses.dataclass(frozen=True)
 class TrajectorySample:
     """What upstream's ``Trajectory::sample`` returns, in controller joint order."""
@@ -505,11 +529,13 @@ class SampledTrajectory:
         accelerations=None,
         effort=None,
         interpolation_method: str = "splines",
+        wraparound=None,
     ) -> "SampledTrajectory":
         """Upstream's ``Trajectory(current_time, current_point, msg)`` first sampled at
         ``time`` [s] (the start, when the message's stamp is 0): ``message`` (its joints in
         the controller's order) from the state before it, ``positions`` [rad] and, when
-        given, ``velocities`` [rad/s], ``accelerations`` [rad/s^2] and ``effort`` [N m]."""
+        given, ``velocities`` [rad/s], ``accelerations`` [rad/s^2] and ``effort`` [N m];
+        ``wraparound`` flags the continuous joints (upstream's ``joints_angle_wraparound``)."""
         start = message.stamp if message.stamp != 0.0 else time
 
         def array(values):
@@ -529,7 +555,7 @@ class SampledTrajectory:
             time, array(positions), array(velocities), array(accelerations), array(effort)
         )
         return SampledTrajectory.build(
-            before, points, interpolate=interpolation_method == "splines"
+            before, points, interpolate=interpolation_method == "splines", wraparound=wraparound
         )
 
     @staticmethod
@@ -547,10 +573,14 @@ class SampledTrajectory:
         return SampledTrajectory((), table, -math.inf, final, final_effort=effort)
 
     @staticmethod
-    def build(before: _Point, points: list[_Point], *, interpolate: bool) -> "SampledTrajectory":
+    def build(
+        before: _Point, points: list[_Point], *, interpolate: bool, wraparound=None
+    ) -> "SampledTrajectory":
         """The trajectory through ``points`` (controller order, absolute times) that
         starts from ``before``, the state before the trajectory at the update that
-        first samples it. ``points`` are not changed."""
+        first samples it; the joints flagged in ``wraparound`` (continuous) start from
+        the representation of ``before``'s position nearest the first point's
+        (``wraparound_joint``). ``points`` are not changed."""
         points = [dataclasses.replace(point) for point in points]
         before = dataclasses.replace(before)
         first = points[0]
@@ -559,6 +589,8 @@ class SampledTrajectory:
             before.velocities = np.zeros(len(before.positions))
         if before.accelerations is None and first.accelerations is not None:
             before.accelerations = np.zeros(len(before.positions))
+        if wraparound is not None and first.positions is not None:
+            before.positions = wraparound_joint(before.positions, first.positions, wraparound)
         knots = [before, *points] if first.time > before.time else points
         for a, b in zip(knots[:-1], knots[1:], strict=True):
             _deduce_from_derivatives(a, b)
@@ -720,6 +752,11 @@ class JointTrajectoryController(Controller):
         self._goal_tolerance = np.array([params.goal_tolerance.get(name, 0.0) for name in names])
         # [rad] the tolerances as bounds to compare with (inf where unchecked).
         self._path_limit = np.where(self._path_tolerance > 0, self._path_tolerance, np.inf)
+        # Upstream's joints_angle_wraparound_: the continuous joints (from the robot
+        # description), whose position errors are wrapped into (-pi, pi] and whose
+        # trajectories start from the nearest representation of the state before.
+        self._wraparound = joints.wraparound
+        self._wraps = bool(self._wraparound.any())
         self._goal_limit = np.where(self._goal_tolerance > 0, self._goal_tolerance, np.inf)
         # Upstream's velocity error exists only with a velocity state interface and a
         # velocity or effort command interface; else stopped_velocity_tolerance is moot.
@@ -831,7 +868,7 @@ class JointTrajectoryController(Controller):
         else:
             reference = tracked.trajectory.final[: 2 * n]
         gains = self._pid
-        error, error_dot = reference[:n] - q, reference[n:] - v
+        error, error_dot = self._Error(reference[:n], q), reference[n:] - v
         integral = state.integral + gains["i"] * self.update_period * error
         integral_term = np.clip(integral, -gains["i_clamp"], gains["i_clamp"])
         # The effort sampled at t + dt (command_next_.effort), fed forward only with the
@@ -982,6 +1019,14 @@ class JointTrajectoryController(Controller):
         accelerations = np.zeros(n) if self._measured_acceleration else None
         return _Point(now, q.copy(), velocities, accelerations, effort)
 
+    def _Error(self, desired: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """[rad] upstream's compute_error_for_joint position error ``desired - q``, the
+        shortest angular distance for continuous joints."""
+        error = desired - q
+        if self._wraps:
+            error = np.where(self._wraparound, shortest_angular_distance(q, desired), error)
+        return error
+
     def _Command(self, x: np.ndarray) -> np.ndarray:
         """[q_d; v_d] written to the hardware: positions clamped into the joint limits; a
         clamped joint's (and a non-finite) desired velocity is 0: a spline through a point
@@ -1006,7 +1051,7 @@ class JointTrajectoryController(Controller):
             if not trajectory.ended(ahead):
                 x_d = reference[1] if abs(reference[0] - now) < 1e-9 else trajectory.state(now)
                 q, _ = measure(memory.desired)
-                if not (np.abs(q - x_d[: self.n]) > self._path_limit).any():
+                if not (np.abs(self._Error(x_d[: self.n], q)) > self._path_limit).any():
                     x_next = trajectory.state(ahead)
                     return ControllerMemory(
                         self._Command(x_next), memory.status, trajectory, reference=(ahead, x_next)
@@ -1024,7 +1069,12 @@ class JointTrajectoryController(Controller):
             else:
                 points = self._Points(message, indices, now, desired)
                 before = self._Before(now, memory, q, v)
-                trajectory = SampledTrajectory.build(before, points, interpolate=self._interpolate)
+                trajectory = SampledTrajectory.build(
+                    before,
+                    points,
+                    interpolate=self._interpolate,
+                    wraparound=self._wraparound if self._wraps else None,
+                )
                 first_sample = True
                 detail = {"start_time": trajectory.breaks[0], "end_time": trajectory.end_time}
                 outside = [
@@ -1057,7 +1107,7 @@ class JointTrajectoryController(Controller):
         )
         ended = trajectory.ended(ahead)
         x_next = trajectory.state(ahead)
-        error = np.abs(x_now[:n] - q)
+        error = np.abs(self._Error(x_now[:n], q))
         outcome = None
         if (not ended or first_sample) and (error > self._path_limit).any():
             j = int(np.argmax(error > self._path_limit))
