@@ -90,7 +90,8 @@ class JointGains:
     ff_velocity_scale: float = 0.0
     # Normalize the position error into [-pi, pi] (deprecated upstream).
     normalize_error: bool = False
-    # Normalize the position error into [-pi, pi] (deprecated upstream).
+    # Normalize the position error into [-pi, pi] (deprecated upstream: Jazzy wraps the
+    # URDF's continuous joints).
     angle_wraparound: bool = False
     # [command unit] upper bound of the integral term (newer control_toolbox).
     i_clamp_max: float = math.inf
