@@ -275,11 +275,13 @@ def main(argv: list[str] | None = None) -> int:
 
         if args.record:
             _check_record(args.record)
+        if args.output:
+            _check_output(args.output)
+        if args.save_frames:
+            _check_output(args.save_frames, "--save-frames")
         meshcat = None
         if not args.no_meshcat:
             meshcat = start_meshcat(args.host)
-        if args.output:
-            _check_output(args.output)
         result = run(
             scenario,
             scenario_name=str(path),
@@ -367,7 +369,8 @@ def _check_record(record: str) -> None:
         raise UserError(str(error)) from None
 
 
-def _check_output(output: str) -> None:
+def _check_output(output: str, option: str = "--output") -> None:
+    """``output`` is a folder (made if missing) where files can be written."""
     from pathlib import Path
 
     path = Path(output)
@@ -377,7 +380,7 @@ def _check_output(output: str) -> None:
         probe.write_text("")
         probe.unlink()
     except OSError as error:
-        raise UserError(f"--output {output}: cannot write there: {error.strerror}") from None
+        raise UserError(f"{option} {output}: cannot write there: {error.strerror}") from None
 
 
 if __name__ == "__main__":

@@ -451,6 +451,11 @@ def load_controller_config(path: str | Path) -> ControllerManagerConfig:
         where = f"{path}:{mark.line + 1}" if mark is not None else str(path)
         problem = getattr(error, "problem", None) or str(error)
         raise ControllerConfigError(f"{where}: not valid YAML: {problem}") from None
+    from armando_drake.tools.yaml_keys import duplicate_key
+
+    found = duplicate_key(text)
+    if found is not None:
+        raise ControllerConfigError(f"{path}:{found[0]}: {found[1]}")
     return parse_controller_config(data, str(path))
 
 

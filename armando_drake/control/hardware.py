@@ -151,6 +151,17 @@ def AddHardwareInterface(
         state = component.state_interface("position") if component else None
         lower, upper = merge_limits(info.lower, info.upper, command)
         q0 = initial_position(lower, upper, state)
+        given = state.initial_value if state is not None else None
+        if given is not None and given != q0:
+            _log.warning(
+                "%s: joint '%s': initial_value %g is outside its limits [%g, %g]; it starts at %g",
+                robot.source,
+                joint_name,
+                given,
+                lower,
+                upper,
+                q0,
+            )
         joint = plant.GetJointByName(joint_name, robot.model_instance)
         joint.set_default_positions([q0])
         # Actuators the parser made (e.g. from a <transmission>); the per-instance

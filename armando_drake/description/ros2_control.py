@@ -200,6 +200,7 @@ def parse_ros2_control(root: ET.Element, source: str = "") -> list[HardwareInfo]
         raise Ros2ControlError(f"{where}not a URDF: the root element is <{root.tag}>")
     urdf_joints = {j.get("name"): j.get("type") for j in root.findall("joint")}
     blocks = []
+    claimed: dict[str, str] = {}  # joint -> the block that gave it first
     for block in root.findall("ros2_control"):
         name = _attribute(block, "name", where)
         kind = _attribute(block, "type", where)
@@ -251,6 +252,13 @@ def parse_ros2_control(root: ET.Element, source: str = "") -> list[HardwareInfo]
                         f"{where}<ros2_control name='{name}'>: Joint '{joint.name}' is fixed "
                         "and cannot be controlled"
                     )
+                if joint.name in claimed:
+                    raise Ros2ControlError(
+                        f"{where}<ros2_control name='{name}'>: joint '{joint.name}' is given "
+                        f"twice (also in <ros2_control name='{claimed[joint.name]}'>): its "
+                        "interfaces can be registered once only"
+                    )
+                claimed[joint.name] = name
                 info.joints.append(joint)
             elif child.tag == "sensor":
                 info.sensors.append(_component(child, where))

@@ -385,6 +385,7 @@ def merge_overrides(scenario: Scenario, overrides, label: str = "--set") -> Scen
     """
     sources = sources_of(scenario)
     for override in [overrides] if isinstance(overrides, str) else overrides:
+        _refuse_duplicate_keys(override, f"{label} {override!r}")
         try:
             scenario = _merge(scenario, override)
             keys = _leaf_keys(yaml_load(data=override))
@@ -394,6 +395,22 @@ def merge_overrides(scenario: Scenario, overrides, label: str = "--set") -> Scen
             sources.note(key, f"{label} {override!r}")
     scenario.__dict__["_sources"] = sources
     return scenario
+
+
+def _refuse_duplicate_keys(text: str, where: str) -> None:
+    """A key given twice in one mapping is an error (the loader would keep the last);
+    ``where`` is the file (the message gives ``file:line``) or the override."""
+    from armando_drake.tools.yaml_keys import duplicate_key
+
+    found = duplicate_key(text)
+    if found is not None:
+        line, problem = found
+        at = (
+            f":{line}"
+            if "\n" in text.strip() or not where.startswith(("--set", "override"))
+            else ""
+        )
+        raise ScenarioError(f"{where}{at}: {problem}")
 
 
 def load_scenario(
@@ -406,6 +423,7 @@ def load_scenario(
         if filename is not None:
             path = resolve_scenario_path(filename)
             source = str(path)
+            _refuse_duplicate_keys(path.read_text(encoding="utf-8"), source)
             scenario = yaml_load_typed(filename=str(path), defaults=scenario)
         if overrides:
             scenario = merge_overrides(scenario, overrides, label="override")

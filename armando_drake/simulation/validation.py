@@ -47,6 +47,9 @@ MIN_REALTIME_RATE = 1e-3
 # [s] the longest run taken from the sequence itself (no simulation.duration or
 # --duration given): one pass of a sequence longer than this is surely a typo.
 MAX_DEFAULT_DURATION = 3600.0
+# [s] the longest run accepted at all (about 11.6 simulated days): longer, the
+# run would not end in any useful time, as fast as it may go.
+MAX_DURATION = 1e6
 
 # Names with a fixed set of choices: dotted key -> the choices.
 CHOICES = {
@@ -78,6 +81,7 @@ RANGES = {
     "simulator_config.accuracy": POSITIVE,
     "simulator_config.target_realtime_rate": NON_NEGATIVE,
     "visualization.publish_period": POSITIVE,
+    "simulation.duration": NON_NEGATIVE,
     "task.duration": POSITIVE,
     "task.radius": POSITIVE,
     "task.acceleration_time": POSITIVE,
@@ -186,6 +190,13 @@ def _check_bounded(scenario: Scenario) -> None:
     ]:
         if rate > plant_rate * (1 + 1e-9):
             raise _fail(scenario, key, f"={rate!r} Hz is above the plant's rate {plant_rate:g} Hz")
+    if scenario.simulation.duration > MAX_DURATION:
+        raise _fail(
+            scenario,
+            "simulation.duration",
+            f"={scenario.simulation.duration!r} s is over {MAX_DURATION:g} s "
+            f"({MAX_DURATION / 86400:.1f} simulated days)",
+        )
     if scenario.simulation.duration <= 0:
         from armando_drake.simulation.run import default_duration
 

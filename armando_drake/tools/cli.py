@@ -252,7 +252,10 @@ def _exit_interrupted(message: str) -> NoReturn:
     """Prints ``message`` and exits 130 at once. pydrake runs part of its start-up through
     pybind11's exec, which marks a KeyboardInterrupt raised there as unhandled: Python
     would then end the process by SIGINT (exit -2) whatever it exits with. What a run
-    keeps (logs, summary) is written before a KeyboardInterrupt gets here."""
+    keeps (logs, summary) is written before a KeyboardInterrupt gets here. A further
+    Ctrl-C from here on is ignored."""
+    with contextlib.suppress(ValueError):  # not the main thread
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
     print(message, file=sys.stderr)
     sys.stdout.flush()
     sys.stderr.flush()
@@ -275,7 +278,8 @@ def user_errors() -> Iterator[None]:
 
     def on_sigint(signum, frame):
         interrupted.append(signum)
-        raise KeyboardInterrupt
+        if len(interrupted) == 1:  # the first stops the command; later ones only count
+            raise KeyboardInterrupt
 
     try:
         # pydrake's C++ start-up, cut by a Ctrl-C, logs a stack dump: it is let finish.

@@ -154,6 +154,17 @@ SCENARIO_CASES = [
         [*set_("controllers: {activate: [nope]}")],
         ["'nope'", "--set 'controllers"],
     ),
+    (
+        "duration-huge",
+        ["--duration", "1e300"],
+        ["simulation.duration=1e+300 s is over", "--duration"],
+    ),
+    (
+        "duplicate-key-in-set",
+        [*set_("{actuators: {kp: 3, kp: 4}}")],
+        ["key 'kp' is given twice", "--set '{actuators"],
+    ),
+    ("save-frames-on-a-file", ["--save-frames", "/etc/passwd"], ["--save-frames /etc/passwd"]),
 ]
 
 
@@ -164,6 +175,40 @@ def test_a_bad_scenario_value_is_one_line_naming_its_source(args, needles, capsy
     code, _, err = run_main(*args, capsys=capsys)
     assert code == 2, err
     assert_one_line(err, *needles)
+
+
+@pytest.mark.parametrize(
+    "duration, needle",
+    [("-1", "simulation.duration=-1.0 must be zero or positive"), ("1e300", "1e+300 s is over")],
+)
+def test_a_bad_duration_in_a_set_is_refused(duration, needle, capsys):
+    """(--duration, which FAST gives, would win over the --set: run without it.)"""
+    override = f"simulation: {{duration: {duration}}}"
+    try:
+        code = world.main([*FAST[:3], "--quiet", "--set", override])
+    except SystemExit as end:
+        code = end.code
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert_one_line(err, needle, f"--set {override!r}")
+
+
+def test_a_key_given_twice_in_a_scenario_file_names_the_file_and_line(tmp_path, capsys):
+    scenario = tmp_path / "twice.yaml"
+    scenario.write_text("actuators:\n  kp: 8.0\n  kp: 9.0\n")
+    code, _, err = run_main("--scenario", str(scenario), capsys=capsys)
+    assert code == 2, err
+    assert_one_line(err, f"{scenario}:3:", "key 'kp' is given twice (first at line 2)")
+
+
+def test_an_initial_value_outside_the_limits_is_clamped_with_a_warning(capsys, caplog):
+    code, out, err = run_main("--set", "robot: {xacro_args: {initial_j1: '50'}}", capsys=capsys)
+    assert code == 0, err
+    warnings = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert any(
+        "joint 'j1': initial_value 50 is outside its limits [-3.14, 3.14]; it starts at 3.14" in w
+        for w in warnings
+    ), warnings
 
 
 def test_a_value_from_the_file_names_the_file(tmp_path, capsys):
@@ -225,6 +270,13 @@ CONTROLLER_CASES = [
     ("update-rate-above-plant", controllers_yaml(update_rate="5000"), ["1/5000 s"]),
     ("unknown-joint", controllers_yaml(joints="[j0, j9]"), ["unknown joint 'j9'"]),
     ("a-list", "- 1\n- 2\n", ["expected a mapping"]),
+    (
+        "duplicate-key",
+        controllers_yaml().replace(
+            "update_rate: 100", "update_rate: 100\n" + " " * 12 + "update_rate: 50"
+        ),
+        ["key 'update_rate' is given twice"],
+    ),
 ]
 
 
@@ -275,6 +327,17 @@ DESCRIPTION_CASES = [
             + "</ros2_control>",
         ),
         ["initial_value='nan'", "q1"],
+    ),
+    (
+        "duplicate-ros2-control-joint",
+        URDF.replace(
+            "EXTRA",
+            f'<ros2_control name="hw" type="system">{HARDWARE}'
+            + JOINT.format("q1", "")
+            + JOINT.format("q1", "")
+            + "</ros2_control>",
+        ),
+        ["joint 'q1' is given twice"],
     ),
     ("bad-number", URDF.replace('lower="-2"', 'lower="abc"'), ["joint 'q1'", "'abc'"]),
     ("truncated", URDF[:300], ["not valid XML"]),
