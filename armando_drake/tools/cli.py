@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import ipaddress
 import os
+import shlex
 import signal
+import socket
 import sys
 import traceback
 from collections.abc import Iterable, Iterator
@@ -77,35 +80,122 @@ def add_scenario_arguments(parser) -> None:
     add_description_arguments(parser, default="the scenario's, i.e. the built-in Armando")
 
 
+LOOPBACK = "127.0.0.1"
+
+
 def add_host_argument(parser) -> None:
-    """``--host ADDRESS``: where Meshcat listens; this machine only by default."""
+    """``--host ADDRESS``: where Meshcat and the camera view listen; this machine only by
+    default (see :func:`check_host`)."""
     parser.add_argument(
         "--host",
-        default="127.0.0.1",
+        default=LOOPBACK,
         metavar="ADDRESS",
-        help="address Meshcat listens on (default 127.0.0.1: this machine only; 0.0.0.0 "
-        "opens it to every network interface)",
+        help="address Meshcat and the camera view listen on: an IP address of this machine "
+        "or localhost (default 127.0.0.1: this machine only; 0.0.0.0 or :: opens them to "
+        "every network interface)",
     )
 
 
+def check_host(host: str) -> str:
+    """``--host``'s address, checked before any server starts: an IP address literal (IPv4
+    or IPv6) or ``localhost`` (127.0.0.1), that is an address of this machine (a throwaway
+    socket binds to it). Names are not looked up: a lookup can hang."""
+    where = f"--host {shlex.quote(host)}"
+    if host.lower() == "localhost":
+        return LOOPBACK
+    try:
+        address = ipaddress.ip_address(host)
+    except ValueError:
+        raise UserError(
+            f"{where}: not an IP address (give one of this machine's addresses, e.g. "
+            "127.0.0.1, ::1, 0.0.0.0 for every interface, or localhost; names are not "
+            "looked up)"
+        ) from None
+    if address.is_multicast or address == ipaddress.IPv4Address("255.255.255.255"):
+        raise UserError(f"{where}: a multicast or broadcast address cannot be listened on")
+    family = socket.AF_INET6 if address.version == 6 else socket.AF_INET
+    try:
+        with socket.socket(family, socket.SOCK_STREAM) as probe:
+            probe.bind((str(address), 0))
+    except OSError as error:
+        reason = error.strerror or str(error)
+        raise UserError(f"{where}: not an address of this machine ({reason})") from None
+    return str(address)
+
+
+def is_open(host: str) -> bool:
+    """Whether a server on ``host`` is reachable from other machines."""
+    try:
+        return not ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return host.lower() != "localhost"
+
+
+def _http(host: str, port: int, path: str) -> str:
+    return f"http://[{host}]:{port}{path}" if ":" in host else f"http://{host}:{port}{path}"
+
+
+def server_url(host: str, port: int, path: str = "/") -> str:
+    """The URL of a server listening on ``host``:``port``. A wildcard address (0.0.0.0,
+    ::) is no address to browse to: the machine's host name stands for it."""
+    if host in ("0.0.0.0", "::"):
+        return _http(socket.gethostname(), port, path)
+    return _http(host, port, path)
+
+
+def server_urls(host: str, port: int, path: str = "/") -> str:
+    """What the log prints for a server on ``host``:``port``: :func:`server_url`, and for a
+    wildcard address the loopback URL that works on this machine too."""
+    url = server_url(host, port, path)
+    if host in ("0.0.0.0", "::"):
+        local = _http(LOOPBACK if host == "0.0.0.0" else "::1", port, path)
+        return f"{url} (on this machine: {local})"
+    return url
+
+
+def warn_if_open(host: str, what: str) -> None:
+    """Logs that ``what`` listens on ``host``, reachable from other machines."""
+    import logging
+
+    if is_open(host):
+        logging.getLogger("armando_drake").warning(
+            "--host %s: %s is reachable from other machines", host, what
+        )
+
+
 def start_meshcat(host: str):
-    """A Meshcat server listening on ``host`` (see :func:`add_host_argument`)."""
+    """A Meshcat server listening on ``host``, checked (:func:`check_host`); its
+    ``web_url()`` is the URL that works (:func:`server_url`), ``urls()`` the log's line."""
     import logging
 
     from pydrake.geometry import Meshcat, MeshcatParams
 
-    if host not in ("127.0.0.1", "localhost", "::1"):
-        logging.getLogger("armando_drake").warning(
-            "--host %s: Meshcat is reachable from other machines", host
-        )
+    host = check_host(host)
+
+    class ServedMeshcat(Meshcat):
+        def web_url(self) -> str:
+            return server_url(host, self.port(), "")
+
+        def urls(self) -> str:
+            return server_urls(host, self.port(), "")
+
+    warn_if_open(host, "Meshcat")
     # Drake logs "Meshcat listening for connections at URL"; the run prints the URL once.
     drake_logger = logging.getLogger("drake")
     level = drake_logger.level
     drake_logger.setLevel(logging.WARNING)
     try:
-        return Meshcat(MeshcatParams(host=host))
+        meshcat = ServedMeshcat(MeshcatParams(host=host))
     finally:
         drake_logger.setLevel(level)
+    meshcat.host = host
+    return meshcat
+
+
+def meshcat_urls(meshcat) -> str:
+    """The log's line for ``meshcat``: :func:`start_meshcat`'s, or Drake's URL."""
+    urls = getattr(meshcat, "urls", None)
+    return urls() if urls is not None else meshcat.web_url()
 
 
 def interactive() -> bool:
