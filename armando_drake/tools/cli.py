@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import ipaddress
+import math
 import os
 import shlex
 import signal
@@ -30,12 +31,21 @@ class _DebugAction(argparse.Action):
         setattr(namespace, self.dest, True)
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line, as input errors are:
+    ``error: <argparse's message> (see --help)`` on stderr, exit code 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"error: {_one_line(message)} (see --help)\n")
+
+
 def command_parser(module: str, doc: str) -> argparse.ArgumentParser:
     """The argument parser of ``python -m <module>``: the first paragraph of the module's
     ``doc`` as description, the rest (usage notes, examples) as epilog, verbatim; with
-    ``--debug`` (see :func:`user_errors`)."""
+    ``--debug`` (see :func:`user_errors`). A usage error is one line (its subcommands'
+    parsers are of the same kind)."""
     description, _, epilog = doc.partition("\n\n")
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog=f"python -m {module}",
         description=description,
         epilog=epilog,
@@ -204,6 +214,30 @@ def interactive() -> bool:
 
 
 WAIT_TIMEOUT = 60.0  # [s] how long a run on a terminal waits for a browser by default
+WAIT_MAX = 3600.0  # [s] the longest --wait
+
+
+def _wait(text: str) -> float:
+    """``--wait``'s value: finite, 0 to :data:`WAIT_MAX` seconds."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
+    if not (math.isfinite(value) and 0 <= value <= WAIT_MAX):
+        raise argparse.ArgumentTypeError(
+            f"{text} must be a number of seconds from 0 to {WAIT_MAX:g}"
+        )
+    return value
+
+
+def package_folder(text: str) -> str:
+    """``--package-path``'s value: an existing folder."""
+    path = os.path.expanduser(text)
+    if not os.path.exists(path):
+        raise argparse.ArgumentTypeError(f"{text}: no such folder")
+    if not os.path.isdir(path):
+        raise argparse.ArgumentTypeError(f"{text}: not a folder")
+    return text
 
 
 def add_viewer_arguments(parser) -> None:
@@ -211,10 +245,10 @@ def add_viewer_arguments(parser) -> None:
     ``--keep-serving`` after it, for a run with Meshcat."""
     parser.add_argument(
         "--wait",
-        type=float,
+        type=_wait,
         metavar="SECONDS",
-        help="with Meshcat, wait up to SECONDS for a browser to open the page before the "
-        f"clock starts (default: {WAIT_TIMEOUT:g} on a terminal, 0 otherwise)",
+        help=f"with Meshcat, wait up to SECONDS (0 to {WAIT_MAX:g}) for a browser to open the "
+        f"page before the clock starts (default: {WAIT_TIMEOUT:g} on a terminal, 0 otherwise)",
     )
     parser.add_argument(
         "--no-wait", action="store_true", help="start at once (the same as --wait 0)"
@@ -241,8 +275,8 @@ def wait_seconds(args) -> float:
     if args.no_wait:
         return 0.0
     if args.wait is not None:
-        if not args.wait >= 0:
-            raise UserError(f"--wait {args.wait} must not be negative [s]")
+        if not (math.isfinite(args.wait) and 0 <= args.wait <= WAIT_MAX):
+            raise UserError(f"--wait {args.wait} must be from 0 to {WAIT_MAX:g} [s]")
         return args.wait
     return WAIT_TIMEOUT if interactive() else 0.0
 
@@ -263,6 +297,7 @@ def add_description_arguments(parser, default: str) -> None:
     parser.add_argument(
         "--package-path",
         action="append",
+        type=package_folder,
         default=[],
         metavar="DIR",
         help="a folder to search for ROS packages before ROS_PACKAGE_PATH (repeatable)",
