@@ -25,6 +25,7 @@ from armando_drake.tools.cli import (
     add_description_arguments,
     add_host_argument,
     command_parser,
+    meshcat_urls,
     parse_xacro_args,
     start_meshcat,
     user_errors,
@@ -103,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
                 f"Mimic: {joint.name} = {joint.mimic_multiplier:g} * {joint.mimic} "
                 f"+ {joint.mimic_offset:g} (its slider is free here; the simulation couples it)"
             )
-        print(f"Meshcat: {meshcat.web_url()}", flush=True)
+        print(f"Meshcat: {meshcat_urls(meshcat)}", flush=True)
         visualizer.Run(loop_once=args.loop_once)
     return 0
 

@@ -64,6 +64,7 @@ from armando_drake.tools.cli import (
     add_scenario_arguments,
     add_viewer_arguments,
     apply_scenario_arguments,
+    check_host,
     command_parser,
     keeps_serving,
     note_option,
@@ -108,12 +109,12 @@ def _parser() -> argparse.ArgumentParser:
         action=argparse.BooleanOptionalAction,
         default=None,
         help="turn the URDF's camera sensors into Drake RgbdSensors (with Meshcat on, "
-        "their live view is served on localhost; default: as the scenario says)",
+        "their live view is served on --host; default: as the scenario says)",
     )
     parser.add_argument(
         "--camera-view",
         action="store_true",
-        help="serve the camera's live view on localhost even with --no-meshcat (with "
+        help="serve the camera's live view on --host (127.0.0.1) even with --no-meshcat (with "
         "Meshcat on it is served anyway; implies --camera)",
     )
     parser.add_argument(
@@ -273,6 +274,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.renderer is not None:
             scenario.camera.renderer = args.renderer
 
+        host = check_host(args.host)
+        wait = wait_seconds(args)
         if args.record:
             _check_record(args.record)
         if args.output:
@@ -281,7 +284,7 @@ def main(argv: list[str] | None = None) -> int:
             _check_output(args.save_frames, "--save-frames")
         meshcat = None
         if not args.no_meshcat:
-            meshcat = start_meshcat(args.host)
+            meshcat = start_meshcat(host)
         result = run(
             scenario,
             scenario_name=str(path),
@@ -290,7 +293,8 @@ def main(argv: list[str] | None = None) -> int:
             quiet=args.quiet,
             replay=not args.no_replay,
             record=args.record,
-            wait_for_browser=0.0 if meshcat is None else wait_seconds(args),
+            wait_for_browser=0.0 if meshcat is None else wait,
+            host=host,
         )
         print(f"\n{result.headline()}")
         if result.steps:

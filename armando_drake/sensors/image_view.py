@@ -1,7 +1,7 @@
 """Live camera view in the browser (the ``rqt_image_view`` step) and frame saving.
 
-:class:`ImageViewServer` is a small HTTP server on localhost (standard library
-``http.server`` in a background thread) serving
+:class:`ImageViewServer` is a small HTTP server on 127.0.0.1 (standard library
+``http.server`` in a background thread; ``host``: where Meshcat listens, ``--host``) serving
 
 - ``/``: a page showing every camera (colour, and depth if published),
   refreshed at the camera rate, with the camera name, image size and
@@ -29,6 +29,7 @@ import io
 import json
 import logging
 import os
+import socket
 import threading
 import time as _time
 import urllib.parse
@@ -166,9 +167,15 @@ poll();
 """
 
 
+class _HTTPServer6(ThreadingHTTPServer):
+    address_family = socket.AF_INET6
+
+
 class ImageViewServer:
     """Serves the latest camera frames over HTTP on ``host:port`` (0 = any free port).
 
+    ``host``: an IP address (IPv4 or IPv6) of this machine; 127.0.0.1, this machine
+    only, by default (see :func:`armando_drake.tools.cli.check_host`).
     Starts at construction; :meth:`close` (or ``with``) stops it.
     """
 
@@ -179,7 +186,9 @@ class ImageViewServer:
         self._frames: dict[str, _Frame] = {}
         self._depth_requests: dict[str, float] = {}  # camera -> monotonic time of last ask
         self._page = _PAGE.format(title=html.escape(title)).encode()
-        self._httpd = ThreadingHTTPServer((host, port), self._handler_class())
+        self._host = host
+        server_class = _HTTPServer6 if ":" in host else ThreadingHTTPServer
+        self._httpd = server_class((host, port), self._handler_class())
         self._httpd.daemon_threads = True
         self._thread = threading.Thread(
             target=self._httpd.serve_forever, name="image-view-server", daemon=True
@@ -188,9 +197,18 @@ class ImageViewServer:
 
     @property
     def url(self) -> str:
-        """The page's address, e.g. ``http://127.0.0.1:8080/``."""
-        host, port = self._httpd.server_address[:2]
-        return f"http://{host}:{port}/"
+        """The page's address, e.g. ``http://127.0.0.1:8080/`` (on a wildcard address,
+        0.0.0.0 or ::, the machine's host name: see :func:`~armando_drake.tools.cli.server_url`)."""
+        from armando_drake.tools.cli import server_url
+
+        return server_url(self._host, self._httpd.server_address[1])
+
+    @property
+    def urls(self) -> str:
+        """What the log prints: :attr:`url`, and the loopback URL for a wildcard address."""
+        from armando_drake.tools.cli import server_urls
+
+        return server_urls(self._host, self._httpd.server_address[1])
 
     def publish(
         self,
@@ -449,16 +467,17 @@ def AddImageView(
     cameras: dict,
     *,
     server: ImageViewServer | None = None,
+    host: str = "127.0.0.1",
     port: int = 0,
     depth: bool = True,
 ) -> ImageViewServer:
     """Adds an :class:`ImageViewPublisher` per camera (from ``AddCameraSensors``).
 
-    All cameras share one server (``server``, or a new one on ``port``); each
+    All cameras share one server (``server``, or a new one on ``host:port``); each
     is published at its own frame rate. Returns the server (``.url``).
     """
     if server is None:
-        server = ImageViewServer(port=port)
+        server = ImageViewServer(host=host, port=port)
     for name, camera in cameras.items():
         with_depth = depth and camera.depth_image is not None
         publisher = builder.AddNamedSystem(

@@ -268,6 +268,7 @@ def MakeWorld(
     source: str = "",
     write_commands: bool = False,
     record: str | os.PathLike | None = None,
+    host: str = "127.0.0.1",
 ) -> World:
     """Builds the world diagram of ``scenario``.
 
@@ -277,6 +278,7 @@ def MakeWorld(
     ``source``: the scenario file, named in error messages.
     ``record``: an ``.mcap`` file where the run's topics are recorded as a ROS 2 bag
     (:func:`~armando_drake.outputs.recording.AddRosbagRecorder`).
+    ``host``: the address the camera's live view listens on (``--host``, as Meshcat).
     """
     where = f"{source}: " if source else ""
     # Every value of the scenario checked before Drake sees it.
@@ -316,7 +318,7 @@ def MakeWorld(
     _add_task(builder, world, scenario, _origin(scenario, "task"))
     _add_jog(builder, world, scenario, _origin(scenario, "jog"))
     _add_logger(builder, world, scenario, output_dir, quiet)
-    _add_cameras(builder, world, scenario, meshcat, where, sources_of(scenario).of("cameras"))
+    _add_cameras(builder, world, scenario, meshcat, where, sources_of(scenario).of("cameras"), host)
     _add_detectors(builder, world, scenario, _origin(scenario, "vision"))
     _add_perception(
         builder, world, scenario, meshcat, output_dir if write_commands else None, source
@@ -956,7 +958,13 @@ def _add_logger(builder, world: World, scenario: Scenario, output_dir, quiet: bo
 
 
 def _add_cameras(
-    builder, world: World, scenario: Scenario, meshcat, where: str, source: str = ""
+    builder,
+    world: World,
+    scenario: Scenario,
+    meshcat,
+    where: str,
+    source: str = "",
+    host: str = "127.0.0.1",
 ) -> None:
     """RgbdSensors from the URDF's camera blocks, a live view and a frame saver."""
     settings = scenario.camera
@@ -998,7 +1006,10 @@ def _add_cameras(
     # A Meshcat kept only to record a replay (recording_only) has no viewer to go with.
     watched = meshcat is not None and not getattr(meshcat, "recording_only", False)
     if settings.live_view or watched:
-        server = AddImageView(builder, world.cameras, depth=settings.depth)
+        from armando_drake.tools.cli import warn_if_open
+
+        warn_if_open(host, "the camera view")
+        server = AddImageView(builder, world.cameras, host=host, depth=settings.depth)
         world.image_view_url = server.url
         world.image_view = server  # the detectors' annotated images join it
         world.closers.append(server.close)

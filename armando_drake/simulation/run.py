@@ -430,6 +430,7 @@ def run(
     record: str | Path | None = None,
     plots: bool = True,
     wait_for_browser: float = 0.0,
+    host: str = "127.0.0.1",
 ) -> RunResult:
     """Builds and simulates ``scenario``; returns (and, with ``output_dir``, writes) results.
 
@@ -440,11 +441,13 @@ def run(
     ``.mcap`` file for the ROS 2 recording (:mod:`armando_drake.outputs.recording`).
     With ``meshcat`` and ``replay``, the run is published there as an animation at the
     end; ``wait_for_browser`` [s]: how long to wait for a browser on ``meshcat``
-    before the clock starts (0: not at all).
+    before the clock starts (0: not at all). ``host``: the address the camera's live
+    view listens on (``--host``, checked: :func:`~armando_drake.tools.cli.check_host`).
     """
     from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
     from armando_drake.simulation.builder import MakeWorld
+    from armando_drake.tools.cli import meshcat_urls
 
     duration = scenario.simulation.duration
     if duration <= 0:
@@ -468,6 +471,7 @@ def run(
         source=scenario_name,
         write_commands=output_dir is not None,
         record=record,
+        host=host,
     )
     if log_dir is not None:  # what ran: the scenario after every override
         write_scenario(scenario, log_dir / SCENARIO_FILE)
@@ -479,9 +483,10 @@ def run(
     realtime_rate = scenario.simulator_config.target_realtime_rate
     progress = None if (0 < realtime_rate <= 1 or quiet) else Progress(duration)
     if meshcat is not None:
-        print(f"Meshcat: {meshcat.web_url()}", file=stream, flush=True)
+        print(f"Meshcat: {meshcat_urls(meshcat)}", file=stream, flush=True)
     if world.image_view_url:
-        print(f"Camera view: {world.image_view_url}", file=stream, flush=True)
+        urls = getattr(world.image_view, "urls", world.image_view_url)
+        print(f"Camera view: {urls}", file=stream, flush=True)
     interrupted = False
     wall_start = time.monotonic()
     signals = _Interrupts()

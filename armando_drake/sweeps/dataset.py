@@ -329,7 +329,7 @@ def read_metadata(path: str | Path) -> dict:
 
 
 def _parser() -> argparse.ArgumentParser:
-    from armando_drake.tools.cli import command_parser
+    from armando_drake.tools.cli import command_parser, package_folder
 
     parser = command_parser("armando_drake.dataset", __doc__)
     kinds = parser.add_subparsers(dest="kind", required=True, metavar="KIND")
@@ -345,7 +345,12 @@ def _parser() -> argparse.ArgumentParser:
         "--xacro-arg", action="append", default=[], metavar="NAME:=VALUE", help="xacro argument"
     )
     ik.add_argument(
-        "--package-path", action="append", default=[], metavar="DIR", help="ROS package folder"
+        "--package-path",
+        action="append",
+        type=package_folder,
+        default=[],
+        metavar="DIR",
+        help="ROS package folder",
     )
     ik.add_argument("--frame", default="", help="end-effector frame (the last link of the chain)")
     ik.add_argument("--samples", type=int, required=True, metavar="N", help="rows")

@@ -4,8 +4,12 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import ipaddress
+import math
 import os
+import shlex
 import signal
+import socket
 import sys
 import traceback
 from collections.abc import Iterable, Iterator
@@ -27,12 +31,21 @@ class _DebugAction(argparse.Action):
         setattr(namespace, self.dest, True)
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line, as input errors are:
+    ``error: <argparse's message> (see --help)`` on stderr, exit code 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"error: {_one_line(message)} (see --help)\n")
+
+
 def command_parser(module: str, doc: str) -> argparse.ArgumentParser:
     """The argument parser of ``python -m <module>``: the first paragraph of the module's
     ``doc`` as description, the rest (usage notes, examples) as epilog, verbatim; with
-    ``--debug`` (see :func:`user_errors`)."""
+    ``--debug`` (see :func:`user_errors`). A usage error is one line (its subcommands'
+    parsers are of the same kind)."""
     description, _, epilog = doc.partition("\n\n")
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog=f"python -m {module}",
         description=description,
         epilog=epilog,
@@ -77,35 +90,122 @@ def add_scenario_arguments(parser) -> None:
     add_description_arguments(parser, default="the scenario's, i.e. the built-in Armando")
 
 
+LOOPBACK = "127.0.0.1"
+
+
 def add_host_argument(parser) -> None:
-    """``--host ADDRESS``: where Meshcat listens; this machine only by default."""
+    """``--host ADDRESS``: where Meshcat and the camera view listen; this machine only by
+    default (see :func:`check_host`)."""
     parser.add_argument(
         "--host",
-        default="127.0.0.1",
+        default=LOOPBACK,
         metavar="ADDRESS",
-        help="address Meshcat listens on (default 127.0.0.1: this machine only; 0.0.0.0 "
-        "opens it to every network interface)",
+        help="address Meshcat and the camera view listen on: an IP address of this machine "
+        "or localhost (default 127.0.0.1: this machine only; 0.0.0.0 or :: opens them to "
+        "every network interface)",
     )
 
 
+def check_host(host: str) -> str:
+    """``--host``'s address, checked before any server starts: an IP address literal (IPv4
+    or IPv6) or ``localhost`` (127.0.0.1), that is an address of this machine (a throwaway
+    socket binds to it). Names are not looked up: a lookup can hang."""
+    where = f"--host {shlex.quote(host)}"
+    if host.lower() == "localhost":
+        return LOOPBACK
+    try:
+        address = ipaddress.ip_address(host)
+    except ValueError:
+        raise UserError(
+            f"{where}: not an IP address (give one of this machine's addresses, e.g. "
+            "127.0.0.1, ::1, 0.0.0.0 for every interface, or localhost; names are not "
+            "looked up)"
+        ) from None
+    if address.is_multicast or address == ipaddress.IPv4Address("255.255.255.255"):
+        raise UserError(f"{where}: a multicast or broadcast address cannot be listened on")
+    family = socket.AF_INET6 if address.version == 6 else socket.AF_INET
+    try:
+        with socket.socket(family, socket.SOCK_STREAM) as probe:
+            probe.bind((str(address), 0))
+    except OSError as error:
+        reason = error.strerror or str(error)
+        raise UserError(f"{where}: not an address of this machine ({reason})") from None
+    return str(address)
+
+
+def is_open(host: str) -> bool:
+    """Whether a server on ``host`` is reachable from other machines."""
+    try:
+        return not ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return host.lower() != "localhost"
+
+
+def _http(host: str, port: int, path: str) -> str:
+    return f"http://[{host}]:{port}{path}" if ":" in host else f"http://{host}:{port}{path}"
+
+
+def server_url(host: str, port: int, path: str = "/") -> str:
+    """The URL of a server listening on ``host``:``port``. A wildcard address (0.0.0.0,
+    ::) is no address to browse to: the machine's host name stands for it."""
+    if host in ("0.0.0.0", "::"):
+        return _http(socket.gethostname(), port, path)
+    return _http(host, port, path)
+
+
+def server_urls(host: str, port: int, path: str = "/") -> str:
+    """What the log prints for a server on ``host``:``port``: :func:`server_url`, and for a
+    wildcard address the loopback URL that works on this machine too."""
+    url = server_url(host, port, path)
+    if host in ("0.0.0.0", "::"):
+        local = _http(LOOPBACK if host == "0.0.0.0" else "::1", port, path)
+        return f"{url} (on this machine: {local})"
+    return url
+
+
+def warn_if_open(host: str, what: str) -> None:
+    """Logs that ``what`` listens on ``host``, reachable from other machines."""
+    import logging
+
+    if is_open(host):
+        logging.getLogger("armando_drake").warning(
+            "--host %s: %s is reachable from other machines", host, what
+        )
+
+
 def start_meshcat(host: str):
-    """A Meshcat server listening on ``host`` (see :func:`add_host_argument`)."""
+    """A Meshcat server listening on ``host``, checked (:func:`check_host`); its
+    ``web_url()`` is the URL that works (:func:`server_url`), ``urls()`` the log's line."""
     import logging
 
     from pydrake.geometry import Meshcat, MeshcatParams
 
-    if host not in ("127.0.0.1", "localhost", "::1"):
-        logging.getLogger("armando_drake").warning(
-            "--host %s: Meshcat is reachable from other machines", host
-        )
+    host = check_host(host)
+
+    class ServedMeshcat(Meshcat):
+        def web_url(self) -> str:
+            return server_url(host, self.port(), "")
+
+        def urls(self) -> str:
+            return server_urls(host, self.port(), "")
+
+    warn_if_open(host, "Meshcat")
     # Drake logs "Meshcat listening for connections at URL"; the run prints the URL once.
     drake_logger = logging.getLogger("drake")
     level = drake_logger.level
     drake_logger.setLevel(logging.WARNING)
     try:
-        return Meshcat(MeshcatParams(host=host))
+        meshcat = ServedMeshcat(MeshcatParams(host=host))
     finally:
         drake_logger.setLevel(level)
+    meshcat.host = host
+    return meshcat
+
+
+def meshcat_urls(meshcat) -> str:
+    """The log's line for ``meshcat``: :func:`start_meshcat`'s, or Drake's URL."""
+    urls = getattr(meshcat, "urls", None)
+    return urls() if urls is not None else meshcat.web_url()
 
 
 def interactive() -> bool:
@@ -114,6 +214,30 @@ def interactive() -> bool:
 
 
 WAIT_TIMEOUT = 60.0  # [s] how long a run on a terminal waits for a browser by default
+WAIT_MAX = 3600.0  # [s] the longest --wait
+
+
+def _wait(text: str) -> float:
+    """``--wait``'s value: finite, 0 to :data:`WAIT_MAX` seconds."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
+    if not (math.isfinite(value) and 0 <= value <= WAIT_MAX):
+        raise argparse.ArgumentTypeError(
+            f"{text} must be a number of seconds from 0 to {WAIT_MAX:g}"
+        )
+    return value
+
+
+def package_folder(text: str) -> str:
+    """``--package-path``'s value: an existing folder."""
+    path = os.path.expanduser(text)
+    if not os.path.exists(path):
+        raise argparse.ArgumentTypeError(f"{text}: no such folder")
+    if not os.path.isdir(path):
+        raise argparse.ArgumentTypeError(f"{text}: not a folder")
+    return text
 
 
 def add_viewer_arguments(parser) -> None:
@@ -121,10 +245,10 @@ def add_viewer_arguments(parser) -> None:
     ``--keep-serving`` after it, for a run with Meshcat."""
     parser.add_argument(
         "--wait",
-        type=float,
+        type=_wait,
         metavar="SECONDS",
-        help="with Meshcat, wait up to SECONDS for a browser to open the page before the "
-        f"clock starts (default: {WAIT_TIMEOUT:g} on a terminal, 0 otherwise)",
+        help=f"with Meshcat, wait up to SECONDS (0 to {WAIT_MAX:g}) for a browser to open the "
+        f"page before the clock starts (default: {WAIT_TIMEOUT:g} on a terminal, 0 otherwise)",
     )
     parser.add_argument(
         "--no-wait", action="store_true", help="start at once (the same as --wait 0)"
@@ -151,8 +275,8 @@ def wait_seconds(args) -> float:
     if args.no_wait:
         return 0.0
     if args.wait is not None:
-        if not args.wait >= 0:
-            raise UserError(f"--wait {args.wait} must not be negative [s]")
+        if not (math.isfinite(args.wait) and 0 <= args.wait <= WAIT_MAX):
+            raise UserError(f"--wait {args.wait} must be from 0 to {WAIT_MAX:g} [s]")
         return args.wait
     return WAIT_TIMEOUT if interactive() else 0.0
 
@@ -173,6 +297,7 @@ def add_description_arguments(parser, default: str) -> None:
     parser.add_argument(
         "--package-path",
         action="append",
+        type=package_folder,
         default=[],
         metavar="DIR",
         help="a folder to search for ROS packages before ROS_PACKAGE_PATH (repeatable)",

@@ -8,6 +8,7 @@ would, in a subprocess, to check what the shell sees.
 """
 
 import math
+import shlex
 import subprocess
 import sys
 import textwrap
@@ -495,3 +496,121 @@ def test_controller_none_wins_over_a_set_sequencer_with_a_warning(tmp_path, caps
 
     assert json.loads((tmp_path / "summary.json").read_text())["controller"] == "none"
     assert "--controller none: the sequencer that --set describes is not run" in caplog.text
+
+
+# ---- options checked at the door: --host, argparse's usage errors, --wait, --package-path
+
+
+@pytest.mark.parametrize(
+    "host, needles",
+    [
+        ("999.1.1.1", ["--host 999.1.1.1", "not an IP address"]),
+        ("not a host", ["--host 'not a host'", "not an IP address"]),
+        ("example.org", ["--host example.org", "names are not looked up"]),
+        ("10.255.255.1", ["--host 10.255.255.1", "not an address of this machine"]),
+        ("224.0.0.1", ["--host 224.0.0.1", "multicast"]),
+    ],
+)
+def test_a_bad_host_is_one_line_naming_it(host, needles, capsys):
+    code, _, err = run_main("--host", host, capsys=capsys)
+    assert code == 2, err
+    assert_one_line(err, *needles)
+
+
+def test_a_bad_host_fails_fast_with_meshcat_on():
+    """Drake's Meshcat() never returned for a name it could not look up: --host is
+    checked before Meshcat starts."""
+    for host in ("999.1.1.1", "not a host"):
+        result = subprocess.run(
+            [sys.executable, "-m", "armando_drake.world", "--host", host, "--no-wait"]
+            + ["--exit-when-done", "--realtime-rate", "0", "--duration", "0.5"],
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        assert result.returncode == 2, result.stderr
+        assert result.stderr.count("\n") == 1, result.stderr
+        assert_one_line(result.stderr, f"--host {shlex.quote(host)}: not an IP address")
+
+
+def test_addresses_of_this_machine_are_accepted():
+    from armando_drake.tools.cli import check_host, server_urls
+
+    assert check_host("localhost") == "127.0.0.1"
+    assert check_host("127.0.0.1") == "127.0.0.1"
+    assert check_host("0.0.0.0") == "0.0.0.0"
+    import socket
+
+    hostname = socket.gethostname()
+    assert server_urls("0.0.0.0", 7000) == (
+        f"http://{hostname}:7000/ (on this machine: http://127.0.0.1:7000/)"
+    )
+    assert server_urls("::1", 7000, "") == "http://[::1]:7000"
+    assert server_urls("127.0.0.1", 7000) == "http://127.0.0.1:7000/"
+
+
+USAGE_CASES = [
+    ("--duration", "abc", "argument --duration: invalid float value: 'abc'"),
+    ("--foxglove", "abc", "argument --foxglove: invalid int value: 'abc'"),
+    ("--renderer", "metal", "argument --renderer: invalid choice: 'metal'"),
+    ("--controller", "foo", "argument --controller: invalid choice: 'foo'"),
+    ("--frobnicate", None, "unrecognized arguments: --frobnicate"),
+    ("--wait", "nan", "argument --wait: nan must be a number of seconds from 0 to 3600"),
+    ("--wait", "1e300", "argument --wait: 1e300 must be"),
+    ("--wait", "-1", "argument --wait: -1 must be"),
+    ("--package-path", "/nonexistent", "argument --package-path: /nonexistent: no such folder"),
+    ("--package-path", "/etc/passwd", "argument --package-path: /etc/passwd: not a folder"),
+]
+
+
+@pytest.mark.parametrize(
+    "option, value, message", USAGE_CASES, ids=[f"{c[0]}-{c[1]}" for c in USAGE_CASES]
+)
+def test_a_usage_error_is_one_line(option, value, message, capsys):
+    code, out, err = run_main(option, *([value] if value is not None else []), capsys=capsys)
+    assert code == 2, err
+    assert err.startswith(f"error: {message}"), err
+    assert err.count("\n") == 1 and err.rstrip().endswith("(see --help)"), err
+    assert "usage:" not in err + out
+
+
+@pytest.mark.parametrize(
+    "module", ["world", "display", "outputs.graph", "sweeps.sweep", "benchmarks.suite"]
+)
+def test_every_entry_point_reports_a_usage_error_in_one_line(module, capsys):
+    import importlib
+
+    main = importlib.import_module(f"armando_drake.{module}").main
+    with pytest.raises(SystemExit) as end:
+        main(["--frobnicate"])
+    assert end.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and err.count("\n") == 1, err
+    assert err.rstrip().endswith("(see --help)"), err
+
+
+def test_dataset_subcommand_errors_are_one_line_too(capsys):
+    from armando_drake.sweeps.dataset import main
+
+    with pytest.raises(SystemExit) as end:
+        main(["ik", "--samples", "1", "--output", "x", "--package-path", "/nonexistent"])
+    assert end.value.code == 2
+    err = capsys.readouterr().err
+    assert_one_line(err, "--package-path: /nonexistent: no such folder", "(see --help)")
+    assert err.count("\n") == 1
+
+
+def test_help_still_works(capsys):
+    code, out, err = run_main("--help", capsys=capsys)
+    assert code == 0
+    assert out.startswith("usage: python -m armando_drake.world") and "--host" in out
+    assert not err
+
+
+def test_display_checks_package_path_too(capsys):
+    from armando_drake import display
+
+    with pytest.raises(SystemExit) as end:
+        display.main(["--package-path", "/etc/passwd", "--loop-once"])
+    assert end.value.code == 2
+    assert_one_line(capsys.readouterr().err, "--package-path: /etc/passwd: not a folder")

@@ -1,6 +1,9 @@
-"""Nothing is exposed by default: Meshcat listens on 127.0.0.1 unless --host says otherwise."""
+"""Nothing is exposed by default: Meshcat and the camera's live view listen on 127.0.0.1
+unless --host says otherwise; then both listen there, and the printed URLs work."""
 
+import re
 import shutil
+import socket
 import subprocess
 import sys
 import time
@@ -14,7 +17,9 @@ def _listening(pid: int) -> list[str]:
     return [line.split()[3] for line in out.splitlines() if f"pid={pid}," in line]
 
 
-def _world_sockets(*extra: str) -> list[str]:
+def _world_sockets(*extra: str, servers: int = 1) -> tuple[list[str], str]:
+    """The addresses a world run listens on once ``servers`` servers are up, and what it
+    printed until then."""
     if shutil.which("ss") is None:
         skip_or_fail("iproute2's ss is not installed (apt-get install iproute2)")
     process = subprocess.Popen(
@@ -24,24 +29,54 @@ def _world_sockets(*extra: str) -> list[str]:
         text=True,
     )
     try:
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + 90
         addresses: list[str] = []
-        while time.monotonic() < deadline and not addresses:
+        while time.monotonic() < deadline and len(addresses) < servers:
             time.sleep(0.5)
+            assert process.poll() is None, process.communicate()[0]
             addresses = _listening(process.pid)
         time.sleep(1.0)  # every server of the run is up by now
-        return _listening(process.pid)
+        addresses = _listening(process.pid)
     finally:
         process.kill()
-        process.wait()
+        output = process.communicate()[0]
+    return addresses, output
 
 
 def test_meshcat_listens_on_loopback_only_by_default():
-    addresses = _world_sockets()
+    addresses, output = _world_sockets()
     assert addresses, "the world with Meshcat listens on no socket"
     assert all(a.startswith("127.0.0.1:") for a in addresses), addresses
 
 
-def test_host_opens_meshcat_on_purpose():
-    addresses = _world_sockets("--host", "0.0.0.0")
-    assert any(a.startswith(("0.0.0.0:", "*:")) for a in addresses), addresses
+def test_meshcat_and_the_camera_view_listen_on_loopback_only_by_default():
+    addresses, output = _world_sockets("--scenario", "camera", servers=2)
+    assert len(addresses) >= 2, addresses  # Meshcat and the camera view
+    assert all(a.startswith("127.0.0.1:") for a in addresses), addresses
+    assert re.search(r"^Meshcat: http://127\.0\.0\.1:\d+$", output, re.M), output
+    assert re.search(r"^Camera view: http://127\.0\.0\.1:\d+/$", output, re.M), output
+
+
+def test_the_camera_view_alone_listens_on_loopback_only():
+    addresses, output = _world_sockets("--scenario", "camera", "--no-meshcat", "--camera-view")
+    assert addresses, "the camera view listens on no socket"
+    assert all(a.startswith("127.0.0.1:") for a in addresses), addresses
+
+
+def test_host_opens_meshcat_and_the_camera_view_on_purpose():
+    addresses, output = _world_sockets("--scenario", "camera", "--host", "0.0.0.0", servers=2)
+    assert len(addresses) >= 2, addresses
+    assert all(a.startswith(("0.0.0.0:", "*:")) for a in addresses), addresses
+    # The log says so, and prints a URL that works from elsewhere, once per server.
+    assert "--host 0.0.0.0: Meshcat is reachable from other machines" in output, output
+    assert "--host 0.0.0.0: the camera view is reachable from other machines" in output
+    name = re.escape(socket.gethostname())
+    for server, path in (("Meshcat", ""), ("Camera view", "/")):
+        lines = [line for line in output.splitlines() if line.startswith(f"{server}: ")]
+        assert len(lines) == 1, output
+        assert re.fullmatch(
+            rf"{server}: http://{name}:(\d+){path} \(on this machine: "
+            rf"http://127\.0\.0\.1:\1{path}\)",
+            lines[0],
+        ), lines[0]
+        assert "0.0.0.0" not in lines[0]
