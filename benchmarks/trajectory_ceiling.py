@@ -15,7 +15,10 @@ figures, each the median over interleaved runs:
 - trajectory / replay: what the controllers, the gravity feed-forward, the
   sequencer and the logger cost on top.
 
-    python benchmarks/trajectory_ceiling.py [--duration 10] [--runs 5]
+``--scenario sinusoid`` does the same for the sinusoid world (whose arm never
+stops: its replay is the ceiling of the sinusoid's ratio).
+
+    python benchmarks/trajectory_ceiling.py [--duration 10] [--runs 5] [--scenario sinusoid]
 """
 
 from __future__ import annotations
@@ -27,15 +30,17 @@ import time
 import numpy as np
 
 
-def replayed_desired_state(duration: float) -> tuple[list[float], np.ndarray]:
-    """(tick times [s], desired states (2n x ticks)) of the trajectory scenario."""
+def replayed_desired_state(
+    duration: float, scenario: str = "trajectory"
+) -> tuple[list[float], np.ndarray]:
+    """(tick times [s], desired states (2n x ticks)) of the scenario."""
     from pydrake.systems.analysis import Simulator
 
     from armando_drake.benchmarks.suite import NO_CONSOLE
     from armando_drake.simulation.builder import MakeWorld
     from armando_drake.simulation.scenario import load_scenario
 
-    world = MakeWorld(load_scenario("trajectory", NO_CONSOLE), quiet=True)
+    world = MakeWorld(load_scenario(scenario, NO_CONSOLE), quiet=True)
     simulator = Simulator(world.diagram)
     context = simulator.get_mutable_context()
     port = world.diagram.GetOutputPort("desired_state")
@@ -49,7 +54,9 @@ def replayed_desired_state(duration: float) -> tuple[list[float], np.ndarray]:
     return times, np.stack(samples, axis=1)
 
 
-def replay_rtf(times: list[float], samples: np.ndarray, duration: float) -> float:
+def replay_rtf(
+    times: list[float], samples: np.ndarray, duration: float, scenario: str = "trajectory"
+) -> float:
     """Real-time factor of the bare plant following the replayed desired state."""
     from pydrake.multibody.plant import AddMultibodyPlant, ApplyMultibodyPlantConfig
     from pydrake.systems.analysis import Simulator
@@ -62,7 +69,7 @@ def replay_rtf(times: list[float], samples: np.ndarray, duration: float) -> floa
     from armando_drake.simulation.builder import _add_ground
     from armando_drake.simulation.scenario import load_scenario
 
-    scenario = load_scenario("trajectory")
+    scenario = load_scenario(scenario)
     config = scenario.plant_config
     builder = DiagramBuilder()
     plant, _ = AddMultibodyPlant(config, builder)
@@ -88,19 +95,23 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--duration", type=float, default=10.0, help="simulated time [s]")
     parser.add_argument("--runs", type=int, default=5, help="interleaved runs of each")
+    parser.add_argument(
+        "--scenario", default="trajectory", help="the world replayed (e.g. sinusoid)"
+    )
     args = parser.parse_args()
+    name = args.scenario
 
     from armando_drake.benchmarks.suite import bare_plant_rtf, pipeline_rtf
 
-    times, samples = replayed_desired_state(args.duration + 0.5)
-    rows = {"bare": [], "replay": [], "trajectory": []}
+    times, samples = replayed_desired_state(args.duration + 0.5, name)
+    rows = {"bare": [], "replay": [], name: []}
     for _ in range(args.runs):
         rows["bare"].append(bare_plant_rtf(args.duration))
-        rows["replay"].append(replay_rtf(times, samples, args.duration))
-        rows["trajectory"].append(pipeline_rtf("trajectory", args.duration))
-    for name, values in rows.items():
-        print(f"{name:>10}: {statistics.median(values):6.2f} x real time")
-    for a, b in (("replay", "bare"), ("trajectory", "replay"), ("trajectory", "bare")):
+        rows["replay"].append(replay_rtf(times, samples, args.duration, name))
+        rows[name].append(pipeline_rtf(name, args.duration))
+    for row, values in rows.items():
+        print(f"{row:>10}: {statistics.median(values):6.2f} x real time")
+    for a, b in (("replay", "bare"), (name, "replay"), (name, "bare")):
         ratios = [x / y for x, y in zip(rows[a], rows[b], strict=True)]
         print(
             f"{a} / {b}: {statistics.median(ratios):.3f} "
