@@ -21,7 +21,14 @@ pays most for beyond the physics, so:
   recorder samples it at ``update_rate``), not stored at every tick; its
   vector view for the logger is C++ (:func:`AddJointStateVector`);
 - the gravity feed-forward is C++ too (Drake's ``InverseDynamics``, see
-  :func:`~armando_drake.control.hardware.ConnectHardwareInterface`).
+  :func:`~armando_drake.control.hardware.ConnectHardwareInterface`);
+- a controller whose commands are a stream evaluated in C++ and checked when
+  the world is built (a sinusoid within the limits, see
+  :meth:`~armando_drake.control.controllers.Controller.accepts_stream`) is not
+  updated at all: the stream, latched at the manager's ticks in C++, drives the
+  hardware (:func:`AddStreamDesiredState`), and the controller's status is
+  computed from the stream's sample count when read. A manager with only such
+  controllers has no update.
 """
 
 from __future__ import annotations
@@ -32,7 +39,13 @@ from collections.abc import Sequence
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.framework import Diagram, DiagramBuilder, EventStatus, LeafSystem
+from pydrake.systems.framework import (
+    Diagram,
+    DiagramBuilder,
+    EventStatus,
+    LeafSystem,
+    OutputPort,
+)
 from pydrake.systems.primitives import MatrixGain, Multiplexer
 
 from armando_drake.control.config import check_update_rate
@@ -48,6 +61,11 @@ class ManagedController:
 
     name: str  # the controller's name in the YAML, e.g. "position_controller"
     logic: Controller  # its logic, an instance of a registered controller class
+    # Its commands come as a stream evaluated in C++ (a sinusoid checked against the
+    # limits when the world is built, see Controller.accepts_stream) that drives the
+    # hardware directly; the manager reads only the stream's sample count, for the
+    # status, on the input "<name>.command_count".
+    stream: bool = False
 
     @property
     def topic(self) -> str:
@@ -110,6 +128,12 @@ class ControllerManager(LeafSystem):
       (n), non-zero only on effort joints; only when a controller commands
       efforts.
     - ``<controller>.status``: each controller's ControllerStatus.
+    - ``<controller>.command_count``: only for a stream controller
+      (``ManagedController.stream``): vector of one, the number of samples of its
+      stream applied so far (a SinusoidSequencer's ``tick_count``); its status is
+      computed from it. The stream drives the hardware itself
+      (:func:`AddStreamDesiredState`), so the rows of ``desired_state`` of its joints
+      hold the initial positions.
 
     Each controller must claim joints whose hardware command interface is the
     one it commands. The controllers run in one periodic update at
@@ -165,6 +189,7 @@ class ControllerManager(LeafSystem):
         self._desired_rows = []  # per controller: its [q_d; v_d] rows in ``desired_state``
         self._effort_rows = []  # per controller: its rows in ``effort_command``, or None
         memories = []
+        self._count_ports = []  # per controller: its "<name>.command_count" input, or None
         for controller in self._controllers:
             logic = controller.logic
             if not logic.topic:
@@ -173,6 +198,15 @@ class ControllerManager(LeafSystem):
                 self.DeclareAbstractInputPort(
                     f"{controller.name}.{logic.topic}", PublicationValue()
                 )
+            )
+            if controller.stream and not logic.accepts_stream(logic.params):
+                raise ValueError(
+                    f"controller {controller.name!r} ({logic.type_name()}) takes no command stream"
+                )
+            self._count_ports.append(
+                self.DeclareVectorInputPort(f"{controller.name}.command_count", 1)
+                if controller.stream
+                else None
             )
             unknown = [j for j in logic.joint_names if j not in hardware.joint_names]
             if unknown:
@@ -221,14 +255,18 @@ class ControllerManager(LeafSystem):
             self._effort_index = self.DeclareDiscreteState(np.zeros(n))
             self.DeclareStateOutputPort("effort_command", self._effort_index)
         for k, controller in enumerate(self._controllers):
+            prerequisites = {self.abstract_state_ticket(self._memory_index)}
+            if controller.stream:
+                prerequisites.add(self._count_ports[k].ticket())
             self.DeclareAbstractOutputPort(
                 f"{controller.name}.status",
                 lambda: AbstractValue.Make(ControllerStatus()),
                 lambda context, output, k=k: output.set_value(self._Status(context, k)),
-                {self.abstract_state_ticket(self._memory_index)},
+                prerequisites,
             )
 
-        if self._controllers:
+        # Streams need no update: they drive the hardware in C++.
+        if any(not controller.stream for controller in self._controllers):
             self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / update_rate, 0.0, self._Update)
 
     @property
@@ -240,7 +278,12 @@ class ControllerManager(LeafSystem):
         return self._controllers
 
     def _Status(self, context, k: int) -> ControllerStatus:
-        return context.get_abstract_state(self._memory_index).get_value().memories[k].status
+        status = context.get_abstract_state(self._memory_index).get_value().memories[k].status
+        port = self._count_ports[k]
+        if port is None:
+            return status
+        count = round(float(port.Eval(context)[0])) if port.HasValue(context) else 0
+        return self._controllers[k].logic.stream_status(status, count)
 
     def _CalcJointStates(self, context, output) -> None:
         if not self._state.HasValue(context):
@@ -266,6 +309,8 @@ class ControllerManager(LeafSystem):
         new_handled = new_items = None  # copies, made at the first change
         x = None  # the measured state, evaluated when a controller needs it
         for k, controller in enumerate(self._controllers):
+            if controller.stream:
+                continue  # driven in C++; its status is computed from the sample count
             message = None
             port = self._command_ports[k]
             if port.HasValue(context):
@@ -307,6 +352,34 @@ class ControllerManager(LeafSystem):
                 effort[self._effort_rows[k]] = new.memories[k].effort
             state.get_mutable_discrete_state(self._effort_index).SetFromVector(effort)
         return EventStatus.Succeeded()
+
+
+def AddStreamDesiredState(
+    builder: DiagramBuilder,
+    hardware: HardwareInterface,
+    joint_names: Sequence[str],
+    command: OutputPort,
+) -> OutputPort:
+    """The desired state [q_d; v_d] (2n, hardware order) [rad, rad/s] of a stream
+    controller that commands every hardware joint: ``command`` (its joint positions,
+    in ``joint_names`` order, as the manager's ticks apply them, e.g. a
+    SinusoidSequencer's ``tick_command``) placed into q_d, v_d = 0, as the position
+    controller writes a command. A ``MatrixGain`` named ``stream_desired_state``,
+    C++: its output depends on its input only, so what it feeds (the plant's desired
+    state, the gravity feed-forward) changes when the command does, not at every
+    plant step."""
+    n = len(hardware.joints)
+    if sorted(joint_names) != sorted(hardware.joint_names):
+        raise ValueError(
+            f"a stream controller on {list(joint_names)} must command every joint of "
+            f"{hardware.name!r} ({', '.join(hardware.joint_names)})"
+        )
+    place = np.zeros((2 * n, len(joint_names)))
+    for column, row in enumerate(hardware.find(list(joint_names))):
+        place[row, column] = 1.0
+    gain = builder.AddNamedSystem("stream_desired_state", MatrixGain(place))
+    builder.Connect(command, gain.get_input_port())
+    return gain.get_output_port()
 
 
 def AddJointStateVector(

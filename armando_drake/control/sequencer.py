@@ -38,6 +38,8 @@ from pydrake.systems.framework import (
 )
 from pydrake.systems.primitives import (
     AffineSystem,
+    BusCreator,
+    BusSelector,
     Multiplexer,
     Sine,
     TrajectorySource,
@@ -545,6 +547,8 @@ class SinusoidSequencer(Diagram):
         - reference
         - position_command
         - command_count
+        - tick_command
+        - tick_count
 
     Drake's ``Sine`` (plus the offsets) evaluates the wave, a
     ``ZeroOrderHold`` samples it at ``rate`` from ``start_delay`` on, as the
@@ -561,7 +565,14 @@ class SinusoidSequencer(Diagram):
       (count = ``command_count``, stamp = the sample's time), made in Python
       only when a subscriber reads it;
     - ``joint_trajectory``: always count 0 (the interface of CommandSequencer);
-    - ``reference``: the latest sample, NaN before the first.
+    - ``reference``: the latest sample, NaN before the first;
+    - ``tick_command``, ``tick_count`` (only with ``controller_ticks``): the
+      same as ``position_command`` and ``command_count``, latched at the
+      updates of a controller running at ``controller_rate`` from t = 0 as that
+      controller applies them: the sample it reads at an update (the one taken
+      before it) from that update on, and what a plant's step at the update's
+      time sees. In C++, so a position controller can take the wave as a
+      stream (see ControllerManager) bit for bit as it would take the messages.
 
     Samples are discrete updates: a subscriber updating at a sample's time
     sees the sample before it, as it sees a CommandSequencer's publication
@@ -581,6 +592,7 @@ class SinusoidSequencer(Diagram):
         controller_rate: float = 100.0,
         initial_positions: Sequence[float] | None = None,
         on_publish: Callable[[float, str, Any], None] | None = None,
+        controller_ticks: bool = False,
     ):
         super().__init__()
         joint_names = tuple(joint_names)
@@ -646,6 +658,39 @@ class SinusoidSequencer(Diagram):
             builder.ExportOutput(topic.GetOutputPort(name), name)
         builder.ExportOutput(command.get_output_port(), "position_command")
         builder.ExportOutput(count.get_output_port(), "command_count")
+        if controller_ticks:
+            # The command as a controller updating at controller_rate from t = 0 applies
+            # it: at each update it reads the sample held before the update (as it reads
+            # a CommandSequencer's publication) and its command holds until the next
+            # update. Drake runs a time's unrestricted updates before its discrete ones
+            # (the plant's step, the sample hold's), and an abstract-valued
+            # ZeroOrderHold latches with an unrestricted update: so the sample, carried
+            # on a bus, is latched at the controller's update times as the controller
+            # manager's own update would latch it, and the plant's step at that time
+            # sees it, in C++.
+            bus = BusCreator()
+            bus.DeclareVectorInputPort("sample", n + 1)
+            bus_context = bus.CreateDefaultContext()
+            bus.get_input_port().FixValue(bus_context, np.zeros(n + 1))
+            initial_bus = AbstractValue.Make(bus.get_output_port().Eval(bus_context))
+            bus = builder.AddNamedSystem("sample_bus", bus)
+            builder.Connect(hold.get_output_port(), bus.get_input_port())
+            ticked = builder.AddNamedSystem(
+                "tick_sample", ZeroOrderHold(1.0 / controller_rate, initial_bus, 0.0)
+            )
+            builder.Connect(bus.get_output_port(), ticked.get_input_port())
+            unpack = BusSelector()
+            unpack.DeclareVectorOutputPort("sample", n + 1)
+            unpack = builder.AddNamedSystem("tick_unpack", unpack)
+            builder.Connect(ticked.get_output_port(), unpack.get_input_port())
+            tick_command = builder.AddNamedSystem(
+                "tick_command", _Affine(np.eye(n, n + 1), initial)
+            )
+            builder.Connect(unpack.get_output_port(), tick_command.get_input_port())
+            tick_count = builder.AddNamedSystem("tick_count", _Affine(np.eye(1, n + 1, n), [0.0]))
+            builder.Connect(unpack.get_output_port(), tick_count.get_input_port())
+            builder.ExportOutput(tick_command.get_output_port(), "tick_command")
+            builder.ExportOutput(tick_count.get_output_port(), "tick_count")
         self._log = None
         if on_publish is not None:
             self._log = builder.AddNamedSystem(
@@ -689,6 +734,7 @@ def MakeSequencer(
     controller_rate: float = 100.0,
     initial_positions: Sequence[float] | None = None,
     on_publish: Callable[[float, str, Any], None] | None = None,
+    controller_ticks: bool = False,
 ) -> CommandSequencer | SinusoidSequencer:
     """The sequencer system of ``config``: a :class:`CommandSequencer` for targets and
     trajectories, a :class:`SinusoidSequencer` for a :class:`Sinusoid`.
@@ -703,6 +749,7 @@ def MakeSequencer(
             controller_rate=controller_rate,
             initial_positions=initial_positions,
             on_publish=on_publish,
+            controller_ticks=controller_ticks,
         )
     return CommandSequencer(config=config, joint_names=joint_names, on_publish=on_publish)
 

@@ -62,6 +62,7 @@ from armando_drake.control.hardware import (
 )
 from armando_drake.control.manager import (
     AddJointStateVector,
+    AddStreamDesiredState,
     ControllerManager,
     ManagedController,
 )
@@ -111,6 +112,9 @@ class World:
     sequencer: System | None = None  # the command sequencer (a LeafSystem or a Diagram)
     logger: JointStateLogger | None = None
     sequencer_target: str = ""  # the controller the sequencer drives
+    # The controller whose commands are a C++ stream (a sinusoid) that drives the
+    # hardware directly, without the manager's update; "" if none.
+    stream_controller: str = ""
     broadcaster_name: str = ""  # the active joint state broadcaster's name in the YAML
     cameras: dict[str, AddedCamera] = field(default_factory=dict)  # by name
     image_view_url: str | None = None  # the live camera view, when served
@@ -317,6 +321,8 @@ def MakeWorld(
     _add_sequencer(builder, world, scenario, _origin(scenario, "sequencer"), commands_csv)
     _add_task(builder, world, scenario, _origin(scenario, "task"))
     _add_jog(builder, world, scenario, _origin(scenario, "jog"))
+    # The commands to the plant: desired state, efforts, gravity feed-forward.
+    _connect_hardware(builder, world, scenario)
     _add_logger(builder, world, scenario, output_dir, quiet)
     _add_cameras(builder, world, scenario, meshcat, where, sources_of(scenario).of("cameras"), host)
     _add_detectors(builder, world, scenario, _origin(scenario, "vision"))
@@ -486,6 +492,10 @@ def _add_controller_manager(builder, world: World, scenario: Scenario, where: st
     if broadcaster is None and not managed:
         return
 
+    # A sinusoid's controller takes it as a C++ stream when it can.
+    world.stream_controller = _stream_controller(world, scenario, managed)
+    if world.stream_controller:
+        managed = [dataclasses.replace(managed[0], stream=True)]
     # The controller manager runs them all in one update at the update rate.
     try:
         manager = ControllerManager(
@@ -507,17 +517,77 @@ def _add_controller_manager(builder, world: World, scenario: Scenario, where: st
         world.broadcaster = manager
     for controller in managed:
         world.controllers[controller.name] = manager
-    if not managed:
+
+
+def _stream_controller(world: World, scenario: Scenario, managed: list) -> str:
+    """The controller that takes the scenario's sinusoid as a C++ stream, or "".
+
+    A stream needs no Python per sample: the wave is evaluated and sampled in C++
+    and checked against the joint limits now, so each sample is accepted as it is,
+    and it drives the hardware directly, latched at the manager's ticks (see
+    :func:`_connect_hardware`). That takes a position controller commanding every
+    joint alone, and samples no faster than the manager's ticks (each one handled
+    at one tick); otherwise the samples go through the manager as messages."""
+    from armando_drake.control.sequencer import SequencerError, Sinusoid, validate, wave_of
+
+    config = scenario.sequencer
+    if not isinstance(config, Sinusoid) or len(managed) != 1:
+        return ""
+    controller = managed[0]
+    logic = controller.logic
+    entry = world.controller_config.controllers[controller.name]
+    if not (
+        entry.controller_class.message is Float64MultiArray
+        and entry.position_targets
+        and logic.accepts_stream(logic.params)
+        and sorted(logic.joint_names) == sorted(world.hardware.joint_names)
+    ):
+        return ""
+    if config.rate is not None and not config.rate <= world.update_rate:
+        return ""  # the manager would take only the latest of several samples per tick
+    joints = list(logic.joint_names)
+    rows = world.hardware.find(joints)
+    config = _sized_seed(config, world, [world.hardware.joints[i] for i in rows])
+    lower = np.array([world.hardware.joints[i].lower for i in rows])
+    upper = np.array([world.hardware.joints[i].upper for i in rows])
+    try:
+        validate(config, joints, lower, upper)
+    except SequencerError:
+        return ""  # the sequencer reports it
+    # Inside the limits with room for the rounding of the samples, so that the
+    # controller would never clamp one.
+    wave = wave_of(config, joints)
+    reach = np.abs(wave.amplitude)
+    room = 1e-9 * (1.0 + np.abs(wave.offset) + reach)
+    if np.any(wave.offset + reach > upper - room) or np.any(wave.offset - reach < lower + room):
+        return ""
+    return controller.name
+
+
+def _connect_hardware(builder, world: World, scenario: Scenario) -> None:
+    """Wires the commands to the plant through the hardware interface: the desired
+    state of the actuators (the controllers' commands, unclaimed joints held at their
+    initial positions; a stream's samples as the manager's ticks apply them), and on
+    the actuation input the effort commands and the gravity feed-forward of the
+    position joints. Exported as ``desired_state``."""
+    manager = world.controller_manager
+    if manager is None or not world.controllers:
         return
-    # Desired state for the actuators: the controllers' commands, unclaimed joints
-    # held at their initial positions; on the actuation input the effort commands and
-    # the gravity feed-forward of the position joints.
     desired = manager.GetOutputPort("desired_state")
+    if world.stream_controller:
+        # [q_d; 0] in hardware order from the stream's command as the manager's ticks
+        # apply it, in C++.
+        desired = AddStreamDesiredState(
+            builder,
+            world.hardware,
+            world.controller_joints[world.stream_controller],
+            world.sequencer.GetOutputPort("tick_command"),
+        )
     ConnectHardwareInterface(
         builder,
-        plant,
+        world.plant,
         world.robot,
-        hardware,
+        world.hardware,
         desired_state=desired,
         effort=(
             manager.GetOutputPort("effort_command")
@@ -870,6 +940,7 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str, comman
     if commands_csv is not None:
         on_publish = CommandsCsv(commands_csv, joints)
         world.closers.append(on_publish.close)
+    stream = name == world.stream_controller
     sequencer = builder.AddSystem(
         MakeSequencer(
             config=config,
@@ -877,12 +948,17 @@ def _add_sequencer(builder, world: World, scenario: Scenario, where: str, comman
             controller_rate=world.update_rate,
             initial_positions=[world.hardware.joints[i].initial_position for i in rows],
             on_publish=on_publish,
+            controller_ticks=stream,  # the stream as the manager's ticks apply it
         )
     )
     sequencer.set_name("command_sequencer")
     port = "joint_trajectory" if kind == "trajectory" else "commands"
     topic = world.controller_config.controllers[name].topic  # ROS 1: "command"
     builder.Connect(sequencer.GetOutputPort(port), controller.GetInputPort(f"{name}.{topic}"))
+    if stream:
+        builder.Connect(
+            sequencer.GetOutputPort("tick_count"), controller.GetInputPort(f"{name}.command_count")
+        )
     builder.ExportOutput(sequencer.GetOutputPort("reference"), "reference")
     world.sequencer = sequencer
     world.sequencer_target = name

@@ -33,6 +33,7 @@ from armando_drake.control.hardware import (
 )
 from armando_drake.control.manager import (
     AddJointStateVector,
+    AddStreamDesiredState,
     ControllerManager,
     ManagedController,
 )
@@ -41,6 +42,7 @@ from armando_drake.control.messages import (
     JointTrajectory,
     Publication,
 )
+from armando_drake.control.sequencer import Sinusoid, SinusoidSequencer
 from armando_drake.description.loader import load_robot
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import ScenarioError, load_scenario
@@ -156,6 +158,118 @@ def test_broadcaster_without_effort_publishes_empty_effort():
         (0.25,),
         (),
     )
+
+
+def sinusoid_world(config: Sinusoid, *, stream: bool):
+    """Armando on a plant, its position controller driven by a SinusoidSequencer: through
+    the manager as messages, or as a C++ stream (``stream``)."""
+    builder = DiagramBuilder()
+    plant, _ = AddMultibodyPlant(
+        MultibodyPlantConfig(time_step=0.001, discrete_contact_approximation="lagged"), builder
+    )
+    robot = load_robot(plant)
+    hardware = AddHardwareInterface(plant, robot, kp=8.0, kd=0.4)
+    plant.Finalize()
+    FinishHardwareInterface(plant, robot, hardware)
+    names = list(reversed(hardware.joint_names))  # not the hardware order
+    rows = hardware.find(names)
+    joints = ControllerJoints.make(
+        names,
+        lower=[hardware.joints[i].lower for i in rows],
+        upper=[hardware.joints[i].upper for i in rows],
+        initial_positions=[hardware.joints[i].initial_position for i in rows],
+    )
+    logic = JointGroupPositionController(name="arm", joints=joints)
+    manager = builder.AddSystem(
+        ControllerManager(
+            hardware=hardware,
+            update_rate=RATE,
+            controllers=[ManagedController("arm", logic, stream=stream)],
+        )
+    )
+    instance = robot.model_instance
+    builder.Connect(plant.get_state_output_port(instance), manager.GetInputPort("state"))
+    sequencer = builder.AddSystem(
+        SinusoidSequencer(
+            config=config,
+            joint_names=names,
+            controller_rate=RATE,
+            initial_positions=joints.initial_positions,
+            controller_ticks=stream,
+        )
+    )
+    builder.Connect(sequencer.GetOutputPort("commands"), manager.GetInputPort("arm.commands"))
+    desired = manager.GetOutputPort("desired_state")
+    if stream:
+        builder.Connect(
+            sequencer.GetOutputPort("tick_count"), manager.GetInputPort("arm.command_count")
+        )
+        desired = AddStreamDesiredState(
+            builder, hardware, names, sequencer.GetOutputPort("tick_command")
+        )
+    ConnectHardwareInterface(
+        builder,
+        plant,
+        robot,
+        hardware,
+        desired_state=desired,
+        effort=None,
+        gravity_feedforward=True,
+    )
+    builder.ExportOutput(desired, "desired_state")
+    view = AddJointStateVector(builder, plant, hardware, instance, hardware.joint_names)
+    sink = builder.AddSystem(VectorLogSink(3 * len(names), 1.0 / RATE))
+    builder.Connect(view.GetOutputPort("joint_states"), sink.get_input_port())
+    return builder.Build(), manager, sink
+
+
+@pytest.mark.parametrize(
+    "config",
+    [
+        Sinusoid(frequency=0.5, amplitude=[0.3, 0.2, 0.1, 0.4]),
+        Sinusoid(frequency=0.5, rate=37.0, start_delay=0.013),  # off the manager's ticks
+    ],
+    ids=["at-the-update-rate", "slower-and-delayed"],
+)
+def test_a_stream_drives_the_plant_as_the_manager_would_to_the_bit(config):
+    """A stream controller is not updated by the manager, yet the plant sees the same
+    desired state at every step (so the same motion and efforts, to the bit) and the
+    controller reports the same status at any time."""
+    runs = []
+    for stream in (False, True):
+        diagram, manager, sink = sinusoid_world(config, stream=stream)
+        simulator = Simulator(diagram)
+        context = simulator.get_mutable_context()
+        trace = []
+        for t in np.arange(0.0, 0.8, 0.0037):
+            simulator.AdvanceTo(t)
+            status = manager.GetOutputPort("arm.status").Eval(manager.GetMyContextFromRoot(context))
+            trace.append((status, diagram.GetOutputPort("desired_state").Eval(context).tolist()))
+        runs.append((trace, sink.FindLog(context).data().copy()))
+    (messages, logged), (streamed, logged_stream) = runs
+    assert streamed == messages
+    np.testing.assert_array_equal(logged_stream, logged)
+    assert messages[-1][0].state == "active" and messages[-1][0].accepted > 10
+
+
+@pytest.mark.parametrize("stream", [False, True])
+def test_a_manager_of_streams_only_has_no_update(stream):
+    _, manager, _ = sinusoid_world(Sinusoid(), stream=stream)
+    simulator = Simulator(manager)
+    simulator.AdvanceTo(0.1)
+    # Without events the simulator goes to 0.1 s in one step; with the update, in 5.
+    assert simulator.get_num_steps_taken() == (1 if stream else 5)
+
+
+def test_a_controller_that_takes_no_stream_is_refused_one():
+    diagram, plant, robot, manager, _ = bare_world()
+    hardware = manager._hardware
+    joints = ControllerJoints.make(hardware.joint_names)
+    logic = lookup("velocity_controllers/JointGroupVelocityController")(name="v", joints=joints)
+    with pytest.raises(ValueError, match="'v' .*takes no command stream"):
+        ControllerManager(
+            hardware=hardware, update_rate=RATE, controllers=[ManagedController("v", logic, True)]
+        )
 
 
 def test_two_controllers_of_the_same_name_are_refused():

@@ -107,6 +107,17 @@ BAD_COMMANDS = [
 ]
 
 
+def test_the_sinusoid_drives_its_position_controller_as_a_stream():
+    world, simulator = world_of("sinusoid")
+    assert world.stream_controller == "position_controller"
+    context = simulator.get_mutable_context()
+    simulator.AdvanceTo(1.0)
+    status = world.status(context, "position_controller")
+    # One sample applied at each tick from 0.01 s to 0.99 s (the tick at 0 s precedes the
+    # first sample; the one at 1 s runs when the simulation goes on).
+    assert (status.state, status.accepted, status.rejected) == ("active", 99, 0)
+
+
 @pytest.mark.parametrize("message, reason", BAD_COMMANDS, ids=["short", "empty", "nan", "inf"])
 def test_bad_position_command_keeps_the_last_good_one(message, reason):
     world, simulator = world_of("position", "sequencer: null")

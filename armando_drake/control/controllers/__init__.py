@@ -386,6 +386,19 @@ class Controller:
         return cls.command_interface(params) == "position"
 
     @classmethod
+    def accepts_stream(cls, params) -> bool:
+        """Whether the controller can take its commands as a stream of joint positions
+        evaluated in C++ and checked when the world is built (a sinusoid within the
+        joint limits): each sample is then accepted as it is, so the stream drives the
+        hardware directly and :meth:`stream_status` tells what the controller reports."""
+        return False
+
+    def stream_status(self, status: ControllerStatus, count: int) -> ControllerStatus:
+        """``status`` after accepting ``count`` samples of a stream (see
+        :meth:`accepts_stream`)."""
+        raise NotImplementedError(f"{type(self).__qualname__} takes no command stream")
+
+    @classmethod
     def publish_rate(cls, params) -> float | None:
         """[Hz] the rate a broadcaster publishes at, when its parameters set one
         (ROS 1's ``publish_rate``); None = the controller manager's update rate."""

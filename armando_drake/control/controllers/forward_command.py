@@ -85,6 +85,19 @@ class ForwardCommandController(Controller):
     def default_parameters(cls, joints):
         return cls.parameters(joints=list(joints.names), interface_name="position")
 
+    @classmethod
+    def accepts_stream(cls, params) -> bool:
+        return cls.command_interface(params) == "position"
+
+    def stream_status(self, status, count):
+        # Every sample is finite, of the right size and within the limits (checked when
+        # the world is built), so each one is accepted as it is, without a warning.
+        if count <= 0:
+            return status
+        return dataclasses.replace(
+            status, state="active", accepted=status.accepted + count, detail={}
+        )
+
     def _Limits(self) -> tuple[np.ndarray, np.ndarray]:
         if self.interface == "position":
             return self.lower, self.upper
