@@ -385,6 +385,11 @@ def merge_overrides(scenario: Scenario, overrides, label: str = "--set") -> Scen
     """
     sources = sources_of(scenario)
     for override in [overrides] if isinstance(overrides, str) else overrides:
+        if not override.strip():
+            raise ScenarioError(
+                f"{label} {override!r}: nothing to set; give a YAML mapping, e.g. "
+                "'actuators: {kp: 4.0}'"
+            )
         _refuse_duplicate_keys(override, f"{label} {override!r}")
         try:
             scenario = _merge(scenario, override)

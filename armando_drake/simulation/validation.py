@@ -91,6 +91,11 @@ RANGES = {
     "cameras.*.update_rate": POSITIVE,
     "ros2.clock_rate": NON_NEGATIVE,
 }
+# [m] the largest coordinate of a position accepted: farther, the double's precision
+# (about 1e-12 of the value) is coarser than the contact and joint tolerances.
+MAX_COORDINATE = 1e4
+# Positions: dotted key pattern of each coordinate.
+POSITIONS = ("robot.base_xyz.*", "objects.*.xyz.*", "cameras.*.xyz.*")
 # Vectors of a fixed length: dotted key -> length.
 LENGTHS = {"robot.base_xyz": 3, "robot.base_rpy": 3}
 
@@ -149,6 +154,12 @@ def check_scenario(scenario: Scenario, source: str = "") -> None:
         if _is_number(value):
             if not math.isfinite(value):
                 raise _fail(scenario, key, f"={value!r} is not a finite number")
+            if pattern in POSITIONS and abs(value) > MAX_COORDINATE:
+                raise _fail(
+                    scenario,
+                    key,
+                    f"={value!r} m is farther than {MAX_COORDINATE:g} m from the origin",
+                )
             if pattern in RANGES:
                 low, included, rule = RANGES[pattern]
                 if value < low or (value == low and not included):

@@ -166,6 +166,12 @@ SCENARIO_CASES = [
         ["key 'kp' is given twice", "--set '{actuators"],
     ),
     ("save-frames-on-a-file", ["--save-frames", "/etc/passwd"], ["--save-frames /etc/passwd"]),
+    ("empty-set", [*set_("")], ["--set ''", "nothing to set"]),
+    (
+        "base-far-away",
+        [*set_("robot: {base_xyz: [1e308, 0, 0]}")],
+        ["robot.base_xyz.0=1e+308 m is farther than", "--set 'robot"],
+    ),
 ]
 
 
