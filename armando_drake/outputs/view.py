@@ -89,6 +89,40 @@ def body_frames(plant, model_instances=None) -> set:
     return frames
 
 
+def arm_frames(plant, model_instances) -> set:
+    """The geometry frames of the bodies of ``model_instances`` that make up the arm:
+    every body but the accessories fixed to the world, that is anchored bodies (welded to
+    the world through welds only) that carry no moving joint, such as a camera on a
+    stand beside the robot. All the bodies' frames when that would leave none."""
+    from pydrake.multibody.tree import JointIndex
+
+    carriers = set()  # anchored bodies with a moving joint somewhere below them
+    parent_of = {}  # child body index -> parent body index
+    moving_parents = []
+    for index in range(plant.num_joints()):
+        joint = plant.get_joint(JointIndex(index))
+        parent_of[joint.child_body().index()] = joint.parent_body().index()
+        if joint.num_velocities() > 0:
+            moving_parents.append(joint.parent_body().index())
+    for body in moving_parents:
+        while body is not None and body not in carriers:
+            carriers.add(body)
+            body = parent_of.get(body)
+    frames = set()
+    for index in range(plant.num_bodies()):
+        body = plant.get_body(BodyIndex(index))
+        if body.index() == plant.world_body().index():
+            continue
+        if body.model_instance() not in model_instances:
+            continue
+        if plant.IsAnchored(body) and body.index() not in carriers:
+            continue  # an accessory fixed to the world
+        frame = plant.GetBodyFrameIdIfExists(body.index())
+        if frame is not None:
+            frames.add(frame)
+    return frames or body_frames(plant, model_instances)
+
+
 def scene_points(query, frames) -> np.ndarray:
     """(n, 3) corners [m] of the boxes around the illustration geometry on ``frames``
     (geometry frame ids), at the poses of ``query`` (a SceneGraph QueryObject); (0, 3)
@@ -211,12 +245,13 @@ class ViewFramer(LeafSystem):
 def AddViewFramer(
     builder, plant, scene_graph, meshcat: Meshcat, *, robot_instances, ground: bool, view=None
 ) -> ViewFramer:
-    """Adds a :class:`ViewFramer` of the bodies of ``robot_instances``; with ``ground``
-    it draws the ground to fit every body."""
+    """Adds a :class:`ViewFramer` of the arm of ``robot_instances`` (:func:`arm_frames`:
+    their bodies but accessories fixed to the world); with ``ground`` it draws the ground
+    to fit every body."""
     framer = builder.AddSystem(
         ViewFramer(
             meshcat=meshcat,
-            robot_frames=body_frames(plant, robot_instances),
+            robot_frames=arm_frames(plant, robot_instances),
             scene_frames=body_frames(plant) if ground else None,
             view=view,
         )

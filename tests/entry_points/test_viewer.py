@@ -230,3 +230,30 @@ def test_console_lines_print_above_the_progress_bar(capsys):
     after = terminal.getvalue()[drawn:]
     assert re.match(r"\r +\r", after), repr(after)  # cleared first
     assert "2.00/10.00 s simulated" in after, repr(after)  # then drawn again
+
+
+def test_the_view_frames_the_arm_not_the_accessories_fixed_beside_it():
+    """Armando's camera stands 0.75 m from the arm on a link welded to the base: it is
+    not part of what the view frames; the base and every link the joints carry are."""
+    from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
+    from pydrake.multibody.tree import BodyIndex
+    from pydrake.systems.framework import DiagramBuilder
+
+    from armando_drake.description.loader import load_robot
+    from armando_drake.outputs.view import arm_frames, body_frames
+
+    builder = DiagramBuilder()
+    plant, _ = AddMultibodyPlantSceneGraph(builder, 0.001)
+    robot = load_robot(plant)
+    plant.Finalize()
+    framed = arm_frames(plant, [robot.model_instance])
+    everything = body_frames(plant, [robot.model_instance])
+    names = {}
+    for index in range(1, plant.num_bodies()):
+        body = plant.get_body(BodyIndex(index))
+        frame = plant.GetBodyFrameIdIfExists(body.index())
+        if frame is not None:
+            names[frame] = body.name()
+    left_out = sorted(names[f] for f in everything - framed)
+    assert left_out == ["camera_link"], left_out
+    assert {"base_link", "wrist"} <= {names[f] for f in framed}
