@@ -730,10 +730,10 @@ def bench_startup(report: Report) -> None:
 # --- 5. memory ----------------------------------------------------------------------
 
 
-def rss_mb() -> float:
-    """Resident memory of this process [MB] (VmRSS)."""
+def rss_mb(field: str = "VmRSS") -> float:
+    """Resident memory of this process [MB] (VmRSS; VmHWM: its peak so far)."""
     for line in Path("/proc/self/status").read_text().splitlines():
-        if line.startswith("VmRSS:"):
+        if line.startswith(f"{field}:"):
             return int(line.split()[1]) / 1024.0
     import resource
 
@@ -746,10 +746,12 @@ def memory_soak(horizon: float) -> dict:
     As ``python -m armando_drake.world --no-meshcat --output DIR`` does: the CSV
     logger writes joint_states.csv at the controller rate (100 Hz) to a temporary
     folder and the replay is sampled into a private Meshcat, then written as
-    replay.html after the run; console logging off; as fast as it goes.
+    replay.html after the run, then the plots of the whole run are drawn; console
+    logging off; as fast as it goes.
     """
     from pydrake.systems.analysis import Simulator
 
+    from armando_drake.outputs.plots import write_plots
     from armando_drake.outputs.replay import (
         RecordingMeshcat,
         publish_replay,
@@ -782,6 +784,11 @@ def memory_soak(horizon: float) -> dict:
         replay_wall = time.perf_counter() - replay_start
         replay_bytes = replay.stat().st_size
         after_replay = rss_mb()
+        peak_before_plots = rss_mb("VmHWM")
+        plots_start = time.perf_counter()
+        write_plots(folder)
+        plots_wall = time.perf_counter() - plots_start
+        peak = rss_mb("VmHWM")
     return {
         "horizon": horizon,
         "wall": wall,
@@ -791,6 +798,9 @@ def memory_soak(horizon: float) -> dict:
         "replay_frames": frames,
         "replay_wall": replay_wall,
         "rss_after_replay": after_replay,
+        "peak_before_plots": peak_before_plots,
+        "plots_wall": plots_wall,
+        "peak": peak,
     }
 
 
@@ -820,6 +830,15 @@ def bench_memory(report: Report, horizon: float) -> None:
             "memory", f"replay.html after {label} simulated", "MB", [soak["replay_bytes"] / 1e6]
         ).check("<=", 50.0)
     )
+    if "peak" in soak:
+        report.add(
+            Row(
+                "memory",
+                f"peak resident memory, plots of the {label} drawn after the run",
+                "MB",
+                [soak["peak"]],
+            )
+        )
     report.notes.append(
         f"Memory: one fresh process, cyclic position scenario as `--no-meshcat --output` "
         f"runs it: joint_states.csv at 100 Hz ({soak['csv_bytes'] / 1e6:.1f} MB written) and "
@@ -827,7 +846,9 @@ def bench_memory(report: Report, horizon: float) -> None:
         f"{soak['replay_wall']:.1f} s after the run), {label} simulated in "
         f"{soak['wall']:.0f} s; RSS [MB] at 0, 25, 50, 75, 100 % of the run: "
         + ", ".join(f"{samples[i][1]:.1f}" for i in (0, 5, 10, 15, 20))
-        + f", after writing replay.html {end:.1f}."
+        + f", after writing replay.html {end:.1f}; peak before the plots "
+        f"{soak.get('peak_before_plots', float('nan')):.1f}, with the plots (drawn in "
+        f"{soak.get('plots_wall', float('nan')):.1f} s) {soak.get('peak', float('nan')):.1f}."
     )
 
 

@@ -45,6 +45,32 @@ DPI = 100  # [pixel/inch]
 PLOTS = ("positions.png", "tracking_error.png", "efforts.png")
 
 
+def envelope(values: np.ndarray, max_points: int = 4000) -> np.ndarray:
+    """Indices into the rows of ``values`` (m, k) that keep, for every column, its
+    smallest and largest value in each of ``max_points / 2`` consecutive buckets, plus the
+    first and last row: a line drawn through them looks as the whole series does at the
+    plots' width (peaks included) with a few thousand points instead of every sample.
+    NaN counts as neither; one column at a time, so it takes little memory."""
+    m = len(values)
+    if m <= max_points:
+        return np.arange(m)
+    values = values.reshape(m, -1)
+    buckets = max(1, max_points // 2)
+    size = -(-m // buckets)  # ceil
+    starts = np.arange(buckets) * size
+    keep = [np.array([0, m - 1])]
+    for column in values.T:
+        padded = np.empty(buckets * size)
+        padded[:m] = column
+        padded[m:] = column[-1]
+        blocks = padded.reshape(buckets, size)
+        nan = np.isnan(blocks)
+        keep.append(starts + np.argmin(np.where(nan, np.inf, blocks), axis=1))
+        keep.append(starts + np.argmax(np.where(nan, -np.inf, blocks), axis=1))
+    keep = np.concatenate(keep)
+    return np.unique(keep[keep < m])
+
+
 def commanded_at(
     times: np.ndarray, command_times: np.ndarray, commands: np.ndarray, ahead: bool = False
 ) -> np.ndarray:
@@ -127,9 +153,13 @@ def write_plots(output_dir: str | Path) -> list[Path]:
         fig.savefig(path, dpi=DPI)
         written.append(path)
 
+    # A long run is drawn through the envelope of its samples (same look, bounded memory).
+    error = np.abs(position - commanded)
+    shown = np.union1d(envelope(position), np.union1d(envelope(effort), envelope(error)))
+
     fig, axes = figure("Joint positions", "rad")
     for j, (axis, name) in enumerate(zip(axes, joints, strict=True)):
-        axis.plot(times, position[:, j], label="measured")
+        axis.plot(times[shown], position[shown, j], label="measured")
         if name in command_joints and len(command_times):
             k = command_joints.index(name)
             if trajectory:  # each point, reached at the time it is due
@@ -147,12 +177,12 @@ def write_plots(output_dir: str | Path) -> list[Path]:
         if np.isnan(commanded[:, j]).all():
             axis.text(0.5, 0.5, "no command", transform=axis.transAxes, ha="center")
             continue
-        axis.plot(times, np.abs(position[:, j] - commanded[:, j]), color="tab:red")
+        axis.plot(times[shown], error[shown, j], color="tab:red")
     save(fig, "tracking_error.png")
 
     fig, axes = figure("Joint efforts", "N m")
     for j, axis in enumerate(axes):
-        axis.plot(times, effort[:, j], color="tab:green")
+        axis.plot(times[shown], effort[shown, j], color="tab:green")
     save(fig, "efforts.png")
     if (folder / "task_space.csv").is_file():
         _task_space_plots(folder, title, times, effort, joints, save)

@@ -55,6 +55,7 @@ def test_quick_run_writes_every_row_with_positive_numbers(quick_run):
         "resident memory at the start",
         "resident memory after 20 s simulated and replay.html",
         "replay.html after 20 s simulated",
+        "peak resident memory, plots of the 20 s drawn after the run",
     ]
     if shutil.which("Xvfb") or os.environ.get("CI"):  # CI installs Xvfb: the GL rows too
         expected += [
