@@ -36,9 +36,9 @@ quantity and joint.
 from __future__ import annotations
 
 import csv
-import warnings
 import math
 import sys
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
