@@ -20,6 +20,10 @@ the end effector against time, as the seed's figures), ``joint_torques.png``
 (the commanded torque of every joint [N m], one axis) and ``task_path.png``
 (desired and actual end-effector path in three projections: x-y, x-z, y-z [m]).
 
+A run longer than a few thousand samples is drawn through the envelope of its samples
+(:func:`envelope`: each line's smallest and largest value per pixel-wide bucket), so an
+hour-long run plots in seconds and bounded memory with its peaks intact.
+
 Each step's start (``summary.json`` steps[*].start) is marked by a dotted
 vertical line. The figures are :data:`FIGURE_SIZE` at :data:`DPI`, so each PNG
 is 1000 x 700 pixels whatever the number of joints. Matplotlib runs with
