@@ -779,6 +779,7 @@ def _add_task(builder, world: World, scenario: Scenario, where: str) -> None:
     from pydrake.common.value import AbstractValue
     from pydrake.systems.primitives import ConstantValueSource
 
+    from armando_drake.control.controllers.task_space import check_within_reach
     from armando_drake.control.messages import CartesianTrajectory
     from armando_drake.task.arm import ArmModel, TaskSpaceError
     from armando_drake.task.motion import make_cartesian_trajectory
@@ -804,6 +805,7 @@ def _add_task(builder, world: World, scenario: Scenario, where: str) -> None:
         arm = ArmModel(plant=plant, end_effector_frame=frame, model_instance=instance)
         arm.set_state(arm.default_positions())
         trajectory = make_cartesian_trajectory(motion, arm.pose())
+        check_within_reach(arm, trajectory)
         period = 1.0 / world.update_rate
         if config[name].controller_class.message is CartesianTrajectory:
             message = cartesian_trajectory_message(trajectory, period, arm.frame_E.name())

@@ -168,6 +168,11 @@ SCENARIO_CASES = [
     ("save-frames-on-a-file", ["--save-frames", "/etc/passwd"], ["--save-frames /etc/passwd"]),
     ("empty-set", [*set_("")], ["--set ''", "nothing to set"]),
     (
+        "task-beyond-reach",
+        ["--scenario", "task_armando", *set_("task: {path: circular, radius: 2}")],
+        ["beyond its reach of 0.326 m", "--set 'task: {path: circular, radius: 2}'"],
+    ),
+    (
         "base-far-away",
         [*set_("robot: {base_xyz: [1e308, 0, 0]}")],
         ["robot.base_xyz.0=1e+308 m is farther than", "--set 'robot"],

@@ -240,6 +240,27 @@ def _reach(arm: ArmModel) -> float:
     return float(sum(np.linalg.norm(b - a) for a, b in zip(points[:-1], points[1:], strict=True)))
 
 
+def check_within_reach(arm: ArmModel, trajectory, samples: int = 400) -> None:
+    """Raises :class:`TaskSpaceError` if the position path of ``trajectory`` (a
+    :class:`~armando_drake.task.paths.CartesianTrajectory` in the arm's base frame) leaves
+    the sphere the arm can reach (:func:`_reach` around its first joint): the check the
+    controller makes of every point it is sent, made of a scenario's task when the world
+    is built."""
+    from armando_drake.task.arm import TaskSpaceError
+
+    reach = _reach(arm)
+    joint = arm.plant.GetJointByName(arm.joint_names[0], arm.model_instance)
+    base = joint.frame_on_child().CalcPose(arm.context, arm.frame_B).translation()
+    times = np.linspace(0.0, trajectory.duration, samples)
+    distance = np.linalg.norm(trajectory.reference(times)[:, 4:7] - base, axis=1)
+    k = int(np.argmax(distance))
+    if distance[k] > reach:
+        raise TaskSpaceError(
+            f"the path at {times[k]:.3g} s is {distance[k]:.3f} m from the arm's first joint, "
+            f"beyond its reach of {reach:.3f} m (outside the workspace)"
+        )
+
+
 def _base_joint_position(law) -> np.ndarray:
     """[m] the arm's first joint origin in its base frame B, now."""
     arm = law.arm
