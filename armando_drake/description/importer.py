@@ -582,7 +582,7 @@ def prepare_urdf(
 
 def actuation(
     root: ET.Element, hardware: list | None = None, joints: list | None = None
-) -> tuple[dict[str, list[str]], str, list[str]]:
+) -> tuple[dict[str, list[str]], str, list[str | Warning]]:
     """The actuated joints with their command interfaces, where that was read, and notes.
 
     From the ``<ros2_control>`` blocks if the URDF has any (every joint with a
@@ -633,7 +633,7 @@ def actuation(
     kinds = {joint.get("name"): joint.get("type") for joint in root.findall("joint")}
     mimics = {joint.name: joint.mimic for joint in joints if joint.mimic}
     result: dict[str, list[str]] = {}
-    notes: list[str] = []
+    notes: list[str | Warning] = []
 
     def add(name: str, interfaces: list[str], where: str) -> None:
         if name in mimics:
@@ -689,6 +689,14 @@ def actuation(
     notes.append(
         "no <ros2_control> or <transmission>: actuating every non-fixed joint: " + ", ".join(result)
     )
+    several = [f"{name} ({kind})" for name, kind in kinds.items() if kind in MOVING_JOINT_TYPES[3:]]
+    if several:
+        notes.append(
+            Warning(
+                f"not actuated: {', '.join(several)}: a joint of several degrees of freedom "
+                "has no joint command interface, so it moves freely"
+            )
+        )
     return result, "non-fixed joints", notes
 
 

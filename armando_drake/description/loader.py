@@ -867,8 +867,8 @@ def load_robot(
     cameras = parse_camera_sensors(root, source=str(source))
     warnings: list[str] = []
     interfaces, actuation_source, notes = actuation(root, hardware, joints)
-    for message in notes:
-        LOGGER.info("%s: %s", source, message)
+    for message in notes:  # a Warning among them is one
+        (LOGGER.warning if isinstance(message, Warning) else LOGGER.info)("%s: %s", source, message)
     transmissions = parse_transmissions(root)
     welds: list[BaseWeld] = []
 

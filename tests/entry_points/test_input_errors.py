@@ -625,3 +625,14 @@ def test_display_checks_package_path_too(capsys):
         display.main(["--package-path", "/etc/passwd", "--loop-once"])
     assert end.value.code == 2
     assert_one_line(capsys.readouterr().err, "--package-path: /etc/passwd: not a folder")
+
+
+def test_a_joint_of_several_degrees_of_freedom_is_named_as_not_actuated(tmp_path, capsys, caplog):
+    """A planar joint has no joint command interface: the run goes on and says which
+    joint moves freely, instead of leaving it out without a word."""
+    path = tmp_path / "planar.urdf"
+    path.write_text(URDF.replace("EXTRA", "").replace('type="revolute"', 'type="planar"', 1))
+    code, _, err = run_main("--description", str(path), capsys=capsys)
+    assert code == 0, err
+    warnings = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert any("not actuated: q1 (planar)" in w and str(path) in w for w in warnings), warnings
