@@ -283,6 +283,12 @@ CONTROLLER_CASES = [
     ("unknown-joint", controllers_yaml(joints="[j0, j9]"), ["unknown joint 'j9'"]),
     ("a-list", "- 1\n- 2\n", ["expected a mapping"]),
     (
+        "broadcaster-interface-not-simulated",
+        controllers_yaml().rstrip(" ")
+        + "        jsb:\n          ros__parameters:\n            interfaces: [torque]\n",
+        ["jsb.ros__parameters.interfaces", "'torque' is not a state interface"],
+    ),
+    (
         "duplicate-key",
         controllers_yaml().replace(
             "update_rate: 100", "update_rate: 100\n" + " " * 12 + "update_rate: 50"

@@ -73,6 +73,14 @@ class JointStateBroadcasterParameters:
         for name in self.extra_joints:
             if name in self.joints:
                 raise ParameterError("extra_joints", f"'{name}' is also one of the joints")
+        for interface in self.interfaces:
+            if interface not in _DEFAULT_MAPPING.values():
+                raise ParameterError(
+                    "interfaces",
+                    f"{interface!r} is not a state interface of the simulated joints "
+                    f"({', '.join(_DEFAULT_MAPPING.values())}); upstream's activation fails on "
+                    "an interface the hardware does not export",
+                )
         if self.use_local_topics:
             raise ParameterError(
                 "use_local_topics",
