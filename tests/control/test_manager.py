@@ -50,8 +50,8 @@ from armando_drake.simulation.scenario import ScenarioError, load_scenario
 RATE = 50  # [Hz]
 
 
-def bare_world(controllers=("position",)):
-    """Armando on a plant with the manager: a broadcaster and a position controller."""
+def armando_plant():
+    """(builder, plant, robot, hardware): Armando on a 1 ms plant with its PD actuators."""
     builder = DiagramBuilder()
     plant, _ = AddMultibodyPlant(
         MultibodyPlantConfig(time_step=0.001, discrete_contact_approximation="lagged"), builder
@@ -60,6 +60,12 @@ def bare_world(controllers=("position",)):
     hardware = AddHardwareInterface(plant, robot, kp=8.0, kd=0.4)
     plant.Finalize()
     FinishHardwareInterface(plant, robot, hardware)
+    return builder, plant, robot, hardware
+
+
+def bare_world(controllers=("position",)):
+    """Armando on a plant with the manager: a broadcaster and a position controller."""
+    builder, plant, robot, hardware = armando_plant()
     names = hardware.joint_names
     joints = ControllerJoints.make(
         names,
@@ -163,14 +169,7 @@ def test_broadcaster_without_effort_publishes_empty_effort():
 def sinusoid_world(config: Sinusoid, *, stream: bool):
     """Armando on a plant, its position controller driven by a SinusoidSequencer: through
     the manager as messages, or as a C++ stream (``stream``)."""
-    builder = DiagramBuilder()
-    plant, _ = AddMultibodyPlant(
-        MultibodyPlantConfig(time_step=0.001, discrete_contact_approximation="lagged"), builder
-    )
-    robot = load_robot(plant)
-    hardware = AddHardwareInterface(plant, robot, kp=8.0, kd=0.4)
-    plant.Finalize()
-    FinishHardwareInterface(plant, robot, hardware)
+    builder, plant, robot, hardware = armando_plant()
     names = list(reversed(hardware.joint_names))  # not the hardware order
     rows = hardware.find(names)
     joints = ControllerJoints.make(
