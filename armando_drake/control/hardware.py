@@ -34,7 +34,13 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import PdControllerGains
 from pydrake.systems.controllers import InverseDynamics
 from pydrake.systems.framework import DiagramBuilder, OutputPort
-from pydrake.systems.primitives import Adder, AffineSystem, MatrixGain, Multiplexer
+from pydrake.systems.primitives import (
+    Adder,
+    AffineSystem,
+    MatrixGain,
+    Multiplexer,
+    ZeroOrderHold,
+)
 
 from armando_drake.description.loader import LoadedRobot
 from armando_drake.description.ros2_control import initial_position, merge_limits
@@ -314,6 +320,29 @@ def AddGravityFeedforward(
     if mixed:
         builder.Connect(state, system.GetInputPort("state"))
     return system.GetOutputPort("feedforward")
+
+
+def AddEffortState(
+    builder: DiagramBuilder, plant: MultibodyPlant, robot: LoadedRobot
+) -> OutputPort:
+    """The effort state interface [N m]: per actuator of the robot (actuator order), the
+    torque its actuator applied over the last plant step, as a servo reports it.
+
+    A C++ ``ZeroOrderHold`` named ``effort_state`` latches the plant's net actuation at
+    every plant step, in the same discrete update as the step itself, so the value it
+    holds comes from the step's own solve. Reading the plant's net actuation port
+    instead would solve the step ahead from the current state with the command then
+    in force, and again once a new command arrives at the same time: one more contact
+    solve at every tick whose command changes. Before the first step it holds zeros
+    (no torque applied yet). A continuous plant (time step 0) gets the net actuation
+    port itself.
+    """
+    effort = plant.get_net_actuation_output_port(robot.model_instance)
+    if plant.time_step() <= 0:
+        return effort
+    hold = builder.AddNamedSystem("effort_state", ZeroOrderHold(plant.time_step(), effort.size()))
+    builder.Connect(effort, hold.get_input_port())
+    return hold.get_output_port()
 
 
 def ConnectHardwareInterface(

@@ -388,6 +388,7 @@ def AddJointStateVector(
     hardware: HardwareInterface,
     instance,
     joint_names: Sequence[str],
+    effort: OutputPort | None = None,
 ) -> Diagram:
     """The broadcaster's vector view, in C++: [positions; velocities; efforts] of
     ``joint_names`` in that order (3n) [rad, rad/s, N m], from the plant's state and
@@ -397,7 +398,8 @@ def AddJointStateVector(
     ``state`` and ``effort`` connected and the output port ``joint_states``.
     """
     state = plant.get_state_output_port(instance)
-    effort = plant.get_net_actuation_output_port(instance)
+    if effort is None:
+        effort = plant.get_net_actuation_output_port(instance)
     rows = hardware.find(list(joint_names))
     n = len(rows)
     select = np.zeros((3 * n, state.size() + effort.size()))

@@ -40,7 +40,7 @@ from pydrake.multibody.plant import (
     CoulombFriction,
     MultibodyPlant,
 )
-from pydrake.systems.framework import Context, Diagram, DiagramBuilder, System
+from pydrake.systems.framework import Context, Diagram, DiagramBuilder, OutputPort, System
 from pydrake.visualization import ApplyVisualizationConfig
 
 from armando_drake.control.config import (
@@ -54,6 +54,7 @@ from armando_drake.control.config import (
 )
 from armando_drake.control.controllers import ControllerJoints, lookup
 from armando_drake.control.hardware import (
+    AddEffortState,
     AddHardwareInterface,
     ConnectHardwareInterface,
     FinishHardwareInterface,
@@ -111,6 +112,9 @@ class World:
     controller_manager: ControllerManager | None = None  # broadcaster and controllers
     sequencer: System | None = None  # the command sequencer (a LeafSystem or a Diagram)
     logger: JointStateLogger | None = None
+    # The hardware's effort state interface: the torque each actuator applied over the
+    # last plant step (AddEffortState), read by the broadcaster and the logger.
+    effort_state: OutputPort | None = None
     sequencer_target: str = ""  # the controller the sequencer drives
     # The controller whose commands are a C++ stream (a sinusoid) that drives the
     # hardware directly, without the manager's update; "" if none.
@@ -511,7 +515,8 @@ def _add_controller_manager(builder, world: World, scenario: Scenario, where: st
     world.controller_manager = manager
     instance = world.robot.model_instance
     builder.Connect(plant.get_state_output_port(instance), manager.GetInputPort("state"))
-    builder.Connect(plant.get_net_actuation_output_port(instance), manager.GetInputPort("effort"))
+    world.effort_state = AddEffortState(builder, plant, world.robot)
+    builder.Connect(world.effort_state, manager.GetInputPort("effort"))
     if broadcaster is not None:
         builder.ExportOutput(manager.GetOutputPort("joint_states"), "joint_states")
         world.broadcaster = manager
@@ -1013,7 +1018,12 @@ def _add_logger(builder, world: World, scenario: Scenario, output_dir, quiet: bo
 
     joints = world.controller_joints[world.broadcaster_name]
     view = AddJointStateVector(
-        builder, world.plant, world.hardware, world.robot.model_instance, joints
+        builder,
+        world.plant,
+        world.hardware,
+        world.robot.model_instance,
+        joints,
+        effort=world.effort_state,
     )
     csv_path = None if output_dir is None else Path(output_dir) / "joint_states.csv"
     console_rate = scenario.logging.console_rate

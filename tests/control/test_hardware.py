@@ -128,3 +128,34 @@ def test_gravity_feedforward_cancels_gravity_at_the_command():
         actuation.Eval(plant.GetMyContextFromRoot(context)), expected, atol=1e-12
     )
     world.close()
+
+
+def test_effort_state_is_the_torque_applied_over_the_last_plant_step():
+    # The broadcaster and the logger read the effort a servo reports: what its actuator
+    # applied over the plant step that just ended, not a step solved ahead from the
+    # current state (which costs one more contact solve whenever a command arrives).
+    world = armando_world(8.0, True)
+    plant, instance = world.plant, world.robot.model_instance
+    simulator = Simulator(world.diagram)
+    context = simulator.get_mutable_context()
+    plant_context = plant.GetMyContextFromRoot(context)
+    applied = plant.get_net_actuation_output_port(instance)
+    h = plant.time_step()
+
+    def reported():
+        return np.array(world.diagram.GetOutputPort("joint_states").Eval(context).effort)
+
+    simulator.Initialize()
+    np.testing.assert_array_equal(reported(), np.zeros(4))  # no step taken yet
+    world.publish(context, "position_controller", Float64MultiArray(data=(0.3, -0.9, 1.1, 0.5)))
+    # Mid-motion, before the 50 ms tick and on it: the report at t is the torque the
+    # step [t - h, t] applied, solved from the state and command at t - h.
+    for t in (0.035, 0.05, 0.4):
+        simulator.AdvanceTo(t - h)
+        expected = np.array(applied.Eval(plant_context))
+        simulator.AdvanceTo(t)
+        np.testing.assert_array_equal(reported(), expected)
+        assert np.abs(expected).max() > 0.01  # the arm is being driven
+        # The plant's port solves the next step instead: a different torque mid-motion.
+        assert np.abs(np.array(applied.Eval(plant_context)) - expected).max() > 1e-6
+    world.close()
