@@ -1379,6 +1379,13 @@ def test_trajectory_parameters_refused_name_the_parameter(extra, message):
     assert "\n" not in str(error.value)
 
 
+def arm_controller_params(text: str):
+    """The typed parameters of ``arm_controller`` in the controller YAML ``text``."""
+    return (
+        parse_controller_config(yaml.safe_load(text), "c.yaml").controllers["arm_controller"].params
+    )
+
+
 def test_trajectory_parameters_accepted():
     text = CONFIG + (
         "    allow_integration_in_goal_trajectories: true\n"
@@ -1388,9 +1395,7 @@ def test_trajectory_parameters_accepted():
         "    gains: {j0: {p: 10.0, i: 0.1, d: 0.5, i_clamp: 1.0, ff_velocity_scale: 1.0}}\n"
         "    update_rate: 100\n"
     )
-    params = (
-        parse_controller_config(yaml.safe_load(text), "c.yaml").controllers["arm_controller"].params
-    )
+    params = arm_controller_params(text)
     assert params.allow_integration_in_goal_trajectories and params.from_desired_state
     assert params.cmd_timeout == 2.0 and params.gains["j0"].p == 10.0
 
@@ -1412,9 +1417,7 @@ def test_get_segment_tolerances_from_parameters():
         "      j0: {trajectory: 0.2, goal: 1.1}\n"
         "      j1: {goal: 1.2}\n"
     )
-    params = (
-        parse_controller_config(yaml.safe_load(text), "c.yaml").controllers["arm_controller"].params
-    )
+    params = arm_controller_params(text)
     assert params.goal_time == 2.0
     assert params.stopped_velocity_tolerance == 0.02
     assert params.trajectory_tolerance == {"j0": 0.2}
