@@ -47,9 +47,7 @@ def replayed_desired_state(
     simulator = Simulator(world.diagram)
     context = simulator.get_mutable_context()
     port = world.diagram.GetOutputPort("desired_state")
-    feedforward = None
-    if world.diagram.HasSubsystemNamed("gravity_feedforward"):
-        feedforward = world.diagram.GetSubsystemByName("gravity_feedforward")
+    feedforward = world.gravity_feedforward
     period = 1.0 / world.update_rate
     times, samples, torques = [], [], []
     for k in range(int(round(duration / period)) + 1):
@@ -57,13 +55,8 @@ def replayed_desired_state(
         times.append(k * period)
         samples.append(np.array(port.Eval(context)))
         if feedforward is not None:
-            torques.append(
-                np.array(
-                    feedforward.GetOutputPort("feedforward").Eval(
-                        feedforward.GetMyContextFromRoot(context)
-                    )
-                )
-            )
+            owner = feedforward.get_system().GetMyContextFromRoot(context)
+            torques.append(np.array(feedforward.Eval(owner)))
     world.close(context)
     return times, np.stack(samples, axis=1), np.stack(torques, axis=1) if torques else None
 

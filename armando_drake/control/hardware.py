@@ -261,9 +261,8 @@ def AddGravityFeedforward(
     desired_state: OutputPort,
 ) -> OutputPort:
     """The torques [N m] that hold the arm against gravity at the commanded positions,
-    one per actuator of the robot (actuator order), computed in C++: a diagram
-    ``gravity_feedforward`` with the input ``desired_state`` and the output
-    ``feedforward``.
+    one per actuator of the robot (actuator order), computed in C++; returns that output
+    port. The system computing it is named ``gravity_feedforward``.
 
     ``desired_state`` is [q_d; v_d] of the hardware joints (actuator order). The
     chain is Drake's: an ``AffineSystem`` places q_d of the position joints into the
@@ -277,6 +276,14 @@ def AddGravityFeedforward(
     position, so their measured positions go in instead (the diagram then also has
     the input ``state``, the robot's [q; v], connected here, and the chain runs at
     every plant step).
+
+    Every system in a diagram costs a little at every plant step, whether or not it
+    computes (the simulator asks it for its next event and tells it the time), so
+    when the placement and the mapping are identities (the robot's joints are the
+    plant's only degrees of freedom, in actuator order, every one a position joint
+    with one actuator), ``InverseDynamics`` alone takes [q_d; v_d] as the plant's
+    state (gravity compensation reads only the positions) and its generalized forces
+    are the actuator torques.
     """
     n = len(hardware.joints)
     mixed = any(joint.command_interface != "position" for joint in hardware.joints)
@@ -293,17 +300,27 @@ def AddGravityFeedforward(
         else:
             select[row, 2 * n + hardware.position_index[i]] = 1.0  # measured q
         x_default[row] = 0.0  # replaced by the above
-    inner = DiagramBuilder()
-    placement = inner.AddNamedSystem("plant_state", AffineSystem(D=select, y0=x_default))
-    dynamics = inner.AddNamedSystem(
-        "gravity_compensation",
-        InverseDynamics(plant, mode=InverseDynamics.InverseDynamicsMode.kGravityCompensation),
-    )
     rows = [int(index) for index in plant.GetJointActuatorIndices(robot.model_instance)]
     to_torque = np.linalg.pinv(plant.MakeActuationMatrix())[rows]
     for i, joint in enumerate(hardware.joints):
         if joint.command_interface != "position":
             to_torque[i, :] = 0.0
+    gravity = InverseDynamics(plant, mode=InverseDynamics.InverseDynamicsMode.kGravityCompensation)
+    places_q_d_in_order = np.zeros((2 * n, 2 * n))
+    places_q_d_in_order[:n, :n] = np.eye(n)
+    if (
+        not mixed
+        and select.shape == places_q_d_in_order.shape
+        and np.array_equal(select, places_q_d_in_order)
+        and not x_default.any()
+        and np.array_equal(to_torque, np.eye(n))
+    ):
+        builder.AddNamedSystem("gravity_feedforward", gravity)
+        builder.Connect(desired_state, gravity.get_input_port_estimated_state())
+        return gravity.get_output_port_generalized_force()
+    inner = DiagramBuilder()
+    placement = inner.AddNamedSystem("plant_state", AffineSystem(D=select, y0=x_default))
+    dynamics = inner.AddNamedSystem("gravity_compensation", gravity)
     torque = inner.AddNamedSystem("actuator_torque", MatrixGain(to_torque))
     if mixed:
         stack = inner.AddNamedSystem("inputs", Multiplexer([2 * n, state.size()]))
@@ -354,17 +371,20 @@ def ConnectHardwareInterface(
     desired_state: OutputPort,
     effort: OutputPort | None,
     gravity_feedforward: bool,
-) -> None:
+) -> OutputPort | None:
     """Wires the commands to the plant: ``desired_state`` ([q_d; v_d], actuator order)
     to the PD actuators' desired-state input; to the actuation input the sum of the
     gravity feed-forward of the position joints (when ``gravity_feedforward``) and
     ``effort`` (the effort joints' commanded torques [N m], zero on other joints;
-    None when no joint takes effort commands)."""
+    None when no joint takes effort commands). Returns the gravity feed-forward's
+    output port (:func:`AddGravityFeedforward`), or None without one."""
     instance = robot.model_instance
     builder.Connect(desired_state, plant.get_desired_state_input_port(instance))
     torques = []
+    feedforward = None
     if gravity_feedforward and "position" in hardware.interfaces():
-        torques.append(AddGravityFeedforward(builder, plant, robot, hardware, desired_state))
+        feedforward = AddGravityFeedforward(builder, plant, robot, hardware, desired_state)
+        torques.append(feedforward)
     if effort is not None:
         torques.append(effort)
     if len(torques) == 1:
@@ -374,3 +394,4 @@ def ConnectHardwareInterface(
         for k, torque in enumerate(torques):
             builder.Connect(torque, adder.get_input_port(k))
         builder.Connect(adder.get_output_port(), plant.get_actuation_input_port(instance))
+    return feedforward

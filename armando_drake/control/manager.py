@@ -40,7 +40,6 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import (
-    Diagram,
     DiagramBuilder,
     EventStatus,
     LeafSystem,
@@ -389,13 +388,16 @@ def AddJointStateVector(
     instance,
     joint_names: Sequence[str],
     effort: OutputPort | None = None,
-) -> Diagram:
+) -> OutputPort:
     """The broadcaster's vector view, in C++: [positions; velocities; efforts] of
     ``joint_names`` in that order (3n) [rad, rad/s, N m], from the plant's state and
     net actuation of ``instance``. What the broadcaster publishes as
     ``JointState``, as one vector that Drake's ``VectorLogSink`` records without
-    any Python. Added as a diagram ``joint_state_vector`` with the input ports
-    ``state`` and ``effort`` connected and the output port ``joint_states``.
+    any Python. Returns that output port: a ``Multiplexer`` named
+    ``joint_state_vector`` of the state and ``effort`` (default: the plant's net
+    actuation), followed by a ``MatrixGain`` named ``joint_state_select`` that
+    picks the rows, only when the joints are not the state's own, in its order (every
+    system costs a little at each plant step, even one that computes only when read).
     """
     state = plant.get_state_output_port(instance)
     if effort is None:
@@ -407,14 +409,11 @@ def AddJointStateVector(
         select[i, hardware.position_index[row]] = 1.0
         select[n + i, hardware.velocity_index[row]] = 1.0
         select[2 * n + i, state.size() + row] = 1.0
-    inner = DiagramBuilder()
-    stack = inner.AddNamedSystem("stack", Multiplexer([state.size(), effort.size()]))
-    gain = inner.AddNamedSystem("select", MatrixGain(select))
-    inner.ExportInput(stack.get_input_port(0), "state")
-    inner.ExportInput(stack.get_input_port(1), "effort")
-    inner.Connect(stack.get_output_port(), gain.get_input_port())
-    inner.ExportOutput(gain.get_output_port(), "joint_states")
-    view = builder.AddNamedSystem("joint_state_vector", inner.Build())
-    builder.Connect(state, view.GetInputPort("state"))
-    builder.Connect(effort, view.GetInputPort("effort"))
-    return view
+    stack = builder.AddNamedSystem("joint_state_vector", Multiplexer([state.size(), effort.size()]))
+    builder.Connect(state, stack.get_input_port(0))
+    builder.Connect(effort, stack.get_input_port(1))
+    if select.shape[0] == select.shape[1] and np.array_equal(select, np.eye(3 * n)):
+        return stack.get_output_port()
+    gain = builder.AddNamedSystem("joint_state_select", MatrixGain(select))
+    builder.Connect(stack.get_output_port(), gain.get_input_port())
+    return gain.get_output_port()

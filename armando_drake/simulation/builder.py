@@ -115,6 +115,9 @@ class World:
     # The hardware's effort state interface: the torque each actuator applied over the
     # last plant step (AddEffortState), read by the broadcaster and the logger.
     effort_state: OutputPort | None = None
+    # The gravity feed-forward torques [N m] on the actuation input (actuator order;
+    # AddGravityFeedforward), when the scenario has it.
+    gravity_feedforward: OutputPort | None = None
     sequencer_target: str = ""  # the controller the sequencer drives
     # The controller whose commands are a C++ stream (a sinusoid) that drives the
     # hardware directly, without the manager's update; "" if none.
@@ -588,7 +591,7 @@ def _connect_hardware(builder, world: World, scenario: Scenario) -> None:
             world.controller_joints[world.stream_controller],
             world.sequencer.GetOutputPort("tick_command"),
         )
-    ConnectHardwareInterface(
+    world.gravity_feedforward = ConnectHardwareInterface(
         builder,
         world.plant,
         world.robot,
@@ -1040,7 +1043,7 @@ def _add_logger(builder, world: World, scenario: Scenario, output_dir, quiet: bo
         )
     )
     logger.set_name("joint_state_logger")
-    builder.Connect(view.GetOutputPort("joint_states"), logger.get_input_port())
+    builder.Connect(view, logger.get_input_port())
     world.logger = logger
     world.closers.append(logger.close)
 

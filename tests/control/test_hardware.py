@@ -114,8 +114,8 @@ def test_gravity_feedforward_cancels_gravity_at_the_command():
     target = (0.3, -0.9, 1.1, 0.5)
     world.publish(context, "position_controller", Float64MultiArray(data=target))
     simulator.AdvanceTo(0.05)  # handled at the 10 ms tick
-    system = world.diagram.GetSubsystemByName("gravity_feedforward")
-    feedforward = system.GetOutputPort("feedforward").Eval(system.GetMyContextFromRoot(context))
+    port = world.gravity_feedforward
+    feedforward = port.Eval(port.get_system().GetMyContextFromRoot(context))
     # The generalized gravity forces at q = target, computed directly on the plant.
     plant_context = plant.CreateDefaultContext()
     plant.SetPositions(plant_context, world.robot.model_instance, np.array(target))

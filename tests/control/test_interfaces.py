@@ -290,10 +290,8 @@ def test_mixed_effort_arm_and_position_gripper(tmp_path):
     )
     assert actuation[0] == pytest.approx(hold, abs=1e-12)
     # ... the gravity feed-forward goes to the position joint only ...
-    feedforward = world.diagram.GetSubsystemByName("gravity_feedforward")
-    torques = feedforward.GetOutputPort("feedforward").Eval(
-        feedforward.GetMyContextFromRoot(context)
-    )
+    feedforward = world.gravity_feedforward
+    torques = feedforward.Eval(feedforward.get_system().GetMyContextFromRoot(context))
     assert torques.tolist() == [0.0, pytest.approx(gravity[1], abs=1e-12)]
     # ... and the gripper joint reaches its position, while the arm joint, balanced on
     # top (unstable) and pushed by the gripper's reaction torque, is free: it tips over
@@ -333,8 +331,8 @@ def test_mixed_feedforward_uses_the_measured_position_of_the_effort_joint(tmp_pa
         plant.SetPositions(static, instance, q)
         return -plant.CalcGravityGeneralizedForces(static)
 
-    system = world.diagram.GetSubsystemByName("gravity_feedforward")
-    torques = system.GetOutputPort("feedforward").Eval(system.GetMyContextFromRoot(context))
+    port = world.gravity_feedforward
+    torques = port.Eval(port.get_system().GetMyContextFromRoot(context))
     expected = gravity_at([q1, target])[1]
     assert torques.tolist() == [0.0, pytest.approx(expected, abs=1e-12)]
     # At q1's initial position the torque would be another one.

@@ -97,7 +97,7 @@ def bare_world(controllers=("position",)):
     )
     view = AddJointStateVector(builder, plant, hardware, instance, names)
     sink = builder.AddSystem(VectorLogSink(3 * len(names), 1.0 / RATE))
-    builder.Connect(view.GetOutputPort("joint_states"), sink.get_input_port())
+    builder.Connect(view, sink.get_input_port())
     builder.ExportInput(manager.GetInputPort("arm.commands"), "arm.commands")
     diagram = builder.Build()
     return diagram, plant, robot, manager, sink
@@ -218,7 +218,7 @@ def sinusoid_world(config: Sinusoid, *, stream: bool):
     builder.ExportOutput(desired, "desired_state")
     view = AddJointStateVector(builder, plant, hardware, instance, hardware.joint_names)
     sink = builder.AddSystem(VectorLogSink(3 * len(names), 1.0 / RATE))
-    builder.Connect(view.GetOutputPort("joint_states"), sink.get_input_port())
+    builder.Connect(view, sink.get_input_port())
     return builder.Build(), manager, sink
 
 
