@@ -79,11 +79,12 @@ def test_actuator_torque_respects_the_urdf_effort_limit(tmp_path):
     world.close()
 
 
-def armando_world(kp: float, feedforward: bool):
+def armando_world(kp: float, feedforward: bool, more: str = ""):
     scenario = load_scenario(
         "position",
         "sequencer: null\nlogging: {console_rate: 0}\n"
-        f"actuators: {{kp: {kp}, kd: {kp / 20}, gravity_feedforward: {str(feedforward).lower()}}}",
+        f"actuators: {{kp: {kp}, kd: {kp / 20}, gravity_feedforward: {str(feedforward).lower()}}}"
+        f"\n{more}",
     )
     return MakeWorld(scenario, quiet=True)
 
@@ -134,6 +135,8 @@ def test_effort_state_is_the_torque_applied_over_the_last_plant_step():
     # The broadcaster and the logger read the effort a servo reports: what its actuator
     # applied over the plant step that just ended, not a step solved ahead from the
     # current state (which costs one more contact solve whenever a command arrives).
+    # As ros2_control reads its hardware, the interface is read at each controller
+    # update (100 Hz here) and holds that reading until the next.
     world = armando_world(8.0, True)
     plant, instance = world.plant, world.robot.model_instance
     simulator = Simulator(world.diagram)
@@ -141,6 +144,7 @@ def test_effort_state_is_the_torque_applied_over_the_last_plant_step():
     plant_context = plant.GetMyContextFromRoot(context)
     applied = plant.get_net_actuation_output_port(instance)
     h = plant.time_step()
+    period = 1.0 / world.update_rate
 
     def reported():
         return np.array(world.diagram.GetOutputPort("joint_states").Eval(context).effort)
@@ -148,9 +152,10 @@ def test_effort_state_is_the_torque_applied_over_the_last_plant_step():
     simulator.Initialize()
     np.testing.assert_array_equal(reported(), np.zeros(4))  # no step taken yet
     world.publish(context, "position_controller", Float64MultiArray(data=(0.3, -0.9, 1.1, 0.5)))
-    # Mid-motion, before the 50 ms tick and on it: the report at t is the torque the
-    # step [t - h, t] applied, solved from the state and command at t - h.
-    for t in (0.035, 0.05, 0.4):
+    # Mid-motion, at the 50 ms and 400 ms updates: the report is the torque the step
+    # [t - h, t] applied, solved from the state and command at t - h; it holds until
+    # the next update (at 57 ms, still the step that ended at 50 ms).
+    for t in (0.05, 0.4):
         simulator.AdvanceTo(t - h)
         expected = np.array(applied.Eval(plant_context))
         simulator.AdvanceTo(t)
@@ -158,4 +163,28 @@ def test_effort_state_is_the_torque_applied_over_the_last_plant_step():
         assert np.abs(expected).max() > 0.01  # the arm is being driven
         # The plant's port solves the next step instead: a different torque mid-motion.
         assert np.abs(np.array(applied.Eval(plant_context)) - expected).max() > 1e-6
+        simulator.AdvanceTo(t + 0.7 * period)
+        np.testing.assert_array_equal(reported(), expected)
+        assert np.abs(np.array(applied.Eval(plant_context)) - expected).max() > 1e-6
+    world.close()
+
+
+def test_effort_state_latches_at_every_step_when_the_period_is_not_a_whole_number_of_steps():
+    # 300 Hz on a 1 ms plant: no plant step ends at the updates (a warned setup); the
+    # hold then latches at every plant step, so a report is always the last step's.
+    world = armando_world(8.0, True, "controllers: {update_rate: 300}")
+    plant, instance = world.plant, world.robot.model_instance
+    simulator = Simulator(world.diagram)
+    context = simulator.get_mutable_context()
+    plant_context = plant.GetMyContextFromRoot(context)
+    applied = plant.get_net_actuation_output_port(instance)
+    h = plant.time_step()
+    world.publish(context, "position_controller", Float64MultiArray(data=(0.3, -0.9, 1.1, 0.5)))
+    for t in (0.035, 0.2):
+        simulator.AdvanceTo(t - h)
+        expected = np.array(applied.Eval(plant_context))
+        simulator.AdvanceTo(t)
+        effort = world.diagram.GetOutputPort("joint_states").Eval(context).effort
+        np.testing.assert_array_equal(np.array(effort), expected)
+        assert np.abs(expected).max() > 0.01
     world.close()
