@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import csv
 import math
+import os
 import sys
 import warnings
 from collections.abc import Callable, Sequence
@@ -227,7 +228,9 @@ class JointStateLogger(VectorLogSink):
                 [format_ % (t, *row) for t, row in zip(times[first:], block[first:], strict=True)]
             )
             if self._file is not None:
-                self._file.write(text.encode())
+                data = memoryview(text.encode())
+                while data:  # an unbuffered write may take part of it
+                    data = data[self._file.write(data) :]
             if self._listeners:
                 times_array = log.sample_times()[first:]
                 positions = log.data()[self._positions][:, first:].T
@@ -269,20 +272,34 @@ def read_csv(path: str | Path) -> tuple[list[str], np.ndarray]:
     """(header, rows as floats, one array row per line) of a CSV file the project
     writes; a last line cut short by a kill is skipped. Read by numpy's C parser (an
     hour at 100 Hz is 360 000 rows: as Python floats they would take hundreds of MB)."""
+    max_rows = None  # all of them, unless the last line is cut short (no newline)
+    with open(path, "rb") as raw:
+        size = raw.seek(0, os.SEEK_END)
+        if size:
+            raw.seek(size - 1)
+            if raw.read(1) != b"\n":
+                raw.seek(0)
+                lines = sum(chunk.count(b"\n") for chunk in iter(lambda: raw.read(1 << 20), b""))
+                max_rows = max(lines - 1, 0)  # the complete lines after the header
     with open(path, newline="", encoding="utf-8") as file:
         header = next(csv.reader(file), None)
         if header is None:
             return [], np.zeros((0, 0))
+        if max_rows == 0:
+            return header, np.zeros((0, len(header)))
         try:
             with warnings.catch_warnings():  # a header alone is no rows, not a warning
                 warnings.simplefilter("ignore", UserWarning)
-                rows = np.loadtxt(file, delimiter=",", ndmin=2, dtype=float)
+                rows = np.loadtxt(file, delimiter=",", ndmin=2, dtype=float, max_rows=max_rows)
         except ValueError:  # a line cut short (or another layout): line by line below
             rows = None
     if rows is not None:
         return header, rows if rows.size else np.zeros((0, len(header)))
     with open(path, newline="", encoding="utf-8") as file:
-        lines = list(csv.reader(file))
+        text = file.read()
+    if not text.endswith("\n"):  # cut short by a kill, possibly within a number
+        text = text[: text.rfind("\n") + 1]
+    lines = list(csv.reader(text.splitlines()))
     if not lines:
         return [], np.zeros((0, 0))
     header = lines[0]
