@@ -310,7 +310,6 @@ def AddGravityFeedforward(
     places_q_d_in_order[:n, :n] = np.eye(n)
     if (
         not mixed
-        and select.shape == places_q_d_in_order.shape
         and np.array_equal(select, places_q_d_in_order)
         and not x_default.any()
         and np.array_equal(to_torque, np.eye(n))

@@ -131,60 +131,72 @@ def test_gravity_feedforward_cancels_gravity_at_the_command():
     world.close()
 
 
+class EffortProbe:
+    """A world driven to a bent pose by its position controller, with the effort its
+    broadcaster reports and the torque the plant's net actuation port solves."""
+
+    def __init__(self, more: str = ""):
+        self.world = armando_world(8.0, True, more)
+        plant = self.world.plant
+        self.simulator = Simulator(self.world.diagram)
+        self.context = self.simulator.get_mutable_context()
+        self._plant_context = plant.GetMyContextFromRoot(self.context)
+        self._applied = plant.get_net_actuation_output_port(self.world.robot.model_instance)
+        self.h = plant.time_step()
+
+    def command(self) -> None:
+        target = Float64MultiArray(data=(0.3, -0.9, 1.1, 0.5))
+        self.world.publish(self.context, "position_controller", target)
+
+    def reported(self) -> np.ndarray:
+        joint_states = self.world.diagram.GetOutputPort("joint_states").Eval(self.context)
+        return np.array(joint_states.effort)
+
+    def solved(self) -> np.ndarray:
+        """The torque of the step from now on, solved from the current state."""
+        return np.array(self._applied.Eval(self._plant_context))
+
+    def last_step_at(self, t: float) -> np.ndarray:
+        """Advances to ``t``; returns the torque the step [t - h, t] applied."""
+        self.simulator.AdvanceTo(t - self.h)
+        applied = self.solved()
+        self.simulator.AdvanceTo(t)
+        return applied
+
+
 def test_effort_state_is_the_torque_applied_over_the_last_plant_step():
     # The broadcaster and the logger read the effort a servo reports: what its actuator
     # applied over the plant step that just ended, not a step solved ahead from the
     # current state (which costs one more contact solve whenever a command arrives).
     # As ros2_control reads its hardware, the interface is read at each controller
     # update (100 Hz here) and holds that reading until the next.
-    world = armando_world(8.0, True)
-    plant, instance = world.plant, world.robot.model_instance
-    simulator = Simulator(world.diagram)
-    context = simulator.get_mutable_context()
-    plant_context = plant.GetMyContextFromRoot(context)
-    applied = plant.get_net_actuation_output_port(instance)
-    h = plant.time_step()
-    period = 1.0 / world.update_rate
-
-    def reported():
-        return np.array(world.diagram.GetOutputPort("joint_states").Eval(context).effort)
-
-    simulator.Initialize()
-    np.testing.assert_array_equal(reported(), np.zeros(4))  # no step taken yet
-    world.publish(context, "position_controller", Float64MultiArray(data=(0.3, -0.9, 1.1, 0.5)))
+    probe = EffortProbe()
+    period = 1.0 / probe.world.update_rate
+    probe.simulator.Initialize()
+    np.testing.assert_array_equal(probe.reported(), np.zeros(4))  # no step taken yet
+    probe.command()
     # Mid-motion, at the 50 ms and 400 ms updates: the report is the torque the step
     # [t - h, t] applied, solved from the state and command at t - h; it holds until
     # the next update (at 57 ms, still the step that ended at 50 ms).
     for t in (0.05, 0.4):
-        simulator.AdvanceTo(t - h)
-        expected = np.array(applied.Eval(plant_context))
-        simulator.AdvanceTo(t)
-        np.testing.assert_array_equal(reported(), expected)
+        expected = probe.last_step_at(t)
+        np.testing.assert_array_equal(probe.reported(), expected)
         assert np.abs(expected).max() > 0.01  # the arm is being driven
         # The plant's port solves the next step instead: a different torque mid-motion.
-        assert np.abs(np.array(applied.Eval(plant_context)) - expected).max() > 1e-6
-        simulator.AdvanceTo(t + 0.7 * period)
-        np.testing.assert_array_equal(reported(), expected)
-        assert np.abs(np.array(applied.Eval(plant_context)) - expected).max() > 1e-6
-    world.close()
+        assert np.abs(probe.solved() - expected).max() > 1e-6
+        probe.simulator.AdvanceTo(t + 0.7 * period)
+        np.testing.assert_array_equal(probe.reported(), expected)
+        assert np.abs(probe.solved() - expected).max() > 1e-6
+    probe.world.close()
 
 
 def test_effort_state_latches_at_every_step_when_the_period_is_not_a_whole_number_of_steps():
     # 300 Hz on a 1 ms plant: no plant step ends at the updates (a warned setup); the
     # hold then latches at every plant step, so a report is always the last step's.
-    world = armando_world(8.0, True, "controllers: {update_rate: 300}")
-    plant, instance = world.plant, world.robot.model_instance
-    simulator = Simulator(world.diagram)
-    context = simulator.get_mutable_context()
-    plant_context = plant.GetMyContextFromRoot(context)
-    applied = plant.get_net_actuation_output_port(instance)
-    h = plant.time_step()
-    world.publish(context, "position_controller", Float64MultiArray(data=(0.3, -0.9, 1.1, 0.5)))
+    probe = EffortProbe("controllers: {update_rate: 300}")
+    probe.command()
     for t in (0.035, 0.2):
-        simulator.AdvanceTo(t - h)
-        expected = np.array(applied.Eval(plant_context))
-        simulator.AdvanceTo(t)
-        effort = world.diagram.GetOutputPort("joint_states").Eval(context).effort
-        np.testing.assert_array_equal(np.array(effort), expected)
+        expected = probe.last_step_at(t)
+        np.testing.assert_array_equal(probe.reported(), expected)
         assert np.abs(expected).max() > 0.01
-    world.close()
+    probe.world.close()
