@@ -7,7 +7,9 @@ same machine load:
    sinusoid scenarios (no viewer, no camera, console logging off, the CSV
    logger on) against the bare plant (same model, actuators, plant config and
    time step) driven by a ``TrajectorySource`` through the same targets,
-   5 runs of each per repetition (each run is about a second);
+   5 runs of each per repetition (each run is about a second); and each
+   world's plant inputs replayed on the bare plant, which splits its cost into
+   the physics of its motion and what the pipeline adds;
 2. the same job in MuJoCo: the largest time step of {1, 2, 5, 10, 20} ms that
    keeps every final error within 0.01 rad, for the Drake pipeline and for
    MuJoCo (the URDF our loader expands, position actuators of the same gains),
@@ -372,14 +374,112 @@ def bare_plant_rtf(duration: float, time_step: float = 0.001) -> float:
     return duration / (time.perf_counter() - start)
 
 
+@dataclasses.dataclass(frozen=True)
+class PlantInputs:
+    """What a world feeds its plant, sampled at its controller ticks (where it changes)."""
+
+    scenario: str  # the scenario's name
+    times: list[float]  # [s] the ticks
+    desired: np.ndarray  # [rad, rad/s] desired state [q_d; v_d] at each tick (2n x ticks)
+    feedforward: np.ndarray | None  # [N m] gravity feed-forward (n x ticks); None without
+
+
+def recorded_plant_inputs(name: str, duration: float) -> PlantInputs:
+    """The plant inputs of scenario ``name`` over ``duration`` [s]: its desired state and
+    gravity feed-forward, read half a tick after each controller tick (they change only at
+    the ticks, where the controllers and the sequencer's streams write)."""
+    from pydrake.systems.analysis import Simulator
+
+    from armando_drake.simulation.builder import MakeWorld
+    from armando_drake.simulation.scenario import load_scenario
+
+    world = MakeWorld(load_scenario(name, NO_CONSOLE), quiet=True)
+    simulator = Simulator(world.diagram)
+    context = simulator.get_mutable_context()
+    port = world.diagram.GetOutputPort("desired_state")
+    feedforward = world.gravity_feedforward
+    period = 1.0 / world.update_rate
+    times, samples, torques = [], [], []
+    for k in range(int(round(duration / period)) + 1):
+        simulator.AdvanceTo(k * period + period / 2)
+        times.append(k * period)
+        samples.append(np.array(port.Eval(context)))
+        if feedforward is not None:
+            owner = feedforward.get_system().GetMyContextFromRoot(context)
+            torques.append(np.array(feedforward.Eval(owner)))
+    world.close(context)
+    return PlantInputs(
+        name,
+        times,
+        np.stack(samples, axis=1),
+        np.stack(torques, axis=1) if torques else None,
+    )
+
+
+def replay_diagram(inputs: PlantInputs):
+    """(diagram, plant): the bare plant (the scenario's model, actuators, ground and plant
+    config) whose desired state and actuation inputs replay ``inputs`` from C++
+    ``TrajectorySource``s (zero-order holds): the world's motion without its controllers,
+    sequencer or logger."""
+    from pydrake.multibody.plant import AddMultibodyPlant, ApplyMultibodyPlantConfig
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import TrajectorySource
+    from pydrake.trajectories import PiecewisePolynomial
+
+    from armando_drake.control.hardware import AddHardwareInterface, FinishHardwareInterface
+    from armando_drake.description.loader import load_robot
+    from armando_drake.simulation.builder import _add_ground
+    from armando_drake.simulation.scenario import load_scenario
+
+    scenario = load_scenario(inputs.scenario)
+    config = scenario.plant_config
+    builder = DiagramBuilder()
+    plant, _ = AddMultibodyPlant(config, builder)
+    ApplyMultibodyPlantConfig(config, plant)
+    robot = load_robot(plant)
+    _add_ground(plant)
+    actuators = scenario.actuators
+    hardware = AddHardwareInterface(plant, robot, kp=actuators.kp, kd=actuators.kd)
+    plant.Finalize()
+    FinishHardwareInterface(plant, robot, hardware)
+    inputs_and_ports = [(inputs.desired, plant.get_desired_state_input_port(robot.model_instance))]
+    if inputs.feedforward is not None:
+        inputs_and_ports.append(
+            (inputs.feedforward, plant.get_actuation_input_port(robot.model_instance))
+        )
+    for values, port in inputs_and_ports:
+        source = builder.AddSystem(
+            TrajectorySource(PiecewisePolynomial.ZeroOrderHold(inputs.times, values))
+        )
+        builder.Connect(source.get_output_port(), port)
+    return builder.Build(), plant
+
+
+def replay_rtf(inputs: PlantInputs, duration: float) -> float:
+    """Real-time factor of :func:`replay_diagram` of ``inputs`` over ``duration`` [s]."""
+    from pydrake.systems.analysis import Simulator
+
+    diagram, _ = replay_diagram(inputs)
+    simulator = Simulator(diagram)
+    start = time.perf_counter()
+    simulator.Initialize()
+    simulator.AdvanceTo(duration)
+    return duration / (time.perf_counter() - start)
+
+
 def bench_pipeline(report: Report, duration: float, runs_per_repeat: int = 1) -> None:
     runs = report.repeat * runs_per_repeat
+    # Each world's plant inputs, recorded once (a little longer than the runs, so the last
+    # tick's hold covers their end).
+    inputs = {name: recorded_plant_inputs(name, duration + 0.5) for name in SCENARIOS}
     bare, pipelines = [], {name: [] for name in SCENARIOS}
+    replays = {name: [] for name in SCENARIOS}
     for _ in range(runs):
         # Interleaved, so that a change of machine load hits every column alike.
         bare.append(bare_plant_rtf(duration))
         for name in SCENARIOS:
             pipelines[name].append(pipeline_rtf(name, duration))
+            replays[name].append(replay_rtf(inputs[name], duration))
     report.add(Row("pipeline", f"bare plant + TrajectorySource, {duration:g} s", RTF, bare))
     for name in SCENARIOS:
         report.add(Row("pipeline", f"{name} scenario, {duration:g} s", RTF, pipelines[name]))
@@ -389,11 +489,32 @@ def bench_pipeline(report: Report, duration: float, runs_per_repeat: int = 1) ->
         report.add(Row("pipeline", f"{name} / bare plant", "ratio", ratios).check(">=", 0.9))
     fastest = max(pipelines["position"]) / max(bare)
     report.add(Row("pipeline", "position / bare plant, fastest runs", "ratio", [fastest]))
+    # What the physics of each motion costs, and what the pipeline costs on top of it.
+    for name in SCENARIOS:
+        report.add(
+            Row("pipeline", f"{name} plant inputs replayed, {duration:g} s", RTF, replays[name])
+        )
+    for name in SCENARIOS[1:]:
+        ratios = [r / h for r, h in zip(replays[name], replays["position"], strict=True)]
+        report.add(Row("pipeline", f"{name} replay / position replay", "ratio", ratios))
+    for name in SCENARIOS:
+        ratios = [p / r for p, r in zip(pipelines[name], replays[name], strict=True)]
+        report.add(Row("pipeline", f"{name} / its replay", "ratio", ratios))
     report.notes.append(
         f"Pipeline: {runs} runs of each configuration, interleaved; a ratio row is the "
         "median (min, max) of each scenario run over the bare-plant run just before it. "
         "On a shared machine single runs vary by +-20 %; 'fastest runs' compares the "
         "least disturbed run of each."
+    )
+    report.notes.append(
+        "Replays: the bare plant whose desired state and actuation inputs play back what the "
+        "scenario's world fed its plant (desired state and gravity feed-forward, read at its "
+        "controller ticks) from two C++ TrajectorySources: the world's motion without its "
+        "controllers, sequencer or logger. The position replay holds the bare plant's targets "
+        "through the same two sources, so 'X replay / position replay' is what the motion "
+        "alone costs the physics (an arm that moves costs the discrete solver more than one "
+        "that holds still): the ceiling of 'X / bare plant' whatever the pipeline costs. "
+        "'X / its replay' is what the controllers, sequencer and logger cost on top."
     )
 
 

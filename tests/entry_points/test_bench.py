@@ -9,6 +9,7 @@ import subprocess
 import sys
 import xml.etree.ElementTree as ET
 
+import numpy as np
 import pytest
 from conftest import skip_or_fail
 
@@ -46,6 +47,14 @@ def test_quick_run_writes_every_row_with_positive_numbers(quick_run):
         "trajectory / bare plant",
         "sinusoid / bare plant",
         "position / bare plant, fastest runs",
+        "position plant inputs replayed, 1 s",
+        "trajectory plant inputs replayed, 1 s",
+        "sinusoid plant inputs replayed, 1 s",
+        "trajectory replay / position replay",
+        "sinusoid replay / position replay",
+        "position / its replay",
+        "trajectory / its replay",
+        "sinusoid / its replay",
         "colour render, RenderEngineVtk",
         "colour + depth render, RenderEngineVtk",
         "camera scenario, no camera, 0.5 s",
@@ -155,3 +164,34 @@ def test_mujoco_model_reaches_the_targets_like_the_world():
     assert rtf > 0
     assert len(errors) == len(bench.TARGETS)
     assert max(errors) < bench.FINAL_ERROR_TOLERANCE
+
+
+@pytest.mark.parametrize("name", ["trajectory", "sinusoid"])
+def test_a_replay_moves_the_arm_as_its_world_does(name):
+    """The pipeline rows' replays split a world's cost into physics and pipeline: the bare
+    plant fed the world's recorded plant inputs must follow the world's own motion."""
+    from pydrake.systems.analysis import Simulator
+
+    from armando_drake.simulation.builder import MakeWorld
+    from armando_drake.simulation.scenario import load_scenario
+
+    duration = 4.0  # the trajectory's first segment runs from 0 to 3 s
+    inputs = bench.recorded_plant_inputs(name, duration + 0.5)
+    assert inputs.feedforward is not None  # the scenarios feed gravity forward
+    assert inputs.desired.shape == (8, len(inputs.times))
+    # The desired state moves (a replay of a held arm would compare nothing).
+    assert np.ptp(inputs.desired[:4, : int(duration * 100)], axis=1).max() > 0.1
+
+    diagram, plant = bench.replay_diagram(inputs)
+    replay = Simulator(diagram)
+    replay.AdvanceTo(duration)
+    world = MakeWorld(load_scenario(name, bench.NO_CONSOLE), quiet=True)
+    simulator = Simulator(world.diagram)
+    simulator.AdvanceTo(duration)
+    x_world = world.plant.GetPositionsAndVelocities(
+        world.plant.GetMyContextFromRoot(simulator.get_context())
+    )
+    x_replay = plant.GetPositionsAndVelocities(plant.GetMyContextFromRoot(replay.get_context()))
+    world.close(simulator.get_context())
+    assert np.abs(x_world[:4]).max() > 0.05  # the arm has left its start
+    np.testing.assert_allclose(x_replay, x_world, atol=1e-9)
