@@ -518,7 +518,7 @@ def _add_controller_manager(builder, world: World, scenario: Scenario, where: st
     world.controller_manager = manager
     instance = world.robot.model_instance
     builder.Connect(plant.get_state_output_port(instance), manager.GetInputPort("state"))
-    world.effort_state = AddEffortState(builder, plant, world.robot, world.update_rate)
+    world.effort_state = AddEffortState(builder, plant, world.robot)
     builder.Connect(world.effort_state, manager.GetInputPort("effort"))
     if broadcaster is not None:
         builder.ExportOutput(manager.GetOutputPort("joint_states"), "joint_states")

@@ -156,11 +156,13 @@ class EffortProbe:
         """The torque of the step from now on, solved from the current state."""
         return np.array(self._applied.Eval(self._plant_context))
 
-    def last_step_at(self, t: float) -> np.ndarray:
-        """Advances to ``t``; returns the torque the step [t - h, t] applied."""
-        self.simulator.AdvanceTo(t - self.h)
+    def last_step_at(self, m: int) -> np.ndarray:
+        """Advances to plant step ``m`` (t = m h, as Drake times the plant's steps);
+        returns the torque the step [t - h, t] applied. Steps at least two apart: an
+        ``AdvanceTo`` to the present time runs the updates pending at it."""
+        self.simulator.AdvanceTo((m - 1) * self.h)
         applied = self.solved()
-        self.simulator.AdvanceTo(t)
+        self.simulator.AdvanceTo(m * self.h)
         return applied
 
 
@@ -168,35 +170,35 @@ def test_effort_state_is_the_torque_applied_over_the_last_plant_step():
     # The broadcaster and the logger read the effort a servo reports: what its actuator
     # applied over the plant step that just ended, not a step solved ahead from the
     # current state (which costs one more contact solve whenever a command arrives).
-    # As ros2_control reads its hardware, the interface is read at each controller
-    # update (100 Hz here) and holds that reading until the next.
     probe = EffortProbe()
-    period = 1.0 / probe.world.update_rate
+    steps = round(1.0 / (probe.world.update_rate * probe.h))  # plant steps per update
     probe.simulator.Initialize()
     np.testing.assert_array_equal(probe.reported(), np.zeros(4))  # no step taken yet
     probe.command()
-    # Mid-motion, at the 50 ms and 400 ms updates: the report is the torque the step
-    # [t - h, t] applied, solved from the state and command at t - h; it holds until
-    # the next update (at 57 ms, still the step that ended at 50 ms).
-    for t in (0.05, 0.4):
-        expected = probe.last_step_at(t)
-        np.testing.assert_array_equal(probe.reported(), expected)
-        assert np.abs(expected).max() > 0.01  # the arm is being driven
-        # The plant's port solves the next step instead: a different torque mid-motion.
-        assert np.abs(probe.solved() - expected).max() > 1e-6
-        probe.simulator.AdvanceTo(t + 0.7 * period)
-        np.testing.assert_array_equal(probe.reported(), expected)
-        assert np.abs(probe.solved() - expected).max() > 1e-6
+    # Mid-motion, at each of 60 controller updates (where the broadcaster publishes) and
+    # at a plant step between each and the next: the report is the torque the step
+    # [t - h, t] applied, solved from the state and command at t - h.
+    assert steps >= 4
+    ahead = []  # how far the plant's port, which solves the next step, is from the report
+    for update in range(5, 65):
+        for m in (update * steps, update * steps + steps // 2):
+            expected = probe.last_step_at(m)
+            np.testing.assert_array_equal(probe.reported(), expected, err_msg=f"at t = {m} h")
+            assert np.abs(expected).max() > 0.01  # the arm is being driven
+            ahead.append(np.abs(probe.solved() - expected).max())
+    # Mid-motion the step ahead applies a different torque.
+    assert max(ahead[:10]) > 1e-4
     probe.world.close()
 
 
-def test_effort_state_latches_at_every_step_when_the_period_is_not_a_whole_number_of_steps():
-    # 300 Hz on a 1 ms plant: no plant step ends at the updates (a warned setup); the
-    # hold then latches at every plant step, so a report is always the last step's.
-    probe = EffortProbe("controllers: {update_rate: 300}")
+@pytest.mark.parametrize("rate", [100, 300, 250])
+def test_effort_state_holds_the_last_steps_torque_whatever_the_update_rate(rate):
+    # 300 Hz on a 1 ms plant: no plant step ends at the updates (a warned setup); 250 Hz:
+    # every fourth step. The report is the last step's torque in every case.
+    probe = EffortProbe(f"controllers: {{update_rate: {rate}}}")
     probe.command()
-    for t in (0.035, 0.2):
-        expected = probe.last_step_at(t)
+    for m in (35, 38, 200, 403):
+        expected = probe.last_step_at(m)
         np.testing.assert_array_equal(probe.reported(), expected)
         assert np.abs(expected).max() > 0.01
     probe.world.close()
