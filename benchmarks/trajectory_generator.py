@@ -292,22 +292,9 @@ def _timed(diagram, duration: float, prepare=None) -> tuple[float, float]:
 
 def _plant(builder):
     """The bare plant of the benchmark suite: (plant, robot)."""
-    from pydrake.multibody.plant import AddMultibodyPlant, ApplyMultibodyPlantConfig
+    from armando_drake.benchmarks.suite import add_bare_plant
 
-    from armando_drake.control.hardware import AddHardwareInterface, FinishHardwareInterface
-    from armando_drake.description.loader import load_robot
-    from armando_drake.simulation.builder import _add_ground
-    from armando_drake.simulation.scenario import load_scenario
-
-    scenario = load_scenario("trajectory")
-    plant, _ = AddMultibodyPlant(scenario.plant_config, builder)
-    ApplyMultibodyPlantConfig(scenario.plant_config, plant)
-    robot = load_robot(plant)
-    _add_ground(plant)
-    actuators = scenario.actuators
-    hardware = AddHardwareInterface(plant, robot, kp=actuators.kp, kd=actuators.kd)
-    plant.Finalize()
-    FinishHardwareInterface(plant, robot, hardware)
+    plant, robot, _ = add_bare_plant(builder, "trajectory")
     return plant, robot
 
 

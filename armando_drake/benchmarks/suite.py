@@ -327,27 +327,21 @@ def load_scenario_override(scenario, override: str):
     return merge_overrides(scenario, override)
 
 
-def bare_plant_rtf(duration: float, time_step: float = 0.001) -> float:
-    """Real-time factor of the plant alone, its PD actuators fed by a TrajectorySource.
-
-    The same model, actuators, ground and plant config as the world; the
-    targets are held for ``TARGET_PERIOD`` each (zero desired velocity).
-    """
+def add_bare_plant(builder, scenario_name: str, time_step: float | None = None):
+    """(plant, robot, hardware): the scenario's model on its ground, with its plant config
+    (``time_step`` [s] instead of its own when given) and PD actuators, finalized; no
+    controllers, sequencer or logger. What the pipeline rows compare the worlds with."""
     from pydrake.multibody.plant import AddMultibodyPlant, ApplyMultibodyPlantConfig
-    from pydrake.systems.analysis import Simulator
-    from pydrake.systems.framework import DiagramBuilder
-    from pydrake.systems.primitives import TrajectorySource
-    from pydrake.trajectories import PiecewisePolynomial
 
     from armando_drake.control.hardware import AddHardwareInterface, FinishHardwareInterface
     from armando_drake.description.loader import load_robot
     from armando_drake.simulation.builder import _add_ground  # the world's ground slab
     from armando_drake.simulation.scenario import load_scenario
 
-    scenario = load_scenario("position")
+    scenario = load_scenario(scenario_name)
     config = scenario.plant_config
-    config.time_step = time_step
-    builder = DiagramBuilder()
+    if time_step is not None:
+        config.time_step = time_step
     plant, _ = AddMultibodyPlant(config, builder)
     ApplyMultibodyPlantConfig(config, plant)
     robot = load_robot(plant)
@@ -356,6 +350,22 @@ def bare_plant_rtf(duration: float, time_step: float = 0.001) -> float:
     hardware = AddHardwareInterface(plant, robot, kp=actuators.kp, kd=actuators.kd)
     plant.Finalize()
     FinishHardwareInterface(plant, robot, hardware)
+    return plant, robot, hardware
+
+
+def bare_plant_rtf(duration: float, time_step: float = 0.001) -> float:
+    """Real-time factor of the plant alone, its PD actuators fed by a TrajectorySource.
+
+    The same model, actuators, ground and plant config as the world; the
+    targets are held for ``TARGET_PERIOD`` each (zero desired velocity).
+    """
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import TrajectorySource
+    from pydrake.trajectories import PiecewisePolynomial
+
+    builder = DiagramBuilder()
+    plant, robot, hardware = add_bare_plant(builder, "position", time_step)
     n = len(hardware.joints)
     columns = [np.concatenate([target, np.zeros(n)]) for target in TARGETS]
     times = [k * TARGET_PERIOD for k in range(len(TARGETS))]
@@ -421,27 +431,12 @@ def replay_diagram(inputs: PlantInputs):
     config) whose desired state and actuation inputs replay ``inputs`` from C++
     ``TrajectorySource``s (zero-order holds): the world's motion without its controllers,
     sequencer or logger."""
-    from pydrake.multibody.plant import AddMultibodyPlant, ApplyMultibodyPlantConfig
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import TrajectorySource
     from pydrake.trajectories import PiecewisePolynomial
 
-    from armando_drake.control.hardware import AddHardwareInterface, FinishHardwareInterface
-    from armando_drake.description.loader import load_robot
-    from armando_drake.simulation.builder import _add_ground
-    from armando_drake.simulation.scenario import load_scenario
-
-    scenario = load_scenario(inputs.scenario)
-    config = scenario.plant_config
     builder = DiagramBuilder()
-    plant, _ = AddMultibodyPlant(config, builder)
-    ApplyMultibodyPlantConfig(config, plant)
-    robot = load_robot(plant)
-    _add_ground(plant)
-    actuators = scenario.actuators
-    hardware = AddHardwareInterface(plant, robot, kp=actuators.kp, kd=actuators.kd)
-    plant.Finalize()
-    FinishHardwareInterface(plant, robot, hardware)
+    plant, robot, _ = add_bare_plant(builder, inputs.scenario)
     inputs_and_ports = [(inputs.desired, plant.get_desired_state_input_port(robot.model_instance))]
     if inputs.feedforward is not None:
         inputs_and_ports.append(
