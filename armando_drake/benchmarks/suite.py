@@ -359,7 +359,6 @@ def bare_plant_rtf(duration: float, time_step: float = 0.001) -> float:
     The same model, actuators, ground and plant config as the world; the
     targets are held for ``TARGET_PERIOD`` each (zero desired velocity).
     """
-    from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import TrajectorySource
     from pydrake.trajectories import PiecewisePolynomial
@@ -376,7 +375,14 @@ def bare_plant_rtf(duration: float, time_step: float = 0.001) -> float:
     builder.Connect(
         source.get_output_port(), plant.get_desired_state_input_port(robot.model_instance)
     )
-    diagram = builder.Build()
+    return diagram_rtf(builder.Build(), duration)
+
+
+def diagram_rtf(diagram, duration: float) -> float:
+    """Real-time factor of ``diagram`` simulated for ``duration`` [s] as fast as it goes
+    (its simulator's initialization included)."""
+    from pydrake.systems.analysis import Simulator
+
     simulator = Simulator(diagram)
     start = time.perf_counter()
     simulator.Initialize()
@@ -452,14 +458,7 @@ def replay_diagram(inputs: PlantInputs):
 
 def replay_rtf(inputs: PlantInputs, duration: float) -> float:
     """Real-time factor of :func:`replay_diagram` of ``inputs`` over ``duration`` [s]."""
-    from pydrake.systems.analysis import Simulator
-
-    diagram, _ = replay_diagram(inputs)
-    simulator = Simulator(diagram)
-    start = time.perf_counter()
-    simulator.Initialize()
-    simulator.AdvanceTo(duration)
-    return duration / (time.perf_counter() - start)
+    return diagram_rtf(replay_diagram(inputs)[0], duration)
 
 
 def bench_pipeline(report: Report, duration: float, runs_per_repeat: int = 1) -> None:

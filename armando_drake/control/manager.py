@@ -412,7 +412,7 @@ def AddJointStateVector(
     stack = builder.AddNamedSystem("joint_state_vector", Multiplexer([state.size(), effort.size()]))
     builder.Connect(state, stack.get_input_port(0))
     builder.Connect(effort, stack.get_input_port(1))
-    if select.shape[0] == select.shape[1] and np.array_equal(select, np.eye(3 * n)):
+    if np.array_equal(select, np.eye(3 * n)):  # False when the shapes differ
         return stack.get_output_port()
     gain = builder.AddNamedSystem("joint_state_select", MatrixGain(select))
     builder.Connect(stack.get_output_port(), gain.get_input_port())
