@@ -51,7 +51,7 @@ from armando_drake.control.config import check_update_rate
 from armando_drake.control.controllers import DID_NOTHING, Controller, ControllerMemory
 from armando_drake.control.controllers.broadcaster import JointStateBroadcaster
 from armando_drake.control.hardware import HardwareInterface
-from armando_drake.control.messages import ControllerStatus, PublicationValue
+from armando_drake.messages.types import ControllerStatus, PublicationValue
 
 
 @dataclasses.dataclass(frozen=True)

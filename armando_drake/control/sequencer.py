@@ -47,7 +47,7 @@ from pydrake.systems.primitives import (
 )
 from pydrake.trajectories import PiecewisePolynomial
 
-from armando_drake.control.messages import (
+from armando_drake.messages.types import (
     Float64MultiArray,
     JointTrajectory,
     JointTrajectoryPoint,
@@ -312,11 +312,11 @@ class CommandSequencer(LeafSystem):
         - joint_trajectory
         - reference
 
-    - ``commands``: a :class:`~armando_drake.control.messages.Publication` of
-      :class:`~armando_drake.control.messages.Float64MultiArray`
+    - ``commands``: a :class:`~armando_drake.messages.types.Publication` of
+      :class:`~armando_drake.messages.types.Float64MultiArray`
       (:class:`PositionTargets`) for a position controller;
     - ``joint_trajectory``: a Publication of
-      :class:`~armando_drake.control.messages.JointTrajectory`
+      :class:`~armando_drake.messages.types.JointTrajectory`
       (:class:`JointTrajectoryTargets`) for a joint trajectory controller;
     - ``reference``: vector [rad or m], the target currently commanded, for
       logging and plots; NaN before the first publication. For a trajectory

@@ -26,7 +26,7 @@ broadcaster, the command sequencer (the commands actually sent to the
 controller it drives) and the cameras.
 
 The file is written with ``mcap-ros2-support`` (the MCAP project's ROS 2
-writer). Its message definitions are those of :mod:`armando_drake.ros2.messages`
+writer). Its message definitions are those of :mod:`armando_drake.messages.definitions`
 (ROS 2 Humble and later; these messages have not changed).
 """
 
@@ -44,8 +44,8 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, LeafSystem
 from pydrake.systems.sensors import ImageRgba8U
 
-from armando_drake.control.messages import JointState, PublicationValue
-from armando_drake.ros2.messages import (  # the message definitions, shared with the bridge
+from armando_drake.messages.types import JointState, PublicationValue
+from armando_drake.messages.definitions import (  # the message definitions, shared with the bridge
     cartesian_trajectory_message,
     float64_multi_array_message,
     header,
@@ -127,12 +127,12 @@ class RosbagRecorder(LeafSystem):
         - cartesian_trajectory
         - <camera>.color_image (one per camera)
 
-    - ``joint_states``: a :class:`~armando_drake.control.messages.JointState`; a
+    - ``joint_states``: a :class:`~armando_drake.messages.types.JointState`; a
       sample is recorded on ``joint_states_topic`` whenever its stamp is new,
       with that stamp (the same samples, at the same times, as the
       joint-state logger's CSV);
     - ``commands`` / ``joint_trajectory``: a
-      :class:`~armando_drake.control.messages.Publication` of Float64MultiArray /
+      :class:`~armando_drake.messages.types.Publication` of Float64MultiArray /
       JointTrajectory; the latest message is recorded on ``commands_topic`` /
       ``trajectory_topic`` whenever the publication's count grows, stamped
       with its publication time. Unconnected: nothing recorded. Publications
@@ -362,7 +362,7 @@ def AddRosbagRecorder(builder, world, path: str | os.PathLike) -> RosbagRecorder
     if getattr(world, "perception", None) is not None:  # point clouds, clusters
         AddPerceptionRecorder(builder, world, recorder)
     if getattr(world, "detectors", None) is not None:  # detections
-        from armando_drake.vision.recording import AddVisionRecorder
+        from armando_drake.outputs.vision_recording import AddVisionRecorder
 
         AddVisionRecorder(builder, world, recorder)
     return recorder

@@ -4,7 +4,7 @@ In a run with a ``task:`` section, :class:`TaskSpaceTracker` listens to the join
 logger (the rows of ``joint_states.csv``, one per controller tick, in memory at each
 flush, so once a simulated second and never per step), computes the end effector's
 pose at each row by forward kinematics on the world's plant (its own context,
-:class:`~armando_drake.task.arm.ArmModel`) and compares it with the desired pose of
+:class:`~armando_drake.kinematics.arm.ArmModel`) and compares it with the desired pose of
 the task's Cartesian trajectory at the same time (held at the goal after the end):
 :func:`task_space_errors`. :func:`write_task_space_csv` keeps the result as
 ``task_space.csv`` (time, desired and actual position, both error norms), which
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from armando_drake.task.arm import rotation_matrix_from_quaternion, rotation_vector_error
+from armando_drake.kinematics.arm import rotation_matrix_from_quaternion, rotation_vector_error
 
 TASK_SPACE_CSV = "task_space.csv"
 _COLUMNS = (

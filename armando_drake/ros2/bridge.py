@@ -49,8 +49,8 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus, LeafSystem
 from pydrake.systems.sensors import ImageRgba8U
 
-from armando_drake.control.messages import JointState, Publication
-from armando_drake.ros2.messages import (
+from armando_drake.messages.types import JointState, Publication
+from armando_drake.messages.definitions import (
     clock_message,
     float64_multi_array_of,
     image_message,
@@ -243,7 +243,7 @@ class Ros2Bridge(LeafSystem):
         - <controller>.commands / <controller>.joint_trajectory (one per command topic)
 
     - ``joint_states``: the broadcaster's
-      :class:`~armando_drake.control.messages.JointState`, published on
+      :class:`~armando_drake.messages.types.JointState`, published on
       ``joint_states`` at ``update_rate`` [Hz] from t = 0 (when connected);
     - ``body_poses``: the plant's body poses in the world
       (``get_body_poses_output_port``); ``/tf`` carries every moving joint of
@@ -252,7 +252,7 @@ class Ros2Bridge(LeafSystem):
     - ``<camera>.color_image``: ``<camera topic>/image_raw`` and
       ``camera_info`` at the camera's rate, as the recorder writes them;
     - ``<controller>.<suffix>``: a
-      :class:`~armando_drake.control.messages.Publication` holding the latest
+      :class:`~armando_drake.messages.types.Publication` holding the latest
       command received on ``<controller>/<suffix>`` (abstract state, updated at
       ``update_rate``).
 

@@ -36,7 +36,7 @@ from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 from armando_drake.ros2.idl import idl_type, to_dict, to_idl
-from armando_drake.ros2.messages import resolve_topic
+from armando_drake.messages.definitions import resolve_topic
 
 _log = logging.getLogger("armando_drake.ros2")
 
@@ -180,7 +180,7 @@ class DdsNode:
     """One DDS participant with ROS 2 topic names, types and QoS.
 
     ``publish(topic, type_name, message)`` writes a message dictionary
-    (:mod:`armando_drake.ros2.messages`); ``subscribe(topic, type_name,
+    (:mod:`armando_drake.messages.definitions`); ``subscribe(topic, type_name,
     callback)`` calls ``callback(message_dict)`` on Cyclone's receive thread
     for every message. Topics are ROS 2 names, resolved in ``namespace``.
     """

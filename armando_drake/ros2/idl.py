@@ -1,13 +1,13 @@
 """Cyclone DDS types of the ROS 2 messages, generated from their ``.msg`` text.
 
-:func:`idl_type` turns a definition of :data:`armando_drake.ros2.messages.DEFINITIONS`
+:func:`idl_type` turns a definition of :data:`armando_drake.messages.definitions.DEFINITIONS`
 into a Cyclone DDS ``IdlStruct`` named as ROS 2 names it on DDS
 (``sensor_msgs::msg::dds_::JointState_``), field for field, so its XCDR1
 serialisation is the ROS 2 CDR of the message (rmw_cyclonedds and
 rmw_fastrtps both send plain CDR, little-endian, with the 4-byte
 encapsulation header ``00 01 00 00``). :func:`to_idl` and :func:`to_dict`
 convert between those messages and the dictionaries of
-:mod:`armando_drake.ros2.messages`.
+:mod:`armando_drake.messages.definitions`.
 
 Importing this module imports Cyclone DDS (the ``[ros2]`` extra).
 """
@@ -21,7 +21,7 @@ from typing import Any
 from cyclonedds.idl import IdlStruct, make_idl_struct
 from cyclonedds.idl import types as t
 
-from armando_drake.ros2.messages import dds_type_name, fields, short_name
+from armando_drake.messages.definitions import dds_type_name, fields, short_name
 
 # ROS 2 primitive types -> IDL types (rosidl's mapping).
 _PRIMITIVES = {

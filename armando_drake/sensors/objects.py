@@ -29,7 +29,7 @@ from pydrake import geometry
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
 
-from armando_drake.vision.marker import ArucoMarker, MarkerError
+from armando_drake.sensors.marker import ArucoMarker, MarkerError
 
 
 class SceneObjectError(ValueError):

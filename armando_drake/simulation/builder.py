@@ -14,7 +14,7 @@ Ports of the diagram, by name:
 
 - ``<controller>.<topic>`` (``commands``, ``joint_trajectory``, ...): command
   inputs of the active controllers that no sequencer, task or live jog drives (a
-  :class:`~armando_drake.control.messages.Publication`; see
+  :class:`~armando_drake.messages.types.Publication`; see
   :meth:`World.publish`);
 - ``<controller>.status``: each command controller's ControllerStatus;
 - ``joint_states``: the broadcaster's JointState;
@@ -67,7 +67,7 @@ from armando_drake.control.manager import (
     ControllerManager,
     ManagedController,
 )
-from armando_drake.control.messages import Float64MultiArray, JointTrajectory, Publication
+from armando_drake.messages.types import Float64MultiArray, JointTrajectory, Publication
 from armando_drake.description.importer import default_controller_config
 from armando_drake.description.loader import LoadedRobot, load_robot, package_of
 from armando_drake.sensors.objects import AddSceneObjects, SceneObjectError
@@ -788,11 +788,11 @@ def _add_task(builder, world: World, scenario: Scenario, where: str) -> None:
     from pydrake.systems.primitives import ConstantValueSource
 
     from armando_drake.control.controllers.task_space import check_within_reach
-    from armando_drake.control.messages import CartesianTrajectory
-    from armando_drake.task.arm import ArmModel, TaskSpaceError
-    from armando_drake.task.motion import make_cartesian_trajectory
-    from armando_drake.task.paths import PathError
-    from armando_drake.task.time_laws import TimeLawError
+    from armando_drake.messages.types import CartesianTrajectory
+    from armando_drake.kinematics.arm import ArmModel, TaskSpaceError
+    from armando_drake.kinematics.motion import make_cartesian_trajectory
+    from armando_drake.kinematics.paths import PathError
+    from armando_drake.kinematics.time_laws import TimeLawError
 
     config = world.controller_config.controllers
     targets = [
@@ -818,7 +818,7 @@ def _add_task(builder, world: World, scenario: Scenario, where: str) -> None:
         if config[name].controller_class.message is CartesianTrajectory:
             message = cartesian_trajectory_message(trajectory, period, arm.frame_E.name())
         else:
-            from armando_drake.task.inverse_kinematics import plan_joint_reference
+            from armando_drake.kinematics.inverse_kinematics import plan_joint_reference
 
             plan = plan_joint_reference(arm, trajectory, arm.default_positions(), period=period)
             message = joint_trajectory_message(plan, arm.joint_names)
@@ -876,7 +876,7 @@ def _last_link_frame(plant, instance):
 
 def cartesian_trajectory_message(trajectory, period: float, frame: str):
     """The CartesianTrajectory message of ``trajectory`` sampled every ``period`` [s]."""
-    from armando_drake.control.messages import CartesianTrajectory, CartesianTrajectoryPoint
+    from armando_drake.messages.types import CartesianTrajectory, CartesianTrajectoryPoint
 
     count = int(np.ceil(trajectory.duration / period - 1e-9)) + 1
     times = np.arange(count) * period
@@ -898,7 +898,7 @@ def joint_trajectory_message(plan, joint_names) -> JointTrajectory:
     """The JointTrajectory message of a planned joint reference. Its last point is at
     rest (the plan's residual velocity there is tiny; a trajectory controller
     rejects a last point that is not)."""
-    from armando_drake.control.messages import JointTrajectoryPoint
+    from armando_drake.messages.types import JointTrajectoryPoint
 
     last = len(plan.times) - 1
     points = tuple(

@@ -32,7 +32,7 @@ from armando_drake.control.sequencer import JointTrajectoryTargets, PositionTarg
 from armando_drake.perception.config import PerceptionConfig
 from armando_drake.ros2.config import Ros2Config
 from armando_drake.sensors.objects import SceneObject
-from armando_drake.task.motion import TaskSpaceMotion
+from armando_drake.kinematics.motion import TaskSpaceMotion
 from armando_drake.teleop.config import JogConfig
 from armando_drake.vision.cameras import ScenarioCamera
 from armando_drake.vision.config import VisionConfig

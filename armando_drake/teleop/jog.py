@@ -38,13 +38,13 @@ from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import EventStatus, LeafSystem
 
-from armando_drake.control.messages import (
+from armando_drake.messages.types import (
     Float64MultiArray,
     JointTrajectory,
     JointTrajectoryPoint,
     Publication,
 )
-from armando_drake.task.arm import ArmModel, orientation_error
+from armando_drake.kinematics.arm import ArmModel, orientation_error
 from armando_drake.teleop.config import JogConfig, JogError
 from armando_drake.teleop.gamepad import CARTESIAN, JOINT, read_gamepad
 
@@ -549,7 +549,7 @@ def AddJog(builder, world, config: JogConfig, *, where: str = "") -> MeshcatJog 
     the jogged controller (``config.controller`` or the first active controller that
     takes joint positions); None without a Meshcat to read."""
     from armando_drake.simulation.builder import _last_link_frame
-    from armando_drake.task.arm import TaskSpaceError
+    from armando_drake.kinematics.arm import TaskSpaceError
 
     controllers = world.controller_config.controllers
 

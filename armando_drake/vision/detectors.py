@@ -35,9 +35,9 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import DiagramBuilder, EventStatus, LeafSystem
 from pydrake.systems.sensors import ImageRgba8U
 
-from armando_drake.control.messages import Publication, PublicationValue
+from armando_drake.messages.types import MarkerPose, Publication, PublicationValue
 from armando_drake.vision.blobs import LevelBlobDetector
-from armando_drake.vision.marker import MarkerError, aruco_dictionary, dictionary_size
+from armando_drake.sensors.marker import MarkerError, aruco_dictionary, dictionary_size
 
 _log = logging.getLogger("armando_drake.vision")
 
@@ -68,25 +68,6 @@ class BlobDetection:
 
     stamp: float = 0.0  # [s] time of the frame
     keypoints: tuple[Keypoint, ...] = ()
-
-    def __deepcopy__(self, memo):
-        return self
-
-
-@dataclass(frozen=True)
-class MarkerPose:
-    """geometry_msgs/PoseStamped of a detected marker, plus the camera's mount.
-
-    ``pose`` is the marker frame M (OpenCV's: z out of the face) in ``frame_id``
-    (the camera's optical frame C: z forward, x right, y down; or ``world``).
-    """
-
-    stamp: float = 0.0  # [s] time of the frame
-    frame_id: str = ""  # the camera's name, or "world"
-    marker_id: int = -1  # the marker's id in its dictionary
-    pose: RigidTransform = field(default_factory=RigidTransform)  # X_FM
-    link: str = ""  # the link the camera is mounted on
-    X_LC: RigidTransform = field(default_factory=RigidTransform)  # camera in that link
 
     def __deepcopy__(self, memo):
         return self

@@ -26,7 +26,7 @@ def camera_pose(world, context, camera: str) -> RigidTransform:
 
 def marker_object(scenario):
     """The scenario's first ArUco marker object, or None."""
-    from armando_drake.vision.marker import ArucoMarker
+    from armando_drake.sensors.marker import ArucoMarker
 
     for obj in scenario.objects:
         if isinstance(obj.shape, ArucoMarker):

@@ -16,7 +16,7 @@ from armando_drake.control.controllers.joint_trajectory import (
 )
 from armando_drake.control.hardware import HardwareInterface, HardwareJoint
 from armando_drake.control.manager import ControllerManager, ManagedController
-from armando_drake.control.messages import (
+from armando_drake.messages.types import (
     Float64MultiArray,
     JointTrajectory,
     JointTrajectoryPoint,

@@ -5,7 +5,7 @@ import pytest
 from conftest import make_mini_package
 from pydrake.systems.analysis import Simulator
 
-from armando_drake.control.messages import Float64MultiArray
+from armando_drake.messages.types import Float64MultiArray
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import load_scenario
 

@@ -37,7 +37,7 @@ from armando_drake.control.manager import (
     ControllerManager,
     ManagedController,
 )
-from armando_drake.control.messages import (
+from armando_drake.messages.types import (
     Float64MultiArray,
     JointTrajectory,
     Publication,

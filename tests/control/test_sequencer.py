@@ -9,7 +9,7 @@ from pydrake.common.yaml import yaml_load_typed
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 
-from armando_drake.control.messages import Float64MultiArray, JointTrajectory, PublicationValue
+from armando_drake.messages.types import Float64MultiArray, JointTrajectory, PublicationValue
 from armando_drake.control.sequencer import (
     SEED_TARGETS,
     CommandSequencer,

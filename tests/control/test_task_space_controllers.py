@@ -18,7 +18,7 @@ from conftest import REPO, SHARED, skip_or_fail
 from PIL import Image
 from pydrake.systems.analysis import Simulator
 
-from armando_drake.control.messages import (
+from armando_drake.messages.types import (
     CartesianTrajectory,
     CartesianTrajectoryPoint,
     Float64MultiArray,

@@ -75,7 +75,7 @@ from armando_drake.control.controllers.joint_trajectory import (
     wraparound_joint,
 )
 from armando_drake.control.manager import ControllerManager, ManagedController
-from armando_drake.control.messages import (
+from armando_drake.messages.types import (
     Float64MultiArray,
     JointTrajectory,
     JointTrajectoryPoint,

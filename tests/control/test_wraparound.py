@@ -18,7 +18,7 @@ from armando_drake.control.controllers.joint_trajectory import (
     SampledTrajectory,
     shortest_angular_distance,
 )
-from armando_drake.control.messages import JointTrajectory, JointTrajectoryPoint
+from armando_drake.messages.types import JointTrajectory, JointTrajectoryPoint
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import load_scenario
 from tests.control.test_controllers import Harness

@@ -16,7 +16,7 @@ import pytest
 from pydrake.math import RigidTransform, RollPitchYaw
 from ros2_support import new_domain_id, python, subprocess_env
 
-from armando_drake.control.messages import (
+from armando_drake.messages.types import (
     Float64MultiArray,
     JointState,
     JointTrajectory,

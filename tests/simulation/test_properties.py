@@ -485,7 +485,7 @@ MESSAGE_FLOATS = st.one_of(NASTY_FLOATS, st.floats(-4, 4))
 
 @st.composite
 def trajectories(draw):
-    from armando_drake.control.messages import JointTrajectory, JointTrajectoryPoint
+    from armando_drake.messages.types import JointTrajectory, JointTrajectoryPoint
 
     names = draw(
         st.one_of(
@@ -526,7 +526,7 @@ def test_messages_into_running_controllers_are_taken_or_dropped(running_world, m
     within their limits; an accepted position command is the actuators' target, clamped."""
     from pydrake.systems.analysis import Simulator
 
-    from armando_drake.control.messages import Float64MultiArray
+    from armando_drake.messages.types import Float64MultiArray
 
     contexts = {}
     for controller, message in messages:

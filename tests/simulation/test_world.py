@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 
-from armando_drake.control.messages import Float64MultiArray, JointTrajectory, JointTrajectoryPoint
+from armando_drake.messages.types import Float64MultiArray, JointTrajectory, JointTrajectoryPoint
 from armando_drake.outputs.logger import read_joint_states
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import ScenarioError, load_scenario

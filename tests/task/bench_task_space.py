@@ -17,15 +17,15 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from task_robots import IIWA_END_EFFECTOR, add_iiwa
 
-from armando_drake.task.arm import ArmModel
-from armando_drake.task.control_laws import (
+from armando_drake.kinematics.arm import ArmModel
+from armando_drake.kinematics.control_laws import (
     JointSpaceInverseDynamics,
     OperationalSpaceInverseDynamics,
 )
-from armando_drake.task.controller import AddTorqueController
-from armando_drake.task.inverse_kinematics import plan_joint_reference, solve_ik
-from armando_drake.task.paths import CartesianTrajectory, CircularPath, OrientationPath
-from armando_drake.task.time_laws import TrapezoidalTimeLaw
+from armando_drake.kinematics.controller import AddTorqueController
+from armando_drake.kinematics.inverse_kinematics import plan_joint_reference, solve_ik
+from armando_drake.kinematics.paths import CartesianTrajectory, CircularPath, OrientationPath
+from armando_drake.kinematics.time_laws import TrapezoidalTimeLaw
 
 PERIOD = 1e-3  # [s]
 X_START = RigidTransform(RotationMatrix.MakeYRotation(np.pi), [0.55, 0.0, 0.5])

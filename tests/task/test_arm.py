@@ -6,7 +6,7 @@ from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 from task_robots import ARMANDO_END_EFFECTOR, IIWA_END_EFFECTOR, add_armando, add_iiwa
 
-from armando_drake.task.arm import (
+from armando_drake.kinematics.arm import (
     ArmModel,
     orientation_error,
     resolve_tasks,

@@ -18,21 +18,21 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 from task_robots import ARMANDO_END_EFFECTOR, IIWA_END_EFFECTOR, add_armando, add_iiwa
 
-from armando_drake.task.arm import ArmModel, TaskSpaceError, orientation_error
-from armando_drake.task.control_laws import (
+from armando_drake.kinematics.arm import ArmModel, TaskSpaceError, orientation_error
+from armando_drake.kinematics.control_laws import (
     JointSpaceInverseDynamics,
     OperationalSpaceInverseDynamics,
     OperationalSpaceInverseDynamicsParams,
 )
-from armando_drake.task.controller import AddTorqueController, TorqueController
-from armando_drake.task.inverse_kinematics import plan_joint_reference, solve_ik
-from armando_drake.task.paths import (
+from armando_drake.kinematics.controller import AddTorqueController, TorqueController
+from armando_drake.kinematics.inverse_kinematics import plan_joint_reference, solve_ik
+from armando_drake.kinematics.paths import (
     CartesianTrajectory,
     CircularPath,
     LinearPath,
     OrientationPath,
 )
-from armando_drake.task.time_laws import CubicTimeLaw, TrapezoidalTimeLaw
+from armando_drake.kinematics.time_laws import CubicTimeLaw, TrapezoidalTimeLaw
 
 PERIOD = 1e-3  # [s] controller and plant step
 SETTLE = 0.5  # [s] simulated after the motion

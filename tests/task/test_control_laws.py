@@ -9,15 +9,15 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.controllers import InverseDynamicsController
 from task_robots import IIWA_END_EFFECTOR, add_iiwa
 
-from armando_drake.task.arm import ArmModel, TaskSpaceError, orientation_error
-from armando_drake.task.control_laws import (
+from armando_drake.kinematics.arm import ArmModel, TaskSpaceError, orientation_error
+from armando_drake.kinematics.control_laws import (
     TORQUE_LAWS,
     JointSpaceInverseDynamics,
     JointSpaceInverseDynamicsParams,
     OperationalSpaceInverseDynamics,
     OperationalSpaceInverseDynamicsParams,
 )
-from armando_drake.task.paths import CARTESIAN_REFERENCE_SIZE
+from armando_drake.kinematics.paths import CARTESIAN_REFERENCE_SIZE
 
 
 @pytest.fixture(scope="module")

@@ -14,10 +14,10 @@ from task_robots import (
     add_iiwa,
 )
 
-from armando_drake.task.arm import ArmModel, TaskSpaceError, orientation_error
-from armando_drake.task.inverse_kinematics import plan_joint_reference, solve_ik
-from armando_drake.task.paths import CartesianTrajectory, LinearPath, OrientationPath
-from armando_drake.task.time_laws import CubicTimeLaw, TrapezoidalTimeLaw
+from armando_drake.kinematics.arm import ArmModel, TaskSpaceError, orientation_error
+from armando_drake.kinematics.inverse_kinematics import plan_joint_reference, solve_ik
+from armando_drake.kinematics.paths import CartesianTrajectory, LinearPath, OrientationPath
+from armando_drake.kinematics.time_laws import CubicTimeLaw, TrapezoidalTimeLaw
 
 
 @pytest.fixture(scope="module")

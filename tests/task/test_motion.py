@@ -5,9 +5,9 @@ import pytest
 from pydrake.common.yaml import yaml_load_typed
 from pydrake.math import RigidTransform, RotationMatrix
 
-from armando_drake.task.motion import TaskSpaceMotion, make_cartesian_trajectory
-from armando_drake.task.paths import PathError
-from armando_drake.task.time_laws import TimeLawError
+from armando_drake.kinematics.motion import TaskSpaceMotion, make_cartesian_trajectory
+from armando_drake.kinematics.paths import PathError
+from armando_drake.kinematics.time_laws import TimeLawError
 
 X_START = RigidTransform(RotationMatrix.MakeYRotation(np.pi), [0.55, 0.0, 0.5])
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from pydrake.math import RotationMatrix
 
-from armando_drake.task.paths import (
+from armando_drake.kinematics.paths import (
     CARTESIAN_REFERENCE_SIZE,
     CartesianTrajectory,
     CircularPath,
@@ -13,7 +13,7 @@ from armando_drake.task.paths import (
     PathError,
     unpack_cartesian_reference,
 )
-from armando_drake.task.time_laws import CubicTimeLaw, TrapezoidalTimeLaw
+from armando_drake.kinematics.time_laws import CubicTimeLaw, TrapezoidalTimeLaw
 
 
 def finite_difference(function, t, h=1e-5):

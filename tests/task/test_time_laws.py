@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from armando_drake.task.time_laws import (
+from armando_drake.kinematics.time_laws import (
     CubicTimeLaw,
     QuinticTimeLaw,
     TimeLawError,

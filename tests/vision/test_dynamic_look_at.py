@@ -17,8 +17,8 @@ from armando_drake.control.config import ControllerConfigError, parse_controller
 from armando_drake.control.controllers.look_at_dynamic import look_at_rotation
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import load_scenario
-from armando_drake.task.motion import TaskSpaceMotion, make_time_law
-from armando_drake.task.paths import LinearPath
+from armando_drake.kinematics.motion import TaskSpaceMotion, make_time_law
+from armando_drake.kinematics.paths import LinearPath
 from armando_drake.vision.metrics import camera_pose, pointing_error, true_marker_position
 
 pytest.importorskip("cv2")
@@ -149,7 +149,7 @@ def test_logic_holds_until_the_marker_then_follows_it_and_rejects_bad_poses(kind
         OperationalSpaceLookAtController,
     )
     from armando_drake.description.loader import load_robot
-    from armando_drake.vision.detectors import MarkerPose
+    from armando_drake.messages.types import MarkerPose
 
     plant = MultibodyPlant(0.0)
     robot = load_robot(plant)

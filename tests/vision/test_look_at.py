@@ -103,7 +103,7 @@ def test_commands_turn_the_camera_towards_the_marker_and_stop_when_it_is_lost(ki
         ImprovedLookAtPointController,
         LookAtPointController,
     )
-    from armando_drake.vision.detectors import MarkerPose
+    from armando_drake.messages.types import MarkerPose
 
     cls = ImprovedLookAtPointController if kind == "improved" else LookAtPointController
     logic = _armando_logic(cls)

@@ -51,7 +51,7 @@ import yaml
 from pydrake.common.yaml import yaml_load_typed
 from pydrake.systems.framework import EventStatus
 
-from armando_drake.control.messages import ControllerStatus
+from armando_drake.messages.types import ControllerStatus
 
 _logger = logging.getLogger("armando_drake.control.controllers")
 

@@ -23,7 +23,7 @@ from armando_drake.control.controllers import (
     joint_list,
     register,
 )
-from armando_drake.control.messages import JointState
+from armando_drake.messages.types import JointState
 
 _DEFAULT_MAPPING = {"position": "position", "velocity": "velocity", "effort": "effort"}
 

@@ -33,7 +33,7 @@ from armando_drake.control.controllers import (
     joint_list,
     register,
 )
-from armando_drake.control.messages import Float64MultiArray
+from armando_drake.messages.types import Float64MultiArray
 
 
 @dataclasses.dataclass

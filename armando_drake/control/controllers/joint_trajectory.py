@@ -56,7 +56,7 @@ from armando_drake.control.controllers import (
     non_negative,
     register,
 )
-from armando_drake.control.messages import JointTrajectory, JointTrajectoryPoint
+from armando_drake.messages.types import JointTrajectory, JointTrajectoryPoint
 
 # Upstream's "is this velocity zero" threshold: std::numeric_limits<float>::epsilon().
 _FLOAT_EPSILON = float(np.finfo(np.float32).eps)

@@ -44,7 +44,7 @@ from armando_drake.control.controllers import (
     non_negative,
     register,
 )
-from armando_drake.vision.detectors import MarkerPose
+from armando_drake.messages.types import MarkerPose
 
 
 @dataclasses.dataclass

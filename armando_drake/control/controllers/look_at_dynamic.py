@@ -9,7 +9,7 @@ moving joint and run at every controller tick (1 kHz in ``vision_dynamic.yaml``)
 
 - at the first marker pose, the camera's linear path starts where the camera is:
   ``p_d(t)`` from the camera's position to that plus ``offset`` [m, world], on the
-  parameters' time law (:mod:`armando_drake.task.time_laws`); before it, the arm
+  parameters' time law (:mod:`armando_drake.kinematics.time_laws`); before it, the arm
   holds its measured state (as the task-space controllers do before a message);
 - each marker pose updates the marker's position in the world, ``p_WM = X_WC p_CM``
   (the camera's pose from the measured joints); between poses (30 Hz) and without
@@ -23,7 +23,7 @@ moving joint and run at every controller tick (1 kHz in ``vision_dynamic.yaml``)
 
 ``vision_controllers/OperationalSpaceLookAtController`` feeds ``[R_d, p_d, w_d,
 v_d, 0, a_d]`` of the camera frame to the operational-space inverse-dynamics law
-(:class:`~armando_drake.task.control_laws.OperationalSpaceInverseDynamics`, the same
+(:class:`~armando_drake.kinematics.control_laws.OperationalSpaceInverseDynamics`, the same
 gains and null space).
 ``vision_controllers/JointSpaceLookAtController`` turns the same task into a joint
 reference by closed-loop inverse kinematics at each tick, on the reference joints
@@ -52,12 +52,12 @@ from armando_drake.control.controllers.task_space import (
     _InverseDynamicsController,
     _law_params,
 )
-from armando_drake.task.arm import ArmModel, TaskSpaceError
-from armando_drake.task.control_laws import TORQUE_LAWS
-from armando_drake.task.motion import TaskSpaceMotion, make_time_law
-from armando_drake.task.paths import LinearPath, PathError
-from armando_drake.task.time_laws import TimeLawError
-from armando_drake.vision.detectors import MarkerPose
+from armando_drake.kinematics.arm import ArmModel, TaskSpaceError
+from armando_drake.kinematics.control_laws import TORQUE_LAWS
+from armando_drake.kinematics.motion import TaskSpaceMotion, make_time_law
+from armando_drake.kinematics.paths import LinearPath, PathError
+from armando_drake.kinematics.time_laws import TimeLawError
+from armando_drake.messages.types import MarkerPose
 
 
 class CameraArmModel(ArmModel):

@@ -55,7 +55,7 @@ from armando_drake.control.controllers.joint_trajectory import (
     JointTrajectoryController,
     JointTrajectoryControllerParams,
 )
-from armando_drake.control.messages import Float64, Float64MultiArray
+from armando_drake.messages.types import Float64, Float64MultiArray
 
 ROS1_TOPIC = "command"  # every ROS 1 command topic: /<namespace>/<controller>/command
 

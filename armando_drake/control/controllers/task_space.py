@@ -2,8 +2,8 @@
 and ``task_space_controllers/OperationalSpaceInverseDynamics``.
 
 Both command the effort interface of every moving joint of the robot and run a torque
-law of :mod:`armando_drake.task.control_laws` at each controller tick, with M, C v, g,
-J and J-dot v from the world's MultibodyPlant (:class:`~armando_drake.task.arm.ArmModel`
+law of :mod:`armando_drake.kinematics.control_laws` at each controller tick, with M, C v, g,
+J and J-dot v from the world's MultibodyPlant (:class:`~armando_drake.kinematics.arm.ArmModel`
 on its own context, so nothing is hand-derived):
 
 - ``JointSpaceInverseDynamics`` (computed torque) reads a
@@ -47,9 +47,9 @@ from armando_drake.control.controllers import (
     joint_list,
     register,
 )
-from armando_drake.control.messages import CartesianTrajectory, JointTrajectory
-from armando_drake.task.arm import ArmModel, TaskSpaceError
-from armando_drake.task.control_laws import (
+from armando_drake.messages.types import CartesianTrajectory, JointTrajectory
+from armando_drake.kinematics.arm import ArmModel, TaskSpaceError
+from armando_drake.kinematics.control_laws import (
     TORQUE_LAWS,
     JointSpaceInverseDynamicsParams,
     OperationalSpaceInverseDynamicsParams,
@@ -242,11 +242,11 @@ def _reach(arm: ArmModel) -> float:
 
 def check_within_reach(arm: ArmModel, trajectory, samples: int = 400) -> None:
     """Raises :class:`TaskSpaceError` if the position path of ``trajectory`` (a
-    :class:`~armando_drake.task.paths.CartesianTrajectory` in the arm's base frame) leaves
+    :class:`~armando_drake.kinematics.paths.CartesianTrajectory` in the arm's base frame) leaves
     the sphere the arm can reach (:func:`_reach` around its first joint): the check the
     controller makes of every point it is sent, made of a scenario's task when the world
     is built."""
-    from armando_drake.task.arm import TaskSpaceError
+    from armando_drake.kinematics.arm import TaskSpaceError
 
     reach = _reach(arm)
     joint = arm.plant.GetJointByName(arm.joint_names[0], arm.model_instance)

@@ -21,8 +21,8 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus, LeafSystem
 from pydrake.systems.sensors import ImageRgba8U
 
-from armando_drake.control.messages import PublicationValue
-from armando_drake.ros2.messages import image_message, pose_stamped_message
+from armando_drake.messages.types import PublicationValue
+from armando_drake.messages.definitions import image_message, pose_stamped_message
 from armando_drake.vision.detectors import FRAME_DELAY
 
 ANNOTATED_TOPIC = "/image_converter/output_video"

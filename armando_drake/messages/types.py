@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from pydrake.common.value import AbstractValue
+from pydrake.math import RigidTransform
 
 
 @dataclass(frozen=True)
@@ -160,3 +161,22 @@ class ControllerStatus:
     def __deepcopy__(self, memo):
         detail = copy.deepcopy(self.detail, memo) if self.detail else {}
         return ControllerStatus(self.state, self.accepted, self.rejected, self.last_error, detail)
+
+
+@dataclass(frozen=True)
+class MarkerPose:
+    """geometry_msgs/PoseStamped of a detected marker, plus the camera's mount.
+
+    ``pose`` is the marker frame M (OpenCV's: z out of the face) in ``frame_id``
+    (the camera's optical frame C: z forward, x right, y down; or ``world``).
+    """
+
+    stamp: float = 0.0  # [s] time of the frame
+    frame_id: str = ""  # the camera's name, or "world"
+    marker_id: int = -1  # the marker's id in its dictionary
+    pose: RigidTransform = field(default_factory=RigidTransform)  # X_FM
+    link: str = ""  # the link the camera is mounted on
+    X_LC: RigidTransform = field(default_factory=RigidTransform)  # camera in that link
+
+    def __deepcopy__(self, memo):
+        return self

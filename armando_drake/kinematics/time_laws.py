@@ -1,7 +1,7 @@
 """Time laws of the curvilinear abscissa s(t) in [0, 1] with s' and s''.
 
 A time law maps time t (seconds, 0 at the start of the motion) to the normalised
-path coordinate s in [0, 1]; a path (:mod:`armando_drake.task.paths`) maps s to a
+path coordinate s in [0, 1]; a path (:mod:`armando_drake.kinematics.paths`) maps s to a
 position. Every law here is a piecewise polynomial in t, so each one also becomes
 a Drake :class:`~pydrake.trajectories.PiecewisePolynomial` (:meth:`TimeLaw.as_trajectory`)
 that C++ evaluates. Before t = 0 the law holds s = 0, after t = T it holds s = 1,

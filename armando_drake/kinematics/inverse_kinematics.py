@@ -5,7 +5,7 @@
   seeded starts; an unreachable pose comes back with ``success = False`` and the
   best errors found.
 - :func:`plan_joint_reference`: the joint reference (q_d, v_d, a_d) along a
-  :class:`~armando_drake.task.paths.CartesianTrajectory`, by second-order
+  :class:`~armando_drake.kinematics.paths.CartesianTrajectory`, by second-order
   closed-loop inverse kinematics at the controller period:
   a = J#(x''_d + Kd (x'_d - J v) + Kp e - J-dot v) + N a_0, with J# the damped
   pseudo-inverse, N its null-space projector and a_0 the posture / joint-limit
@@ -25,7 +25,7 @@ from pydrake.multibody.inverse_kinematics import InverseKinematics
 from pydrake.solvers import Solve
 from pydrake.trajectories import PiecewisePolynomial
 
-from armando_drake.task.arm import (
+from armando_drake.kinematics.arm import (
     ArmModel,
     TaskSpaceError,
     describe_task,
@@ -33,7 +33,7 @@ from armando_drake.task.arm import (
     posture_acceleration,
     resolve_tasks,
 )
-from armando_drake.task.paths import CartesianTrajectory, unpack_cartesian_reference
+from armando_drake.kinematics.paths import CartesianTrajectory, unpack_cartesian_reference
 
 _log = logging.getLogger(__name__)
 

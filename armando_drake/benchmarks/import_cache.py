@@ -6,7 +6,7 @@ finds the cache empty and converts every STL, the second finds it full. The
 figure is the wall time of ``load_robot`` into a ``MultibodyPlant`` (imports
 excluded); the target is a second load at least 5 times faster.
 
-    python benchmarks/import_cache.py [path/to/arm_description] [--repeat N]
+    python -m armando_drake.benchmarks.import_cache [path/to/arm_description] [--repeat N]
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The torque controller as a Drake system, and the helper that wires it to a plant.
 
-:class:`TorqueController` runs one law of :mod:`armando_drake.task.control_laws` as
+:class:`TorqueController` runs one law of :mod:`armando_drake.kinematics.control_laws` as
 a periodic discrete update at the controller's rate (e.g. 1 kHz); its torque is a
 state output, so the plant never calls Python between ticks. The reference comes
 from a Drake ``TrajectorySource`` (C++), see :func:`AddTorqueController`.
@@ -14,7 +14,7 @@ from pydrake.systems.framework import DiagramBuilder, EventStatus, LeafSystem
 from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import Trajectory
 
-from armando_drake.task.arm import TaskSpaceError
+from armando_drake.kinematics.arm import TaskSpaceError
 
 
 class TorqueController(LeafSystem):

@@ -1,14 +1,14 @@
 """Torque control laws of the task-space controllers, as plain classes.
 
 Each law turns the arm's measured state and a reference vector into joint torques,
-one call per controller tick (:class:`armando_drake.task.controller.TorqueController`
+one call per controller tick (:class:`armando_drake.kinematics.controller.TorqueController`
 runs it as a discrete update). M, C v, g, J and J-dot v come from the plant through
-:class:`~armando_drake.task.arm.ArmModel`.
+:class:`~armando_drake.kinematics.arm.ArmModel`.
 
 - :class:`JointSpaceInverseDynamics` (computed torque), reference [q_d; v_d; a_d]:
   tau = M(q) (a_d + Kd (v_d - v) + Kp (q_d - q)) + C(q, v) v + g(q) + D v.
 - :class:`OperationalSpaceInverseDynamics`, reference the Cartesian vector of
-  :data:`armando_drake.task.paths.CARTESIAN_REFERENCE_LAYOUT` (pose, twist,
+  :data:`armando_drake.kinematics.paths.CARTESIAN_REFERENCE_LAYOUT` (pose, twist,
   acceleration of E in B): a = J#_M (x''_d + Kd e' + Kp e - J-dot v) + N a_0,
   tau = M a + C v + g + D v, with J#_M the M-weighted damped pseudo-inverse, N its
   null space and a_0 the null-space damping, posture and joint-limit term. Arms with
@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armando_drake.task.arm import (
+from armando_drake.kinematics.arm import (
     ArmModel,
     TaskSpaceError,
     posture_acceleration,
@@ -33,7 +33,7 @@ from armando_drake.task.arm import (
     rotation_matrix_from_quaternion,
     rotation_vector_error,
 )
-from armando_drake.task.paths import CARTESIAN_REFERENCE_SIZE
+from armando_drake.kinematics.paths import CARTESIAN_REFERENCE_SIZE
 
 _log = logging.getLogger(__name__)
 

@@ -11,7 +11,7 @@ DDS types of Cyclone DDS (:mod:`armando_drake.ros2.idl`).
 Messages cross this module as plain dictionaries, field by field as in the
 ``.msg`` files (nested messages are dictionaries, arrays are lists, ``uint8[]``
 is ``bytes``); the functions below turn the project's message dataclasses
-(:mod:`armando_drake.control.messages`) into them and back. This module
+(:mod:`armando_drake.messages.types`) into them and back. This module
 imports neither Cyclone DDS nor Foxglove.
 """
 
@@ -21,7 +21,7 @@ import functools
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from armando_drake.control.messages import (
+from armando_drake.messages.types import (
     CartesianTrajectory,
     Float64MultiArray,
     JointState,

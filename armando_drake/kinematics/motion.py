@@ -2,7 +2,7 @@
 
 :class:`TaskSpaceMotion` is loaded with ``yaml_load_typed`` (unknown keys are
 errors); :func:`make_cartesian_trajectory` turns it and the end effector's start
-pose into a :class:`~armando_drake.task.paths.CartesianTrajectory`.
+pose into a :class:`~armando_drake.kinematics.paths.CartesianTrajectory`.
 """
 
 import math
@@ -12,14 +12,14 @@ import numpy as np
 from pydrake.common.eigen_geometry import AngleAxis
 from pydrake.math import RigidTransform, RotationMatrix
 
-from armando_drake.task.paths import (
+from armando_drake.kinematics.paths import (
     CartesianTrajectory,
     CircularPath,
     LinearPath,
     OrientationPath,
     PathError,
 )
-from armando_drake.task.time_laws import (
+from armando_drake.kinematics.time_laws import (
     CubicTimeLaw,
     QuinticTimeLaw,
     TimeLaw,

@@ -1,7 +1,7 @@
 """Geometric paths of the end effector in the robot's base frame, and their timing.
 
 A path maps the normalised coordinate s in [0, 1] to a position p(s); with a time
-law (:mod:`armando_drake.task.time_laws`) giving s, s', s'' it gives position,
+law (:mod:`armando_drake.kinematics.time_laws`) giving s, s', s'' it gives position,
 velocity p' = p_s s' and acceleration p'' = p_s s'' + p_ss s'^2. Orientation is held
 or interpolated between two orientations by Drake's ``PiecewiseQuaternionSlerp``
 (a constant-axis rotation, so its angular velocity along s is constant).
@@ -23,7 +23,7 @@ from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.trajectories import PiecewisePolynomial, PiecewiseQuaternionSlerp
 
-from armando_drake.task.time_laws import TimeLaw
+from armando_drake.kinematics.time_laws import TimeLaw
 
 #: The Cartesian reference vector (19 numbers), Drake's spatial order (rotation first):
 #: quaternion of R_BE (w, x, y, z), position p_BE [m], angular velocity w_BE [rad/s],
