@@ -11,7 +11,8 @@ rate plus the browser view's publisher (PNG encoding happens only when a
 browser asks, so none here). The machine's other load shows in the figures:
 run it twice.
 
-    python -m armando_drake.benchmarks.camera_fps [--frames N] [--size 640x480] [--renderer auto|gl|vtk]
+    python -m armando_drake.benchmarks.camera_fps [--frames N] [--size 640x480] \
+        [--renderer auto|gl|vtk]
 """
 
 from __future__ import annotations

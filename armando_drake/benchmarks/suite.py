@@ -335,7 +335,7 @@ def add_bare_plant(builder, scenario_name: str, time_step: float | None = None):
 
     from armando_drake.control.hardware import AddHardwareInterface, FinishHardwareInterface
     from armando_drake.description.loader import load_robot
-    from armando_drake.simulation.builder import _add_ground  # the world's ground slab
+    from armando_drake.sensors.objects import AddGround as _add_ground  # the world's ground slab
     from armando_drake.simulation.scenario import load_scenario
 
     scenario = load_scenario(scenario_name)

@@ -22,7 +22,8 @@ of the benchmark suite reports the same replays for every scenario (with the
 position replay as the reference that holds still); this script runs one
 scenario alone, against the bench's bare plant.
 
-    python -m armando_drake.benchmarks.trajectory_ceiling [--duration 10] [--runs 5] [--scenario sinusoid]
+    python -m armando_drake.benchmarks.trajectory_ceiling [--duration 10] [--runs 5] \
+        [--scenario sinusoid]
 """
 
 from __future__ import annotations

@@ -22,6 +22,7 @@ reads it. :func:`MakeSequencer` builds the one a configuration asks for.
 """
 
 import dataclasses
+import logging
 import math
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -54,6 +55,9 @@ from armando_drake.messages.types import (
     Publication,
     PublicationValue,
 )
+from armando_drake.tools.errors import ScenarioError
+
+_log = logging.getLogger("armando_drake.world")
 
 # No `from __future__ import annotations` here: yaml_load_typed reads the
 # dataclass field types at run time and does not resolve string annotations.
@@ -808,3 +812,135 @@ def seed_wave_for(
         phase.append(SEED_PHASE[j % len(SEED_PHASE)])
         offset.append(min(max(0.0, low + margin + reach), high - margin - reach))
     return amplitude, phase, offset
+
+
+# --------------------------------------------------------------------------------------
+# In a world
+
+
+def sized_seed(config: SequencerConfig, joints: Sequence, robot_name: str) -> SequencerConfig:
+    """``config`` with the seed targets (the default) sized to ``joints`` (hardware
+    joints with ``lower``/``upper``; :func:`seed_targets_for`), or the seed's wave
+    (:func:`seed_wave_for`); other targets and waves as written."""
+    lower, upper = [j.lower for j in joints], [j.upper for j in joints]
+    if isinstance(config, Sinusoid):
+        if config.amplitude or config.offset or list(config.phase) != list(SEED_PHASE):
+            return config
+        amplitude, phase, offset = seed_wave_for(lower, upper)
+        seed = [SEED_AMPLITUDE] * len(SEED_PHASE), list(SEED_PHASE), [0.0] * len(SEED_PHASE)
+        if (amplitude, phase, offset) == seed:
+            return config  # the seed's wave itself (Armando)
+        _log.info("seed wave sized to the %d joints of %s", len(joints), robot_name)
+        return dataclasses.replace(config, amplitude=amplitude, phase=phase, offset=offset)
+    targets = getattr(config, "targets", None)
+    if not targets or not is_seed(targets):
+        return config
+    sized = seed_targets_for(lower, upper)
+    if not is_seed(sized):
+        _log.info(
+            "seed targets sized to the %d joints of %s: %s",
+            len(joints),
+            robot_name,
+            " ".join(str([round(v, 3) for v in target]) for target in sized),
+        )
+    return dataclasses.replace(config, targets=sized)
+
+
+def stream_controller(config: SequencerConfig | None, managed: Sequence, stack) -> str:
+    """The controller that takes the sinusoid ``config`` as a C++ stream, or "".
+
+    A stream needs no Python per sample: the wave is evaluated and sampled in C++
+    and checked against the joint limits now, so each sample is accepted as it is,
+    and it drives the hardware directly, latched at the manager's ticks. That takes
+    a position controller commanding every joint alone (``managed``: the manager's
+    controllers; ``stack``: the :class:`~armando_drake.control.stack.ControlStack`
+    being built), and samples no faster than the manager's ticks (each one handled
+    at one tick); otherwise the samples go through the manager as messages."""
+    if not isinstance(config, Sinusoid) or len(managed) != 1:
+        return ""
+    controller = managed[0]
+    logic = controller.logic
+    entry = stack.config.controllers[controller.name]
+    hardware = stack.hardware
+    if not (
+        entry.controller_class.message is Float64MultiArray
+        and entry.position_targets
+        and logic.accepts_stream(logic.params)
+        and sorted(logic.joint_names) == sorted(hardware.joint_names)
+    ):
+        return ""
+    if config.rate is not None and not config.rate <= stack.update_rate:
+        return ""  # the manager would take only the latest of several samples per tick
+    joints = list(logic.joint_names)
+    rows = [hardware.joints[i] for i in hardware.find(joints)]
+    config = sized_seed(config, rows, stack.robot.name)
+    lower = np.array([joint.lower for joint in rows])
+    upper = np.array([joint.upper for joint in rows])
+    try:
+        validate(config, joints, lower, upper)
+    except SequencerError:
+        return ""  # the sequencer reports it
+    # Inside the limits with room for the rounding of the samples, so that the
+    # controller would never clamp one.
+    wave = wave_of(config, joints)
+    reach = np.abs(wave.amplitude)
+    room = 1e-9 * (1.0 + np.abs(wave.offset) + reach)
+    if np.any(wave.offset + reach > upper - room) or np.any(wave.offset - reach < lower + room):
+        return ""
+    return controller.name
+
+
+def AddSequencer(
+    builder,
+    config: SequencerConfig,
+    stack,
+    *,
+    commands_log: Callable[[list[str]], Callable] | None = None,
+    where: str = "",
+):
+    """The command sequencer of ``config`` on the first active controller of
+    ``stack`` (a :class:`~armando_drake.control.stack.ControlStack`) of the kind its
+    configuration feeds (a position or a trajectory controller). ``commands_log``,
+    given the joints driven, returns what is called with each command published (the
+    commands log). Exports ``reference``;
+    returns (the sequencer, the controller it drives)."""
+    kind = CONTROLLER_KIND[type(config)]
+    message = JointTrajectory if kind == "trajectory" else Float64MultiArray
+    targets = stack.taking(message, position_targets=True)
+    if not targets:
+        raise ScenarioError(
+            f"{where}sequencer !{type(config).__name__} needs an active {kind} controller; "
+            f"active: {', '.join(stack.controllers) or 'none'}"
+        )
+    name = targets[0]
+    joints = stack.controller_joints[name]
+    rows = stack.joints_of(joints)
+    config = sized_seed(config, rows, stack.robot.name)
+    validate(
+        config,
+        joints,
+        [joint.lower for joint in rows],
+        [joint.upper for joint in rows],
+        source=where.rstrip(": "),
+    )
+    stream = name == stack.stream_controller
+    sequencer = builder.AddSystem(
+        MakeSequencer(
+            config=config,
+            joint_names=joints,
+            controller_rate=stack.update_rate,
+            initial_positions=[joint.initial_position for joint in rows],
+            on_publish=commands_log(joints) if commands_log is not None else None,
+            controller_ticks=stream,  # the stream as the manager's ticks apply it
+        )
+    )
+    sequencer.set_name("command_sequencer")
+    port = "joint_trajectory" if kind == "trajectory" else "commands"
+    builder.Connect(sequencer.GetOutputPort(port), stack.command_input(name))
+    if stream:
+        builder.Connect(
+            sequencer.GetOutputPort("tick_count"),
+            stack.controllers[name].GetInputPort(f"{name}.command_count"),
+        )
+    builder.ExportOutput(sequencer.GetOutputPort("reference"), "reference")
+    return sequencer, name

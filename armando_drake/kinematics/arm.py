@@ -339,3 +339,11 @@ def describe_task(arm: ArmModel, q: np.ndarray) -> str:
         f"(rotation about {axes_text or 'no axis'} in the base frame at the start), "
         "the others are not controlled"
     )
+
+
+def last_link_frame(plant, instance):
+    """The body frame of the child link of the robot's last moving joint (the end
+    effector when the scenario names none)."""
+    moving = [plant.get_joint(i) for i in plant.GetJointIndices(instance)]
+    moving = [j for j in moving if j.num_velocities() > 0]
+    return max(moving, key=lambda j: j.velocity_start()).child_body().body_frame()

@@ -49,6 +49,9 @@ import numpy as np
 from pydrake.systems.framework import Context, LeafSystem
 from pydrake.systems.primitives import VectorLogSink
 
+from armando_drake.control.manager import AddJointStateVector
+from armando_drake.control.stack import ControlStack
+
 
 def csv_header(joint_names: list[str] | tuple[str, ...]) -> str:
     """The header line (without newline) of a joint state CSV for ``joint_names``."""
@@ -375,3 +378,44 @@ class CommandsCsv:
         if self._file is not None:
             self._file.close()
             self._file = None
+
+
+def AddJointStateLogger(
+    builder,
+    stack: ControlStack,
+    *,
+    console_rate: float = 1.0,
+    output_dir: str | os.PathLike | None = None,
+    quiet: bool = False,
+) -> JointStateLogger | None:
+    """The joint state logger on what the broadcaster of ``stack`` publishes: its C++
+    vector view ([q; v; effort] of its joints), sampled at the controllers' rate (ROS
+    1's joint_state_controller: at its own publish_rate); ``joint_states.csv`` in
+    ``output_dir``; printed at ``console_rate`` [Hz] (0: never). None without a
+    broadcaster."""
+    if stack.broadcaster is None:
+        return None
+    joints = stack.controller_joints[stack.broadcaster_name]
+    view = AddJointStateVector(
+        builder,
+        stack.plant,
+        stack.hardware,
+        stack.robot.model_instance,
+        joints,
+        effort=stack.effort_state,
+    )
+    csv_path = None if output_dir is None else Path(output_dir) / "joint_states.csv"
+    broadcaster = stack.manager.broadcaster
+    rate = broadcaster.publish_rate(broadcaster.params) or stack.update_rate
+    logger = builder.AddSystem(
+        JointStateLogger(
+            joint_names=joints,
+            update_rate=rate,
+            console_rate=console_rate if console_rate > 0 else 1.0,
+            csv_path=csv_path,
+            quiet=quiet or console_rate <= 0,
+        )
+    )
+    logger.set_name("joint_state_logger")
+    builder.Connect(view, logger.get_input_port())
+    return logger

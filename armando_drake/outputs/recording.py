@@ -44,7 +44,6 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, LeafSystem
 from pydrake.systems.sensors import ImageRgba8U
 
-from armando_drake.messages.types import JointState, PublicationValue
 from armando_drake.messages.definitions import (  # the message definitions, shared with the bridge
     cartesian_trajectory_message,
     float64_multi_array_message,
@@ -55,6 +54,12 @@ from armando_drake.messages.definitions import (  # the message definitions, sha
     message_definition,
     ros_time,
 )
+from armando_drake.messages.types import JointState, PublicationValue
+from armando_drake.outputs.topics import WorldTopics
+from armando_drake.outputs.vision_recording import AddVisionRecorder
+from armando_drake.perception.pipeline import NO_RESULT
+from armando_drake.perception.systems import CLUSTER_COLOURS
+from armando_drake.sensors.image_view import PUBLISH_OFFSET_FRACTION
 
 
 class RecordingError(ValueError):
@@ -192,7 +197,6 @@ class RosbagRecorder(LeafSystem):
             for name in ("commands", "joint_trajectory", "cartesian_trajectory")
         }
         self.DeclarePeriodicPublishEvent(1.0 / update_rate, 0.0, self._PublishTopics)
-        from armando_drake.sensors.image_view import PUBLISH_OFFSET_FRACTION
 
         self._cameras = list(cameras)
         for camera in self._cameras:
@@ -313,25 +317,26 @@ def camera_stream(name: str, camera) -> CameraStream:
     )
 
 
-def AddRosbagRecorder(builder, world, path: str | os.PathLike) -> RosbagRecorder:
+def AddRosbagRecorder(builder, path: str | os.PathLike, topics: WorldTopics) -> RosbagRecorder:
     """Adds a :class:`RosbagRecorder` writing ``path`` to a world being built.
 
     Connects the broadcaster's joint states, the sequencer's (or the live jog's)
-    command topic (named after the controller it drives) and every camera; the world
-    closes the file when it closes.
+    command topic (named after the controller it drives), every camera, the point
+    clouds and the detections of ``topics``; the world closes the file (``close``)
+    when it closes.
     """
-    jog = getattr(world, "jog", None)  # the live jog, when no sequencer drives
-    jogged = jog.controller if jog is not None and world.sequencer is None else ""
-    target = world.sequencer_target or jogged or "position_controller"
-    task = world.task
-    trajectory_owner = world.sequencer_target or jogged or "trajectory_controller"
-    if task is not None and task.topic == "joint_trajectory" and world.sequencer is None:
+    jog = topics.jog  # the live jog, when no sequencer drives
+    jogged = jog.controller if jog is not None and topics.sequencer is None else ""
+    target = topics.sequencer_target or jogged or "position_controller"
+    task = topics.task
+    trajectory_owner = topics.sequencer_target or jogged or "trajectory_controller"
+    if task is not None and task.topic == "joint_trajectory" and topics.sequencer is None:
         trajectory_owner = task.controller
-    cameras = [camera_stream(name, camera) for name, camera in world.cameras.items()]
+    cameras = [camera_stream(name, camera) for name, camera in topics.cameras.items()]
     recorder = builder.AddSystem(
         RosbagRecorder(
             path=path,
-            update_rate=world.update_rate,
+            update_rate=topics.update_rate,
             commands_topic=f"/{target}/commands",
             trajectory_topic=f"/{trajectory_owner}/joint_trajectory",
             cartesian_topic=f"/{task.controller if task else 'operational_space_controller'}"
@@ -340,15 +345,14 @@ def AddRosbagRecorder(builder, world, path: str | os.PathLike) -> RosbagRecorder
         )
     )
     recorder.set_name("rosbag_recorder")
-    world.closers.append(recorder.close)
-    if world.broadcaster is not None:
+    if topics.broadcaster is not None:
         builder.Connect(
-            world.broadcaster.GetOutputPort("joint_states"),
+            topics.broadcaster.GetOutputPort("joint_states"),
             recorder.GetInputPort("joint_states"),
         )
-    if world.sequencer is not None:
+    if topics.sequencer is not None:
         for port in ("commands", "joint_trajectory"):
-            builder.Connect(world.sequencer.GetOutputPort(port), recorder.GetInputPort(port))
+            builder.Connect(topics.sequencer.GetOutputPort(port), recorder.GetInputPort(port))
     if jogged:
         port = "joint_trajectory" if jog.sends_trajectories else "commands"
         builder.Connect(jog.GetOutputPort("commands"), recorder.GetInputPort(port))
@@ -356,15 +360,13 @@ def AddRosbagRecorder(builder, world, path: str | os.PathLike) -> RosbagRecorder
         builder.Connect(task.source.get_output_port(), recorder.GetInputPort(task.topic))
     for stream in cameras:
         builder.Connect(
-            world.cameras[stream.name].color_image,
+            topics.cameras[stream.name].color_image,
             recorder.GetInputPort(f"{stream.name}.color_image"),
         )
-    if getattr(world, "perception", None) is not None:  # point clouds, clusters
-        AddPerceptionRecorder(builder, world, recorder)
-    if getattr(world, "detectors", None) is not None:  # detections
-        from armando_drake.outputs.vision_recording import AddVisionRecorder
-
-        AddVisionRecorder(builder, world, recorder)
+    if topics.perception is not None:  # point clouds, clusters
+        AddPerceptionRecorder(builder, topics, recorder)
+    if topics.detectors is not None:  # detections
+        AddVisionRecorder(builder, topics, recorder)
     return recorder
 
 
@@ -418,7 +420,6 @@ def marker_array_message(result, stamp: float, frame_id: str) -> dict[str, Any]:
     """visualization_msgs/MarkerArray of a perception result: DELETEALL, then per
     cluster k a CUBE (namespace ``boxes``, its axis-aligned box) and a SPHERE
     (namespace ``centroids``, at its centroid), both with id k and its colour."""
-    from armando_drake.perception.systems import CLUSTER_COLOURS
 
     def marker(ns: str, marker_id: int, kind: int, action: int, centre, scale, colour):
         return {
@@ -498,8 +499,6 @@ class PerceptionRecorder(LeafSystem):
         super().__init__()
         from pydrake.perception import PointCloud
 
-        from armando_drake.perception.pipeline import NO_RESULT
-
         self._recorder = recorder
         self._camera_rate = camera_rate
         self._size = image_size
@@ -531,12 +530,14 @@ class PerceptionRecorder(LeafSystem):
         )
 
 
-def AddPerceptionRecorder(builder, world, recorder: RosbagRecorder) -> PerceptionRecorder:
-    """Records ``world.perception``'s camera cloud (``/camera/points``, in the camera's
+def AddPerceptionRecorder(
+    builder, topics: WorldTopics, recorder: RosbagRecorder
+) -> PerceptionRecorder:
+    """Records ``topics.perception``'s camera cloud (``/camera/points``, in the camera's
     optical frame ``<link>_optical``: z forward, x right, y down) and clusters
     (``/perception/clusters``, in ``world`` or that optical frame)."""
-    perception = world.perception
-    camera = world.cameras[perception.camera]
+    perception = topics.perception
+    camera = topics.cameras[perception.camera]
     info = camera.info
     optical = f"{info.link}_optical"
     topic = "/" + (info.topic or info.name).strip("/")

@@ -25,12 +25,16 @@ publish a simulated hour): the replay costs a run as fast as possible about
 
 from __future__ import annotations
 
+import copy
 import logging
 from pathlib import Path
 
 import numpy as np
 from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer
 from pydrake.systems.framework import LeafSystem
+from pydrake.visualization import ApplyVisualizationConfig
+
+from armando_drake.outputs.view import AddViewFramer
 
 REPLAY_FILE = "replay.html"
 REPLAY_RATE = 32.0  # [frames/s] sampling rate of a replay until it outgrows its frames
@@ -202,8 +206,28 @@ def visualization_for(config, meshcat: Meshcat):
     run); unchanged for any other Meshcat."""
     if not getattr(meshcat, "recording_only", False):
         return config
-    import copy
-
     config = copy.copy(config)
     config.publish_period = RECORDING_ONLY_PUBLISH_PERIOD
     return config
+
+
+def AddVisualization(
+    builder, config, *, plant, scene_graph, meshcat: Meshcat, robot_instances, ground: bool
+):
+    """Drake's visualization of ``plant`` in ``meshcat`` (``config``: a
+    ``VisualizationConfig``), the collision layer hidden; the camera framed on the
+    robots of ``robot_instances`` and (with ``ground``) the ground drawn to the scene's
+    size when the run starts. Returns the :class:`ReplaySampler` of the plant's state
+    at a bounded number of instants, for the replay after the run."""
+    ApplyVisualizationConfig(
+        visualization_for(config, meshcat),
+        builder,
+        plant=plant,
+        scene_graph=scene_graph,
+        meshcat=meshcat,
+    )
+    meshcat.SetProperty("/drake/proximity", "visible", False)
+    AddViewFramer(
+        builder, plant, scene_graph, meshcat, robot_instances=robot_instances, ground=ground
+    )
+    return AddReplaySampler(builder, plant)

@@ -28,7 +28,9 @@ from pydrake.geometry import Box, Meshcat, QueryObject, Rgba, Role
 from pydrake.multibody.tree import BodyIndex
 from pydrake.systems.framework import LeafSystem
 
-GROUND_COLOR = (0.85, 0.85, 0.82, 1.0)  # RGBA of the ground, in Meshcat and in cameras
+from armando_drake.description.viewer import load_view_config
+from armando_drake.sensors.objects import GROUND_COLOR
+
 GROUND_PATH = "/ground"  # Meshcat path of the ground drawn to fit the scene
 GROUND_THICKNESS = 0.01  # [m] of the drawn ground slab (its top face is z = 0)
 GROUND_MARGIN = 1.5  # the drawn ground's side over the scene's largest extent
@@ -186,8 +188,6 @@ def frame_scene(
     ``scene_frames`` (the robot's and the objects'), draws the ground to fit them.
     Returns the robot's bounds (2, 3) [m], None without geometry."""
     from pydrake.math import RigidTransform
-
-    from armando_drake.description.viewer import load_view_config
 
     view = view or load_view_config()
     points = scene_points(query, robot_frames)

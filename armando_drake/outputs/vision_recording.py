@@ -21,8 +21,8 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus, LeafSystem
 from pydrake.systems.sensors import ImageRgba8U
 
-from armando_drake.messages.types import PublicationValue
 from armando_drake.messages.definitions import image_message, pose_stamped_message
+from armando_drake.messages.types import PublicationValue
 from armando_drake.vision.detectors import FRAME_DELAY
 
 ANNOTATED_TOPIC = "/image_converter/output_video"
@@ -84,9 +84,10 @@ class VisionRecorder(LeafSystem):
         return EventStatus.Succeeded()
 
 
-def AddVisionRecorder(builder, world, recorder) -> list[VisionRecorder]:
-    """A :class:`VisionRecorder` per detector of ``world.detectors``."""
-    detectors = world.detectors
+def AddVisionRecorder(builder, topics, recorder) -> list[VisionRecorder]:
+    """A :class:`VisionRecorder` per detector of ``topics.detectors`` (a
+    :class:`~armando_drake.outputs.topics.WorldTopics`), writing to ``recorder``."""
+    detectors = topics.detectors
     added = []
     for detector, camera in (
         (detectors.blob, detectors.blob_camera),
@@ -98,7 +99,7 @@ def AddVisionRecorder(builder, world, recorder) -> list[VisionRecorder]:
             f"vision_recorder_{camera}",
             VisionRecorder(
                 recorder=recorder,
-                frame_rate=world.cameras[camera].info.frame_rate,
+                frame_rate=topics.cameras[camera].info.frame_rate,
                 camera=camera,
             ),
         )

@@ -48,7 +48,14 @@ from armando_drake.perception.config import (
     StatisticalOutlierRemoval,
     validate_perception,
 )
-from armando_drake.perception.pipeline import NO_RESULT, PerceptionResult, PointCloudPipeline
+from armando_drake.perception.pipeline import (
+    NO_RESULT,
+    PerceptionResult,
+    PointCloudPipeline,
+    finite,
+    make_cloud,
+)
+from armando_drake.tools.errors import ScenarioError
 
 _log = logging.getLogger("armando_drake.perception")
 
@@ -220,7 +227,6 @@ class PerceptionVisualizer(LeafSystem):
         meshcat, size = self._meshcat, self._point_size
         if self._pose.HasValue(context):
             meshcat.SetTransform(MESHCAT_PATH, self._pose.Eval(context))
-        from armando_drake.perception.pipeline import finite, make_cloud
 
         meshcat.SetObject(f"{MESHCAT_PATH}/raw", finite(result.stages[0].cloud), size)
         meshcat.SetObject(f"{MESHCAT_PATH}/filtered", result.filtered, size)
@@ -306,30 +312,31 @@ class AddedPerception:
 
 
 def _error(where: str, message: str):
-    from armando_drake.simulation.scenario import ScenarioError
-
     prefix = "perception." if message.startswith("steps[") else ""
     return ScenarioError(f"{where}{prefix}{message}")
 
 
 def AddPerception(
     builder: DiagramBuilder,
-    world,
     config: PerceptionConfig | None,
     *,
+    cameras: dict,
+    robot_source: str = "",
     meshcat: Meshcat | None = None,
     output_dir: str | os.PathLike | None = None,
     source: str = "",
 ) -> AddedPerception | None:
     """Adds point clouds and the pipeline of ``config`` to a world being built.
 
-    Needs the world's cameras (``world.cameras``, with depth). Exports
+    Needs a camera with depth among ``cameras`` (by name, as
+    :func:`~armando_drake.sensors.cameras.AddCameras` returns them; ``robot_source``,
+    the description, is named when there is none). Exports
     ``<camera>.points_in_camera``, ``<camera>.points_in_world``,
     ``<camera>.camera_pose`` and ``perception.result``. With a ``meshcat``
     that has a viewer (and ``config.meshcat``), draws the layers; with
     ``output_dir``, writes ``clusters.json`` there when the world closes.
     ``None`` (no ``perception:`` block) adds nothing. A bad block is a
-    :class:`~armando_drake.simulation.scenario.ScenarioError` naming ``source``
+    :class:`~armando_drake.tools.errors.ScenarioError` naming ``source``
     and the step.
     """
     if config is None:
@@ -346,23 +353,36 @@ def AddPerception(
                 "perception: the outlier, plane and clustering steps need scikit-learn and SciPy "
                 "(pip install 'armando-drake[perception]')",
             )
-    if not world.cameras:
+    if not cameras:
         raise _error(
             where,
             "perception needs a camera with depth: set camera: {enabled: true, depth: true} "
-            f"and a description with a camera sensor ({world.robot.source})",
+            f"and a description with a camera sensor ({robot_source})",
         )
-    name = config.camera or next(iter(world.cameras))
-    if name not in world.cameras:
+    name = config.camera or next(iter(cameras))
+    if name not in cameras:
         raise _error(
             where,
             f"perception: camera={config.camera!r} is not a camera of the world "
-            f"(cameras: {', '.join(world.cameras)})",
+            f"(cameras: {', '.join(cameras)})",
         )
-    camera = world.cameras[name]
+    camera = cameras[name]
     if camera.depth_image is None:
         raise _error(where, "perception needs depth images: camera.depth is false")
+    added = _add_pipeline(builder, config, name, camera)
+    _add_views_and_log(builder, config, added, meshcat, output_dir)
+    _log.info(
+        "perception on camera %r at %g Hz in the %s frame: %s",
+        name,
+        config.rate,
+        config.frame,
+        ", ".join(type(step).__name__ for step in config.steps) or "no steps",
+    )
+    return added
 
+
+def _add_pipeline(builder, config: PerceptionConfig, name: str, camera) -> AddedPerception:
+    """Point clouds of ``camera`` (in its frame and the world's) and the pipeline."""
     # Depth to point cloud, coloured, in the camera frame and in the world frame.
     depth_camera = camera.sensor.default_depth_render_camera().core()
     fields = BaseField.kXYZs | BaseField.kRGBs
@@ -415,7 +435,12 @@ def AddPerception(
     builder.ExportOutput(added.points_in_world, f"{name}.points_in_world")
     builder.ExportOutput(camera_pose, f"{name}.camera_pose")
     builder.ExportOutput(added.result, "perception.result")
+    return added
 
+
+def _add_views_and_log(builder, config, added: AddedPerception, meshcat, output_dir) -> None:
+    """The Meshcat layers (when someone watches) and ``clusters.json`` (``output_dir``)."""
+    camera_pose, offset, name = added.camera_pose, added.offset, added.camera
     # Meshcat layers, when someone watches (a Meshcat kept only for a replay is not).
     watched = meshcat is not None and not getattr(meshcat, "recording_only", False)
     if watched and config.meshcat:
@@ -440,12 +465,3 @@ def AddPerception(
             ),
         )
         builder.Connect(added.result, added.log.GetInputPort("result"))
-        world.closers.append(added.log.close)
-    _log.info(
-        "perception on camera %r at %g Hz in the %s frame: %s",
-        name,
-        config.rate,
-        config.frame,
-        ", ".join(type(step).__name__ for step in config.steps) or "no steps",
-    )
-    return added

@@ -49,7 +49,6 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus, LeafSystem
 from pydrake.systems.sensors import ImageRgba8U
 
-from armando_drake.messages.types import JointState, Publication
 from armando_drake.messages.definitions import (
     clock_message,
     float64_multi_array_of,
@@ -61,6 +60,11 @@ from armando_drake.messages.definitions import (
     string_message,
     transform_stamped,
 )
+from armando_drake.messages.types import JointState, Publication
+from armando_drake.outputs.recording import camera_stream
+from armando_drake.outputs.topics import WorldTopics
+from armando_drake.sensors.image_view import PUBLISH_OFFSET_FRACTION
+from armando_drake.tools.errors import ScenarioError
 
 _log = logging.getLogger("armando_drake.ros2")
 
@@ -310,7 +314,6 @@ class Ros2Bridge(LeafSystem):
             self.DeclarePeriodicPublishEvent(clock_period, 0.0, self._PublishClock)
 
         # Cameras: image_raw and camera_info, a thousandth of a period after each frame.
-        from armando_drake.sensors.image_view import PUBLISH_OFFSET_FRACTION
 
         self._cameras = list(cameras)
         for camera in self._cameras:
@@ -354,6 +357,11 @@ class Ros2Bridge(LeafSystem):
                     lambda message, k=k, convert=convert: self._Receive(k, convert(message)),
                 )
             self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._Deliver)
+
+    def close(self) -> None:
+        """Closes the DDS participant and the Foxglove server."""
+        for sink in self._sinks:
+            sink.close()
 
     @property
     def sinks(self) -> list[Any]:
@@ -459,21 +467,20 @@ class Ros2Bridge(LeafSystem):
         )
 
 
-def AddRos2Bridge(builder, world, config) -> Ros2Bridge | None:
+def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
     """Adds a :class:`Ros2Bridge` for the ``ros2:`` scenario section ``config``
-    (:class:`~armando_drake.ros2.config.Ros2Config`) to a world being built.
+    (:class:`~armando_drake.ros2.config.Ros2Config`) to a world being built, on the
+    publishers of ``topics``.
 
     With ``config.enabled`` the topics go on DDS and the command input of
     every active controller that nothing else drives yet (no sequencer) is
     subscribed; with ``config.foxglove`` they are served to Foxglove. The log
-    says where the world is reachable; the world closes the participant and
-    the server when it closes. Call it before the world's free command inputs
+    says where the world is reachable; the bridge's ``close`` closes the participant
+    and the server. Call it before the world's free command inputs
     are exported (the bridge drives them instead). Returns None when both are off.
     """
     if not (config.enabled or config.foxglove):
         return None
-    from armando_drake.simulation.scenario import ScenarioError
-
     sinks: list[Any] = []
     node = None
     if config.enabled:
@@ -493,7 +500,6 @@ def AddRos2Bridge(builder, world, config) -> Ros2Bridge | None:
                 f"{config.network_interface or 'the loopback'}: {error}"
             ) from None
         sinks.append(node)
-        world.closers.append(node.close)
         _log.info("%s", reachability(config.domain_id, config.network_interface))
     if config.foxglove:
         try:
@@ -501,7 +507,7 @@ def AddRos2Bridge(builder, world, config) -> Ros2Bridge | None:
                 host=config.foxglove_host,
                 port=config.foxglove_port,
                 namespace=config.namespace,
-                packages=world.robot.packages.packages,
+                packages=topics.robot.packages.packages,
             )
         except Exception as error:  # a bad port, or one in use
             raise ScenarioError(
@@ -509,12 +515,11 @@ def AddRos2Bridge(builder, world, config) -> Ros2Bridge | None:
                 f"cannot serve Foxglove there: {error}"
             ) from None
         sinks.append(server)
-        world.closers.append(server.close)
         _log.info("Foxglove: %s (Foxglove > Open connection > Foxglove WebSocket)", server.url)
 
     # The command inputs no other system drives, of every active controller.
     commands = []
-    for name, system in world.controllers.items():
+    for name, system in topics.controllers.items():
         for index in range(system.num_input_ports()):
             port = system.get_input_port(index)
             prefix, _, suffix = port.get_name().partition(".")
@@ -527,16 +532,14 @@ def AddRos2Bridge(builder, world, config) -> Ros2Bridge | None:
             elif node is not None:
                 commands.append(CommandTopic(name, suffix))
 
-    from armando_drake.outputs.recording import camera_stream
-
-    cameras = [camera_stream(name, camera) for name, camera in world.cameras.items()]
-    plant = world.plant
+    cameras = [camera_stream(name, camera) for name, camera in topics.cameras.items()]
+    plant = topics.plant
     bridge = builder.AddSystem(
         Ros2Bridge(
             plant=plant,
-            model_instance=world.robot.model_instance,
-            urdf=world.robot.urdf,
-            update_rate=world.update_rate,
+            model_instance=topics.robot.model_instance,
+            urdf=topics.robot.urdf,
+            update_rate=topics.update_rate,
             sinks=sinks,
             subscriber=node,
             commands=commands,
@@ -545,20 +548,20 @@ def AddRos2Bridge(builder, world, config) -> Ros2Bridge | None:
         )
     )
     bridge.set_name("ros2_bridge")
-    if world.broadcaster is not None:
+    if topics.broadcaster is not None:
         builder.Connect(
-            world.broadcaster.GetOutputPort("joint_states"), bridge.GetInputPort("joint_states")
+            topics.broadcaster.GetOutputPort("joint_states"), bridge.GetInputPort("joint_states")
         )
     builder.Connect(plant.get_body_poses_output_port(), bridge.GetInputPort("body_poses"))
     for stream in cameras:
         builder.Connect(
-            world.cameras[stream.name].color_image,
+            topics.cameras[stream.name].color_image,
             bridge.GetInputPort(f"{stream.name}.color_image"),
         )
     for command in commands:
         builder.Connect(
             bridge.GetOutputPort(command.port),
-            world.controllers[command.controller].GetInputPort(command.port),
+            topics.controllers[command.controller].GetInputPort(command.port),
         )
         _log.info("subscribed %s (%s)", node.resolve(command.topic), command.type_name)
     return bridge

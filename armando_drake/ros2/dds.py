@@ -35,8 +35,8 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
-from armando_drake.ros2.idl import idl_type, to_dict, to_idl
 from armando_drake.messages.definitions import resolve_topic
+from armando_drake.ros2.idl import idl_type, to_dict, to_idl
 
 _log = logging.getLogger("armando_drake.ros2")
 

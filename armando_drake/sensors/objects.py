@@ -26,10 +26,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from pydrake import geometry
+from pydrake.geometry import GeometryInstance, PerceptionProperties, Rgba
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
 
 from armando_drake.sensors.marker import ArucoMarker, MarkerError
+
+GROUND_COLOR = (0.85, 0.85, 0.82, 1.0)  # RGBA of the ground, in Meshcat and in cameras
 
 
 class SceneObjectError(ValueError):
@@ -185,3 +188,22 @@ def AddSceneObjects(plant: MultibodyPlant, objects: list[SceneObject]) -> None:
         if obj.collision:
             friction = CoulombFriction(obj.friction, obj.friction)
             plant.RegisterCollisionGeometry(world, X_WO, shape, f"{obj.name}_collision", friction)
+
+
+def AddGround(plant: MultibodyPlant) -> None:
+    """A 2 m x 2 m slab whose top face is the plane z = 0.
+
+    Cameras see it (perception role); Meshcat does not (no illustration role):
+    :class:`~armando_drake.outputs.view.ViewFramer` draws a ground there that
+    fits the scene.
+    """
+    X_WG = RigidTransform([0.0, 0.0, -0.025])
+    ground = geometry.Box(2.0, 2.0, 0.05)
+    plant.RegisterCollisionGeometry(
+        plant.world_body(), X_WG, ground, "ground", CoulombFriction(0.8, 0.8)
+    )
+    instance = GeometryInstance(X_WG, ground, "ground")
+    perception = PerceptionProperties()
+    perception.AddProperty("phong", "diffuse", Rgba(*GROUND_COLOR))
+    instance.set_perception_properties(perception)
+    plant.RegisterVisualGeometry(plant.world_body(), instance)

@@ -29,17 +29,15 @@ from pydrake.visualization import VisualizationConfig
 
 from armando_drake import DIAGRAMS_DIR
 from armando_drake.control.sequencer import JointTrajectoryTargets, PositionTargets, Sinusoid
+from armando_drake.control.stack import ActuatorConfig, ControllersConfig
+from armando_drake.kinematics.motion import TaskSpaceMotion
 from armando_drake.perception.config import PerceptionConfig
 from armando_drake.ros2.config import Ros2Config
 from armando_drake.sensors.objects import SceneObject
-from armando_drake.kinematics.motion import TaskSpaceMotion
 from armando_drake.teleop.config import JogConfig
+from armando_drake.tools.errors import ScenarioError
 from armando_drake.vision.cameras import ScenarioCamera
 from armando_drake.vision.config import VisionConfig
-
-
-class ScenarioError(ValueError):
-    """A scenario file or override that cannot be read."""
 
 
 @dc.dataclass
@@ -63,40 +61,6 @@ class RobotConfig:
     base_xyz: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
     # Orientation of the base in the world, roll pitch yaw [rad].
     base_rpy: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
-
-
-@dc.dataclass
-class ActuatorConfig:
-    """The simulated position interface: Drake PD-controlled joint actuators."""
-
-    # Proportional gain of every actuated joint [N m/rad].
-    kp: float = 8.0
-    # Derivative gain of every actuated joint [N m s/rad].
-    kd: float = 0.4
-    # Velocity gain of every joint with a velocity command interface [N m s/rad]: the
-    # torque per rad/s of velocity error of its damping-only servo (kp = 0).
-    kv: float = 1.0
-    # Per-joint gains overriding kp and kd, as joint: [kp, kd] (a velocity joint:
-    # [0, kv]).
-    gains: dict[str, list[float]] = dc.field(default_factory=dict)
-    # Adds the torque that holds the arm against gravity at the commanded
-    # position, through the actuation input, so the steady-state error does not
-    # depend on how stiff the gains are.
-    gravity_feedforward: bool = True
-
-
-@dc.dataclass
-class ControllersConfig:
-    """The ros2_control controller manager."""
-
-    # A ros2_control controller YAML; "" is the description package's
-    # config/<robot>_controllers.yaml, or a generated default.
-    config: str = ""
-    # Controllers to activate, by name, in order. Empty: none (the arm falls).
-    activate: list[str] = dc.field(default_factory=list)
-    # Rate of the controller manager [Hz], overriding the YAML's update_rate; 0 = the
-    # YAML's.
-    update_rate: int = 0
 
 
 @dc.dataclass

@@ -38,15 +38,22 @@ from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import EventStatus, LeafSystem
 
+from armando_drake.control.stack import ControlStack
+from armando_drake.kinematics.arm import (
+    ArmModel,
+    TaskSpaceError,
+    last_link_frame,
+    orientation_error,
+)
 from armando_drake.messages.types import (
     Float64MultiArray,
     JointTrajectory,
     JointTrajectoryPoint,
     Publication,
 )
-from armando_drake.kinematics.arm import ArmModel, orientation_error
-from armando_drake.teleop.config import JogConfig, JogError
+from armando_drake.teleop.config import JogConfig, JogError, check_jog
 from armando_drake.teleop.gamepad import CARTESIAN, JOINT, read_gamepad
+from armando_drake.tools.errors import ScenarioError
 
 _log = logging.getLogger("armando_drake.world")
 
@@ -544,22 +551,29 @@ def _rotation_vector(angular: np.ndarray):
     return AngleAxis(angle, np.asarray(angular) / angle)
 
 
-def AddJog(builder, world, config: JogConfig, *, where: str = "") -> MeshcatJog | None:
-    """The jog of ``config`` on ``world``'s Meshcat, publishing on the command input of
-    the jogged controller (``config.controller`` or the first active controller that
-    takes joint positions); None without a Meshcat to read."""
-    from armando_drake.simulation.builder import _last_link_frame
-    from armando_drake.kinematics.arm import TaskSpaceError
+def AddJog(
+    builder, config: JogConfig, stack: ControlStack, *, meshcat=None, where: str = ""
+) -> MeshcatJog | None:
+    """The jog of ``config`` on ``meshcat``, publishing on the command input of the
+    jogged controller of ``stack`` (``config.controller`` or the first active
+    controller that takes joint positions and that nothing drives yet); None without
+    a Meshcat to read. Errors: :class:`ScenarioError` naming ``where``."""
+    try:
+        check_jog(config, where)
+        return _add_jog(builder, config, stack, meshcat, where)
+    except JogError as error:
+        raise ScenarioError(str(error)) from None
 
-    controllers = world.controller_config.controllers
+
+def _add_jog(builder, config: JogConfig, stack: ControlStack, meshcat, where: str):
+    controllers = stack.config.controllers
 
     def driven(name: str) -> bool:  # by the sequencer or the task
-        port = world.controllers[name].GetInputPort(f"{name}.{controllers[name].topic}")
-        return builder.IsConnectedOrExported(port)
+        return builder.IsConnectedOrExported(stack.command_input(name))
 
     candidates = [
         name
-        for name in world.controllers
+        for name in stack.controllers
         if controllers[name].position_targets
         and controllers[name].controller_class.message in (Float64MultiArray, JointTrajectory)
     ]
@@ -577,17 +591,16 @@ def AddJog(builder, world, config: JogConfig, *, where: str = "") -> MeshcatJog 
             f"(Float64MultiArray or JointTrajectory) and that nothing else drives; such "
             f"controllers: {', '.join(free) or 'none'}"
         )
-    meshcat = world.meshcat
     if meshcat is None or getattr(meshcat, "recording_only", False):
         _log.warning("jog: no Meshcat to read (--no-meshcat?): the arm holds its home posture")
         return None
-    joints = world.controller_joints[name]
-    rows = [world.hardware.joints[i] for i in world.hardware.find(joints)]
-    plant, instance = world.plant, world.robot.model_instance
+    joints = stack.controller_joints[name]
+    rows = stack.joints_of(joints)
+    plant, instance = stack.plant, stack.robot.model_instance
     cartesian = None
     if config.cartesian:
         try:
-            frame = config.end_effector or _last_link_frame(plant, instance)
+            frame = config.end_effector or last_link_frame(plant, instance)
             cartesian = CartesianJog(
                 plant=plant,
                 model_instance=instance,
@@ -617,11 +630,7 @@ def AddJog(builder, world, config: JogConfig, *, where: str = "") -> MeshcatJog 
     )
     jog.set_name("jog")
     builder.Connect(plant.get_state_output_port(instance), jog.get_input_port())
-    topic = controllers[name].topic
-    builder.Connect(
-        jog.GetOutputPort("commands"), world.controllers[name].GetInputPort(f"{name}.{topic}")
-    )
-    world.closers.append(jog.delete_controls)
+    builder.Connect(jog.GetOutputPort("commands"), stack.command_input(name))
     parts = ["sliders"] if config.sliders else []
     if cartesian is not None:
         axes = ", ".join(jog.rotations) or "none"

@@ -37,13 +37,13 @@ from armando_drake.control.manager import (
     ControllerManager,
     ManagedController,
 )
+from armando_drake.control.sequencer import Sinusoid, SinusoidSequencer
+from armando_drake.description.loader import load_robot
 from armando_drake.messages.types import (
     Float64MultiArray,
     JointTrajectory,
     Publication,
 )
-from armando_drake.control.sequencer import Sinusoid, SinusoidSequencer
-from armando_drake.description.loader import load_robot
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import ScenarioError, load_scenario
 

@@ -22,8 +22,8 @@ from armando_drake.control.controllers.broadcaster import JointStateBroadcaster
 from armando_drake.control.controllers.forward_command import JointGroupPositionController
 from armando_drake.control.controllers.joint_trajectory import JointTrajectoryController
 from armando_drake.control.controllers.ros1 import JointPositionPidController
-from armando_drake.messages.types import Float64, Float64MultiArray, JointTrajectory
 from armando_drake.control.sequencer import SEED_TARGETS, seed_targets_for, seed_wave_for
+from armando_drake.messages.types import Float64, Float64MultiArray, JointTrajectory
 from armando_drake.outputs.logger import read_joint_states
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import ScenarioError, load_scenario

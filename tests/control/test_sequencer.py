@@ -9,7 +9,6 @@ from pydrake.common.yaml import yaml_load_typed
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 
-from armando_drake.messages.types import Float64MultiArray, JointTrajectory, PublicationValue
 from armando_drake.control.sequencer import (
     SEED_TARGETS,
     CommandSequencer,
@@ -21,6 +20,7 @@ from armando_drake.control.sequencer import (
     SinusoidSequencer,
     validate,
 )
+from armando_drake.messages.types import Float64MultiArray, JointTrajectory, PublicationValue
 
 JOINTS = ("j0", "j1", "j2", "j3")
 LOWER = [-3.14, -1.57, -2.0, -1.0]

@@ -8,8 +8,8 @@ import sys
 import numpy as np
 from pydrake.systems.analysis import Simulator
 
-from armando_drake.messages.types import Float64, Float64MultiArray
 from armando_drake.control.sequencer import seed_targets_for
+from armando_drake.messages.types import Float64, Float64MultiArray
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import load_scenario
 

@@ -191,9 +191,9 @@ def test_tf_clock_and_joint_states_equal_the_plant():
 def test_trajectory_over_dds_is_validated_as_in_process():
     """A JointTrajectory from DDS: a bad one rejected with upstream's reason, a good one run."""
     domain_id = new_domain_id()
+    from armando_drake.messages.definitions import joint_trajectory_message
     from armando_drake.messages.types import JointTrajectory, JointTrajectoryPoint
     from armando_drake.ros2.dds import DdsNode
-    from armando_drake.messages.definitions import joint_trajectory_message
 
     world = _world(
         "ros2",

@@ -15,10 +15,10 @@ from pydrake.systems.analysis import Simulator
 
 from armando_drake.control.config import ControllerConfigError, parse_controller_config
 from armando_drake.control.controllers.look_at_dynamic import look_at_rotation
-from armando_drake.simulation.builder import MakeWorld
-from armando_drake.simulation.scenario import load_scenario
 from armando_drake.kinematics.motion import TaskSpaceMotion, make_time_law
 from armando_drake.kinematics.paths import LinearPath
+from armando_drake.simulation.builder import MakeWorld
+from armando_drake.simulation.scenario import load_scenario
 from armando_drake.vision.metrics import camera_pose, pointing_error, true_marker_position
 
 pytest.importorskip("cv2")

@@ -47,13 +47,13 @@ from armando_drake.control.controllers import (
     joint_list,
     register,
 )
-from armando_drake.messages.types import CartesianTrajectory, JointTrajectory
 from armando_drake.kinematics.arm import ArmModel, TaskSpaceError
 from armando_drake.kinematics.control_laws import (
     TORQUE_LAWS,
     JointSpaceInverseDynamicsParams,
     OperationalSpaceInverseDynamicsParams,
 )
+from armando_drake.messages.types import CartesianTrajectory, JointTrajectory
 
 
 @dataclass

@@ -1,0 +1,503 @@
+"""The robot's ros2_control stack in a world: what ``controller_manager`` and
+``gz_ros2_control`` set up in a ROS 2 launch.
+
+:func:`LoadControllerConfig` finds the controller YAML (the scenario's, the
+description's ``<gazebo><plugin>``'s, the package's, or a generated default);
+:func:`AddHardware` gives the robot its actuators and finalizes the plant;
+:func:`AddControllerManager` loads and activates the scenario's controllers
+in one :class:`~armando_drake.control.manager.ControllerManager` and returns a
+:class:`ControlStack`, the handle every subsystem above connects to (command
+inputs by controller name, the controllers' joints, the effort state);
+:func:`ConnectControlStack` wires the commands to the plant.
+"""
+
+import dataclasses as dc
+import logging
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from pydrake.geometry import CollisionFilterDeclaration, SceneGraph
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.framework import DiagramBuilder, InputPort, OutputPort
+
+from armando_drake.control.config import (
+    ControllerConfig,
+    ControllerConfigError,
+    ControllerManagerConfig,
+    check_update_rate,
+    load_controller_config,
+    parse_controller_config,
+    validate_joints,
+)
+from armando_drake.control.controllers import ControllerJoints, lookup
+from armando_drake.control.hardware import (
+    AddEffortState,
+    AddHardwareInterface,
+    ConnectHardwareInterface,
+    FinishHardwareInterface,
+    HardwareInterface,
+    HardwareJoint,
+    command_interfaces,
+)
+from armando_drake.control.manager import (
+    AddStreamDesiredState,
+    ControllerManager,
+    ManagedController,
+)
+from armando_drake.control.sequencer import stream_controller
+from armando_drake.description.importer import default_controller_config
+from armando_drake.description.loader import LoadedRobot, package_of
+from armando_drake.tools.errors import ScenarioError
+
+_log = logging.getLogger("armando_drake.world")
+
+
+# No `from __future__ import annotations` here: yaml_load_typed reads the
+# dataclass field types at run time and does not resolve string annotations.
+
+
+@dc.dataclass
+class ActuatorConfig:
+    """The simulated position interface: Drake PD-controlled joint actuators."""
+
+    # Proportional gain of every actuated joint [N m/rad].
+    kp: float = 8.0
+    # Derivative gain of every actuated joint [N m s/rad].
+    kd: float = 0.4
+    # Velocity gain of every joint with a velocity command interface [N m s/rad]: the
+    # torque per rad/s of velocity error of its damping-only servo (kp = 0).
+    kv: float = 1.0
+    # Per-joint gains overriding kp and kd, as joint: [kp, kd] (a velocity joint:
+    # [0, kv]).
+    gains: dict[str, list[float]] = dc.field(default_factory=dict)
+    # Adds the torque that holds the arm against gravity at the commanded
+    # position, through the actuation input, so the steady-state error does not
+    # depend on how stiff the gains are.
+    gravity_feedforward: bool = True
+
+
+@dc.dataclass
+class ControllersConfig:
+    """The ros2_control controller manager."""
+
+    # A ros2_control controller YAML; "" is the description package's
+    # config/<robot>_controllers.yaml, or a generated default.
+    config: str = ""
+    # Controllers to activate, by name, in order. Empty: none (the arm falls).
+    activate: list[str] = dc.field(default_factory=list)
+    # Rate of the controller manager [Hz], overriding the YAML's update_rate; 0 = the
+    # YAML's.
+    update_rate: int = 0
+
+
+@dc.dataclass
+class ControlStack:
+    """The robot's hardware interface and controllers in a diagram being built: what
+    the subsystems above (sequencer, task, jog, logger, bridges) connect to."""
+
+    plant: MultibodyPlant
+    robot: LoadedRobot
+    hardware: HardwareInterface
+    config: ControllerManagerConfig  # the controller YAML
+    update_rate: int  # [Hz] the controller manager's rate
+    manager: ControllerManager | None = None  # broadcaster and command controllers
+    # Active command controllers by name -> the system whose ports are
+    # "<name>.<topic>" and "<name>.status" (the manager).
+    controllers: dict[str, ControllerManager] = dc.field(default_factory=dict)
+    controller_joints: dict[str, list[str]] = dc.field(default_factory=dict)  # by name
+    broadcaster_name: str = ""  # the active joint state broadcaster's name in the YAML
+    # The hardware's effort state interface: the torque each actuator applied over the
+    # last plant step (AddEffortState), read by the broadcaster and the logger.
+    effort_state: OutputPort | None = None
+    # The controller whose commands are a C++ stream (a sinusoid) that drives the
+    # hardware directly, without the manager's update; "" if none.
+    stream_controller: str = ""
+
+    @property
+    def broadcaster(self) -> ControllerManager | None:
+        """The system with the ``joint_states`` output, when a broadcaster is active."""
+        return self.manager if self.broadcaster_name else None
+
+    def entry(self, name: str) -> ControllerConfig:
+        """The YAML entry of controller ``name``."""
+        return self.config.controllers[name]
+
+    def command_input(self, name: str) -> InputPort:
+        """The command input ``<name>.<topic>`` of active controller ``name``."""
+        return self.controllers[name].GetInputPort(f"{name}.{self.entry(name).topic}")
+
+    def taking(self, message: type, *, position_targets: bool = False) -> list[str]:
+        """The active command controllers that read ``message`` (and, with
+        ``position_targets``, take positions as targets), in activation order."""
+        return [
+            name
+            for name in self.controllers
+            if self.entry(name).controller_class.message is message
+            and (not position_targets or self.entry(name).position_targets)
+        ]
+
+    def joints_of(self, joints: Sequence[str]) -> list[HardwareJoint]:
+        """The hardware joints named ``joints``, in that order."""
+        return [self.hardware.joints[i] for i in self.hardware.find(joints)]
+
+
+def LoadControllerConfig(config: ControllersConfig, robot: LoadedRobot) -> ControllerManagerConfig:
+    """The controller YAML of ``config``, of the description's ``<gazebo><plugin>``
+    ``<parameters>``, of the description package, or a default on the joints the
+    hardware interface will actuate."""
+    if config.config:
+        return load_controller_config(Path(config.config))
+    for named in robot.controller_files:
+        if named.is_file():
+            _log.info("controller configuration from the description's <gazebo> plugin: %s", named)
+            return load_controller_config(named)
+        _log.warning("the description's <gazebo> plugin names %s, which does not exist", named)
+    package_dir = package_of(robot.source)
+    candidates = sorted((package_dir / "config").glob("*controllers*.yaml")) if package_dir else []
+    if candidates:
+        return load_controller_config(candidates[0])
+    actuated = list(command_interfaces(robot, warn=False)[2])
+    if not actuated:
+        raise ScenarioError(
+            f"{robot.source}: the description actuates no joint (read from "
+            f"{robot.actuation_source}): nothing for a controller to command"
+        )
+    data = default_controller_config(actuated)
+    return parse_controller_config(data, source=f"<default controllers of {robot.name}>")
+
+
+def controller_update_rate(
+    yaml_config: ControllerManagerConfig, config: ControllersConfig, where: str
+) -> int:
+    """The controller manager's rate [Hz]: the YAML's, or ``config``'s override."""
+    if not config.update_rate:
+        return yaml_config.update_rate
+    try:
+        return check_update_rate(config.update_rate, f"{where}controllers")
+    except ControllerConfigError as error:
+        raise ScenarioError(str(error)) from None
+
+
+def _yaml_gains(
+    config: ControllerManagerConfig, interfaces: dict[str, str]
+) -> dict[str, list[float]]:
+    """Per-joint actuator gains from a ROS 1 file's ``gazebo_ros_control/pid_gains``:
+    [kp, kd] = [p, d] on a position joint, [0, kv] = [0, p] on a velocity joint (Drake's
+    implicit PD, so no integral: ``i`` is noted and dropped); effort joints take none,
+    as in Gazebo."""
+    gains = {}
+    for joint, (p, i, d) in config.pid_gains.items():
+        interface = interfaces.get(joint)
+        if interface == "position":
+            gains[joint] = [p, d]
+        elif interface == "velocity":
+            gains[joint] = [0.0, p]
+        else:
+            _log.warning(
+                "%s: gazebo_ros_control/pid_gains/%s: %s; ignored",
+                config.source,
+                joint,
+                "an effort joint (Gazebo closes no loop on it)"
+                if interface
+                else "not an actuated joint of the robot",
+            )
+            continue
+        if i:
+            _log.info(
+                "%s: gazebo_ros_control/pid_gains/%s: i=%g not simulated (Drake's PD actuator)",
+                config.source,
+                joint,
+                i,
+            )
+    if gains:
+        _log.info(
+            "actuator gains from %s: %s",
+            config.source,
+            ", ".join(f"{joint} {values}" for joint, values in gains.items()),
+        )
+    return gains
+
+
+def AddHardware(
+    plant: MultibodyPlant,
+    scene_graph: SceneGraph,
+    robot: LoadedRobot,
+    actuators: ActuatorConfig,
+    config: ControllerManagerConfig,
+    *,
+    self_collision: bool = False,
+    start_positions: Sequence[tuple[Sequence[float], str, str]] = (),
+) -> HardwareInterface:
+    """The actuators of the hardware interface (gains: ``actuators``', per joint the
+    controller YAML's ``gazebo_ros_control`` ones unless ``actuators`` names the
+    joint); finalizes the plant. Each of ``start_positions`` is (positions [rad] in
+    hardware order, their origin, their key): the joints start there."""
+    interfaces = command_interfaces(robot, warn=False)[2]  # warned by AddHardwareInterface
+    gains = {**_yaml_gains(config, interfaces), **actuators.gains}  # the scenario's win
+    hardware = AddHardwareInterface(
+        plant, robot, kp=actuators.kp, kd=actuators.kd, kv=actuators.kv, gains=gains
+    )
+    plant.Finalize()
+    if not self_collision:  # the robot's links do not collide with each other (Gazebo's default)
+        bodies = [plant.get_body(i) for i in plant.GetBodyIndices(robot.model_instance)]
+        scene_graph.collision_filter_manager().Apply(
+            CollisionFilterDeclaration().ExcludeWithin(plant.CollectRegisteredGeometries(bodies))
+        )
+    FinishHardwareInterface(plant, robot, hardware)
+    for positions, where, key in start_positions:
+        set_start_positions(plant, robot, hardware, positions, where, key)
+    _log.info(
+        "hardware interface %r (%s): %s",
+        hardware.name,
+        hardware.source,
+        ", ".join(
+            f"{j.name} {j.command_interface} [{j.lower:.2f}, {j.upper:.2f}]"
+            for j in hardware.joints
+        ),
+    )
+    return hardware
+
+
+def set_start_positions(
+    plant, robot, hardware, positions, where: str, key: str = "task.start_positions"
+) -> None:
+    """The hardware joints start at ``positions`` [rad] (hardware order), inside their
+    limits; ``key`` names them in errors, after ``where`` (their origin)."""
+    if len(positions) != len(hardware.joints):
+        raise ScenarioError(
+            f"{where}{key}={positions!r} must have {len(hardware.joints)} values "
+            f"({', '.join(hardware.joint_names)})"
+        )
+    for joint, value in zip(hardware.joints, positions, strict=True):
+        if not joint.lower <= value <= joint.upper:
+            raise ScenarioError(
+                f"{where}{key}: {value!r} of joint {joint.name!r} is outside its "
+                f"limits [{joint.lower:.4g}, {joint.upper:.4g}]"
+            )
+        plant.GetJointByName(joint.name, robot.model_instance).set_default_positions([value])
+        joint.initial_position = float(value)
+
+
+def AddControllerManager(
+    builder: DiagramBuilder,
+    config: ControllersConfig,
+    *,
+    plant: MultibodyPlant,
+    robot: LoadedRobot,
+    hardware: HardwareInterface,
+    controller_config: ControllerManagerConfig,
+    update_rate: int,
+    sequencer=None,
+    where: str = "",
+) -> ControlStack:
+    """Loads and activates ``config.activate`` (a broadcaster and command controllers,
+    each joint claimed once) in one :class:`ControllerManager`, wired to the plant
+    through the hardware interface. ``sequencer``: the scenario's sequencer section; a
+    sinusoid's controller takes it as a C++ stream when it can."""
+    stack = ControlStack(
+        plant=plant,
+        robot=robot,
+        hardware=hardware,
+        config=controller_config,
+        update_rate=update_rate,
+    )
+    broadcaster, managed = _activate(stack, config.activate, where)
+    if broadcaster is None and not managed:
+        return stack
+    stack.stream_controller = stream_controller(sequencer, managed, stack)
+    if stack.stream_controller:
+        managed = [dc.replace(managed[0], stream=True)]
+    # The controller manager runs them all in one update at the update rate.
+    try:
+        manager = ControllerManager(
+            hardware=hardware, update_rate=update_rate, broadcaster=broadcaster, controllers=managed
+        )
+    except ValueError as error:
+        raise ScenarioError(f"{where}{error}") from None
+    builder.AddSystem(manager)
+    manager.set_name("controller_manager")
+    stack.manager = manager
+    builder.Connect(
+        plant.get_state_output_port(robot.model_instance), manager.GetInputPort("state")
+    )
+    stack.effort_state = AddEffortState(builder, plant, robot)
+    builder.Connect(stack.effort_state, manager.GetInputPort("effort"))
+    if broadcaster is not None:
+        builder.ExportOutput(manager.GetOutputPort("joint_states"), "joint_states")
+    for controller in managed:
+        stack.controllers[controller.name] = manager
+    return stack
+
+
+def _activate(stack: ControlStack, activate: Sequence[str], where: str):
+    """(the broadcaster or None, the managed command controllers) of ``activate``."""
+    config, hardware = stack.config, stack.hardware
+    validate_joints(config, hardware.joint_names, str(stack.robot.source))
+    claimed: dict[str, str] = {}
+    broadcaster, managed = None, []
+    for name in activate:
+        name = controller_name(name, config, where)
+        if name not in config.controllers:
+            raise ScenarioError(
+                f"{where}controllers.activate names {name!r}, which {config.source} does not "
+                f"define (defined: {', '.join(config.controllers) or 'none'})"
+            )
+        controller = config.controllers[name]
+        joints = controller.joints or hardware.joint_names
+        _log.info(
+            "loaded controller %r of type %s on %s at %g Hz",
+            name,
+            controller.type,
+            ", ".join(joints),
+            stack.update_rate,
+        )
+        try:
+            cls = controller.controller_class
+        except ControllerConfigError as error:  # a type the registry does not know
+            raise ScenarioError(f"{where}controllers.activate: {name!r}: {error}") from None
+        if cls.broadcaster:
+            if broadcaster is not None:
+                raise ScenarioError(
+                    f"{where}controllers.activate names two joint state broadcasters "
+                    f"({stack.broadcaster_name!r} and {name!r}); activate one"
+                )
+            broadcaster = cls(
+                name=name, joints=ControllerJoints.make(joints), params=controller.params
+            )
+            stack.broadcaster_name = name
+        else:
+            for joint in joints:
+                if joint in claimed:
+                    raise ScenarioError(
+                        f"{where}controllers {claimed[joint]!r} and {name!r} both command "
+                        f"joint {joint!r}; activate only one of them"
+                    )
+                claimed[joint] = name
+            managed.append(_managed_controller(stack, controller, joints))
+        stack.controller_joints[name] = list(joints)
+        _log.info("activated controller %r", name)
+    return broadcaster, managed
+
+
+def controller_name(entry: str, config: ControllerManagerConfig, where: str) -> str:
+    """A controller name, or for ``type:<plugin>`` the first controller of that type.
+
+    Else, for a broadcaster, the first broadcaster (ROS 1's joint state controller
+    for ROS 2's joint state broadcaster type); for a command controller, one of
+    another type that reads the same message on the same command interface (a
+    forward command controller on position for the group position type, ROS 1's
+    position trajectory controller for the trajectory type) or, for a position type,
+    that takes positions whatever it commands (ROS 1's effort trajectory controller).
+    """
+    if not entry.startswith("type:"):
+        return entry
+    wanted = entry[len("type:") :]
+    try:
+        wanted_class = lookup(wanted)
+    except KeyError as error:
+        raise ScenarioError(f"{where}controllers.activate: {error.args[0]}") from None
+    matches = [name for name, c in config.controllers.items() if c.supported and c.type == wanted]
+    if not matches and wanted_class.broadcaster:
+        matches = [
+            name
+            for name, c in config.controllers.items()
+            if c.supported and c.controller_class.broadcaster
+        ]
+    if not matches and not wanted_class.broadcaster:
+        matches = [
+            name
+            for name, c in config.controllers.items()
+            if c.supported
+            and c.controller_class.message is wanted_class.message
+            and (
+                c.interface_name == wanted_class.fixed_interface
+                or (wanted_class.fixed_interface == "position" and c.position_targets)
+            )
+        ]
+    if matches:
+        return matches[0]
+    raise ScenarioError(
+        f"{where}controllers.activate asks for a {wanted} controller; {config.source} "
+        f"defines none (defined: {', '.join(config.controllers) or 'none'})"
+    )
+
+
+def _managed_controller(
+    stack: ControlStack, controller: ControllerConfig, joints
+) -> ManagedController:
+    """The logic of a command controller on ``joints`` (its registered class, built
+    with the joints' hardware limits), for the manager."""
+    rows = stack.joints_of(joints)
+    logic = controller.controller_class(
+        name=controller.name,
+        joints=ControllerJoints.make(
+            joints,
+            lower=[joint.lower for joint in rows],
+            upper=[joint.upper for joint in rows],
+            velocity=[joint.velocity for joint in rows],
+            effort=[joint.effort for joint in rows],
+            initial_positions=[joint.initial_position for joint in rows],
+            continuous=[joint.continuous for joint in rows],
+        ),
+        params=controller.params,
+    )
+    try:
+        logic.connect_plant(stack.plant, stack.robot.model_instance)
+    except ValueError as error:
+        raise ScenarioError(f"{controller.name}: {error}") from None
+    return ManagedController(name=controller.name, logic=logic)
+
+
+def ConnectControlStack(
+    builder: DiagramBuilder,
+    stack: ControlStack,
+    *,
+    gravity_feedforward: bool,
+    tick_command: OutputPort | None = None,
+) -> OutputPort | None:
+    """Wires the commands to the plant through the hardware interface: the desired
+    state of the actuators (the controllers' commands, unclaimed joints held at their
+    initial positions; a stream's samples, ``tick_command``, as the manager's ticks
+    apply them), and on the actuation input the effort commands and the gravity
+    feed-forward of the position joints. Exports ``desired_state``; returns the
+    gravity feed-forward's output, or None without one."""
+    manager = stack.manager
+    if manager is None or not stack.controllers:
+        return None
+    desired = manager.GetOutputPort("desired_state")
+    if stack.stream_controller:
+        # [q_d; 0] in hardware order from the stream's command, in C++.
+        desired = AddStreamDesiredState(
+            builder, stack.hardware, stack.controller_joints[stack.stream_controller], tick_command
+        )
+    feedforward = ConnectHardwareInterface(
+        builder,
+        stack.plant,
+        stack.robot,
+        stack.hardware,
+        desired_state=desired,
+        effort=(
+            manager.GetOutputPort("effort_command")
+            if manager.HasOutputPort("effort_command")
+            else None
+        ),
+        gravity_feedforward=gravity_feedforward,
+    )
+    builder.ExportOutput(desired, "desired_state")
+    return feedforward
+
+
+def ExportFreeControllerPorts(builder: DiagramBuilder, stack: ControlStack) -> None:
+    """Each controller's command input that no system drives, and its status."""
+    for name, system in stack.controllers.items():
+        port = stack.command_input(name)
+        if not builder.IsConnectedOrExported(port):
+            builder.ExportInput(port, port.get_name())
+        builder.ExportOutput(system.GetOutputPort(f"{name}.status"), f"{name}.status")
+
+
+def joint_limits(stack: ControlStack, joints: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+    """(lower, upper) limits of ``joints`` [rad or m]."""
+    rows = stack.joints_of(joints)
+    return np.array([j.lower for j in rows]), np.array([j.upper for j in rows])

@@ -1,0 +1,44 @@
+"""What a world publishes, and which system publishes it: the handle the ROS 2 bag
+recorder (:mod:`armando_drake.outputs.recording`) and the live bridge
+(:mod:`armando_drake.ros2.bridge`) connect to."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from armando_drake.control.stack import ControlStack
+
+
+@dataclass
+class WorldTopics:
+    """The publishers of a world being built, as their subsystems returned them."""
+
+    stack: ControlStack  # joint states, controllers' command inputs and statuses
+    cameras: dict = field(default_factory=dict)  # AddedCamera by name
+    sequencer: Any = None  # the command sequencer, if any
+    sequencer_target: str = ""  # the controller it drives
+    task: Any = None  # the TaskReference, if the scenario has a task
+    jog: Any = None  # the MeshcatJog, if the scenario has a jog and a Meshcat
+    perception: Any = None  # AddedPerception, if the scenario has a perception block
+    detectors: Any = None  # AddedDetectors, if the scenario has a vision block
+
+    @property
+    def plant(self):
+        return self.stack.plant
+
+    @property
+    def robot(self):
+        return self.stack.robot
+
+    @property
+    def update_rate(self) -> int:
+        return self.stack.update_rate
+
+    @property
+    def broadcaster(self):
+        return self.stack.broadcaster
+
+    @property
+    def controllers(self) -> dict:
+        return self.stack.controllers

@@ -1,0 +1,93 @@
+"""The built world: its diagram and the handles callers outside the builder use."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from pydrake.geometry import Meshcat, SceneGraph
+from pydrake.systems.framework import Context, Diagram, OutputPort
+
+from armando_drake.control.stack import ControlStack
+from armando_drake.messages.types import Publication
+from armando_drake.outputs.topics import WorldTopics
+
+
+@dataclass
+class World:
+    """The built diagram and handles to its parts (the subsystems' own handles)."""
+
+    diagram: Diagram
+    scene_graph: SceneGraph
+    topics: WorldTopics  # the control stack and every publisher
+    meshcat: Meshcat | None = None
+    # The gravity feed-forward torques [N m] on the actuation input (actuator order),
+    # when the scenario has it.
+    gravity_feedforward: OutputPort | None = None
+    logger: Any = None  # the JointStateLogger, with a broadcaster
+    image_view: Any = None  # the live camera view's server, when served
+    replay_sampler: Any = None  # ReplaySampler of the plant's state, with Meshcat on
+    closers: list = field(default_factory=list)  # called by close()
+
+    # The control stack's parts, by their old names.
+    stack: ControlStack = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.stack = self.topics.stack
+
+    plant = property(lambda self: self.stack.plant)
+    robot = property(lambda self: self.stack.robot)
+    hardware = property(lambda self: self.stack.hardware)
+    controller_config = property(lambda self: self.stack.config)
+    update_rate = property(lambda self: self.stack.update_rate)
+    controllers = property(lambda self: self.stack.controllers)
+    controller_joints = property(lambda self: self.stack.controller_joints)
+    controller_manager = property(lambda self: self.stack.manager)
+    broadcaster = property(lambda self: self.stack.broadcaster)
+    broadcaster_name = property(lambda self: self.stack.broadcaster_name)
+    effort_state = property(lambda self: self.stack.effort_state)
+    stream_controller = property(lambda self: self.stack.stream_controller)
+    cameras = property(lambda self: self.topics.cameras)
+    sequencer = property(lambda self: self.topics.sequencer)
+    sequencer_target = property(lambda self: self.topics.sequencer_target)
+    task = property(lambda self: self.topics.task)
+    jog = property(lambda self: self.topics.jog)
+    perception = property(lambda self: self.topics.perception)
+    detectors = property(lambda self: self.topics.detectors)
+    image_view_url = property(lambda self: self.image_view.url if self.image_view else None)
+
+    def publish(self, context: Context, controller: str, message: Any) -> None:
+        """Publishes ``message`` on a controller's command input, like a ROS topic."""
+        port = self.command_port(controller)
+        previous = port.Eval(context) if port.HasValue(context) else Publication()
+        port.FixValue(context, previous.publish(message, stamp=context.get_time()))
+
+    def command_port(self, controller: str):
+        entry = self.controller_config.controllers.get(controller)
+        name = f"{controller}.{entry.topic}" if entry is not None else ""
+        if name and self.diagram.HasInputPort(name):
+            return self.diagram.GetInputPort(name)
+        raise KeyError(f"no command input for controller {controller!r}")
+
+    def status(self, context: Context, controller: str):
+        return self.diagram.GetOutputPort(f"{controller}.status").Eval(context)
+
+    def joint_positions(self, context: Context) -> np.ndarray:
+        """Measured positions of the hardware joints [rad], hardware order."""
+        x = self.plant.GetPositionsAndVelocities(
+            self.plant.GetMyContextFromRoot(context), self.robot.model_instance
+        )
+        return x[self.hardware.position_index]
+
+    def close(self, context: Context | None = None) -> None:
+        """Ends the run: with the root ``context``, first writes the joint states the
+        logger has recorded since its last flush (and the sequencer's commands since
+        its last batch); then closes every file and server."""
+        if context is not None and self.logger is not None and self.closers:
+            self.logger.flush(self.logger.GetMyContextFromRoot(context))
+        if context is not None and self.sequencer is not None and self.closers:
+            self.sequencer.flush(context)
+        for closer in self.closers:
+            closer()
+        self.closers.clear()
