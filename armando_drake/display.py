@@ -21,6 +21,7 @@ import logging
 import sys
 
 from armando_drake import DEFAULT_DESCRIPTION, DIAGRAMS_DIR
+from armando_drake.description.viewer import load_view_config, make_display
 from armando_drake.tools.cli import (
     add_description_arguments,
     add_host_argument,
@@ -77,8 +78,6 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     with user_errors():
-        from armando_drake.description.viewer import load_view_config, make_display
-
         view = load_view_config(args.view)
         view.show_collision |= args.show_collision
         view.show_frames |= args.show_frames

@@ -58,6 +58,11 @@ import logging
 import math
 import time
 
+from armando_drake.control.sequencer import JointTrajectoryTargets, PositionTargets, Sinusoid
+from armando_drake.outputs.recording import RecordingError, check_recording_path
+from armando_drake.outputs.view import serve_until_interrupted
+from armando_drake.simulation.run import format_table, run
+from armando_drake.simulation.scenario import load_scenario, resolve_scenario_path, sources_of
 from armando_drake.tools.cli import (
     UserError,
     add_host_argument,
@@ -180,11 +185,6 @@ def _apply_controller(scenario, mode: str) -> None:
     sinusoid the scenario has, else runs the seed's wave (Sinusoid's
     defaults).
     """
-    from armando_drake.control.sequencer import (
-        JointTrajectoryTargets,
-        PositionTargets,
-        Sinusoid,
-    )
 
     # The YAML's joint state broadcaster, whatever its name (ROS 1: JointStateController).
     broadcasters = ["type:joint_state_broadcaster/JointStateBroadcaster"]
@@ -220,9 +220,6 @@ def main(argv: list[str] | None = None) -> int:
         stream=sys.stdout,
     )
     with user_errors():
-        from armando_drake.simulation.run import format_table, run
-        from armando_drake.simulation.scenario import load_scenario, resolve_scenario_path
-
         path = resolve_scenario_path(args.scenario)
         scenario = load_scenario(path)
         # --controller first, so that --set edits the sequencer it chose; "none" last:
@@ -315,8 +312,6 @@ def main(argv: list[str] | None = None) -> int:
         if args.record:
             print(f"recording: {args.record}")
         if meshcat is not None and not result.interrupted and keeps_serving(args):
-            from armando_drake.outputs.view import serve_until_interrupted
-
             serve_until_interrupted(meshcat)
     return 130 if result.interrupted else 0
 
@@ -358,14 +353,12 @@ def _print_outputs(output: str, since: float) -> None:
 
 def _sequencer_origins(scenario) -> list[str]:
     """Where the sequencer's values came from (files, --set texts, options)."""
-    from armando_drake.simulation.scenario import sources_of
 
     sources = sources_of(scenario)
     return [o for k, o in sources.keys.items() if k == "sequencer" or k.startswith("sequencer.")]
 
 
 def _check_record(record: str) -> None:
-    from armando_drake.outputs.recording import RecordingError, check_recording_path
 
     try:
         check_recording_path(record)

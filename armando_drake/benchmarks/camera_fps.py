@@ -30,7 +30,9 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from armando_drake import DEFAULT_DESCRIPTION
-from armando_drake.sensors.camera import AddCameraSensors, choose_renderer, parse_camera_sensors
+from armando_drake.description.camera_sensors import parse_camera_sensors
+from armando_drake.description.loader import load_robot
+from armando_drake.sensors.camera import AddCameraSensors, choose_renderer
 from armando_drake.sensors.image_view import AddImageView
 from armando_drake.sensors.objects import AddSceneObjects, Box, Cylinder, SceneObject, Sphere
 
@@ -78,8 +80,6 @@ def build(
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=0.001)
     if DEFAULT_DESCRIPTION.is_file():
-        from armando_drake.description.loader import load_robot
-
         robot = load_robot(plant)
         model, sensors, what = robot.model_instance, robot.cameras, "Armando"
     else:

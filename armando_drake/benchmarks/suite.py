@@ -69,7 +69,21 @@ from pathlib import Path
 
 import numpy as np
 
+from armando_drake import MODELS_DIR
+from armando_drake.control.hardware import AddHardwareInterface, FinishHardwareInterface
 from armando_drake.control.sequencer import SEED_TARGETS
+from armando_drake.description.loader import load_robot
+from armando_drake.outputs.plots import write_plots
+from armando_drake.outputs.replay import RecordingMeshcat, publish_replay, write_replay
+from armando_drake.sensors.camera import choose_renderer
+from armando_drake.sensors.objects import AddGround as _add_ground
+from armando_drake.simulation.builder import MakeWorld
+from armando_drake.simulation.run import run
+from armando_drake.simulation.scenario import load_scenario, merge_overrides
+from armando_drake.sweeps.axes import make_variants, parse_grid
+from armando_drake.sweeps.engines import LocalPool, RayEngine
+from armando_drake.sweeps.errors import SweepError
+from armando_drake.sweeps.sweep import Sweep, run_sweep
 from armando_drake.tools.cli import command_parser
 
 SECTIONS = (
@@ -224,7 +238,6 @@ IIWA_DESCRIPTION = (
 
 def _iiwa_task_overrides() -> tuple[str, ...]:
     """The task scenarios' repository-relative paths made absolute."""
-    from armando_drake import MODELS_DIR
 
     return (
         f"robot: {{description: '{IIWA_DESCRIPTION / 'urdf' / 'iiwa14.urdf.xacro'}', "
@@ -237,8 +250,6 @@ def task_controller_cost(ticks: int) -> float:
     """[us] the mean wall time of one update of the operational-space controller's logic
     on the iiwa, in the middle of its task (the law, M, C, g, J, J-dot v, the
     reference's evaluation), over ``ticks`` updates."""
-    from armando_drake.simulation.builder import MakeWorld
-    from armando_drake.simulation.scenario import load_scenario
 
     scenario = load_scenario("task_os", NO_CONSOLE)
     for override in _iiwa_task_overrides():
@@ -299,8 +310,6 @@ def pipeline_rtf(name: str, duration: float, overrides: tuple[str, ...] = ()) ->
 
 def run_scenario(name: str, duration: float, overrides: tuple[str, ...] = ()):
     """The :class:`~armando_drake.simulation.run.RunResult` of a scenario run as fast as it goes."""
-    from armando_drake.simulation.run import run
-    from armando_drake.simulation.scenario import load_scenario
 
     scenario = load_scenario(name, NO_CONSOLE)
     for override in overrides:
@@ -322,7 +331,6 @@ def run_scenario(name: str, duration: float, overrides: tuple[str, ...] = ()):
 
 
 def load_scenario_override(scenario, override: str):
-    from armando_drake.simulation.scenario import merge_overrides
 
     return merge_overrides(scenario, override)
 
@@ -332,11 +340,6 @@ def add_bare_plant(builder, scenario_name: str, time_step: float | None = None):
     (``time_step`` [s] instead of its own when given) and PD actuators, finalized; no
     controllers, sequencer or logger. What the pipeline rows compare the worlds with."""
     from pydrake.multibody.plant import AddMultibodyPlant, ApplyMultibodyPlantConfig
-
-    from armando_drake.control.hardware import AddHardwareInterface, FinishHardwareInterface
-    from armando_drake.description.loader import load_robot
-    from armando_drake.sensors.objects import AddGround as _add_ground  # the world's ground slab
-    from armando_drake.simulation.scenario import load_scenario
 
     scenario = load_scenario(scenario_name)
     config = scenario.plant_config
@@ -405,9 +408,6 @@ def recorded_plant_inputs(name: str, duration: float) -> PlantInputs:
     gravity feed-forward, read half a tick after each controller tick (they change only at
     the ticks, where the controllers and the sequencer's streams write)."""
     from pydrake.systems.analysis import Simulator
-
-    from armando_drake.simulation.builder import MakeWorld
-    from armando_drake.simulation.scenario import load_scenario
 
     world = MakeWorld(load_scenario(name, NO_CONSOLE), quiet=True)
     simulator = Simulator(world.diagram)
@@ -642,8 +642,6 @@ def bench_mujoco(report: Report, period: float) -> None:
             "MuJoCo comparison skipped: mujoco is not installed (pip install -e '.[bench]')."
         )
         return
-    from armando_drake.simulation.builder import MakeWorld
-    from armando_drake.simulation.scenario import load_scenario
 
     scenario = load_scenario("position", NO_CONSOLE)
     world = MakeWorld(scenario, quiet=True)
@@ -723,8 +721,6 @@ def _quiet_mujoco():
 def camera_fps(frames: int, *, depth: bool, renderer: str = "auto") -> tuple[float, str]:
     """(frames rendered per wall-clock second, camera description) of the camera scene's
     camera (diagrams/camera.yaml: the arm, the blue disc, the box)."""
-    from armando_drake.simulation.builder import MakeWorld
-    from armando_drake.simulation.scenario import load_scenario
 
     scenario = load_scenario(
         "camera",
@@ -764,7 +760,6 @@ def camera_world_rtf(duration: float, renderer: str = "auto") -> float:
 
 
 def bench_camera(report: Report, frames: int, duration: float) -> None:
-    from armando_drake.sensors.camera import choose_renderer
 
     fastest = choose_renderer("auto")  # "gl" where an X display or Xvfb is there
     renderers = ["vtk"] if fastest == "vtk" else ["gl", "vtk"]
@@ -865,15 +860,6 @@ def memory_soak(horizon: float) -> dict:
     logging off; as fast as it goes.
     """
     from pydrake.systems.analysis import Simulator
-
-    from armando_drake.outputs.plots import write_plots
-    from armando_drake.outputs.replay import (
-        RecordingMeshcat,
-        publish_replay,
-        write_replay,
-    )
-    from armando_drake.simulation.builder import MakeWorld
-    from armando_drake.simulation.scenario import load_scenario
 
     logging.disable(logging.WARNING)
     scenario = load_scenario("position", f"sequencer: {{cyclic: true}}\n{NO_CONSOLE}")
@@ -978,9 +964,6 @@ def perception_fps(frames: int) -> tuple[float, float, dict[str, float], str]:
     from pydrake.perception import PointCloud
     from pydrake.systems.analysis import Simulator
 
-    from armando_drake.simulation.builder import MakeWorld
-    from armando_drake.simulation.scenario import load_scenario
-
     world = MakeWorld(load_scenario("perception", NO_CONSOLE), quiet=True)
     try:
         added = world.perception
@@ -1019,9 +1002,6 @@ def perception_world_rtf(duration: float, override: str = "") -> tuple[float, fl
     the perception scenario run as fast as it goes, no viewer, from the first step
     (which renders the first frame) to the end; building the world is not counted."""
     from pydrake.systems.analysis import Simulator
-
-    from armando_drake.simulation.builder import MakeWorld
-    from armando_drake.simulation.scenario import load_scenario
 
     world = MakeWorld(load_scenario("perception", f"{NO_CONSOLE}\n{override}"), quiet=True)
     try:
@@ -1095,9 +1075,6 @@ def vision_world_rtf(duration: float, override: str) -> tuple[float, float, floa
     as it goes, no viewer; building the world is not counted. (vision, #15)"""
     from pydrake.systems.analysis import Simulator
 
-    from armando_drake.simulation.builder import MakeWorld
-    from armando_drake.simulation.scenario import load_scenario
-
     text = f"{NO_CONSOLE}\ncamera: {{live_view: false}}\n{override}"
     world = MakeWorld(load_scenario("vision_blob", text), quiet=True)
     try:
@@ -1170,11 +1147,6 @@ def bench_sweep(report: Report) -> None:
     started once and serves many sweeps).
     """
     import shutil
-
-    from armando_drake.sweeps.axes import make_variants, parse_grid
-    from armando_drake.sweeps.engines import LocalPool, RayEngine
-    from armando_drake.sweeps.errors import SweepError
-    from armando_drake.sweeps.sweep import Sweep, run_sweep
 
     count, duration = (2, 0.1) if report.quick else (8, 2.0)
     sweep = Sweep(

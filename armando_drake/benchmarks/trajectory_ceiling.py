@@ -31,6 +31,13 @@ from __future__ import annotations
 import argparse
 import statistics
 
+from armando_drake.benchmarks.suite import (
+    bare_plant_rtf,
+    pipeline_rtf,
+    recorded_plant_inputs,
+    replay_rtf,
+)
+
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -41,13 +48,6 @@ def main() -> None:
     )
     args = parser.parse_args()
     name = args.scenario
-
-    from armando_drake.benchmarks.suite import (
-        bare_plant_rtf,
-        pipeline_rtf,
-        recorded_plant_inputs,
-        replay_rtf,
-    )
 
     inputs = recorded_plant_inputs(name, args.duration + 0.5)
     rows = {"bare": [], "replay": [], name: []}

@@ -62,6 +62,7 @@ from armando_drake.control.controllers import (
     load_parameters,
     lookup,
 )
+from armando_drake.tools.yaml_keys import duplicate_key
 
 _logger = logging.getLogger("armando_drake.control.config")
 
@@ -451,7 +452,6 @@ def load_controller_config(path: str | Path) -> ControllerManagerConfig:
         where = f"{path}:{mark.line + 1}" if mark is not None else str(path)
         problem = getattr(error, "problem", None) or str(error)
         raise ControllerConfigError(f"{where}: not valid YAML: {problem}") from None
-    from armando_drake.tools.yaml_keys import duplicate_key
 
     found = duplicate_key(text)
     if found is not None:

@@ -47,7 +47,8 @@ from armando_drake.control.manager import (
 )
 from armando_drake.control.sequencer import stream_controller
 from armando_drake.description.importer import default_controller_config
-from armando_drake.description.loader import LoadedRobot, package_of
+from armando_drake.description.loader import LoadedRobot
+from armando_drake.description.packages import package_of
 from armando_drake.tools.errors import ScenarioError
 
 _log = logging.getLogger("armando_drake.world")

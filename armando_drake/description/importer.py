@@ -50,13 +50,21 @@ import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.tree import RotationalInertia
 
-from armando_drake.description.loader import DescriptionError, PackageSearch
 from armando_drake.description.meshes import (
     DRAKE_FORMATS,
     ConvertedMesh,
     convert_mesh,
     resolve_mesh,
 )
+from armando_drake.description.packages import DescriptionError, PackageSearch
+from armando_drake.description.ros2_control import (
+    ComponentInfo,
+    HardwareInfo,
+    InterfaceInfo,
+    Ros2ControlError,
+    parse_ros2_control,
+)
+from armando_drake.description.urdf import parse_joints, parse_transmissions
 
 LOGGER = logging.getLogger("armando_drake.description.importer")
 
@@ -596,14 +604,6 @@ def actuation(
     ignored (hardware plugins we do not run, mimic joints, transmissions on
     fixed joints), one line each.
     """
-    from armando_drake.description.loader import parse_joints, parse_transmissions
-    from armando_drake.description.ros2_control import (
-        ComponentInfo,
-        HardwareInfo,
-        InterfaceInfo,
-        Ros2ControlError,
-        parse_ros2_control,
-    )
 
     if hardware is None:
         try:

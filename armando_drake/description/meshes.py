@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from armando_drake.description.loader import DescriptionError, PackageSearch
+from armando_drake.description.packages import DescriptionError, PackageSearch
 
 # Bumped whenever the OBJ written for the same source would differ.
 CONVERTER_VERSION = 3

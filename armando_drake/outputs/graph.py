@@ -25,6 +25,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from armando_drake.simulation.builder import MakeWorld
+from armando_drake.simulation.scenario import load_scenario, resolve_scenario_path
 from armando_drake.tools.cli import (
     UserError,
     add_scenario_arguments,
@@ -98,9 +100,6 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     with user_errors():
-        from armando_drake.simulation.builder import MakeWorld
-        from armando_drake.simulation.scenario import load_scenario, resolve_scenario_path
-
         output = Path(args.output)
         if output.suffix.lower() not in FORMATS:
             render("", output)  # raises the unknown-extension error

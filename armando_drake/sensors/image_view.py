@@ -43,6 +43,8 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.sensors import ImageDepth32F, ImageRgba8U
 
+from armando_drake.tools.cli import server_url, server_urls
+
 _logger = logging.getLogger(__name__)
 
 # Publish this fraction of a period after the camera samples (see module doc).
@@ -199,14 +201,12 @@ class ImageViewServer:
     def url(self) -> str:
         """The page's address, e.g. ``http://127.0.0.1:8080/`` (on a wildcard address,
         0.0.0.0 or ::, the machine's host name: see :func:`~armando_drake.tools.cli.server_url`)."""
-        from armando_drake.tools.cli import server_url
 
         return server_url(self._host, self._httpd.server_address[1])
 
     @property
     def urls(self) -> str:
         """What the log prints: :attr:`url`, and the loopback URL for a wildcard address."""
-        from armando_drake.tools.cli import server_urls
 
         return server_urls(self._host, self._httpd.server_address[1])
 

@@ -20,6 +20,8 @@ from pathlib import Path
 import numpy as np
 from pydrake.math import RigidTransform
 
+from armando_drake.description.meshes import cache_dir
+
 # Pixels per marker bit in the texture (a 4x4 marker with its border: 6 bits wide).
 _PIXELS_PER_BIT = 32
 
@@ -103,8 +105,6 @@ class ArucoMarker:
         import cv2
 
         if folder is None:
-            from armando_drake.description.meshes import cache_dir
-
             folder = cache_dir()
         key = repr((5, self.dictionary, self.id, self.side_length, self.margin, self.thickness))
         digest = hashlib.sha1(key.encode()).hexdigest()[:10]

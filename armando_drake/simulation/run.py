@@ -28,8 +28,15 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from armando_drake.control.sequencer import Sinusoid, mode_of, one_pass, wave_of
-from armando_drake.simulation.scenario import Scenario
+from armando_drake.control.sequencer import Sinusoid, mode_of, wave_of
+from armando_drake.outputs.plots import write_plots
+from armando_drake.outputs.replay import REPLAY_FILE, RecordingMeshcat, publish_replay, write_replay
+from armando_drake.outputs.task_space import TASK_SPACE_CSV, TaskSpaceTracker, write_task_space_csv
+from armando_drake.outputs.view import wait_for_browser as wait
+from armando_drake.simulation.builder import MakeWorld
+from armando_drake.simulation.scenario import Scenario, default_duration
+from armando_drake.tools.cli import meshcat_urls
+from armando_drake.vision.outputs import write_vision_outputs
 
 SCENARIO_FILE = "scenario.yaml"  # the effective scenario, in the output folder
 SETTLE_TOLERANCE = 0.01  # [rad] "reached" band of the step table
@@ -144,14 +151,6 @@ def controller_mode(scenario: Scenario) -> str:
             return "task"
         return "none" if scenario.jog is None else "jog"
     return mode_of(scenario.sequencer)
-
-
-def default_duration(scenario: Scenario) -> float:
-    """[s] one pass of the command sequence; the task's motion and 0.5 s of holding
-    without one; 2 s without either."""
-    if scenario.sequencer is None:
-        return 2.0 if scenario.task is None else scenario.task.duration + 0.5
-    return one_pass(scenario.sequencer)
 
 
 @dataclass
@@ -446,9 +445,6 @@ def run(
     """
     from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
-    from armando_drake.simulation.builder import MakeWorld
-    from armando_drake.tools.cli import meshcat_urls
-
     duration = scenario.simulation.duration
     if duration <= 0:
         duration = default_duration(scenario)
@@ -460,8 +456,6 @@ def run(
     # for replay.html, into a private one.
     replay_meshcat = meshcat
     if replay_meshcat is None and output_dir is not None and replay:
-        from armando_drake.outputs.replay import RecordingMeshcat
-
         replay_meshcat = RecordingMeshcat()
     world = MakeWorld(
         scenario,
@@ -494,8 +488,6 @@ def run(
         try:
             simulator.Initialize()
             if meshcat is not None and wait_for_browser > 0:
-                from armando_drake.outputs.view import wait_for_browser as wait
-
                 wait(meshcat, wait_for_browser, stream)
                 simulator.ResetStatistics()  # the pacing to real time starts now
                 wall_start = time.monotonic()
@@ -532,12 +524,9 @@ def run(
     # A Ctrl-C that came while they were written stops the plots and the replay.
     signals.raise_pending(f"the logs are complete in {log_dir}" if log_dir else "")
     if log_dir is not None and plots:
-        from armando_drake.outputs.plots import write_plots
-
         write_plots(log_dir)
     if replay and replay_meshcat is not None and world.replay_sampler is not None:
         # The run as an animation in Meshcat (the live page keeps it) and in replay.html.
-        from armando_drake.outputs.replay import REPLAY_FILE, publish_replay, write_replay
 
         publish_replay(
             replay_meshcat,
@@ -578,8 +567,6 @@ def _result(scenario, world, simulator, table, tracker, log_dir) -> RunResult:
         errors = tracker.errors()
         result.task_space = errors.summary()
         if log_dir is not None:
-            from armando_drake.outputs.task_space import TASK_SPACE_CSV, write_task_space_csv
-
             write_task_space_csv(errors, log_dir / TASK_SPACE_CSV)
         if world.meshcat is not None and len(errors.times):
             from pydrake.geometry import Rgba
@@ -588,8 +575,6 @@ def _result(scenario, world, simulator, table, tracker, log_dir) -> RunResult:
                 "task/end_effector_trace", errors.actual.T, 2.0, Rgba(1.0, 0.3, 0.1, 1.0)
             )
     if world.detectors is not None:
-        from armando_drake.vision.outputs import write_vision_outputs
-
         result.vision = write_vision_outputs(world, simulator.get_context(), scenario, log_dir)
     return result
 
@@ -600,7 +585,6 @@ def _task_tracker_of(world):
     None without a task."""
     if world.task is None or world.logger is None:
         return None
-    from armando_drake.outputs.task_space import TaskSpaceTracker
 
     tracker = TaskSpaceTracker(world.task, list(world.logger.joint_names))
     world.logger.add_listener(tracker.add)

@@ -28,7 +28,12 @@ from pydrake.systems.analysis import SimulatorConfig
 from pydrake.visualization import VisualizationConfig
 
 from armando_drake import DIAGRAMS_DIR
-from armando_drake.control.sequencer import JointTrajectoryTargets, PositionTargets, Sinusoid
+from armando_drake.control.sequencer import (
+    JointTrajectoryTargets,
+    PositionTargets,
+    Sinusoid,
+    one_pass,
+)
 from armando_drake.control.stack import ActuatorConfig, ControllersConfig
 from armando_drake.kinematics.motion import TaskSpaceMotion
 from armando_drake.perception.config import PerceptionConfig
@@ -36,6 +41,7 @@ from armando_drake.ros2.config import Ros2Config
 from armando_drake.sensors.objects import SceneObject
 from armando_drake.teleop.config import JogConfig
 from armando_drake.tools.errors import ScenarioError
+from armando_drake.tools.yaml_keys import duplicate_key
 from armando_drake.vision.cameras import ScenarioCamera
 from armando_drake.vision.config import VisionConfig
 
@@ -369,7 +375,6 @@ def merge_overrides(scenario: Scenario, overrides, label: str = "--set") -> Scen
 def _refuse_duplicate_keys(text: str, where: str) -> None:
     """A key given twice in one mapping is an error (the loader would keep the last);
     ``where`` is the file (the message gives ``file:line``) or the override."""
-    from armando_drake.tools.yaml_keys import duplicate_key
 
     found = duplicate_key(text)
     if found is not None:
@@ -407,3 +412,11 @@ def load_scenario(
     if source != "<defaults>":
         sources_of(scenario).file = source
     return scenario
+
+
+def default_duration(scenario: Scenario) -> float:
+    """[s] one pass of the command sequence; the task's motion and 0.5 s of holding
+    without one; 2 s without either."""
+    if scenario.sequencer is None:
+        return 2.0 if scenario.task is None else scenario.task.duration + 0.5
+    return one_pass(scenario.sequencer)

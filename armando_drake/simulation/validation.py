@@ -29,7 +29,9 @@ import logging
 import math
 from typing import Any
 
-from armando_drake.simulation.scenario import Scenario, ScenarioError, sources_of
+from armando_drake.control.sequencer import Sinusoid
+from armando_drake.sensors.objects import SceneObjectError, validate_object
+from armando_drake.simulation.scenario import Scenario, ScenarioError, default_duration, sources_of
 
 _log = logging.getLogger("armando_drake.world")
 
@@ -209,8 +211,6 @@ def _check_bounded(scenario: Scenario) -> None:
             f"({MAX_DURATION / 86400:.1f} simulated days)",
         )
     if scenario.simulation.duration <= 0:
-        from armando_drake.simulation.run import default_duration
-
         duration = default_duration(scenario)
         if duration > MAX_DEFAULT_DURATION:
             key = "task" if scenario.sequencer is None else "sequencer"
@@ -268,7 +268,6 @@ def _too_stiff(value: float, limit: float) -> str:
 
 
 def _check_objects(scenario: Scenario) -> None:
-    from armando_drake.sensors.objects import SceneObjectError, validate_object
 
     names = set()
     for index, obj in enumerate(scenario.objects):
@@ -359,7 +358,6 @@ def check_against_world(
 
 
 def _check_sequencer(scenario: Scenario, update_rate: int, where: str) -> None:
-    from armando_drake.control.sequencer import Sinusoid
 
     config = scenario.sequencer
     if config is None:

@@ -57,7 +57,10 @@ from typing import Any
 
 import numpy as np
 
-from armando_drake.sweeps.errors import SweepError
+from armando_drake.description.loader import load_robot
+from armando_drake.sweeps.engines import make_engine
+from armando_drake.sweeps.errors import SweepError, reported
+from armando_drake.tools.cli import command_parser, package_folder, parse_xacro_args, user_errors
 
 METADATA_KEY = b"armando_drake"
 POSE_COLUMNS = ["x", "y", "z", "qw", "qx", "qy", "qz"] + [
@@ -101,8 +104,6 @@ class _Model:
 
     def __init__(self, robot: RobotSpec):
         from pydrake.multibody.plant import MultibodyPlant
-
-        from armando_drake.description.loader import load_robot
 
         self.plant = MultibodyPlant(time_step=0.0)
         self.robot = load_robot(
@@ -329,7 +330,6 @@ def read_metadata(path: str | Path) -> dict:
 
 
 def _parser() -> argparse.ArgumentParser:
-    from armando_drake.tools.cli import command_parser, package_folder
 
     parser = command_parser("armando_drake.dataset", __doc__)
     kinds = parser.add_subparsers(dest="kind", required=True, metavar="KIND")
@@ -377,9 +377,6 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    from armando_drake.sweeps.engines import make_engine
-    from armando_drake.sweeps.errors import reported
-    from armando_drake.tools.cli import parse_xacro_args, user_errors
 
     with user_errors(), reported():
         robot = RobotSpec(

@@ -44,9 +44,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from armando_drake.sweeps.axes import Variant, make_variants, parse_grid, parse_random
+from armando_drake.sweeps.engines import make_engine
 from armando_drake.sweeps.errors import SweepError, reported
+from armando_drake.sweeps.plot import plot_sweep
 from armando_drake.sweeps.table import METRICS, ResultsTable, row
 from armando_drake.sweeps.variant import INTERRUPTED, OK, VariantResult, VariantTask, run_variant
+from armando_drake.tools.cli import command_parser
 
 SWEEP_FILE = "sweep.json"  # what the sweep is: scenario, axes, variants
 RESULT_FILE = "result.json"  # in each variant's folder: its values and result
@@ -229,7 +232,6 @@ def run_sweep(
 
 
 def _parser() -> argparse.ArgumentParser:
-    from armando_drake.tools.cli import command_parser
 
     parser = command_parser("armando_drake.sweep", __doc__)
     parser.add_argument(
@@ -369,7 +371,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             for variant in sweep.variants:
                 print(" ".join(sweep.task(variant, Path(args.output)).command()[1:]))
             return 0
-        from armando_drake.sweeps.engines import make_engine
 
         axis_names = list(sweep.variants[0].values)
         plot_axes = _plot_axes(args.plot_axes, axis_names)
@@ -394,8 +395,6 @@ def main(argv: Sequence[str] | None = None) -> int:
                 print(f"  variant {record['variant']} ({record['status']}): {record['error']}")
         print(f"table: {outcome.files[0]}, {outcome.files[1]}")
         if args.plot:
-            from armando_drake.sweeps.plot import plot_sweep
-
             path = Path(args.output) / f"{args.metric}.png"
             plot_sweep(table, plot_axes, args.metric, path)
             print(f"figure: {path}")

@@ -30,6 +30,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+import armando_drake
 from armando_drake.sweeps.engines import waits_on_child_process
 
 OK = "ok"  # exit code 0 and a summary.json
@@ -91,7 +92,6 @@ class VariantResult:
 
 def _environment() -> dict[str, str]:
     """This process's environment, with this package importable in the child."""
-    import armando_drake
 
     root = str(Path(armando_drake.__file__).resolve().parents[1])
     environment = dict(os.environ)

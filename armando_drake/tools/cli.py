@@ -15,6 +15,8 @@ import traceback
 from collections.abc import Iterable, Iterator
 from typing import NoReturn
 
+from armando_drake.simulation.scenario import merge_overrides, sources_of
+
 
 class UserError(Exception):
     """A mistake in the user's input, reported as one line without a traceback."""
@@ -307,7 +309,6 @@ def add_description_arguments(parser, default: str) -> None:
 def note_option(scenario, keys: Iterable[str], option: str) -> None:
     """Records that the command-line ``option`` set the scenario's dotted ``keys``, for
     the messages of :mod:`armando_drake.simulation.validation`."""
-    from armando_drake.simulation.scenario import sources_of
 
     for key in keys:
         sources_of(scenario).note(key, option)
@@ -315,7 +316,6 @@ def note_option(scenario, keys: Iterable[str], option: str) -> None:
 
 def apply_scenario_arguments(scenario, args):
     """The scenario with ``--set``, ``--description`` and ``--package-path`` applied."""
-    from armando_drake.simulation.scenario import merge_overrides
 
     scenario = merge_overrides(scenario, args.set)
     if args.description is not None:

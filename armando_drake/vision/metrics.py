@@ -14,6 +14,9 @@ import math
 import numpy as np
 from pydrake.math import RigidTransform
 
+from armando_drake.sensors.marker import ArucoMarker
+from armando_drake.sensors.objects import Cylinder
+
 
 def camera_pose(world, context, camera: str) -> RigidTransform:
     """X_WC: the camera's true pose in the world (``context``: the root context)."""
@@ -26,7 +29,6 @@ def camera_pose(world, context, camera: str) -> RigidTransform:
 
 def marker_object(scenario):
     """The scenario's first ArUco marker object, or None."""
-    from armando_drake.sensors.marker import ArucoMarker
 
     for obj in scenario.objects:
         if isinstance(obj.shape, ArucoMarker):
@@ -45,7 +47,6 @@ def true_marker_position(scenario) -> np.ndarray | None:
 def true_disc_position(scenario) -> np.ndarray | None:
     """p_WD [m]: the centre of the top face (+z) of the first cylinder object (the
     disc a blob target points at), or None without one."""
-    from armando_drake.sensors.objects import Cylinder
 
     for obj in scenario.objects:
         if isinstance(obj.shape, Cylinder):

@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from armando_drake.vision.metrics import vision_summary
+
 VISION_CSV = "vision.csv"
 KEYPOINTS_CSV = "keypoints.csv"
 VISION_PLOT = "vision.png"
@@ -88,7 +90,6 @@ def write_vision_plot(csv_path: str | Path, png_path: str | Path) -> Path:
 def write_vision_outputs(world, context, scenario, output_dir) -> dict:
     """summary.json's ``vision`` (see :func:`~armando_drake.vision.metrics.vision_summary`);
     with ``output_dir``, also ``vision.csv`` and ``vision.png`` there."""
-    from armando_drake.vision.metrics import vision_summary
 
     summary = vision_summary(world, context, scenario)
     blob = world.detectors.blob

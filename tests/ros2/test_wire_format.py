@@ -16,13 +16,13 @@ import pytest
 from pydrake.math import RigidTransform, RollPitchYaw
 from ros2_support import new_domain_id, python, subprocess_env
 
+from armando_drake.messages import definitions as messages
 from armando_drake.messages.types import (
     Float64MultiArray,
     JointState,
     JointTrajectory,
     JointTrajectoryPoint,
 )
-from armando_drake.ros2 import messages
 
 pytest.importorskip("cyclonedds")
 rosbags_typesys = pytest.importorskip("rosbags.typesys")

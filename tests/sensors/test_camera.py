@@ -22,14 +22,9 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.sensors import ImageRgba8U
 
+from armando_drake.description.camera_sensors import DEFAULT_FRAME_RATE, parse_camera_sensors
 from armando_drake.description.loader import load_robot
-from armando_drake.sensors.camera import (
-    DEFAULT_FRAME_RATE,
-    AddCameraSensors,
-    CameraColorNoise,
-    CameraError,
-    parse_camera_sensors,
-)
+from armando_drake.sensors.camera import AddCameraSensors, CameraColorNoise, CameraError
 from armando_drake.sensors.image_view import (
     AddFrameSaver,
     AddImageView,

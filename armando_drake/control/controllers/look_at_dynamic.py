@@ -49,6 +49,7 @@ from armando_drake.control.controllers.task_space import (
     OperationalSpaceInverseDynamicsController,
     OperationalSpaceInverseDynamicsParameters,
     TorqueMemory,
+    _check,
     _InverseDynamicsController,
     _law_params,
 )
@@ -122,7 +123,6 @@ class _LookAtPathParameters:
 
 
 def _check_path(params, raw: dict[str, Any]) -> None:
-    from armando_drake.control.controllers.task_space import _check
 
     _check(params, raw)
     offset = np.asarray(params.offset, dtype=float)

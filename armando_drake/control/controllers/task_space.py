@@ -246,7 +246,6 @@ def check_within_reach(arm: ArmModel, trajectory, samples: int = 400) -> None:
     the sphere the arm can reach (:func:`_reach` around its first joint): the check the
     controller makes of every point it is sent, made of a scenario's task when the world
     is built."""
-    from armando_drake.kinematics.arm import TaskSpaceError
 
     reach = _reach(arm)
     joint = arm.plant.GetJointByName(arm.joint_names[0], arm.model_instance)
