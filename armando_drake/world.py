@@ -62,17 +62,21 @@ from armando_drake.control.sequencer import JointTrajectoryTargets, PositionTarg
 from armando_drake.outputs.recording import RecordingError, check_recording_path
 from armando_drake.outputs.view import serve_until_interrupted
 from armando_drake.simulation.run import format_table, run
-from armando_drake.simulation.scenario import load_scenario, resolve_scenario_path, sources_of
+from armando_drake.simulation.scenario import (
+    apply_scenario_arguments,
+    load_scenario,
+    note_option,
+    resolve_scenario_path,
+    sources_of,
+)
 from armando_drake.tools.cli import (
     UserError,
     add_host_argument,
     add_scenario_arguments,
     add_viewer_arguments,
-    apply_scenario_arguments,
     check_host,
     command_parser,
     keeps_serving,
-    note_option,
     start_meshcat,
     user_errors,
     wait_seconds,

@@ -62,6 +62,7 @@ from armando_drake.control.controllers import (
     load_parameters,
     lookup,
 )
+from armando_drake.tools.errors import UserInputError
 from armando_drake.tools.yaml_keys import duplicate_key
 
 _logger = logging.getLogger("armando_drake.control.config")
@@ -92,7 +93,7 @@ _IGNORED_MANAGER_PARAMETERS = frozenset(
 _IGNORED_ENTRY_KEYS = frozenset({"params_file", "fallback_controllers"})
 
 
-class ControllerConfigError(ValueError):
+class ControllerConfigError(UserInputError, ValueError):
     """A controller YAML that cannot be used, with the file and key at fault."""
 
 

@@ -55,7 +55,7 @@ from armando_drake.messages.types import (
     Publication,
     PublicationValue,
 )
-from armando_drake.tools.errors import ScenarioError
+from armando_drake.tools.errors import ScenarioError, UserInputError
 
 _log = logging.getLogger("armando_drake.world")
 
@@ -155,7 +155,7 @@ def mode_of(config: SequencerConfig) -> str:
     return MODE_NAMES[type(config)]
 
 
-class SequencerError(ValueError):
+class SequencerError(UserInputError, ValueError):
     """A sequencer configuration that cannot be run; the message is one line."""
 
 

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 
+from armando_drake.tools.errors import UserInputError
+
 _logger = logging.getLogger("armando_drake.sensors.camera")
 
 # Gazebo sensor types that produce a camera image.
@@ -35,7 +37,7 @@ MAX_DEPTH_RANGE = 65.5  # [m]
 R_SC = RotationMatrix(np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]))
 
 
-class CameraError(ValueError):
+class CameraError(UserInputError, ValueError):
     """A camera sensor block that cannot be used; the message names file and value."""
 
 

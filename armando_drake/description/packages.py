@@ -20,13 +20,14 @@ from pathlib import Path
 from pydrake.multibody.parsing import PackageMap
 
 from armando_drake import MODELS_DIR
+from armando_drake.tools.errors import UserInputError
 
 LOGGER = logging.getLogger("armando_drake.description")
 # What $(find pkg) gives for a package that is not found: a folder that does not exist.
 MISSING_PACKAGE_DIR = Path("/nonexistent-ros-package")
 
 
-class DescriptionError(RuntimeError):
+class DescriptionError(UserInputError, RuntimeError):
     """A robot description that cannot be found, expanded or loaded."""
 
 

@@ -18,12 +18,14 @@ import operator
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 
+from armando_drake.tools.errors import UserInputError
+
 LOGGER = logging.getLogger("armando_drake.description.ros2_control")
 # Interfaces that move a joint; a <joint> of a block with none of them is I/O.
 MOTION_INTERFACES = frozenset({"position", "velocity", "effort", "acceleration"})
 
 
-class Ros2ControlError(ValueError):
+class Ros2ControlError(UserInputError, ValueError):
     """A ``<ros2_control>`` block that upstream would refuse."""
 
 

@@ -19,21 +19,11 @@ Examples:
 
 from __future__ import annotations
 
-import argparse
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
-from armando_drake.simulation.builder import MakeWorld
-from armando_drake.simulation.scenario import load_scenario, resolve_scenario_path
-from armando_drake.tools.cli import (
-    UserError,
-    add_scenario_arguments,
-    apply_scenario_arguments,
-    command_parser,
-    user_errors,
-)
+from armando_drake.tools.cli import UserError
 
 FORMATS = {".svg": "svg", ".png": "png", ".pdf": "pdf", ".dot": None, ".gv": None}
 INSTALL_HINT = "install Graphviz (Debian/Ubuntu: apt-get install graphviz)"
@@ -75,49 +65,3 @@ def _write(output: Path, data: bytes) -> None:
         output.write_bytes(data)
     except OSError as error:
         raise UserError(f"-o {output}: cannot write there: {error.strerror}") from None
-
-
-def _parser() -> argparse.ArgumentParser:
-    parser = command_parser("armando_drake.graph", __doc__)
-    add_scenario_arguments(parser)
-    parser.add_argument(
-        "-o",
-        "--output",
-        required=True,
-        metavar="FILE",
-        help="where to write the graph: .svg, .png, .pdf, or .dot for the Graphviz source",
-    )
-    parser.add_argument(
-        "--max-depth",
-        type=int,
-        default=1,
-        metavar="N",
-        help="how many levels of nested diagrams to open (default: 1, the world's systems)",
-    )
-    return parser
-
-
-def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
-    with user_errors():
-        output = Path(args.output)
-        if output.suffix.lower() not in FORMATS:
-            render("", output)  # raises the unknown-extension error
-        if FORMATS[output.suffix.lower()] is not None and shutil.which("dot") is None:
-            raise UserError(f"Graphviz's dot is not on the PATH: {INSTALL_HINT}")
-        if args.max_depth < 1:
-            raise UserError(f"--max-depth {args.max_depth} must be at least 1")
-        path = resolve_scenario_path(args.scenario)
-        scenario = apply_scenario_arguments(load_scenario(path), args)
-        world = MakeWorld(scenario, quiet=True, source=str(path))
-        try:
-            render(graphviz_source(world.diagram, args.max_depth), output)
-        finally:
-            world.close()
-        names = [system.get_name() for system in world.diagram.GetSystems()]
-        print(f"{output}: {len(names)} systems ({', '.join(names)})")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

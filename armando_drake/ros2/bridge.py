@@ -63,6 +63,7 @@ from armando_drake.messages.definitions import (
 from armando_drake.messages.types import JointState, Publication
 from armando_drake.outputs.recording import camera_stream
 from armando_drake.outputs.topics import WorldTopics
+from armando_drake.ros2.dds import DdsNode, Ros2Error, reachability
 from armando_drake.sensors.image_view import PUBLISH_OFFSET_FRACTION
 from armando_drake.tools.errors import ScenarioError
 
@@ -484,8 +485,6 @@ def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
     sinks: list[Any] = []
     node = None
     if config.enabled:
-        from armando_drake.ros2.dds import DdsNode, Ros2Error, reachability
-
         try:
             node = DdsNode(
                 domain_id=config.domain_id,

@@ -28,34 +28,43 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
-from cyclonedds.core import Listener, Policy, Qos
-from cyclonedds.domain import Domain, DomainParticipant
-from cyclonedds.pub import DataWriter
-from cyclonedds.sub import DataReader
-from cyclonedds.topic import Topic
-from cyclonedds.util import duration
-
 from armando_drake.messages.definitions import resolve_topic
 from armando_drake.ros2.idl import idl_type, to_dict, to_idl
 
+# Cyclone DDS is the [ros2] extra: without it this module still imports (the world's
+# builder imports the bridge), and a DdsNode says which extra to install.
+try:
+    from cyclonedds.core import Listener, Policy, Qos
+    from cyclonedds.domain import Domain, DomainParticipant
+    from cyclonedds.pub import DataWriter
+    from cyclonedds.sub import DataReader
+    from cyclonedds.topic import Topic
+    from cyclonedds.util import duration
+except ModuleNotFoundError as error:
+    CYCLONEDDS_MISSING: ModuleNotFoundError | None = error
+else:
+    CYCLONEDDS_MISSING = None
+    _XCDR1 = Policy.DataRepresentation(use_cdrv0_representation=True)
+    _RELIABLE = Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100))
+    # QoS profiles by name, as rclcpp defines them.
+    QOS = {
+        # rclcpp::QoS(10): reliable, keep last 10, volatile
+        "default": Qos(_RELIABLE, Policy.History.KeepLast(10), Policy.Durability.Volatile, _XCDR1),
+        # robot_state_publisher's /robot_description and tf2's static broadcaster: latched
+        "latched": Qos(
+            _RELIABLE, Policy.History.KeepLast(1), Policy.Durability.TransientLocal, _XCDR1
+        ),
+        # rclcpp::SensorDataQoS(): best effort, keep last 5
+        "sensor_data": Qos(
+            Policy.Reliability.BestEffort,
+            Policy.History.KeepLast(5),
+            Policy.Durability.Volatile,
+            _XCDR1,
+        ),
+    }
+
 _log = logging.getLogger("armando_drake.ros2")
 
-_XCDR1 = Policy.DataRepresentation(use_cdrv0_representation=True)
-_RELIABLE = Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100))
-# QoS profiles by name, as rclcpp defines them.
-QOS = {
-    # rclcpp::QoS(10): reliable, keep last 10, volatile
-    "default": Qos(_RELIABLE, Policy.History.KeepLast(10), Policy.Durability.Volatile, _XCDR1),
-    # robot_state_publisher's /robot_description and tf2's static broadcaster: latched
-    "latched": Qos(_RELIABLE, Policy.History.KeepLast(1), Policy.Durability.TransientLocal, _XCDR1),
-    # rclcpp::SensorDataQoS(): best effort, keep last 5
-    "sensor_data": Qos(
-        Policy.Reliability.BestEffort,
-        Policy.History.KeepLast(5),
-        Policy.Durability.Volatile,
-        _XCDR1,
-    ),
-}
 # The highest participant index probed by unicast discovery on the loopback:
 # that many DDS participants (the world, ROS 2 nodes, tools) can meet there.
 MAX_PARTICIPANTS = 30
@@ -186,6 +195,11 @@ class DdsNode:
     """
 
     def __init__(self, *, domain_id: int = 0, namespace: str = "", interface: str = ""):
+        if CYCLONEDDS_MISSING is not None:
+            raise Ros2Error(
+                f"ros2.enabled needs Cyclone DDS ({CYCLONEDDS_MISSING}): "
+                "pip install 'armando-drake[ros2]'"
+            )
         if namespace and not namespace.startswith("/"):
             raise Ros2Error(f"ros2.namespace={namespace!r} must start with '/'")
         self.domain_id = domain_id

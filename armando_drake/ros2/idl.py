@@ -9,7 +9,7 @@ encapsulation header ``00 01 00 00``). :func:`to_idl` and :func:`to_dict`
 convert between those messages and the dictionaries of
 :mod:`armando_drake.messages.definitions`.
 
-Importing this module imports Cyclone DDS (the ``[ros2]`` extra).
+Its types need Cyclone DDS (the ``[ros2]`` extra).
 """
 
 from __future__ import annotations
@@ -18,28 +18,34 @@ import functools
 from collections.abc import Mapping
 from typing import Any
 
-from cyclonedds.idl import IdlStruct, make_idl_struct
-from cyclonedds.idl import types as t
-
 from armando_drake.messages.definitions import dds_type_name, fields, short_name
 
+# Cyclone DDS is the [ros2] extra: without it this module still imports, and the
+# first type asked for raises ModuleNotFoundError.
+try:
+    from cyclonedds.idl import IdlStruct, make_idl_struct
+    from cyclonedds.idl import types as t
+except ModuleNotFoundError:
+    _PRIMITIVES: dict[str, Any] = {}
+else:
+    _PRIMITIVES = {
+        "bool": bool,
+        "byte": t.byte,
+        "char": t.uint8,
+        "int8": t.int8,
+        "uint8": t.uint8,
+        "int16": t.int16,
+        "uint16": t.uint16,
+        "int32": t.int32,
+        "uint32": t.uint32,
+        "int64": t.int64,
+        "uint64": t.uint64,
+        "float32": t.float32,
+        "float64": t.float64,
+        "string": str,
+    }
+
 # ROS 2 primitive types -> IDL types (rosidl's mapping).
-_PRIMITIVES = {
-    "bool": bool,
-    "byte": t.byte,
-    "char": t.uint8,
-    "int8": t.int8,
-    "uint8": t.uint8,
-    "int16": t.int16,
-    "uint16": t.uint16,
-    "int32": t.int32,
-    "uint32": t.uint32,
-    "int64": t.int64,
-    "uint64": t.uint64,
-    "float32": t.float32,
-    "float64": t.float64,
-    "string": str,
-}
 
 
 def _field_type(text: str) -> Any:

@@ -31,11 +31,12 @@ from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
 
 from armando_drake.sensors.marker import ArucoMarker, MarkerError
+from armando_drake.tools.errors import UserInputError
 
 GROUND_COLOR = (0.85, 0.85, 0.82, 1.0)  # RGBA of the ground, in Meshcat and in cameras
 
 
-class SceneObjectError(ValueError):
+class SceneObjectError(UserInputError, ValueError):
     """A scenario object with a bad shape, size, pose or colour."""
 
 

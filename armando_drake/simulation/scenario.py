@@ -20,6 +20,7 @@ import os
 import re
 import types
 import typing
+from collections.abc import Iterable
 from pathlib import Path
 
 from pydrake.common.yaml import yaml_dump, yaml_load, yaml_load_typed
@@ -420,3 +421,22 @@ def default_duration(scenario: Scenario) -> float:
     if scenario.sequencer is None:
         return 2.0 if scenario.task is None else scenario.task.duration + 0.5
     return one_pass(scenario.sequencer)
+
+
+def note_option(scenario, keys: Iterable[str], option: str) -> None:
+    """Records that the command-line ``option`` set the scenario's dotted ``keys``, for
+    the messages of :mod:`armando_drake.simulation.validation`."""
+
+    for key in keys:
+        sources_of(scenario).note(key, option)
+
+
+def apply_scenario_arguments(scenario, args):
+    """The scenario with ``--set``, ``--description`` and ``--package-path`` applied."""
+
+    scenario = merge_overrides(scenario, args.set)
+    if args.description is not None:
+        scenario.robot.description = args.description
+        note_option(scenario, ("robot.description",), "--description")
+    scenario.robot.package_paths += args.package_path
+    return scenario

@@ -15,10 +15,10 @@ import traceback
 from collections.abc import Iterable, Iterator
 from typing import NoReturn
 
-from armando_drake.simulation.scenario import merge_overrides, sources_of
+from armando_drake.tools.errors import UserInputError
 
 
-class UserError(Exception):
+class UserError(UserInputError):
     """A mistake in the user's input, reported as one line without a traceback."""
 
 
@@ -306,42 +306,6 @@ def add_description_arguments(parser, default: str) -> None:
     )
 
 
-def note_option(scenario, keys: Iterable[str], option: str) -> None:
-    """Records that the command-line ``option`` set the scenario's dotted ``keys``, for
-    the messages of :mod:`armando_drake.simulation.validation`."""
-
-    for key in keys:
-        sources_of(scenario).note(key, option)
-
-
-def apply_scenario_arguments(scenario, args):
-    """The scenario with ``--set``, ``--description`` and ``--package-path`` applied."""
-
-    scenario = merge_overrides(scenario, args.set)
-    if args.description is not None:
-        scenario.robot.description = args.description
-        note_option(scenario, ("robot.description",), "--description")
-    scenario.robot.package_paths += args.package_path
-    return scenario
-
-
-def _input_errors() -> tuple[type[BaseException], ...]:
-    """The exception types that mean a mistake in the user's input."""
-    errors: tuple[type[BaseException], ...] = (UserError,)
-    for module, name in (
-        ("armando_drake.description.loader", "DescriptionError"),
-        ("armando_drake.description.ros2_control", "Ros2ControlError"),
-        ("armando_drake.control.config", "ControllerConfigError"),
-        ("armando_drake.sensors.camera", "CameraError"),
-        ("armando_drake.sensors.objects", "SceneObjectError"),
-        ("armando_drake.control.sequencer", "SequencerError"),
-        ("armando_drake.simulation.scenario", "ScenarioError"),
-    ):
-        with contextlib.suppress(ImportError, AttributeError):
-            errors += (getattr(__import__(module, fromlist=[name]), name),)
-    return errors
-
-
 def _one_line(text: str) -> str:
     return " ".join(str(text).split())
 
@@ -420,7 +384,7 @@ def user_errors() -> Iterator[None]:
     except Exception as error:
         if interrupted:  # Ctrl-C inside an extension's import surfaces as ImportError
             _exit_interrupted("interrupted")
-        if isinstance(error, _input_errors()):
+        if isinstance(error, UserInputError):
             print(f"error: {_one_line(error)}", file=sys.stderr)
             sys.exit(2)
         if _debug:
