@@ -314,8 +314,11 @@ class Ros2Bridge(LeafSystem):
             self.DeclarePeriodicPublishEvent(period, 0.0, self._PublishState)
             self.DeclarePeriodicPublishEvent(clock_period, 0.0, self._PublishClock)
 
-        # Cameras: image_raw and camera_info, a thousandth of a period after each frame.
+        self._DeclareCameras(cameras)
+        self._DeclareCommands(subscriber, period)
 
+    def _DeclareCameras(self, cameras) -> None:
+        """image_raw and camera_info, a thousandth of a period after each frame."""
         self._cameras = list(cameras)
         for camera in self._cameras:
             base = camera.topic.strip("/")
@@ -332,7 +335,8 @@ class Ros2Bridge(LeafSystem):
                 lambda context, camera=camera, port=port: self._PublishFrame(context, camera, port),
             )
 
-        # Commands: DDS thread -> queue -> abstract state at the controllers' rate.
+    def _DeclareCommands(self, subscriber, period: float) -> None:
+        """Commands: DDS thread -> queue -> abstract state at the controllers' rate."""
         if self._commands:
             self._publications = self.DeclareAbstractState(
                 AbstractValue.Make(tuple(Publication() for _ in self._commands))
@@ -482,6 +486,47 @@ def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
     """
     if not (config.enabled or config.foxglove):
         return None
+    sinks, node = _sinks(config, topics)
+
+    commands = _free_commands(builder, topics, subscribe=node is not None)
+    cameras = [camera_stream(name, camera) for name, camera in topics.cameras.items()]
+    plant = topics.plant
+    bridge = builder.AddSystem(
+        Ros2Bridge(
+            plant=plant,
+            model_instance=topics.robot.model_instance,
+            urdf=topics.robot.urdf,
+            update_rate=topics.update_rate,
+            sinks=sinks,
+            subscriber=node,
+            commands=commands,
+            cameras=cameras,
+            clock_rate=config.clock_rate,
+        )
+    )
+    bridge.set_name("ros2_bridge")
+    if topics.broadcaster is not None:
+        builder.Connect(
+            topics.broadcaster.GetOutputPort("joint_states"), bridge.GetInputPort("joint_states")
+        )
+    builder.Connect(plant.get_body_poses_output_port(), bridge.GetInputPort("body_poses"))
+    for stream in cameras:
+        builder.Connect(
+            topics.cameras[stream.name].color_image,
+            bridge.GetInputPort(f"{stream.name}.color_image"),
+        )
+    for command in commands:
+        builder.Connect(
+            bridge.GetOutputPort(command.port),
+            topics.controllers[command.controller].GetInputPort(command.port),
+        )
+        _log.info("subscribed %s (%s)", node.resolve(command.topic), command.type_name)
+    return bridge
+
+
+def _sinks(config, topics: WorldTopics) -> tuple[list[Any], DdsNode | None]:
+    """Where the topics go: the DDS node (``config.enabled``; also returned) and the
+    Foxglove server (``config.foxglove``)."""
     sinks: list[Any] = []
     node = None
     if config.enabled:
@@ -516,7 +561,12 @@ def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
         sinks.append(server)
         _log.info("Foxglove: %s (Foxglove > Open connection > Foxglove WebSocket)", server.url)
 
-    # The command inputs no other system drives, of every active controller.
+    return sinks, node
+
+
+def _free_commands(builder, topics: WorldTopics, *, subscribe: bool) -> list[CommandTopic]:
+    """The command inputs no other system drives, of every active controller (logged;
+    returned to be subscribed when ``subscribe``)."""
     commands = []
     for name, system in topics.controllers.items():
         for index in range(system.num_input_ports()):
@@ -528,39 +578,6 @@ def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
                 _log.info("%s/%s not subscribed: the %s drives it", name, suffix, "sequencer")
             elif suffix not in COMMAND_TYPES:
                 _log.warning("%s/%s not subscribed: no ROS 2 type known for it", name, suffix)
-            elif node is not None:
+            elif subscribe:
                 commands.append(CommandTopic(name, suffix))
-
-    cameras = [camera_stream(name, camera) for name, camera in topics.cameras.items()]
-    plant = topics.plant
-    bridge = builder.AddSystem(
-        Ros2Bridge(
-            plant=plant,
-            model_instance=topics.robot.model_instance,
-            urdf=topics.robot.urdf,
-            update_rate=topics.update_rate,
-            sinks=sinks,
-            subscriber=node,
-            commands=commands,
-            cameras=cameras,
-            clock_rate=config.clock_rate,
-        )
-    )
-    bridge.set_name("ros2_bridge")
-    if topics.broadcaster is not None:
-        builder.Connect(
-            topics.broadcaster.GetOutputPort("joint_states"), bridge.GetInputPort("joint_states")
-        )
-    builder.Connect(plant.get_body_poses_output_port(), bridge.GetInputPort("body_poses"))
-    for stream in cameras:
-        builder.Connect(
-            topics.cameras[stream.name].color_image,
-            bridge.GetInputPort(f"{stream.name}.color_image"),
-        )
-    for command in commands:
-        builder.Connect(
-            bridge.GetOutputPort(command.port),
-            topics.controllers[command.controller].GetInputPort(command.port),
-        )
-        _log.info("subscribed %s (%s)", node.resolve(command.topic), command.type_name)
-    return bridge
+    return commands

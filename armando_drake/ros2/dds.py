@@ -20,48 +20,18 @@ configuration; a ROS 2 node reaches the world with the same XML in its
 from __future__ import annotations
 
 import contextlib
+import functools
 import ipaddress
 import logging
 import os
 import socket
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from types import SimpleNamespace
 from typing import Any
 
 from armando_drake.messages.definitions import resolve_topic
 from armando_drake.ros2.idl import idl_type, to_dict, to_idl
-
-# Cyclone DDS is the [ros2] extra: without it this module still imports (the world's
-# builder imports the bridge), and a DdsNode says which extra to install.
-try:
-    from cyclonedds.core import Listener, Policy, Qos
-    from cyclonedds.domain import Domain, DomainParticipant
-    from cyclonedds.pub import DataWriter
-    from cyclonedds.sub import DataReader
-    from cyclonedds.topic import Topic
-    from cyclonedds.util import duration
-except ModuleNotFoundError as error:
-    CYCLONEDDS_MISSING: ModuleNotFoundError | None = error
-else:
-    CYCLONEDDS_MISSING = None
-    _XCDR1 = Policy.DataRepresentation(use_cdrv0_representation=True)
-    _RELIABLE = Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100))
-    # QoS profiles by name, as rclcpp defines them.
-    QOS = {
-        # rclcpp::QoS(10): reliable, keep last 10, volatile
-        "default": Qos(_RELIABLE, Policy.History.KeepLast(10), Policy.Durability.Volatile, _XCDR1),
-        # robot_state_publisher's /robot_description and tf2's static broadcaster: latched
-        "latched": Qos(
-            _RELIABLE, Policy.History.KeepLast(1), Policy.Durability.TransientLocal, _XCDR1
-        ),
-        # rclcpp::SensorDataQoS(): best effort, keep last 5
-        "sensor_data": Qos(
-            Policy.Reliability.BestEffort,
-            Policy.History.KeepLast(5),
-            Policy.Durability.Volatile,
-            _XCDR1,
-        ),
-    }
 
 _log = logging.getLogger("armando_drake.ros2")
 
@@ -72,6 +42,66 @@ MAX_PARTICIPANTS = 30
 
 class Ros2Error(ValueError):
     """A ``ros2:`` setting that cannot be used; the message repeats the value."""
+
+
+@functools.cache
+def _cyclone() -> SimpleNamespace:
+    """The parts of Cyclone DDS a node uses. Cyclone DDS is the [ros2] extra, imported
+    here on first use so that a world without --ros2 loads none of it (and runs without
+    the extra); without it, a one-line error naming the extra."""
+    try:
+        from cyclonedds.core import Listener, Policy, Qos
+        from cyclonedds.domain import Domain, DomainParticipant
+        from cyclonedds.pub import DataWriter
+        from cyclonedds.sub import DataReader
+        from cyclonedds.topic import Topic
+        from cyclonedds.util import duration
+    except ModuleNotFoundError as error:
+        raise Ros2Error(
+            f"ros2.enabled needs Cyclone DDS ({error}): pip install 'armando-drake[ros2]'"
+        ) from None
+    xcdr1 = Policy.DataRepresentation(use_cdrv0_representation=True)
+    reliable = Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100))
+    qos = {
+        # rclcpp::QoS(10): reliable, keep last 10, volatile
+        "default": Qos(reliable, Policy.History.KeepLast(10), Policy.Durability.Volatile, xcdr1),
+        # robot_state_publisher's /robot_description and tf2's static broadcaster: latched
+        "latched": Qos(
+            reliable, Policy.History.KeepLast(1), Policy.Durability.TransientLocal, xcdr1
+        ),
+        # rclcpp::SensorDataQoS(): best effort, keep last 5
+        "sensor_data": Qos(
+            Policy.Reliability.BestEffort,
+            Policy.History.KeepLast(5),
+            Policy.Durability.Volatile,
+            xcdr1,
+        ),
+    }
+    return SimpleNamespace(
+        Listener=Listener,
+        Domain=Domain,
+        DomainParticipant=DomainParticipant,
+        DataWriter=DataWriter,
+        DataReader=DataReader,
+        Topic=Topic,
+        qos=qos,
+    )
+
+
+class _QosProfiles(Mapping):
+    """QoS profiles by name, as rclcpp defines them (made on first use)."""
+
+    def __getitem__(self, name: str):
+        return _cyclone().qos[name]
+
+    def __iter__(self):
+        return iter(("default", "latched", "sensor_data"))
+
+    def __len__(self) -> int:
+        return 3
+
+
+QOS = _QosProfiles()
 
 
 def _interface_element(interface: str) -> str:
@@ -160,11 +190,11 @@ def _confine_to_loopback(fds: set[int]) -> None:
 
 # One Cyclone DDS domain per id and process, kept for the process's lifetime:
 # a domain's configuration is fixed when it is first created.
-_domains: dict[int, tuple[Domain, str]] = {}
+_domains: dict[int, tuple[Any, str]] = {}
 _domains_lock = threading.Lock()
 
 
-def domain(domain_id: int, interface: str = "") -> Domain:
+def domain(domain_id: int, interface: str = "") -> Any:
     """The process's DDS domain ``domain_id`` on ``interface`` (created once)."""
     if isinstance(domain_id, bool) or not isinstance(domain_id, int) or not 0 <= domain_id <= 232:
         raise Ros2Error(f"ros2.domain_id={domain_id!r} must be an integer in [0, 232]")
@@ -173,7 +203,7 @@ def domain(domain_id: int, interface: str = "") -> Domain:
         existing = _domains.get(domain_id)
         if existing is None:
             before = _socket_fds()
-            existing = (Domain(domain_id, config), config)
+            existing = (_cyclone().Domain(domain_id, config), config)
             _domains[domain_id] = existing
             if not interface:
                 _confine_to_loopback(_socket_fds() - before)
@@ -195,36 +225,34 @@ class DdsNode:
     """
 
     def __init__(self, *, domain_id: int = 0, namespace: str = "", interface: str = ""):
-        if CYCLONEDDS_MISSING is not None:
-            raise Ros2Error(
-                f"ros2.enabled needs Cyclone DDS ({CYCLONEDDS_MISSING}): "
-                "pip install 'armando-drake[ros2]'"
-            )
+        _cyclone()  # Cyclone DDS, or the error naming the extra
         if namespace and not namespace.startswith("/"):
             raise Ros2Error(f"ros2.namespace={namespace!r} must start with '/'")
         self.domain_id = domain_id
         self.namespace = namespace
         self.interface = interface
         self._domain = domain(domain_id, interface)
-        self._participant = DomainParticipant(domain_id)
-        self._topics: dict[str, Topic] = {}
-        self._writers: dict[str, tuple[str, DataWriter]] = {}
-        self._readers: list[DataReader] = []
+        self._participant = _cyclone().DomainParticipant(domain_id)
+        self._topics: dict[str, Any] = {}
+        self._writers: dict[str, tuple[str, Any]] = {}
+        self._readers: list[Any] = []
 
     def resolve(self, topic: str) -> str:
         """The ROS 2 name of ``topic`` in this node's namespace."""
         return resolve_topic(topic, self.namespace)
 
-    def _topic(self, topic: str, type_name: str) -> Topic:
+    def _topic(self, topic: str, type_name: str) -> Any:
         name = dds_topic_name(topic, self.namespace)
         if name not in self._topics:
-            self._topics[name] = Topic(self._participant, name, idl_type(type_name))
+            self._topics[name] = _cyclone().Topic(self._participant, name, idl_type(type_name))
         return self._topics[name]
 
     def advertise(self, topic: str, type_name: str, qos: str = "default") -> None:
         """Creates the writer of ``topic`` (``publish`` does it on first use)."""
         if topic not in self._writers:
-            writer = DataWriter(self._participant, self._topic(topic, type_name), qos=QOS[qos])
+            writer = _cyclone().DataWriter(
+                self._participant, self._topic(topic, type_name), qos=QOS[qos]
+            )
             self._writers[topic] = (type_name, writer)
 
     def publish(
@@ -235,7 +263,7 @@ class DdsNode:
         self.advertise(topic, type_name)
         self._writers[topic][1].write(to_idl(type_name, message))
 
-    def writer(self, topic: str) -> DataWriter:
+    def writer(self, topic: str) -> Any:
         return self._writers[topic][1]
 
     def subscribe(
@@ -244,8 +272,10 @@ class DdsNode:
         type_name: str,
         callback: Callable[[dict[str, Any]], None],
         qos: str = "default",
-    ) -> DataReader:
-        reader = DataReader(self._participant, self._topic(topic, type_name), qos=QOS[qos])
+    ) -> Any:
+        reader = _cyclone().DataReader(
+            self._participant, self._topic(topic, type_name), qos=QOS[qos]
+        )
 
         def drain(_entity=None):
             # Cyclone's receive thread; the listener's own argument can be None while the
@@ -261,7 +291,7 @@ class DdsNode:
 
         # The listener is attached once the reader exists; what arrived before (a latched
         # topic's history) is taken right after.
-        reader.set_listener(Listener(on_data_available=drain))
+        reader.set_listener(_cyclone().Listener(on_data_available=drain))
         drain()
         self._readers.append(reader)
         return reader

@@ -20,15 +20,14 @@ from typing import Any
 
 from armando_drake.messages.definitions import dds_type_name, fields, short_name
 
-# Cyclone DDS is the [ros2] extra: without it this module still imports, and the
-# first type asked for raises ModuleNotFoundError.
-try:
-    from cyclonedds.idl import IdlStruct, make_idl_struct
+
+@functools.cache
+def _primitives() -> dict[str, Any]:
+    """The Cyclone DDS type of each ROS 2 primitive (rosidl's mapping). Cyclone DDS is
+    the [ros2] extra, imported here on first use: importing this module loads none of it."""
     from cyclonedds.idl import types as t
-except ModuleNotFoundError:
-    _PRIMITIVES: dict[str, Any] = {}
-else:
-    _PRIMITIVES = {
+
+    return {
         "bool": bool,
         "byte": t.byte,
         "char": t.uint8,
@@ -45,12 +44,12 @@ else:
         "string": str,
     }
 
-# ROS 2 primitive types -> IDL types (rosidl's mapping).
-
 
 def _field_type(text: str) -> Any:
+    from cyclonedds.idl import types as t  # the [ros2] extra, as in _primitives
+
     base, bracket, size = text.partition("[")
-    element = _PRIMITIVES.get(base) or idl_type(base)
+    element = _primitives().get(base) or idl_type(base)
     if not bracket:
         return element
     size = size.rstrip("]")
@@ -62,16 +61,18 @@ def _field_type(text: str) -> Any:
 
 
 @functools.cache
-def idl_type(type_name: str) -> type[IdlStruct]:
+def idl_type(type_name: str) -> type:
     """The Cyclone DDS type of ``pkg/msg/Type`` (or ``pkg/Type``), generated once."""
     name = short_name(type_name)
     members = {field_name: _field_type(field_type) for field_type, field_name in fields(name)}
+    from cyclonedds.idl import make_idl_struct  # the [ros2] extra, as in _primitives
+
     return make_idl_struct(name.replace("/", "_"), dds_type_name(name), members)
 
 
 def _convert(field_text: str, value: Any) -> Any:
     base, bracket, _ = field_text.partition("[")
-    if base in _PRIMITIVES:
+    if base in _primitives():
         if bracket and isinstance(value, (bytes, bytearray)):
             return bytes(value)  # uint8[] as bytes: Cyclone serialises it in one copy
         return list(value) if bracket else value
@@ -80,7 +81,7 @@ def _convert(field_text: str, value: Any) -> Any:
     return to_idl(base, value)
 
 
-def to_idl(type_name: str, message: Mapping[str, Any]) -> IdlStruct:
+def to_idl(type_name: str, message: Mapping[str, Any]) -> Any:
     """The DDS message of a message dictionary; a missing field is an error naming it."""
     kwargs = {}
     for field_text, field_name in fields(type_name):
@@ -96,7 +97,7 @@ def to_dict(type_name: str, message: Any) -> dict[str, Any]:
     for field_text, field_name in fields(type_name):
         value = getattr(message, field_name)
         base, bracket, _ = field_text.partition("[")
-        if base in _PRIMITIVES:
+        if base in _primitives():
             result[field_name] = list(value) if bracket else value
         elif bracket:
             result[field_name] = [to_dict(base, item) for item in value]

@@ -38,6 +38,7 @@ from armando_drake.control.stack import (
     AddControllerManager,
     AddHardware,
     ConnectControlStack,
+    ControlStack,
     ExportFreeControllerPorts,
     LoadControllerConfig,
     controller_update_rate,
@@ -82,94 +83,23 @@ def MakeWorld(
     ``host``: the address the camera's live view listens on (``--host``, as Meshcat).
     """
     where = f"{source}: " if source else ""
-    origin = lambda key: f"{sources_of(scenario).of(key)}: "  # noqa: E731 (one line)
     closers = []
     # Every value of the scenario checked before Drake sees it.
     check_scenario(scenario, source)
     builder = DiagramBuilder()
-    # The physics: a MultibodyPlant and its SceneGraph, as the scenario configures them.
-    plant, scene_graph = AddMultibodyPlant(scenario.plant_config, builder)
-    ApplyMultibodyPlantConfig(scenario.plant_config, plant)
-    # Spawn the robot (its base welded at the spawn pose), the ground and the objects.
-    robot = load_robot(
-        plant,
-        scenario.robot.description or None,
-        xacro_args=scenario.robot.xacro_args,
-        package_paths=scenario.robot.package_paths,
-        X_WB=RigidTransform(RollPitchYaw(scenario.robot.base_rpy), scenario.robot.base_xyz),
-        collision=scenario.robot.collision,
-    )
-    if scenario.ground:
-        AddGround(plant)
-    try:
-        AddSceneObjects(plant, scenario.objects)
-    except SceneObjectError as error:
-        raise ScenarioError(f"{where}objects: {error}") from None
-    # The controller YAML (before the actuators: a ROS 1 file's gazebo_ros_control gains
-    # are theirs) and its update rate, which the scenario may override.
-    controller_config = LoadControllerConfig(scenario.controllers, robot)
-    update_rate = controller_update_rate(
-        controller_config, scenario.controllers, origin("controllers.update_rate")
-    )
-    # Rates, gains and periods checked against the robot and the controller YAML.
-    check_against_world(
-        scenario,
-        update_rate=update_rate,
-        update_rate_source=controller_config.source,
-        joints=command_interfaces(robot, warn=False)[2],
-    )
-    # The hardware interface: an actuator per commanded joint; then the plant is final.
-    hardware = AddHardware(
-        plant,
-        scene_graph,
-        robot,
-        scenario.actuators,
-        controller_config,
-        self_collision=scenario.robot.self_collision,
-        start_positions=_start_positions(scenario, origin),
-    )
-    # The controller manager: the activated controllers of the YAML, in one system.
-    stack = AddControllerManager(
-        builder,
-        scenario.controllers,
-        plant=plant,
-        robot=robot,
-        hardware=hardware,
-        controller_config=controller_config,
-        update_rate=update_rate,
-        sequencer=scenario.sequencer,
-        where=origin("controllers"),
-    )
+    # The physics, the robot at its spawn pose, the ground and the objects.
+    plant, scene_graph, robot = _add_physics(builder, scenario, where)
+    # The hardware interface and the controller manager of the controller YAML.
+    stack = _add_control(builder, scenario, plant, scene_graph, robot)
     topics = WorldTopics(stack=stack)
     # What drives the controllers: the command sequencer, the task, the live jog.
-    if scenario.sequencer is not None:
-
-        def commands_log(joints):  # commands.csv, for the joints the sequencer drives
-            log = CommandsCsv(Path(output_dir) / "commands.csv", joints)
-            closers.append(log.close)
-            return log
-
-        topics.sequencer, topics.sequencer_target = AddSequencer(
-            builder,
-            scenario.sequencer,
-            stack,
-            commands_log=commands_log if output_dir and write_commands else None,
-            where=origin("sequencer"),
-        )
-    if scenario.task is not None:
-        topics.task = AddTask(builder, scenario.task, stack, meshcat=meshcat, where=origin("task"))
-    if scenario.jog is not None:
-        topics.jog = AddJog(builder, scenario.jog, stack, meshcat=meshcat, where=origin("jog"))
-        if topics.jog is not None:
-            closers.append(topics.jog.delete_controls)
+    commands_csv = Path(output_dir) / "commands.csv" if output_dir and write_commands else None
+    _add_drivers(builder, scenario, topics, meshcat, commands_csv, closers)
     # The commands to the plant: desired state, efforts, gravity feed-forward.
+    tick = topics.sequencer.GetOutputPort("tick_command") if stack.stream_controller else None
+    feedforward = scenario.actuators.gravity_feedforward
     gravity_feedforward = ConnectControlStack(
-        builder,
-        stack,
-        gravity_feedforward=scenario.actuators.gravity_feedforward,
-        tick_command=(
-            topics.sequencer.GetOutputPort("tick_command") if stack.stream_controller else None
-        ),
+        builder, stack, gravity_feedforward=feedforward, tick_command=tick
     )
     # What watches them: the joint-state logger, the cameras, the detectors, perception.
     logger = AddJointStateLogger(
@@ -181,60 +111,14 @@ def MakeWorld(
     )
     if logger is not None:
         closers.append(logger.close)
-    topics.cameras, image_view = AddCameras(
-        builder,
-        scenario.camera,
-        plant=plant,
-        scene_graph=scene_graph,
-        robot=robot,
-        extra=scenario.cameras,
-        meshcat=meshcat,
-        host=host,
-        where=where,
-        source=sources_of(scenario).of("cameras"),
-    )
-    if image_view is not None:
-        closers.append(image_view.close)
-    if scenario.vision is not None:
-        topics.detectors = AddDetectors(
-            builder,
-            scenario.vision,
-            stack,
-            cameras=topics.cameras,
-            image_view=image_view,
-            where=origin("vision"),
-            console=scenario.logging.console_rate > 0,  # no console output: no keypoints
-        )
-    if scenario.perception is not None:
-        topics.perception = AddPerception(
-            builder,
-            scenario.perception,
-            cameras=topics.cameras,
-            robot_source=str(robot.source),
-            meshcat=meshcat,
-            output_dir=output_dir if write_commands else None,
-            source=source,
-        )
-        if topics.perception.log is not None:
-            closers.append(topics.perception.log.close)
-    # The ROS 2 bag recorder and the live DDS / Foxglove bridge.
-    if record is not None:
-        closers.append(AddRosbagRecorder(builder, record, topics).close)
-    bridge = AddRos2Bridge(builder, scenario.ros2, topics)
-    if bridge is not None:
-        closers.append(bridge.close)
-    # Meshcat draws the world.
-    replay_sampler = None
-    if meshcat is not None and scenario.visualization.enable_meshcat_creation:
-        replay_sampler = AddVisualization(
-            builder,
-            scenario.visualization,
-            plant=plant,
-            scene_graph=scene_graph,
-            meshcat=meshcat,
-            robot_instances=[robot.model_instance],
-            ground=scenario.ground,
-        )
+    clusters_dir = output_dir if write_commands else None
+    places = (source, clusters_dir, host)
+    image_view = _add_sensing(builder, scenario, topics, scene_graph, meshcat, places)
+    closers += [image_view.close] if image_view is not None else []
+    if topics.perception is not None and topics.perception.log is not None:
+        closers.append(topics.perception.log.close)
+    # The ROS 2 bag recorder, the live DDS / Foxglove bridge, Meshcat.
+    replay_sampler = _add_outputs(builder, scenario, topics, scene_graph, meshcat, record, closers)
     # Export what no system drives (command inputs, statuses), for notebooks and tests.
     ExportFreeControllerPorts(builder, stack)
     diagram = builder.Build()
@@ -252,13 +136,171 @@ def MakeWorld(
     )
 
 
-def _start_positions(scenario: Scenario, origin) -> list[tuple[list[float], str, str]]:
+def _origin(scenario: Scenario, key: str) -> str:
+    """``"<origin>: "``: the file, ``--set`` or option the scenario's ``key`` came from."""
+    return f"{sources_of(scenario).of(key)}: "
+
+
+def _add_physics(builder: DiagramBuilder, scenario: Scenario, where: str):
+    """The plant and scene graph of ``scenario.plant_config``; the robot welded at its
+    spawn pose, the ground and the objects."""
+    plant, scene_graph = AddMultibodyPlant(scenario.plant_config, builder)
+    ApplyMultibodyPlantConfig(scenario.plant_config, plant)
+    robot = load_robot(
+        plant,
+        scenario.robot.description or None,
+        xacro_args=scenario.robot.xacro_args,
+        package_paths=scenario.robot.package_paths,
+        X_WB=RigidTransform(RollPitchYaw(scenario.robot.base_rpy), scenario.robot.base_xyz),
+        collision=scenario.robot.collision,
+    )
+    if scenario.ground:
+        AddGround(plant)
+    try:
+        AddSceneObjects(plant, scenario.objects)
+    except SceneObjectError as error:
+        raise ScenarioError(f"{where}objects: {error}") from None
+    return plant, scene_graph, robot
+
+
+def _add_control(builder, scenario: Scenario, plant, scene_graph, robot) -> ControlStack:
+    """The controller YAML, the hardware interface (then the plant is final) and the
+    controller manager running the activated controllers."""
+    # The controller YAML before the actuators: a ROS 1 file's gazebo_ros_control gains
+    # are theirs; its update rate, which the scenario may override.
+    controller_config = LoadControllerConfig(scenario.controllers, robot)
+    update_rate = controller_update_rate(
+        controller_config, scenario.controllers, _origin(scenario, "controllers.update_rate")
+    )
+    # Rates, gains and periods checked against the robot and the controller YAML.
+    check_against_world(
+        scenario,
+        update_rate=update_rate,
+        update_rate_source=controller_config.source,
+        joints=command_interfaces(robot, warn=False)[2],
+    )
+    hardware = AddHardware(
+        plant,
+        scene_graph,
+        robot,
+        scenario.actuators,
+        controller_config,
+        self_collision=scenario.robot.self_collision,
+        start_positions=_start_positions(scenario),
+    )
+    return AddControllerManager(
+        builder,
+        scenario.controllers,
+        plant=plant,
+        robot=robot,
+        hardware=hardware,
+        controller_config=controller_config,
+        update_rate=update_rate,
+        sequencer=scenario.sequencer,
+        where=_origin(scenario, "controllers"),
+    )
+
+
+def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, commands_csv, closers):
+    """The scenario's command sequencer (its commands in ``commands_csv``), task and
+    live jog, on the controllers of ``topics.stack``."""
+    stack = topics.stack
+    if scenario.sequencer is not None:
+
+        def commands_log(joints):  # commands.csv, for the joints the sequencer drives
+            log = CommandsCsv(commands_csv, joints)
+            closers.append(log.close)
+            return log
+
+        topics.sequencer, topics.sequencer_target = AddSequencer(
+            builder,
+            scenario.sequencer,
+            stack,
+            commands_log=commands_log if commands_csv is not None else None,
+            where=_origin(scenario, "sequencer"),
+        )
+    if scenario.task is not None:
+        topics.task = AddTask(
+            builder, scenario.task, stack, meshcat=meshcat, where=_origin(scenario, "task")
+        )
+    if scenario.jog is not None:
+        where = _origin(scenario, "jog")
+        topics.jog = AddJog(builder, scenario.jog, stack, meshcat=meshcat, where=where)
+        if topics.jog is not None:
+            closers.append(topics.jog.delete_controls)
+
+
+def _add_sensing(builder, scenario: Scenario, topics: WorldTopics, scene_graph, meshcat, where):
+    """The cameras (their live view, returned, or None), the detectors and perception;
+    ``where``: (the scenario file, the folder of ``clusters.json``, the view's host)."""
+    source, output_dir, host = where
+    topics.cameras, image_view = AddCameras(
+        builder,
+        scenario.camera,
+        plant=topics.plant,
+        scene_graph=scene_graph,
+        robot=topics.robot,
+        extra=scenario.cameras,
+        meshcat=meshcat,
+        host=host,
+        where=f"{source}: " if source else "",
+        source=sources_of(scenario).of("cameras"),
+    )
+    if scenario.vision is not None:
+        topics.detectors = AddDetectors(
+            builder,
+            scenario.vision,
+            topics.stack,
+            cameras=topics.cameras,
+            image_view=image_view,
+            where=_origin(scenario, "vision"),
+            console=scenario.logging.console_rate > 0,  # no console output: no keypoints
+        )
+    if scenario.perception is not None:
+        topics.perception = AddPerception(
+            builder,
+            scenario.perception,
+            cameras=topics.cameras,
+            robot_source=str(topics.robot.source),
+            meshcat=meshcat,
+            output_dir=output_dir,
+            source=source,
+        )
+    return image_view
+
+
+def _add_outputs(
+    builder, scenario: Scenario, topics: WorldTopics, scene_graph, meshcat, record, closers
+):
+    """The ROS 2 bag recorder (``record``), the live bridge and Meshcat's visualization
+    (returns its replay sampler, or None)."""
+    if record is not None:
+        closers.append(AddRosbagRecorder(builder, record, topics).close)
+    bridge = AddRos2Bridge(builder, scenario.ros2, topics)
+    if bridge is not None:
+        closers.append(bridge.close)
+    # Meshcat draws the world.
+    replay_sampler = None
+    if meshcat is not None and scenario.visualization.enable_meshcat_creation:
+        replay_sampler = AddVisualization(
+            builder,
+            scenario.visualization,
+            plant=topics.plant,
+            scene_graph=scene_graph,
+            meshcat=meshcat,
+            robot_instances=[topics.robot.model_instance],
+            ground=scenario.ground,
+        )
+    return replay_sampler
+
+
+def _start_positions(scenario: Scenario) -> list[tuple[list[float], str, str]]:
     """The joints' start positions the task and the jog give, with their origins."""
     starts = []
     if scenario.task is not None and scenario.task.start_positions:
         key = "task.start_positions"
-        starts.append((scenario.task.start_positions, origin(key), key))
+        starts.append((scenario.task.start_positions, _origin(scenario, key), key))
     if scenario.jog is not None and scenario.jog.home_positions:
         key = "jog.home_positions"
-        starts.append((scenario.jog.home_positions, origin(key), key))
+        starts.append((scenario.jog.home_positions, _origin(scenario, key), key))
     return starts
