@@ -73,22 +73,44 @@ from armando_drake.tools.cli import (
     wait_seconds,
 )
 
-CONTROLLER_TYPES = {
-    "position": "position_controllers/JointGroupPositionController",
-    "sinusoid": "position_controllers/JointGroupPositionController",
-    "trajectory": "joint_trajectory_controller/JointTrajectoryController",
+# What each --controller mode feeds its controller.
+_FEEDS = {
+    "position": "the target sequence",
+    "trajectory": "the same targets as one JointTrajectory",
+    "sinusoid": "a sinusoid",
 }
+
+
+def _controller_modes() -> dict[str, str]:
+    """What ``--controller`` chooses from: each mode of the command sequencer whose kind of
+    controller the registry has, with the type of that kind (``none``: only the joint
+    state broadcaster)."""
+    from armando_drake.control.controllers import controller_kinds, controller_type_for
+    from armando_drake.control.sequencer import CONTROLLER_KIND, MODE_NAMES
+
+    kinds = controller_kinds()
+    modes = {
+        mode: controller_type_for(CONTROLLER_KIND[config])
+        for config, mode in MODE_NAMES.items()
+        if CONTROLLER_KIND[config] in kinds
+    }
+    return modes | {"none": ""}
 
 
 def _parser() -> argparse.ArgumentParser:
     parser = command_parser("armando_drake.world", __doc__)
     add_scenario_arguments(parser)
+    modes = _controller_modes()
+    drives = [
+        f"{mode}: the first {type_name} of the controller YAML with {_FEEDS.get(mode, mode)}"
+        for mode, type_name in modes.items()
+        if type_name
+    ]
     parser.add_argument(
         "--controller",
-        choices=["position", "trajectory", "sinusoid", "none"],
-        help="what drives the arm: the position controller with the target sequence, "
-        "the trajectory controller with the same targets as one JointTrajectory, the "
-        "position controller with a sinusoid, or nothing (default: as the scenario says)",
+        choices=list(modes),
+        help=f"what drives the arm: {'; '.join(drives)}; none: nothing but the joint state "
+        "broadcaster (default: as the scenario says)",
     )
     parser.add_argument(
         "--duration",
@@ -180,14 +202,16 @@ def _apply_controller(scenario, mode: str) -> None:
     sinusoid the scenario has, else runs the seed's wave (Sinusoid's
     defaults).
     """
+    from armando_drake.control.controllers import controller_type_for
     from armando_drake.control.sequencer import (
+        CONTROLLER_KIND,
         JointTrajectoryTargets,
         PositionTargets,
         Sinusoid,
     )
 
     # The YAML's joint state broadcaster, whatever its name (ROS 1: JointStateController).
-    broadcasters = ["type:joint_state_broadcaster/JointStateBroadcaster"]
+    broadcasters = [f"type:{controller_type_for('broadcaster')}"]
     if mode == "none":
         scenario.controllers.activate = broadcasters
         scenario.sequencer = None
@@ -206,8 +230,8 @@ def _apply_controller(scenario, mode: str) -> None:
             )
         else:
             scenario.sequencer = kind()
-    # The first controller of the right type in the controller YAML.
-    wanted = CONTROLLER_TYPES[mode]
+    # The first controller of the type of the sequencer's kind in the controller YAML.
+    wanted = controller_type_for(CONTROLLER_KIND[type(scenario.sequencer)])
     scenario.controllers.activate = broadcasters + [f"type:{wanted}"]
 
 

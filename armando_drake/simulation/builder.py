@@ -52,7 +52,11 @@ from armando_drake.control.config import (
     parse_controller_config,
     validate_joints,
 )
-from armando_drake.control.controllers import ControllerJoints, lookup
+from armando_drake.control.controllers import (
+    ControllerJoints,
+    default_controller_config,
+    find_controller,
+)
 from armando_drake.control.hardware import (
     AddEffortState,
     AddHardwareInterface,
@@ -68,7 +72,6 @@ from armando_drake.control.manager import (
     ManagedController,
 )
 from armando_drake.control.messages import Float64MultiArray, JointTrajectory, Publication
-from armando_drake.description.importer import default_controller_config
 from armando_drake.description.loader import LoadedRobot, load_robot, package_of
 from armando_drake.sensors.objects import AddSceneObjects, SceneObjectError
 from armando_drake.simulation.scenario import Scenario, ScenarioError, sources_of
@@ -454,7 +457,10 @@ def _add_controller_manager(builder, world: World, scenario: Scenario, where: st
     broadcaster = None
     managed = []  # ManagedController, in activation order
     for name in scenario.controllers.activate:
-        name = _controller_name(name, config, where)
+        try:
+            name = find_controller(name, config, where)
+        except LookupError as error:
+            raise ScenarioError(str(error)) from None
         if name not in config.controllers:
             raise ScenarioError(
                 f"{where}controllers.activate names {name!r}, which {config.source} does not "
@@ -685,52 +691,6 @@ def _export_free_ports(builder: DiagramBuilder, world: World) -> None:
         if not builder.IsConnectedOrExported(port):
             builder.ExportInput(port, port_name)
         builder.ExportOutput(system.GetOutputPort(f"{name}.status"), f"{name}.status")
-
-
-def _controller_name(entry: str, config: ControllerManagerConfig, where: str) -> str:
-    """A controller name, or for ``type:<plugin>`` the first controller of that type.
-
-    Else, for a broadcaster, the first broadcaster (ROS 1's
-    ``joint_state_controller/JointStateController`` for
-    ``type:joint_state_broadcaster/JointStateBroadcaster``); for a command
-    controller, one of another type that reads the same message on the same
-    command interface (a ForwardCommandController on position for
-    ``type:position_controllers/JointGroupPositionController``, ROS 1's
-    ``position_controllers/JointTrajectoryController`` for the trajectory type)
-    or, for a position type, that takes positions whatever it commands (ROS 1's
-    ``effort_controllers/JointTrajectoryController``).
-    """
-    if not entry.startswith("type:"):
-        return entry
-    wanted = entry[len("type:") :]
-    try:
-        wanted_class = lookup(wanted)
-    except KeyError as error:
-        raise ScenarioError(f"{where}controllers.activate: {error.args[0]}") from None
-    matches = [name for name, c in config.controllers.items() if c.supported and c.type == wanted]
-    if not matches and wanted_class.broadcaster:
-        matches = [
-            name
-            for name, c in config.controllers.items()
-            if c.supported and c.controller_class.broadcaster
-        ]
-    if not matches and not wanted_class.broadcaster:
-        matches = [
-            name
-            for name, c in config.controllers.items()
-            if c.supported
-            and c.controller_class.message is wanted_class.message
-            and (
-                c.interface_name == wanted_class.fixed_interface
-                or (wanted_class.fixed_interface == "position" and c.position_targets)
-            )
-        ]
-    if matches:
-        return matches[0]
-    raise ScenarioError(
-        f"{where}controllers.activate asks for a {wanted} controller; {config.source} "
-        f"defines none (defined: {', '.join(config.controllers) or 'none'})"
-    )
 
 
 def _managed_controller(world: World, controller: ControllerConfig, joints) -> ManagedController:
