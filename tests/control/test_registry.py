@@ -278,6 +278,8 @@ def test_an_entry_point_that_fails_to_import_is_an_error_naming_it(install):
     assert message.startswith("controller module 'broken_controllers' (entry point 'broken' ")
     assert message.endswith("failed to import: RuntimeError: no such hardware")
     assert error.value.name == "broken_controllers"
+    with pytest.raises(ImportError, match="'broken_controllers'"):  # at every lookup
+        registered_types()
 
 
 def test_an_entry_point_naming_a_missing_object_is_an_error(install):

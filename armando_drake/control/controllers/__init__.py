@@ -30,10 +30,10 @@ table per ROS generation, ``register(type, ros=1)`` for the ROS 1 ones
 ROS 2 counterparts).
 
 The rest of the code never names a type string: it asks the registry by *kind*
-(``register(type, kind="position")``; :func:`controller_type_for`), finds a
-controller of a YAML by type or kind with :func:`find_controller`, and gets the
-configuration of a robot that comes without one from
-:func:`default_controller_config`.
+(``register(type, kind="position")``; :func:`controller_type_for`), finds the
+controller of a YAML that an activation names by name or type with
+:func:`find_controller`, and gets the configuration of a robot that comes without
+one from :func:`default_controller_config`.
 
 Adding a controller type is one module that subclasses :class:`Controller` and
 decorates it with ``@register("<ros type>")``. The modules of this package are
@@ -634,25 +634,28 @@ def load_entry_points() -> tuple[str, ...]:
     that is not imported yet (each registers its types); the values imported now.
     :func:`lookup` and the other queries call it once, before their first answer."""
     global _entry_points_loaded
-    _entry_points_loaded = True
+    _entry_points_loaded = True  # already while loading: a module may look a type up
     loaded = []
-    for entry_point in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
-        if entry_point.value in _loaded_entry_points:
-            continue
-        _loaded_entry_points.add(entry_point.value)
-        module, _, attribute = entry_point.value.partition(":")
-        distribution = entry_point.dist.name if entry_point.dist else "an unknown distribution"
-        imported = _import(
-            module.strip(),
-            f"entry point {entry_point.name!r} of {ENTRY_POINT_GROUP!r} in {distribution}",
-        )
-        if attribute and not hasattr(imported, attribute.strip()):
-            raise ImportError(
-                f"controller entry point {entry_point.name!r} = {entry_point.value!r}: "
-                f"module {module.strip()!r} has no {attribute.strip()!r}",
-                name=module.strip(),
+    try:
+        for entry_point in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
+            if entry_point.value in _loaded_entry_points:
+                continue
+            dist = entry_point.dist.name if entry_point.dist else "an unknown distribution"
+            imported = _import(
+                entry_point.module,
+                f"entry point {entry_point.name!r} of {ENTRY_POINT_GROUP!r} in {dist}",
             )
-        loaded.append(entry_point.value)
+            if entry_point.attr and not hasattr(imported, entry_point.attr):
+                raise ImportError(
+                    f"controller entry point {entry_point.name!r} = {entry_point.value!r}: "
+                    f"module {entry_point.module!r} has no {entry_point.attr!r}",
+                    name=entry_point.module,
+                )
+            _loaded_entry_points.add(entry_point.value)
+            loaded.append(entry_point.value)
+    except ImportError:
+        _entry_points_loaded = False  # the next lookup raises it again
+        raise
     return tuple(loaded)
 
 
