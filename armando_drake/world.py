@@ -57,8 +57,16 @@ import argparse
 import logging
 import math
 import time
+from pathlib import Path
 
-from armando_drake.control.sequencer import JointTrajectoryTargets, PositionTargets, Sinusoid
+from armando_drake.control.controllers import controller_kinds, controller_type_for
+from armando_drake.control.sequencer import (
+    CONTROLLER_KIND,
+    MODE_NAMES,
+    JointTrajectoryTargets,
+    PositionTargets,
+    Sinusoid,
+)
 from armando_drake.outputs.recording import RecordingError, check_recording_path
 from armando_drake.outputs.view import serve_until_interrupted
 from armando_drake.simulation.run import format_table, run
@@ -82,22 +90,42 @@ from armando_drake.tools.cli import (
     wait_seconds,
 )
 
-CONTROLLER_TYPES = {
-    "position": "position_controllers/JointGroupPositionController",
-    "sinusoid": "position_controllers/JointGroupPositionController",
-    "trajectory": "joint_trajectory_controller/JointTrajectoryController",
+# What each --controller mode feeds its controller.
+_FEEDS = {
+    "position": "the target sequence",
+    "trajectory": "the same targets as one JointTrajectory",
+    "sinusoid": "a sinusoid",
 }
+
+
+def _controller_modes() -> dict[str, str]:
+    """What ``--controller`` chooses from: each mode of the command sequencer whose kind of
+    controller the registry has, with the type of that kind (``none``: only the joint
+    state broadcaster)."""
+
+    kinds = controller_kinds()
+    modes = {
+        mode: controller_type_for(CONTROLLER_KIND[config])
+        for config, mode in MODE_NAMES.items()
+        if CONTROLLER_KIND[config] in kinds
+    }
+    return modes | {"none": ""}
 
 
 def _parser() -> argparse.ArgumentParser:
     parser = command_parser("armando_drake.world", __doc__)
     add_scenario_arguments(parser)
+    modes = _controller_modes()
+    drives = [
+        f"{mode}: the first {type_name} of the controller YAML with {_FEEDS.get(mode, mode)}"
+        for mode, type_name in modes.items()
+        if type_name
+    ]
     parser.add_argument(
         "--controller",
-        choices=["position", "trajectory", "sinusoid", "none"],
-        help="what drives the arm: the position controller with the target sequence, "
-        "the trajectory controller with the same targets as one JointTrajectory, the "
-        "position controller with a sinusoid, or nothing (default: as the scenario says)",
+        choices=list(modes),
+        help=f"what drives the arm: {'; '.join(drives)}; none: nothing but the joint state "
+        "broadcaster (default: as the scenario says)",
     )
     parser.add_argument(
         "--duration",
@@ -191,7 +219,7 @@ def _apply_controller(scenario, mode: str) -> None:
     """
 
     # The YAML's joint state broadcaster, whatever its name (ROS 1: JointStateController).
-    broadcasters = ["type:joint_state_broadcaster/JointStateBroadcaster"]
+    broadcasters = [f"type:{controller_type_for('broadcaster')}"]
     if mode == "none":
         scenario.controllers.activate = broadcasters
         scenario.sequencer = None
@@ -210,8 +238,8 @@ def _apply_controller(scenario, mode: str) -> None:
             )
         else:
             scenario.sequencer = kind()
-    # The first controller of the right type in the controller YAML.
-    wanted = CONTROLLER_TYPES[mode]
+    # The first controller of the type of the sequencer's kind in the controller YAML.
+    wanted = controller_type_for(CONTROLLER_KIND[type(scenario.sequencer)])
     scenario.controllers.activate = broadcasters + [f"type:{wanted}"]
 
 
@@ -336,8 +364,6 @@ def _vision_line(vision: dict) -> str:
 def _print_outputs(output: str, since: float) -> None:
     """The files the run wrote to ``output`` (modified after ``since``, a ``time.time()``),
     by kind: what it wrote, not what it might have."""
-    from pathlib import Path
-
     written = sorted(
         p.name for p in Path(output).iterdir() if p.is_file() and p.stat().st_mtime >= since
     )
@@ -372,8 +398,6 @@ def _check_record(record: str) -> None:
 
 def _check_output(output: str, option: str = "--output") -> None:
     """``output`` is a folder (made if missing) where files can be written."""
-    from pathlib import Path
-
     path = Path(output)
     try:
         path.mkdir(parents=True, exist_ok=True)

@@ -6,7 +6,7 @@ The file is the one a ROS 2 user already has::
       ros__parameters:
         update_rate: 100
         position_controller:
-          type: position_controllers/JointGroupPositionController
+          type: <package>/<Type>         # a type of the controller registry
     position_controller:
       ros__parameters:
         joints: [j0, j1, j2, j3]
@@ -23,11 +23,8 @@ A ROS 1 (``ros_control``) file, one with no ``ros__parameters`` anywhere, is
 read too::
 
     rrbot:                               # any namespace, or none
-      joint_state_controller:
-        type: joint_state_controller/JointStateController
-        publish_rate: 50
       joint1_position_controller:
-        type: effort_controllers/JointPositionController
+        type: <package>/<Type>           # a ROS 1 type of the registry
         joint: joint1
         pid: {p: 100.0, i: 0.01, d: 10.0}
 

@@ -135,8 +135,9 @@ class Sinusoid:
 
 # What drives the controllers; a YAML tag chooses (!PositionTargets, ...).
 SequencerConfig = PositionTargets | JointTrajectoryTargets | Sinusoid
-# The controller a sequencer feeds, by configuration type: "position" (a
-# JointGroupPositionController's commands) or "trajectory".
+# The kind of controller a sequencer feeds, by configuration type: "position" (the
+# commands of a group position controller) or "trajectory" (a JointTrajectory); the
+# controller registry's kinds (armando_drake.control.controllers.controller_type_for).
 CONTROLLER_KIND = {
     PositionTargets: "position",
     JointTrajectoryTargets: "trajectory",

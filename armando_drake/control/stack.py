@@ -30,7 +30,11 @@ from armando_drake.control.config import (
     parse_controller_config,
     validate_joints,
 )
-from armando_drake.control.controllers import ControllerJoints, lookup
+from armando_drake.control.controllers import (
+    ControllerJoints,
+    default_controller_config,
+    find_controller,
+)
 from armando_drake.control.hardware import (
     AddEffortState,
     AddHardwareInterface,
@@ -46,7 +50,6 @@ from armando_drake.control.manager import (
     ManagedController,
 )
 from armando_drake.control.sequencer import stream_controller
-from armando_drake.description.importer import default_controller_config
 from armando_drake.description.loader import LoadedRobot
 from armando_drake.description.packages import package_of
 from armando_drake.tools.errors import ScenarioError
@@ -382,46 +385,12 @@ def _activate(stack: ControlStack, activate: Sequence[str], where: str):
 
 
 def controller_name(entry: str, config: ControllerManagerConfig, where: str) -> str:
-    """A controller name, or for ``type:<plugin>`` the first controller of that type.
-
-    Else, for a broadcaster, the first broadcaster (ROS 1's joint state controller
-    for ROS 2's joint state broadcaster type); for a command controller, one of
-    another type that reads the same message on the same command interface (a
-    forward command controller on position for the group position type, ROS 1's
-    position trajectory controller for the trajectory type) or, for a position type,
-    that takes positions whatever it commands (ROS 1's effort trajectory controller).
-    """
-    if not entry.startswith("type:"):
-        return entry
-    wanted = entry[len("type:") :]
+    """The controller of ``config`` an activation ``entry`` names (a name, or
+    ``type:<plugin>``: :func:`~armando_drake.control.controllers.find_controller`)."""
     try:
-        wanted_class = lookup(wanted)
-    except KeyError as error:
-        raise ScenarioError(f"{where}controllers.activate: {error.args[0]}") from None
-    matches = [name for name, c in config.controllers.items() if c.supported and c.type == wanted]
-    if not matches and wanted_class.broadcaster:
-        matches = [
-            name
-            for name, c in config.controllers.items()
-            if c.supported and c.controller_class.broadcaster
-        ]
-    if not matches and not wanted_class.broadcaster:
-        matches = [
-            name
-            for name, c in config.controllers.items()
-            if c.supported
-            and c.controller_class.message is wanted_class.message
-            and (
-                c.interface_name == wanted_class.fixed_interface
-                or (wanted_class.fixed_interface == "position" and c.position_targets)
-            )
-        ]
-    if matches:
-        return matches[0]
-    raise ScenarioError(
-        f"{where}controllers.activate asks for a {wanted} controller; {config.source} "
-        f"defines none (defined: {', '.join(config.controllers) or 'none'})"
-    )
+        return find_controller(entry, config, where)
+    except LookupError as error:
+        raise ScenarioError(str(error.args[0])) from None
 
 
 def _managed_controller(

@@ -32,8 +32,9 @@ a Collada visual shows its own materials rather than the URDF ``<material>``.
 :func:`actuation` tells which joints are actuated, with their command
 interfaces (from ``<ros2_control>``, ROS 1 transmissions, or every moving
 joint; never a ``<mimic>`` joint), :func:`actuated_joints` which of them take
-position commands, and :func:`default_controller_config` writes a ros2_control
-controller configuration for a robot that comes without one.
+position commands (the joints of the default controller configuration,
+:func:`armando_drake.control.controllers.default_controller_config`, of a robot that
+comes without one).
 """
 
 from __future__ import annotations
@@ -715,39 +716,3 @@ def actuated_joints(root: ET.Element) -> tuple[list[str], str]:
     else:
         names = list(interfaces)
     return names, source
-
-
-def default_controller_config(joints: list[str], *, update_rate: int = 100) -> dict:
-    """A ros2_control controller configuration (YAML layout, as a dict) for ``joints``.
-
-    A joint state broadcaster, a group position controller and a joint
-    trajectory controller, all on ``joints``, at ``update_rate`` Hz.
-    """
-    if not joints:
-        raise ValueError("joints=[] must name at least one joint")
-    if update_rate <= 0:
-        raise ValueError(f"update_rate={update_rate!r} must be positive")
-    return {
-        "controller_manager": {
-            "ros__parameters": {
-                "update_rate": update_rate,
-                "joint_state_broadcaster": {
-                    "type": "joint_state_broadcaster/JointStateBroadcaster"
-                },
-                "position_controller": {
-                    "type": "position_controllers/JointGroupPositionController"
-                },
-                "trajectory_controller": {
-                    "type": "joint_trajectory_controller/JointTrajectoryController"
-                },
-            }
-        },
-        "position_controller": {"ros__parameters": {"joints": list(joints)}},
-        "trajectory_controller": {
-            "ros__parameters": {
-                "joints": list(joints),
-                "command_interfaces": ["position"],
-                "state_interfaces": ["position", "velocity"],
-            }
-        },
-    }

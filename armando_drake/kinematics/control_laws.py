@@ -231,10 +231,10 @@ class OperationalSpaceInverseDynamics(_TorqueLaw):
 
 @dataclass(frozen=True)
 class TorqueLawType:
-    """What a controller registry needs to register a torque law (registered by
-    :mod:`armando_drake.control.controllers.task_space`)."""
+    """What a controller registry needs to register a torque law (registered, under
+    the type strings it owns, by :mod:`armando_drake.control.controllers.task_space`)."""
 
-    type: str  # the ROS-style type string a controller YAML names
+    name: str  # the law's name: its class's
     params: type  # the parameters dataclass, the yaml_load_typed schema of ros__parameters
     law: type  # the law class, built as law(arm=ArmModel, params=params)
     reference: str  # "joint": [q_d; v_d; a_d] (3 n); "cartesian": CARTESIAN_REFERENCE_LAYOUT
@@ -242,12 +242,12 @@ class TorqueLawType:
     state_interfaces: tuple[str, ...]  # read per joint
 
 
-#: The two laws, keyed by their type string, for the controller registry to register.
+#: The two laws, keyed by their name, for the controller registry to register.
 TORQUE_LAWS = {
-    entry.type: entry
+    entry.name: entry
     for entry in (
         TorqueLawType(
-            type="task_space_controllers/JointSpaceInverseDynamics",
+            name=JointSpaceInverseDynamics.__name__,
             params=JointSpaceInverseDynamicsParams,
             law=JointSpaceInverseDynamics,
             reference="joint",
@@ -255,7 +255,7 @@ TORQUE_LAWS = {
             state_interfaces=("position", "velocity"),
         ),
         TorqueLawType(
-            type="task_space_controllers/OperationalSpaceInverseDynamics",
+            name=OperationalSpaceInverseDynamics.__name__,
             params=OperationalSpaceInverseDynamicsParams,
             law=OperationalSpaceInverseDynamics,
             reference="cartesian",

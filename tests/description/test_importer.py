@@ -30,10 +30,10 @@ from pydrake.multibody.tree import BodyIndex
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.sensors import CameraInfo
 
+from armando_drake.control.controllers import default_controller_config
 from armando_drake.description.importer import (
     DEFAULT_MASS,
     actuated_joints,
-    default_controller_config,
     prepare_urdf,
 )
 from armando_drake.description.loader import DescriptionError, find_packages, load_robot

@@ -29,9 +29,23 @@ table per ROS generation, ``register(type, ros=1)`` for the ROS 1 ones
 (:mod:`.ros1`, mapped onto the same logic and command interfaces as their
 ROS 2 counterparts).
 
-Adding a controller type is one new module that subclasses :class:`Controller`,
-decorates it with ``@register("<ros type>")`` and is imported at the end of this
-file (or anywhere before the YAML is read, e.g. from a test module).
+The rest of the code never names a type string: it asks the registry by *kind*
+(``register(type, kind="position")``; :func:`controller_type_for`), finds the
+controller of a YAML that an activation names by name or type with
+:func:`find_controller`, and gets the configuration of a robot that comes without
+one from :func:`default_controller_config`.
+
+Adding a controller type is one module that subclasses :class:`Controller` and
+decorates it with ``@register("<ros type>")``. The modules of this package are
+found and imported when it is imported (:func:`pkgutil.iter_modules`: no list to
+keep); a module of another distribution is declared as a Python entry point in the
+group ``armando_drake.controllers`` (as pluginlib's plugin XML declares a
+library) and imported once, before the first lookup::
+
+    [project.entry-points."armando_drake.controllers"]
+    my_controllers = "my_package.my_controllers"
+
+A module that fails to import is an :class:`ImportError` naming it.
 
 Every rejected message is logged on ``armando_drake.control.controllers`` with
 upstream's wording and counted in the controller's status; the controller keeps
@@ -41,10 +55,13 @@ its previous command.
 from __future__ import annotations
 
 import dataclasses
+import importlib
+import importlib.metadata
 import logging
 import math
+import pkgutil
 from collections.abc import Callable, Sequence
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 import yaml
@@ -52,6 +69,9 @@ from pydrake.common.yaml import yaml_load_typed
 from pydrake.systems.framework import EventStatus
 
 from armando_drake.messages.types import ControllerStatus
+
+if TYPE_CHECKING:  # the YAML's dataclasses import this package
+    from armando_drake.control.config import ControllerManagerConfig
 
 _logger = logging.getLogger("armando_drake.control.controllers")
 
@@ -83,19 +103,33 @@ class Rejected(Exception):
 # One table per ROS generation: ROS 2 (ros2_control) and ROS 1 (ros_control).
 _REGISTRIES: dict[int, dict[str, type[Controller]]] = {1: {}, 2: {}}
 _REGISTRY = _REGISTRIES[2]
+# Per ROS generation, the type of each kind (see register()).
+_KINDS: dict[int, dict[str, str]] = {1: {}, 2: {}}
+
+# The entry-point group of the controller modules of other distributions.
+ENTRY_POINT_GROUP = "armando_drake.controllers"
 
 
 def _table(ros: int) -> dict[str, type[Controller]]:
     if ros not in _REGISTRIES:
         raise ValueError(f"ros={ros!r} must be 1 (ros_control) or 2 (ros2_control)")
+    _load_entry_points_once()
     return _REGISTRIES[ros]
 
 
-def register(type_name: str, *, ros: int = 2) -> Callable[[type[Controller]], type[Controller]]:
+def register(
+    type_name: str, *, ros: int = 2, kind: str | None = None
+) -> Callable[[type[Controller]], type[Controller]]:
     """Class decorator: registers a :class:`Controller` subclass under ``type_name``
     (the ROS plugin type string) of ROS generation ``ros`` (2: ros2_control, 1:
-    ros_control). Registering a name twice in one generation is an error."""
-    table = _table(ros)
+    ros_control). ``kind`` names the role the rest of the code asks for by
+    (``"broadcaster"``, ``"position"``, ``"trajectory"``: the joint state broadcaster,
+    the controller a sequence of position targets drives, the one a JointTrajectory
+    drives); one type per kind and generation. Registering a name (or a kind) twice
+    in one generation is an error."""
+    if ros not in _REGISTRIES:
+        raise ValueError(f"ros={ros!r} must be 1 (ros_control) or 2 (ros2_control)")
+    table, kinds = _REGISTRIES[ros], _KINDS[ros]
 
     def decorate(cls: type[Controller]) -> type[Controller]:
         if type_name in table and table[type_name] is not cls:
@@ -103,9 +137,15 @@ def register(type_name: str, *, ros: int = 2) -> Callable[[type[Controller]], ty
                 f"controller type {type_name!r} is already registered by "
                 f"{table[type_name].__module__}.{table[type_name].__qualname__}"
             )
+        if kind is not None and kinds.get(kind, type_name) != type_name:
+            raise ValueError(
+                f"kind={kind!r} of {type_name!r} is already the kind of {kinds[kind]!r}"
+            )
         if not dataclasses.is_dataclass(cls.parameters):
             raise TypeError(f"{cls.__qualname__}.parameters must be a dataclass")
         table[type_name] = cls
+        if kind is not None:
+            kinds[kind] = type_name
         cls.type_names = (*cls.__dict__.get("type_names", ()), type_name)
         cls.ros = ros
         return cls
@@ -114,8 +154,11 @@ def register(type_name: str, *, ros: int = 2) -> Callable[[type[Controller]], ty
 
 
 def unregister(type_name: str, *, ros: int = 2) -> None:
-    """Removes a registered type (for tests that register a toy type)."""
+    """Removes a registered type, and its kind (for tests that register a toy type)."""
     _table(ros).pop(type_name, None)
+    kinds = _KINDS[ros]
+    for kind in [kind for kind, name in kinds.items() if name == type_name]:
+        del kinds[kind]
 
 
 def lookup(type_name: str, *, ros: int = 2) -> type[Controller]:
@@ -140,10 +183,102 @@ def types_accepting(message: type, interface: str | None = None) -> tuple[str, .
     whose fixed command interface is ``interface``), in registration order."""
     return tuple(
         name
-        for name, cls in _REGISTRY.items()
+        for name, cls in _table(2).items()
         if cls.message is message
         and (interface is None or cls.fixed_interface in (None, interface))
     )
+
+
+def controller_kinds(*, ros: int = 2) -> tuple[str, ...]:
+    """The kinds some type of ROS generation ``ros`` is registered as, in registration
+    order."""
+    _table(ros)
+    return tuple(_KINDS[ros])
+
+
+def controller_type_for(kind: str, *, ros: int = 2) -> str:
+    """The type string registered as ``kind`` in ROS generation ``ros``; KeyError
+    naming the known kinds."""
+    _table(ros)
+    try:
+        return _KINDS[ros][kind]
+    except KeyError:
+        known = ", ".join(_KINDS[ros]) or "none"
+        raise KeyError(f"no controller type of kind {kind!r}; kinds: {known}") from None
+
+
+def find_controller(entry: str, config: ControllerManagerConfig, where: str = "") -> str:
+    """The controller of ``config`` an activation ``entry`` names: a controller name as
+    it is, or for ``type:<plugin>`` the first supported controller of that type.
+
+    Else, for a broadcaster type, the first broadcaster (ROS 1's joint state
+    controller for ROS 2's broadcaster); for a command type, one of another type that
+    reads the same message on the same command interface (a ForwardCommandController
+    on position for the group position controller, ROS 1's position trajectory
+    controller for the trajectory controller) or, for a position type, one that takes
+    positions whatever it commands (ROS 1's effort trajectory controller). No match
+    is a :class:`LookupError` starting with ``where`` (the scenario's file or
+    override) and naming the controllers the file defines."""
+    if not entry.startswith("type:"):
+        return entry
+    wanted = entry[len("type:") :]
+    try:
+        wanted_class = lookup(wanted)
+    except KeyError as error:
+        raise LookupError(f"{where}controllers.activate: {error.args[0]}") from None
+    supported = [(name, c) for name, c in config.controllers.items() if c.supported]
+    matches = [name for name, c in supported if c.type == wanted]
+    if not matches and wanted_class.broadcaster:
+        matches = [name for name, c in supported if c.controller_class.broadcaster]
+    if not matches and not wanted_class.broadcaster:
+        matches = [
+            name
+            for name, c in supported
+            if c.controller_class.message is wanted_class.message
+            and (
+                c.interface_name == wanted_class.fixed_interface
+                or (wanted_class.fixed_interface == "position" and c.position_targets)
+            )
+        ]
+    if matches:
+        return matches[0]
+    raise LookupError(
+        f"{where}controllers.activate asks for a {wanted} controller; {config.source} "
+        f"defines none (defined: {', '.join(config.controllers) or 'none'})"
+    )
+
+
+# The controllers of the default configuration, by name: the kind of each.
+DEFAULT_CONTROLLERS = {
+    "joint_state_broadcaster": "broadcaster",
+    "position_controller": "position",
+    "trajectory_controller": "trajectory",
+}
+
+
+def default_controller_config(joints: Sequence[str], *, update_rate: int = 100) -> dict:
+    """A ros2_control controller configuration (YAML layout, as a dict) for ``joints``,
+    for a robot that comes without one.
+
+    One controller of each kind of :data:`DEFAULT_CONTROLLERS` (a joint state
+    broadcaster, a group position controller and a joint trajectory controller, as
+    the registry's types of those kinds), on ``joints`` with the smallest parameters
+    their types load with (:meth:`Controller.minimal_ros_parameters`), at
+    ``update_rate`` Hz.
+    """
+    if not joints:
+        raise ValueError(f"joints={list(joints)!r} must name at least one joint")
+    if update_rate <= 0:
+        raise ValueError(f"update_rate={update_rate!r} must be positive")
+    manager: dict[str, Any] = {"update_rate": update_rate}
+    config: dict[str, Any] = {"controller_manager": {"ros__parameters": manager}}
+    for name, kind in DEFAULT_CONTROLLERS.items():
+        type_name = controller_type_for(kind)
+        manager[name] = {"type": type_name}
+        parameters = lookup(type_name).minimal_ros_parameters(list(joints))
+        if parameters:
+            config[name] = {"ros__parameters": parameters}
+    return config
 
 
 # --------------------------------------------------------------------------------------
@@ -399,15 +534,17 @@ class Controller:
         raise NotImplementedError(f"{type(self).__qualname__} takes no command stream")
 
     @classmethod
-    def publish_rate(cls, params) -> float | None:
-        """[Hz] the rate a broadcaster publishes at, when its parameters set one
-        (ROS 1's ``publish_rate``); None = the controller manager's update rate."""
-        return None
-
-    @classmethod
     def joints_of(cls, params) -> list[str]:
         """The joints the controller claims ([] = every hardware joint)."""
         return list(params.joints)
+
+    @classmethod
+    def minimal_ros_parameters(cls, joints: list[str]) -> dict[str, Any]:
+        """The smallest ``ros__parameters`` a controller YAML gives this type to run it
+        on ``joints`` with its defaults (:func:`default_controller_config`): the joints,
+        when its parameters have them."""
+        fields = {f.name for f in dataclasses.fields(cls.parameters)}
+        return {"joints": list(joints)} if "joints" in fields else {}
 
     def __init__(self, *, name: str, joints: ControllerJoints, params=None):
         self.name = name  # the controller's name in log lines
@@ -463,36 +600,94 @@ class Controller:
         _logger.warning("%s: %s", name, text)
 
 
+# --------------------------------------------------------------------------------------
+# Discovery: the modules of this package, then the entry points of other distributions
+
+
+def _import(module: str, origin: str):
+    """Imports ``module`` (the controller module ``origin`` names); an ImportError naming
+    it when it fails, whatever it raised."""
+    try:
+        return importlib.import_module(module)
+    except Exception as error:  # a module's import can raise anything
+        raise ImportError(
+            f"controller module {module!r} ({origin}) failed to import: "
+            f"{type(error).__name__}: {error}",
+            name=module,
+        ) from error
+
+
+def _import_package_modules() -> None:
+    """Imports every module of this package (each registers its types), in name order;
+    private modules (``_name``) are helpers, not controller types."""
+    for module in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
+        if not module.name.startswith("_"):
+            _import(f"{__name__}.{module.name}", f"in {__name__}")
+
+
+_entry_points_loaded = False
+_loaded_entry_points: set[str] = set()  # the values already imported
+
+
+def load_entry_points() -> tuple[str, ...]:
+    """Imports each module declared in the entry-point group ``armando_drake.controllers``
+    that is not imported yet (each registers its types); the values imported now.
+    :func:`lookup` and the other queries call it once, before their first answer."""
+    global _entry_points_loaded
+    _entry_points_loaded = True  # already while loading: a module may look a type up
+    loaded = []
+    try:
+        for entry_point in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
+            if entry_point.value in _loaded_entry_points:
+                continue
+            dist = entry_point.dist.name if entry_point.dist else "an unknown distribution"
+            imported = _import(
+                entry_point.module,
+                f"entry point {entry_point.name!r} of {ENTRY_POINT_GROUP!r} in {dist}",
+            )
+            if entry_point.attr and not hasattr(imported, entry_point.attr):
+                raise ImportError(
+                    f"controller entry point {entry_point.name!r} = {entry_point.value!r}: "
+                    f"module {entry_point.module!r} has no {entry_point.attr!r}",
+                    name=entry_point.module,
+                )
+            _loaded_entry_points.add(entry_point.value)
+            loaded.append(entry_point.value)
+    except ImportError:
+        _entry_points_loaded = False  # the next lookup raises it again
+        raise
+    return tuple(loaded)
+
+
+def _load_entry_points_once() -> None:
+    if not _entry_points_loaded:
+        load_entry_points()
+
+
 # The controller types shipped with the package register themselves on import.
-from armando_drake.control.controllers import (  # noqa: E402  (after the registry)
-    broadcaster,
-    forward_command,
-    joint_trajectory,
-    look_at,
-    ros1,
-    task_space,
-)
+_import_package_modules()
 
 __all__ = [
     "COMMAND_INTERFACES",
+    "DEFAULT_CONTROLLERS",
     "DID_NOTHING",
+    "ENTRY_POINT_GROUP",
     "Controller",
     "ControllerJoints",
     "ControllerMemory",
     "ParameterError",
     "Rejected",
-    "broadcaster",
-    "forward_command",
-    "joint_trajectory",
+    "controller_kinds",
+    "controller_type_for",
+    "default_controller_config",
+    "find_controller",
     "joint_list",
-    "task_space",
-    "look_at",
+    "load_entry_points",
     "load_parameters",
     "lookup",
     "non_negative",
     "register",
     "registered_types",
-    "ros1",
     "types_accepting",
     "unregister",
 ]

@@ -107,7 +107,7 @@ class JointStateBroadcasterParameters:
         return not self.joints or not self.interfaces
 
 
-@register("joint_state_broadcaster/JointStateBroadcaster")
+@register("joint_state_broadcaster/JointStateBroadcaster", kind="broadcaster")
 class JointStateBroadcaster(Controller):
     """The broadcaster's message: a :class:`JointState` of its joints."""
 
@@ -122,6 +122,16 @@ class JointStateBroadcaster(Controller):
     @classmethod
     def default_parameters(cls, joints):
         return cls.parameters()
+
+    @classmethod
+    def minimal_ros_parameters(cls, joints: list[str]) -> dict[str, Any]:
+        return {}  # every joint of the hardware
+
+    @classmethod
+    def publish_rate(cls, params) -> float | None:
+        """[Hz] the rate it publishes at, when its parameters set one (ROS 1's
+        ``publish_rate``); None = the controller manager's update rate."""
+        return None
 
     def __init__(self, *, name, joints, params=None):
         super().__init__(name=name, joints=joints, params=params)

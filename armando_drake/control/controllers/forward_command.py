@@ -153,7 +153,7 @@ class ForwardCommandController(Controller):
         return ControllerMemory(memory.desired, status, effort=command)
 
 
-@register("position_controllers/JointGroupPositionController")
+@register("position_controllers/JointGroupPositionController", kind="position")
 class JointGroupPositionController(ForwardCommandController):
     """A ForwardCommandController on the position interface [rad]."""
 

@@ -659,7 +659,7 @@ class _PidState:
     pending: bool = False
 
 
-@register("joint_trajectory_controller/JointTrajectoryController")
+@register("joint_trajectory_controller/JointTrajectoryController", kind="trajectory")
 class JointTrajectoryController(Controller):
     """The logic of ``joint_trajectory_controller/JointTrajectoryController`` (see the
     module docstring); the controller manager runs it."""
@@ -809,6 +809,15 @@ class JointTrajectoryController(Controller):
     @classmethod
     def position_targets(cls, params) -> bool:
         return True  # its trajectories are positions, whatever interface it commands
+
+    @classmethod
+    def minimal_ros_parameters(cls, joints: list[str]) -> dict[str, Any]:
+        # Upstream has no default for the interfaces: a YAML names them.
+        return {
+            "joints": list(joints),
+            "command_interfaces": ["position"],
+            "state_interfaces": ["position", "velocity"],
+        }
 
     def configure(self, *, update_rate: int) -> None:
         """The controller manager's rate: the trajectory is sampled one period ahead."""

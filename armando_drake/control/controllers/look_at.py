@@ -240,6 +240,3 @@ __all__ = [
     "LookAtPointParameters",
     "interaction_matrix",
 ]
-
-# The dynamic versions (on the inverse-dynamics laws) register themselves with these.
-from armando_drake.control.controllers import look_at_dynamic  # noqa: E402, F401

@@ -342,7 +342,7 @@ class JointSpaceLookAtController(_DynamicLookAt):
     kinematics, tracked by joint-space inverse dynamics (computed torque)."""
 
     parameters = JointSpaceLookAtParameters
-    law_type = "task_space_controllers/JointSpaceInverseDynamics"
+    law_type = "JointSpaceInverseDynamics"
     _hold = JointSpaceInverseDynamicsController._hold  # before the marker is seen
 
     def _torque(self, motion, q, v, now):
@@ -376,7 +376,7 @@ class OperationalSpaceLookAtController(_DynamicLookAt):
     inverse dynamics."""
 
     parameters = OperationalSpaceLookAtParameters
-    law_type = "task_space_controllers/OperationalSpaceInverseDynamics"
+    law_type = "OperationalSpaceInverseDynamics"
     _hold = OperationalSpaceInverseDynamicsController._hold  # before the marker is seen
 
     def _torque(self, motion, q, v, now):

@@ -118,7 +118,7 @@ class _InverseDynamicsController(Controller):
 
     fixed_interface = "effort"
     initial_state = "holding"
-    law_type: ClassVar[str]  # the key of its law in TORQUE_LAWS
+    law_type: ClassVar[str]  # the name of its law: its key in TORQUE_LAWS
 
     def __init__(self, *, name, joints, params=None):
         super().__init__(name=name, joints=joints, params=params)
@@ -297,7 +297,7 @@ class JointSpaceInverseDynamicsController(_InverseDynamicsController):
     parameters = JointSpaceInverseDynamicsParameters
     message = JointTrajectory
     topic = "joint_trajectory"
-    law_type = "task_space_controllers/JointSpaceInverseDynamics"
+    law_type = "JointSpaceInverseDynamics"
 
     def _hold(self, law, q, v, now):
         n = law.arm.num_joints
@@ -364,7 +364,7 @@ class OperationalSpaceInverseDynamicsController(_InverseDynamicsController):
     parameters = OperationalSpaceInverseDynamicsParameters
     message = CartesianTrajectory
     topic = "cartesian_trajectory"
-    law_type = "task_space_controllers/OperationalSpaceInverseDynamics"
+    law_type = "OperationalSpaceInverseDynamics"
 
     def _hold(self, law, q, v, now):
         arm = law.arm
