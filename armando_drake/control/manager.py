@@ -24,7 +24,7 @@ pays most for beyond the physics, so:
   :func:`~armando_drake.control.hardware.ConnectHardwareInterface`);
 - a controller whose commands are a stream evaluated in C++ and checked when
   the world is built (a sinusoid within the limits, see
-  :meth:`~armando_drake.control.controllers.Controller.accepts_stream`) is not
+  :meth:`~armando_drake.control.controllers.CommandStream`) is not
   updated at all: the stream, latched at the manager's ticks in C++, drives the
   hardware (:func:`AddStreamDesiredState`), and the controller's status is
   computed from the stream's sample count when read. A manager with only such
@@ -48,7 +48,12 @@ from pydrake.systems.framework import (
 from pydrake.systems.primitives import MatrixGain, Multiplexer
 
 from armando_drake.control.config import check_update_rate
-from armando_drake.control.controllers import DID_NOTHING, Controller, ControllerMemory
+from armando_drake.control.controllers import (
+    DID_NOTHING,
+    Controller,
+    ControllerMemory,
+    takes_stream,
+)
 from armando_drake.control.controllers.broadcaster import JointStateBroadcaster
 from armando_drake.control.hardware import HardwareInterface
 from armando_drake.messages.types import ControllerStatus, PublicationValue
@@ -61,7 +66,7 @@ class ManagedController:
     name: str  # the controller's name in the YAML, e.g. "position_controller"
     logic: Controller  # its logic, an instance of a registered controller class
     # Its commands come as a stream evaluated in C++ (a sinusoid checked against the
-    # limits when the world is built, see Controller.accepts_stream) that drives the
+    # limits when the world is built, see CommandStream) that drives the
     # hardware directly; the manager reads only the stream's sample count, for the
     # status, on the input "<name>.command_count".
     stream: bool = False
@@ -198,7 +203,7 @@ class ControllerManager(LeafSystem):
                     f"{controller.name}.{logic.topic}", PublicationValue()
                 )
             )
-            if controller.stream and not logic.accepts_stream(logic.params):
+            if controller.stream and not takes_stream(logic):
                 raise ValueError(
                     f"controller {controller.name!r} ({logic.type_name()}) takes no command stream"
                 )

@@ -48,6 +48,7 @@ from pydrake.systems.primitives import (
 )
 from pydrake.trajectories import PiecewisePolynomial
 
+from armando_drake.control.controllers import takes_stream
 from armando_drake.messages.types import (
     Float64MultiArray,
     JointTrajectory,
@@ -866,7 +867,7 @@ def stream_controller(config: SequencerConfig | None, managed: Sequence, stack) 
     if not (
         entry.controller_class.message is Float64MultiArray
         and entry.position_targets
-        and logic.accepts_stream(logic.params)
+        and takes_stream(logic)
         and sorted(logic.joint_names) == sorted(hardware.joint_names)
     ):
         return ""

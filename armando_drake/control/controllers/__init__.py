@@ -521,19 +521,6 @@ class Controller:
         return cls.command_interface(params) == "position"
 
     @classmethod
-    def accepts_stream(cls, params) -> bool:
-        """Whether the controller can take its commands as a stream of joint positions
-        evaluated in C++ and checked when the world is built (a sinusoid within the
-        joint limits): each sample is then accepted as it is, so the stream drives the
-        hardware directly and :meth:`stream_status` tells what the controller reports."""
-        return False
-
-    def stream_status(self, status: ControllerStatus, count: int) -> ControllerStatus:
-        """``status`` after accepting ``count`` samples of a stream (see
-        :meth:`accepts_stream`)."""
-        raise NotImplementedError(f"{type(self).__qualname__} takes no command stream")
-
-    @classmethod
     def joints_of(cls, params) -> list[str]:
         """The joints the controller claims ([] = every hardware joint)."""
         return list(params.joints)
@@ -598,6 +585,27 @@ class Controller:
     @staticmethod
     def log_warning(name: str, text: str) -> None:
         _logger.warning("%s: %s", name, text)
+
+
+class CommandStream:
+    """A controller that can take its commands as a stream (mixed into a
+    :class:`Controller`): joint positions evaluated in C++ and checked when the world
+    is built (a sinusoid within the joint limits), each sample then accepted as it is,
+    so the stream drives the hardware directly without the manager's update."""
+
+    @classmethod
+    def accepts_stream(cls, params) -> bool:
+        """Whether the controller, with ``params``, takes such a stream."""
+        return False
+
+    def stream_status(self, status: ControllerStatus, count: int) -> ControllerStatus:
+        """``status`` after accepting ``count`` samples of a stream."""
+        raise NotImplementedError
+
+
+def takes_stream(logic) -> bool:
+    """Whether the controller ``logic`` takes its commands as a stream now."""
+    return isinstance(logic, CommandStream) and logic.accepts_stream(logic.params)
 
 
 # --------------------------------------------------------------------------------------

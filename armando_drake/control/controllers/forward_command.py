@@ -26,6 +26,7 @@ import numpy as np
 
 from armando_drake.control.controllers import (
     COMMAND_INTERFACES,
+    CommandStream,
     Controller,
     ControllerMemory,
     ParameterError,
@@ -69,7 +70,7 @@ class ForwardCommandParameters(JointGroupParameters):
 
 
 @register("forward_command_controller/ForwardCommandController")
-class ForwardCommandController(Controller):
+class ForwardCommandController(CommandStream, Controller):
     """Writes each Float64MultiArray command to its joints' ``interface_name``."""
 
     parameters = ForwardCommandParameters
