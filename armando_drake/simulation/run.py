@@ -575,7 +575,9 @@ def _result(scenario, world, simulator, table, tracker, log_dir) -> RunResult:
                 "task/end_effector_trace", errors.actual.T, 2.0, Rgba(1.0, 0.3, 0.1, 1.0)
             )
     if world.detectors is not None:
-        result.vision = write_vision_outputs(world, simulator.get_context(), scenario, log_dir)
+        result.vision = write_vision_outputs(
+            world.topics, world.diagram, simulator.get_context(), scenario, log_dir
+        )
     return result
 
 

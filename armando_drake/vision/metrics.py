@@ -18,11 +18,13 @@ from armando_drake.sensors.marker import ArucoMarker
 from armando_drake.sensors.objects import Cylinder
 
 
-def camera_pose(world, context, camera: str) -> RigidTransform:
-    """X_WC: the camera's true pose in the world (``context``: the root context)."""
-    info = world.cameras[camera].info
-    plant = world.plant
-    body = plant.GetBodyByName(info.link, world.robot.model_instance)
+def camera_pose(topics, context, camera: str) -> RigidTransform:
+    """X_WC: the camera's true pose in the world (``topics``: the world's publishers,
+    :class:`~armando_drake.outputs.topics.WorldTopics`, with its ``cameras``, ``plant``
+    and ``robot``; ``context``: the root context)."""
+    info = topics.cameras[camera].info
+    plant = topics.plant
+    body = plant.GetBodyByName(info.link, topics.robot.model_instance)
     X_WL = body.EvalPoseInWorld(plant.GetMyContextFromRoot(context))
     return X_WL @ info.X_LC()
 
@@ -54,22 +56,25 @@ def true_disc_position(scenario) -> np.ndarray | None:
     return None
 
 
-def pointing_error(world, context, camera: str, p_W) -> float:
-    """The angle [rad] between the camera's optical axis and the direction to ``p_W``."""
-    X_WC = camera_pose(world, context, camera)
+def pointing_error(topics, context, camera: str, p_W) -> float:
+    """The angle [rad] between the camera's optical axis and the direction to ``p_W``
+    (``topics``: as for :func:`camera_pose`)."""
+    X_WC = camera_pose(topics, context, camera)
     direction = np.asarray(p_W, dtype=float) - X_WC.translation()
     direction /= np.linalg.norm(direction)
     axis = X_WC.rotation().matrix()[:, 2]
     return float(math.acos(np.clip(axis @ direction, -1.0, 1.0)))
 
 
-def vision_summary(world, context, scenario) -> dict | None:
+def vision_summary(topics, diagram, context, scenario) -> dict | None:
     """summary.json's ``vision``: frames and detections of the detectors, the final
     pointing error at the marker (or, with a blob target, at the first disc) [rad] and
     the marker's estimated minus true position [m] (None where there is no marker or no
     estimate); with a dynamic look-at controller also ``max_path_error``, the camera's
-    largest distance from its linear path [m]; None without detectors."""
-    detectors = world.detectors
+    largest distance from its linear path [m]; None without detectors. ``topics``: the
+    world's publishers (:class:`~armando_drake.outputs.topics.WorldTopics`), ``diagram``
+    the world's diagram, ``context`` its root context."""
+    detectors = topics.detectors
     if detectors is None:
         return None
     systems = [s for s in (detectors.blob, detectors.aruco) if s is not None]
@@ -87,19 +92,19 @@ def vision_summary(world, context, scenario) -> dict | None:
         p_WD = true_disc_position(scenario)
         if detectors.blob is not None and detectors.blob.target is not None and p_WD is not None:
             camera = detectors.blob_camera
-            summary["final_pointing_error"] = pointing_error(world, context, camera, p_WD)
+            summary["final_pointing_error"] = pointing_error(topics, context, camera, p_WD)
         return summary
-    for name in world.controllers:
+    for name in topics.controllers:
         # A dynamic look-at controller: how far the camera strayed from its linear path.
-        detail = world.status(context, name).detail
+        detail = diagram.GetOutputPort(f"{name}.status").Eval(context).detail
         if "max_path_error" in detail:
             summary["max_path_error"] = float(detail["max_path_error"])
     p_WM = true_marker_position(scenario)
     if p_WM is None:
         return summary
     camera = detectors.aruco_camera
-    summary["final_pointing_error"] = pointing_error(world, context, camera, p_WM)
-    published = world.diagram.GetOutputPort(f"{camera}.marker_in_world").Eval(context)
+    summary["final_pointing_error"] = pointing_error(topics, context, camera, p_WM)
+    published = diagram.GetOutputPort(f"{camera}.marker_in_world").Eval(context)
     if published.count:
         error = published.message.pose.translation() - p_WM
         summary["marker_position_error"] = [float(e) for e in error]

@@ -25,9 +25,9 @@ KEYPOINTS_CSV = "keypoints.csv"
 VISION_PLOT = "vision.png"
 
 
-def write_vision_csv(world, context, path: str | Path) -> Path | None:
+def write_vision_csv(topics, context, path: str | Path) -> Path | None:
     """``vision.csv`` from the world's ArUco detector or blob target (None without)."""
-    detectors = world.detectors
+    detectors = topics.detectors
     if detectors is None:
         return None
     if detectors.aruco is not None:
@@ -87,12 +87,12 @@ def write_vision_plot(csv_path: str | Path, png_path: str | Path) -> Path:
     return Path(png_path)
 
 
-def write_vision_outputs(world, context, scenario, output_dir) -> dict:
+def write_vision_outputs(topics, diagram, context, scenario, output_dir) -> dict:
     """summary.json's ``vision`` (see :func:`~armando_drake.vision.metrics.vision_summary`);
     with ``output_dir``, also ``vision.csv`` and ``vision.png`` there."""
 
-    summary = vision_summary(world, context, scenario)
-    blob = world.detectors.blob
+    summary = vision_summary(topics, diagram, context, scenario)
+    blob = topics.detectors.blob
     if output_dir is not None and blob is not None:
         with (Path(output_dir) / KEYPOINTS_CSV).open("w", newline="") as stream:
             writer = csv.writer(stream)
@@ -102,7 +102,7 @@ def write_vision_outputs(world, context, scenario, output_dir) -> dict:
                     writer.writerow([f"{detection.stamp:.6g}", f"{k.u:.3f}", f"{k.v:.3f}",
                                      f"{k.diameter:.3f}"])  # fmt: skip
     if output_dir is not None:
-        csv_path = write_vision_csv(world, context, Path(output_dir) / VISION_CSV)
+        csv_path = write_vision_csv(topics, context, Path(output_dir) / VISION_CSV)
         if csv_path is not None:
             write_vision_plot(csv_path, Path(output_dir) / VISION_PLOT)
     return summary
