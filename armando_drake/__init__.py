@@ -2,7 +2,10 @@
 
 from pathlib import Path
 
-__version__ = "0.1.0"
+from armando_drake.tools.version import package_version
+
+# The version of pyproject.toml (armando_drake.tools.version), as the package metadata has it.
+__version__ = package_version()
 
 _PACKAGE_DIR = Path(__file__).resolve().parent
 

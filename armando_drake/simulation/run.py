@@ -9,7 +9,8 @@ error after settling and the settling time (within :data:`SETTLE_TOLERANCE`).
 The table is computed in memory from the rows the joint-state logger records,
 with or without an output folder.
 With an output folder it writes ``joint_states.csv`` (the logger),
-``commands.csv`` (every command published) and ``summary.json``.
+``commands.csv`` (every command published) and ``summary.json`` (which also names the
+version of armando-drake that ran, and its git commit from a checkout).
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ import numpy as np
 
 from armando_drake.control.sequencer import Sinusoid, mode_of, one_pass, wave_of
 from armando_drake.simulation.scenario import Scenario
+from armando_drake.tools.version import provenance
 
 SCENARIO_FILE = "scenario.yaml"  # the effective scenario, in the output folder
 SETTLE_TOLERANCE = 0.01  # [rad] "reached" band of the step table
@@ -73,8 +75,10 @@ class RunResult:
     vision: dict[str, Any] | None = None
 
     def summary(self) -> dict[str, Any]:
-        """The ``summary.json`` contract."""
+        """The ``summary.json`` contract; ``armando_drake`` names the code that produced
+        the run (version, and the git commit when run from a checkout)."""
         return {
+            "armando_drake": provenance(),
             "scenario": self.scenario,
             "controller": self.controller,
             "driven_controller": self.driven,

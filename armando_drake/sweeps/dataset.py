@@ -33,7 +33,8 @@ Parquet schema, one row per sample (angles [rad], lengths [m]):
 
 The file's metadata key ``armando_drake`` holds JSON: the robot's description
 and name, the frame, joint names and the limits drawn from, seed, sample
-count, the IK settings and Drake's version.
+count, the IK settings, Drake's version and armando-drake's (``armando_drake``:
+version, and git commit from a checkout).
 
 Examples:
   python -m armando_drake.dataset ik --samples 10000 --seed 1 --output out/ik.parquet
@@ -58,6 +59,7 @@ from typing import Any
 import numpy as np
 
 from armando_drake.sweeps.errors import SweepError
+from armando_drake.tools.version import provenance
 
 METADATA_KEY = b"armando_drake"
 POSE_COLUMNS = ["x", "y", "z", "qw", "qx", "qy", "qz"] + [
@@ -277,6 +279,7 @@ def make_shards(
         "samples": samples,
         "ik": asdict(ik),
         "drake": package_metadata.version("drake"),
+        "armando_drake": provenance(),
     }
     return tasks, metadata
 
