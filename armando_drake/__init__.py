@@ -23,5 +23,8 @@ PROJECT_ROOT = _PACKAGE_DIR.parent
 # The project's own robot descriptions and scenario files.
 MODELS_DIR = _data_dir("models")
 DIAGRAMS_DIR = _data_dir("diagrams")
+# The data folders the package reads at run time: the wheel ships every file of them
+# (pyproject.toml), as tests/test_packaging.py checks.
+DATA_DIRS = (MODELS_DIR, DIAGRAMS_DIR)
 # The built-in robot: our own Armando description.
 DEFAULT_DESCRIPTION = MODELS_DIR / "armando_description" / "urdf" / "armando.urdf.xacro"
