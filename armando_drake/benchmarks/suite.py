@@ -71,6 +71,7 @@ import numpy as np
 
 from armando_drake.control.sequencer import SEED_TARGETS
 from armando_drake.tools.cli import command_parser
+from armando_drake.tools.version import provenance
 
 SECTIONS = (
     "pipeline",
@@ -158,6 +159,7 @@ class Report:
             "quick": self.quick,
             "repeat": self.repeat,
             "machine": machine(),
+            "armando_drake": provenance(),  # the code measured: version, git commit
             "rows": [row.as_dict() for row in self.rows],
             "notes": list(self.notes),
         }
