@@ -2,7 +2,10 @@
 
 from pathlib import Path
 
-__version__ = "0.1.0"
+from armando_drake.tools.version import package_version
+
+# The version of pyproject.toml (armando_drake.tools.version), as the package metadata has it.
+__version__ = package_version()
 
 _PACKAGE_DIR = Path(__file__).resolve().parent
 
@@ -20,5 +23,8 @@ PROJECT_ROOT = _PACKAGE_DIR.parent
 # The project's own robot descriptions and scenario files.
 MODELS_DIR = _data_dir("models")
 DIAGRAMS_DIR = _data_dir("diagrams")
+# The data folders the package reads at run time: the wheel ships every file of them
+# (pyproject.toml), as tests/test_packaging.py checks.
+DATA_DIRS = (MODELS_DIR, DIAGRAMS_DIR)
 # The built-in robot: our own Armando description.
 DEFAULT_DESCRIPTION = MODELS_DIR / "armando_description" / "urdf" / "armando.urdf.xacro"

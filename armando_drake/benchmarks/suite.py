@@ -85,6 +85,7 @@ from armando_drake.sweeps.engines import LocalPool, RayEngine
 from armando_drake.sweeps.errors import SweepError
 from armando_drake.sweeps.sweep import Sweep, run_sweep
 from armando_drake.tools.cli import command_parser
+from armando_drake.tools.version import provenance
 
 SECTIONS = (
     "pipeline",
@@ -172,6 +173,7 @@ class Report:
             "quick": self.quick,
             "repeat": self.repeat,
             "machine": machine(),
+            "armando_drake": provenance(),  # the code measured: version, git commit
             "rows": [row.as_dict() for row in self.rows],
             "notes": list(self.notes),
         }

@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from armando_drake.outputs.logger import read_csv, read_joint_states
+from armando_drake.tools.cli import add_version_argument
 
 FIGURE_SIZE = (10.0, 7.0)  # [inch]
 DPI = 100  # [pixel/inch]
@@ -241,6 +242,7 @@ def _task_space_plots(folder: Path, title: str, times, effort, joints, save) -> 
 def main(argv: list[str] | None = None) -> int:
     """Redraws the plots of a run folder written by ``python -m armando_drake.world --output``."""
     parser = argparse.ArgumentParser(prog="python -m armando_drake.plots", description=main.__doc__)
+    add_version_argument(parser)
     parser.add_argument("folder", metavar="DIR", help="a run's --output folder")
     args = parser.parse_args(argv)
     folder = Path(args.folder)

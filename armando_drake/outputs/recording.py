@@ -25,6 +25,8 @@ recorder to a world being built and connects it to the joint state
 broadcaster, the command sequencer (the commands actually sent to the
 controller it drives) and the cameras.
 
+The file's metadata record ``armando_drake`` (:data:`METADATA_NAME`) names the
+version of armando-drake that wrote it, and its git commit from a checkout.
 The file is written with ``mcap-ros2-support`` (the MCAP project's ROS 2
 writer). Its message definitions are those of :mod:`armando_drake.messages.definitions`
 (ROS 2 Humble and later; these messages have not changed).
@@ -60,6 +62,11 @@ from armando_drake.outputs.vision_recording import AddVisionRecorder
 from armando_drake.perception.pipeline import NO_RESULT
 from armando_drake.perception.systems import CLUSTER_COLOURS
 from armando_drake.sensors.image_view import PUBLISH_OFFSET_FRACTION
+from armando_drake.tools.version import provenance
+
+# The MCAP metadata record naming the code that wrote the file: version, and git commit
+# when run from a checkout (:func:`~armando_drake.tools.version.provenance`).
+METADATA_NAME = "armando_drake"
 
 
 class RecordingError(ValueError):
@@ -184,6 +191,8 @@ class RosbagRecorder(LeafSystem):
         except OSError as error:
             raise RecordingError(f"--record {path}: cannot write: {error.strerror}") from None
         self._writer = Writer(self._file)
+        # The code that wrote the file, as summary.json names it.
+        self._writer.add_metadata(METADATA_NAME, provenance())
         self._schemas: dict[str, Any] = {}
         self._counts: dict[str, int] = {}  # messages written, by topic
         self._last_stamp: float | None = None

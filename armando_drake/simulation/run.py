@@ -9,7 +9,8 @@ error after settling and the settling time (within :data:`SETTLE_TOLERANCE`).
 The table is computed in memory from the rows the joint-state logger records,
 with or without an output folder.
 With an output folder it writes ``joint_states.csv`` (the logger),
-``commands.csv`` (every command published) and ``summary.json``.
+``commands.csv`` (every command published) and ``summary.json`` (which also names the
+version of armando-drake that ran, and its git commit from a checkout).
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ from armando_drake.outputs.view import wait_for_browser as wait
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import Scenario, default_duration
 from armando_drake.tools.cli import meshcat_urls
+from armando_drake.tools.version import provenance
 from armando_drake.vision.outputs import write_vision_outputs
 
 SCENARIO_FILE = "scenario.yaml"  # the effective scenario, in the output folder
@@ -80,8 +82,10 @@ class RunResult:
     vision: dict[str, Any] | None = None
 
     def summary(self) -> dict[str, Any]:
-        """The ``summary.json`` contract."""
+        """The ``summary.json`` contract; ``armando_drake`` names the code that produced
+        the run (version, and the git commit when run from a checkout)."""
         return {
+            "armando_drake": provenance(),
             "scenario": self.scenario,
             "controller": self.controller,
             "driven_controller": self.driven,

@@ -33,7 +33,8 @@ Parquet schema, one row per sample (angles [rad], lengths [m]):
 
 The file's metadata key ``armando_drake`` holds JSON: the robot's description
 and name, the frame, joint names and the limits drawn from, seed, sample
-count, the IK settings and Drake's version.
+count, the IK settings, Drake's version and armando-drake's (``armando_drake``:
+version, and git commit from a checkout).
 
 Examples:
   python -m armando_drake.dataset ik --samples 10000 --seed 1 --output out/ik.parquet
@@ -61,6 +62,7 @@ from armando_drake.description.loader import load_robot
 from armando_drake.sweeps.engines import make_engine
 from armando_drake.sweeps.errors import SweepError, reported
 from armando_drake.tools.cli import command_parser, package_folder, parse_xacro_args, user_errors
+from armando_drake.tools.version import provenance
 
 METADATA_KEY = b"armando_drake"
 POSE_COLUMNS = ["x", "y", "z", "qw", "qx", "qy", "qz"] + [
@@ -278,6 +280,7 @@ def make_shards(
         "samples": samples,
         "ik": asdict(ik),
         "drake": package_metadata.version("drake"),
+        "armando_drake": provenance(),
     }
     return tasks, metadata
 

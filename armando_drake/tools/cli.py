@@ -16,6 +16,7 @@ from collections.abc import Iterable, Iterator
 from typing import NoReturn
 
 from armando_drake.tools.errors import UserInputError
+from armando_drake.tools.version import version_text
 
 
 class UserError(UserInputError):
@@ -33,6 +34,25 @@ class _DebugAction(argparse.Action):
         setattr(namespace, self.dest, True)
 
 
+class _VersionAction(argparse.Action):
+    """Prints :func:`~armando_drake.tools.version.version_text` on stdout and exits 0; the
+    version (and git) is looked up only when the option is given."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(version_text())
+        parser.exit(0)
+
+
+def add_version_argument(parser: argparse.ArgumentParser) -> None:
+    """``--version``: prints the package's version (and the git commit of a checkout), exits."""
+    parser.add_argument(
+        "--version",
+        action=_VersionAction,
+        nargs=0,
+        help="print the version of armando-drake (and the git commit it runs from) and exit",
+    )
+
+
 class _Parser(argparse.ArgumentParser):
     """An argument parser whose usage errors are one line, as input errors are:
     ``error: <argparse's message> (see --help)`` on stderr, exit code 2."""
@@ -44,8 +64,8 @@ class _Parser(argparse.ArgumentParser):
 def command_parser(module: str, doc: str) -> argparse.ArgumentParser:
     """The argument parser of ``python -m <module>``: the first paragraph of the module's
     ``doc`` as description, the rest (usage notes, examples) as epilog, verbatim; with
-    ``--debug`` (see :func:`user_errors`). A usage error is one line (its subcommands'
-    parsers are of the same kind)."""
+    ``--version`` (:func:`add_version_argument`) and ``--debug`` (see :func:`user_errors`).
+    A usage error is one line (its subcommands' parsers are of the same kind)."""
     description, _, epilog = doc.partition("\n\n")
     parser = _Parser(
         prog=f"python -m {module}",
@@ -53,6 +73,7 @@ def command_parser(module: str, doc: str) -> argparse.ArgumentParser:
         epilog=epilog,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    add_version_argument(parser)
     parser.add_argument(
         "--debug",
         action=_DebugAction,

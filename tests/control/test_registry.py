@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from armando_drake.messages.types import Float64MultiArray
 from pydrake.systems.analysis import Simulator
 
 import armando_drake
@@ -28,6 +27,7 @@ from armando_drake.control.controllers import (
     registered_types,
     unregister,
 )
+from armando_drake.messages.types import Float64MultiArray
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import ScenarioError, load_scenario
 

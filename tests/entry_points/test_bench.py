@@ -14,6 +14,7 @@ import pytest
 from conftest import skip_or_fail
 
 from armando_drake.benchmarks import suite as bench
+from armando_drake.tools.version import provenance
 
 HAS_MUJOCO = importlib.util.find_spec("mujoco") is not None
 
@@ -30,6 +31,11 @@ def quick_run(tmp_path_factory):
     )
     assert done.returncode == 0, done.stderr
     return done.stdout, json.loads(path.read_text())
+
+
+def test_the_report_names_the_code_it_measured(quick_run):
+    _, report = quick_run
+    assert report["armando_drake"] == provenance()
 
 
 def test_quick_run_writes_every_row_with_positive_numbers(quick_run):

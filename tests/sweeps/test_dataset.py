@@ -10,6 +10,7 @@ from armando_drake.sweeps import dataset
 from armando_drake.sweeps.dataset import IkSettings, RobotSpec, make_ik_dataset, read_metadata
 from armando_drake.sweeps.engines import InProcess, LocalPool
 from armando_drake.sweeps.errors import SweepError
+from armando_drake.tools.version import provenance
 
 SAMPLES = 24
 
@@ -43,6 +44,10 @@ def armando_ik(tmp_path_factory):
             RobotSpec(), SAMPLES, seed=7, output=path, engine=engine, ik=IkSettings(enabled=True)
         )
     return path
+
+
+def test_metadata_names_the_code_that_made_the_data_set(armando_ik):
+    assert read_metadata(armando_ik)["armando_drake"] == provenance()
 
 
 def test_rows_are_forward_kinematics_within_the_limits(armando_ik):
