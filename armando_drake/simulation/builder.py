@@ -857,11 +857,10 @@ def _add_jog(builder, world: World, scenario: Scenario, where: str) -> None:
     gamepad) on a position controller's command input."""
     if scenario.jog is None:
         return
-    from armando_drake.teleop.config import JogError, check_jog
+    from armando_drake.teleop.config import JogError
     from armando_drake.teleop.jog import AddJog
 
     try:
-        check_jog(scenario.jog, where)
         world.jog = AddJog(builder, world, scenario.jog, where=where)
     except JogError as error:
         raise ScenarioError(str(error)) from None

@@ -28,8 +28,8 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from armando_drake.control.sequencer import Sinusoid, mode_of, one_pass, wave_of
-from armando_drake.simulation.scenario import Scenario
+from armando_drake.control.sequencer import Sinusoid, mode_of, wave_of
+from armando_drake.simulation.scenario import Scenario, default_duration
 
 SCENARIO_FILE = "scenario.yaml"  # the effective scenario, in the output folder
 SETTLE_TOLERANCE = 0.01  # [rad] "reached" band of the step table
@@ -144,14 +144,6 @@ def controller_mode(scenario: Scenario) -> str:
             return "task"
         return "none" if scenario.jog is None else "jog"
     return mode_of(scenario.sequencer)
-
-
-def default_duration(scenario: Scenario) -> float:
-    """[s] one pass of the command sequence; the task's motion and 0.5 s of holding
-    without one; 2 s without either."""
-    if scenario.sequencer is None:
-        return 2.0 if scenario.task is None else scenario.task.duration + 0.5
-    return one_pass(scenario.sequencer)
 
 
 @dataclass

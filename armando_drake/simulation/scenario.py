@@ -13,6 +13,12 @@ without a tag merges into the variant already there, so
 ``sequencer: {period: 5}`` changes a trajectory's period and keeps it a
 trajectory; a tag chooses a variant anew (from its defaults, then the given
 fields).
+
+Each field declares its unit, range and choices beside it
+(:func:`~armando_drake.tools.schema.param`);
+:func:`~armando_drake.simulation.validation.check_scenario` checks them, and the rules
+between fields of the whole scenario (:meth:`Scenario.check`), naming where each value
+came from (:class:`ScenarioSources`).
 """
 
 import dataclasses as dc
@@ -28,17 +34,39 @@ from pydrake.systems.analysis import SimulatorConfig
 from pydrake.visualization import VisualizationConfig
 
 from armando_drake import DIAGRAMS_DIR
-from armando_drake.control.sequencer import JointTrajectoryTargets, PositionTargets, Sinusoid
+from armando_drake.control.sequencer import (
+    JointTrajectoryTargets,
+    PositionTargets,
+    Sinusoid,
+    one_pass,
+)
 from armando_drake.perception.config import PerceptionConfig
 from armando_drake.ros2.config import Ros2Config
 from armando_drake.sensors.objects import SceneObject
 from armando_drake.task.motion import TaskSpaceMotion
 from armando_drake.teleop.config import JogConfig
+from armando_drake.tools.schema import ConfigError, Refusal, param
 from armando_drake.vision.cameras import ScenarioCamera
 from armando_drake.vision.config import VisionConfig
 
+# [N m/rad] (or N/m) the largest proportional gain accepted. Industrial servos
+# run at 1e3..1e5; above 1e6 the discrete step's implicit PD is all stiffness
+# and a position command throws the joint to its limit.
+MAX_GAIN = 1e6
+# [N m s/rad] (or N s/m) the largest derivative (and velocity) gain accepted.
+MAX_DAMPING = 1e5
+_TOO_STIFF = "stiffer than any real servo, it throws the joint against its limits"
+# The slowest pacing accepted (besides 0, as fast as possible): slower, a second lasts hours.
+MIN_REALTIME_RATE = 1e-3
+# [s] the longest run taken from the sequence itself (no simulation.duration or
+# --duration given): one pass of a sequence longer than this is surely a typo.
+MAX_DEFAULT_DURATION = 3600.0
+# [s] the longest run accepted at all (about 11.6 simulated days): longer, the
+# run would not end in any useful time, as fast as it may go.
+MAX_DURATION = 1e6
 
-class ScenarioError(ValueError):
+
+class ScenarioError(ConfigError):
     """A scenario file or override that cannot be read."""
 
 
@@ -54,15 +82,15 @@ class RobotConfig:
     # Extra folders searched for ROS packages, before ROS_PACKAGE_PATH.
     package_paths: list[str] = dc.field(default_factory=list)
     # Collision geometry: auto | boxes | convex | as-is | none.
-    collision: str = "auto"
+    collision: str = param("auto", choices=("auto", "boxes", "convex", "as-is", "none"))
     # Whether the robot's links collide with each other. Off by default, as in
     # Gazebo (<self_collide> false); the robot always collides with the ground
     # and the scene objects.
     self_collision: bool = False
     # Position of the base in the world [m]; the base is welded there.
-    base_xyz: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    base_xyz: list[float] = param([0.0, 0.0, 0.0], unit="m", length=3, coordinate=True)
     # Orientation of the base in the world, roll pitch yaw [rad].
-    base_rpy: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    base_rpy: list[float] = param([0.0, 0.0, 0.0], unit="rad", length=3)
 
 
 @dc.dataclass
@@ -70,19 +98,35 @@ class ActuatorConfig:
     """The simulated position interface: Drake PD-controlled joint actuators."""
 
     # Proportional gain of every actuated joint [N m/rad].
-    kp: float = 8.0
+    kp: float = param(8.0, unit="N m/rad", gt=0, over=(MAX_GAIN, _TOO_STIFF))
     # Derivative gain of every actuated joint [N m s/rad].
-    kd: float = 0.4
+    kd: float = param(0.4, unit="N m s/rad", ge=0, over=(MAX_DAMPING, _TOO_STIFF))
     # Velocity gain of every joint with a velocity command interface [N m s/rad]: the
     # torque per rad/s of velocity error of its damping-only servo (kp = 0).
-    kv: float = 1.0
+    kv: float = param(1.0, unit="N m s/rad", ge=0, over=(MAX_DAMPING, _TOO_STIFF))
     # Per-joint gains overriding kp and kd, as joint: [kp, kd] (a velocity joint:
-    # [0, kv]).
-    gains: dict[str, list[float]] = dc.field(default_factory=dict)
+    # [0, kv]) [N m/rad, N m s/rad]; each pair checked by check().
+    gains: dict[str, list[float]] = param({}, unit="N m/rad, N m s/rad")
     # Adds the torque that holds the arm against gravity at the commanded
     # position, through the actuation input, so the steady-state error does not
     # depend on how stiff the gains are.
     gravity_feedforward: bool = True
+
+    def check(self) -> None:
+        """Each per-joint pair [kp, kd]: two gains, zero or positive, no stiffer than a
+        servo (whether the joint exists is checked against the robot)."""
+        for joint, gains in self.gains.items():
+            key = f"gains.{joint}"
+            if len(gains) != 2:
+                raise Refusal(key, f"={gains!r} must be two numbers [kp, kd]")
+            kp, kd = gains
+            if kp < 0 or kd < 0:
+                raise Refusal(key, f"={gains!r}: gains must be zero or positive")
+            if kp > MAX_GAIN or kd > MAX_DAMPING:
+                raise Refusal(
+                    key,
+                    f"={gains!r}: {max(kp, kd)!r} is above {MAX_GAIN:g}: {_TOO_STIFF}",
+                )
 
 
 @dc.dataclass
@@ -96,7 +140,7 @@ class ControllersConfig:
     activate: list[str] = dc.field(default_factory=list)
     # Rate of the controller manager [Hz], overriding the YAML's update_rate; 0 = the
     # YAML's.
-    update_rate: int = 0
+    update_rate: int = param(0, unit="Hz")
 
 
 @dc.dataclass
@@ -114,10 +158,10 @@ class CameraSettings:
     # saved; "" = not saved.
     save_frames: str = ""
     # Rate at which frames are saved [Hz]; 0 = the camera's own rate.
-    save_rate: float = 0.0
+    save_rate: float = param(0.0, unit="Hz", ge=0)
     # Renderer: "gl" (Drake's OpenGL engine, on DISPLAY or a private Xvfb), "vtk"
     # (VTK through EGL, no display needed) or "auto" (gl when possible, else vtk).
-    renderer: str = "auto"
+    renderer: str = param("auto", choices=("auto", "gl", "vtk"))
 
 
 @dc.dataclass
@@ -125,16 +169,21 @@ class LoggingConfig:
     """The joint-state logger."""
 
     # How often the joint positions are printed to the console [Hz]; 0 = never.
-    console_rate: float = 1.0
+    console_rate: float = param(1.0, unit="Hz", ge=0)
 
 
 @dc.dataclass
 class SimulationConfig:
     """How long the simulation runs (how fast: ``Scenario.simulator_config``)."""
 
-    # Simulated time [s]; 0 or less = one pass of the command sequence (2 s
-    # if there is none).
-    duration: float = 0.0
+    # Simulated time [s]; 0 = one pass of the command sequence (2 s if there is
+    # none).
+    duration: float = param(
+        0.0,
+        unit="s",
+        ge=0,
+        over=(MAX_DURATION, f"{MAX_DURATION / 86400:.1f} simulated days"),
+    )
 
 
 @dc.dataclass
@@ -202,6 +251,46 @@ class Scenario:
     visualization: VisualizationConfig = dc.field(default_factory=VisualizationConfig)
     # The running world on DDS as a ROS 2 robot, and on Foxglove.
     ros2: Ros2Config = dc.field(default_factory=Ros2Config)
+
+    def check(self) -> None:
+        """The rules between sections: an object listed twice, a crawling pacing, a
+        rate above the plant's, a sequence that never ends. (Each field's own rules
+        are beside it; those that need the robot and the controller YAML are
+        :func:`~armando_drake.simulation.validation.check_against_world`.)"""
+        names = set()
+        for index, obj in enumerate(self.objects):
+            if obj.name in names:
+                raise Refusal(f"objects.{index}", f": object {obj.name!r} is listed twice")
+            names.add(obj.name)
+        pacing = self.simulator_config.target_realtime_rate
+        if 0 < pacing < MIN_REALTIME_RATE:
+            raise Refusal(
+                "simulator_config.target_realtime_rate",
+                f"={pacing!r} is below {MIN_REALTIME_RATE:g} (0 = as fast as possible): a "
+                "simulated second would take hours",
+            )
+        plant_rate = 1.0 / self.plant_config.time_step
+        rates = [("ros2.clock_rate", self.ros2.clock_rate)]
+        rates += [(f"cameras.{i}.update_rate", c.update_rate) for i, c in enumerate(self.cameras)]
+        for key, rate in rates:
+            if rate > plant_rate * (1 + 1e-9):
+                raise Refusal(key, f"={rate!r} Hz is above the plant's rate {plant_rate:g} Hz")
+        if self.simulation.duration <= 0:
+            duration = default_duration(self)
+            if duration > MAX_DEFAULT_DURATION:
+                raise Refusal(
+                    "task" if self.sequencer is None else "sequencer",
+                    f": one pass lasts {duration:.4g} s, over {MAX_DEFAULT_DURATION:g} s; give "
+                    "simulation.duration (or --duration) to run that long",
+                )
+
+
+def default_duration(scenario: Scenario) -> float:
+    """[s] one pass of the command sequence; the task's motion and 0.5 s of holding
+    without one; 2 s without either."""
+    if scenario.sequencer is None:
+        return 2.0 if scenario.task is None else scenario.task.duration + 0.5
+    return one_pass(scenario.sequencer)
 
 
 def resolve_scenario_path(name: str | os.PathLike) -> Path:
