@@ -332,21 +332,34 @@ def _keep_variants(data, current) -> None:
         _keep_variants(value, old)
 
 
+# Drake's message (``yaml_load_typed``, pydrake 1.51) for a tag that is none of a Union
+# field's members: "The yaml type tag value 'Sine' did not match any of the allowed type
+# options for 'sequencer' ((<class '...PositionTargets'>, ...))".
+_UNKNOWN_TAG = re.compile(
+    r"The yaml type tag value '(?P<tag>\w+)' did not match any of the allowed type "
+    r"options for '(?P<field>\w+)'(?: \(+(?P<options>[^()]*)\)+)?"
+)
+
+
+def parse_unknown_tag(text: str) -> tuple[str, str, str] | None:
+    """(the tag, the field, the options as Drake lists them) of Drake's message for an
+    unknown tag; None for any other message. The one place that reads Drake's wording
+    (tests/simulation/test_scenario.py checks it against the loader's message)."""
+    match = _UNKNOWN_TAG.search(" ".join(text.split()))
+    if match is None:
+        return None
+    return match["tag"], match["field"], match["options"] or ""
+
+
 def _one_line(error: Exception, current) -> str:
     """Drake's message of a YAML error as one line, with a bad tag's choices spelled
     as tags."""
     text = " ".join(str(error).split())
-    match = re.search(
-        r"The yaml type tag value '(\w+)' did not match any of the allowed type "
-        r"options for '(\w+)'",
-        text,
-    )
-    if match:
-        tag, field = match.groups()
-        choices = ", ".join(_tag_choices(type(current), field))
-        if not choices:  # a Union inside a list: Drake's message lists the options
-            listed = re.search(r"options for '\w+' \(+([^()]*)\)+", text)
-            choices = listed.group(1) if listed else ""
+    unknown = parse_unknown_tag(text)
+    if unknown is not None:
+        tag, field, listed = unknown
+        # A Union inside a list: the choices are Drake's list of options.
+        choices = ", ".join(_tag_choices(type(current), field)) or listed
         where = "" if field == "_" else f"{field}: "
         text = f"{where}unknown tag !{tag} (choose {choices})"
     return text
