@@ -56,7 +56,8 @@ from armando_drake.messages.types import (
     Publication,
     PublicationValue,
 )
-from armando_drake.tools.errors import ScenarioError, UserInputError
+from armando_drake.tools.errors import ScenarioError
+from armando_drake.tools.schema import ConfigError, check_config, param
 
 _log = logging.getLogger("armando_drake.world")
 
@@ -90,13 +91,13 @@ class PositionTargets:
 
     # [rad or m] joint targets, one list per target with one value per joint
     # (in the controller's joint order); default: SEED_TARGETS.
-    targets: list[list[float]] = dataclasses.field(default_factory=_seed_targets)
+    targets: list[list[float]] = param(default_factory=_seed_targets, unit="rad or m")
     # [s] time between targets: target k is published at start_delay + k period.
-    period: float = 3.0
+    period: float = param(3.0, unit="s", gt=0)
     # After the last target, start again from the first.
     cyclic: bool = False
     # [s] simulation time of the first publication.
-    start_delay: float = 0.0
+    start_delay: float = param(0.0, unit="s", ge=0)
 
 
 @dataclasses.dataclass
@@ -105,13 +106,13 @@ class JointTrajectoryTargets:
 
     # [rad or m] the trajectory's points, one list per point with one value
     # per joint (in the controller's joint order); default: SEED_TARGETS.
-    targets: list[list[float]] = dataclasses.field(default_factory=_seed_targets)
+    targets: list[list[float]] = param(default_factory=_seed_targets, unit="rad or m")
     # [s] point k is reached at time_from_start = (k + 1) period.
-    period: float = 3.0
+    period: float = param(3.0, unit="s", gt=0)
     # Publish the trajectory again every len(targets) period.
     cyclic: bool = False
     # [s] simulation time of the (first) publication.
-    start_delay: float = 0.0
+    start_delay: float = param(0.0, unit="s", ge=0)
 
 
 @dataclasses.dataclass
@@ -120,18 +121,18 @@ class Sinusoid:
     a position controller's ``commands``, sampled at ``rate``."""
 
     # [rad or m] amplitude per joint; empty = SEED_AMPLITUDE (pi/2) for every joint.
-    amplitude: list[float] = dataclasses.field(default_factory=list)
+    amplitude: list[float] = param([], unit="rad or m")
     # [Hz] frequency of the wave.
-    frequency: float = 0.05
+    frequency: float = param(0.05, unit="Hz", gt=0)
     # [rad] phase per joint; default: SEED_PHASE (Armando's four joints);
     # empty = 0 for every joint.
-    phase: list[float] = dataclasses.field(default_factory=lambda: list(SEED_PHASE))
+    phase: list[float] = param(list(SEED_PHASE), unit="rad")
     # [rad or m] centre per joint; empty = 0 for every joint.
-    offset: list[float] = dataclasses.field(default_factory=list)
+    offset: list[float] = param([], unit="rad or m")
     # [Hz] rate at which commands are published; None = the controller rate.
-    rate: float | None = None
+    rate: float | None = param(None, unit="Hz", gt=0)
     # [s] simulation time of the first publication (the wave's t = 0).
-    start_delay: float = 0.0
+    start_delay: float = param(0.0, unit="s", ge=0)
 
 
 # What drives the controllers; a YAML tag chooses (!PositionTargets, ...).
@@ -157,7 +158,7 @@ def mode_of(config: SequencerConfig) -> str:
     return MODE_NAMES[type(config)]
 
 
-class SequencerError(UserInputError, ValueError):
+class SequencerError(ConfigError):
     """A sequencer configuration that cannot be run; the message is one line."""
 
 
@@ -213,7 +214,9 @@ def validate(
     upper: Sequence[float],
     source: str = "",
 ) -> None:
-    """Raises :class:`SequencerError` naming the first thing wrong with ``config``.
+    """Raises :class:`SequencerError` naming the first thing wrong with ``config``: the
+    targets or the wave against the joints, then its fields' own rules (declared
+    beside them).
 
     ``lower``/``upper`` [rad or m] are the joint limits in ``joint_names``
     order (+-inf where unlimited). ``source`` (e.g. a file name) prefixes
@@ -229,35 +232,34 @@ def validate(
             f"{prefix}sequencer={config!r} is not one of PositionTargets, "
             "JointTrajectoryTargets, Sinusoid"
         )
-    if not (math.isfinite(config.start_delay) and config.start_delay >= 0):
-        raise SequencerError(
-            f"{prefix}start_delay={config.start_delay!r} must be zero or positive [s]"
-        )
-
     if isinstance(config, Sinusoid):
-        if not (math.isfinite(config.frequency) and config.frequency > 0):
-            raise SequencerError(f"{prefix}frequency={config.frequency!r} must be positive [Hz]")
-        if config.rate is not None and not (math.isfinite(config.rate) and config.rate > 0):
-            raise SequencerError(f"{prefix}rate={config.rate!r} must be positive [Hz]")
-        wave = wave_of(config, joint_names, source)
-        for i, name in enumerate(joint_names):
-            reach = abs(float(wave.amplitude[i]))
-            centre = float(wave.offset[i])
-            swing = f"offset {centre!r} +- amplitude {reach!r}"
-            if centre + reach > upper[i]:
-                raise SequencerError(
-                    f"{prefix}sinusoid: {name} reaches {centre + reach!r} ({swing}), "
-                    f"above its upper limit {upper[i]!r}"
-                )
-            if centre - reach < lower[i]:
-                raise SequencerError(
-                    f"{prefix}sinusoid: {name} reaches {centre - reach!r} ({swing}), "
-                    f"below its lower limit {lower[i]!r}"
-                )
-        return
+        _check_wave(config, joint_names, lower, upper, source)
+    else:
+        _check_targets(config, joint_names, lower, upper, prefix)
+    check_config(config, origin=lambda _key: source, error=SequencerError)
 
-    if not (math.isfinite(config.period) and config.period > 0):
-        raise SequencerError(f"{prefix}period={config.period!r} must be positive [s]")
+
+def _check_wave(config: Sinusoid, joint_names, lower, upper, source: str) -> None:
+    prefix = f"{source}: " if source else ""
+    wave = wave_of(config, joint_names, source)
+    for i, name in enumerate(joint_names):
+        reach = abs(float(wave.amplitude[i]))
+        centre = float(wave.offset[i])
+        swing = f"offset {centre!r} +- amplitude {reach!r}"
+        if centre + reach > upper[i]:
+            raise SequencerError(
+                f"{prefix}sinusoid: {name} reaches {centre + reach!r} ({swing}), "
+                f"above its upper limit {upper[i]!r}"
+            )
+        if centre - reach < lower[i]:
+            raise SequencerError(
+                f"{prefix}sinusoid: {name} reaches {centre - reach!r} ({swing}), "
+                f"below its lower limit {lower[i]!r}"
+            )
+
+
+def _check_targets(config, joint_names, lower, upper, prefix: str) -> None:
+    n = len(joint_names)
     if not config.targets:
         raise SequencerError(f"{prefix}{type(config).__name__} needs at least one target")
     for k, target in enumerate(config.targets):

@@ -53,6 +53,7 @@ from armando_drake.control.sequencer import stream_controller
 from armando_drake.description.loader import LoadedRobot
 from armando_drake.description.packages import package_of
 from armando_drake.tools.errors import ScenarioError
+from armando_drake.tools.schema import Refusal, param
 
 _log = logging.getLogger("armando_drake.world")
 
@@ -61,24 +62,49 @@ _log = logging.getLogger("armando_drake.world")
 # dataclass field types at run time and does not resolve string annotations.
 
 
+# [N m/rad] (or N/m) the largest proportional gain accepted. Industrial servos
+# run at 1e3..1e5; above 1e6 the discrete step's implicit PD is all stiffness
+# and a position command throws the joint to its limit.
+MAX_GAIN = 1e6
+# [N m s/rad] (or N s/m) the largest derivative (and velocity) gain accepted.
+MAX_DAMPING = 1e5
+_TOO_STIFF = "stiffer than any real servo, it throws the joint against its limits"
+
+
 @dc.dataclass
 class ActuatorConfig:
     """The simulated position interface: Drake PD-controlled joint actuators."""
 
     # Proportional gain of every actuated joint [N m/rad].
-    kp: float = 8.0
+    kp: float = param(8.0, unit="N m/rad", gt=0, over=(MAX_GAIN, _TOO_STIFF))
     # Derivative gain of every actuated joint [N m s/rad].
-    kd: float = 0.4
+    kd: float = param(0.4, unit="N m s/rad", ge=0, over=(MAX_DAMPING, _TOO_STIFF))
     # Velocity gain of every joint with a velocity command interface [N m s/rad]: the
     # torque per rad/s of velocity error of its damping-only servo (kp = 0).
-    kv: float = 1.0
+    kv: float = param(1.0, unit="N m s/rad", ge=0, over=(MAX_DAMPING, _TOO_STIFF))
     # Per-joint gains overriding kp and kd, as joint: [kp, kd] (a velocity joint:
-    # [0, kv]).
-    gains: dict[str, list[float]] = dc.field(default_factory=dict)
+    # [0, kv]) [N m/rad, N m s/rad]; each pair checked by check().
+    gains: dict[str, list[float]] = param({}, unit="N m/rad, N m s/rad")
     # Adds the torque that holds the arm against gravity at the commanded
     # position, through the actuation input, so the steady-state error does not
     # depend on how stiff the gains are.
     gravity_feedforward: bool = True
+
+    def check(self) -> None:
+        """Each per-joint pair [kp, kd]: two gains, zero or positive, no stiffer than a
+        servo (whether the joint exists is checked against the robot)."""
+        for joint, gains in self.gains.items():
+            key = f"gains.{joint}"
+            if len(gains) != 2:
+                raise Refusal(key, f"={gains!r} must be two numbers [kp, kd]")
+            kp, kd = gains
+            if kp < 0 or kd < 0:
+                raise Refusal(key, f"={gains!r}: gains must be zero or positive")
+            if kp > MAX_GAIN or kd > MAX_DAMPING:
+                raise Refusal(
+                    key,
+                    f"={gains!r}: {max(kp, kd)!r} is above {MAX_GAIN:g}: {_TOO_STIFF}",
+                )
 
 
 @dc.dataclass
@@ -92,7 +118,7 @@ class ControllersConfig:
     activate: list[str] = dc.field(default_factory=list)
     # Rate of the controller manager [Hz], overriding the YAML's update_rate; 0 = the
     # YAML's.
-    update_rate: int = 0
+    update_rate: int = param(0, unit="Hz")
 
 
 @dc.dataclass

@@ -6,7 +6,7 @@ pose into a :class:`~armando_drake.kinematics.paths.CartesianTrajectory`.
 """
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.eigen_geometry import AngleAxis
@@ -25,6 +25,7 @@ from armando_drake.kinematics.time_laws import (
     TimeLaw,
     TrapezoidalTimeLaw,
 )
+from armando_drake.tools.schema import param
 
 PATHS = ("linear", "circular")
 TIME_LAWS = ("trapezoidal", "cubic", "quintic")
@@ -36,28 +37,30 @@ class TaskSpaceMotion:
 
     path: str = "linear"  # linear | circular
     # [m] linear: the goal position; empty: start + offset
-    goal: list[float] = field(default_factory=list)
+    goal: list[float] = param([], unit="m")
     # [m] linear: goal - start, used when goal is empty
-    offset: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
-    radius: float = 0.05  # [m] circular: the radius
-    normal: list[float] = field(default_factory=lambda: [1.0, 0.0, 0.0])  # circular: the
+    offset: list[float] = param([0.0, 0.0, 0.0], unit="m")
+    radius: float = param(0.05, unit="m", gt=0)  # [m] circular: the radius
+    normal: list[float] = param([1.0, 0.0, 0.0], unit="-")  # circular: the
     # plane's normal (default: the y-z plane through the start, as the course's seed)
-    center_direction: list[float] = field(default_factory=lambda: [0.0, 0.0, -1.0])  # [-]
+    center_direction: list[float] = param([0.0, 0.0, -1.0], unit="-")  # [-]
     # circular: from the start towards the centre (projected into the plane)
-    angle: float = 2.0 * math.pi  # [rad] circular: the arc turned about the normal
+    # [rad] circular: the arc turned about the normal
+    angle: float = param(2.0 * math.pi, unit="rad")
     # [rad] rotation vector (base frame) from the start orientation to the goal's,
     # slerped along the path; zero holds the orientation (arms with < 6 joints: zero)
-    rotation: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    rotation: list[float] = param([0.0, 0.0, 0.0], unit="rad")
     profile: str = "trapezoidal"  # the time law: trapezoidal | cubic | quintic
-    duration: float = 3.0  # [s] the motion's duration T
-    acceleration_time: float = 0.6  # [s] trapezoidal: t_c, 0 < t_c <= T/2
+    duration: float = param(3.0, unit="s", gt=0)  # [s] the motion's duration T
+    # [s] trapezoidal: t_c, 0 < t_c <= T/2
+    acceleration_time: float = param(0.6, unit="s", gt=0)
     # The frame that follows the path: a frame of the robot ("" = the child link of
     # its last moving joint).
     end_effector: str = ""
     # [rad] the joint positions at the start, in the hardware interface's joint
     # order; empty = the description's initial positions. The path starts at the
     # end effector's pose there.
-    start_positions: list[float] = field(default_factory=list)
+    start_positions: list[float] = param([], unit="rad or m")
 
 
 def make_time_law(motion: TaskSpaceMotion) -> TimeLaw:

@@ -37,6 +37,7 @@ import numpy as np
 from pydrake.perception import PointCloud
 
 from armando_drake.perception.config import (
+    STEP_TYPES,
     Clustering,
     CropBox,
     EstimateNormals,
@@ -45,8 +46,8 @@ from armando_drake.perception.config import (
     StatisticalOutlierRemoval,
     VoxelDownsample,
     step_label,
-    validate_step,
 )
+from armando_drake.tools.schema import check_config
 
 RANSAC_SEED = 0  # RANSAC's random draws are seeded: the same cloud gives the same plane
 
@@ -372,7 +373,14 @@ class PointCloudPipeline:
     def __init__(self, steps):
         self.steps = list(steps)
         for index, step in enumerate(self.steps):
-            validate_step(index, step)
+            if not isinstance(step, STEP_TYPES):
+                names = ", ".join(t.__name__ for t in STEP_TYPES)
+                raise PerceptionError(
+                    f"steps[{index}]: {type(step).__name__} is not a perception step "
+                    f"(steps: {names})"
+                )
+        check_config(self.steps, key="steps", error=PerceptionError)
+        for index, step in enumerate(self.steps):
             if type(step) not in STEP_FUNCTIONS:
                 raise PerceptionError(f"{step_label(index, step)}: no implementation")
 

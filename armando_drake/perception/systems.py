@@ -46,7 +46,6 @@ from armando_drake.perception.config import (
     PerceptionError,
     PlaneSegmentation,
     StatisticalOutlierRemoval,
-    validate_perception,
 )
 from armando_drake.perception.pipeline import (
     NO_RESULT,
@@ -56,6 +55,7 @@ from armando_drake.perception.pipeline import (
     make_cloud,
 )
 from armando_drake.tools.errors import ScenarioError
+from armando_drake.tools.schema import check_config
 
 _log = logging.getLogger("armando_drake.perception")
 
@@ -343,7 +343,7 @@ def AddPerception(
         return None
     where = f"{source}: " if source else ""
     try:
-        validate_perception(config)
+        check_config(config, key="perception", error=PerceptionError)
     except PerceptionError as error:
         raise _error(where, str(error)) from None
     if any(isinstance(step, SKLEARN_STEPS) for step in config.steps):

@@ -2,6 +2,8 @@
 
 import dataclasses as dc
 
+from armando_drake.tools.schema import param
+
 
 @dc.dataclass
 class Ros2Config:
@@ -11,7 +13,7 @@ class Ros2Config:
     # command topics on DDS, as a ROS 2 robot (ros2_control + robot_state_publisher).
     enabled: bool = False
     # The ROS_DOMAIN_ID [0, 232] of the DDS domain.
-    domain_id: int = 0
+    domain_id: int = param(0, unit="-")
     # ROS namespace of the robot's topics, e.g. "/arm" (joint_states, robot_description,
     # controllers, camera); "" = none. /tf, /tf_static and /clock stay global, as in ROS 2.
     namespace: str = ""
@@ -22,9 +24,9 @@ class Ros2Config:
     # Whether the same topics are served over Foxglove's WebSocket protocol.
     foxglove: bool = False
     # TCP port of the Foxglove WebSocket server; 0 = any free port (logged).
-    foxglove_port: int = 8765
+    foxglove_port: int = param(8765, unit="-")
     # Address the Foxglove server listens on; "127.0.0.1" = this machine only,
     # "0.0.0.0" = every interface.
     foxglove_host: str = "127.0.0.1"
     # Rate of /clock [Hz]; 0 = the controller manager's update_rate.
-    clock_rate: float = 0.0
+    clock_rate: float = param(0.0, unit="Hz", ge=0)

@@ -13,7 +13,6 @@ thickness along O's z. A marker laid flat on the ground shows its face upwards.
 """
 
 import hashlib
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,6 +20,7 @@ import numpy as np
 from pydrake.math import RigidTransform
 
 from armando_drake.description.meshes import cache_dir
+from armando_drake.tools.schema import Refusal, param
 
 # Pixels per marker bit in the texture (a 4x4 marker with its border: 6 bits wide).
 _PIXELS_PER_BIT = 32
@@ -54,30 +54,27 @@ class ArucoMarker:
 
     # OpenCV's predefined dictionary (cv2.aruco.DICT_*), e.g. DICT_4X4_50.
     dictionary: str = "DICT_ARUCO_ORIGINAL"
-    id: int = 201  # the marker's id in the dictionary
-    side_length: float = 0.1  # [m] side of the black marker square (its outer border)
-    margin: float = 0.02  # [m] white quiet zone around the marker on the face
-    thickness: float = 0.005  # [m] of the box
+    id: int = param(201, unit="-")  # the marker's id in the dictionary
+    # [m] side of the black marker square (its outer border)
+    side_length: float = param(0.1, unit="m", gt=0)
+    margin: float = param(0.02, unit="m", ge=0)  # [m] white quiet zone around the marker
+    thickness: float = param(0.005, unit="m", gt=0)  # [m] of the box
 
-    def check(self, where: str = "") -> None:
-        """:class:`MarkerError` naming ``where`` and the bad value."""
-        prefix = f"{where}: " if where else ""
+    def message_prefix(self, parent: str, name: str) -> str:
+        """A marker's fields are named after its type in messages (``ArucoMarker: id``)."""
+        return f"{parent}ArucoMarker: " if name else ""
+
+    def check(self) -> None:
+        """The dictionary is OpenCV's and holds the id (the sizes are checked beside them)."""
         try:
             dictionary = aruco_dictionary(self.dictionary)
         except MarkerError as error:
-            raise MarkerError(f"{prefix}{error}") from None
+            raise Refusal("dictionary", str(error).removeprefix("dictionary")) from None
         size = dictionary_size(dictionary)
         if not 0 <= self.id < size:
-            raise MarkerError(
-                f"{prefix}id={self.id!r} is outside dictionary {self.dictionary} "
-                f"(ids 0..{size - 1})"
+            raise Refusal(
+                "id", f"={self.id!r} is outside dictionary {self.dictionary} (ids 0..{size - 1})"
             )
-        for label in ("side_length", "thickness"):
-            value = getattr(self, label)
-            if not (math.isfinite(value) and value > 0):
-                raise MarkerError(f"{prefix}{label}={value!r} must be positive [m]")
-        if not (math.isfinite(self.margin) and self.margin >= 0):
-            raise MarkerError(f"{prefix}margin={self.margin!r} must be >= 0 [m]")
 
     @property
     def face(self) -> float:

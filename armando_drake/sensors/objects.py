@@ -21,7 +21,6 @@ axis. (No ``from __future__ import annotations`` here: ``yaml_load_typed``
 needs the field types as types, not strings.)
 """
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -30,13 +29,13 @@ from pydrake.geometry import GeometryInstance, PerceptionProperties, Rgba
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
 
-from armando_drake.sensors.marker import ArucoMarker, MarkerError
-from armando_drake.tools.errors import UserInputError
+from armando_drake.sensors.marker import ArucoMarker
+from armando_drake.tools.schema import ConfigError, Refusal, check_config, param
 
 GROUND_COLOR = (0.85, 0.85, 0.82, 1.0)  # RGBA of the ground, in Meshcat and in cameras
 
 
-class SceneObjectError(UserInputError, ValueError):
+class SceneObjectError(ConfigError):
     """A scenario object with a bad shape, size, pose or colour."""
 
 
@@ -45,22 +44,36 @@ class Box:
     """A box centred on the object frame."""
 
     # [m] edge lengths along the object frame's x, y and z.
-    size: list[float] = field(default_factory=lambda: [0.05, 0.05, 0.05])
+    size: list[float] = param(
+        [0.05, 0.05, 0.05], unit="m", gt=0, length=3, item_names=("x", "y", "z")
+    )
+
+    def message_prefix(self, parent: str, name: str) -> str:
+        """Named after its type in messages (``Box x=-1.0``)."""
+        return f"{parent}Box " if name else ""
 
 
 @dataclass
 class Cylinder:
     """A cylinder centred on the object frame, its axis the frame's z axis."""
 
-    radius: float = 0.05  # [m]
-    length: float = 0.05  # [m] along z
+    radius: float = param(0.05, unit="m", gt=0)  # [m]
+    length: float = param(0.05, unit="m", gt=0)  # [m] along z
+
+    def message_prefix(self, parent: str, name: str) -> str:
+        """Named after its type in messages (``Cylinder length=0.0``)."""
+        return f"{parent}Cylinder " if name else ""
 
 
 @dataclass
 class Sphere:
     """A sphere centred on the object frame."""
 
-    radius: float = 0.05  # [m]
+    radius: float = param(0.05, unit="m", gt=0)  # [m]
+
+    def message_prefix(self, parent: str, name: str) -> str:
+        """Named after its type in messages (``Sphere radius=-0.1``)."""
+        return f"{parent}Sphere " if name else ""
 
 
 # The shape of a scene object; a YAML tag chooses (!Box, !Cylinder, !Sphere,
@@ -76,18 +89,35 @@ class SceneObject:
     # !Box {size: [x, y, z]} | !Cylinder {radius, length} | !Sphere {radius}, in metres;
     # !ArucoMarker {dictionary, id, side_length, margin, thickness}.
     shape: ObjectShape = field(default_factory=Box)
-    xyz: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # [m] centre in world
-    rpy: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # [rad] roll pitch yaw
-    color: list[float] = field(default_factory=lambda: [0.8, 0.2, 0.2, 1.0])  # RGBA in [0, 1]
+    # [m] centre in world
+    xyz: list[float] = param([0.0, 0.0, 0.0], unit="m", length=3, coordinate=True)
+    rpy: list[float] = param([0.0, 0.0, 0.0], unit="rad", length=3)  # [rad] roll pitch yaw
+    color: list[float] = param([0.8, 0.2, 0.2, 1.0], unit="-", length=4)  # RGBA in [0, 1]
     collision: bool = True  # also register collision geometry
-    friction: float = 0.8  # [-] Coulomb friction coefficient (static = dynamic)
+    # [-] Coulomb friction coefficient (static = dynamic)
+    friction: float = param(0.8, unit="-", ge=0)
+
+    def message_prefix(self, parent: str, name: str) -> str:
+        """Messages name the object: ``objects.0: object 'ball': xyz=...``."""
+        return f"{parent}{name}: object {self.name!r}: " if name else f"object {self.name!r}: "
+
+    def check(self) -> None:
+        """A name, a shape of the known kinds, a colour in [0, 1]."""
+        if not self.name:
+            raise Refusal("name", "='': every object needs a name")
+        if not isinstance(self.shape, (Box, Cylinder, Sphere, ArucoMarker)):
+            raise Refusal(
+                "shape", f"={self.shape!r} is not one of !Box, !Cylinder, !Sphere, !ArucoMarker"
+            )
+        if not all(0.0 <= c <= 1.0 for c in self.color):
+            raise Refusal("color", f"={self.color!r} must be RGBA in [0, 1]")
 
     def X_WO(self) -> RigidTransform:
         """Pose of the object frame O in the world."""
         return RigidTransform(RollPitchYaw(self.rpy), self.xyz)
 
     def make_shape(self) -> geometry.Shape:
-        """The Drake shape (after :func:`validate_object`)."""
+        """The Drake shape (of a checked object)."""
         shape = self.shape
         if isinstance(shape, Box):
             return geometry.Box(*shape.size)
@@ -98,64 +128,15 @@ class SceneObject:
         return geometry.Sphere(shape.radius)
 
 
-def _numbers(obj: SceneObject, label: str, values, count: int) -> list[float]:
-    try:
-        numbers = [float(v) for v in values]
-    except (TypeError, ValueError):
-        raise SceneObjectError(f"object {obj.name!r}: {label}={values!r} is not numbers") from None
-    if len(numbers) != count or not all(math.isfinite(v) for v in numbers):
-        raise SceneObjectError(f"object {obj.name!r}: {label}={values!r} must be {count} numbers")
-    return numbers
-
-
-def _dimensions(obj: SceneObject) -> dict[str, float]:
-    """The shape's dimensions [m] by name; raises for a shape of the wrong type."""
-    shape = obj.shape
-    if isinstance(shape, Box):
-        x, y, z = _numbers(obj, "Box size", shape.size, 3)
-        return {"x": x, "y": y, "z": z}
-    if isinstance(shape, Cylinder):
-        return {"radius": shape.radius, "length": shape.length}
-    if isinstance(shape, Sphere):
-        return {"radius": shape.radius}
-    if isinstance(shape, ArucoMarker):
-        try:
-            shape.check(f"object {obj.name!r}: ArucoMarker")
-        except MarkerError as error:
-            raise SceneObjectError(str(error)) from None
-        return {"side_length": shape.side_length, "thickness": shape.thickness}
-    raise SceneObjectError(
-        f"object {obj.name!r}: shape={shape!r} is not one of !Box, !Cylinder, !Sphere, !ArucoMarker"
-    )
-
-
-def validate_object(obj: SceneObject) -> None:
-    """Raises :class:`SceneObjectError` naming the object and the bad value."""
-    if not obj.name:
-        raise SceneObjectError(f"scene object {obj!r} has no name")
-    kind = type(obj.shape).__name__
-    for label, value in _dimensions(obj).items():
-        if not (math.isfinite(value) and value > 0):
-            raise SceneObjectError(
-                f"object {obj.name!r}: {kind} {label}={value!r} must be positive [m]"
-            )
-    _numbers(obj, "xyz", obj.xyz, 3)
-    _numbers(obj, "rpy", obj.rpy, 3)
-    color = _numbers(obj, "color", obj.color, 4)
-    if not all(0.0 <= c <= 1.0 for c in color):
-        raise SceneObjectError(f"object {obj.name!r}: color={obj.color!r} must be RGBA in [0, 1]")
-    if not obj.friction >= 0:
-        raise SceneObjectError(f"object {obj.name!r}: friction={obj.friction!r} must be >= 0")
-
-
 def AddSceneObjects(plant: MultibodyPlant, objects: list[SceneObject]) -> None:
     """Welds each object's visual (+ collision) geometry to the world of ``plant``.
 
-    Call before ``plant.Finalize()``. All objects are validated before any is added.
+    Call before ``plant.Finalize()``. All objects are checked (their schema, see
+    :func:`~armando_drake.tools.schema.check_config`) before any is added.
     """
     names = set()
     for obj in objects:
-        validate_object(obj)
+        check_config(obj, error=SceneObjectError)
         if obj.name in names:
             raise SceneObjectError(f"object {obj.name!r} is listed twice")
         names.add(obj.name)

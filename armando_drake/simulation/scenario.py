@@ -13,6 +13,12 @@ without a tag merges into the variant already there, so
 ``sequencer: {period: 5}`` changes a trajectory's period and keeps it a
 trajectory; a tag chooses a variant anew (from its defaults, then the given
 fields).
+
+Each field declares its unit, range and choices beside it
+(:func:`~armando_drake.tools.schema.param`);
+:func:`~armando_drake.simulation.validation.check_scenario` checks them, and the rules
+between fields of the whole scenario (:meth:`Scenario.check`), naming where each value
+came from (:class:`ScenarioSources`).
 """
 
 import dataclasses as dc
@@ -42,9 +48,19 @@ from armando_drake.ros2.config import Ros2Config
 from armando_drake.sensors.objects import SceneObject
 from armando_drake.teleop.config import JogConfig
 from armando_drake.tools.errors import ScenarioError
+from armando_drake.tools.schema import Refusal, param
 from armando_drake.tools.yaml_keys import duplicate_key
 from armando_drake.vision.cameras import ScenarioCamera
 from armando_drake.vision.config import VisionConfig
+
+# The slowest pacing accepted (besides 0, as fast as possible): slower, a second lasts hours.
+MIN_REALTIME_RATE = 1e-3
+# [s] the longest run taken from the sequence itself (no simulation.duration or
+# --duration given): one pass of a sequence longer than this is surely a typo.
+MAX_DEFAULT_DURATION = 3600.0
+# [s] the longest run accepted at all (about 11.6 simulated days): longer, the
+# run would not end in any useful time, as fast as it may go.
+MAX_DURATION = 1e6
 
 
 @dc.dataclass
@@ -59,15 +75,15 @@ class RobotConfig:
     # Extra folders searched for ROS packages, before ROS_PACKAGE_PATH.
     package_paths: list[str] = dc.field(default_factory=list)
     # Collision geometry: auto | boxes | convex | as-is | none.
-    collision: str = "auto"
+    collision: str = param("auto", choices=("auto", "boxes", "convex", "as-is", "none"))
     # Whether the robot's links collide with each other. Off by default, as in
     # Gazebo (<self_collide> false); the robot always collides with the ground
     # and the scene objects.
     self_collision: bool = False
     # Position of the base in the world [m]; the base is welded there.
-    base_xyz: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    base_xyz: list[float] = param([0.0, 0.0, 0.0], unit="m", length=3, coordinate=True)
     # Orientation of the base in the world, roll pitch yaw [rad].
-    base_rpy: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    base_rpy: list[float] = param([0.0, 0.0, 0.0], unit="rad", length=3)
 
 
 @dc.dataclass
@@ -85,10 +101,10 @@ class CameraSettings:
     # saved; "" = not saved.
     save_frames: str = ""
     # Rate at which frames are saved [Hz]; 0 = the camera's own rate.
-    save_rate: float = 0.0
+    save_rate: float = param(0.0, unit="Hz", ge=0)
     # Renderer: "gl" (Drake's OpenGL engine, on DISPLAY or a private Xvfb), "vtk"
     # (VTK through EGL, no display needed) or "auto" (gl when possible, else vtk).
-    renderer: str = "auto"
+    renderer: str = param("auto", choices=("auto", "gl", "vtk"))
 
 
 @dc.dataclass
@@ -96,16 +112,21 @@ class LoggingConfig:
     """The joint-state logger."""
 
     # How often the joint positions are printed to the console [Hz]; 0 = never.
-    console_rate: float = 1.0
+    console_rate: float = param(1.0, unit="Hz", ge=0)
 
 
 @dc.dataclass
 class SimulationConfig:
     """How long the simulation runs (how fast: ``Scenario.simulator_config``)."""
 
-    # Simulated time [s]; 0 or less = one pass of the command sequence (2 s
-    # if there is none).
-    duration: float = 0.0
+    # Simulated time [s]; 0 = one pass of the command sequence (2 s if there is
+    # none).
+    duration: float = param(
+        0.0,
+        unit="s",
+        ge=0,
+        over=(MAX_DURATION, f"{MAX_DURATION / 86400:.1f} simulated days"),
+    )
 
 
 @dc.dataclass
@@ -174,6 +195,46 @@ class Scenario:
     # The running world on DDS as a ROS 2 robot, and on Foxglove.
     ros2: Ros2Config = dc.field(default_factory=Ros2Config)
 
+    def check(self) -> None:
+        """The rules between sections: an object listed twice, a crawling pacing, a
+        rate above the plant's, a sequence that never ends. (Each field's own rules
+        are beside it; those that need the robot and the controller YAML are
+        :func:`~armando_drake.simulation.validation.check_against_world`.)"""
+        names = set()
+        for index, obj in enumerate(self.objects):
+            if obj.name in names:
+                raise Refusal(f"objects.{index}", f": object {obj.name!r} is listed twice")
+            names.add(obj.name)
+        pacing = self.simulator_config.target_realtime_rate
+        if 0 < pacing < MIN_REALTIME_RATE:
+            raise Refusal(
+                "simulator_config.target_realtime_rate",
+                f"={pacing!r} is below {MIN_REALTIME_RATE:g} (0 = as fast as possible): a "
+                "simulated second would take hours",
+            )
+        plant_rate = 1.0 / self.plant_config.time_step
+        rates = [("ros2.clock_rate", self.ros2.clock_rate)]
+        rates += [(f"cameras.{i}.update_rate", c.update_rate) for i, c in enumerate(self.cameras)]
+        for key, rate in rates:
+            if rate > plant_rate * (1 + 1e-9):
+                raise Refusal(key, f"={rate!r} Hz is above the plant's rate {plant_rate:g} Hz")
+        if self.simulation.duration <= 0:
+            duration = default_duration(self)
+            if duration > MAX_DEFAULT_DURATION:
+                raise Refusal(
+                    "task" if self.sequencer is None else "sequencer",
+                    f": one pass lasts {duration:.4g} s, over {MAX_DEFAULT_DURATION:g} s; give "
+                    "simulation.duration (or --duration) to run that long",
+                )
+
+
+def default_duration(scenario: Scenario) -> float:
+    """[s] one pass of the command sequence; the task's motion and 0.5 s of holding
+    without one; 2 s without either."""
+    if scenario.sequencer is None:
+        return 2.0 if scenario.task is None else scenario.task.duration + 0.5
+    return one_pass(scenario.sequencer)
+
 
 def resolve_scenario_path(name: str | os.PathLike) -> Path:
     """A scenario file: a path, or the name of a file in ``diagrams/``."""
@@ -214,21 +275,34 @@ def _keep_variants(data, current) -> None:
         _keep_variants(value, old)
 
 
+# Drake's message (``yaml_load_typed``, pydrake 1.51) for a tag that is none of a Union
+# field's members: "The yaml type tag value 'Sine' did not match any of the allowed type
+# options for 'sequencer' ((<class '...PositionTargets'>, ...))".
+_UNKNOWN_TAG = re.compile(
+    r"The yaml type tag value '(?P<tag>\w+)' did not match any of the allowed type "
+    r"options for '(?P<field>\w+)'(?: \(+(?P<options>[^()]*)\)+)?"
+)
+
+
+def parse_unknown_tag(text: str) -> tuple[str, str, str] | None:
+    """(the tag, the field, the options as Drake lists them) of Drake's message for an
+    unknown tag; None for any other message. The one place that reads Drake's wording
+    (tests/simulation/test_scenario.py checks it against the loader's message)."""
+    match = _UNKNOWN_TAG.search(" ".join(text.split()))
+    if match is None:
+        return None
+    return match["tag"], match["field"], match["options"] or ""
+
+
 def _one_line(error: Exception, current) -> str:
     """Drake's message of a YAML error as one line, with a bad tag's choices spelled
     as tags."""
     text = " ".join(str(error).split())
-    match = re.search(
-        r"The yaml type tag value '(\w+)' did not match any of the allowed type "
-        r"options for '(\w+)'",
-        text,
-    )
-    if match:
-        tag, field = match.groups()
-        choices = ", ".join(_tag_choices(type(current), field))
-        if not choices:  # a Union inside a list: Drake's message lists the options
-            listed = re.search(r"options for '\w+' \(+([^()]*)\)+", text)
-            choices = listed.group(1) if listed else ""
+    unknown = parse_unknown_tag(text)
+    if unknown is not None:
+        tag, field, listed = unknown
+        # A Union inside a list: the choices are Drake's list of options.
+        choices = ", ".join(_tag_choices(type(current), field)) or listed
         where = "" if field == "_" else f"{field}: "
         text = f"{where}unknown tag !{tag} (choose {choices})"
     return text
@@ -413,14 +487,6 @@ def load_scenario(
     if source != "<defaults>":
         sources_of(scenario).file = source
     return scenario
-
-
-def default_duration(scenario: Scenario) -> float:
-    """[s] one pass of the command sequence; the task's motion and 0.5 s of holding
-    without one; 2 s without either."""
-    if scenario.sequencer is None:
-        return 2.0 if scenario.task is None else scenario.task.duration + 0.5
-    return one_pass(scenario.sequencer)
 
 
 def note_option(scenario, keys: Iterable[str], option: str) -> None:

@@ -11,8 +11,10 @@ y down), 2/3 the right stick. (No ``from __future__ import annotations`` here:
 
 import dataclasses as dc
 
+from armando_drake.tools.schema import ConfigError, Refusal, param
 
-class JogError(ValueError):
+
+class JogError(ConfigError):
     """A jog block that cannot be used; the message names the field and the value."""
 
 
@@ -22,38 +24,54 @@ class GamepadMapping:
 
     # Button that must be held for the gamepad to move the arm (the dead-man switch);
     # released, the arm holds its command. 4 = LB.
-    deadman_button: int = 4
+    deadman_button: int = param(4, unit="-", ge=0)
     # Button that sends the arm home at joint_speed, while the dead-man is held. 1 = B.
-    home_button: int = 1
+    home_button: int = param(1, unit="-", ge=0)
     # Button that switches the sticks to joint velocities. 2 = X.
-    joint_mode_button: int = 2
+    joint_mode_button: int = param(2, unit="-", ge=0)
     # Button that switches the sticks to end-effector velocities (the start mode). 3 = Y.
-    cartesian_mode_button: int = 3
+    cartesian_mode_button: int = param(3, unit="-", ge=0)
     # Button that, held in joint mode, moves the sticks to the next bank of joints (the
     # joints after the first len(joint_axes)). 5 = RB.
-    shift_button: int = 5
+    shift_button: int = param(5, unit="-", ge=0)
     # Joint mode: the axis that drives each joint, in the jogged controller's joint
     # order (a joint beyond the list: none), and its sign (+1 or -1; -1 makes "stick up"
     # positive on the y axes).
-    joint_axes: list[int] = dc.field(default_factory=lambda: [0, 1, 3, 2])
-    joint_signs: list[float] = dc.field(default_factory=lambda: [-1.0, -1.0, -1.0, 1.0])
+    joint_axes: list[int] = param([0, 1, 3, 2], unit="-", ge=0)
+    joint_signs: list[float] = param([-1.0, -1.0, -1.0, 1.0], unit="-", choices=(-1.0, 1.0))
     # Cartesian mode: the axes of the world's x, y and z velocity of the end effector,
     # and their signs: left stick up = +x, left stick left = +y, right stick up = +z.
-    linear_axes: list[int] = dc.field(default_factory=lambda: [1, 0, 3])
-    linear_signs: list[float] = dc.field(default_factory=lambda: [-1.0, -1.0, -1.0])
+    linear_axes: list[int] = param([1, 0, 3], unit="-", ge=0, length=3)
+    linear_signs: list[float] = param([-1.0, -1.0, -1.0], unit="-", choices=(-1.0, 1.0))
     # Cartesian mode: the axes of the rotations the arm can follow (the end effector's
     # own axes, see README "Live jog"), in order, and their signs; a rotation beyond
     # this list takes the next pair of angular_buttons.
-    angular_axes: list[int] = dc.field(default_factory=lambda: [2])
-    angular_signs: list[float] = dc.field(default_factory=lambda: [1.0])
+    angular_axes: list[int] = param([2], unit="-", ge=0)
+    angular_signs: list[float] = param([1.0], unit="-", choices=(-1.0, 1.0))
     # Cartesian mode: pairs [positive, negative] of buttons for the further rotations
     # (analog values: the triggers give a speed). Default: RT/LT, then D-pad right/left.
-    angular_buttons: list[list[int]] = dc.field(default_factory=lambda: [[7, 6], [15, 14]])
+    angular_buttons: list[list[int]] = param([[7, 6], [15, 14]], unit="-", ge=0)
     # Axis values of magnitude below this are zero; above, they are rescaled so the
     # speed rises from 0 at the dead zone to full at 1 [-].
-    dead_zone: float = 0.15
+    dead_zone: float = param(0.15, unit="-", ge=0, lt=1)
     # A button counts as pressed above this value [-] (analog triggers give 0..1).
-    press_threshold: float = 0.5
+    press_threshold: float = param(0.5, unit="-", gt=0, le=1)
+
+    def check(self) -> None:
+        """One sign per axis; each further rotation a pair of buttons."""
+        for axes, signs in (
+            ("joint_axes", "joint_signs"),
+            ("linear_axes", "linear_signs"),
+            ("angular_axes", "angular_signs"),
+        ):
+            a, s = getattr(self, axes), getattr(self, signs)
+            if len(a) != len(s):
+                raise Refusal(signs, f"={s!r} must have one sign per entry of {axes}={a!r}")
+        for pair in self.angular_buttons:
+            if len(pair) != 2:
+                raise Refusal(
+                    "angular_buttons", f": {pair!r} must be a pair [positive, negative] of buttons"
+                )
 
 
 @dc.dataclass
@@ -67,87 +85,36 @@ class JogConfig:
     controller: str = ""
     # How often the Meshcat controls are read and a command published when it changed
     # [Hz]; > 0.
-    rate: float = 30.0
+    rate: float = param(30.0, unit="Hz", gt=0)
     # The frame the Cartesian jog moves (a frame of the robot); "" = the body of the
     # last moving joint.
     end_effector: str = ""
     # Where the arm starts and where "home" returns it [rad or m], one value per joint
     # of the robot (hardware order, as task.start_positions); empty = the joints'
     # initial positions (their <ros2_control> initial_value, else 0).
-    home_positions: list[float] = dc.field(default_factory=list)
+    home_positions: list[float] = param([], unit="rad or m")
     # One slider per jogged joint, as joint_state_publisher_gui and rqt's
     # JointTrajectoryController GUI have.
     sliders: bool = True
     # The sliders' increment [rad or m].
-    slider_step: float = 0.001
+    slider_step: float = param(0.001, unit="rad or m", gt=0)
     # Cartesian jog buttons (with their keys) for +/- x, y, z and the rotations the arm
     # can follow.
     cartesian: bool = True
     # End-effector displacement of one click (or key repeat) of a translation button [m].
-    linear_step: float = 0.005
+    linear_step: float = param(0.005, unit="m", gt=0)
     # End-effector rotation of one click of a rotation button [rad].
-    angular_step: float = 0.05
+    angular_step: float = param(0.05, unit="rad", gt=0)
     # Joint speed at full stick in joint mode, and of the return home [rad/s or m/s].
-    joint_speed: float = 0.5
+    joint_speed: float = param(0.5, unit="rad/s or m/s", gt=0)
     # End-effector speed at full stick in Cartesian mode [m/s].
-    linear_speed: float = 0.05
+    linear_speed: float = param(0.05, unit="m/s", gt=0)
     # End-effector angular speed at full stick in Cartesian mode [rad/s].
-    angular_speed: float = 0.5
+    angular_speed: float = param(0.5, unit="rad/s", gt=0)
     # Whether the gamepad (the first one the page sees) steers the arm.
     gamepad: bool = True
     # The gamepad's buttons and axes.
     gamepad_mapping: GamepadMapping = dc.field(default_factory=GamepadMapping)
     # How long a note (a clamped command, a jog stopped at a limit) stays in the
     # viewer's controls [s of simulated time].
-    note_time: float = 5.0
-
-
-def check_jog(config: JogConfig, where: str = "") -> None:
-    """Raises :class:`JogError` naming the first bad field of ``config``."""
-    prefix = f"{where}jog."
-    positive = ("rate", "slider_step", "linear_step", "angular_step", "joint_speed")
-    positive += ("linear_speed", "angular_speed", "note_time")
-    for name in positive:
-        value = getattr(config, name)
-        if not value > 0:
-            raise JogError(f"{prefix}{name}={value!r} must be positive")
-    mapping = config.gamepad_mapping
-    if not 0 <= mapping.dead_zone < 1:
-        raise JogError(f"{prefix}gamepad_mapping.dead_zone={mapping.dead_zone!r} must be in [0, 1)")
-    if not 0 < mapping.press_threshold <= 1:
-        raise JogError(
-            f"{prefix}gamepad_mapping.press_threshold={mapping.press_threshold!r} must be in (0, 1]"
-        )
-    for axes, signs in (
-        ("joint_axes", "joint_signs"),
-        ("linear_axes", "linear_signs"),
-        ("angular_axes", "angular_signs"),
-    ):
-        a, s = getattr(mapping, axes), getattr(mapping, signs)
-        if len(a) != len(s):
-            raise JogError(
-                f"{prefix}gamepad_mapping.{signs}={s!r} must have one sign per entry of "
-                f"{axes}={a!r}"
-            )
-        if any(value not in (-1.0, 1.0) for value in s):
-            raise JogError(f"{prefix}gamepad_mapping.{signs}={s!r}: each sign is +1 or -1")
-        if any(index < 0 for index in a):
-            raise JogError(f"{prefix}gamepad_mapping.{axes}={a!r}: axis indices are >= 0")
-    if len(mapping.linear_axes) != 3:
-        raise JogError(
-            f"{prefix}gamepad_mapping.linear_axes={mapping.linear_axes!r} must name 3 axes "
-            "(x, y, z)"
-        )
-    for pair in mapping.angular_buttons:
-        if len(pair) != 2 or any(index < 0 for index in pair):
-            raise JogError(
-                f"{prefix}gamepad_mapping.angular_buttons: {pair!r} must be a pair "
-                "[positive, negative] of button indices"
-            )
-    buttons = ("deadman_button", "home_button", "joint_mode_button", "cartesian_mode_button")
-    for name in (*buttons, "shift_button"):
-        if getattr(mapping, name) < 0:
-            raise JogError(
-                f"{prefix}gamepad_mapping.{name}={getattr(mapping, name)!r}: button indices "
-                "are >= 0"
-            )
+    note_time: float = param(5.0, unit="s", gt=0)

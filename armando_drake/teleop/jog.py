@@ -51,7 +51,7 @@ from armando_drake.messages.types import (
     JointTrajectoryPoint,
     Publication,
 )
-from armando_drake.teleop.config import JogConfig, JogError, check_jog
+from armando_drake.teleop.config import JogConfig, JogError
 from armando_drake.teleop.gamepad import CARTESIAN, JOINT, read_gamepad
 from armando_drake.tools.errors import ScenarioError
 
@@ -559,7 +559,6 @@ def AddJog(
     controller that takes joint positions and that nothing drives yet); None without
     a Meshcat to read. Errors: :class:`ScenarioError` naming ``where``."""
     try:
-        check_jog(config, where)
         return _add_jog(builder, config, stack, meshcat, where)
     except JogError as error:
         raise ScenarioError(str(error)) from None

@@ -12,5 +12,10 @@ class UserInputError(Exception):
     """A mistake in the user's input: every subsystem's own error class derives from it."""
 
 
-class ScenarioError(UserInputError, ValueError):
+class ConfigError(UserInputError, ValueError):
+    """A config value that is refused; the message is one line naming the value, its key
+    and where it came from (:func:`armando_drake.tools.schema.check_config`)."""
+
+
+class ScenarioError(ConfigError):
     """A scenario file or override that cannot be read, or a value the run refuses."""

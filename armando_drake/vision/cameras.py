@@ -21,9 +21,10 @@ it is added, rendered and shown exactly like a camera of the description. (No
 """
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from armando_drake.sensors.camera import CameraError, CameraSensorInfo
+from armando_drake.tools.schema import Refusal, check_config, param
 
 
 @dataclass
@@ -35,18 +36,28 @@ class ScenarioCamera:
     # The robot link it is attached to.
     link: str = ""
     # [m] position of the sensor frame in the link frame.
-    xyz: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    xyz: list[float] = param([0.0, 0.0, 0.0], unit="m", length=3, coordinate=True)
     # [rad] roll pitch yaw of the sensor frame in the link frame; as in Gazebo the
     # camera looks along the sensor frame's +x, +y to the left of the image, +z up.
-    rpy: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
-    width: int = 640  # [px] image width
-    height: int = 480  # [px] image height
-    horizontal_fov: float = 1.047  # [rad] horizontal field of view, in (0, pi)
-    near: float = 0.05  # [m] near clipping plane (and depth range start)
-    far: float = 10.0  # [m] far clipping plane (and depth range end)
-    update_rate: float = 30.0  # [Hz] frame rate (> 0)
+    rpy: list[float] = param([0.0, 0.0, 0.0], unit="rad", length=3)
+    width: int = param(640, unit="px", gt=0)  # [px] image width
+    height: int = param(480, unit="px", gt=0)  # [px] image height
+    # [rad] horizontal field of view, in (0, pi)
+    horizontal_fov: float = param(1.047, unit="rad", gt=0, lt=math.pi)
+    near: float = param(0.05, unit="m", gt=0)  # [m] near clipping plane (and depth range start)
+    far: float = param(10.0, unit="m", gt=0)  # [m] far clipping plane (and depth range end)
+    update_rate: float = param(30.0, unit="Hz", gt=0)  # [Hz] frame rate (> 0)
     # Gazebo sensor type: "camera" (colour) or "rgbd_camera" (colour + depth).
-    type: str = "camera"
+    type: str = param("camera", choices=("camera", "rgbd_camera"))
+
+    def check(self) -> None:
+        """A name, a link, and a far plane beyond the near one."""
+        if not self.name:
+            raise Refusal("name", "='': a camera needs a name")
+        if not self.link:
+            raise Refusal("link", "='': a camera needs the link it is attached to")
+        if not self.far > self.near:
+            raise Refusal("far", f"={self.far!r} must be greater than near={self.near!r}")
 
     def sensor_info(self, origin: str = "") -> CameraSensorInfo:
         """The checked camera as a :class:`CameraSensorInfo`; :class:`CameraError`
@@ -55,25 +66,7 @@ class ScenarioCamera:
         about the info later (a link that does not exist), start with it."""
         within = f"{origin}: cameras" if origin else "cameras"
         where = f"{within}: {self.name or '(unnamed)'!r}"
-        if not self.name:
-            raise CameraError(f"{where}: a camera needs a name")
-        if not self.link:
-            raise CameraError(f"{where}: link={self.link!r} must name a link of the robot")
-        if self.width <= 0 or self.height <= 0:
-            raise CameraError(f"{where}: width={self.width!r}, height={self.height!r} must be > 0")
-        if not 0.0 < self.horizontal_fov < math.pi:
-            raise CameraError(f"{where}: horizontal_fov={self.horizontal_fov!r} must be in (0, pi)")
-        if not (self.near > 0 and math.isfinite(self.near)):
-            raise CameraError(f"{where}: near={self.near!r} must be positive")
-        if not (self.far > self.near and math.isfinite(self.far)):
-            raise CameraError(f"{where}: far={self.far!r} must be finite and > near={self.near!r}")
-        if not (self.update_rate > 0 and math.isfinite(self.update_rate)):
-            raise CameraError(f"{where}: update_rate={self.update_rate!r} must be positive")
-        if self.type not in ("camera", "rgbd_camera"):
-            raise CameraError(f"{where}: type={self.type!r} must be 'camera' or 'rgbd_camera'")
-        for label, values in (("xyz", self.xyz), ("rpy", self.rpy)):
-            if len(values) != 3 or not all(math.isfinite(v) for v in values):
-                raise CameraError(f"{where}: {label}={values!r} must be 3 finite numbers")
+        check_config(self, origin=lambda _key: where, error=CameraError)
         return CameraSensorInfo(
             name=self.name,
             sensor_name=self.name,

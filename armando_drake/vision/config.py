@@ -10,7 +10,9 @@
 (No ``from __future__ import annotations``: ``yaml_load_typed`` needs real types.)
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+
+from armando_drake.tools.schema import param
 
 
 @dataclass
@@ -18,11 +20,14 @@ class BlobDetectorConfig:
     """``cv2.SimpleBlobDetector`` on a camera's colour image (the seed's parameters)."""
 
     camera: str = "camera"  # the camera's name (a cameras: entry or the description's)
-    min_threshold: float = 1.0  # [grey level] first binarisation threshold
-    max_threshold: float = 250.0  # [grey level] last binarisation threshold
-    threshold_step: float = 1.0  # [grey level] between thresholds
-    min_area: float = 100.0  # [px^2] smallest blob kept
-    min_circularity: float = 0.8  # [-] 4 pi area / perimeter^2 of a blob kept, in [0, 1]
+    # [grey level] first binarisation threshold
+    min_threshold: float = param(1.0, unit="grey level")
+    # [grey level] last binarisation threshold
+    max_threshold: float = param(250.0, unit="grey level")
+    threshold_step: float = param(1.0, unit="grey level")  # [grey level] between thresholds
+    min_area: float = param(100.0, unit="px^2")  # [px^2] smallest blob kept
+    # [-] 4 pi area / perimeter^2 of a blob kept, in [0, 1]
+    min_circularity: float = param(0.8, unit="-")
     # Run OpenCV once per distinct binary image (thresholds between the same two grey
     # levels of the frame give the same one) and repeat its centres: the same keypoints
     # as SimpleBlobDetector over every threshold, much cheaper on a rendered frame.
@@ -30,8 +35,9 @@ class BlobDetectorConfig:
     skip_repeated_thresholds: bool = True
     # [m] the true diameter of the blob's object (a disc): > 0 makes the largest
     # keypoint a target point for the look-at-point controllers (its ray, at the
-    # distance where that diameter has the keypoint's size); 0 = no target.
-    target_diameter: float = 0.0
+    # distance where that diameter has the keypoint's size); 0 = no target. (Its range
+    # is checked with the other blob targets, when the detectors are added.)
+    target_diameter: float = param(0.0, unit="m")
     # Print the keypoints on the console once a second (not when logging.console_rate is 0).
     print_keypoints: bool = True
 
@@ -42,8 +48,8 @@ class ArucoDetectorConfig:
 
     camera: str = "camera"  # the camera's name
     dictionary: str = "DICT_ARUCO_ORIGINAL"  # OpenCV's predefined dictionary (DICT_*)
-    marker_id: int = 201  # the id of the marker whose pose is estimated
-    side_length: float = 0.1  # [m] side of the marker's black square
+    marker_id: int = param(201, unit="-")  # the id of the marker whose pose is estimated
+    side_length: float = param(0.1, unit="m")  # [m] side of the marker's black square
 
 
 @dataclass
@@ -54,4 +60,4 @@ class VisionConfig:
     aruco: ArucoDetectorConfig | None = None  # the ArUco detector, absent = none
     # [rad] where the robot's joints start (hardware joint order); empty = their
     # initial positions. (A vision scenario starts the arm looking away from the marker.)
-    start_positions: list[float] = field(default_factory=list)
+    start_positions: list[float] = param([], unit="rad")

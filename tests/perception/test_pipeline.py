@@ -15,9 +15,9 @@ from armando_drake.perception.config import (
     PlaneSegmentation,
     StatisticalOutlierRemoval,
     VoxelDownsample,
-    validate_perception,
 )
 from armando_drake.perception.pipeline import PointCloudPipeline, make_cloud, points_of
+from armando_drake.tools.schema import check_config
 
 RNG_SEED = 7
 NOISE = 0.001  # [m] standard deviation of the plane points along the normal
@@ -224,7 +224,7 @@ def test_whole_pipeline_on_an_empty_or_planar_cloud_finds_no_cluster():
 def test_bad_parameters_are_one_line_errors_naming_the_step(steps, message):
     config = yaml_load_typed(data=f"steps: {steps}", defaults=PerceptionConfig())
     with pytest.raises(PerceptionError) as error:
-        validate_perception(config)
+        check_config(config, error=PerceptionError)
     assert str(error.value) == message
     with pytest.raises(PerceptionError, match=r"^steps\["):
         PointCloudPipeline(config.steps)

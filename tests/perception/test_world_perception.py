@@ -11,6 +11,7 @@ import trimesh
 from conftest import make_mini_package
 from pydrake.systems.analysis import Simulator
 
+from armando_drake.perception.config import VoxelDownsample
 from armando_drake.sensors.objects import Box, Cylinder
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import ScenarioError, load_scenario
@@ -183,10 +184,9 @@ def test_world_points_of_a_camera_on_a_moving_link_stay_put(tmp_path):
 
 
 def test_a_bad_step_is_one_line_naming_the_file_and_the_step():
-    scenario = load_scenario(
-        "perception",
-        f"{QUIET}\n{NO_GL}\nperception: {{steps: [!VoxelDownsample {{leaf_size: 0}}]}}",
-    )
+    # The bad step as the file would give it (an override would be named instead).
+    scenario = load_scenario("perception", f"{QUIET}\n{NO_GL}")
+    scenario.perception.steps = [VoxelDownsample(leaf_size=0.0)]
     with pytest.raises(ScenarioError) as error:
         MakeWorld(scenario, quiet=True, source="diagrams/perception.yaml")
     assert str(error.value) == (

@@ -36,7 +36,9 @@ from armando_drake.simulation.scenario import (
     load_scenario,
     merge_overrides,
 )
-from armando_drake.simulation.validation import _walk, check_scenario
+from armando_drake.simulation.validation import check_scenario
+from armando_drake.tools.schema import leaves as _walk
+from armando_drake.tools.schema import rule_at
 
 INPUT_ERRORS = (ScenarioError,)  # InputError, SequencerError... are ValueErrors too
 EXAMPLES = settings().max_examples  # the profile's
@@ -105,6 +107,14 @@ def _keys(scenario: Scenario) -> dict[str, object]:
 
 
 BASE_KEYS = _keys(load_scenario("position"))
+# Names with a fixed set of choices (declared beside their fields): key -> the choices.
+CHOICES = {
+    key: rule.choice_list()
+    for key in BASE_KEYS
+    if (rule := rule_at(load_scenario("position"), key)) is not None
+    and rule.choices is not None
+    and not callable(rule.choices)
+}
 # Keys that open servers, render, or read other files: left to their own tests.
 SIDE_EFFECTS = (
     "camera.enabled",
@@ -122,8 +132,6 @@ SIDE_EFFECTS = (
 def plausible(key: str, current):
     """Values a user would mean for the field ``key`` that now holds ``current``: near it,
     of its type, one of its choices."""
-    from armando_drake.simulation.validation import CHOICES
-
     if key in CHOICES:
         return st.sampled_from(CHOICES[key])
     if isinstance(current, bool):

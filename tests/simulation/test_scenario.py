@@ -151,3 +151,22 @@ def test_a_bad_object_dimension_is_one_line_naming_the_file_and_object():
     with pytest.raises(ScenarioError) as error:
         MakeWorld(scenario, quiet=True, source="mine.yaml")
     assert str(error.value).startswith("mine.yaml: objects.0: object 'ball'")
+
+
+def test_drakes_unknown_tag_message_is_parsed():
+    """The loader reads one message of Drake's: that of an unknown tag. Drake's own words
+    are parsed here, so that an upgrade that changes them fails this test."""
+    from pydrake.common.yaml import yaml_load_typed
+
+    from armando_drake.simulation.scenario import Scenario, parse_unknown_tag
+
+    with pytest.raises(Exception) as error:  # noqa: PT011 (whatever Drake raises)
+        yaml_load_typed(data="sequencer: !Sine {frequency: 1}", defaults=Scenario())
+    tag, field, options = parse_unknown_tag(str(error.value))
+    assert (tag, field) == ("Sine", "sequencer")
+    assert "PositionTargets" in options and "Sinusoid" in options
+    with pytest.raises(Exception) as error:  # noqa: PT011
+        yaml_load_typed(data="perception: {steps: [!Median {}]}", defaults=Scenario())
+    tag, field, options = parse_unknown_tag(str(error.value))
+    assert (tag, options.split(", ")[:2]) == ("Median", ["!CropBox", "!VoxelDownsample"])
+    assert parse_unknown_tag("Unknown key 'perod'") is None
