@@ -47,10 +47,12 @@ from armando_drake.description.ros2_control import HardwareInfo, parse_ros2_cont
 from armando_drake.description.urdf import (
     BaseWeld,
     JointInfo,
+    SensorBlock,
     Transmission,
     controller_files,
     detach_world,
     parse_joints,
+    parse_sensor_blocks,
     parse_transmissions,
     parse_urdf,
     repair_joints,
@@ -240,6 +242,9 @@ class LoadedRobot:
     controller_files: list[Path] = field(default_factory=list)
     # What loading repaired, ignored or could not use, one line each (also logged).
     warnings: list[str] = field(default_factory=list)
+    # Every <gazebo reference=...><sensor> block (cameras too), for the sensor types
+    # of armando_drake.sensors.registry.
+    sensors: list[SensorBlock] = field(default_factory=list)
 
     def joint(self, name: str) -> JointInfo:
         for joint in self.joints:
@@ -372,6 +377,7 @@ def load_robot(
     joints = parse_joints(root, source)
     hardware = parse_ros2_control(root, source=str(source))
     cameras = parse_camera_sensors(root, source=str(source))
+    sensor_blocks = parse_sensor_blocks(root, source)
     warnings: list[str] = []
     interfaces, actuation_source, notes = actuation(root, hardware, joints)
     for message in notes:  # a Warning among them is one
@@ -417,6 +423,7 @@ def load_robot(
         joints=joints,
         ros2_control=hardware,
         cameras=cameras,
+        sensors=sensor_blocks,
         packages=search,
         welds=welds,
         transmissions=transmissions,

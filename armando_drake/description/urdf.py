@@ -375,3 +375,51 @@ def parse_urdf(urdf: str, source: str | os.PathLike = "<string>") -> ET.Element:
             f"{source}: not a URDF: the root element is <{root.tag}>, not <robot>"
         )
     return root
+
+
+@dataclass(frozen=True)
+class SensorBlock:
+    """A ``<gazebo reference="LINK"><sensor type=...>`` block of the URDF, as Gazebo
+    reads it: the fields every sensor type has, and the element for its own tags."""
+
+    link: str  # the link it is mounted on
+    type: str  # Gazebo's sensor type: camera, gpu_lidar, imu, ...
+    name: str  # its name attribute
+    update_rate: float  # [Hz] <update_rate>; 0: at every step
+    X_LS: RigidTransform  # <pose> "x y z roll pitch yaw" of the sensor in the link
+    element: ET.Element  # the whole <sensor> element
+    source: str  # the description, for messages
+
+    def where(self) -> str:
+        """``<source>: <gazebo reference="LINK"><sensor name="NAME">``, for messages."""
+        return f'{self.source}: <gazebo reference="{self.link}"><sensor name="{self.name}">'
+
+
+def parse_sensor_blocks(root: ET.Element, source: str | os.PathLike = "") -> list[SensorBlock]:
+    """Every ``<gazebo reference="LINK"><sensor>`` block of an expanded URDF, in document
+    order (a block without a reference or on a link the URDF lacks is left to the
+    reader of its type, which names it)."""
+    blocks = []
+    for gazebo in root.findall("gazebo"):
+        link = (gazebo.get("reference") or "").strip()
+        for sensor in gazebo.findall("sensor"):
+            name = sensor.get("name", "(unnamed)")
+            where = f'{source}: <sensor name="{name}">'
+            try:
+                rate = float((sensor.findtext("update_rate") or "0").strip())
+                pose = [float(v) for v in (sensor.findtext("pose") or "0 0 0 0 0 0").split()]
+                X_LS = RigidTransform(RollPitchYaw(pose[3:6]), pose[0:3])
+            except (ValueError, IndexError) as error:
+                raise DescriptionError(f"{where}: bad <update_rate> or <pose>: {error}") from None
+            blocks.append(
+                SensorBlock(
+                    link=link,
+                    type=sensor.get("type", "").strip(),
+                    name=name,
+                    update_rate=rate,
+                    X_LS=X_LS,
+                    element=sensor,
+                    source=str(source),
+                )
+            )
+    return blocks

@@ -22,6 +22,8 @@ class WorldTopics:
     jog: Any = None  # the MeshcatJog, if the scenario has a jog and a Meshcat
     perception: Any = None  # AddedPerception, if the scenario has a perception block
     detectors: Any = None  # AddedDetectors, if the scenario has a vision block
+    # The outputs of the description's other sensors (sensors.registry), by sensor name.
+    sensors: dict = field(default_factory=dict)
 
     @property
     def plant(self):

@@ -52,6 +52,7 @@ from armando_drake.perception.systems import AddPerception
 from armando_drake.ros2.bridge import AddRos2Bridge
 from armando_drake.sensors.cameras import AddCameras
 from armando_drake.sensors.objects import AddGround, AddSceneObjects, SceneObjectError
+from armando_drake.sensors.registry import AddSensors
 from armando_drake.simulation.scenario import Scenario, ScenarioError, sources_of
 from armando_drake.simulation.validation import check_against_world, check_scenario
 from armando_drake.simulation.world import World
@@ -245,6 +246,9 @@ def _add_sensing(builder, scenario: Scenario, topics: WorldTopics, scene_graph, 
         host=host,
         where=f"{source}: " if source else "",
         source=sources_of(scenario).of("cameras"),
+    )
+    topics.sensors = AddSensors(
+        builder, topics.robot.sensors, plant=topics.plant, robot=topics.robot
     )
     if scenario.vision is not None:
         topics.detectors = AddDetectors(
