@@ -171,6 +171,7 @@ def test_no_file_of_the_package_outside_the_controllers_names_a_type_string():
 def _extending_example() -> tuple[str, dict[str, str]]:
     """The README's Extending section: the module's text and its entry points."""
     section = README.read_text().split("\n## Extending\n", 1)[1].split("\n## ", 1)[0]
+    section = section.split("\n### A new controller type\n", 1)[1].split("\n### ", 1)[0]
     blocks = dict(re.findall(r"```(python|toml)\n(.*?)```", section, re.S))
     header = f'[project.entry-points."{ENTRY_POINT_GROUP}"]'
     assert blocks["toml"].startswith(header + "\n")
