@@ -347,10 +347,10 @@ def add_bare_plant(builder, scenario_name: str, time_step: float | None = None):
     config = scenario.plant_config
     if time_step is not None:
         config.time_step = time_step
-    plant, _ = AddMultibodyPlant(config, builder)
+    plant, scene_graph = AddMultibodyPlant(config, builder)
     ApplyMultibodyPlantConfig(config, plant)
     robot = load_robot(plant)
-    _add_ground(plant)
+    _add_ground(plant, scene_graph)
     actuators = scenario.actuators
     hardware = AddHardwareInterface(plant, robot, kp=actuators.kp, kd=actuators.kd)
     plant.Finalize()

@@ -25,14 +25,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from pydrake import geometry
-from pydrake.geometry import GeometryInstance, PerceptionProperties, Rgba
+from pydrake.geometry import Role, SceneGraph
 from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
 
+from armando_drake import MODELS_DIR
 from armando_drake.sensors.marker import ArucoMarker
 from armando_drake.tools.schema import ConfigError, Refusal, check_config, param
 
 GROUND_COLOR = (0.85, 0.85, 0.82, 1.0)  # RGBA of the ground, in Meshcat and in cameras
+# The default scene: the ground slab the cameras see (its colour GROUND_COLOR).
+GROUND_SCENE = MODELS_DIR / "scenes" / "ground.sdf"
 
 
 class SceneObjectError(ConfigError):
@@ -172,20 +176,15 @@ def AddSceneObjects(plant: MultibodyPlant, objects: list[SceneObject]) -> None:
             plant.RegisterCollisionGeometry(world, X_WO, shape, f"{obj.name}_collision", friction)
 
 
-def AddGround(plant: MultibodyPlant) -> None:
-    """A 2 m x 2 m slab whose top face is the plane z = 0.
+def AddGround(plant: MultibodyPlant, scene_graph: SceneGraph) -> None:
+    """The default scene, ``models/scenes/ground.sdf``: a 2 m x 2 m slab whose top face
+    is the plane z = 0.
 
-    Cameras see it (perception role); Meshcat does not (no illustration role):
-    :class:`~armando_drake.outputs.view.ViewFramer` draws a ground there that
+    Cameras see it (perception role); Meshcat does not (its illustration role is
+    removed): :class:`~armando_drake.outputs.view.ViewFramer` draws a ground there that
     fits the scene.
     """
-    X_WG = RigidTransform([0.0, 0.0, -0.025])
-    ground = geometry.Box(2.0, 2.0, 0.05)
-    plant.RegisterCollisionGeometry(
-        plant.world_body(), X_WG, ground, "ground", CoulombFriction(0.8, 0.8)
-    )
-    instance = GeometryInstance(X_WG, ground, "ground")
-    perception = PerceptionProperties()
-    perception.AddProperty("phong", "diffuse", Rgba(*GROUND_COLOR))
-    instance.set_perception_properties(perception)
-    plant.RegisterVisualGeometry(plant.world_body(), instance)
+    (instance,) = Parser(plant, "scene").AddModels(str(GROUND_SCENE))
+    for body in plant.GetBodyIndices(instance):
+        for geometry_id in plant.GetVisualGeometriesForBody(plant.get_body(body)):
+            scene_graph.RemoveRole(plant.get_source_id(), geometry_id, Role.kIllustration)

@@ -156,7 +156,7 @@ def _add_physics(builder: DiagramBuilder, scenario: Scenario, where: str):
         collision=scenario.robot.collision,
     )
     if scenario.ground:
-        AddGround(plant)
+        AddGround(plant, scene_graph)
     try:
         AddSceneObjects(plant, scenario.objects)
     except SceneObjectError as error:
