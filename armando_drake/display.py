@@ -21,7 +21,6 @@ import logging
 import sys
 
 from armando_drake import DEFAULT_DESCRIPTION, DIAGRAMS_DIR
-from armando_drake.description.viewer import load_view_config, make_display
 from armando_drake.tools.cli import (
     add_description_arguments,
     add_host_argument,
@@ -31,6 +30,10 @@ from armando_drake.tools.cli import (
     start_meshcat,
     user_errors,
 )
+
+# Drake and the viewer load here; a Ctrl-C meanwhile exits 130, quietly.
+with user_errors():
+    from armando_drake.description.viewer import load_view_config, make_display
 
 
 def _parser() -> argparse.ArgumentParser:

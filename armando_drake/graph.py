@@ -22,14 +22,17 @@ import shutil
 import sys
 from pathlib import Path
 
-from armando_drake.outputs.graph import FORMATS, INSTALL_HINT, graphviz_source, render
-from armando_drake.simulation.builder import MakeWorld
-from armando_drake.simulation.scenario import (
-    apply_scenario_arguments,
-    load_scenario,
-    resolve_scenario_path,
-)
 from armando_drake.tools.cli import UserError, add_scenario_arguments, command_parser, user_errors
+
+# Drake and the world's modules load here; a Ctrl-C meanwhile exits 130, quietly.
+with user_errors():
+    from armando_drake.outputs.graph import FORMATS, INSTALL_HINT, graphviz_source, render
+    from armando_drake.simulation.builder import MakeWorld
+    from armando_drake.simulation.scenario import (
+        apply_scenario_arguments,
+        load_scenario,
+        resolve_scenario_path,
+    )
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -51,7 +51,11 @@ import sys
 if __name__ == "__main__":  # Ctrl-C while the command starts: exit 130, quietly
     signal.signal(signal.SIGINT, lambda signum, frame: sys.exit(130))
 
-from armando_drake.simulation.command import run_command, world_parser  # noqa: E402
+from armando_drake.tools.cli import user_errors  # noqa: E402 (after the handler)
+
+# Drake and the world's modules load here; a Ctrl-C meanwhile exits 130, quietly.
+with user_errors():
+    from armando_drake.simulation.command import run_command, world_parser
 
 
 def main(argv: list[str] | None = None) -> int:

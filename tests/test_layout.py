@@ -90,8 +90,10 @@ def _imported(node: ast.AST, module: str, is_package: bool) -> list[str]:
 
 
 def imports() -> list[tuple[str, str, int, bool]]:
-    """(importer, imported module, line, at module level) of every import of the package's
-    own modules; ``if TYPE_CHECKING:`` imports are left out (never run)."""
+    """(importer, imported module, line, outside every function) of every import of the
+    package's own modules; ``if TYPE_CHECKING:`` imports are left out (never run). An
+    import in a module-level block (``with``, ``try``) runs when the module loads: it is
+    not a function-level import."""
     known = modules()
     found = []
     for module, path in known.items():
@@ -100,13 +102,18 @@ def imports() -> list[tuple[str, str, int, bool]]:
         for node in ast.walk(tree):
             if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
                 typing_only |= {id(n) for n in ast.walk(node)}
-        top_level = {id(n) for n in tree.body}
+        in_functions = {
+            id(inner)
+            for node in ast.walk(tree)
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda))
+            for inner in ast.walk(node)
+        }
         for node in ast.walk(tree):
             if id(node) in typing_only:
                 continue
             for target in _imported(node, module, path.name == "__init__.py"):
                 if target in known:
-                    found.append((module, target, node.lineno, id(node) in top_level))
+                    found.append((module, target, node.lineno, id(node) not in in_functions))
     return found
 
 

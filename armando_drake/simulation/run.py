@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 import numpy as np
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
 from armando_drake.control.sequencer import Sinusoid, mode_of, wave_of
 from armando_drake.outputs.plots import write_plots
@@ -447,8 +448,6 @@ def run(
     before the clock starts (0: not at all). ``host``: the address the camera's live
     view listens on (``--host``, checked: :func:`~armando_drake.tools.cli.check_host`).
     """
-    from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
-
     duration = scenario.simulation.duration
     if duration <= 0:
         duration = default_duration(scenario)
@@ -480,39 +479,12 @@ def run(
     ApplySimulatorConfig(scenario.simulator_config, simulator)
     realtime_rate = scenario.simulator_config.target_realtime_rate
     progress = None if (0 < realtime_rate <= 1 or quiet) else Progress(duration)
-    if meshcat is not None:
-        print(f"Meshcat: {meshcat_urls(meshcat)}", file=stream, flush=True)
-    if world.image_view_url:
-        urls = getattr(world.image_view, "urls", world.image_view_url)
-        print(f"Camera view: {urls}", file=stream, flush=True)
-    interrupted = False
-    wall_start = time.monotonic()
+    _announce(world, meshcat, stream)
     signals = _Interrupts()
     with signals.installed(), progress.printing_above() if progress else contextlib.nullcontext():
-        try:
-            simulator.Initialize()
-            if meshcat is not None and wait_for_browser > 0:
-                wait(meshcat, wait_for_browser, stream)
-                simulator.ResetStatistics()  # the pacing to real time starts now
-                wall_start = time.monotonic()
-                if progress:
-                    progress.restart()
-            # Advance in slices of about 1 % (at least 50 ms) for the progress
-            # line; slice ends are computed, not accumulated, so the last one
-            # is exactly ``duration`` and its final controller tick runs.
-            slices = max(1, min(100, math.ceil(duration / 0.05)))
-            for k in range(1, slices + 1):
-                target = duration if k == slices else duration * k / slices
-                if target <= simulator.get_context().get_time():
-                    continue
-                simulator.AdvanceTo(target)
-                if progress:
-                    progress.update(target)
-            signals.raising = False  # from here on a Ctrl-C waits for the logs
-        except KeyboardInterrupt:
-            interrupted = True
-            print("\ninterrupted: writing the logs and the summary", file=stream, flush=True)
-        wall_time = time.monotonic() - wall_start
+        interrupted, wall_time = _simulate(
+            simulator, duration, signals, progress, meshcat, wait_for_browser, stream
+        )
         if progress:
             progress.finish()
         sim_time = simulator.get_context().get_time()
@@ -530,18 +502,62 @@ def run(
     if log_dir is not None and plots:
         write_plots(log_dir)
     if replay and replay_meshcat is not None and world.replay_sampler is not None:
-        # The run as an animation in Meshcat (the live page keeps it) and in replay.html.
-
-        publish_replay(
-            replay_meshcat,
-            world.diagram,
-            world.plant,
-            world.replay_sampler,
-            simulator.get_context(),
-        )
-        if log_dir is not None:
-            write_replay(replay_meshcat, log_dir / REPLAY_FILE)
+        _publish_replay(replay_meshcat, world, simulator, log_dir)
     return result
+
+
+def _announce(world, meshcat, stream) -> None:
+    """Prints where the run is watched: Meshcat, the cameras' live view."""
+    if meshcat is not None:
+        print(f"Meshcat: {meshcat_urls(meshcat)}", file=stream, flush=True)
+    if world.image_view_url:
+        urls = getattr(world.image_view, "urls", world.image_view_url)
+        print(f"Camera view: {urls}", file=stream, flush=True)
+
+
+def _simulate(simulator, duration, signals, progress, meshcat, wait_for_browser, stream):
+    """Runs ``simulator`` to ``duration`` [s] in slices (the progress line), after waiting
+    up to ``wait_for_browser`` [s] for a browser on ``meshcat``; (interrupted, wall time
+    [s] since the clock started)."""
+    interrupted = False
+    wall_start = time.monotonic()
+    try:
+        simulator.Initialize()
+        if meshcat is not None and wait_for_browser > 0:
+            wait(meshcat, wait_for_browser, stream)
+            simulator.ResetStatistics()  # the pacing to real time starts now
+            wall_start = time.monotonic()
+            if progress:
+                progress.restart()
+        # Advance in slices of about 1 % (at least 50 ms) for the progress
+        # line; slice ends are computed, not accumulated, so the last one
+        # is exactly ``duration`` and its final controller tick runs.
+        slices = max(1, min(100, math.ceil(duration / 0.05)))
+        for k in range(1, slices + 1):
+            target = duration if k == slices else duration * k / slices
+            if target <= simulator.get_context().get_time():
+                continue
+            simulator.AdvanceTo(target)
+            if progress:
+                progress.update(target)
+        signals.raising = False  # from here on a Ctrl-C waits for the logs
+    except KeyboardInterrupt:
+        interrupted = True
+        print("\ninterrupted: writing the logs and the summary", file=stream, flush=True)
+    return interrupted, time.monotonic() - wall_start
+
+
+def _publish_replay(replay_meshcat, world, simulator, log_dir) -> None:
+    """The run as an animation in Meshcat (the live page keeps it) and in replay.html."""
+    publish_replay(
+        replay_meshcat,
+        world.diagram,
+        world.plant,
+        world.replay_sampler,
+        simulator.get_context(),
+    )
+    if log_dir is not None:
+        write_replay(replay_meshcat, log_dir / REPLAY_FILE)
 
 
 def _result(scenario, world, simulator, table, tracker, log_dir) -> RunResult:
