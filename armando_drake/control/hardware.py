@@ -128,11 +128,11 @@ def command_interfaces(robot: LoadedRobot, *, warn: bool = True) -> tuple[str, s
 
 def _components_by_joint(robot: LoadedRobot) -> dict[str, ComponentInfo]:
     """Each ``<ros2_control>`` joint component of the description, by joint name."""
-    interfaces = {}
+    components = {}
     for block in robot.ros2_control:
         for component in block.joints:
-            interfaces[component.name] = component
-    return interfaces
+            components[component.name] = component
+    return components
 
 
 def _limits_and_start(
