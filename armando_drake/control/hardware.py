@@ -31,9 +31,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import PdControllerGains
+from pydrake.multibody.tree import Joint, JointActuator, PdControllerGains
 from pydrake.systems.controllers import InverseDynamics
-from pydrake.systems.framework import DiagramBuilder, OutputPort
+from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
 from pydrake.systems.primitives import (
     Adder,
     AffineSystem,
@@ -43,7 +43,12 @@ from pydrake.systems.primitives import (
 )
 
 from armando_drake.description.loader import LoadedRobot
-from armando_drake.description.ros2_control import initial_position, merge_limits
+from armando_drake.description.ros2_control import (
+    ComponentInfo,
+    initial_position,
+    merge_limits,
+)
+from armando_drake.description.urdf import JointInfo
 
 _log = logging.getLogger("armando_drake.control.hardware")
 
@@ -121,6 +126,122 @@ def command_interfaces(robot: LoadedRobot, *, warn: bool = True) -> tuple[str, s
     return name, source, result
 
 
+def _components_by_joint(robot: LoadedRobot) -> dict[str, ComponentInfo]:
+    """Each ``<ros2_control>`` joint component of the description, by joint name."""
+    components = {}
+    for block in robot.ros2_control:
+        for component in block.joints:
+            components[component.name] = component
+    return components
+
+
+def _limits_and_start(
+    robot: LoadedRobot,
+    info: JointInfo,
+    joint_name: str,
+    component: ComponentInfo | None,
+    kind: str,
+) -> tuple[float, float, float]:
+    """(lower, upper, initial position) [rad] of a joint: the URDF limits merged with
+    the interface's, and the initial value clamped into them (warning when moved)."""
+    command = component.command_interface("position") if component else None
+    if kind != "position":
+        command = None
+    state = component.state_interface("position") if component else None
+    lower, upper = merge_limits(info.lower, info.upper, command)
+    q0 = initial_position(lower, upper, state)
+    given = state.initial_value if state is not None else None
+    if given is not None and given != q0:
+        _log.warning(
+            "%s: joint '%s': initial_value %g is outside its limits [%g, %g]; it starts at %g",
+            robot.source,
+            joint_name,
+            given,
+            lower,
+            upper,
+            q0,
+        )
+    return lower, upper, q0
+
+
+def _joint_actuator(
+    plant: MultibodyPlant, joint: Joint, joint_name: str, effort: float
+) -> JointActuator:
+    """The joint's actuator: the one the parser made, else a new one of ``effort`` [N m]."""
+    # Actuators the parser made (e.g. from a <transmission>); the per-instance
+    # listing is empty before Finalize(), so look through all of them.
+    existing = [
+        plant.get_joint_actuator(index)
+        for index in plant.GetJointActuatorIndices()
+        if plant.get_joint_actuator(index).joint().index() == joint.index()
+    ]
+    return (
+        existing[0] if existing else plant.AddJointActuator(f"{joint_name}_actuator", joint, effort)
+    )
+
+
+def _set_gains(
+    actuator: JointActuator,
+    joint_name: str,
+    interface: str,
+    gains: dict[str, list[float]],
+    *,
+    kp: float,
+    kd: float,
+    kv: float,
+) -> None:
+    """Sets the PD gains of a position or velocity joint's actuator (effort: none)."""
+    if interface == "position":
+        joint_kp, joint_kd = gains.get(joint_name, [kp, kd])
+        if not (joint_kp > 0 and joint_kd >= 0):
+            raise ValueError(
+                f"gains of position joint {joint_name}: kp={joint_kp!r} must be > 0 and "
+                f"kd={joint_kd!r} >= 0"
+            )
+        actuator.set_controller_gains(PdControllerGains(p=joint_kp, d=joint_kd))
+    elif interface == "velocity":
+        joint_kp, joint_kv = gains.get(joint_name, [0.0, kv])
+        if joint_kp != 0 or not joint_kv > 0:
+            raise ValueError(
+                f"gains of velocity joint {joint_name}: kp={joint_kp!r} must be 0 and "
+                f"the velocity gain kv={joint_kv!r} > 0"
+            )
+        actuator.set_controller_gains(PdControllerGains(p=0.0, d=joint_kv))
+
+
+def _add_hardware_joint(
+    plant: MultibodyPlant,
+    robot: LoadedRobot,
+    joint_name: str,
+    interface: str,
+    component: ComponentInfo | None,
+    gains: dict[str, list[float]],
+    *,
+    kp: float,
+    kd: float,
+    kv: float,
+) -> HardwareJoint:
+    """Actuates one joint of the plant through ``interface``; returns its description."""
+    info = robot.joint(joint_name)
+    lower, upper, q0 = _limits_and_start(robot, info, joint_name, component, interface)
+    joint = plant.GetJointByName(joint_name, robot.model_instance)
+    joint.set_default_positions([q0])
+    effort = info.effort if np.isfinite(info.effort) and info.effort > 0 else np.inf
+    actuator = _joint_actuator(plant, joint, joint_name, effort)
+    _set_gains(actuator, joint_name, interface, gains, kp=kp, kd=kd, kv=kv)
+    velocity = info.velocity if np.isfinite(info.velocity) and info.velocity > 0 else np.inf
+    return HardwareJoint(
+        name=joint_name,
+        lower=lower,
+        upper=upper,
+        effort=effort,
+        initial_position=q0,
+        command_interface=interface,
+        velocity=velocity,
+        continuous=info.type == "continuous",
+    )
+
+
 def AddHardwareInterface(
     plant: MultibodyPlant,
     robot: LoadedRobot,
@@ -142,77 +263,21 @@ def AddHardwareInterface(
     """
     gains = gains or {}
     name, source, kinds = command_interfaces(robot)
-    names = list(kinds)
-    interfaces = {}
-    for block in robot.ros2_control:
-        for component in block.joints:
-            interfaces[component.name] = component
-    joints = []
-    for joint_name in names:
-        info = robot.joint(joint_name)
-        component = interfaces.get(joint_name)
-        command = component.command_interface("position") if component else None
-        if kinds[joint_name] != "position":
-            command = None
-        state = component.state_interface("position") if component else None
-        lower, upper = merge_limits(info.lower, info.upper, command)
-        q0 = initial_position(lower, upper, state)
-        given = state.initial_value if state is not None else None
-        if given is not None and given != q0:
-            _log.warning(
-                "%s: joint '%s': initial_value %g is outside its limits [%g, %g]; it starts at %g",
-                robot.source,
-                joint_name,
-                given,
-                lower,
-                upper,
-                q0,
-            )
-        joint = plant.GetJointByName(joint_name, robot.model_instance)
-        joint.set_default_positions([q0])
-        # Actuators the parser made (e.g. from a <transmission>); the per-instance
-        # listing is empty before Finalize(), so look through all of them.
-        existing = [
-            plant.get_joint_actuator(index)
-            for index in plant.GetJointActuatorIndices()
-            if plant.get_joint_actuator(index).joint().index() == joint.index()
-        ]
-        effort = info.effort if np.isfinite(info.effort) and info.effort > 0 else np.inf
-        actuator = (
-            existing[0]
-            if existing
-            else plant.AddJointActuator(f"{joint_name}_actuator", joint, effort)
+    components = _components_by_joint(robot)
+    joints = [
+        _add_hardware_joint(
+            plant,
+            robot,
+            joint_name,
+            kinds[joint_name],
+            components.get(joint_name),
+            gains,
+            kp=kp,
+            kd=kd,
+            kv=kv,
         )
-        interface = kinds[joint_name]
-        if interface == "position":
-            joint_kp, joint_kd = gains.get(joint_name, [kp, kd])
-            if not (joint_kp > 0 and joint_kd >= 0):
-                raise ValueError(
-                    f"gains of position joint {joint_name}: kp={joint_kp!r} must be > 0 and "
-                    f"kd={joint_kd!r} >= 0"
-                )
-            actuator.set_controller_gains(PdControllerGains(p=joint_kp, d=joint_kd))
-        elif interface == "velocity":
-            joint_kp, joint_kv = gains.get(joint_name, [0.0, kv])
-            if joint_kp != 0 or not joint_kv > 0:
-                raise ValueError(
-                    f"gains of velocity joint {joint_name}: kp={joint_kp!r} must be 0 and "
-                    f"the velocity gain kv={joint_kv!r} > 0"
-                )
-            actuator.set_controller_gains(PdControllerGains(p=0.0, d=joint_kv))
-        velocity = info.velocity if np.isfinite(info.velocity) and info.velocity > 0 else np.inf
-        joints.append(
-            HardwareJoint(
-                name=joint_name,
-                lower=lower,
-                upper=upper,
-                effort=effort,
-                initial_position=q0,
-                command_interface=interface,
-                velocity=velocity,
-                continuous=info.type == "continuous",
-            )
-        )
+        for joint_name in kinds
+    ]
     return HardwareInterface(
         name=name,
         source=source,
@@ -288,23 +353,9 @@ def AddGravityFeedforward(
     n = len(hardware.joints)
     mixed = any(joint.command_interface != "position" for joint in hardware.joints)
     state = plant.get_state_output_port(robot.model_instance)
-    context = plant.CreateDefaultContext()
-    x_default = plant.GetPositionsAndVelocities(context)
-    x_default[plant.num_positions() :] = 0.0
-    columns = 2 * n + (state.size() if mixed else 0)
-    select = np.zeros((len(x_default), columns))
-    for i, joint in enumerate(hardware.joints):
-        row = plant.GetJointByName(joint.name, robot.model_instance).position_start()
-        if joint.command_interface == "position":
-            select[row, i] = 1.0  # q_d
-        else:
-            select[row, 2 * n + hardware.position_index[i]] = 1.0  # measured q
-        x_default[row] = 0.0  # replaced by the above
-    rows = [int(index) for index in plant.GetJointActuatorIndices(robot.model_instance)]
-    to_torque = np.linalg.pinv(plant.MakeActuationMatrix())[rows]
-    for i, joint in enumerate(hardware.joints):
-        if joint.command_interface != "position":
-            to_torque[i, :] = 0.0
+    measured_size = state.size() if mixed else 0  # the measured state goes in too
+    select, x_default = _gravity_placement(plant, robot, hardware, measured_size)
+    to_torque = _gravity_to_torque(plant, robot, hardware)
     gravity = InverseDynamics(plant, mode=InverseDynamics.InverseDynamicsMode.kGravityCompensation)
     places_q_d_in_order = np.zeros((2 * n, 2 * n))
     places_q_d_in_order[:n, :n] = np.eye(n)
@@ -317,12 +368,67 @@ def AddGravityFeedforward(
         builder.AddNamedSystem("gravity_feedforward", gravity)
         builder.Connect(desired_state, gravity.get_input_port_estimated_state())
         return gravity.get_output_port_generalized_force()
+    inner = _gravity_chain(gravity, select, x_default, to_torque, n, measured_size)
+    system = builder.AddNamedSystem("gravity_feedforward", inner)
+    builder.Connect(desired_state, system.GetInputPort("desired_state"))
+    if mixed:
+        builder.Connect(state, system.GetInputPort("state"))
+    return system.GetOutputPort("feedforward")
+
+
+def _gravity_placement(
+    plant: MultibodyPlant,
+    robot: LoadedRobot,
+    hardware: HardwareInterface,
+    measured_size: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(matrix, offset) placing [q_d; v_d] (and, when ``measured_size`` > 0, the measured
+    state of that size) into the plant's state: q_d of the position joints, the measured
+    positions of the others, every other position at its default, velocities zero."""
+    n = len(hardware.joints)
+    context = plant.CreateDefaultContext()
+    x_default = plant.GetPositionsAndVelocities(context)
+    x_default[plant.num_positions() :] = 0.0
+    columns = 2 * n + measured_size
+    select = np.zeros((len(x_default), columns))
+    for i, joint in enumerate(hardware.joints):
+        row = plant.GetJointByName(joint.name, robot.model_instance).position_start()
+        if joint.command_interface == "position":
+            select[row, i] = 1.0  # q_d
+        else:
+            select[row, 2 * n + hardware.position_index[i]] = 1.0  # measured q
+        x_default[row] = 0.0  # replaced by the above
+    return select, x_default
+
+
+def _gravity_to_torque(
+    plant: MultibodyPlant, robot: LoadedRobot, hardware: HardwareInterface
+) -> np.ndarray:
+    """Maps generalized forces onto the robot's actuators (zero rows off position joints)."""
+    rows = [int(index) for index in plant.GetJointActuatorIndices(robot.model_instance)]
+    to_torque = np.linalg.pinv(plant.MakeActuationMatrix())[rows]
+    for i, joint in enumerate(hardware.joints):
+        if joint.command_interface != "position":
+            to_torque[i, :] = 0.0
+    return to_torque
+
+
+def _gravity_chain(
+    gravity: InverseDynamics,
+    select: np.ndarray,
+    x_default: np.ndarray,
+    to_torque: np.ndarray,
+    n: int,
+    measured_size: int,
+) -> Diagram:
+    """The placement, gravity compensation and actuator mapping as one diagram, inputs
+    ``desired_state`` (and ``state`` when ``measured_size`` > 0), output ``feedforward``."""
     inner = DiagramBuilder()
     placement = inner.AddNamedSystem("plant_state", AffineSystem(D=select, y0=x_default))
     dynamics = inner.AddNamedSystem("gravity_compensation", gravity)
     torque = inner.AddNamedSystem("actuator_torque", MatrixGain(to_torque))
-    if mixed:
-        stack = inner.AddNamedSystem("inputs", Multiplexer([2 * n, state.size()]))
+    if measured_size:
+        stack = inner.AddNamedSystem("inputs", Multiplexer([2 * n, measured_size]))
         inner.ExportInput(stack.get_input_port(0), "desired_state")
         inner.ExportInput(stack.get_input_port(1), "state")
         inner.Connect(stack.get_output_port(), placement.get_input_port())
@@ -331,11 +437,7 @@ def AddGravityFeedforward(
     inner.Connect(placement.get_output_port(), dynamics.get_input_port_estimated_state())
     inner.Connect(dynamics.get_output_port_generalized_force(), torque.get_input_port())
     inner.ExportOutput(torque.get_output_port(), "feedforward")
-    system = builder.AddNamedSystem("gravity_feedforward", inner.Build())
-    builder.Connect(desired_state, system.GetInputPort("desired_state"))
-    if mixed:
-        builder.Connect(state, system.GetInputPort("state"))
-    return system.GetOutputPort("feedforward")
+    return inner.Build()
 
 
 def AddEffortState(

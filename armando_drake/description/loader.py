@@ -35,7 +35,7 @@ from pydrake.multibody.tree import ModelInstanceIndex
 
 from armando_drake import DEFAULT_DESCRIPTION
 from armando_drake.description.camera_sensors import parse_camera_sensors
-from armando_drake.description.importer import actuation, prepare_urdf
+from armando_drake.description.importer import PreparedUrdf, actuation, prepare_urdf
 from armando_drake.description.packages import (
     LOGGER,
     MISSING_PACKAGE_DIR,
@@ -338,6 +338,86 @@ def _check_mimic_support(plant: MultibodyPlant, robot: LoadedRobot) -> None:
         LOGGER.info("%s: mimic joints coupled by Drake constraints: %s", robot.source, names)
 
 
+def _find_description(
+    description: str | os.PathLike | None, package_paths: Iterable[str | os.PathLike]
+) -> tuple[PackageSearch, Path]:
+    """(package search, description file): the packages found near the description."""
+    near = None if description is None else description
+    if near is not None and str(near).startswith("package://"):
+        near = None
+    search = find_packages(package_paths, near=near)
+    source = resolve_description(description, search)
+    if near is None:
+        search = find_packages(package_paths, near=source)
+    search.report_shadowed()
+    return search, source
+
+
+def _prepare(
+    urdf: str,
+    search: PackageSearch,
+    *,
+    collision: str,
+    source: Path,
+    joints: list[JointInfo],
+    warnings: list[str],
+) -> tuple[PreparedUrdf, list[BaseWeld]]:
+    """(the URDF Drake loads, the links to weld): repairs, the ``world`` link taken out and
+    what Drake must not see stripped; the repairs' warnings go to ``warnings``."""
+    welds: list[BaseWeld] = []
+
+    def edit(tree: ET.Element) -> None:
+        """Repairs, the `world` link and what Drake must not see, on the tree Drake loads."""
+        for message in repair_joints(tree, joints, source):
+            _warn(warnings, message)
+        welds.extend(detach_world(tree, source))
+        for message in strip_unused(tree, source):
+            LOGGER.info("%s", message)
+        # The hardware interface makes the actuators from what we parsed; Drake's own
+        # transmission actuators would duplicate them.
+        for element in tree.findall("transmission"):
+            tree.remove(element)
+
+    prepared = prepare_urdf(urdf, search, collision=collision, source=source, edit=edit)
+    warnings.extend(prepared.warnings)
+    return prepared, welds
+
+
+def _add_model(
+    plant: MultibodyPlant,
+    prepared: PreparedUrdf,
+    search: PackageSearch,
+    *,
+    model_name: str | None,
+    source: Path,
+) -> ModelInstanceIndex:
+    """Parses the prepared URDF into ``plant``; returns its model instance."""
+    parser = Parser(plant, model_name) if model_name else Parser(plant)
+    parser.package_map().AddMap(search.package_map())
+    try:
+        (model_instance,) = parser.AddModelsFromString(prepared.urdf, "urdf")
+    except Exception as error:  # Drake's parser raises RuntimeError with its diagnostic
+        text = " ".join(str(error).split())  # Drake's diagnostic spans lines
+        raise DescriptionError(f"{source}: Drake could not load the URDF: {text}") from None
+    return model_instance
+
+
+def _weld_bases(
+    plant: MultibodyPlant,
+    model_instance: ModelInstanceIndex,
+    welds: list[BaseWeld],
+    X_WB: RigidTransform | None,
+) -> None:
+    """Welds each base link to Drake's world at ``X_WB`` times its joint's origin."""
+    X_WD = X_WB if X_WB is not None else RigidTransform()
+    for base in welds:
+        plant.WeldFrames(
+            plant.world_frame(),
+            plant.GetFrameByName(base.link, model_instance),
+            X_WD @ base.X_DL,
+        )
+
+
 def load_robot(
     plant: MultibodyPlant,
     description: str | os.PathLike | None = None,
@@ -364,14 +444,7 @@ def load_robot(
     logged and kept in ``LoadedRobot.warnings``.
     """
 
-    near = None if description is None else description
-    if near is not None and str(near).startswith("package://"):
-        near = None
-    search = find_packages(package_paths, near=near)
-    source = resolve_description(description, search)
-    if near is None:
-        search = find_packages(package_paths, near=source)
-    search.report_shadowed()
+    search, source = _find_description(description, package_paths)
     urdf = expand_description(source, xacro_args, search)
     root = parse_urdf(urdf, source)
     joints = parse_joints(root, source)
@@ -383,37 +456,12 @@ def load_robot(
     for message in notes:  # a Warning among them is one
         (LOGGER.warning if isinstance(message, Warning) else LOGGER.info)("%s: %s", source, message)
     transmissions = parse_transmissions(root)
-    welds: list[BaseWeld] = []
-
-    def edit(tree: ET.Element) -> None:
-        """Repairs, the `world` link and what Drake must not see, on the tree Drake loads."""
-        for message in repair_joints(tree, joints, source):
-            _warn(warnings, message)
-        welds.extend(detach_world(tree, source))
-        for message in strip_unused(tree, source):
-            LOGGER.info("%s", message)
-        # The hardware interface makes the actuators from what we parsed; Drake's own
-        # transmission actuators would duplicate them.
-        for element in tree.findall("transmission"):
-            tree.remove(element)
-
-    prepared = prepare_urdf(urdf, search, collision=collision, source=source, edit=edit)
-    warnings += prepared.warnings
-    parser = Parser(plant, model_name) if model_name else Parser(plant)
-    parser.package_map().AddMap(search.package_map())
-    try:
-        (model_instance,) = parser.AddModelsFromString(prepared.urdf, "urdf")
-    except Exception as error:  # Drake's parser raises RuntimeError with its diagnostic
-        text = " ".join(str(error).split())  # Drake's diagnostic spans lines
-        raise DescriptionError(f"{source}: Drake could not load the URDF: {text}") from None
-    X_WD = X_WB if X_WB is not None else RigidTransform()
+    prepared, welds = _prepare(
+        urdf, search, collision=collision, source=source, joints=joints, warnings=warnings
+    )
+    model_instance = _add_model(plant, prepared, search, model_name=model_name, source=source)
     if weld:
-        for base in welds:
-            plant.WeldFrames(
-                plant.world_frame(),
-                plant.GetFrameByName(base.link, model_instance),
-                X_WD @ base.X_DL,
-            )
+        _weld_bases(plant, model_instance, welds, X_WB)
     robot = LoadedRobot(
         model_instance=model_instance,
         name=plant.GetModelInstanceName(model_instance),

@@ -27,6 +27,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from armando_drake.kinematics.arm import (
     ArmModel,
+    Resolution,
     TaskSpaceError,
     describe_task,
     orientation_error,
@@ -82,6 +83,92 @@ def _polish(arm: ArmModel, q: np.ndarray, X_target: RigidTransform, full: bool) 
     return q
 
 
+def _ik_program(
+    arm: ArmModel,
+    X_target: RigidTransform,
+    orientation: str,
+    position_tolerance: float,
+    orientation_tolerance: float,
+) -> InverseKinematics:
+    """Drake's IK for ``X_target``: the position within tolerance, the orientation by
+    ``orientation`` (constraint, cost or none)."""
+    ik = InverseKinematics(arm.plant, with_joint_limits=True)
+    # A tenth of the tolerance, so the solver's own slack stays inside it.
+    p = X_target.translation()
+    ik.AddPositionConstraint(
+        frameB=arm.frame_E,
+        p_BQ=np.zeros(3),
+        frameA=arm.frame_B,
+        p_AQ_lower=p - position_tolerance / 10,
+        p_AQ_upper=p + position_tolerance / 10,
+    )
+    if orientation == "constraint":
+        ik.AddOrientationConstraint(
+            frameAbar=arm.frame_B,
+            R_AbarA=X_target.rotation(),
+            frameBbar=arm.frame_E,
+            R_BbarB=type(X_target.rotation())(),
+            theta_bound=orientation_tolerance / 10,
+        )
+    elif orientation == "cost":
+        ik.AddOrientationCost(
+            frameAbar=arm.frame_B,
+            R_AbarA=X_target.rotation(),
+            frameBbar=arm.frame_E,
+            R_BbarB=type(X_target.rotation())(),
+            c=1.0,
+        )
+    return ik
+
+
+def _ik_attempt(
+    arm: ArmModel,
+    ik: InverseKinematics,
+    start: np.ndarray,
+    q_seed: np.ndarray,
+    X_target: RigidTransform,
+    orientation: str,
+) -> np.ndarray:
+    """Solves ``ik`` from ``start``, nearest ``q_seed``, and polishes the result [rad]."""
+    guess = arm.plant.GetPositions(arm.context).copy()
+    guess[arm.position_indices] = start
+    # Among the solutions, the one nearest the seed (a redundant arm has many).
+    nearest = guess.copy()
+    nearest[arm.position_indices] = q_seed
+    ik.prog().AddQuadraticErrorCost(np.eye(guess.size), nearest, ik.q())
+    result = Solve(ik.prog(), guess)
+    q = result.GetSolution(ik.q())[arm.position_indices]
+    if np.all(np.isfinite(q)):
+        q = _polish(arm, q, X_target, full=orientation == "constraint")
+    return q
+
+
+def _ik_message(
+    X_target: RigidTransform,
+    within: bool,
+    position: float,
+    rotation: float,
+    *,
+    attempts: int,
+    orientation: str,
+    position_tolerance: float,
+    orientation_tolerance: float,
+) -> str:
+    """The one-line outcome of :func:`solve_ik`: what was reached, or why not."""
+    p_text = np.array2string(X_target.translation(), precision=4)
+    if within:
+        return (
+            f"IK reached {p_text} m: position error {position:.2e} m, "
+            f"orientation error {rotation:.2e} rad ({orientation})"
+        )
+    return (
+        f"pose at {p_text} m is unreachable: best of {attempts} IK attempts has "
+        f"position error {position:.3g} m (tolerance {position_tolerance:g}) and "
+        f"orientation error {rotation:.3g} rad"
+        + (f" (tolerance {orientation_tolerance:g})" if orientation == "constraint" else "")
+    )
+
+
 def solve_ik(
     arm: ArmModel,
     X_target: RigidTransform,
@@ -107,7 +194,6 @@ def solve_ik(
         orientation = "constraint" if arm.follows_full_orientation else "cost"
     if orientation not in ("constraint", "cost", "none"):
         raise TaskSpaceError(f"orientation={orientation!r} must be constraint, cost, none or auto")
-    plant = arm.plant
     q_seed = arm.default_positions() if q_seed is None else np.asarray(q_seed, dtype=float)
     rng = np.random.default_rng(seed)
     lower = np.where(np.isfinite(arm.lower), arm.lower, -np.pi)
@@ -115,43 +201,9 @@ def solve_ik(
     check_rotation = orientation == "constraint"
     best = None
     for attempt in range(max(1, attempts)):
-        ik = InverseKinematics(plant, with_joint_limits=True)
-        # A tenth of the tolerance, so the solver's own slack stays inside it.
-        p = X_target.translation()
-        ik.AddPositionConstraint(
-            frameB=arm.frame_E,
-            p_BQ=np.zeros(3),
-            frameA=arm.frame_B,
-            p_AQ_lower=p - position_tolerance / 10,
-            p_AQ_upper=p + position_tolerance / 10,
-        )
-        if orientation == "constraint":
-            ik.AddOrientationConstraint(
-                frameAbar=arm.frame_B,
-                R_AbarA=X_target.rotation(),
-                frameBbar=arm.frame_E,
-                R_BbarB=type(X_target.rotation())(),
-                theta_bound=orientation_tolerance / 10,
-            )
-        elif orientation == "cost":
-            ik.AddOrientationCost(
-                frameAbar=arm.frame_B,
-                R_AbarA=X_target.rotation(),
-                frameBbar=arm.frame_E,
-                R_BbarB=type(X_target.rotation())(),
-                c=1.0,
-            )
+        ik = _ik_program(arm, X_target, orientation, position_tolerance, orientation_tolerance)
         start = q_seed if attempt == 0 else rng.uniform(lower, upper)
-        guess = plant.GetPositions(arm.context).copy()
-        guess[arm.position_indices] = start
-        # Among the solutions, the one nearest the seed (a redundant arm has many).
-        nearest = guess.copy()
-        nearest[arm.position_indices] = q_seed
-        ik.prog().AddQuadraticErrorCost(np.eye(guess.size), nearest, ik.q())
-        result = Solve(ik.prog(), guess)
-        q = result.GetSolution(ik.q())[arm.position_indices]
-        if np.all(np.isfinite(q)):
-            q = _polish(arm, q, X_target, full=orientation == "constraint")
+        q = _ik_attempt(arm, ik, start, q_seed, X_target, orientation)
         position, rotation = _pose_errors(arm, q, X_target)
         within = position <= position_tolerance and (
             not check_rotation or rotation <= orientation_tolerance
@@ -162,19 +214,16 @@ def solve_ik(
         if within:
             break
     _, q, position, rotation, within = best
-    p_text = np.array2string(X_target.translation(), precision=4)
-    if within:
-        message = (
-            f"IK reached {p_text} m: position error {position:.2e} m, "
-            f"orientation error {rotation:.2e} rad ({orientation})"
-        )
-    else:
-        message = (
-            f"pose at {p_text} m is unreachable: best of {attempts} IK attempts has "
-            f"position error {position:.3g} m (tolerance {position_tolerance:g}) and "
-            f"orientation error {rotation:.3g} rad"
-            + (f" (tolerance {orientation_tolerance:g})" if check_rotation else "")
-        )
+    message = _ik_message(
+        X_target,
+        within,
+        position,
+        rotation,
+        attempts=attempts,
+        orientation=orientation,
+        position_tolerance=position_tolerance,
+        orientation_tolerance=orientation_tolerance,
+    )
     return IkResult(
         success=within,
         q=q,
@@ -250,44 +299,19 @@ def plan_joint_reference(
     references = trajectory.reference(times)
     task = describe_task(arm, q)
     _log.info("task-space plan: %s", task)
-    full = arm.follows_full_orientation
     Q, V, A, TAU = (np.zeros((count, arm.num_joints)) for _ in range(4))
     for k, t in enumerate(times):
-        arm.set_state(q, v)
-        X = arm.pose()
-        J = arm.jacobian()
-        bias = arm.bias_acceleration()
-        desired = unpack_cartesian_reference(references[k])
-        e_p = desired.pose.translation() - X.translation()
-        e_o = orientation_error(desired.pose.rotation(), X.rotation())
-        error = np.concatenate([e_o, e_p])
-        if np.linalg.norm(e_p) > position_tolerance or (
-            full and np.linalg.norm(e_o) > orientation_tolerance
-        ):
-            raise TaskSpaceError(_path_failure(arm, t, trajectory, e_p, e_o, full, J, gains))
-        commanded = (
-            desired.acceleration
-            + gains.velocity_gain * (desired.twist - J @ v)
-            + gains.position_gain * error
-            - bias
-        )
-        tasks = [(J, commanded)] if full else [(J[3:], commanded[3:]), (J[:3], commanded[:3])]
-        a0 = posture_acceleration(
+        resolution = _clik_acceleration(
             arm,
             q,
             v,
+            t,
+            references[k],
+            trajectory,
             rest=rest,
-            posture_gain=gains.posture_gain,
-            limit_gain=gains.limit_gain,
-            damping_gain=gains.null_damping,
-        )
-        resolution = resolve_tasks(
-            tasks,
-            a0,
-            threshold=gains.singular_threshold,
-            max_damping=gains.max_damping,
-            secondary_threshold=gains.secondary_threshold,
-            secondary_damping=gains.secondary_damping,
+            gains=gains,
+            position_tolerance=position_tolerance,
+            orientation_tolerance=orientation_tolerance,
         )
         a = resolution.acceleration
         TAU[k] = arm.mass_matrix() @ a + arm.coriolis() + arm.gravity() + arm.damping * v
@@ -307,6 +331,60 @@ def plan_joint_reference(
     # The last sample holds still (the law ends at rest; the plan's residual is tiny).
     A[-1] = 0.0
     return JointReference(times=times, q=Q, v=V, a=A, torque=TAU, task=task)
+
+
+def _clik_acceleration(
+    arm: ArmModel,
+    q: np.ndarray,
+    v: np.ndarray,
+    t: float,
+    reference: np.ndarray,
+    trajectory: CartesianTrajectory,
+    *,
+    rest: np.ndarray,
+    gains: ClikGains,
+    position_tolerance: float,
+    orientation_tolerance: float,
+) -> Resolution:
+    """One step of the closed-loop IK at (q, v): the task tracking law resolved with the
+    posture in the null space; raises when the pose error is past tolerance."""
+    full = arm.follows_full_orientation
+    arm.set_state(q, v)
+    X = arm.pose()
+    J = arm.jacobian()
+    bias = arm.bias_acceleration()
+    desired = unpack_cartesian_reference(reference)
+    e_p = desired.pose.translation() - X.translation()
+    e_o = orientation_error(desired.pose.rotation(), X.rotation())
+    error = np.concatenate([e_o, e_p])
+    if np.linalg.norm(e_p) > position_tolerance or (
+        full and np.linalg.norm(e_o) > orientation_tolerance
+    ):
+        raise TaskSpaceError(_path_failure(arm, t, trajectory, e_p, e_o, full, J, gains))
+    commanded = (
+        desired.acceleration
+        + gains.velocity_gain * (desired.twist - J @ v)
+        + gains.position_gain * error
+        - bias
+    )
+    tasks = [(J, commanded)] if full else [(J[3:], commanded[3:]), (J[:3], commanded[:3])]
+    a0 = posture_acceleration(
+        arm,
+        q,
+        v,
+        rest=rest,
+        posture_gain=gains.posture_gain,
+        limit_gain=gains.limit_gain,
+        damping_gain=gains.null_damping,
+    )
+    return resolve_tasks(
+        tasks,
+        a0,
+        threshold=gains.singular_threshold,
+        max_damping=gains.max_damping,
+        secondary_threshold=gains.secondary_threshold,
+        secondary_damping=gains.secondary_damping,
+    )
 
 
 def _path_failure(arm, t, trajectory, e_p, e_o, full, J, gains) -> str:

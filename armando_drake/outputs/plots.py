@@ -39,11 +39,15 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from armando_drake.outputs.logger import read_csv, read_joint_states
 from armando_drake.tools.cli import add_version_argument
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 FIGURE_SIZE = (10.0, 7.0)  # [inch]
 DPI = 100  # [pixel/inch]
@@ -98,19 +102,9 @@ def commanded_at(
     return result
 
 
-def write_plots(output_dir: str | Path) -> list[Path]:
-    """Writes the PNG plots of the run in ``output_dir``; returns their paths."""
-    # A bare Figure draws with the Agg canvas and leaves pyplot's backend (and a
-    # notebook's inline plots) alone.
-    from matplotlib.figure import Figure
-
-    folder = Path(output_dir)
-    states = read_joint_states(folder / "joint_states.csv")
-    joints = states.joint_names
-    if not joints:
-        return []
-    times, position, effort = states.times, states.position, states.effort
-
+def _read_commands(folder: Path, joints: list[str]) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """(times [s], commands [rad] (rows by time), joints commanded) of ``commands.csv``,
+    only the columns of ``joints``; empty without the file."""
     command_times = np.zeros(0)
     commands = np.zeros((0, len(joints)))
     command_joints: list[str] = []
@@ -123,6 +117,11 @@ def write_plots(output_dir: str | Path) -> list[Path]:
             command_times = command_rows[:, 0]
             columns = [command_header.index(name) for name in command_joints]
             commands = command_rows[:, columns]
+    return command_times, commands, command_joints
+
+
+def _read_summary(folder: Path) -> tuple[list[float], str, bool]:
+    """(step starts [s], plot title, whether a trajectory run) from ``summary.json``."""
     step_starts: list[float] = []
     title = folder.name
     trajectory = False
@@ -131,25 +130,71 @@ def write_plots(output_dir: str | Path) -> list[Path]:
         step_starts = [step["start"] for step in summary.get("steps", [])]
         title = f"{Path(summary.get('scenario') or title).stem} ({summary.get('controller')})"
         trajectory = summary.get("controller") == "trajectory"
+    return step_starts, title, trajectory
+
+
+def _joint_figure(
+    quantity: str, unit: str, title: str, joints: list[str], step_starts: list[float]
+) -> tuple[Figure, np.ndarray]:
+    """A figure with one panel per joint, each step's start marked; (figure, axes)."""
+    # A bare Figure draws with the Agg canvas and leaves pyplot's backend (and a
+    # notebook's inline plots) alone.
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=FIGURE_SIZE, dpi=DPI)
+    axes = fig.subplots(len(joints), 1, sharex=True, squeeze=False)
+    axes = axes[:, 0]
+    fig.suptitle(f"{quantity}: {title}")
+    for axis, name in zip(axes, joints, strict=True):
+        axis.set_ylabel(f"{name} [{unit}]")
+        axis.grid(True, alpha=0.3)
+        for start in step_starts:
+            axis.axvline(start, color="grey", linestyle=":", linewidth=1)
+    axes[-1].set_xlabel("time [s]")
+    return fig, axes
+
+
+def _plot_positions(
+    axes: np.ndarray,
+    joints: list[str],
+    times: np.ndarray,
+    position: np.ndarray,
+    shown: np.ndarray,
+    commands: tuple[np.ndarray, np.ndarray, list[str]],
+    trajectory: bool,
+) -> None:
+    """Measured positions, with the commands as points (trajectory) or held steps."""
+    command_times, values, command_joints = commands
+    for j, (axis, name) in enumerate(zip(axes, joints, strict=True)):
+        axis.plot(times[shown], position[shown, j], label="measured")
+        if name in command_joints and len(command_times):
+            k = command_joints.index(name)
+            if trajectory:  # each point, reached at the time it is due
+                axis.plot(command_times, values[:, k], "o", color="tab:orange", label="points")
+            else:  # steps held to the end of the log
+                end = max(times[-1] if len(times) else 0.0, command_times[-1])
+                t = np.append(command_times, end)
+                q = np.append(values[:, k], values[-1, k])
+                axis.step(t, q, where="post", linestyle="--", label="commanded")
+    axes[0].legend(loc="upper right")
+
+
+def write_plots(output_dir: str | Path) -> list[Path]:
+    """Writes the PNG plots of the run in ``output_dir``; returns their paths."""
+    folder = Path(output_dir)
+    states = read_joint_states(folder / "joint_states.csv")
+    joints = states.joint_names
+    if not joints:
+        return []
+    times, position, effort = states.times, states.position, states.effort
+    command_times, commands, command_joints = _read_commands(folder, joints)
+    step_starts, title, trajectory = _read_summary(folder)
 
     commanded = np.full_like(position, np.nan)
     if command_joints:
         held = commanded_at(times, command_times, commands, ahead=trajectory)
         for k, name in enumerate(command_joints):
             commanded[:, joints.index(name)] = held[:, k]
-
-    def figure(quantity: str, unit: str):
-        fig = Figure(figsize=FIGURE_SIZE, dpi=DPI)
-        axes = fig.subplots(len(joints), 1, sharex=True, squeeze=False)
-        axes = axes[:, 0]
-        fig.suptitle(f"{quantity}: {title}")
-        for axis, name in zip(axes, joints, strict=True):
-            axis.set_ylabel(f"{name} [{unit}]")
-            axis.grid(True, alpha=0.3)
-            for start in step_starts:
-                axis.axvline(start, color="grey", linestyle=":", linewidth=1)
-        axes[-1].set_xlabel("time [s]")
-        return fig, axes
 
     written = []
 
@@ -162,22 +207,13 @@ def write_plots(output_dir: str | Path) -> list[Path]:
     error = np.abs(position - commanded)
     shown = np.union1d(envelope(position), np.union1d(envelope(effort), envelope(error)))
 
-    fig, axes = figure("Joint positions", "rad")
-    for j, (axis, name) in enumerate(zip(axes, joints, strict=True)):
-        axis.plot(times[shown], position[shown, j], label="measured")
-        if name in command_joints and len(command_times):
-            k = command_joints.index(name)
-            if trajectory:  # each point, reached at the time it is due
-                axis.plot(command_times, commands[:, k], "o", color="tab:orange", label="points")
-            else:  # steps held to the end of the log
-                end = max(times[-1] if len(times) else 0.0, command_times[-1])
-                t = np.append(command_times, end)
-                q = np.append(commands[:, k], commands[-1, k])
-                axis.step(t, q, where="post", linestyle="--", label="commanded")
-    axes[0].legend(loc="upper right")
+    fig, axes = _joint_figure("Joint positions", "rad", title, joints, step_starts)
+    _plot_positions(
+        axes, joints, times, position, shown, (command_times, commands, command_joints), trajectory
+    )
     save(fig, "positions.png")
 
-    fig, axes = figure("Tracking error |q - commanded|", "rad")
+    fig, axes = _joint_figure("Tracking error |q - commanded|", "rad", title, joints, step_starts)
     for j, axis in enumerate(axes):
         if np.isnan(commanded[:, j]).all():
             axis.text(0.5, 0.5, "no command", transform=axis.transAxes, ha="center")
@@ -185,7 +221,7 @@ def write_plots(output_dir: str | Path) -> list[Path]:
         axis.plot(times[shown], error[shown, j], color="tab:red")
     save(fig, "tracking_error.png")
 
-    fig, axes = figure("Joint efforts", "N m")
+    fig, axes = _joint_figure("Joint efforts", "N m", title, joints, step_starts)
     for j, axis in enumerate(axes):
         axis.plot(times[shown], effort[shown, j], color="tab:green")
     save(fig, "efforts.png")

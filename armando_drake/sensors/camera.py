@@ -253,6 +253,72 @@ def camera_config(
     return config
 
 
+def _check_sensor(
+    plant: MultibodyPlant,
+    model_instance: ModelInstanceIndex,
+    info: CameraSensorInfo,
+    added: dict[str, AddedCamera],
+) -> None:
+    """Raises when the camera's name is taken or its link is not a body of the model."""
+    model_name = plant.GetModelInstanceName(model_instance)
+    origin = sensor_origin(info.source, info.sensor_name)
+    if info.name in added:
+        raise CameraError(f"{origin}: name {info.name!r} twice")
+    if not plant.HasBodyNamed(info.link, model_instance):
+        raise CameraError(
+            f"{origin}: link {info.link!r} is not a body of "
+            f"model {model_name!r} (Drake merges no links; is it the right model?)"
+        )
+
+
+def _apply_camera(
+    builder: DiagramBuilder,
+    plant: MultibodyPlant,
+    scene_graph: SceneGraph,
+    config: CameraConfig,
+    info: CameraSensorInfo,
+    lcm: DrakeLcm,
+) -> RgbdSensor:
+    """Adds the camera of ``config`` with Drake's ``ApplyCameraConfig``; returns its sensor."""
+    try:
+        ApplyCameraConfig(
+            config=config, builder=builder, plant=plant, scene_graph=scene_graph, lcm=lcm
+        )
+    except RuntimeError as error:
+        raise CameraError(f"{sensor_origin(info.source, info.sensor_name)}: {error}") from None
+    return builder.GetMutableSubsystemByName(f"rgbd_sensor_{info.name}")
+
+
+def _color_output(
+    builder: DiagramBuilder,
+    sensor: RgbdSensor,
+    info: CameraSensorInfo,
+    *,
+    hold: bool,
+    noise_seed: int,
+) -> OutputPort:
+    """The camera's colour image: with the block's noise, else held at its rate (``hold``)."""
+    period = 1.0 / info.frame_rate
+    color = sensor.GetOutputPort("color_image")
+    if info.noise is not None and info.noise.stddev > 0:
+        noise = builder.AddNamedSystem(
+            f"camera_noise_{info.name}",
+            CameraColorNoise(
+                width=info.width,
+                height=info.height,
+                frame_rate=info.frame_rate,
+                mean=info.noise.mean,
+                stddev=info.noise.stddev,
+                seed=noise_seed,
+            ),
+        )
+        builder.Connect(color, noise.get_input_port())
+        return noise.get_output_port()
+    if hold:
+        return _hold(builder, f"camera_hold_color_{info.name}", color, period, info)
+    return color
+
+
 def AddCameraSensors(
     builder: DiagramBuilder,
     plant: MultibodyPlant,
@@ -287,14 +353,7 @@ def AddCameraSensors(
     no_lcm = DrakeLcm("memq://null")  # ApplyCameraConfig's opt-out of LCM publishing
     added: dict[str, AddedCamera] = {}
     for info in sensors:
-        origin = sensor_origin(info.source, info.sensor_name)
-        if info.name in added:
-            raise CameraError(f"{origin}: name {info.name!r} twice")
-        if not plant.HasBodyNamed(info.link, model_instance):
-            raise CameraError(
-                f"{origin}: link {info.link!r} is not a body of "
-                f"model {model_name!r} (Drake merges no links; is it the right model?)"
-            )
+        _check_sensor(plant, model_instance, info, added)
         config = camera_config(
             info,
             f"{model_name}::{info.link}",
@@ -303,31 +362,9 @@ def AddCameraSensors(
             enable_depth=enable_depth,
             background=background,
         )
-        try:
-            ApplyCameraConfig(
-                config=config, builder=builder, plant=plant, scene_graph=scene_graph, lcm=no_lcm
-            )
-        except RuntimeError as error:
-            raise CameraError(f"{sensor_origin(info.source, info.sensor_name)}: {error}") from None
-        sensor = builder.GetMutableSubsystemByName(f"rgbd_sensor_{info.name}")
+        sensor = _apply_camera(builder, plant, scene_graph, config, info, no_lcm)
         period = 1.0 / info.frame_rate
-        color = sensor.GetOutputPort("color_image")
-        if info.noise is not None and info.noise.stddev > 0:
-            noise = builder.AddNamedSystem(
-                f"camera_noise_{info.name}",
-                CameraColorNoise(
-                    width=info.width,
-                    height=info.height,
-                    frame_rate=info.frame_rate,
-                    mean=info.noise.mean,
-                    stddev=info.noise.stddev,
-                    seed=noise_seed,
-                ),
-            )
-            builder.Connect(color, noise.get_input_port())
-            color = noise.get_output_port()
-        elif hold:
-            color = _hold(builder, f"camera_hold_color_{info.name}", color, period, info)
+        color = _color_output(builder, sensor, info, hold=hold, noise_seed=noise_seed)
         # Depth is not held: it is rendered when a consumer reads it (the frame
         # saver, a page showing it, a test), so a camera whose depth nobody reads
         # costs only its colour render.

@@ -141,23 +141,11 @@ def _progress(total: int, done: int, failed: int, enabled: bool, engine):
     return bar
 
 
-def run_sweep(
-    sweep: Sweep,
-    output: str | Path,
-    engine,
-    *,
-    resume: bool = False,
-    retry_failed: bool = False,
-    progress: bool = True,
-) -> SweepOutcome:
-    """Runs the variants of ``sweep`` that ``output`` has no result for; writes the table."""
-    output = Path(output).resolve()
-    sweep_file = output / SWEEP_FILE
-    if sweep_file.exists() and not resume:
-        raise SweepError(
-            f"--output {output} already holds a sweep ({SWEEP_FILE}); add --resume to continue "
-            "it, or choose another folder"
-        )
+def _stored_rows(
+    sweep: Sweep, output: Path, *, resume: bool, retry_failed: bool
+) -> tuple[dict[int, dict], list[Variant]]:
+    """(table rows of the variants ``output`` holds a result for, the variants to run);
+    without ``resume`` every variant is to run."""
     identity = sweep.identity()
     rows, todo = {}, []
     for variant in sweep.variants:
@@ -176,7 +164,11 @@ def run_sweep(
                 rows[variant.index] = row(variant.values, result)
                 continue
         todo.append(variant)
-    output.mkdir(parents=True, exist_ok=True)
+    return rows, todo
+
+
+def _write_sweep_file(sweep_file: Path, sweep: Sweep) -> None:
+    """Writes what the sweep is: its identity, axes, timeout and every variant."""
     _write_json(
         sweep_file,
         {
@@ -190,13 +182,22 @@ def run_sweep(
             ],
         },
     )
-    skipped = len(rows)
-    failed = sum(r["status"] != OK for r in rows.values())
+
+
+def _run_variants(
+    sweep: Sweep,
+    tasks: list[VariantTask],
+    output: Path,
+    engine,
+    rows: dict[int, dict],
+    failed: int,
+    bar,
+) -> tuple[int, bool]:
+    """Runs ``tasks`` on ``engine``, each result into its folder and ``rows`` as it comes;
+    (variants failed, whether Ctrl-C stopped it). Closes ``bar``."""
+    identity = sweep.identity()
     by_index = {v.index: v for v in sweep.variants}
-    tasks = [sweep.task(variant, output) for variant in todo]
-    start = time.perf_counter()
     interrupted = False
-    bar = _progress(len(sweep.variants), skipped, failed, progress, engine)
     try:
         for result in engine.map_unordered(run_variant, tasks):
             variant = by_index[result.index]
@@ -218,6 +219,35 @@ def run_sweep(
         interrupted = True
     finally:
         bar.close()
+    return failed, interrupted
+
+
+def run_sweep(
+    sweep: Sweep,
+    output: str | Path,
+    engine,
+    *,
+    resume: bool = False,
+    retry_failed: bool = False,
+    progress: bool = True,
+) -> SweepOutcome:
+    """Runs the variants of ``sweep`` that ``output`` has no result for; writes the table."""
+    output = Path(output).resolve()
+    sweep_file = output / SWEEP_FILE
+    if sweep_file.exists() and not resume:
+        raise SweepError(
+            f"--output {output} already holds a sweep ({SWEEP_FILE}); add --resume to continue "
+            "it, or choose another folder"
+        )
+    rows, todo = _stored_rows(sweep, output, resume=resume, retry_failed=retry_failed)
+    output.mkdir(parents=True, exist_ok=True)
+    _write_sweep_file(sweep_file, sweep)
+    skipped = len(rows)
+    failed = sum(r["status"] != OK for r in rows.values())
+    tasks = [sweep.task(variant, output) for variant in todo]
+    start = time.perf_counter()
+    bar = _progress(len(sweep.variants), skipped, failed, progress, engine)
+    failed, interrupted = _run_variants(sweep, tasks, output, engine, rows, failed, bar)
     table = ResultsTable(rows.values())
     files = table.write(output)
     return SweepOutcome(
@@ -231,9 +261,8 @@ def run_sweep(
     )
 
 
-def _parser() -> argparse.ArgumentParser:
-
-    parser = command_parser("armando_drake.sweep", __doc__)
+def _add_scenario_options(parser: argparse.ArgumentParser) -> None:
+    """--scenario and --set: the scenario every variant starts from."""
     parser.add_argument(
         "--scenario",
         default="position",
@@ -248,6 +277,10 @@ def _parser() -> argparse.ArgumentParser:
         help="YAML merged over the scenario for every variant, before the variant's own "
         "(repeatable)",
     )
+
+
+def _add_axis_options(parser: argparse.ArgumentParser) -> None:
+    """The "axes" group: --grid, --random, --samples, --seed."""
     axes = parser.add_argument_group("axes")
     axes.add_argument(
         "--grid", action="append", default=[], metavar="KEY=VALUES", help="a grid axis"
@@ -263,6 +296,10 @@ def _parser() -> argparse.ArgumentParser:
     axes.add_argument(
         "--seed", type=int, default=0, metavar="S", help="seed of the random axes (default: 0)"
     )
+
+
+def _add_run_options(parser: argparse.ArgumentParser) -> None:
+    """The "runs" group: where results go, what every run gets, resuming, dry runs."""
     runs = parser.add_argument_group("runs")
     runs.add_argument(
         "--output",
@@ -292,6 +329,10 @@ def _parser() -> argparse.ArgumentParser:
     runs.add_argument(
         "--dry-run", action="store_true", help="print the variants' overrides; run nothing"
     )
+
+
+def _add_engine_options(parser: argparse.ArgumentParser) -> None:
+    """The "engine" group: --workers, --ray, --cpus-per-task."""
     engine = parser.add_argument_group("engine")
     engine.add_argument(
         "--workers",
@@ -312,6 +353,10 @@ def _parser() -> argparse.ArgumentParser:
         metavar="N",
         help="with --ray, the CPUs each run reserves (default: 1)",
     )
+
+
+def _add_figure_options(parser: argparse.ArgumentParser) -> None:
+    """The "figure" group: --plot, --metric, --plot-axes."""
     plot = parser.add_argument_group("figure")
     plot.add_argument("--plot", action="store_true", help="draw OUT/<metric>.png")
     plot.add_argument(
@@ -326,6 +371,16 @@ def _parser() -> argparse.ArgumentParser:
         metavar="KEY[,KEY]",
         help="the axes to draw over (default: the first two); others are reduced to their median",
     )
+
+
+def _parser() -> argparse.ArgumentParser:
+    """The sweep's command line."""
+    parser = command_parser("armando_drake.sweep", __doc__)
+    _add_scenario_options(parser)
+    _add_axis_options(parser)
+    _add_run_options(parser)
+    _add_engine_options(parser)
+    _add_figure_options(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     return parser
 
