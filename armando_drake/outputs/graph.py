@@ -1,21 +1,7 @@
-"""Draws the world diagram: its systems and their named connections (the rqt_graph step).
-
-Builds the world of a scenario with the same builder as ``python -m
-armando_drake.world`` (without Meshcat), takes Drake's Graphviz description
-of the diagram (``Diagram.GetGraphvizString``) and renders it with
-Graphviz's ``dot`` to SVG or PNG (chosen by the output's extension; ``.dot``
-writes the Graphviz source itself). Each box is a system with its named input
-ports on the left and output ports on the right; each arrow is a connection.
-
-Needs Graphviz's ``dot`` on the PATH; to install it on Debian/Ubuntu:
-``apt-get install graphviz``.
-
-Examples:
-  python -m armando_drake.graph -o world.svg
-  python -m armando_drake.graph --scenario trajectory -o trajectory.png
-  python -m armando_drake.graph --set "camera: {enabled: true}" -o camera.svg
-  python -m armando_drake.graph --max-depth 2 -o nested.svg   # open sub-diagrams too
-"""
+"""The world diagram as a graph: Drake's Graphviz description of a diagram
+(``Diagram.GetGraphvizString``) rendered with Graphviz's ``dot`` to SVG, PNG or PDF (by the
+output's extension; ``.dot`` writes the source itself). The command is
+:mod:`armando_drake.graph` (``python -m armando_drake.graph -o world.svg``)."""
 
 from __future__ import annotations
 
