@@ -265,9 +265,8 @@ def test_metadata_a_package_index_shows(dists):
     assert "Programming Language :: Python :: 3 :: Only" in classifiers
     assert any(c.startswith("Development Status ::") for c in classifiers)
     assert "ros2_control" in metadata["Keywords"].split(",")
-    urls = dict(url.split(", ", 1) for url in metadata.get_all("Project-URL"))
-    assert {"Documentation", "Changelog"} <= set(urls)
-    assert urls["Changelog"].endswith("/CHANGELOG.md")
+    # No project URL until the project has a public address (none is invented).
+    assert metadata.get_all("Project-URL") is None
     # The README is the long description, as markdown (twine check renders it).
     assert metadata["Description-Content-Type"] == "text/markdown"
     assert metadata.get_payload().strip() == (REPO / "README.md").read_text().strip()
