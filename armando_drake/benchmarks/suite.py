@@ -76,7 +76,7 @@ from armando_drake.description.loader import load_robot
 from armando_drake.outputs.plots import write_plots
 from armando_drake.outputs.replay import RecordingMeshcat, publish_replay, write_replay
 from armando_drake.sensors.camera import choose_renderer
-from armando_drake.sensors.objects import AddGround as _add_ground
+from armando_drake.sensors.objects import AddGround
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.run import run
 from armando_drake.simulation.scenario import load_scenario, merge_overrides
@@ -350,7 +350,7 @@ def add_bare_plant(builder, scenario_name: str, time_step: float | None = None):
     plant, scene_graph = AddMultibodyPlant(config, builder)
     ApplyMultibodyPlantConfig(config, plant)
     robot = load_robot(plant)
-    _add_ground(plant, scene_graph)
+    AddGround(plant, scene_graph)
     actuators = scenario.actuators
     hardware = AddHardwareInterface(plant, robot, kp=actuators.kp, kd=actuators.kd)
     plant.Finalize()

@@ -81,7 +81,7 @@ class Sphere:
 
 
 # The shape of a scene object; a YAML tag chooses (!Box, !Cylinder, !Sphere,
-# !ArucoMarker: a thin box showing an OpenCV ArUco marker, see vision/marker.py).
+# !ArucoMarker: a thin box showing an OpenCV ArUco marker, see sensors/marker.py).
 ObjectShape = Box | Cylinder | Sphere | ArucoMarker
 
 

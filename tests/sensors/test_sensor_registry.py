@@ -147,3 +147,35 @@ def test_without_the_type_the_altimeter_is_only_named(tmp_path, caplog):
     assert "altimeter (altimeter on arm)" in warned
     assert not world.diagram.HasOutputPort("altimeter.height")
     world.close()
+
+
+def test_add_sensors_alone_exports_each_output_by_sensor_name(tmp_path):
+    """AddSensors in a bare DiagramBuilder: a registered type's outputs, named after the
+    block; the camera types left to the camera section."""
+    from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import ConstantVectorSource
+
+    from armando_drake.description.loader import load_robot
+
+    @registry.register_sensor("toy_rate")
+    class Rate:
+        @staticmethod
+        def add(builder, block, *, plant, robot):
+            source = builder.AddSystem(ConstantVectorSource([block.update_rate]))
+            return {"rate": source.get_output_port()}
+
+    try:
+        urdf = tmp_path / "pendulum.urdf"
+        urdf.write_text(PENDULUM.replace('type="altimeter"', 'type="toy_rate"'))
+        builder = DiagramBuilder()
+        plant, _ = AddMultibodyPlant(MultibodyPlantConfig(time_step=0.001), builder)
+        robot = load_robot(plant, urdf)
+        plant.Finalize()
+        added = registry.AddSensors(builder, robot.sensors, plant=plant, robot=robot)
+        assert list(added) == ["altimeter"]  # the block's name, its type toy_rate
+        diagram = builder.Build()
+        rate = diagram.GetOutputPort("altimeter.rate").Eval(diagram.CreateDefaultContext())
+        assert rate[0] == 50.0  # its <update_rate>
+    finally:
+        registry.unregister_sensor("toy_rate")
