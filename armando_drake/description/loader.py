@@ -28,13 +28,14 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from pydrake.math import RigidTransform
+from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import ModelInstanceIndex
 
 from armando_drake import DEFAULT_DESCRIPTION
 from armando_drake.description.camera_sensors import parse_camera_sensors
+from armando_drake.description.config import RobotConfig
 from armando_drake.description.importer import PreparedUrdf, actuation, prepare_urdf
 from armando_drake.description.packages import (
     LOGGER,
@@ -482,3 +483,16 @@ def load_robot(
     )
     _check_mimic_support(plant, robot)
     return robot
+
+
+def AddRobot(plant: MultibodyPlant, config: RobotConfig) -> LoadedRobot:
+    """The description of the scenario's ``robot:`` section, its base welded at
+    ``base_xyz``/``base_rpy`` (:func:`load_robot`)."""
+    return load_robot(
+        plant,
+        config.description or None,
+        xacro_args=config.xacro_args,
+        package_paths=config.package_paths,
+        X_WB=RigidTransform(RollPitchYaw(config.base_rpy), config.base_xyz),
+        collision=config.collision,
+    )

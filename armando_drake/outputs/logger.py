@@ -51,6 +51,7 @@ from pydrake.systems.primitives import VectorLogSink
 
 from armando_drake.control.manager import AddJointStateVector
 from armando_drake.control.stack import ControlStack
+from armando_drake.outputs.config import LoggingConfig
 
 
 def csv_header(joint_names: list[str] | tuple[str, ...]) -> str:
@@ -382,17 +383,18 @@ class CommandsCsv:
 
 def AddJointStateLogger(
     builder,
+    config: LoggingConfig,
     stack: ControlStack,
     *,
-    console_rate: float = 1.0,
     output_dir: str | os.PathLike | None = None,
     quiet: bool = False,
 ) -> JointStateLogger | None:
     """The joint state logger on what the broadcaster of ``stack`` publishes: its C++
     vector view ([q; v; effort] of its joints), sampled at the controllers' rate (ROS
     1's joint_state_controller: at its own publish_rate); ``joint_states.csv`` in
-    ``output_dir``; printed at ``console_rate`` [Hz] (0: never). None without a
+    ``output_dir``; printed at ``config.console_rate`` [Hz] (0: never). None without a
     broadcaster."""
+    console_rate = config.console_rate
     if stack.broadcaster is None:
         return None
     joints = stack.controller_joints[stack.broadcaster_name]

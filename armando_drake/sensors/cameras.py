@@ -18,6 +18,7 @@ from armando_drake.sensors.camera import (
     choose_renderer,
     describe,
 )
+from armando_drake.sensors.config import CameraSettings
 from armando_drake.sensors.image_view import AddFrameSaver, AddImageView, ImageViewServer
 from armando_drake.tools.cli import warn_if_open
 from armando_drake.tools.errors import ScenarioError
@@ -29,7 +30,7 @@ ENGINES = {"gl": "RenderEngineGl", "vtk": "RenderEngineVtk"}
 
 def AddCameras(
     builder: DiagramBuilder,
-    settings,
+    settings: CameraSettings,
     *,
     plant: MultibodyPlant,
     scene_graph: SceneGraph,

@@ -28,7 +28,6 @@ import os
 from pathlib import Path
 
 from pydrake.geometry import Meshcat
-from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import AddMultibodyPlant, ApplyMultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
 
@@ -43,7 +42,7 @@ from armando_drake.control.stack import (
     LoadControllerConfig,
     controller_update_rate,
 )
-from armando_drake.description.loader import load_robot
+from armando_drake.description.loader import AddRobot
 from armando_drake.outputs.logger import AddJointStateLogger, CommandsCsv
 from armando_drake.outputs.recording import AddRosbagRecorder
 from armando_drake.outputs.replay import AddVisualization
@@ -104,11 +103,7 @@ def MakeWorld(
     )
     # What watches them: the joint-state logger, the cameras, the detectors, perception.
     logger = AddJointStateLogger(
-        builder,
-        stack,
-        console_rate=scenario.logging.console_rate,
-        output_dir=output_dir,
-        quiet=quiet,
+        builder, scenario.logging, stack, output_dir=output_dir, quiet=quiet
     )
     if logger is not None:
         closers.append(logger.close)
@@ -147,14 +142,7 @@ def _add_physics(builder: DiagramBuilder, scenario: Scenario, where: str):
     spawn pose, the ground and the objects."""
     plant, scene_graph = AddMultibodyPlant(scenario.plant_config, builder)
     ApplyMultibodyPlantConfig(scenario.plant_config, plant)
-    robot = load_robot(
-        plant,
-        scenario.robot.description or None,
-        xacro_args=scenario.robot.xacro_args,
-        package_paths=scenario.robot.package_paths,
-        X_WB=RigidTransform(RollPitchYaw(scenario.robot.base_rpy), scenario.robot.base_xyz),
-        collision=scenario.robot.collision,
-    )
+    robot = AddRobot(plant, scenario.robot)
     if scenario.ground:
         AddGround(plant, scene_graph)
     try:

@@ -42,9 +42,12 @@ from armando_drake.control.sequencer import (
     one_pass,
 )
 from armando_drake.control.stack import ActuatorConfig, ControllersConfig
+from armando_drake.description.config import RobotConfig
 from armando_drake.kinematics.motion import TaskSpaceMotion
+from armando_drake.outputs.config import LoggingConfig
 from armando_drake.perception.config import PerceptionConfig
 from armando_drake.ros2.config import Ros2Config
+from armando_drake.sensors.config import CameraSettings
 from armando_drake.sensors.objects import SceneObject
 from armando_drake.teleop.config import JogConfig
 from armando_drake.tools.errors import ScenarioError
@@ -61,58 +64,6 @@ MAX_DEFAULT_DURATION = 3600.0
 # [s] the longest run accepted at all (about 11.6 simulated days): longer, the
 # run would not end in any useful time, as fast as it may go.
 MAX_DURATION = 1e6
-
-
-@dc.dataclass
-class RobotConfig:
-    """Which description is loaded and where its base is welded."""
-
-    # A .urdf/.xacro file, a package directory or package://pkg/file; "" is the
-    # built-in Armando (models/armando_description/urdf/armando.urdf.xacro).
-    description: str = ""
-    # xacro:arg values, as name: value.
-    xacro_args: dict[str, str] = dc.field(default_factory=dict)
-    # Extra folders searched for ROS packages, before ROS_PACKAGE_PATH.
-    package_paths: list[str] = dc.field(default_factory=list)
-    # Collision geometry: auto | boxes | convex | as-is | none.
-    collision: str = param("auto", choices=("auto", "boxes", "convex", "as-is", "none"))
-    # Whether the robot's links collide with each other. Off by default, as in
-    # Gazebo (<self_collide> false); the robot always collides with the ground
-    # and the scene objects.
-    self_collision: bool = False
-    # Position of the base in the world [m]; the base is welded there.
-    base_xyz: list[float] = param([0.0, 0.0, 0.0], unit="m", length=3, coordinate=True)
-    # Orientation of the base in the world, roll pitch yaw [rad].
-    base_rpy: list[float] = param([0.0, 0.0, 0.0], unit="rad", length=3)
-
-
-@dc.dataclass
-class CameraSettings:
-    """The camera sensors described in the robot's URDF."""
-
-    # Whether the <sensor type="camera"> blocks become Drake RgbdSensors.
-    enabled: bool = False
-    # Whether depth images are rendered too.
-    depth: bool = True
-    # Whether the live view of the camera is served on localhost without Meshcat too
-    # (with Meshcat on it always is; the CLI's --camera-view sets it).
-    live_view: bool = False
-    # Folder where colour frames (PNG) and depth (16-bit PNG, millimetres) are
-    # saved; "" = not saved.
-    save_frames: str = ""
-    # Rate at which frames are saved [Hz]; 0 = the camera's own rate.
-    save_rate: float = param(0.0, unit="Hz", ge=0)
-    # Renderer: "gl" (Drake's OpenGL engine, on DISPLAY or a private Xvfb), "vtk"
-    # (VTK through EGL, no display needed) or "auto" (gl when possible, else vtk).
-    renderer: str = param("auto", choices=("auto", "gl", "vtk"))
-
-
-@dc.dataclass
-class LoggingConfig:
-    """The joint-state logger."""
-
-    # How often the joint positions are printed to the console [Hz]; 0 = never.
-    console_rate: float = param(1.0, unit="Hz", ge=0)
 
 
 @dc.dataclass

@@ -25,6 +25,7 @@ from armando_drake.control.stack import (
 from armando_drake.description.loader import load_robot
 from armando_drake.kinematics.motion import TaskSpaceMotion
 from armando_drake.messages.types import Float64MultiArray, Publication
+from armando_drake.outputs.config import LoggingConfig
 from armando_drake.outputs.logger import AddJointStateLogger, read_joint_states
 from armando_drake.outputs.recording import AddRosbagRecorder
 from armando_drake.outputs.replay import AddVisualization
@@ -34,8 +35,8 @@ from armando_drake.perception.systems import AddPerception
 from armando_drake.ros2.bridge import AddRos2Bridge
 from armando_drake.ros2.config import Ros2Config
 from armando_drake.sensors.cameras import AddCameras
+from armando_drake.sensors.config import CameraSettings
 from armando_drake.sensors.objects import AddGround
-from armando_drake.simulation.scenario import CameraSettings
 from armando_drake.task.reference import AddTask
 from armando_drake.teleop.config import JogConfig
 from armando_drake.teleop.jog import AddJog
@@ -128,7 +129,7 @@ def test_the_logger_alone_writes_a_row_per_controller_tick(tmp_path):
     builder = DiagramBuilder()
     _, _, stack = armando(builder)
     ConnectControlStack(builder, stack, gravity_feedforward=True)
-    logger = AddJointStateLogger(builder, stack, console_rate=0, output_dir=tmp_path)
+    logger = AddJointStateLogger(builder, LoggingConfig(console_rate=0), stack, output_dir=tmp_path)
     simulator = Simulator(builder.Build())
     context = simulator.get_context()
     simulator.AdvanceTo(1.0)
@@ -144,7 +145,7 @@ def test_the_logger_alone_writes_a_row_per_controller_tick(tmp_path):
 def test_no_broadcaster_no_logger():
     builder = DiagramBuilder()
     _, _, stack = armando(builder, ["position_controller"])
-    assert AddJointStateLogger(builder, stack) is None
+    assert AddJointStateLogger(builder, LoggingConfig(), stack) is None
 
 
 def test_the_task_alone_publishes_its_joint_trajectory_once():

@@ -1,0 +1,31 @@
+"""The scenario's ``robot:`` section: which description is loaded, and where."""
+
+import dataclasses as dc
+
+from armando_drake.tools.schema import param
+
+# No `from __future__ import annotations` here: yaml_load_typed reads the dataclass
+# field types at run time and does not resolve string annotations.
+
+
+@dc.dataclass
+class RobotConfig:
+    """Which description is loaded and where its base is welded."""
+
+    # A .urdf/.xacro file, a package directory or package://pkg/file; "" is the
+    # built-in Armando (models/armando_description/urdf/armando.urdf.xacro).
+    description: str = ""
+    # xacro:arg values, as name: value.
+    xacro_args: dict[str, str] = dc.field(default_factory=dict)
+    # Extra folders searched for ROS packages, before ROS_PACKAGE_PATH.
+    package_paths: list[str] = dc.field(default_factory=list)
+    # Collision geometry: auto | boxes | convex | as-is | none.
+    collision: str = param("auto", choices=("auto", "boxes", "convex", "as-is", "none"))
+    # Whether the robot's links collide with each other. Off by default, as in
+    # Gazebo (<self_collide> false); the robot always collides with the ground
+    # and the scene objects.
+    self_collision: bool = False
+    # Position of the base in the world [m]; the base is welded there.
+    base_xyz: list[float] = param([0.0, 0.0, 0.0], unit="m", length=3, coordinate=True)
+    # Orientation of the base in the world, roll pitch yaw [rad].
+    base_rpy: list[float] = param([0.0, 0.0, 0.0], unit="rad", length=3)
