@@ -31,7 +31,9 @@ from pathlib import Path
 
 import numpy as np
 from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer
+from pydrake.lcm import DrakeLcm
 from pydrake.systems.framework import LeafSystem
+from pydrake.systems.lcm import LcmInterfaceSystem
 from pydrake.visualization import ApplyVisualizationConfig
 
 from armando_drake.outputs.view import AddViewFramer
@@ -218,13 +220,21 @@ def AddVisualization(
     ``VisualizationConfig``), the collision layer hidden; the camera framed on the
     robots of ``robot_instances`` and (with ``ground``) the ground drawn to the scene's
     size when the run starts. Returns the :class:`ReplaySampler` of the plant's state
-    at a bounded number of instants, for the replay after the run."""
+    at a bounded number of instants, for the replay after the run.
+
+    Drake's visualization also publishes LCM messages (for Meldis); they go to an
+    in-process bus, not to LCM's default UDP multicast group, which would join the
+    machine's network interface: nothing leaves the loopback unless asked."""
+    in_process = DrakeLcm("memq://")
+    # The diagram owns the bus (its system keeps it alive as long as the diagram lives).
+    builder.AddNamedSystem("lcm_in_process", LcmInterfaceSystem(in_process))
     ApplyVisualizationConfig(
         visualization_for(config, meshcat),
         builder,
         plant=plant,
         scene_graph=scene_graph,
         meshcat=meshcat,
+        lcm=in_process,
     )
     meshcat.SetProperty("/drake/proximity", "visible", False)
     AddViewFramer(
