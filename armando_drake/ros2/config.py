@@ -1,8 +1,25 @@
 """The ``ros2:`` section of a scenario: the world live on DDS and Foxglove."""
 
 import dataclasses as dc
+import ipaddress
+import re
 
-from armando_drake.tools.schema import param
+from armando_drake.tools.schema import Refusal, param
+
+# A Linux network interface name (at most 15 characters, no space, quote or slash):
+# the value goes into Cyclone DDS's XML configuration, so nothing else is accepted.
+INTERFACE_NAME = re.compile(r"[A-Za-z0-9_.:-]{1,15}")
+# A ROS 2 namespace: absolute, tokens of letters, digits and underscores, none starting
+# with a digit (rcl's rules).
+NAMESPACE = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+")
+
+
+def _is_address(text: str) -> bool:
+    try:
+        ipaddress.ip_address(text)
+    except ValueError:
+        return False
+    return True
 
 
 @dc.dataclass
@@ -30,3 +47,29 @@ class Ros2Config:
     foxglove_host: str = "127.0.0.1"
     # Rate of /clock [Hz]; 0 = the controller manager's update_rate.
     clock_rate: float = param(0.0, unit="Hz", ge=0)
+
+    def check(self) -> None:
+        """The names that go into other programs' configuration, and the namespace,
+        as ROS 2 accepts them."""
+        interface = self.network_interface
+        if interface and not (_is_address(interface) or INTERFACE_NAME.fullmatch(interface)):
+            raise Refusal(
+                "network_interface",
+                f"={interface!r} is neither an interface name (letters, digits, _ . : -; at "
+                "most 15) nor an IP address",
+            )
+        if self.namespace and not self.namespace.startswith("/"):
+            raise Refusal(
+                "namespace", f"={self.namespace!r} must start with '/' (a ROS 2 namespace: '/arm')"
+            )
+        if self.namespace and not NAMESPACE.fullmatch(self.namespace):
+            raise Refusal(
+                "namespace",
+                f"={self.namespace!r} is not a ROS 2 namespace (e.g. '/arm': '/'-separated "
+                "names of letters, digits and _, none starting with a digit)",
+            )
+        host = self.foxglove_host
+        if host != "localhost" and not _is_address(host):
+            raise Refusal(
+                "foxglove_host", f"={host!r} must be an IP address of this machine or localhost"
+            )

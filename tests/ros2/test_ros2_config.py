@@ -44,3 +44,50 @@ def test_topic_names_follow_the_ros2_dds_mapping():
         "rt/arm/position_controller/commands"
     )
     assert dds_topic_name("/tf", "/arm") == "rt/tf"
+
+
+@pytest.mark.parametrize(
+    "override, key",
+    [
+        # A value that would be pasted into Cyclone DDS's XML (it enabled tracing once).
+        (
+            'ros2: {network_interface: "lo\'/><Tracing><OutputFile>/tmp/x</OutputFile>"}',
+            "ros2.network_interface",
+        ),
+        ("ros2: {network_interface: eth0 eth1}", "ros2.network_interface"),
+        ("ros2: {network_interface: averyveryverylongname}", "ros2.network_interface"),
+        ("ros2: {namespace: 'bad ns'}", "ros2.namespace"),
+        ("ros2: {namespace: arm}", "ros2.namespace"),
+        ("ros2: {namespace: /1arm}", "ros2.namespace"),
+        ("ros2: {foxglove_host: example.com}", "ros2.foxglove_host"),
+    ],
+)
+def test_values_for_other_programs_are_refused_in_one_line_naming_the_key(override, key):
+    from armando_drake.simulation.scenario import load_scenario
+    from armando_drake.simulation.validation import InputError, check_scenario
+
+    scenario = load_scenario("position", override)
+    with pytest.raises(InputError) as error:
+        check_scenario(scenario)
+    message = str(error.value)
+    assert f"{key}=" in message and "\n" not in message
+    assert message.startswith("override ")  # the origin: the override that set it
+
+
+@pytest.mark.parametrize(
+    "override",
+    [
+        "ros2: {network_interface: lo}",
+        "ros2: {network_interface: eth0.100}",
+        "ros2: {network_interface: 127.0.0.1}",
+        "ros2: {network_interface: '::1'}",
+        "ros2: {namespace: /arm/left_2}",
+        "ros2: {foxglove_host: '0.0.0.0'}",
+        "ros2: {foxglove_host: localhost}",
+    ],
+)
+def test_names_and_addresses_ros2_accepts_pass(override):
+    from armando_drake.simulation.scenario import load_scenario
+    from armando_drake.simulation.validation import check_scenario
+
+    check_scenario(load_scenario("position", override))
