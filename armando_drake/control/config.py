@@ -60,6 +60,7 @@ from armando_drake.control.controllers import (
     lookup,
 )
 from armando_drake.tools.errors import UserInputError
+from armando_drake.tools.files import read_yaml_file
 from armando_drake.tools.yaml_keys import duplicate_key
 
 _logger = logging.getLogger("armando_drake.control.config")
@@ -435,7 +436,7 @@ def load_controller_config(path: str | Path) -> ControllerManagerConfig:
     """The controller manager configuration in the YAML file at ``path``."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_yaml_file(path, what="a controller file")
     except OSError as error:
         raise ControllerConfigError(f"{path}: cannot read controller file: {error}") from None
     except UnicodeDecodeError as error:

@@ -51,6 +51,7 @@ from armando_drake.sensors.config import CameraSettings
 from armando_drake.sensors.objects import SceneObject
 from armando_drake.teleop.config import JogConfig
 from armando_drake.tools.errors import ScenarioError
+from armando_drake.tools.files import FileInputError, check_yaml_expansion, read_yaml_file
 from armando_drake.tools.schema import Refusal, param
 from armando_drake.tools.yaml_keys import duplicate_key
 from armando_drake.vision.cameras import ScenarioCamera
@@ -386,6 +387,7 @@ def merge_overrides(scenario: Scenario, overrides, label: str = "--set") -> Scen
                 f"{label} {override!r}: nothing to set; give a YAML mapping, e.g. "
                 "'actuators: {kp: 4.0}'"
             )
+        check_yaml_expansion(override, f"{label} {_shortened(override)!r}")
         _refuse_duplicate_keys(override, f"{label} {override!r}")
         try:
             scenario = _merge(scenario, override)
@@ -423,11 +425,11 @@ def load_scenario(
         if filename is not None:
             path = resolve_scenario_path(filename)
             source = str(path)
-            _refuse_duplicate_keys(path.read_text(encoding="utf-8"), source)
+            _refuse_duplicate_keys(read_yaml_file(path, what="the scenario"), source)
             scenario = yaml_load_typed(filename=str(path), defaults=scenario)
         if overrides:
             scenario = merge_overrides(scenario, overrides, label="override")
-    except ScenarioError:
+    except (ScenarioError, FileInputError):
         raise
     except OSError as error:
         raise ScenarioError(f"{filename}: cannot read the scenario: {error.strerror}") from None
@@ -457,3 +459,8 @@ def apply_scenario_arguments(scenario, args):
         note_option(scenario, ("robot.description",), "--description")
     scenario.robot.package_paths += args.package_path
     return scenario
+
+
+def _shortened(text: str, limit: int = 200) -> str:
+    """``text`` cut to ``limit`` characters for a message (an override may be huge)."""
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"

@@ -16,8 +16,12 @@ def duplicate_key(text: str) -> tuple[int, str] | None:
     except yaml.YAMLError:
         return None
     stack = [node for node in nodes if node is not None]
+    seen_nodes: set[int] = set()  # an alias is the node it names: each is checked once
     while stack:
         node = stack.pop()
+        if id(node) in seen_nodes:
+            continue
+        seen_nodes.add(id(node))
         if isinstance(node, yaml.MappingNode):
             seen: dict[str, int] = {}
             for key, value in node.value:

@@ -1,0 +1,106 @@
+"""Hostile files and values end in one line, exit 2, in bounded time and memory: a YAML
+alias bomb (defined or used, in a file or a --set), a FIFO or a device as the controller
+YAML, a directory, a file over the size limit. Each run is a process of its own under a
+memory limit, killed if it outlives its time."""
+
+import os
+import resource
+import subprocess
+import sys
+import time
+
+import pytest
+
+from armando_drake.tools.files import (
+    MAX_YAML_BYTES,
+    MAX_YAML_NODES,
+    FileInputError,
+    check_yaml_expansion,
+    read_text_file,
+)
+
+MEMORY_LIMIT = 3 * 2**30  # [bytes] of address space: far above a run, far below a bomb
+TIME_LIMIT = 60  # [s] a run here takes a few seconds
+
+
+def alias_bomb(levels: int = 12, width: int = 9) -> str:
+    """A "billion laughs" mapping: each level an alias list of the one before."""
+    lines = [f"l0: &l0 [{', '.join(['lol'] * width)}]"]
+    for level in range(1, levels):
+        items = ", ".join([f"*l{level - 1}"] * width)
+        lines.append(f"l{level}: &l{level} [{items}]")
+    return "\n".join(lines) + "\n"
+
+
+def world(*args, cwd) -> tuple[subprocess.CompletedProcess, float]:
+    def limit():
+        resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT, MEMORY_LIMIT))
+
+    start = time.monotonic()
+    result = subprocess.run(
+        [sys.executable, "-m", "armando_drake.world", "--no-meshcat", "--realtime-rate", "0"]
+        + ["--duration", "0.1", "--quiet", *args],
+        capture_output=True,
+        text=True,
+        timeout=TIME_LIMIT,
+        cwd=cwd,
+        preexec_fn=limit,
+    )
+    return result, time.monotonic() - start
+
+
+def one_line_error(result) -> str:
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), result.stderr
+    return lines[0]
+
+
+def test_an_alias_bomb_in_a_scenario_file_is_refused_before_it_expands(tmp_path):
+    (tmp_path / "bomb.yaml").write_text(alias_bomb() + "robot: {}\n")
+    result, seconds = world("--scenario", "bomb.yaml", cwd=tmp_path)
+    line = one_line_error(result)
+    assert "bomb.yaml" in line and "alias" in line
+    assert seconds < 30
+
+
+def test_an_alias_bomb_in_a_set_is_refused_and_its_text_cut(tmp_path):
+    bomb = "{" + alias_bomb().strip().replace("\n", ", ") + "}"
+    result, _ = world("--set", bomb, cwd=tmp_path)
+    line = one_line_error(result)
+    assert line.startswith("error: --set ") and "alias" in line
+    assert len(line) < 600  # the override is cut in the message
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device", "directory"])
+def test_a_controller_yaml_that_is_no_regular_file_is_refused_at_once(tmp_path, kind):
+    if kind == "fifo":
+        path = tmp_path / "controllers.fifo"
+        os.mkfifo(path)  # opening it for reading would block for ever
+    elif kind == "device":
+        path = "/dev/zero"  # reading it would fill the memory
+    else:
+        path = tmp_path
+    result, seconds = world("--set", f"controllers: {{config: '{path}'}}", cwd=tmp_path)
+    line = one_line_error(result)
+    assert str(path) in line and "must be a regular file" in line
+    assert seconds < 30
+
+
+def test_a_file_over_the_size_limit_is_refused_naming_it(tmp_path):
+    big = tmp_path / "big.yaml"
+    with big.open("w") as stream:
+        stream.write("# padding\n" * (MAX_YAML_BYTES // 10 + 1))
+    with pytest.raises(FileInputError, match="big.yaml: over 8 MiB"):
+        read_text_file(big, what="a controller file")
+
+
+def test_the_expansion_count_is_linear_in_the_text_and_exact_below_the_limit():
+    small = alias_bomb(levels=3, width=3)  # 3 + 9 + 27 leaves and their lists
+    check_yaml_expansion(small, "small.yaml")  # far below the limit: passes
+    start = time.monotonic()
+    with pytest.raises(FileInputError, match=f"over {MAX_YAML_NODES:,} nodes"):
+        check_yaml_expansion(alias_bomb(levels=40, width=9), "huge.yaml")  # 9^40 nodes
+    assert time.monotonic() - start < 2.0
+    with pytest.raises(FileInputError, match="contains it"):
+        check_yaml_expansion("a: &a [1, *a]\n", "recursive.yaml")
