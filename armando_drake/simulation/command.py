@@ -5,6 +5,7 @@ thin entry module over :func:`run_command`."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 import math
 import sys
@@ -19,6 +20,7 @@ from armando_drake.control.sequencer import (
     PositionTargets,
     Sinusoid,
 )
+from armando_drake.outputs.folder_lock import output_folder_lock
 from armando_drake.outputs.recording import RecordingError, check_recording_path
 from armando_drake.outputs.view import serve_until_interrupted
 from armando_drake.simulation.run import format_table, run
@@ -234,17 +236,19 @@ def run_command(argv: list[str] | None, doc: str) -> int:
         meshcat = None
         if not args.no_meshcat:
             meshcat = start_meshcat(host)
-        result = run(
-            scenario,
-            scenario_name=str(path),
-            output_dir=args.output,
-            meshcat=meshcat,
-            quiet=args.quiet,
-            replay=not args.no_replay,
-            record=args.record,
-            wait_for_browser=0.0 if meshcat is None else wait,
-            host=host,
-        )
+        # One run per output folder: a second run given the same one is refused.
+        with output_folder_lock(args.output) if args.output else contextlib.nullcontext():
+            result = run(
+                scenario,
+                scenario_name=str(path),
+                output_dir=args.output,
+                meshcat=meshcat,
+                quiet=args.quiet,
+                replay=not args.no_replay,
+                record=args.record,
+                wait_for_browser=0.0 if meshcat is None else wait,
+                host=host,
+            )
         _report(result, args, started)
         if meshcat is not None and not result.interrupted and keeps_serving(args):
             serve_until_interrupted(meshcat)

@@ -104,3 +104,31 @@ def test_the_expansion_count_is_linear_in_the_text_and_exact_below_the_limit():
     assert time.monotonic() - start < 2.0
     with pytest.raises(FileInputError, match="contains it"):
         check_yaml_expansion("a: &a [1, *a]\n", "recursive.yaml")
+
+
+def test_two_runs_given_one_output_folder_never_mix(tmp_path):
+    """The second run is refused at once, naming the first's process; the first's files
+    are its own, whole; once it ended, the folder takes a new run."""
+    out = tmp_path / "out"
+    first = subprocess.Popen(
+        [sys.executable, "-m", "armando_drake.world", "--no-meshcat", "--quiet"]
+        + ["--realtime-rate", "1", "--duration", "6", "--no-replay", "--output", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    lock = out / ".armando_drake.lock"
+    deadline = time.monotonic() + TIME_LIMIT
+    while not (lock.is_file() and lock.read_text().strip()) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    result, seconds = world("--output", str(out), "--duration", "2", cwd=tmp_path)
+    line = one_line_error(result)
+    assert f"--output {out}: another run (process {first.pid})" in line
+    assert seconds < 30
+    _, stderr = first.communicate(timeout=TIME_LIMIT)
+    assert first.returncode == 0, stderr
+    assert not lock.exists()
+    rows = (out / "joint_states.csv").read_text().splitlines()
+    assert len(rows) == 1 + 601  # the header, and 0 to 6 s at 100 Hz: the first run's only
+    result, _ = world("--output", str(out), cwd=tmp_path)  # the folder is free again
+    assert result.returncode == 0, result.stderr
