@@ -37,7 +37,7 @@ from armando_drake.outputs.task_space import TASK_SPACE_CSV, TaskSpaceTracker, w
 from armando_drake.outputs.view import wait_for_browser as wait
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import Scenario, default_duration
-from armando_drake.tools.cli import meshcat_urls
+from armando_drake.tools.cli import STOP_SIGNALS, meshcat_urls
 from armando_drake.tools.version import provenance
 from armando_drake.vision.outputs import write_vision_outputs
 
@@ -387,7 +387,7 @@ class _AboveBar(io.TextIOBase):
 
 
 class _Interrupts:
-    """Ctrl-C (SIGINT) and SIGTERM during a run: the first one raises KeyboardInterrupt
+    """Ctrl-C (SIGINT), SIGTERM and SIGHUP during a run: the first raises KeyboardInterrupt
     (the simulation stops, and a terminated run still writes its logs); any later
     one is only counted, so it cannot cut the logs in half, and :meth:`raise_pending`
     raises it once they are written."""
@@ -407,7 +407,7 @@ class _Interrupts:
     @contextlib.contextmanager
     def installed(self):
         try:
-            previous = {s: signal.signal(s, self._handler) for s in (signal.SIGINT, signal.SIGTERM)}
+            previous = {s: signal.signal(s, self._handler) for s in STOP_SIGNALS}
         except ValueError:  # not the main thread
             yield self
             return

@@ -18,6 +18,10 @@ from typing import NoReturn
 from armando_drake.tools.errors import UserInputError
 from armando_drake.tools.version import version_text
 
+# The signals that stop a command as Ctrl-C does: what a run keeps (logs, the table, the
+# summary) is written first, then exit 130.
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
 
 class UserError(UserInputError):
     """A mistake in the user's input, reported as one line without a traceback."""
@@ -378,8 +382,9 @@ def user_errors() -> Iterator[None]:
 
     - an input error (:class:`UserError`, a description, controller YAML, scenario,
       camera, object or sequencer error): ``error: ...`` on stderr, one line, exit 2;
-    - Ctrl-C (SIGINT), also one that breaks an import half way (``ImportError:
-      initialization failed``): ``interrupted`` on stderr, exit 130;
+    - Ctrl-C (SIGINT), SIGTERM or SIGHUP (a closed terminal), also one that breaks an
+      import half way (``ImportError: initialization failed``): ``interrupted`` on
+      stderr, exit 130;
     - anything else: ``error: <type>: <message> (run with --debug for the
       traceback)``, one line, exit 1; with ``--debug`` the traceback first.
     """
@@ -396,7 +401,7 @@ def user_errors() -> Iterator[None]:
         with _held_interrupts():
             import pydrake  # noqa: F401
         with contextlib.suppress(ValueError):  # not the main thread: leave SIGINT alone
-            previous = signal.signal(signal.SIGINT, on_sigint)
+            previous = {sig: signal.signal(sig, on_sigint) for sig in STOP_SIGNALS}
         yield
     except KeyboardInterrupt as interrupt:
         _exit_interrupted(f"interrupted: {interrupt}" if str(interrupt) else "interrupted")
@@ -418,5 +423,5 @@ def user_errors() -> Iterator[None]:
             )
         sys.exit(1)
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGINT, previous)
+        for sig, handler in (previous or {}).items():
+            signal.signal(sig, handler)
