@@ -180,8 +180,11 @@ def _plot_positions(
 
 
 def write_plots(output_dir: str | Path) -> list[Path]:
-    """Writes the PNG plots of the run in ``output_dir``; returns their paths."""
+    """Writes the PNG plots of the run in ``output_dir``; returns their paths (none when
+    the run logged no joint states: no joint state broadcaster was active)."""
     folder = Path(output_dir)
+    if not (folder / "joint_states.csv").is_file():
+        return []
     states = read_joint_states(folder / "joint_states.csv")
     joints = states.joint_names
     if not joints:

@@ -191,11 +191,14 @@ def default_duration(scenario: Scenario) -> float:
 def resolve_scenario_path(name: str | os.PathLike) -> Path:
     """A scenario file: a path, or the name of a file in ``diagrams/``."""
     path = Path(name)
-    if path.is_file():
-        return path
-    for candidate in (DIAGRAMS_DIR / path, DIAGRAMS_DIR / f"{path}.yaml"):
-        if candidate.is_file():
-            return candidate
+    try:
+        if path.is_file():
+            return path
+        for candidate in (DIAGRAMS_DIR / path, DIAGRAMS_DIR / f"{path}.yaml"):
+            if candidate.is_file():
+                return candidate
+    except OSError as error:  # a name too long for the file system, ...
+        raise ScenarioError(f"{_shortened(str(name))}: {error.strerror}") from None
     available = ", ".join(sorted(p.stem for p in DIAGRAMS_DIR.glob("*.yaml")))
     raise ScenarioError(f"{name}: scenario file not found (files in diagrams/: {available})")
 
@@ -304,6 +307,8 @@ def _check_lists(data, schema, prefix: str = "") -> None:
                     _check_lists(item, inner, f"{key}.{index}.")
             continue
         members = [m for m in [hint, *typing.get_args(hint)] if dc.is_dataclass(m)]
+        if members and value is None and type(None) not in typing.get_args(hint):
+            raise ScenarioError(f"{key}: expected a mapping, got null (a section cannot be unset)")
         if members and value is not None and not isinstance(value, dict):
             raise ScenarioError(f"{key}: expected a mapping, got {value!r}")
         if isinstance(value, dict) and len(members) > 1:  # a tagged union: the tag's member
@@ -317,7 +322,9 @@ def _merge(scenario: Scenario, text: str) -> Scenario:
     """``scenario`` with the YAML ``text`` merged over it (see :func:`_keep_variants`)."""
     data = yaml_load(data=text)
     if data is None:
-        return scenario
+        raise ScenarioError(
+            "nothing to set (null); give a YAML mapping, e.g. 'actuators: {kp: 4.0}'"
+        )
     if not isinstance(data, dict):
         raise ScenarioError(f"expected a YAML mapping, got {data!r}")
     _check_lists(data, Scenario)

@@ -331,8 +331,16 @@ def add_description_arguments(parser, default: str) -> None:
     )
 
 
+# The longest message printed: a value the user gave may be megabytes long.
+MAX_MESSAGE = 1000
+
+
 def _one_line(text: str) -> str:
-    return " ".join(str(text).split())
+    line = " ".join(str(text).split())
+    if len(line) <= MAX_MESSAGE:
+        return line
+    half = MAX_MESSAGE // 2
+    return f"{line[:half]} ... ({len(line) - 2 * half} characters left out) ... {line[-half:]}"
 
 
 def _unexpected(error: BaseException) -> str:

@@ -132,3 +132,31 @@ def test_two_runs_given_one_output_folder_never_mix(tmp_path):
     assert len(rows) == 1 + 601  # the header, and 0 to 6 s at 100 Hz: the first run's only
     result, _ = world("--output", str(out), cwd=tmp_path)  # the folder is free again
     assert result.returncode == 0, result.stderr
+
+
+@pytest.mark.parametrize(
+    "args, expected",
+    [
+        (["--set", "null"], "--set 'null': nothing to set (null)"),
+        (["--set", "actuators: null"], "actuators: expected a mapping, got null"),
+        (["--scenario", "a" * 100_000], "File name too long"),
+    ],
+    ids=["set-null", "section-null", "long-path"],
+)
+def test_remaining_error_paths_are_one_short_line(tmp_path, args, expected):
+    result, _ = world(*args, cwd=tmp_path)
+    line = one_line_error(result)
+    assert expected in line and len(line) < 1200
+
+
+def test_a_run_without_a_broadcaster_writes_its_summary_and_no_plots(tmp_path):
+    out = tmp_path / "out"
+    result, _ = world(
+        "--set",
+        "{controllers: {activate: []}, sequencer: null}",
+        "--output",
+        str(out),
+        cwd=tmp_path,
+    )
+    assert result.returncode == 0, result.stderr
+    assert (out / "summary.json").is_file() and not list(out.glob("*.png"))
