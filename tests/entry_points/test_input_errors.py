@@ -592,7 +592,7 @@ def test_a_usage_error_is_one_line(option, value, message, capsys):
 
 
 @pytest.mark.parametrize(
-    "module", ["world", "display", "outputs.graph", "sweeps.sweep", "benchmarks.suite"]
+    "module", ["world", "display", "graph", "sweeps.sweep", "benchmarks.suite"]
 )
 def test_every_entry_point_reports_a_usage_error_in_one_line(module, capsys):
     import importlib
