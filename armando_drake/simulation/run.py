@@ -501,7 +501,7 @@ def run(
         sim_time = simulator.get_context().get_time()
         # The logs and the summary are written whole, whatever signal comes.
         world.close(simulator.get_context())  # the logger's last rows reach the table too
-        result = _result(scenario, world, simulator, table, tracker, log_dir)
+        result = _result(scenario, world, simulator, table, tracker, log_dir, scenario_name)
         result.scenario, result.sim_time, result.wall_time = scenario_name, sim_time, wall_time
         result.realtime_factor = sim_time / wall_time if wall_time > 0 else math.inf
         result.interrupted = interrupted
@@ -580,9 +580,10 @@ def _publish_replay(replay_meshcat, world, simulator, log_dir) -> None:
         write_replay(replay_meshcat, log_dir / REPLAY_FILE)
 
 
-def _result(scenario, world, simulator, table, tracker, log_dir) -> RunResult:
+def _result(scenario, world, simulator, table, tracker, log_dir, name: str = "") -> RunResult:
     """The run's result, with the step table, the task-space errors (task_space.csv in
-    ``log_dir``) and the vision outputs; the caller fills in names and times."""
+    ``log_dir``) and the vision outputs (their plot titled with the scenario's ``name``);
+    the caller fills in names and times."""
     sim_time = simulator.get_context().get_time()
 
     vision_driven = world.detectors.driven if world.detectors is not None else []
@@ -621,7 +622,12 @@ def _result(scenario, world, simulator, table, tracker, log_dir) -> RunResult:
             )
     if world.detectors is not None:
         result.vision = write_vision_outputs(
-            world.topics, world.diagram, simulator.get_context(), scenario, log_dir
+            world.topics,
+            world.diagram,
+            simulator.get_context(),
+            scenario,
+            log_dir,
+            Path(name).stem if name else "",
         )
     return result
 
