@@ -1,6 +1,8 @@
 """An optional feature without its extra installed: one line naming the extra to install,
 exit 2, before the run (never an internal error with a ModuleNotFoundError)."""
 
+import os
+import subprocess
 import sys
 
 import pytest
@@ -27,7 +29,6 @@ def block(monkeypatch, *names: str) -> None:
         ("cv2", ["--scenario", "vision_dynamic"], ["object 'marker'", "OpenCV (cv2)", "[vision]"]),
         ("sklearn", ["--scenario", "perception"], ["scikit-learn and SciPy", "[perception]"]),
         ("foxglove", ["--foxglove", "0"], ["--foxglove", "Foxglove SDK", "[ros2]"]),
-        ("cyclonedds", ["--ros2"], ["Cyclone DDS", "[ros2]"]),
     ],
     ids=[
         "vision_blob",
@@ -36,7 +37,6 @@ def block(monkeypatch, *names: str) -> None:
         "vision_dynamic",
         "perception",
         "foxglove",
-        "ros2",
     ],
 )
 def test_a_missing_extra_is_one_line_naming_it(blocked, args, needles, monkeypatch, capsys):
@@ -63,3 +63,21 @@ def test_every_extra_is_one_of_pyproject(monkeypatch):
     assert str(raised.value) == (
         "--ray auto needs Ray (ray), which is not installed: pip install 'armando-drake[cluster]'"
     )
+
+
+def test_ros2_without_cyclone_dds_is_one_line_in_the_shell(tmp_path):
+    # In its own process: this one may have loaded Cyclone DDS already (its imports are
+    # made once).
+    (tmp_path / "sitecustomize.py").write_text("import sys\nsys.modules['cyclonedds'] = None\n")
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(tmp_path), env.get("PYTHONPATH")]))
+    result = subprocess.run(
+        [sys.executable, "-m", "armando_drake.world", "--ros2", "--no-meshcat"]
+        + ["--realtime-rate", "0", "--duration", "0.1"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
+    assert result.returncode == 2, result.stderr
+    assert_one_line(result.stderr, "Cyclone DDS", "pip install 'armando-drake[ros2]'")
