@@ -542,9 +542,14 @@ def _simulate(
     interrupted = False
     wall_start = time.monotonic()
     try:
+        # The messages in the order things happen: the wait and the browser connecting,
+        # then the start (the scene reaches the page, the t = 0 state is printed).
+        waits = meshcat is not None and wait_for_browser > 0
+        connected = wait(meshcat, wait_for_browser, stream) if waits else False
         simulator.Initialize()
-        if meshcat is not None and wait_for_browser > 0:
-            wait(meshcat, wait_for_browser, stream)
+        if waits:
+            if connected:
+                time.sleep(0.5)  # the page loads the scene Initialize sent
             simulator.ResetStatistics()  # the pacing to real time starts now
             wall_start = time.monotonic()
             if progress:
