@@ -37,6 +37,7 @@ from armando_drake.simulation.scenario import (
     merge_overrides,
 )
 from armando_drake.simulation.validation import check_scenario
+from armando_drake.tools.errors import UserInputError
 from armando_drake.tools.schema import leaves as _walk
 from armando_drake.tools.schema import rule_at
 
@@ -46,9 +47,8 @@ FEW = max(2, EXAMPLES // 10)  # for the slow properties
 
 
 def _input_errors():
-    from armando_drake.tools.cli import _input_errors
-
-    return _input_errors()
+    """What the command lines report as an input error (exit 2): the one base class."""
+    return (UserInputError,)
 
 
 # ---------------------------------------------------------------- YAML of generated values
