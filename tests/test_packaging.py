@@ -192,13 +192,17 @@ def test_the_files_read_at_run_time_are_the_data_folders():
     # What the notebooks load, and the model files the scenarios name, are among them.
     scenarios = notebook_scenarios()
     assert "diagrams/camera.yaml" in scenarios
-    named = {
-        reference
-        for scenario in (REPO / "diagrams").glob("*.yaml")
-        for reference in re.findall(r"\bmodels/[\w./-]+", scenario.read_text())
-    }
+    texts = [scenario.read_text() for scenario in (REPO / "diagrams").glob("*.yaml")]
+    named = {ref.rstrip(".") for text in texts for ref in re.findall(r"\bmodels/[\w./-]+", text)}
     assert named, "the scenarios name model files (controller YAML)"
-    assert {f"armando_drake/{path}" for path in scenarios | named} <= set(files)
+    # Descriptions named as packages: our models/ is where they are found.
+    packages = {
+        f"models/{ref}" for text in texts for ref in re.findall(r"package://([\w./-]+)", text)
+    }
+    assert "models/iiwa_description/urdf/iiwa14.urdf.xacro" in packages
+    for path in scenarios | named | packages:
+        wheel_path = f"armando_drake/{path}"  # a file, or a folder with files
+        assert wheel_path in files or any(f.startswith(wheel_path + "/") for f in files), path
 
 
 def test_sdist_and_wheel_pass_twine_check(dists):

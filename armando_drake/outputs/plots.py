@@ -4,6 +4,8 @@
 ``summary.json`` of an output folder and writes, next to them, one PNG per
 quantity with one panel per joint:
 
+Each figure is titled once: the quantity with its unit, then the run (:func:`plot_title`).
+
 - ``positions.png``: measured joint positions [rad] with the commanded
   positions drawn as steps;
 - ``tracking_error.png``: |q - commanded| [rad] per joint, where "commanded"
@@ -120,33 +122,45 @@ def _read_commands(folder: Path, joints: list[str]) -> tuple[np.ndarray, np.ndar
     return command_times, commands, command_joints
 
 
+def plot_title(summary: dict, fallback: str) -> str:
+    """The run, named once: the scenario's name (``fallback`` without one), then what
+    drove the arm unless that name already says it: ``position``, ``task_js``,
+    ``ros2 (dds)``, ``world (position)``, ``display (no controller)``."""
+    name = Path(summary.get("scenario") or fallback).stem
+    controller = summary.get("controller") or ""
+    if not controller or controller in name.split("_"):
+        return name
+    return f"{name} ({'no controller' if controller == 'none' else controller})"
+
+
 def _read_summary(folder: Path) -> tuple[list[float], str, bool]:
     """(step starts [s], plot title, whether a trajectory run) from ``summary.json``."""
-    step_starts: list[float] = []
-    title = folder.name
-    trajectory = False
+    summary = {}
     if (folder / "summary.json").is_file():
         summary = json.loads((folder / "summary.json").read_text())
-        step_starts = [step["start"] for step in summary.get("steps", [])]
-        title = f"{Path(summary.get('scenario') or title).stem} ({summary.get('controller')})"
-        trajectory = summary.get("controller") == "trajectory"
-    return step_starts, title, trajectory
+    step_starts = [step["start"] for step in summary.get("steps", [])]
+    trajectory = summary.get("controller") == "trajectory"
+    return step_starts, plot_title(summary, folder.name), trajectory
 
 
 def _joint_figure(
     quantity: str, unit: str, title: str, joints: list[str], step_starts: list[float]
 ) -> tuple[Figure, np.ndarray]:
-    """A figure with one panel per joint, each step's start marked; (figure, axes)."""
+    """A figure with one panel per joint, each step's start marked; (figure, axes).
+
+    The unit is in the title; each panel's joint name is written across, beside it, and
+    the constrained layout makes room for the longest, so long names (``iiwa_joint_7``)
+    never run into the next panel's."""
     # A bare Figure draws with the Agg canvas and leaves pyplot's backend (and a
     # notebook's inline plots) alone.
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=FIGURE_SIZE, dpi=DPI)
+    fig = Figure(figsize=FIGURE_SIZE, dpi=DPI, layout="constrained")
     axes = fig.subplots(len(joints), 1, sharex=True, squeeze=False)
     axes = axes[:, 0]
-    fig.suptitle(f"{quantity}: {title}")
+    fig.suptitle(f"{quantity} [{unit}]: {title}")
     for axis, name in zip(axes, joints, strict=True):
-        axis.set_ylabel(f"{name} [{unit}]")
+        axis.set_ylabel(name, rotation=0, ha="right", va="center")
         axis.grid(True, alpha=0.3)
         for start in step_starts:
             axis.axvline(start, color="grey", linestyle=":", linewidth=1)

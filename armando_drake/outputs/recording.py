@@ -106,13 +106,18 @@ class CameraStream:
 
 
 def check_recording_path(path: str | os.PathLike) -> Path:
-    """``path`` if an MCAP file can be created there; RecordingError naming it otherwise."""
+    """``path`` if an MCAP file can be created there (its folder is made if missing, as
+    ``--output`` makes its own); RecordingError naming it otherwise."""
     path = Path(path)
     if path.suffix != ".mcap":
         raise RecordingError(f"--record {path}: the file name must end in .mcap")
     folder = path.parent
-    if not folder.is_dir():
-        raise RecordingError(f"--record {path}: folder {folder} does not exist")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise RecordingError(
+            f"--record {path}: cannot make folder {folder}: {error.strerror}"
+        ) from None
     if path.is_dir():
         raise RecordingError(f"--record {path}: is a folder")
     existed = path.exists()

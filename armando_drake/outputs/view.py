@@ -262,9 +262,10 @@ def AddViewFramer(
 
 
 def wait_for_browser(meshcat: Meshcat, timeout: float, stream: TextIO = sys.stdout) -> bool:
-    """Waits until a browser has ``meshcat``'s page open, up to ``timeout`` [s]; says so
-    on ``stream``. Returns whether one is connected. Ctrl-C raises KeyboardInterrupt (the
-    run ends there, as it would during the simulation)."""
+    """Waits until a browser has ``meshcat``'s page open, up to ``timeout`` [s]; says on
+    ``stream`` that it waits, then that a browser connected (or none did). Returns whether
+    one is connected. Ctrl-C raises KeyboardInterrupt (the run ends there, as it would
+    during the simulation)."""
     if meshcat.GetNumActiveConnections() > 0 or timeout <= 0:
         return meshcat.GetNumActiveConnections() > 0
     print(
@@ -276,7 +277,7 @@ def wait_for_browser(meshcat: Meshcat, timeout: float, stream: TextIO = sys.stdo
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if meshcat.GetNumActiveConnections() > 0:
-            time.sleep(0.5)  # the page loads the scene
+            print("browser connected", file=stream, flush=True)
             return True
         time.sleep(0.1)
     print("no browser connected: starting anyway", file=stream, flush=True)

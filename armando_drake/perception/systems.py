@@ -23,7 +23,6 @@ recorder (:mod:`armando_drake.outputs.recording`).
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
 import json
 import logging
 import math
@@ -55,6 +54,7 @@ from armando_drake.perception.pipeline import (
     make_cloud,
 )
 from armando_drake.tools.errors import ScenarioError
+from armando_drake.tools.extras import extra_hint, missing_modules
 from armando_drake.tools.schema import check_config
 
 _log = logging.getLogger("armando_drake.perception")
@@ -80,11 +80,6 @@ CLUSTER_COLOURS = [
 ]
 PLANE_COLOUR = Rgba(0.6, 0.6, 0.6, 1.0)
 MESHCAT_PATH = "/perception"
-
-
-def missing_modules(names) -> list[str]:
-    """The modules of ``names`` that cannot be imported here."""
-    return [name for name in names if importlib.util.find_spec(name) is None]
 
 
 def _result_value() -> AbstractValue:
@@ -351,7 +346,7 @@ def AddPerception(
             raise _error(
                 where,
                 "perception: the outlier, plane and clustering steps need scikit-learn and SciPy "
-                "(pip install 'armando-drake[perception]')",
+                f"({extra_hint('perception')})",
             )
     if not cameras:
         raise _error(

@@ -67,6 +67,7 @@ from armando_drake.ros2.dds import DdsNode, Ros2Error, reachability
 from armando_drake.sensors.image_view import PUBLISH_OFFSET_FRACTION
 from armando_drake.tools.cli import warn_if_open
 from armando_drake.tools.errors import ScenarioError
+from armando_drake.tools.extras import require_extra
 
 _log = logging.getLogger("armando_drake.ros2")
 
@@ -547,6 +548,7 @@ def _sinks(config, topics: WorldTopics) -> tuple[list[Any], DdsNode | None]:
         sinks.append(node)
         _log.info("%s", reachability(config.domain_id, config.network_interface))
     if config.foxglove:
+        require_extra("foxglove", "ros2.foxglove (--foxglove)")
         warn_if_open(config.foxglove_host, "Foxglove")
         try:
             server = FoxgloveServer(

@@ -316,6 +316,12 @@ class ImageViewServer:
         server = self
 
         class Handler(BaseHTTPRequestHandler):
+            def handle(self):
+                try:
+                    super().handle()
+                except ConnectionError:  # the page closed (BrokenPipe, ConnectionReset): fine
+                    _logger.debug("image view: %s closed the connection", self.client_address)
+
             def do_GET(self):  # noqa: N802 (http.server's name)
                 path = urllib.parse.urlsplit(self.path).path
                 try:

@@ -20,6 +20,7 @@ import numpy as np
 from pydrake.math import RigidTransform
 
 from armando_drake.description.meshes import cache_dir
+from armando_drake.tools.extras import missing_extra
 from armando_drake.tools.schema import Refusal, param
 
 # Pixels per marker bit in the texture (a 4x4 marker with its border: 6 bits wide).
@@ -66,6 +67,9 @@ class ArucoMarker:
 
     def check(self) -> None:
         """The dictionary is OpenCV's and holds the id (the sizes are checked beside them)."""
+        problem = missing_extra("vision")
+        if problem:
+            raise Refusal("", f" {problem}")
         try:
             dictionary = aruco_dictionary(self.dictionary)
         except MarkerError as error:

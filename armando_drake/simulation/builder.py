@@ -114,7 +114,9 @@ def MakeWorld(
     if topics.perception is not None and topics.perception.log is not None:
         closers.append(topics.perception.log.close)
     # The ROS 2 bag recorder, the live DDS / Foxglove bridge, Meshcat.
-    replay_sampler = _add_outputs(builder, scenario, topics, scene_graph, meshcat, record, closers)
+    replay_sampler, bridge = _add_outputs(
+        builder, scenario, topics, scene_graph, meshcat, record, closers
+    )
     # Export what no system drives (command inputs, statuses), for notebooks and tests.
     ExportFreeControllerPorts(builder, stack)
     diagram = builder.Build()
@@ -128,6 +130,7 @@ def MakeWorld(
         logger=logger,
         image_view=image_view,
         replay_sampler=replay_sampler,
+        ros2_bridge=bridge,
         closers=closers,
     )
 
@@ -264,8 +267,8 @@ def _add_sensing(builder, scenario: Scenario, topics: WorldTopics, scene_graph, 
 def _add_outputs(
     builder, scenario: Scenario, topics: WorldTopics, scene_graph, meshcat, record, closers
 ):
-    """The ROS 2 bag recorder (``record``), the live bridge and Meshcat's visualization
-    (returns its replay sampler, or None)."""
+    """The ROS 2 bag recorder (``record``), the live bridge and Meshcat's visualization;
+    (its replay sampler or None, the bridge or None)."""
     if record is not None:
         closers.append(AddRosbagRecorder(builder, record, topics).close)
     bridge = AddRos2Bridge(builder, scenario.ros2, topics)
@@ -283,7 +286,7 @@ def _add_outputs(
             robot_instances=[topics.robot.model_instance],
             ground=scenario.ground,
         )
-    return replay_sampler
+    return replay_sampler, bridge
 
 
 def _start_positions(scenario: Scenario) -> list[tuple[list[float], str, str]]:

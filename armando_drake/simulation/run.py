@@ -67,7 +67,7 @@ class RunResult:
     """What a run did."""
 
     scenario: str
-    controller: str  # position | trajectory | sinusoid | task | jog | vision | none
+    controller: str  # position | trajectory | sinusoid | task | jog | vision | dds | none
     sim_time: float  # [s]
     wall_time: float  # [s]
     realtime_factor: float
@@ -78,7 +78,9 @@ class RunResult:
     # task: max_position_error, rms_position_error [m], max_orientation_error [rad]
     task_space: dict[str, Any] | None = None
     output_dir: str | None = None
-    driven: str = ""  # the controller the sequencer drove, by its name in the YAML
+    # What drove the arm: the controller the sequencer, the task, the jog or the camera's
+    # detections drove, by its name in the YAML; with DDS, the command topics used.
+    driven: str = ""
     # Vision: frames, detections, final_pointing_error [rad], marker_position_error [m]
     vision: dict[str, Any] | None = None
 
@@ -123,6 +125,8 @@ class RunResult:
             what = f"{name} with no viewer to jog from (the arm held its home posture)"
         elif self.controller == "vision":
             what = f"{name} with the camera's detections driving the arm"
+        elif self.controller == "dds":
+            what = f"{name} with DDS commands driving the arm"
         elif self.controller == "none":
             what = f"{name} with no controller driving the arm"
         elif self.controller == "sinusoid":
@@ -483,14 +487,21 @@ def run(
     signals = _Interrupts()
     with signals.installed(), progress.printing_above() if progress else contextlib.nullcontext():
         interrupted, wall_time = _simulate(
-            simulator, duration, signals, progress, meshcat, wait_for_browser, stream
+            simulator,
+            duration,
+            signals,
+            progress,
+            meshcat,
+            wait_for_browser,
+            stream,
+            _interrupted_message(log_dir, record),
         )
         if progress:
             progress.finish()
         sim_time = simulator.get_context().get_time()
         # The logs and the summary are written whole, whatever signal comes.
         world.close(simulator.get_context())  # the logger's last rows reach the table too
-        result = _result(scenario, world, simulator, table, tracker, log_dir)
+        result = _result(scenario, world, simulator, table, tracker, log_dir, scenario_name)
         result.scenario, result.sim_time, result.wall_time = scenario_name, sim_time, wall_time
         result.realtime_factor = sim_time / wall_time if wall_time > 0 else math.inf
         result.interrupted = interrupted
@@ -515,16 +526,30 @@ def _announce(world, meshcat, stream) -> None:
         print(f"Camera view: {urls}", file=stream, flush=True)
 
 
-def _simulate(simulator, duration, signals, progress, meshcat, wait_for_browser, stream):
+def _interrupted_message(log_dir, record) -> str:
+    """What a Ctrl-C during the simulation prints: what is still written, if anything."""
+    writing = ["the logs and the summary"] if log_dir is not None else []
+    writing += ["the recording"] if record is not None else []
+    return "interrupted: writing " + " and ".join(writing) if writing else "interrupted"
+
+
+def _simulate(
+    simulator, duration, signals, progress, meshcat, wait_for_browser, stream, interrupted_message
+):
     """Runs ``simulator`` to ``duration`` [s] in slices (the progress line), after waiting
     up to ``wait_for_browser`` [s] for a browser on ``meshcat``; (interrupted, wall time
-    [s] since the clock started)."""
+    [s] since the clock started). A Ctrl-C prints ``interrupted_message``."""
     interrupted = False
     wall_start = time.monotonic()
     try:
+        # The messages in the order things happen: the wait and the browser connecting,
+        # then the start (the scene reaches the page, the t = 0 state is printed).
+        waits = meshcat is not None and wait_for_browser > 0
+        connected = wait(meshcat, wait_for_browser, stream) if waits else False
         simulator.Initialize()
-        if meshcat is not None and wait_for_browser > 0:
-            wait(meshcat, wait_for_browser, stream)
+        if waits:
+            if connected:
+                time.sleep(0.5)  # the page loads the scene Initialize sent
             simulator.ResetStatistics()  # the pacing to real time starts now
             wall_start = time.monotonic()
             if progress:
@@ -543,7 +568,7 @@ def _simulate(simulator, duration, signals, progress, meshcat, wait_for_browser,
         signals.raising = False  # from here on a Ctrl-C waits for the logs
     except KeyboardInterrupt:
         interrupted = True
-        print("\ninterrupted: writing the logs and the summary", file=stream, flush=True)
+        print(f"\n{interrupted_message}", file=stream, flush=True)
     return interrupted, time.monotonic() - wall_start
 
 
@@ -560,15 +585,20 @@ def _publish_replay(replay_meshcat, world, simulator, log_dir) -> None:
         write_replay(replay_meshcat, log_dir / REPLAY_FILE)
 
 
-def _result(scenario, world, simulator, table, tracker, log_dir) -> RunResult:
+def _result(scenario, world, simulator, table, tracker, log_dir, name: str = "") -> RunResult:
     """The run's result, with the step table, the task-space errors (task_space.csv in
-    ``log_dir``) and the vision outputs; the caller fills in names and times."""
+    ``log_dir``) and the vision outputs (their plot titled with the scenario's ``name``);
+    the caller fills in names and times."""
     sim_time = simulator.get_context().get_time()
 
     vision_driven = world.detectors.driven if world.detectors is not None else []
+    mode = "vision" if vision_driven else controller_mode(scenario)
+    dds_topics = _dds_command_topics(world)
+    if mode == "none" and dds_topics:
+        mode = "dds"
     result = RunResult(
         scenario="",
-        controller="vision" if vision_driven else controller_mode(scenario),
+        controller=mode,
         sim_time=sim_time,
         wall_time=0.0,
         realtime_factor=0.0,
@@ -577,7 +607,8 @@ def _result(scenario, world, simulator, table, tracker, log_dir) -> RunResult:
         driven=world.sequencer_target
         or (world.task.controller if world.task else "")
         or (world.jog.controller if world.jog else "")
-        or ", ".join(vision_driven),
+        or ", ".join(vision_driven)
+        or ", ".join(dds_topics),
     )
     if isinstance(table, StepTable):
         result.steps = table.results(sim_time)
@@ -596,9 +627,22 @@ def _result(scenario, world, simulator, table, tracker, log_dir) -> RunResult:
             )
     if world.detectors is not None:
         result.vision = write_vision_outputs(
-            world.topics, world.diagram, simulator.get_context(), scenario, log_dir
+            world.topics,
+            world.diagram,
+            simulator.get_context(),
+            scenario,
+            log_dir,
+            Path(name).stem if name else "",
         )
     return result
+
+
+def _dds_command_topics(world) -> list[str]:
+    """The command topics on which DDS messages came (relative names), in the bridge's
+    order; none without the bridge."""
+    if world.ros2_bridge is None:
+        return []
+    return [topic for topic, count in world.ros2_bridge.received.items() if count > 0]
 
 
 def _task_tracker_of(world):

@@ -28,6 +28,7 @@ class World:
     logger: Any = None  # the JointStateLogger, with a broadcaster
     image_view: Any = None  # the live camera view's server, when served
     replay_sampler: Any = None  # ReplaySampler of the plant's state, with Meshcat on
+    ros2_bridge: Any = None  # the Ros2Bridge, with ros2.enabled or ros2.foxglove
     closers: list = field(default_factory=list)  # called by close()
 
     # The control stack's parts, by their old names.

@@ -42,6 +42,7 @@ from armando_drake.messages.types import MarkerPose, Publication, PublicationVal
 from armando_drake.sensors.image_view import AddImageView, ImageViewServer
 from armando_drake.sensors.marker import MarkerError, aruco_dictionary, dictionary_size
 from armando_drake.tools.errors import ScenarioError
+from armando_drake.tools.extras import require_extra
 from armando_drake.vision.blobs import LevelBlobDetector
 from armando_drake.vision.config import VisionConfig
 
@@ -564,7 +565,11 @@ def AddDetectors(
     of ``stack`` that reads :class:`MarkerPose`; the annotated images join the live view
     ``image_view``. Without ``console`` the blob keypoints are not printed whatever
     ``print_keypoints`` says.
-    Errors: :class:`ScenarioError` naming ``where``."""
+    Errors: :class:`ScenarioError` naming ``where``; without OpenCV,
+    :class:`~armando_drake.tools.extras.MissingExtraError` naming the extra."""
+    for key in ("blob", "aruco"):
+        if getattr(config, key) is not None:
+            require_extra("vision", f"{where}vision.{key}")
     try:
         added = AddedDetectors()
         if config.start_positions:

@@ -59,16 +59,20 @@ def write_vision_csv(topics, context, path: str | Path) -> Path | None:
     return path
 
 
-def write_vision_plot(csv_path: str | Path, png_path: str | Path) -> Path:
-    """``vision.png``: joint velocity commands and the components of s against time."""
+def write_vision_plot(csv_path: str | Path, png_path: str | Path, title: str = "") -> Path:
+    """``vision.png``: joint velocity commands and the components of s against time,
+    titled with ``title`` (the run; the output folder's name by default)."""
     from matplotlib.figure import Figure  # no pyplot: the caller's backend is left alone
 
+    title = title or Path(png_path).parent.name
     with Path(csv_path).open() as stream:
         rows = list(csv.reader(stream))
     header, data = rows[0], np.array(rows[1:], dtype=float).reshape(-1, len(rows[0]))
     fig = Figure(figsize=(10.0, 7.0), dpi=100)
     top, bottom = fig.subplots(2, 1, sharex=True)
     effort = any(name.endswith("_effort_command") for name in header[4:])
+    kind = "torque" if effort else "velocity"
+    fig.suptitle(f"Vision: joint {kind} commands and the target's direction s: {title}")
     for k, name in enumerate(header[4:], start=4):
         label = name.replace("_effort_command", "").replace("_velocity_command", "")
         top.plot(data[:, 0], data[:, k], label=label)
@@ -87,9 +91,9 @@ def write_vision_plot(csv_path: str | Path, png_path: str | Path) -> Path:
     return Path(png_path)
 
 
-def write_vision_outputs(topics, diagram, context, scenario, output_dir) -> dict:
+def write_vision_outputs(topics, diagram, context, scenario, output_dir, title: str = "") -> dict:
     """summary.json's ``vision`` (see :func:`~armando_drake.vision.metrics.vision_summary`);
-    with ``output_dir``, also ``vision.csv`` and ``vision.png`` there."""
+    with ``output_dir``, also ``vision.csv`` and ``vision.png`` (titled ``title``) there."""
 
     summary = vision_summary(topics, diagram, context, scenario)
     blob = topics.detectors.blob
@@ -104,5 +108,5 @@ def write_vision_outputs(topics, diagram, context, scenario, output_dir) -> dict
     if output_dir is not None:
         csv_path = write_vision_csv(topics, context, Path(output_dir) / VISION_CSV)
         if csv_path is not None:
-            write_vision_plot(csv_path, Path(output_dir) / VISION_PLOT)
+            write_vision_plot(csv_path, Path(output_dir) / VISION_PLOT, title)
     return summary

@@ -2,7 +2,7 @@
 ``task:`` section, the registered controller types run by the controller manager at
 1 kHz, the errors of summary.json.
 
-iiwa (../shared, every joint on the effort interface): both controllers on the four
+iiwa (models/iiwa_description, every joint on the effort interface): both controllers on the four
 trajectories (linear / circular x trapezoidal / cubic): max position error <= 1 mm,
 max orientation error <= 0.01 rad, joint positions, velocities and efforts within
 their URDF limits, no torque clamped. Armando: linear and circular position paths
@@ -14,7 +14,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import REPO, SHARED, skip_or_fail
+from conftest import REPO
 from PIL import Image
 from pydrake.systems.analysis import Simulator
 
@@ -37,9 +37,7 @@ IIWA_VELOCITY = 10.0  # [rad/s] its velocity limit
 
 @pytest.fixture
 def at_repository(monkeypatch):
-    """The iiwa scenarios name ../shared and models/ relative to the repository."""
-    if not (SHARED / "upstream" / "iiwa_description").is_dir():
-        skip_or_fail(f"the iiwa description is not in {SHARED}/upstream")
+    """The iiwa scenarios name their controller files relative to the repository."""
     monkeypatch.chdir(REPO)
 
 

@@ -78,14 +78,11 @@ def test_quick_run_writes_every_row_with_positive_numbers(quick_run):
             "colour + depth render, RenderEngineGl",
             "camera scenario + camera, RenderEngineGl, 0.5 s",
         ]
-    if bench.IIWA_DESCRIPTION.is_dir():
-        expected += [
-            "iiwa operational-space ID at 1 kHz, 0.5 s",
-            "iiwa joint-space ID at 1 kHz, 0.5 s",
-            "operational-space controller update",
-        ]
-    elif os.environ.get("CI"):
-        skip_or_fail(f"the task rows need the iiwa at {bench.IIWA_DESCRIPTION}")
+    expected += [  # the iiwa of models/iiwa_description
+        "iiwa operational-space ID at 1 kHz, 0.5 s",
+        "iiwa joint-space ID at 1 kHz, 0.5 s",
+        "operational-space controller update",
+    ]
     for name in expected:
         assert name in names
     assert HAS_MUJOCO, "mujoco is not installed (pip install -e '.[test]')"
@@ -107,8 +104,7 @@ def test_quick_run_writes_every_row_with_positive_numbers(quick_run):
     assert len(camera_budget) == 1 and budget[camera_budget[0]]["target"] == ">= 1"
     assert budget["growth over 20 s, replay on"]["target"] == "<= 20"
     assert budget["replay.html after 20 s simulated"]["target"] == "<= 50"
-    if bench.IIWA_DESCRIPTION.is_dir():
-        assert budget["iiwa operational-space ID at 1 kHz, 0.5 s"]["target"] == ">= 2"
+    assert budget["iiwa operational-space ID at 1 kHz, 0.5 s"]["target"] == ">= 2"
     assert all(isinstance(row["met"], bool) for row in budget.values())
 
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import nbclient
 import nbformat
-from conftest import COURSE_PACKAGE, SHARED, run_notebook, skip_or_fail
+from conftest import COURSE_PACKAGE, run_notebook
 
 NOTEBOOKS = Path(__file__).resolve().parents[2] / "notebooks"
 
@@ -87,8 +87,6 @@ def test_your_robot(monkeypatch):
 
 
 def test_task_space(monkeypatch):
-    if not (SHARED / "upstream" / "iiwa_description").is_dir():
-        skip_or_fail(f"05_task_space compares the controllers on the iiwa of {SHARED}/upstream")
     text, pictures = execute("05_task_space", monkeypatch)
     assert pictures == 6  # four comparisons, two paths
     rows = re.findall(

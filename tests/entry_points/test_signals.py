@@ -87,3 +87,30 @@ def test_a_second_ctrl_c_while_the_logs_are_written_keeps_them(tmp_path, second)
     assert last == pytest.approx(summary["sim_time"], abs=0.011)
     assert (tmp_path / "commands.csv").read_text().splitlines()[1:]
     assert (tmp_path / "scenario.yaml").is_file()
+
+
+@pytest.mark.parametrize("output", [False, True])
+def test_ctrl_c_during_the_run_says_what_it_still_writes(tmp_path, output):
+    """Without --output nothing is written: the run says "interrupted", not that it writes
+    logs and a summary."""
+    args = ["--no-meshcat", "--realtime-rate", "0", "--duration", "3000"]
+    args += ["--output", str(tmp_path)] if output else []
+    process = subprocess.Popen(
+        [sys.executable, "-m", "armando_drake.world", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    for line in process.stdout:  # the simulation is under way at its second console block
+        if line.startswith("[t=1.000 s]"):
+            break
+    process.send_signal(signal.SIGINT)
+    stdout, stderr = process.communicate(timeout=120)
+    for noise in NOISE:
+        assert noise not in stderr + stdout, stderr
+    said = [line for line in stdout.splitlines() if line.startswith("interrupted")]
+    if output:
+        assert said == ["interrupted: writing the logs and the summary"], stdout
+        assert (tmp_path / "summary.json").is_file()
+    else:
+        assert said == ["interrupted"], stdout

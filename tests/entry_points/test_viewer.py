@@ -67,7 +67,7 @@ def test_the_run_waits_for_a_browser_then_starts(chromium):
 
     process = subprocess.Popen(
         [sys.executable, "-m", "armando_drake.world", "--wait", "60", "--exit-when-done"]
-        + ["--duration", "1", "--realtime-rate", "0", "--quiet"],
+        + ["--duration", "1", "--realtime-rate", "0"],
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
@@ -85,8 +85,11 @@ def test_the_run_waits_for_a_browser_then_starts(chromium):
             page.goto(url)
             rest, _ = process.communicate(timeout=60)
         assert process.returncode == 0
-        # The run started when the page opened, and ran to its end.
+        # The run started when the page opened, and ran to its end; the messages come in
+        # that order: waiting, the browser connected, the state at t = 0.
         assert "no browser connected" not in rest
+        assert not any(line.startswith("[t=") for line in lines), lines
+        assert rest.index("browser connected") < rest.index("[t=0.000 s]"), rest
         assert "1.00 s simulated" in rest
         assert len(re.findall(r"http://\S+", "".join(lines) + rest)) == 1
     finally:

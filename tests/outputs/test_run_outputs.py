@@ -259,13 +259,26 @@ def test_camera_recording_holds_the_frames_the_camera_took(tmp_path):
     assert stamp(info) == stamp(image) == pytest.approx((len(images) - 1) / rate, abs=1e-9)
 
 
-def test_record_into_a_missing_folder_fails_before_the_run(tmp_path):
-    path = tmp_path / "missing" / "run.mcap"
+def test_record_makes_its_missing_folder_as_output_does(tmp_path, monkeypatch):
+    # The README's example, as written, from a folder where out/ does not exist yet.
+    monkeypatch.chdir(tmp_path)
+    result = world_cli("--duration", "0.2", "--output", "out/run1", "--record", "out/run1.mcap")
+    assert result.returncode == 0, result.stderr
+    assert (tmp_path / "out" / "run1.mcap").stat().st_size > 0
+    assert (tmp_path / "out" / "run1" / "summary.json").is_file()
+    nested = tmp_path / "a" / "b" / "run.mcap"
+    assert world_cli("--duration", "0.1", "--record", str(nested)).returncode == 0
+    assert nested.stat().st_size > 0
+
+
+def test_record_under_a_file_fails_before_the_run(tmp_path):
+    (tmp_path / "taken").write_text("")
+    path = tmp_path / "taken" / "run.mcap"
     result = world_cli("--record", str(path))
     assert result.returncode == 2
-    assert result.stderr.strip().splitlines() == [
-        f"error: --record {path}: folder {path.parent} does not exist"
-    ]
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1
+    assert lines[0].startswith(f"error: --record {path}: cannot make folder {path.parent}: ")
     assert " simulated in " not in result.stdout
 
 

@@ -247,6 +247,37 @@ def test_trajectory_over_dds_is_validated_as_in_process():
     publisher.close()
 
 
+def test_the_final_line_names_the_dds_commands_that_drove_the_arm():
+    """With no sequencer, the commands DDS brought are what drove the arm: the summary's
+    controller is "dds" and the final line names their topic; none came, "none"."""
+    from armando_drake.messages.types import Float64MultiArray
+    from armando_drake.simulation.run import _result
+
+    world = _world("ros2", new_domain_id())
+    bridge = world.ros2_bridge
+    assert bridge is world.diagram.GetSubsystemByName("ros2_bridge")
+    simulator = Simulator(world.diagram)
+    simulator.set_target_realtime_rate(0)
+    simulator.Initialize()
+    scenario = load_scenario("ros2")
+    before = _result(scenario, world, simulator, None, None, None)
+    assert (before.controller, before.driven) == ("none", "")
+    assert before.headline().startswith("the scenario with no controller driving the arm: ")
+    topic = "position_controller/commands"
+    k = [command.topic for command in bridge.commands].index(topic)
+    bridge._Receive(k, Float64MultiArray(data=(0.3, -0.2, 0.4, 0.1)))  # as Cyclone's thread
+    simulator.AdvanceTo(1.0)
+    assert (
+        np.abs(world.joint_positions(simulator.get_context()) - [0.3, -0.2, 0.4, 0.1]).max() < 0.05
+    )
+    after = _result(scenario, world, simulator, None, None, None)
+    after.scenario = "ros2.yaml"
+    assert (after.controller, after.driven) == ("dds", topic)
+    assert after.summary()["controller"] == "dds"
+    assert after.headline().startswith(f"ros2.yaml with DDS commands driving the arm ({topic}): ")
+    world.close(simulator.get_context())
+
+
 def test_without_ros2_the_world_imports_no_dds_and_no_foxglove():
     code = (
         "import sys\n"

@@ -511,6 +511,29 @@ def test_image_view_server_counts_frames_and_rejects_bad_images():
         assert "<title>test</title>" in fetch(server.url).decode()
 
 
+@pytest.mark.parametrize("how", ["closed", "reset"])
+def test_image_view_ignores_a_connection_the_page_closed(how, capfd):
+    import socket
+    import struct
+
+    with ImageViewServer(title="test") as server:
+        server.publish("top", np.full((480, 640, 4), 9, dtype=np.uint8), time=0.5)
+        handler = server._handler_class()
+        for path in ("/camera/top.png", "/", "/cameras.json"):
+            ours, page = socket.socketpair()
+            page.sendall(f"GET {path} HTTP/1.1\r\nHost: localhost\r\n\r\n".encode())
+            if how == "reset":
+                page.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+            page.close()  # the tab closed before the answer: writing it fails
+            handler(ours, ("127.0.0.1", 0), server._httpd)  # answers, and returns quietly
+            ours.close()
+        # Still serving.
+        png = np.array(Image.open(io.BytesIO(fetch(server.url + "camera/top.png"))))
+        assert png.shape == (480, 640, 3)
+    captured = capfd.readouterr()
+    assert "Traceback" not in captured.err and "BrokenPipeError" not in captured.err
+
+
 @pytest.mark.browser
 def test_image_view_in_headless_chromium(tmp_path, chromium):
     server, info = simulate_with_view(tmp_path)

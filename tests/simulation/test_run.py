@@ -6,7 +6,14 @@ import json
 import numpy as np
 import pytest
 
-from armando_drake.simulation.run import SETTLE_TOLERANCE, StepTable, TrackingError, run
+from armando_drake.simulation.run import (
+    SETTLE_TOLERANCE,
+    RunResult,
+    StepTable,
+    TrackingError,
+    _interrupted_message,
+    run,
+)
 from armando_drake.simulation.scenario import load_scenario
 
 FAST = "logging: {console_rate: 0}\nsimulator_config: {target_realtime_rate: 0}\n"
@@ -123,3 +130,45 @@ def test_a_sinusoid_run_without_output_gives_its_tracking_error(tmp_path):
     expected = (np.pi / 2) * np.sin(2 * np.pi * 0.05 * commands[:, 0])
     np.testing.assert_allclose(commands[:, 1], expected, atol=1e-9)
     np.testing.assert_allclose(commands[:, 3], -expected, atol=1e-9)  # j2 in antiphase
+
+
+@pytest.mark.parametrize(
+    "controller, driven, expected",
+    [
+        ("position", "position_controller", "with the position controller (position_controller)"),
+        ("task", "joint_space_controller", "with a task-space motion (joint_space_controller)"),
+        ("jog", "position_controller", "jogged from the viewer (position_controller)"),
+        (
+            "vision",
+            "improved_look_at_point_controller",
+            "with the camera's detections driving the arm (improved_look_at_point_controller)",
+        ),
+        (
+            "dds",
+            "position_controller/commands",
+            "with DDS commands driving the arm (position_controller/commands)",
+        ),
+        ("none", "", "with no controller driving the arm"),
+    ],
+)
+def test_the_final_line_names_what_drove_the_arm(controller, driven, expected):
+    result = RunResult(
+        scenario="diagrams/x.yaml",
+        controller=controller,
+        sim_time=2.0,
+        wall_time=1.0,
+        realtime_factor=2.0,
+        interrupted=False,
+        joint_names=["j0"],
+        driven=driven,
+    )
+    assert result.headline() == f"x.yaml {expected}: 2.00 s simulated in 1.00 s (2.00x real time)"
+
+
+def test_an_interrupted_run_says_it_writes_only_what_it_writes(tmp_path):
+    assert _interrupted_message(None, None) == "interrupted"
+    assert _interrupted_message(tmp_path, None) == "interrupted: writing the logs and the summary"
+    assert _interrupted_message(None, "run.mcap") == "interrupted: writing the recording"
+    assert _interrupted_message(tmp_path, "run.mcap") == (
+        "interrupted: writing the logs and the summary and the recording"
+    )

@@ -28,9 +28,9 @@ pytest.importorskip("cv2")
     "controller", ["joint_space_look_at_controller", "operational_space_look_at_controller"]
 )
 def test_camera_tracks_its_linear_path_within_2_mm_while_pointing_within_0_05_rad(
-    iiwa_package, monkeypatch, controller
+    monkeypatch, controller
 ):
-    monkeypatch.chdir(REPO)  # the scenario names ../shared and models/ relative to it
+    monkeypatch.chdir(REPO)  # the scenario names models/ relative to it
     scenario = load_scenario(
         "vision_dynamic",
         "logging: {console_rate: 0}\ncamera: {live_view: false}\n"
@@ -115,7 +115,7 @@ def test_bad_path_parameters_are_a_parameter_error(parameters, message):
     assert "\n" not in str(raised.value)
 
 
-def test_run_outputs_give_the_torques_and_the_path_error(iiwa_package, monkeypatch, tmp_path):
+def test_run_outputs_give_the_torques_and_the_path_error(monkeypatch, tmp_path):
     import csv
     import json
 

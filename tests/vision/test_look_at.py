@@ -52,10 +52,8 @@ def test_rest_positions_of_the_wrong_length_are_a_parameter_error():
     ],
     ids=["improved", "pose_offset", "improved_marker_moved"],
 )
-def test_iiwa_looks_at_the_marker_within_5_seconds(
-    iiwa_package, monkeypatch, controller, marker, off
-):
-    monkeypatch.chdir(REPO)  # the scenario names ../shared and models/ relative to it
+def test_iiwa_looks_at_the_marker_within_5_seconds(monkeypatch, controller, marker, off):
+    monkeypatch.chdir(REPO)  # the scenario names models/ relative to it
     scenario = load_scenario(
         "vision_look_at",
         "logging: {console_rate: 0}\ncamera: {live_view: false}\n"

@@ -3,12 +3,10 @@ test_notebooks.py runs the others, and prints what it promises."""
 
 import re
 
-from conftest import IIWA_PACKAGE, run_notebook, skip_or_fail
+from conftest import run_notebook
 
 
 def test_vision_notebook(monkeypatch):
-    if not IIWA_PACKAGE.is_dir():
-        skip_or_fail(f"06_vision's last part needs {IIWA_PACKAGE}")
     text, pictures = run_notebook("06_vision", monkeypatch)
     assert pictures == 4, text  # raw + keypoints, the marker, the look-at plots, Armando
     errors = [float(e) for e in re.findall(r"px, (\S+) px from the projected centre", text)]
