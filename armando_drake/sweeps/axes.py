@@ -141,6 +141,13 @@ def _arguments(text: str, item: str, option: str) -> list:
     return arguments
 
 
+# The most values one grid axis may have, and the most variants a sweep may have: each
+# variant is a world built and run (a second or more), so more would not end in a day
+# on a machine of a few cores, and their list alone would fill the memory.
+MAX_AXIS_VALUES = 100_000
+MAX_VARIANTS = 100_000
+
+
 def parse_grid(text: str) -> Axis:
     """A ``--grid KEY=VALUES`` item."""
     key, rhs = _split_item(text, "--grid")
@@ -152,6 +159,11 @@ def parse_grid(text: str) -> Axis:
             raise SweepError(
                 f"--grid {text!r}: {call[1]} takes (start, stop, count), count a positive "
                 "integer" + (", start and stop positive" if call[1] == "geomspace" else "")
+            )
+        if arguments[2] > MAX_AXIS_VALUES:
+            raise SweepError(
+                f"--grid {text!r}: {arguments[2]:,} values, over {MAX_AXIS_VALUES:,} for one "
+                "axis (each value is at least one run of a second or more)"
             )
         space = np.linspace if call[1] == "linspace" else np.geomspace
         values = tuple(float(v) for v in space(*arguments))
@@ -238,6 +250,12 @@ def make_variants(
         raise SweepError("nothing to sweep: give at least one --grid or --random axis")
     axes = [*grid, *random]
     _check_axes(axes)
+    count = math.prod(len(axis.values) for axis in grid) * max(samples, 1)
+    if count > MAX_VARIANTS:
+        raise SweepError(
+            f"{count:,} variants, over {MAX_VARIANTS:,}: at a second or more each, at least "
+            f"{count / 86400:,.1f} days of runs; sweep fewer values"
+        )
     rng = np.random.default_rng(seed)
     draws = [[axis.distribution.draw(rng) for axis in random] for _ in range(samples)] or [[]]
     variants = []

@@ -246,12 +246,24 @@ def compute_shard(shard: IkShard) -> dict[str, Any]:
     return {"start": shard.start, "columns": columns}
 
 
+# The most rows a data set may have: its configurations and poses are held in memory
+# (about BYTES_PER_ROW each, joints, pose and errors as doubles) before the file is written.
+MAX_SAMPLES = 10_000_000
+BYTES_PER_ROW = 200
+
+
 def make_shards(
     robot: RobotSpec, ik: IkSettings, samples: int, seed: int, shards: int
 ) -> tuple[list[IkShard], dict[str, Any]]:
     """The data set's rows drawn and cut into ``shards`` tasks; and the file's metadata."""
     if samples < 1:
         raise SweepError(f"--samples {samples} must be at least 1")
+    if samples > MAX_SAMPLES:
+        gigabytes = samples * BYTES_PER_ROW / 2**30
+        raise SweepError(
+            f"--samples {samples:,}: over {MAX_SAMPLES:,} rows (about {gigabytes:,.0f} GiB in "
+            "memory before it is written); make several data sets"
+        )
     if shards < 1:
         raise SweepError(f"--shards {shards} must be at least 1")
     if ik.position_tolerance <= 0 or ik.orientation_tolerance <= 0 or ik.attempts < 1:

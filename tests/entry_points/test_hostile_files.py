@@ -160,3 +160,45 @@ def test_a_run_without_a_broadcaster_writes_its_summary_and_no_plots(tmp_path):
     )
     assert result.returncode == 0, result.stderr
     assert (out / "summary.json").is_file() and not list(out.glob("*.png"))
+
+
+@pytest.mark.parametrize(
+    "command, expected",
+    [
+        (
+            ["sweep", "--grid", "actuators.kp=linspace(1, 2, 100000000)", "--dry-run"],
+            "100,000,000 values, over 100,000 for one axis",
+        ),
+        (
+            [
+                "sweep",
+                "--grid",
+                "actuators.kp=linspace(1, 2, 10000)",
+                "--grid",
+                "actuators.kd=linspace(0.1, 0.2, 10000)",
+                "--dry-run",
+            ],
+            "100,000,000 variants, over 100,000",
+        ),
+        (
+            ["dataset", "ik", "--samples", "1000000000000", "--output", "ik.parquet"],
+            "over 10,000,000 rows (about 186,265 GiB",
+        ),
+    ],
+    ids=["one-axis", "grid", "dataset"],
+)
+def test_work_sized_by_user_numbers_is_refused_with_its_estimate(tmp_path, command, expected):
+    def limit():
+        resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT, MEMORY_LIMIT))
+
+    start = time.monotonic()
+    result = subprocess.run(
+        [sys.executable, "-m", f"armando_drake.{command[0]}", *command[1:]],
+        capture_output=True,
+        text=True,
+        timeout=TIME_LIMIT,
+        cwd=tmp_path,
+        preexec_fn=limit,
+    )
+    assert expected in one_line_error(result)
+    assert time.monotonic() - start < 30  # nothing was materialised
