@@ -56,6 +56,7 @@ from armando_drake.control.controllers import (
     non_negative,
     register,
 )
+from armando_drake.control.pid import ANTIWINDUP_STRATEGIES, PidGains, compute_command
 from armando_drake.messages.types import JointTrajectory, JointTrajectoryPoint
 
 # Upstream's "is this velocity zero" threshold: std::numeric_limits<float>::epsilon().
@@ -68,14 +69,13 @@ INTERPOLATION_METHODS = ("splines", "none")
 
 @dataclasses.dataclass
 class JointGains:
-    """Upstream's PID gains of one joint (``gains.<joint>``), as its schema has them.
-    Used only with a velocity-only or an effort command interface; the gains beyond p, i,
-    d, i_clamp and ff_velocity_scale are refused unless left at their defaults."""
+    """Upstream's PID gains of one joint (``gains.<joint>``), as Jazzy's schema has them,
+    for control_toolbox's PID (:mod:`armando_drake.control.pid`). Used only with a
+    velocity-only or an effort command interface."""
 
-    # The gains the simulated PID has; any other is refused unless left at its default
-    # (the README's parameter table says so).
-    IMPLEMENTED: ClassVar[frozenset[str]] = frozenset(
-        {"p", "i", "d", "i_clamp", "ff_velocity_scale"}
+    # Gains older schemas had and Jazzy's does not; refused unless left at the default.
+    NOT_IN_JAZZY: ClassVar[frozenset[str]] = frozenset(
+        {"normalize_error", "angle_wraparound", "antiwindup", "saturation"}
     )
 
     # [command unit/rad] proportional gain.
@@ -84,33 +84,51 @@ class JointGains:
     i: float = 0.0
     # [command unit s/rad] derivative gain.
     d: float = 0.0
-    # [command unit] symmetric bound of the integral term (Humble/Jazzy).
-    i_clamp: float = 0.0
+    # [command unit] symmetric bound of the integral term (deprecated upstream); used
+    # where i_clamp_max / i_clamp_min are infinite.
+    i_clamp: float = math.inf
+    # [command unit] upper bound of the integral term (>= 0).
+    i_clamp_max: float = math.inf
+    # [command unit] lower bound of the integral term (<= 0).
+    i_clamp_min: float = -math.inf
     # Feed-forward scale of the desired velocity.
     ff_velocity_scale: float = 0.0
-    # Normalize the position error into [-pi, pi] (deprecated upstream).
+    # [command unit] upper bound of the output.
+    u_clamp_max: float = math.inf
+    # [command unit] lower bound of the output.
+    u_clamp_min: float = -math.inf
+    # legacy | none | back_calculation | conditional_integration (control_toolbox's).
+    antiwindup_strategy: str = "legacy"
+    # [s] back_calculation's tracking time constant; 0 = sqrt(d / i), or p / i.
+    tracking_time_constant: float = 0.0
+    # [rad] no integration while |error| <= error_deadband.
+    error_deadband: float = 0.0
+    # Normalize the position error into [-pi, pi] (not in Jazzy's schema: Jazzy wraps the
+    # URDF's continuous joints).
     normalize_error: bool = False
-    # Normalize the position error into [-pi, pi] (deprecated upstream: Jazzy wraps the
+    # Normalize the position error into [-pi, pi] (not in Jazzy's schema: Jazzy wraps the
     # URDF's continuous joints).
     angle_wraparound: bool = False
-    # [command unit] upper bound of the integral term (newer control_toolbox).
-    i_clamp_max: float = math.inf
-    # [command unit] lower bound of the integral term (newer control_toolbox).
-    i_clamp_min: float = -math.inf
-    # [command unit] upper bound of the output (newer control_toolbox).
-    u_clamp_max: float = math.inf
-    # [command unit] lower bound of the output (newer control_toolbox).
-    u_clamp_min: float = -math.inf
-    # Anti-windup on (older control_toolbox).
+    # Anti-windup on (not in Jazzy's schema: Humble's control_toolbox).
     antiwindup: bool = False
-    # none | back_calculation | conditional_integration (newer control_toolbox).
-    antiwindup_strategy: str = "none"
-    # [s] back-calculation tracking time constant (newer control_toolbox).
-    tracking_time_constant: float = 0.0
-    # [rad] error below which the integral stops (newer control_toolbox).
-    error_deadband: float = 0.0
-    # Saturate the output (newer control_toolbox).
+    # Saturate the output (not in Jazzy's schema: rolling's control_toolbox).
     saturation: bool = False
+
+    def pid_gains(self) -> PidGains:
+        """The gains of control_toolbox's PID, as upstream's ``update_pids``: i_clamp_max /
+        i_clamp_min where finite, else +-i_clamp."""
+        return PidGains(
+            p=self.p,
+            i=self.i,
+            d=self.d,
+            u_max=self.u_clamp_max,
+            u_min=self.u_clamp_min,
+            i_max=self.i_clamp_max if math.isfinite(self.i_clamp_max) else self.i_clamp,
+            i_min=self.i_clamp_min if math.isfinite(self.i_clamp_min) else -self.i_clamp,
+            antiwindup_strategy=self.antiwindup_strategy,
+            tracking_time_constant=self.tracking_time_constant,
+            error_deadband=self.error_deadband,
+        )
 
 
 @dataclasses.dataclass
@@ -183,7 +201,7 @@ class JointTrajectoryControllerParams:
     # [rad] per joint: allowed |measured - desired| after the end; absent or 0 = unchecked.
     goal_tolerance: dict[str, float] = dataclasses.field(default_factory=dict)
     # Per joint, the PID gains of a velocity-only or effort command interface
-    # (u = ff_velocity_scale v_d + p e + clamp(integral of i e, +-i_clamp) + d de/dt);
+    # (u = ff_velocity_scale v_d + control_toolbox's PID on the tracking error);
     # upstream uses none with position commands, neither do we.
     gains: dict[str, JointGains] = dataclasses.field(default_factory=dict)
 
@@ -211,23 +229,30 @@ class JointTrajectoryControllerParams:
                 "action_monitor_rate",
                 f"action_monitor_rate={self.action_monitor_rate!r} must be >= 0.1 [Hz]",
             )
-        implemented = JointGains.IMPLEMENTED
         for joint, gains in self.gains.items():
             if not isinstance(gains, JointGains):
                 continue  # a subclass's own gains (ROS 1's effort trajectory controller)
             for field in dataclasses.fields(JointGains):
                 value = getattr(gains, field.name)
-                if field.name in implemented:
-                    if not math.isfinite(value):
-                        raise ParameterError(
-                            f"gains.{joint}.{field.name}", f"{field.name}={value!r} must be finite"
-                        )
-                elif value != field.default:
+                if field.name in JointGains.NOT_IN_JAZZY and value != field.default:
                     raise ParameterError(
                         f"gains.{joint}.{field.name}",
-                        f"{field.name}={value!r} is not simulated; the PID has p, i, d, "
-                        "i_clamp and ff_velocity_scale",
+                        f"{field.name}={value!r}: not a parameter of upstream's Jazzy schema",
                     )
+                if field.name in ("p", "i", "d", "ff_velocity_scale") and not math.isfinite(value):
+                    raise ParameterError(
+                        f"gains.{joint}.{field.name}", f"{field.name}={value!r} must be finite"
+                    )
+            if gains.antiwindup_strategy not in ANTIWINDUP_STRATEGIES:
+                raise ParameterError(
+                    f"gains.{joint}.antiwindup_strategy",
+                    f"antiwindup_strategy={gains.antiwindup_strategy!r} must be one of "
+                    f"{list(ANTIWINDUP_STRATEGIES)}",
+                )
+            try:
+                gains.pid_gains().validate()
+            except ValueError as error:
+                raise ParameterError(f"gains.{joint}", str(error)) from None
         if not math.isfinite(self.cmd_timeout):
             raise ParameterError("cmd_timeout", f"cmd_timeout={self.cmd_timeout!r} must be finite")
 
@@ -640,6 +665,25 @@ class SampledTrajectory:
         )
 
 
+def _pid_arrays(gains: list[JointGains]) -> dict[str, Any]:
+    """The joints' PIDs as arrays: ``ff`` the feed-forward scales, ``pids`` per
+    anti-windup strategy the joints' indices and their gains (one PID per joint)."""
+    pids = []
+    for strategy in ANTIWINDUP_STRATEGIES:
+        joints = [j for j, g in enumerate(gains) if g.antiwindup_strategy == strategy]
+        if not joints:
+            continue
+        each = [gains[j].pid_gains() for j in joints]
+        arrays = {
+            field.name: np.array([getattr(g, field.name) for g in each], dtype=float)
+            for field in dataclasses.fields(PidGains)
+            if field.name not in ("antiwindup_strategy", "legacy_antiwindup")
+        }
+        pid = PidGains(**arrays, antiwindup_strategy=strategy).checked()
+        pids.append((np.array(joints), pid))
+    return {"ff": np.array([g.ff_velocity_scale for g in gains]), "pids": pids}
+
+
 # Upstream parameters the simulation cannot honour: refused with the reason.
 _REFUSED = {
     "state_publish_rate": "not a parameter of upstream's Jazzy schema (Humble's; removed)",
@@ -788,14 +832,7 @@ class JointTrajectoryController(Controller):
         # (upstream's use_closed_loop_pid_adapter_: velocity alone and not open_loop_control,
         # or effort; velocity alone with open_loop_control writes the desired velocity).
         if (commands == ["velocity"] and not params.open_loop_control) or "effort" in commands:
-            gains = [params.gains.get(joint, JointGains()) for joint in names]
-            self._pid = {
-                "p": np.array([g.p for g in gains]),
-                "i": np.array([g.i for g in gains]),
-                "d": np.array([g.d for g in gains]),
-                "i_clamp": np.array([abs(g.i_clamp) for g in gains]),
-                "ff": np.array([g.ff_velocity_scale for g in gains]),
-            }
+            self._pid = _pid_arrays([params.gains.get(joint, JointGains()) for joint in names])
 
     @classmethod
     def command_interface(cls, params) -> str:
@@ -879,20 +916,17 @@ class JointTrajectoryController(Controller):
             reference = tracked.trajectory.final[: 2 * n]
         gains = self._pid
         error, error_dot = self._Error(reference[:n], q), reference[n:] - v
-        integral = state.integral + gains["i"] * self.update_period * error
-        integral_term = np.clip(integral, -gains["i_clamp"], gains["i_clamp"])
+        pid_output, integral = np.zeros(n), state.integral.copy()
+        for joints, pid in gains["pids"]:
+            pid_output[joints], integral[joints] = compute_command(
+                pid, error[joints], error_dot[joints], self.update_period, state.integral[joints]
+            )
         # The effort sampled at t + dt (command_next_.effort), fed forward only with the
         # effort command interface.
         effort_next = np.zeros(n)
         if self._has_effort and tracked.trajectory is not None:
             effort_next = tracked.trajectory.effort(now + self.update_period)
-        command = (
-            gains["ff"] * tracked.desired[n:]
-            + effort_next
-            + gains["p"] * error
-            + integral_term
-            + gains["d"] * error_dot
-        )
+        command = gains["ff"] * tracked.desired[n:] + effort_next + pid_output
         internal = _PidState(integral, tracked.desired)
         if self.interface == "effort":
             limit = self.joints.effort

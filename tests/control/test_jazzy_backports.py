@@ -1,0 +1,273 @@
+"""Upstream's tests of what the current ``jazzy`` branches changed, re-expressed.
+
+ros2_controllers ``jazzy`` (commit in the README) and control_toolbox ``jazzy`` (4.x) for the
+ROS 2 controllers, control_toolbox ``noetic-devel`` for ROS 1's PID. Each test is named after
+the upstream test it re-expresses, with the upstream file and test name in a comment; the
+controller tests run the controller in a controller manager at 100 Hz (``Harness``), as
+tests/control/test_upstream_ported.py does.
+"""
+
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+from armando_drake.control.config import ControllerConfigError, parse_controller_config
+from armando_drake.control.controllers import ControllerJoints, load_parameters
+from armando_drake.control.controllers.joint_trajectory import (
+    JointGains,
+    JointTrajectoryController,
+    JointTrajectoryControllerParams,
+)
+from armando_drake.control.controllers.ros1 import JointPositionPidController, pid_command
+from armando_drake.control.controllers.ros1 import PidGains as Ros1PidGains
+from armando_drake.control.pid import Pid, PidGains
+from tests.control.test_controllers import NAMES, Harness
+from tests.control.test_upstream_ported import message_point, trajectory
+
+EPS = 1e-9  # control_toolbox's pid_tests.cpp threshold
+
+
+def legacy(p, i, d, i_max, i_min, antiwindup=False) -> Pid:
+    """control_toolbox's ``Pid(p, i, d, i_max, i_min, antiwindup)``: the legacy strategy."""
+    if i_min > i_max:
+        raise ValueError("received i_min > i_max")
+    return Pid(
+        PidGains(
+            p=p, i=i, d=d, i_max=i_max, i_min=i_min, legacy_antiwindup=antiwindup,
+            antiwindup_strategy="legacy",
+        )
+    )  # fmt: skip
+
+
+def strategy(p, i, d, u_max, u_min, name, tracking_time_constant=0.0) -> Pid:
+    """control_toolbox's ``Pid(p, i, d, u_max, u_min, AntiWindupStrategy)``."""
+    return Pid(
+        PidGains(
+            p=p, i=i, d=d, u_max=u_max, u_min=u_min, antiwindup_strategy=name,
+            tracking_time_constant=tracking_time_constant,
+        )
+    )  # fmt: skip
+
+
+# ----------------------------------------------------------------------------------------------
+# control_toolbox (jazzy) control_toolbox/test/pid_tests.cpp
+
+
+def test_integrationClampTest():  # noqa: N802 (upstream's name)
+    # pid_tests.cpp, ParameterTest.integrationClampTest
+    pid = legacy(0.0, 1.0, 0.0, 1.0, -1.0)
+    assert pid.compute_command(-10.03, 1.0) == -1.0
+    assert pid.compute_command(30.0, 1.0) == 1.0
+
+
+def test_integrationAntiwindupTest():  # noqa: N802 (upstream's name)
+    # pid_tests.cpp, ParameterTest.integrationAntiwindupTest
+    pid = legacy(0.0, 2.0, 0.0, 1.0, -1.0, True)
+    for error, expected in ((-1.0, -1.0), (-1.0, -1.0), (0.5, 0.0), (-1.0, -1.0)):
+        assert pid.compute_command(error, 1.0) == pytest.approx(expected, abs=EPS)
+
+
+def test_negativeIntegrationAntiwindupTest():  # noqa: N802 (upstream's name)
+    # pid_tests.cpp, ParameterTest.negativeIntegrationAntiwindupTest: a negative integral
+    # gain is accepted.
+    pid = legacy(0.0, -2.5, 0.0, 0.5, -0.2, True)
+    for error, expected in ((0.1, -0.2), (0.1, -0.2), (-0.05, -0.075), (0.1, -0.2)):
+        assert pid.compute_command(error, 1.0) == pytest.approx(expected, abs=EPS)
+
+
+def test_ITermBadIBoundsTestConstructor():  # noqa: N802 (upstream's name)
+    # pid_tests.cpp, ParameterTest.ITermBadIBoundsTestConstructor
+    with pytest.raises(ValueError):
+        legacy(1.0, 1.0, 1.0, -1.0, 1.0)
+
+
+def test_integralOnlyTest():  # noqa: N802 (upstream's name)
+    # pid_tests.cpp, CommandTest.integralOnlyTest
+    pid = legacy(0.0, 1.0, 0.0, 5.0, -5.0)
+    for error, expected in ((-0.5, -0.5), (-0.5, -1.0), (0.0, -1.0), (0.0, -1.0), (1.0, 0.0)):
+        assert pid.compute_command(error, 1.0) == expected
+    assert pid.compute_command(-0.5, 1.0) == -0.5
+    pid.reset()
+    assert pid.compute_command(0.0, 1.0) == 0.0
+    assert pid.compute_command(-0.5, 1.0) == -0.5
+    pid.reset(True)
+    assert pid.compute_command(0.0, 1.0) == -0.5
+
+
+def test_derivativeOnlyTest():  # noqa: N802 (upstream's name)
+    # pid_tests.cpp, CommandTest.derivativeOnlyTest
+    pid = legacy(0.0, 0.0, 1.0, math.inf, -math.inf)
+    steps = ((-0.5, 1.0, -0.5), (-0.5, 1.0, 0.0), (-0.5, 0.1, 0.0), (-1.0, 1.0, -0.5))
+    for error, dt, expected in (*steps, (-0.5, 1.0, 0.5)):
+        assert pid.compute_command(error, dt) == expected
+
+
+def test_completePIDTest():  # noqa: N802 (upstream's name)
+    # pid_tests.cpp, CommandTest.completePIDTest
+    pid = legacy(1.0, 1.0, 1.0, 5.0, -5.0)
+    assert pid.compute_command(-0.5, 1.0) == -1.5
+    assert pid.compute_command(-0.5, 1.0) == -1.5
+    assert pid.compute_command(-1.0, 1.0) == -3.5
+
+
+def test_outputClampTest():  # noqa: N802 (upstream's name)
+    # pid_tests.cpp, ParameterTest.outputClampTest
+    pid = strategy(1.0, 0.0, 0.0, 1.0, -1.0, "back_calculation")
+    for error, expected in ((0.5, 0.5), (1.0, 1.0), (2.0, 1.0), (100.0, 1.0), (-0.5, -0.5)):
+        assert pid.compute_command(error, 1.0) == expected
+    for error in (-1.0, -2.0, -10.0, -100.0):
+        assert pid.compute_command(error, 1.0) == -1.0
+
+
+def test_backCalculationPIDTest():  # noqa: N802 (upstream's name)
+    # pid_tests.cpp, CommandTest.backCalculationPIDTest
+    pid = strategy(0.0, 1.0, 0.0, 5.0, -5.0, "back_calculation", 1.0)
+    steps = [(1.0, 1.0, 0.0), (2.0, 3.0, 1.0), (3.0, 6.0, 3.0), (1.0, 6.0, 5.0)]
+    steps += [(2.0, 7.0, 5.0), (-1.0, 4.0, 5.0), (1.0, 5.0, 4.0)]
+    for error, i_term, command in steps:
+        assert pid.compute_command(error, 1.0) == command
+        assert pid.get_current_pid_errors()[1] == i_term
+
+
+def test_conditionalIntegrationPIDTest():  # noqa: N802 (upstream's name)
+    # pid_tests.cpp, CommandTest.conditionalIntegrationPIDTest
+    pid = strategy(0.0, 1.0, 0.0, 5.0, -5.0, "conditional_integration", 1.0)
+    steps = [(1.0, 1.0, 0.0), (2.0, 3.0, 1.0), (3.0, 6.0, 3.0), (1.0, 6.0, 5.0)]
+    steps += [(2.0, 6.0, 5.0), (-1.0, 5.0, 5.0), (0.0, 5.0, 5.0)]
+    for error, i_term, command in steps:
+        assert pid.compute_command(error, 1.0) == command
+        assert pid.get_current_pid_errors()[1] == i_term
+
+
+# ----------------------------------------------------------------------------------------------
+# control_toolbox (noetic-devel) test/pid_tests.cpp: ROS 1's PID (pid_command)
+
+
+def test_ros1_negativeIntegrationAntiwindupTest():  # noqa: N802 (upstream's name)
+    # control_toolbox noetic-devel, pid_tests.cpp, ParameterTest.negativeIntegrationAntiwindupTest:
+    # the integrated error is bounded to minmax(i_min / i, i_max / i).
+    gains = Ros1PidGains(p=0.0, i=-2.5, d=0.0, i_clamp_min=-0.2, i_clamp_max=0.5, antiwindup=True)
+    integral = 0.0
+    for error, expected in ((0.1, -0.2), (0.1, -0.2), (-0.05, -0.075), (0.1, -0.2)):
+        command, integral = pid_command(gains, error, 0.0, integral, 1.0)
+        assert command == pytest.approx(expected, abs=1e-12)
+
+
+def test_ros1_integrationAntiwindupTest():  # noqa: N802 (upstream's name)
+    # control_toolbox noetic-devel, pid_tests.cpp, ParameterTest.integrationAntiwindupTest
+    gains = Ros1PidGains(p=0.0, i=2.0, d=0.0, i_clamp=1.0, antiwindup=True)
+    integral = 0.0
+    for error, expected in ((-1.0, -1.0), (-1.0, -1.0), (0.5, 0.0), (-1.0, -1.0)):
+        command, integral = pid_command(gains, error, 0.0, integral, 1.0)
+        assert command == pytest.approx(expected, abs=1e-12)
+
+
+def test_ros1_negative_gains_accepted():
+    # control_toolbox noetic-devel, pid.cpp Pid::init: p, i and d are read as given, negative
+    # ones too (negativeIntegrationAntiwindupTest's i = -2.5).
+    params = load_parameters(
+        JointPositionPidController, {"joint": "j0", "pid": {"p": 1.0, "i": -2.5, "d": -0.5}}
+    )
+    assert (params.pid.p, params.pid.i, params.pid.d) == (1.0, -2.5, -0.5)
+
+
+# ----------------------------------------------------------------------------------------------
+# ros2_controllers (jazzy) joint_trajectory_controller: the gains' schema and update_pids
+
+
+CONFIG = """
+controller_manager:
+  ros__parameters:
+    update_rate: 100
+    arm_controller: {type: joint_trajectory_controller/JointTrajectoryController}
+arm_controller:
+  ros__parameters:
+    joints: [j0]
+    command_interfaces: [effort]
+    state_interfaces: [position, velocity]
+"""
+
+
+def arm_params(extra: str = ""):
+    text = CONFIG + "".join(f"    {line}\n" for line in extra.splitlines())
+    config = parse_controller_config(yaml.safe_load(text), "c.yaml")
+    return config.controllers["arm_controller"].params
+
+
+def pid_trajectory_controller(interface="effort", **gains) -> Harness:
+    controller = JointTrajectoryController(
+        name="ctl",
+        joints=ControllerJoints.make(NAMES),
+        params=JointTrajectoryControllerParams(
+            joints=list(NAMES),
+            command_interfaces=[interface],
+            state_interfaces=["position", "velocity"],
+            gains={joint: JointGains(**gains) for joint in NAMES},
+        ),
+    )
+    return Harness(controller)
+
+
+def test_gains_defaults_update_pids():
+    # joint_trajectory_controller_parameters.yaml (gains.__map_joints: i_clamp .inf,
+    # antiwindup_strategy legacy) and joint_trajectory_controller.cpp update_pids(): with the
+    # defaults the integral term is not bounded, so an i gain alone acts.
+    params = arm_params("gains: {j0: {p: 0.0, i: 2.0, antiwindup_strategy: legacy}}")
+    gains = params.gains["j0"]
+    assert gains.i_clamp == math.inf and gains.antiwindup_strategy == "legacy"
+    pid = gains.pid_gains()
+    assert (pid.i_max, pid.i_min) == (math.inf, -math.inf)
+    h = pid_trajectory_controller(i=2.0)
+    h.set_measured(np.array([-0.5, -0.5, -0.5]))
+    h.step(10)
+    # i dt e per update, e = 0.5, dt = 10 ms: ten updates integrate 10 * 2 * 0.01 * 0.5.
+    np.testing.assert_allclose(
+        h.system.GetOutputPort("effort_command").Eval(h.context), [0.1] * 3, atol=1e-12
+    )
+
+
+def test_gains_i_clamp_update_pids():
+    # joint_trajectory_controller.cpp update_pids(): i_clamp_max / i_clamp_min have
+    # precedence over the deprecated i_clamp where finite.
+    pid = JointGains(i_clamp=2.0, i_clamp_max=1.0).pid_gains()
+    assert (pid.i_max, pid.i_min) == (1.0, -2.0)
+
+
+@pytest.mark.parametrize("name", ["legacy", "none", "back_calculation", "conditional_integration"])
+def test_gains_antiwindup_strategy_one_of(name):
+    # joint_trajectory_controller_parameters.yaml, gains.<joint>.antiwindup_strategy one_of<>
+    assert (
+        arm_params(f"gains: {{j0: {{p: 1.0, antiwindup_strategy: {name}}}}}")
+        .gains["j0"]
+        .antiwindup_strategy
+        == name
+    )
+    with pytest.raises(ControllerConfigError, match="antiwindup_strategy"):
+        arm_params("gains: {j0: {p: 1.0, antiwindup_strategy: clamp}}")
+
+
+def test_use_closed_loop_pid_negative_gain():
+    # control_toolbox accepts negative gains (pid_tests.cpp negativeIntegrationAntiwindupTest);
+    # the trajectory controller's gains too.
+    assert arm_params("gains: {j0: {p: 1.0, i: -2.5}}").gains["j0"].i == -2.5
+
+
+def test_trajectory_controller_u_clamp():
+    # control_toolbox pid.cpp compute_command: the output clamped to [u_clamp_min, u_clamp_max]
+    h = pid_trajectory_controller(p=10.0, u_clamp_max=1.0, u_clamp_min=-2.0)
+    h.set_measured(np.array([-1.0, 0.05, 1.0]))
+    h.step()
+    np.testing.assert_allclose(
+        h.system.GetOutputPort("effort_command").Eval(h.context), [1.0, -0.5, -2.0], atol=1e-12
+    )
+
+
+def test_trajectory_message_pid_keeps_tracking():
+    # sanity: the trajectory tracked through the PID (test_trajectory_controller.cpp
+    # use_closed_loop_pid) with the new gains.
+    h = pid_trajectory_controller("velocity", p=1.0)
+    start = h.publish(trajectory(message_point(1.0, [1.0] * 3)))
+    h.advance(start + 0.5)
+    assert h.status.state == "executing"
