@@ -271,3 +271,58 @@ def test_trajectory_message_pid_keeps_tracking():
     start = h.publish(trajectory(message_point(1.0, [1.0] * 3)))
     h.advance(start + 0.5)
     assert h.status.state == "executing"
+
+
+# ----------------------------------------------------------------------------------------------
+# ros2_controllers (jazzy) test_trajectory_controller.cpp: the start-up hold (PR #2356)
+
+# Upstream's position instantiations whose state interfaces are not all commanded: the
+# older rule read the state interfaces there, PR #2356 the position command interface.
+HOLD_CASES = [
+    (["position"], ["position", "velocity"]),
+    (["position"], ["position", "velocity", "acceleration"]),
+    (["position", "velocity"], ["position", "velocity", "acceleration"]),
+]
+INITIAL_POS_CMD = (3.1, 4.1, 5.1)  # upstream's initial_pos_cmd: 3.1 + i
+
+
+@pytest.mark.parametrize("commands, states", HOLD_CASES)
+def test_hw_states_has_offset_later_controller_start(commands, states):
+    # test_trajectory_controller.cpp, test_hw_states_has_offset_later_controller_start:
+    # interpolate_from_desired_state, the command interfaces holding 3.1 + i, the state
+    # interfaces elsewhere: with a position command interface the state at activation has
+    # the commanded positions, whatever the state interfaces.
+    controller = JointTrajectoryController(
+        name="ctl",
+        joints=ControllerJoints.make(NAMES, initial_positions=INITIAL_POS_CMD),
+        params=JointTrajectoryControllerParams(
+            joints=list(NAMES),
+            command_interfaces=commands,
+            state_interfaces=states,
+            interpolate_from_desired_state=True,
+        ),
+    )
+    h = Harness(controller)  # the state interfaces read 0
+    h.step()
+    np.testing.assert_allclose(h.desired[:3], INITIAL_POS_CMD, atol=1e-12)
+    start = h.publish(trajectory(message_point(1.0, [10.0] * 3)))
+    h.advance(start + 0.49)
+    expected = np.array(INITIAL_POS_CMD) + (10.0 - np.array(INITIAL_POS_CMD)) * 0.5
+    np.testing.assert_allclose(h.desired[:3], expected, atol=1e-12)
+
+
+@pytest.mark.parametrize("commands, states", HOLD_CASES)
+def test_hold_on_startup(commands, states):
+    # test_trajectory_controller.cpp, hold_on_startup (activation holds the position read
+    # by update_state_from_command_interfaces): the commanded positions, not the measured.
+    controller = JointTrajectoryController(
+        name="ctl",
+        joints=ControllerJoints.make(NAMES, initial_positions=(0.1, 0.2, 0.3)),
+        params=JointTrajectoryControllerParams(
+            joints=list(NAMES), command_interfaces=commands, state_interfaces=states
+        ),
+    )
+    h = Harness(controller)
+    h.set_measured(np.array([0.5, 0.4, 0.3]))
+    h.advance(0.25)
+    np.testing.assert_allclose(h.desired[:3], [0.1, 0.2, 0.3], atol=1e-12)

@@ -569,15 +569,16 @@ def test_hold_on_startup():
     np.testing.assert_array_equal(h.desired, [0.1, 0.2, 0.3, 0.0, 0.0, 0.0])
 
 
-# (command_interfaces, state_interfaces) -> whether upstream's on_activate reads the state
-# from the command interfaces (read_state_from_command_interfaces succeeds)
+# (command_interfaces, state_interfaces) -> whether upstream's on_activate reads the positions
+# from the command interfaces (update_state_from_command_interfaces, PR #2356: whenever the
+# position command interface holds values)
 OFFSET_CASES = [
     (["position"], ["position"], True),
-    (["position"], ["position", "velocity"], False),
-    (["position"], ["position", "velocity", "acceleration"], False),
+    (["position"], ["position", "velocity"], True),
+    (["position"], ["position", "velocity", "acceleration"], True),
     (["position", "velocity"], ["position"], True),
     (["position", "velocity"], ["position", "velocity"], True),
-    (["position", "velocity"], ["position", "velocity", "acceleration"], False),
+    (["position", "velocity"], ["position", "velocity", "acceleration"], True),
     (["position", "velocity", "acceleration"], ["position", "velocity", "acceleration"], True),
     (["velocity"], ["position", "velocity"], False),
     (["effort"], ["position", "velocity"], False),
@@ -587,10 +588,9 @@ OFFSET_CASES = [
 @pytest.mark.parametrize("commands, states, from_commands", OFFSET_CASES)
 def test_hw_states_has_offset_later_controller_start(commands, states, from_commands):
     """open_loop_control, the command interfaces holding values (3.1, 4.1, 5.1) that differ
-    from the measured state: the state at activation is the command interfaces' only when
-    every interface the state has can be read from a command interface; else the state
-    interfaces'. Observed through the first trajectory's start (open loop: from that
-    state) and the hold at activation."""
+    from the measured state: the positions at activation are the position command
+    interface's whenever there is one; else the state interfaces'. Observed through the
+    first trajectory's start (open loop: from that state) and the hold at activation."""
     initial = (3.1, 4.1, 5.1)
     controller = JointTrajectoryController(
         name="ctl",

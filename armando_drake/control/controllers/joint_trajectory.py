@@ -174,9 +174,8 @@ class JointTrajectoryControllerParams:
     # velocities and accelerations given.
     allow_integration_in_goal_trajectories: bool = False
     # Hold the last command at activation (true) or the measured position (false). As
-    # upstream, true reads the command interfaces only when they hold the whole state: a
-    # position one, and velocity (acceleration) ones wherever velocity (acceleration) is a
-    # state interface; otherwise, and with velocity or effort alone, the measured position.
+    # upstream (PR #2356), true takes the position command interface's values whatever the
+    # state interfaces; without a position command interface, the measured position.
     set_last_command_interface_value_as_state_on_activation: bool = True
     # [Hz] upstream's action-status polling rate (>= 0.1); the status output here
     # changes at the update that decides it, so this rate moves nothing.
@@ -861,16 +860,15 @@ class JointTrajectoryController(Controller):
         self.update_period = 1.0 / update_rate
 
     def _holds_command_values(self) -> bool:
-        """Whether activation holds the command interfaces' values (upstream's on_activate:
-        ``set_last_command_interface_value_as_state_on_activation`` and
-        ``read_state_from_command_interfaces`` succeeding, which needs a position command
-        interface, and a velocity (acceleration) command interface wherever there is a
-        velocity (acceleration) state interface); else the measured state."""
-        commands, states = self._params.command_interfaces, self._params.state_interfaces
+        """Whether activation holds the command interfaces' values (upstream's on_activate,
+        ``update_state_from_command_interfaces``, ros2_controllers PR #2356): with
+        ``set_last_command_interface_value_as_state_on_activation``, the positions come from
+        the position command interface whenever it holds values (here it always does: the
+        hardware starts it at the initial positions), whatever the state interfaces; without
+        a position command interface, from the state interfaces."""
         return (
             self._params.set_last_command_interface_value_as_state_on_activation
-            and "position" in commands
-            and all(name in commands for name in ("velocity", "acceleration") if name in states)
+            and "position" in self._params.command_interfaces
         )
 
     def initial_memory(self) -> ControllerMemory:
