@@ -129,8 +129,9 @@ class ControllerManager(LeafSystem):
       velocity joints, the initial position (and zero velocity) on joints no
       controller claims. Entries of effort joints are unused.
     - ``effort_command``: the commanded torques [N m] of every hardware joint
-      (n), non-zero only on effort joints; only when a controller commands
-      efforts.
+      (n), non-zero only on effort joints and on the joints of a controller that
+      feeds efforts forward (the trajectory controller's [position, effort]); only
+      when a controller commands efforts.
     - ``<controller>.status``: each controller's ControllerStatus.
     - ``<controller>.command_count``: only for a stream controller
       (``ManagedController.stream``): vector of one, the number of samples of its
@@ -235,9 +236,7 @@ class ControllerManager(LeafSystem):
             )
             desired_rows = np.concatenate([rows, np.asarray(rows, dtype=int) + n]).astype(int)
             self._desired_rows.append(desired_rows)
-            self._effort_rows.append(
-                np.asarray(rows, dtype=int) if logic.interface == "effort" else None
-            )
+            self._effort_rows.append(np.asarray(rows, dtype=int) if logic.effort_output else None)
             logic.configure(update_rate=update_rate)
             memory = logic.initial_memory()
             initial[desired_rows] = memory.desired

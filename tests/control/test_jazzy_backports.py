@@ -326,3 +326,102 @@ def test_hold_on_startup(commands, states):
     h.set_measured(np.array([0.5, 0.4, 0.3]))
     h.advance(0.25)
     np.testing.assert_allclose(h.desired[:3], [0.1, 0.2, 0.3], atol=1e-12)
+
+
+# ----------------------------------------------------------------------------------------------
+# ros2_controllers (jazzy) command_interfaces [position, effort] (PR #1200)
+
+CONFIG_INTERFACES = CONFIG.replace("    command_interfaces: [effort]\n", "")
+
+
+def interfaces_config(commands, states):
+    text = CONFIG_INTERFACES.replace(
+        "    state_interfaces: [position, velocity]\n",
+        f"    command_interfaces: [{', '.join(commands)}]\n"
+        f"    state_interfaces: [{', '.join(states)}]\n",
+    )
+    return parse_controller_config(yaml.safe_load(text), "c.yaml")
+
+
+@pytest.mark.parametrize(
+    "commands, states",
+    [
+        (["effort", "velocity"], ["position", "velocity"]),
+        (["effort", "acceleration"], ["position", "velocity"]),
+        (["effort", "velocity", "acceleration"], ["position", "velocity"]),
+        (["effort", "position"], ["position"]),
+        (["effort", "position"], ["velocity"]),
+    ],
+)
+def test_incorrect_initialization_using_interface_parameters(commands, states):
+    # test_trajectory_controller.cpp, incorrect_initialization_using_interface_parameters:
+    # effort has to be alone or with position, and then needs position and velocity states.
+    with pytest.raises(ControllerConfigError, match="_interfaces"):
+        interfaces_config(commands, states)
+
+
+@pytest.mark.parametrize(
+    "commands, states",
+    [
+        (["position", "effort"], ["position", "velocity"]),
+        (["position", "effort"], ["position", "velocity", "acceleration"]),
+        (["effort", "position"], ["position", "velocity"]),
+        (["position", "acceleration"], ["position"]),
+    ],
+)
+def test_correct_initialization_using_parameters(commands, states):
+    # test_trajectory_controller.cpp, correct_initialization_using_parameters, with the
+    # PositionEffortTrajectoryControllers instantiation; validate_jtc_parameters.hpp allows
+    # acceleration with position alone too.
+    config = interfaces_config(commands, states)
+    assert config.controllers["arm_controller"].params.command_interfaces == commands
+
+
+def position_effort_harness(states=("position", "velocity")) -> Harness:
+    controller = JointTrajectoryController(
+        name="ctl",
+        joints=ControllerJoints.make(NAMES, initial_positions=(1.1, 2.1, 3.1)),
+        params=JointTrajectoryControllerParams(
+            joints=list(NAMES),
+            command_interfaces=["position", "effort"],
+            state_interfaces=list(states),
+            allow_nonzero_velocity_at_trajectory_end=True,
+            stopped_velocity_tolerance=0.0,
+        ),
+    )
+    assert controller.interface == "position" and controller.effort_output
+    h = Harness(controller, measured=np.array([1.1, 2.1, 3.1]))
+    h.step()
+    return h
+
+
+POINTS = [[3.3, 4.4, 6.6], [7.7, 8.8, 9.9], [10.10, 11.11, 12.12]]
+EFFORT = [[0.3, 0.4, 0.6], [1.7, 1.8, 1.9], [2.10, 2.11, 2.12]]
+
+
+@pytest.mark.parametrize(
+    "states", [("position", "velocity"), ("position", "velocity", "acceleration")]
+)
+def test_position_error_not_angle_wraparound(states):
+    # test_trajectory_controller.cpp, position_error_not_angle_wraparound, the
+    # PositionEffortTrajectoryControllers instantiation: the positions go to the position
+    # command interface (one step before the first point, the point), the effort command is
+    # the reference's effort, no PID ("u = ff for feed forward effort").
+    h = position_effort_harness(states)
+    start = h.publish(
+        trajectory(*(message_point(0.3 * (k + 1), POINTS[k], effort=EFFORT[k]) for k in range(3)))
+    )
+    h.advance(start + 0.3 - 0.01)
+    np.testing.assert_allclose(h.desired[:3], POINTS[0], atol=0.0011)
+    h.advance(start + 0.3)
+    effort = h.system.GetOutputPort("effort_command").Eval(h.context)
+    np.testing.assert_allclose(effort, EFFORT[0], atol=0.0011)
+
+
+def test_invalid_message_effort_with_position_effort():
+    # test_trajectory_controller.cpp, invalid_message: efforts are allowed whenever there is
+    # an effort command interface (has_effort_command_interface_), [position, effort] too.
+    h = position_effort_harness()
+    h.publish(trajectory(message_point(0.25, [1.0, 2.0, 3.0], effort=[1.0, 2.0, 3.0])))
+    h.step()
+    assert (h.status.rejected, h.status.state) == (0, "executing")

@@ -1357,13 +1357,13 @@ arm_controller:
         ),
         (
             "command_interfaces: [effort]\nstate_interfaces: [position]",
-            "'effort' command interface can only be used alone if 'velocity' and 'position' "
-            "state interfaces are present",
+            "'effort' command interface can only be used alone or with 'position' command "
+            "interface if 'velocity' and 'position' state interfaces are present",
         ),
         ("command_interfaces: [acceleration]", "'acceleration' command interface can only be"),
         (
-            "command_interfaces: [position, effort]",
-            "'effort' command interface has to be used alone",
+            "command_interfaces: [position, velocity, effort]",
+            "'effort' command interface has to be used alone or with a 'position' interface",
         ),
         ("state_interfaces: [velocity]", "has no 'position' state interface"),
         ("interpolation_method: cubic", "unknown method 'cubic'"),

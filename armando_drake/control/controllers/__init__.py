@@ -515,6 +515,12 @@ class Controller:
         return cls.fixed_interface
 
     @classmethod
+    def commands_effort(cls, params) -> bool:
+        """Whether it writes efforts [N m] (its memory's ``effort``): on the effort
+        interface, or as a feed-forward torque added to another interface's actuator."""
+        return cls.command_interface(params) == "effort"
+
+    @classmethod
     def position_targets(cls, params) -> bool:
         """Whether its command messages carry joint positions [rad or m] (so a sequence
         of position targets can drive it), whatever interface it commands."""
@@ -541,10 +547,12 @@ class Controller:
         self.lower, self.upper = joints.lower, joints.upper
         self.params = params if params is not None else self.default_parameters(joints)
         self.interface = self.command_interface(self.params)
+        # Whether its memory has efforts [N m] (the effort interface, or a feed-forward).
+        self.effort_output = self.commands_effort(self.params)
         self._initial = ControllerMemory(
             desired=np.concatenate([joints.initial_positions, np.zeros(n)]),
             status=ControllerStatus(state=self.initial_state),
-            effort=np.zeros(n) if self.interface == "effort" else None,
+            effort=np.zeros(n) if self.effort_output else None,
         )
 
     @classmethod

@@ -155,9 +155,10 @@ class JointTrajectoryControllerParams:
     joints: list[str] = dataclasses.field(default_factory=list)
     # Joints commanded; empty or equal to joints (other command joints are not simulated).
     command_joints: list[str] = dataclasses.field(default_factory=list)
-    # Command interfaces: [position], [position, velocity] or [position, velocity,
-    # acceleration] (the desired state's positions and velocities drive the position
-    # actuators); [velocity] or [effort]: a PID per joint on the tracking error (gains).
+    # Command interfaces: position [, velocity [, acceleration]] (the desired state's
+    # positions and velocities drive the position actuators); [position, effort] (the
+    # desired effort fed forward as torque on the position actuators); [velocity] or
+    # [effort]: a PID per joint on the tracking error (gains).
     command_interfaces: list[str] = dataclasses.field(default_factory=lambda: ["position"])
     # State interfaces read: position [, velocity [, acceleration]]; the first segment
     # starts from the measured velocity only with velocity (acceleration reads 0 rad/s^2).
@@ -274,23 +275,27 @@ def _interfaces(value: Any, allowed: tuple[str, ...], parameter: str) -> list[st
 
 
 def _check_combinations(command: list[str], state: list[str]) -> None:
-    """Upstream's interface combination rules (``validate_jtc_parameters``), then ours:
-    the simulated trajectory controller commands positions."""
-    if "effort" in command and len(command) > 1:
-        raise ParameterError(
-            "command_interfaces", "'effort' command interface has to be used alone"
-        )
+    """Upstream's interface combination rules (``validate_jtc_parameters``: effort,
+    velocity, position [velocity [acceleration]], position + effort) and on_configure's
+    state requirements, in upstream's order and words."""
     if "velocity" in command and len(command) > 1 and "position" not in command:
         raise ParameterError(
             "command_interfaces",
             "'velocity' command interface can be used either alone or 'position' command "
             "interface has to be present",
         )
-    if "acceleration" in command and not ("velocity" in command and "position" in command):
+    if "acceleration" in command and not ("velocity" in command or "position" in command):
         raise ParameterError(
             "command_interfaces",
             "'acceleration' command interface can only be used if 'velocity' and 'position' "
             "command interfaces are present",
+        )
+    if "effort" in command and not (
+        len(command) == 1 or (len(command) == 2 and "position" in command)
+    ):
+        raise ParameterError(
+            "command_interfaces",
+            "'effort' command interface has to be used alone or with a 'position' interface",
         )
     if "position" not in state:
         raise ParameterError("state_interfaces", f"{state!r} has no 'position' state interface")
@@ -300,12 +305,18 @@ def _check_combinations(command: list[str], state: list[str]) -> None:
             "'acceleration' state interface cannot be used if 'position' and 'velocity' "
             "interfaces are not present",
         )
-    alone = "velocity" if command == ["velocity"] else "effort" if "effort" in command else None
-    if alone and not ("velocity" in state and "position" in state):
+    has_both = "velocity" in state and "position" in state
+    if command == ["velocity"] and not has_both:
         raise ParameterError(
             "state_interfaces",
-            f"'{alone}' command interface can only be used alone if 'velocity' and "
+            "'velocity' command interface can only be used alone if 'velocity' and "
             "'position' state interfaces are present",
+        )
+    if "effort" in command and not has_both:
+        raise ParameterError(
+            "state_interfaces",
+            "'effort' command interface can only be used alone or with 'position' command "
+            "interface if 'velocity' and 'position' state interfaces are present",
         )
 
 
@@ -830,17 +841,22 @@ class JointTrajectoryController(Controller):
         self._pid = None
         # (upstream's use_closed_loop_pid_adapter_: velocity alone and not open_loop_control,
         # or effort; velocity alone with open_loop_control writes the desired velocity).
-        if (commands == ["velocity"] and not params.open_loop_control) or "effort" in commands:
+        if (commands == ["velocity"] and not params.open_loop_control) or commands == ["effort"]:
             self._pid = _pid_arrays([params.gains.get(joint, JointGains()) for joint in names])
 
     @classmethod
     def command_interface(cls, params) -> str:
         """The joints' command interface: position (with velocity and acceleration
-        commands as the desired state's), or velocity or effort alone (a PID per joint
-        on the tracking error, upstream's closed-loop adapter)."""
-        if params.command_interfaces == ["velocity"]:
-            return "velocity"
-        return "effort" if "effort" in params.command_interfaces else "position"
+        commands as the desired state's, an effort command as a feed-forward torque), or
+        velocity or effort alone (a PID per joint on the tracking error, upstream's
+        closed-loop adapter)."""
+        if params.command_interfaces in (["velocity"], ["effort"]):
+            return params.command_interfaces[0]
+        return "position"
+
+    @classmethod
+    def commands_effort(cls, params) -> bool:
+        return "effort" in params.command_interfaces
 
     @classmethod
     def position_targets(cls, params) -> bool:
@@ -885,7 +901,18 @@ class JointTrajectoryController(Controller):
 
     def update(self, now, message, memory, measure):
         if self._pid is None:
-            return self._Track(now, message, memory, measure)
+            tracked = self._Track(now, message, memory, measure)
+            if not self._has_effort or tracked is memory:
+                return tracked
+            # command_interfaces [position, effort]: positions as with position alone, the
+            # effort command the desired state's effort at t (state_desired_.effort, no
+            # PID); the aborting update writes nothing.
+            effort = memory.effort
+            if tracked.trajectory is not None and not (
+                tracked.running and tracked.status.state == "aborted"
+            ):
+                effort = tracked.trajectory.effort(now)
+            return dataclasses.replace(tracked, effort=effort)
         # Upstream's closed-loop adapter: the trajectory tracked as with position commands,
         # then u = ff_velocity_scale v_d(t + dt) + PID(q_d(t) - q, v_d(t) - v) per joint.
         state = memory.internal

@@ -440,6 +440,10 @@ class EffortJointTrajectoryController(Ros1JointTrajectoryController):
         return "effort"  # its own PIDs (ROS 1's adapter), not the ROS 2 closed loop
 
     @classmethod
+    def commands_effort(cls, params) -> bool:
+        return True
+
+    @classmethod
     def known_parameters(cls) -> frozenset[str]:
         return super().known_parameters() | {"gains"}
 
