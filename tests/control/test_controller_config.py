@@ -286,8 +286,8 @@ GOOD_PARAMS = "    joints: [j0, j1]"
             + "\n    command_interfaces: [position]\n    state_interfaces: [position]"
             + "\n    constraints: {j7: {goal: 0.1}}",
             "pos.ros__parameters.constraints.j7",
-            "'j7' is neither goal_time, stopped_velocity_tolerance nor one of the "
-            "controller's joints ['j0', 'j1']",
+            "'j7' is neither goal_time, stopped_velocity_tolerance, decelerate_on_cancel nor "
+            "one of the controller's joints ['j0', 'j1']",
         ),
         (
             "100",

@@ -425,3 +425,116 @@ def test_invalid_message_effort_with_position_effort():
     h.publish(trajectory(message_point(0.25, [1.0, 2.0, 3.0], effort=[1.0, 2.0, 3.0])))
     h.step()
     assert (h.status.rejected, h.status.state) == (0, "executing")
+
+
+# ----------------------------------------------------------------------------------------------
+# ros2_controllers (jazzy) constraints.decelerate_on_cancel (backport #2222)
+
+INITIAL = np.array([1.1, 2.1, 3.1])  # upstream's INITIAL_POS_JOINTS
+MAX_DECEL = 10.0  # [rad/s^2]
+
+
+def decelerating(
+    initial_vel, commands=("position",), states=("position", "velocity"), run=True, **params
+):
+    """Upstream's decelerate_to_hold_position fixture: cmd_timeout 0.1 s, decelerate_on_cancel
+    with every joint's max_deceleration_on_cancel 10, the URDF's velocity limit 0.2 rad/s;
+    the state stays at INITIAL_POS_JOINTS with ``initial_vel``. A trajectory to a point
+    0.5 rad away with a goal tolerance: the goal is not reached (ours times out only a goal
+    not reached, README), so cmd_timeout aborts 0.1 s after its end."""
+    settings = {
+        "cmd_timeout": 0.1,
+        "decelerate_on_cancel": True,
+        "max_deceleration_on_cancel": {name: MAX_DECEL for name in NAMES},
+        "goal_tolerance": {name: 0.01 for name in NAMES},
+        **params,
+    }
+    controller = JointTrajectoryController(
+        name="ctl",
+        joints=ControllerJoints.make(NAMES, velocity=[0.2] * 3, initial_positions=INITIAL),
+        params=JointTrajectoryControllerParams(
+            joints=list(NAMES),
+            command_interfaces=list(commands),
+            state_interfaces=list(states),
+            **settings,
+        ),
+    )
+    h = Harness(controller, measured=INITIAL)
+    h.set_measured(INITIAL, np.array(initial_vel, dtype=float))
+    start = h.publish(trajectory(message_point(0.25, INITIAL + 0.5)))
+    if not run:
+        return h
+    h.advance(start + 0.25 + 0.1 + 0.05)
+    assert h.status.state == "aborted"
+    assert h.status.last_error.startswith("Aborted due to command timeout")
+    return h
+
+
+def stopped_at(initial_vel) -> np.ndarray:
+    v = np.array(initial_vel, dtype=float)
+    return INITIAL + np.where(v >= 0.0, 1.0, -1.0) * v * v / (2.0 * MAX_DECEL)
+
+
+@pytest.mark.parametrize(
+    "initial_vel",
+    [[0.2, 0.2, 0.2], [-0.2, -0.2, -0.2], [0.2, -0.1, 0.0]],
+    ids=["positive_velocity", "negative_velocity", "per_joint_calculation"],
+)
+def test_decelerate_to_hold_position(initial_vel):
+    # test_trajectory_controller.cpp, decelerate_to_hold_position_positive_velocity,
+    # _negative_velocity and _per_joint_calculation: after the ramp (0.2 / 10 = 0.02 s) the
+    # command is p0 + sign(v0) v0^2 / (2 max_decel), zero velocity.
+    h = decelerating(initial_vel)
+    h.step(10)
+    np.testing.assert_allclose(h.desired[:3], stopped_at(initial_vel), atol=1e-12)
+    np.testing.assert_allclose(h.desired[3:], 0.0, atol=1e-12)
+
+
+def test_decelerate_to_hold_position_ramp():
+    # joint_trajectory_controller.cpp decelerate_to_hold_position: the stop trajectory's
+    # points, one per update period from the update after the abort: p0 + v0 t - a t^2 / 2,
+    # v0 - a t; the command at an update is the sample one period ahead.
+    h = decelerating([1.0, 1.0, 1.0], commands=("position", "velocity"), run=False)
+    while h.status.state != "aborted":
+        h.step()
+    h.step()  # the stop trajectory's first update: the point at t = dt
+    dt = 0.01
+    np.testing.assert_allclose(h.desired[:3], INITIAL + dt - 0.5 * MAX_DECEL * dt**2, atol=1e-12)
+    np.testing.assert_allclose(h.desired[3:], 1.0 - MAX_DECEL * dt, atol=1e-12)
+    h.step(20)  # 1 m/s lasts 0.1 s; the hold is p0 + 1 / 20
+    np.testing.assert_allclose(h.desired[:3], INITIAL + 0.05, atol=1e-12)
+
+
+def test_decelerate_to_hold_position_velocity_command_ramps_to_zero():
+    # test_trajectory_controller.cpp, decelerate_to_hold_position_velocity_command_ramps_to_zero
+    h = decelerating([0.2, 0.2, 0.2], commands=("position", "velocity"))
+    h.step(10)
+    np.testing.assert_allclose(h.desired[3:], 0.0, atol=0.0011)
+    np.testing.assert_allclose(h.desired[:3], stopped_at([0.2] * 3), atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "states, params",
+    [
+        (("position",), {}),
+        (("position", "velocity"), {"max_deceleration_on_cancel": {}}),
+    ],
+    ids=["no_velocity_state", "zero_max_decel"],
+)
+def test_decelerate_to_hold_position_fallback(states, params):
+    # test_trajectory_controller.cpp, decelerate_to_hold_position_fallback_no_velocity_state
+    # and _fallback_zero_max_decel: the measured position is held.
+    h = decelerating([0.2, 0.2, 0.2], states=states, **params)
+    h.step(10)
+    np.testing.assert_allclose(h.desired[:3], INITIAL, atol=1e-12)
+
+
+def test_decelerate_on_cancel_parameters():
+    # joint_trajectory_controller_parameters.yaml: constraints.decelerate_on_cancel and
+    # constraints.<joint>.max_deceleration_on_cancel (gt_eq 0).
+    params = arm_params(
+        "constraints: {decelerate_on_cancel: true, j0: {max_deceleration_on_cancel: 2.0}}"
+    )
+    assert params.decelerate_on_cancel and params.max_deceleration_on_cancel == {"j0": 2.0}
+    with pytest.raises(ControllerConfigError, match="max_deceleration_on_cancel"):
+        arm_params("constraints: {j0: {max_deceleration_on_cancel: -1.0}}")

@@ -148,6 +148,8 @@ class JointTrajectoryControllerParams:
         "stopped_velocity_tolerance": "constraints.stopped_velocity_tolerance",
         "trajectory_tolerance": "constraints.<joint>.trajectory",
         "goal_tolerance": "constraints.<joint>.goal",
+        "decelerate_on_cancel": "constraints.decelerate_on_cancel",
+        "max_deceleration_on_cancel": "constraints.<joint>.max_deceleration_on_cancel",
         "gains": "gains",
     }
 
@@ -200,6 +202,13 @@ class JointTrajectoryControllerParams:
     trajectory_tolerance: dict[str, float] = dataclasses.field(default_factory=dict)
     # [rad] per joint: allowed |measured - desired| after the end; absent or 0 = unchecked.
     goal_tolerance: dict[str, float] = dataclasses.field(default_factory=dict)
+    # On an abort (path or goal tolerance, cmd_timeout) stop at each joint's
+    # max_deceleration_on_cancel from the measured velocity instead of holding the measured
+    # position; needs a velocity state interface, every joint's deceleration > 0 and a URDF
+    # velocity limit > 0 (else, as upstream, it holds the position).
+    decelerate_on_cancel: bool = False
+    # [rad/s^2] per joint: the deceleration of decelerate_on_cancel; absent or 0 = none.
+    max_deceleration_on_cancel: dict[str, float] = dataclasses.field(default_factory=dict)
     # Per joint, the PID gains of a velocity-only or effort command interface
     # (u = ff_velocity_scale v_d + control_toolbox's PID on the tracking error);
     # upstream uses none with position commands, neither do we.
@@ -698,7 +707,6 @@ def _pid_arrays(gains: list[JointGains]) -> dict[str, Any]:
 _REFUSED = {
     "state_publish_rate": "not a parameter of upstream's Jazzy schema (Humble's; removed)",
     "speed_scaling": "not simulated: the trajectory runs at speed 1.0",
-    "decelerate_on_cancel": "not a parameter of upstream's Jazzy schema (rolling's)",
 }
 
 
@@ -729,7 +737,7 @@ class JointTrajectoryController(Controller):
     def known_parameters(cls) -> frozenset[str]:
         names = {f.name for f in dataclasses.fields(cls.parameters)}
         names -= {"goal_time", "stopped_velocity_tolerance", "trajectory_tolerance"}
-        names -= {"goal_tolerance"}
+        names -= {"goal_tolerance", "decelerate_on_cancel", "max_deceleration_on_cancel"}
         return frozenset(names | {"constraints"})
 
     @classmethod
@@ -749,33 +757,44 @@ class JointTrajectoryController(Controller):
         constraints = raw.pop("constraints", None) or {}
         if not isinstance(constraints, dict):
             raise ParameterError("constraints", f"expected a mapping, got {constraints!r}")
-        trajectory_tolerance, goal_tolerance = {}, {}
+        trajectory_tolerance, goal_tolerance, deceleration = {}, {}, {}
+        per_joint = {
+            "trajectory": trajectory_tolerance,
+            "goal": goal_tolerance,
+            "max_deceleration_on_cancel": deceleration,
+        }
         for name, value in constraints.items():
             where = f"constraints.{name}"
             if name in ("goal_time", "stopped_velocity_tolerance"):
                 raw[name] = non_negative(value, where)
             elif name == "decelerate_on_cancel":
-                raise ParameterError(where, _REFUSED["decelerate_on_cancel"])
+                if not isinstance(value, bool):
+                    raise ParameterError(where, f"expected true or false, got {value!r}")
+                raw[name] = value
             elif name in joints:
                 if not isinstance(value, dict):
-                    raise ParameterError(where, f"expected 'trajectory' and 'goal', got {value!r}")
-                for tolerance, number in value.items():
-                    if tolerance == "trajectory":
-                        trajectory_tolerance[name] = non_negative(number, f"{where}.trajectory")
-                    elif tolerance == "goal":
-                        goal_tolerance[name] = non_negative(number, f"{where}.goal")
-                    else:
+                    raise ParameterError(
+                        where,
+                        f"expected 'trajectory', 'goal' and 'max_deceleration_on_cancel', "
+                        f"got {value!r}",
+                    )
+                for key, number in value.items():
+                    if key not in per_joint:
                         raise ParameterError(
-                            f"{where}.{tolerance}", "unknown tolerance; expected trajectory, goal"
+                            f"{where}.{key}",
+                            "unknown constraint; expected trajectory, goal, "
+                            "max_deceleration_on_cancel",
                         )
+                    per_joint[key][name] = non_negative(number, f"{where}.{key}")
             else:
                 raise ParameterError(
                     where,
-                    f"'{name}' is neither goal_time, stopped_velocity_tolerance nor one of the "
-                    f"controller's joints {joints}",
+                    f"'{name}' is neither goal_time, stopped_velocity_tolerance, "
+                    f"decelerate_on_cancel nor one of the controller's joints {joints}",
                 )
         raw["trajectory_tolerance"] = trajectory_tolerance
         raw["goal_tolerance"] = goal_tolerance
+        raw["max_deceleration_on_cancel"] = deceleration
         gains = raw.get("gains")
         if gains is not None:
             if not isinstance(gains, dict):
@@ -831,6 +850,9 @@ class JointTrajectoryController(Controller):
                 f"Command timeout must be higher than goal_time tolerance "
                 f"({params.cmd_timeout:f} vs. {params.goal_time:f})",
             )
+        # [rad/s^2] upstream's should_decelerate_on_cancel_ and max_decel_: per joint the
+        # deceleration of the stop after an abort, or None to hold the measured position.
+        self._deceleration = self._Deceleration(params, joints)
         # [rad, rad/s] bounds of [q_d; v_d]: the position limits, velocities unbounded.
         self._state_lower = np.concatenate([self.lower, np.full(self.n, -np.inf)])
         self._state_upper = np.concatenate([self.upper, np.full(self.n, np.inf)])
@@ -843,6 +865,65 @@ class JointTrajectoryController(Controller):
         # or effort; velocity alone with open_loop_control writes the desired velocity).
         if (commands == ["velocity"] and not params.open_loop_control) or commands == ["effort"]:
             self._pid = _pid_arrays([params.gains.get(joint, JointGains()) for joint in names])
+
+    def _Deceleration(self, params, joints) -> np.ndarray | None:
+        """Upstream's on_configure check of decelerate_on_cancel: every joint needs a
+        max_deceleration_on_cancel > 0 and a URDF velocity limit > 0, and the controller a
+        velocity state interface; else it logs why and holds the position on an abort."""
+        if not params.decelerate_on_cancel:
+            return None
+        deceleration = np.array(
+            [params.max_deceleration_on_cancel.get(name, 0.0) for name in self.joint_names]
+        )
+        for name, decel, limit in zip(self.joint_names, deceleration, joints.velocity, strict=True):
+            if decel <= 0.0:
+                problem = f"invalid max_deceleration_on_cancel [{decel:.1f}]"
+            elif not 0.0 < limit < math.inf:
+                problem = f"has invalid joint velocity defined in URDF [{limit:.1f}]"
+            else:
+                continue
+            self.log_warning(
+                self.name,
+                f"Joint [{name}] {problem}. Falling back to hold position on cancel.",
+            )
+            return None
+        if "velocity" not in params.state_interfaces:
+            self.log_warning(
+                self.name,
+                "Decelerate on cancel is enabled but hardware does not support velocity state "
+                "interface. Falling back to hold position on cancel.",
+            )
+            return None
+        return deceleration
+
+    def _StopTrajectory(self, now: float, q: np.ndarray, v: np.ndarray) -> "SampledTrajectory":
+        """Upstream's ``decelerate_to_hold_position``: from the measured ``q``, ``v`` a
+        ramp at constant deceleration to ``q + sign(v) v^2 / (2 a)``, one point per update
+        period, starting at the next update (``now`` + dt)."""
+        dt = self.update_period
+        a = self._deceleration
+        direction = np.where(v >= 0.0, 1.0, -1.0)
+        stop_time = np.abs(v) / a
+        hold = q + direction * v * v / (2.0 * a)
+        count = int(math.ceil(float(stop_time.max()) / dt)) + 1 if dt > 0 else 1
+        start = now + dt
+        points = []
+        for k in range(count):
+            t = k * dt
+            moving = (t < stop_time) & (np.abs(v) > _FLOAT_EPSILON)
+            velocity = v - direction * a * t
+            velocity = np.where(velocity * direction < 0.0, 0.0, velocity)
+            position = q + v * t - 0.5 * direction * a * t * t
+            points.append(
+                _Point(
+                    start + t,
+                    np.where(moving, position, hold),
+                    np.where(moving, velocity, 0.0),
+                    np.where(moving, -direction * a, 0.0),
+                )
+            )
+        before = _Point(start, points[0].positions, points[0].velocities, None)
+        return SampledTrajectory.build(before, points, interpolate=True)
 
     @classmethod
     def command_interface(cls, params) -> str:
@@ -937,8 +1018,8 @@ class JointTrajectoryController(Controller):
             reference = tracked.desired
         elif tracked.status.state == "executing":
             reference = tracked.trajectory.state(now)
-        else:
-            reference = tracked.trajectory.final[: 2 * n]
+        else:  # a hold (final from the start) or decelerate_on_cancel's stop
+            reference = tracked.trajectory.state(now)
         gains = self._pid
         error, error_dot = self._Error(reference[:n], q), reference[n:] - v
         pid_output, integral = np.zeros(n), state.integral.copy()
@@ -1162,9 +1243,10 @@ class JointTrajectoryController(Controller):
                 status = self.accept(status, "executing", detail)
         if status.state != "executing":
             if memory.running and trajectory is not None:
-                # An abort's hold, from the update after it.
-                hold = self._Command(trajectory.final[: 2 * n])
-                return ControllerMemory(hold, status, trajectory)
+                # An abort's hold (or decelerate_on_cancel's stop), from the update after it.
+                hold = self._Command(trajectory.state(ahead))
+                running = not trajectory.ended(ahead)
+                return ControllerMemory(hold, status, trajectory, running=running)
             if memory.running:  # activation without the command interfaces' values
                 return ControllerMemory(np.concatenate([q, np.zeros(n)]), status)
             return ControllerMemory(desired, status, trajectory, reference=memory.reference)
@@ -1226,6 +1308,11 @@ class JointTrajectoryController(Controller):
             status = dataclasses.replace(
                 status, state="aborted", last_error=outcome, detail=dict(status.detail)
             )
-            return ControllerMemory(desired, status, SampledTrajectory.hold(q.copy()), running=True)
+            stop = (
+                SampledTrajectory.hold(q.copy())
+                if self._deceleration is None
+                else self._StopTrajectory(now, q, v)
+            )
+            return ControllerMemory(desired, status, stop, running=True)
         command = self._Command(x_next)
         return ControllerMemory(command, status, trajectory, reference=(ahead, x_next))
