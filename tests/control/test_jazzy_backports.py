@@ -19,6 +19,7 @@ from armando_drake.control.controllers.joint_trajectory import (
     JointGains,
     JointTrajectoryController,
     JointTrajectoryControllerParams,
+    SpeedScaling,
 )
 from armando_drake.control.controllers.ros1 import JointPositionPidController, pid_command
 from armando_drake.control.controllers.ros1 import PidGains as Ros1PidGains
@@ -538,3 +539,67 @@ def test_decelerate_on_cancel_parameters():
     assert params.decelerate_on_cancel and params.max_deceleration_on_cancel == {"j0": 2.0}
     with pytest.raises(ControllerConfigError, match="max_deceleration_on_cancel"):
         arm_params("constraints: {j0: {max_deceleration_on_cancel: -1.0}}")
+
+
+# ----------------------------------------------------------------------------------------------
+# ros2_controllers (jazzy) speed_scaling.* (backport #2105)
+
+
+def scaled_harness(factor, commands=("position",)) -> Harness:
+    controller = JointTrajectoryController(
+        name="ctl",
+        joints=ControllerJoints.make(NAMES),
+        params=JointTrajectoryControllerParams(
+            joints=list(NAMES),
+            command_interfaces=list(commands),
+            speed_scaling=SpeedScaling(initial_scaling_factor=factor),
+            goal_tolerance={name: 0.01 for name in NAMES},
+            goal_time=0.2,
+        ),
+    )
+    return Harness(controller)
+
+
+def test_scaling_factor_from_param():
+    # test_trajectory_controller.cpp, scaling_factor_from_param (the factor read from
+    # speed_scaling.initial_scaling_factor is in effect), observed as update() uses it:
+    # traj_time_ += period * scaling_factor_, the command sampled at traj_time_ + period.
+    assert arm_params(
+        "command_interfaces: [position]\nspeed_scaling: {initial_scaling_factor: 0.123}"
+    ).speed_scaling.initial_scaling_factor == pytest.approx(0.123)
+    h = scaled_harness(0.5)
+    start = h.publish(trajectory(message_point(1.0, [1.0] * 3)))
+    h.advance(start + 0.5)  # 50 updates: the trajectory's time is 0.25 s
+    np.testing.assert_allclose(h.desired[:3], [0.25 + 0.01] * 3, atol=1e-9)
+    h.advance(start + 1.5)  # 0.75 s
+    np.testing.assert_allclose(h.desired[:3], [0.75 + 0.01] * 3, atol=1e-9)
+    assert h.status.state == "executing"
+
+
+def test_scaling_factor_zero_stops_the_trajectory():
+    # joint_trajectory_controller.cpp set_scaling_factor: 0.0 is allowed ("0.0 should work
+    # as an edge case", setting_scaling_factor_works_correctly): the trajectory's time stands.
+    h = scaled_harness(0.0)
+    start = h.publish(trajectory(message_point(1.0, [1.0] * 3)))
+    h.advance(start + 2.0)
+    np.testing.assert_allclose(h.desired[:3], [0.01] * 3, atol=1e-9)
+    assert h.status.state == "executing"
+
+
+def test_scaling_factor_only_for_position_interfaces():
+    # joint_trajectory_controller.cpp on_configure: "Speed scaling is currently only supported
+    # for position interfaces": with another command interface the factor is 1.0.
+    h = scaled_harness(0.5, commands=("position", "velocity"))
+    start = h.publish(trajectory(message_point(1.0, [1.0] * 3)))
+    h.advance(start + 0.5)
+    np.testing.assert_allclose(h.desired[:3], [0.51] * 3, atol=1e-9)
+
+
+def test_wrong_scaling_state_interface_parameter_controller_fails_activation():
+    # test_trajectory_controller.cpp, wrong_scaling_state_interface_parameter_controller_fails_
+    # activation (and the command interface's): the simulated hardware has no such interface.
+    for name in ("state_interface", "command_interface"):
+        with pytest.raises(ControllerConfigError, match=f"speed_scaling.{name}"):
+            arm_params(f"command_interfaces: [position]\nspeed_scaling: {{{name}: idontexist}}")
+    with pytest.raises(ControllerConfigError, match="initial_scaling_factor"):
+        arm_params("command_interfaces: [position]\nspeed_scaling: {initial_scaling_factor: -1}")

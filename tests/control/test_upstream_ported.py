@@ -1345,8 +1345,13 @@ arm_controller:
     [
         ("bogus: 1", "arm_controller.ros__parameters.bogus: unknown parameter"),
         (
-            "speed_scaling: {initial_scaling_factor: 0.5}",
-            "speed_scaling: not simulated: the trajectory runs at speed 1.0",
+            "speed_scaling: {state_interface: speed_scaling/speed_scaling_factor}",
+            "speed_scaling.state_interface: state_interface='speed_scaling/speed_scaling_factor'"
+            ": the simulated hardware has no speed-scaling interface",
+        ),
+        (
+            "speed_scaling_interface_name: speed_scaling/speed_scaling_factor",
+            "speed_scaling_interface_name: unknown parameter",
         ),
         ("is_async: true", "is_async: is_async=True is not simulated"),
         ("update_rate: 50", "update_rate: update_rate=50 differs from controller_manager's 100"),
@@ -1391,7 +1396,7 @@ def test_trajectory_parameters_accepted():
         "    allow_integration_in_goal_trajectories: true\n"
         "    interpolate_from_desired_state: true\n"
         "    cmd_timeout: 2.0\n"
-        "    speed_scaling_interface_name: speed_scaling/speed_scaling_factor\n"
+        "    speed_scaling: {initial_scaling_factor: 0.5}\n"
         "    gains: {j0: {p: 10.0, i: 0.1, d: 0.5, i_clamp: 1.0, ff_velocity_scale: 1.0}}\n"
         "    update_rate: 100\n"
     )

@@ -461,6 +461,9 @@ class ControllerMemory:
     # A value the controller keeps for its next update (the trajectory controller: the
     # time and [q; v] of its latest sample), if any.
     reference: Any = None
+    # [s] the trajectory time of the latest update, where it runs apart from the simulation
+    # time (the trajectory controller's speed scaling), else None.
+    clock: float | None = None
     # Whether the controller has work at every update, without a new message: a
     # trajectory being executed, or a running loop. Derived from the fields above.
     busy: bool = dataclasses.field(init=False, repr=False, compare=False)

@@ -132,6 +132,21 @@ class JointGains:
 
 
 @dataclasses.dataclass
+class SpeedScaling:
+    """Upstream's ``speed_scaling`` parameters (Jazzy, backport #2105)."""
+
+    # [-] the trajectory's time advances by this factor times the update period (>= 0;
+    # 0.5 runs it at half speed); used with command_interfaces [position] only, else 1.0.
+    initial_scaling_factor: float = 1.0
+    # The hardware's speed-scaling state interface; the simulated hardware has none, so
+    # only "" (none) is accepted.
+    state_interface: str = ""
+    # The hardware's speed-scaling command interface; the simulated hardware has none, so
+    # only "" (none) is accepted.
+    command_interface: str = ""
+
+
+@dataclasses.dataclass
 class JointTrajectoryControllerParams:
     """The parameters of ``joint_trajectory_controller/JointTrajectoryController``.
 
@@ -183,9 +198,8 @@ class JointTrajectoryControllerParams:
     # [Hz] upstream's action-status polling rate (>= 0.1); the status output here
     # changes at the update that decides it, so this rate moves nothing.
     action_monitor_rate: float = 20.0
-    # The hardware's speed-scaling state interface; the simulated hardware has none, so
-    # the trajectory runs at upstream's default scaling factor 1.0.
-    speed_scaling_interface_name: str = "speed_scaling/speed_scaling_factor"
+    # The speed scaling of the trajectory's time (upstream's speed_scaling.*).
+    speed_scaling: SpeedScaling = dataclasses.field(default_factory=lambda: SpeedScaling())
     # splines (linear / cubic / quintic per segment) | none (the next point's values).
     interpolation_method: str = "splines"
     # Accept a last point with non-zero velocities (commanded after the end).
@@ -262,6 +276,21 @@ class JointTrajectoryControllerParams:
                 gains.pid_gains().validate()
             except ValueError as error:
                 raise ParameterError(f"gains.{joint}", str(error)) from None
+        scaling = self.speed_scaling
+        if not (
+            math.isfinite(scaling.initial_scaling_factor) and scaling.initial_scaling_factor >= 0
+        ):
+            raise ParameterError(
+                "speed_scaling.initial_scaling_factor",
+                f"initial_scaling_factor={scaling.initial_scaling_factor!r} must be >= 0.0",
+            )
+        for name in ("state_interface", "command_interface"):
+            if getattr(scaling, name):
+                raise ParameterError(
+                    f"speed_scaling.{name}",
+                    f"{name}={getattr(scaling, name)!r}: the simulated hardware has no "
+                    "speed-scaling interface (upstream fails activation when it is not found)",
+                )
         if not math.isfinite(self.cmd_timeout):
             raise ParameterError("cmd_timeout", f"cmd_timeout={self.cmd_timeout!r} must be finite")
 
@@ -706,7 +735,6 @@ def _pid_arrays(gains: list[JointGains]) -> dict[str, Any]:
 # Upstream parameters the simulation cannot honour: refused with the reason.
 _REFUSED = {
     "state_publish_rate": "not a parameter of upstream's Jazzy schema (Humble's; removed)",
-    "speed_scaling": "not simulated: the trajectory runs at speed 1.0",
 }
 
 
@@ -850,6 +878,18 @@ class JointTrajectoryController(Controller):
                 f"Command timeout must be higher than goal_time tolerance "
                 f"({params.cmd_timeout:f} vs. {params.goal_time:f})",
             )
+        # [-] upstream's scaling_factor_: with position commands alone the initial scaling
+        # factor, else 1.0 (with a warning when another was given).
+        self._scaling = 1.0
+        if commands == ["position"]:
+            self._scaling = params.speed_scaling.initial_scaling_factor
+        elif params.speed_scaling.initial_scaling_factor != 1.0:
+            self.log_warning(
+                name,
+                "Speed scaling is currently only supported for position interfaces. If you want "
+                "to make use of speed scaling, please only use a position interface when "
+                "configuring this controller.",
+            )
         # [rad/s^2] upstream's should_decelerate_on_cancel_ and max_decel_: per joint the
         # deceleration of the stop after an abort, or None to hold the measured position.
         self._deceleration = self._Deceleration(params, joints)
@@ -980,7 +1020,31 @@ class JointTrajectoryController(Controller):
         # Hold the measured position read at activation (the first update).
         return dataclasses.replace(memory, running=True)
 
+    def _Scaled(self, now, message, memory, measure):
+        """Speed scaling (upstream's traj_time_): a trajectory is first sampled at the
+        update that accepts it, then its time advances by ``factor * dt`` per update while
+        the command is still sampled one (unscaled) period ahead; the tolerances and the
+        timeout count in that time too."""
+        rejected = None
+        if message is not None:
+            try:
+                self._Validate(message, now)
+            except Rejected as rejection:
+                rejected, message = str(rejection), None
+        if message is not None or memory.clock is None or not memory.busy:
+            clock = now
+        else:
+            clock = memory.clock + self.update_period * self._scaling
+        tracked = self._Track(clock, message, memory, measure)
+        if rejected is not None:
+            tracked = dataclasses.replace(tracked, status=self.reject(tracked.status, rejected))
+        if tracked.busy and tracked.clock != clock:
+            tracked = dataclasses.replace(tracked, clock=clock)
+        return tracked
+
     def update(self, now, message, memory, measure):
+        if self._scaling != 1.0:
+            return self._Scaled(now, message, memory, measure)
         if self._pid is None:
             tracked = self._Track(now, message, memory, measure)
             if not self._has_effort or tracked is memory:
