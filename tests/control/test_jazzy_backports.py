@@ -14,16 +14,20 @@ import pytest
 import yaml
 
 from armando_drake.control.config import ControllerConfigError, parse_controller_config
-from armando_drake.control.controllers import ControllerJoints, load_parameters
+from armando_drake.control.controllers import ControllerJoints, load_parameters, lookup
 from armando_drake.control.controllers.joint_trajectory import (
     JointGains,
     JointTrajectoryController,
     JointTrajectoryControllerParams,
     SpeedScaling,
 )
+from armando_drake.control.controllers.multi_interface_forward_command import (
+    MultiInterfaceForwardCommandParameters,
+)
 from armando_drake.control.controllers.ros1 import JointPositionPidController, pid_command
 from armando_drake.control.controllers.ros1 import PidGains as Ros1PidGains
 from armando_drake.control.pid import Pid, PidGains
+from armando_drake.messages.types import Float64MultiArray
 from tests.control.test_controllers import NAMES, Harness
 from tests.control.test_upstream_ported import message_point, trajectory
 
@@ -603,3 +607,86 @@ def test_wrong_scaling_state_interface_parameter_controller_fails_activation():
             arm_params(f"command_interfaces: [position]\nspeed_scaling: {{{name}: idontexist}}")
     with pytest.raises(ControllerConfigError, match="initial_scaling_factor"):
         arm_params("command_interfaces: [position]\nspeed_scaling: {initial_scaling_factor: -1}")
+
+
+# ----------------------------------------------------------------------------------------------
+# ros2_controllers (jazzy) forward_command_controller test_multi_interface_forward_command_
+# controller.cpp (MultiInterfaceForwardCommandControllerTest)
+
+MULTI = "forward_command_controller/MultiInterfaceForwardCommandController"
+
+
+def multi_config(params: str):
+    text = (
+        "controller_manager:\n  ros__parameters:\n    update_rate: 100\n"
+        f"    multi: {{type: {MULTI}}}\n"
+        f"multi:\n  ros__parameters: {params}\n"
+    )
+    return parse_controller_config(yaml.safe_load(text), "c.yaml")
+
+
+@pytest.mark.parametrize(
+    "params, message",
+    [
+        ("{interface_names: []}", "'joint' parameter is empty"),
+        ("{joint: ''}", "'joint' parameter is empty"),
+        ("{joint: joint1, interface_names: []}", "'interfaces' parameter is empty"),
+        ("{joint: joint1}", "'interfaces' parameter is empty"),
+    ],
+    ids=[
+        "JointsParameterNotSet",
+        "JointsParameterIsEmpty",
+        "InterfaceParameterEmpty",
+        "InterfaceParameterNotSet",
+    ],
+)
+def test_multi_interface_parameters(params, message):
+    # JointsParameterNotSet, InterfaceParameterNotSet, JointsParameterIsEmpty,
+    # InterfaceParameterEmpty: configure fails.
+    with pytest.raises(ControllerConfigError, match=message):
+        multi_config(params)
+
+
+def test_multi_interface_ConfigureParamsSuccess():  # noqa: N802 (upstream's name)
+    config = multi_config("{joint: joint1, interface_names: [position, velocity, effort]}")
+    params = config.controllers["multi"].params
+    assert (params.joint, params.interface_names) == ("joint1", ["position", "velocity", "effort"])
+
+
+def test_multi_interface_ActivateWithWrongInterfaceNameFails():  # noqa: N802
+    # 'acceleration' is not a command interface of the simulated joint.
+    with pytest.raises(ControllerConfigError, match="acceleration"):
+        multi_config("{joint: joint1, interface_names: [position, velocity, acceleration]}")
+
+
+def multi_harness():
+    controller = lookup(MULTI)(
+        name="ctl",
+        joints=ControllerJoints.make(["joint1"], initial_positions=[1.1]),
+        params=MultiInterfaceForwardCommandParameters(
+            joint="joint1", interface_names=["position", "velocity", "effort"]
+        ),
+    )
+    return Harness(controller)
+
+
+def multi_commands(h: Harness) -> list[float]:
+    effort = h.system.GetOutputPort("effort_command").Eval(h.context)
+    return [float(h.desired[0]), float(h.desired[1]), float(effort[0])]
+
+
+def test_multi_interface_CommandSuccessTest():  # noqa: N802 (upstream's name)
+    # CommandSuccessTest / CommandCallbackTest: each value to its interface.
+    h = multi_harness()
+    assert multi_commands(h) == [1.1, 0.0, 0.0]  # NoCommandCheckTest: nothing written
+    h.publish(Float64MultiArray(data=(10.0, 20.0, 30.0)))
+    h.step()
+    assert multi_commands(h) == [10.0, 20.0, 30.0]
+
+
+def test_multi_interface_WrongCommandCheckTest():  # noqa: N802 (upstream's name)
+    h = multi_harness()
+    h.publish(Float64MultiArray(data=(10.0, 20.0)))
+    h.step()
+    assert multi_commands(h) == [1.1, 0.0, 0.0]
+    assert h.status.last_error == "command size (2) does not match number of interfaces (3)"

@@ -42,9 +42,7 @@ Not ported, and why:
   before its assertions; our port asserts the future stamp's first segment instead).
 - test_no_hold_on_startup: Humble's start_with_holding, removed in Jazzy (#839: it always
   holds at activation, test_hold_on_startup); the parameter is refused as unknown.
-- test_multi_interface_forward_command_controller.cpp:
-  forward_command_controller/MultiInterfaceForwardCommandController is not a supported
-  controller type (loading a file naming it fails at activation, as for any unknown type).
+- test_multi_interface_forward_command_controller.cpp: ported in test_jazzy_backports.py.
 """
 
 import logging
