@@ -149,6 +149,15 @@ class ControlStack:
         """The system with the ``joint_states`` output, when a broadcaster is active."""
         return self.manager if self.broadcaster_name else None
 
+    @property
+    def joint_states_topic(self) -> str:
+        """The broadcaster's JointState topic, relative to the namespace: ``joint_states``,
+        or ``<broadcaster>/joint_states`` with its ``use_local_topics`` (``~/joint_states``)."""
+        logic = self.manager.broadcaster if self.manager is not None else None
+        if logic is not None and getattr(logic.params, "use_local_topics", False):
+            return f"{self.broadcaster_name}/joint_states"
+        return "joint_states"
+
     def entry(self, name: str) -> ControllerConfig:
         """The YAML entry of controller ``name``."""
         return self.config.controllers[name]

@@ -280,6 +280,7 @@ class Ros2Bridge(LeafSystem):
         commands: Sequence[CommandTopic] = (),
         cameras: Sequence[Any] = (),
         clock_rate: float = 0.0,
+        joint_states_topic: str = "joint_states",
     ):
         super().__init__()
         if not (math.isfinite(update_rate) and update_rate > 0):
@@ -296,7 +297,11 @@ class Ros2Bridge(LeafSystem):
         self._queue: queue.SimpleQueue = queue.SimpleQueue()
         self._received = [0] * len(self._commands)  # messages received per command topic
 
+        # The broadcaster's topic: joint_states, or <broadcaster>/joint_states
+        # (use_local_topics).
+        self._joint_states_topic = joint_states_topic
         for topic, (type_name, qos) in TOPICS.items():
+            topic = joint_states_topic if topic == "joint_states" else topic
             for sink in self._sinks:
                 sink.advertise(topic, type_name, qos)
         self._joint_states = self.DeclareAbstractInputPort(
@@ -444,7 +449,9 @@ class Ros2Bridge(LeafSystem):
             if sample.name and sample.stamp != self._last_stamp:
                 self._last_stamp = sample.stamp
                 message = joint_state_message(sample)
-                self._Publish("joint_states", "sensor_msgs/msg/JointState", message, stamp)
+                self._Publish(
+                    self._joint_states_topic, "sensor_msgs/msg/JointState", message, stamp
+                )
         if self._moving:
             tf = self._Transforms(context, self._moving, stamp)
             self._Publish("/tf", "tf2_msgs/msg/TFMessage", tf, stamp)
@@ -502,6 +509,7 @@ def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
             commands=commands,
             cameras=cameras,
             clock_rate=config.clock_rate,
+            joint_states_topic=topics.joint_states_topic,
         )
     )
     bridge.set_name("ros2_bridge")

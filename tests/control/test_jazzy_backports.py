@@ -690,3 +690,42 @@ def test_multi_interface_WrongCommandCheckTest():  # noqa: N802 (upstream's name
     h.step()
     assert multi_commands(h) == [1.1, 0.0, 0.0]
     assert h.status.last_error == "command size (2) does not match number of interfaces (3)"
+
+
+# ----------------------------------------------------------------------------------------------
+# ros2_controllers (jazzy) joint_state_broadcaster test_joint_state_broadcaster.cpp
+
+
+def broadcaster_params(raw: dict):
+    return load_parameters(lookup("joint_state_broadcaster/JointStateBroadcaster"), raw)
+
+
+def test_TestCustomInterfaceMappingIgnoredWhenVelocityInterfaceIsRequested(caplog):  # noqa: N802
+    # TestCustomInterfaceMappingIgnoredWhenVelocityInterfaceIsRequested: velocity is listed in
+    # interfaces, so its mapping to derived_velocity is ignored (configure succeeds, warns).
+    params = broadcaster_params(
+        {
+            "joints": ["joint1"],
+            "interfaces": ["velocity"],
+            "map_interface_to_joint_state": {"velocity": "derived_velocity"},
+        }
+    )
+    broadcaster = lookup("joint_state_broadcaster/JointStateBroadcaster")(
+        name="jsb", joints=ControllerJoints.make(["joint1"]), params=params
+    )
+    message = broadcaster.message(0.0, [1.0], [2.0], [3.0])
+    assert math.isnan(message.position[0]) and message.velocity == (2.0,)
+    assert "Mapping from 'derived_velocity' to interface 'velocity' will not be done" in (
+        caplog.text
+    )
+
+
+def test_TestCustomInterfaceWithoutMapping():  # noqa: N802 (upstream's name)
+    # A mapping to an interface the joints do not have maps nothing: accepted.
+    params = broadcaster_params({"map_interface_to_joint_state": {"position": "custom"}})
+    assert params.map_interface_to_joint_state.position == "custom"
+
+
+def test_JointStatePublishTestLocalTopic():  # noqa: N802 (upstream's name)
+    # JointStatePublishTestLocalTopic: use_local_topics publishes on ~/joint_states.
+    assert broadcaster_params({"use_local_topics": True}).use_local_topics
