@@ -361,7 +361,8 @@ def test_unknown_type_is_noted_and_fails_only_when_used(tmp_path, caplog):
         "task_space_controllers/OperationalSpaceInverseDynamics, "
         "vision_controllers/JointSpaceLookAtController, "
         "vision_controllers/OperationalSpaceLookAtController, "
-        "forward_command_controller/MultiInterfaceForwardCommandController"
+        "forward_command_controller/MultiInterfaceForwardCommandController, "
+        "pid_controller/PidController"
     )
 
 

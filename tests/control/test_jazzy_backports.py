@@ -24,10 +24,11 @@ from armando_drake.control.controllers.joint_trajectory import (
 from armando_drake.control.controllers.multi_interface_forward_command import (
     MultiInterfaceForwardCommandParameters,
 )
+from armando_drake.control.controllers.pid_controller import PidControllerParameters, PidDofGains
 from armando_drake.control.controllers.ros1 import JointPositionPidController, pid_command
 from armando_drake.control.controllers.ros1 import PidGains as Ros1PidGains
 from armando_drake.control.pid import Pid, PidGains
-from armando_drake.messages.types import Float64MultiArray
+from armando_drake.messages.types import Float64MultiArray, MultiDOFCommand
 from tests.control.test_controllers import NAMES, Harness
 from tests.control.test_upstream_ported import message_point, trajectory
 
@@ -729,3 +730,64 @@ def test_TestCustomInterfaceWithoutMapping():  # noqa: N802 (upstream's name)
 def test_JointStatePublishTestLocalTopic():  # noqa: N802 (upstream's name)
     # JointStatePublishTestLocalTopic: use_local_topics publishes on ~/joint_states.
     assert broadcaster_params({"use_local_topics": True}).use_local_topics
+
+
+# ----------------------------------------------------------------------------------------------
+# ros2_controllers (jazzy) pid_controller test_pid_controller.cpp (PidControllerTest), its
+# pid_controller_params.yaml (antiwindup_strategy none for every joint)
+
+
+def pid_controller(set_first=True, **gains) -> Harness:
+    gains = {"p": 1.0, "i": 2.0, "d": 3.0, "antiwindup_strategy": "none", **gains}
+    controller = lookup("pid_controller/PidController")(
+        name="ctl",
+        joints=ControllerJoints.make(["joint1"]),
+        params=PidControllerParameters(
+            dof_names=["joint1"],
+            command_interface="position",
+            reference_and_state_interfaces=["position"],
+            set_current_state_as_first_setpoint=set_first,
+            gains={"joint1": PidDofGains(**gains)},
+        ),
+    )
+    return Harness(controller, measured=np.array([1.1]))  # dof_state_values_
+
+
+def test_update_logic_feedforward_off():
+    # test_update_logic_feedforward_off: ref 101.101, state 1.1, dt 0.01: p 100.001 +
+    # d 3 * 10000.1 (the PID's own derivative), no integral at the first update.
+    h = pid_controller()
+    h.publish(MultiDOFCommand(dof_names=("joint1",), values=(101.101,), values_dot=(math.nan,)))
+    h.step()
+    assert h.desired[0] == pytest.approx(30100.301, abs=1e-5)
+
+
+def test_update_logic_angle_wraparound_on():
+    # test_update_logic_angle_wraparound_on: error wrap(10.0 - 1.1) = 8.9 - 2 pi.
+    h = pid_controller(angle_wraparound=True)
+    h.publish(MultiDOFCommand(values=(10.0,)))
+    h.step()
+    assert h.desired[0] == pytest.approx(787.6612219, abs=1e-5)
+
+
+def test_activate_set_current_state_as_first_setpoint_false():
+    # test_activate_set_current_state_as_first_setpoint_false: no reference, nothing written.
+    h = pid_controller(set_first=False)
+    h.step(3)
+    assert h.desired[0] == 0.0  # the initial command, untouched
+    h = pid_controller()
+    h.step(3)
+    assert h.desired[0] == pytest.approx(0.0)  # reference = state: zero error
+
+
+def test_pid_controller_all_parameters_set_configure_success():
+    # all_parameters_set_configure_success, from a YAML as pid_controller_params.yaml's.
+    text = (
+        "controller_manager:\n  ros__parameters:\n    update_rate: 100\n"
+        "    pid: {type: pid_controller/PidController}\n"
+        "pid:\n  ros__parameters:\n    dof_names: [joint1]\n    command_interface: position\n"
+        "    reference_and_state_interfaces: [position]\n"
+        "    gains: {joint1: {p: 1.0, i: 2.0, d: 3.0, u_clamp_max: 5.0, u_clamp_min: -5.0}}\n"
+    )
+    params = parse_controller_config(yaml.safe_load(text), "c.yaml").controllers["pid"].params
+    assert params.gains["joint1"].u_clamp_max == 5.0 and params.set_current_state_as_first_setpoint

@@ -295,6 +295,7 @@ def test_registry_knows_the_shipped_types_and_answers_by_message():
         "vision_controllers/JointSpaceLookAtController",
         "vision_controllers/OperationalSpaceLookAtController",
         "forward_command_controller/MultiInterfaceForwardCommandController",
+        "pid_controller/PidController",
     )
     assert types_accepting(Float64MultiArray, "velocity") == (
         "forward_command_controller/ForwardCommandController",

@@ -440,7 +440,8 @@ def test_an_unsupported_type_in_the_package_config_fails_only_when_activated(tmp
         "task_space_controllers/OperationalSpaceInverseDynamics, "
         "vision_controllers/JointSpaceLookAtController, "
         "vision_controllers/OperationalSpaceLookAtController, "
-        "forward_command_controller/MultiInterfaceForwardCommandController"
+        "forward_command_controller/MultiInterfaceForwardCommandController, "
+        "pid_controller/PidController"
     ), line
 
 
