@@ -2,7 +2,7 @@
 
 Reads ``trajectory_msgs/JointTrajectory`` on ``/<controller>/joint_trajectory``
 and drives its joints along it, as upstream's
-controller (ros2_controllers, Jazzy, with its PR #1306) does at every update
+controller (ros2_controllers' ``jazzy`` branch, commit ed360c97) does at every update
 ``t`` of period ``dt``:
 
 - A message is validated as upstream does, in upstream's order, and then more
@@ -37,7 +37,13 @@ controller (ros2_controllers, Jazzy, with its PR #1306) does at every update
   first sample), a joint further than its ``trajectory`` tolerance from the
   desired position aborts with "path tolerance violated". An abort (and
   ``cmd_timeout``) keeps the update's command and holds the measured position
-  from the next update on.
+  from the next update on (with ``decelerate_on_cancel``: ramps each joint from its
+  measured velocity to a stop at its ``max_deceleration_on_cancel``).
+- Activation holds the position command interface's values (PR #2356), or with
+  velocity or effort alone the measured position. ``[position, effort]`` commands the
+  positions and feeds the desired effort (sampled at ``t``) forward, without a PID.
+- ``speed_scaling.initial_scaling_factor`` (position commands alone): the trajectory's
+  time advances by ``factor * dt`` per update; ``t`` above is that time.
 """
 
 import bisect
