@@ -17,6 +17,8 @@ topic                                       type                                
 ``/camera/camera_info``                     ``sensor_msgs/msg/CameraInfo``           default
 ``/<controller>/commands`` (in)             ``std_msgs/msg/Float64MultiArray``       default
 ``/<controller>/joint_trajectory`` (in)     ``trajectory_msgs/msg/JointTrajectory``  default
+``/<controller>/speed_scaling_input`` (in)  ``control_msgs/msg/SpeedScalingFactor``  default
+``/<controller>/reference`` (in)            ``control_msgs/msg/MultiDOFCommand``     default
 =========================================== ======================================== ===========
 
 (QoS as in :data:`armando_drake.ros2.dds.QOS`; every name but ``/tf``,
@@ -56,7 +58,9 @@ from armando_drake.messages.definitions import (
     joint_state_message,
     joint_trajectory_of,
     message_definition,
+    multi_dof_command_of,
     resolve_topic,
+    speed_scaling_factor_of,
     string_message,
     transform_stamped,
 )
@@ -73,6 +77,8 @@ _log = logging.getLogger("armando_drake.ros2")
 COMMAND_TYPES: dict[str, tuple[str, Callable[[dict], Any]]] = {
     "commands": ("std_msgs/msg/Float64MultiArray", float64_multi_array_of),
     "joint_trajectory": ("trajectory_msgs/msg/JointTrajectory", joint_trajectory_of),
+    "speed_scaling_input": ("control_msgs/msg/SpeedScalingFactor", speed_scaling_factor_of),
+    "reference": ("control_msgs/msg/MultiDOFCommand", multi_dof_command_of),
 }
 # The topics the bridge publishes: ROS type and QoS profile.
 TOPICS = {

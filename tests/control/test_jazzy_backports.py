@@ -28,7 +28,12 @@ from armando_drake.control.controllers.pid_controller import PidControllerParame
 from armando_drake.control.controllers.ros1 import JointPositionPidController, pid_command
 from armando_drake.control.controllers.ros1 import PidGains as Ros1PidGains
 from armando_drake.control.pid import Pid, PidGains
-from armando_drake.messages.types import Float64MultiArray, MultiDOFCommand
+from armando_drake.messages.types import (
+    Float64MultiArray,
+    MultiDOFCommand,
+    Publication,
+    SpeedScalingFactor,
+)
 from tests.control.test_controllers import NAMES, Harness
 from tests.control.test_upstream_ported import message_point, trajectory
 
@@ -791,3 +796,28 @@ def test_pid_controller_all_parameters_set_configure_success():
     )
     params = parse_controller_config(yaml.safe_load(text), "c.yaml").controllers["pid"].params
     assert params.gains["joint1"].u_clamp_max == 5.0 and params.set_current_state_as_first_setpoint
+
+
+def publish_on(h: Harness, topic: str, message) -> None:
+    """Publishes ``message`` on the controller's further input ``topic``."""
+    port = h.system.GetInputPort(f"ctl.{topic}")
+    count = port.Eval(h.context).count if port.HasValue(h.context) else 0
+    port.FixValue(h.context, Publication(count + 1, message))
+
+
+def test_setting_scaling_factor_works_correctly(caplog):
+    # test_trajectory_controller.cpp, setting_scaling_factor_works_correctly: factors from
+    # ~/speed_scaling_input (0.0 too) take effect; a negative one is ignored with a warning.
+    h = scaled_harness(1.0)
+    publish_on(h, "speed_scaling_input", SpeedScalingFactor(0.5))
+    h.step()
+    start = h.publish(trajectory(message_point(1.0, [1.0] * 3)))
+    h.advance(start + 0.5)
+    np.testing.assert_allclose(h.desired[:3], [0.25 + 0.01] * 3, atol=1e-9)
+    publish_on(h, "speed_scaling_input", SpeedScalingFactor(-0.12))
+    h.step(10)  # still 0.5: 0.05 s more of the trajectory's time
+    np.testing.assert_allclose(h.desired[:3], [0.30 + 0.01] * 3, atol=1e-9)
+    assert "Scaling factor has to be greater or equal to 0.0 - Ignoring input!" in caplog.text
+    publish_on(h, "speed_scaling_input", SpeedScalingFactor(0.0))
+    h.step(10)  # the trajectory's time stands from the next update on
+    np.testing.assert_allclose(h.desired[:3], [0.30 + 0.01] * 3, atol=1e-9)

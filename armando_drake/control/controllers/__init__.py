@@ -464,6 +464,8 @@ class ControllerMemory:
     # [s] the trajectory time of the latest update, where it runs apart from the simulation
     # time (the trajectory controller's speed scaling), else None.
     clock: float | None = None
+    # [-] the factor by which that time runs (the trajectory controller's speed scaling).
+    speed_scaling: float = 1.0
     # Whether the controller has work at every update, without a new message: a
     # trajectory being executed, or a running loop. Derived from the fields above.
     busy: bool = dataclasses.field(init=False, repr=False, compare=False)
@@ -494,6 +496,9 @@ class Controller:
     message: ClassVar[type | None] = None  # the command message class
     topic: ClassVar[str | None] = None  # the command topic: /<controller>/<topic>
     fixed_interface: ClassVar[str | None] = None  # the interface claimed, if fixed
+    # Further input topics, by topic leaf: the message class each carries (upstream's other
+    # subscriptions); their messages go to receive(), before update().
+    extra_topics: ClassVar[dict[str, type]] = {}
     initial_state: ClassVar[str] = "holding"  # ControllerStatus.state before any command
     broadcaster: ClassVar[bool] = False  # publishes joint states instead of commanding
     type_names: ClassVar[tuple[str, ...]] = ()  # set by register()
@@ -582,6 +587,10 @@ class Controller:
         or None; ``measure(desired)`` gives the measured (q, v) [rad, rad/s] of the
         controller's joints. Returns ``memory`` itself when nothing changes."""
         raise NotImplementedError
+
+    def receive(self, topic: str, message: Any, memory: ControllerMemory) -> ControllerMemory:
+        """A message on one of :attr:`extra_topics`: the memory with it taken in."""
+        return memory
 
     def reject(self, status: ControllerStatus, reason: str) -> ControllerStatus:
         """``status`` after rejecting a message for ``reason`` (logged)."""

@@ -63,7 +63,11 @@ from armando_drake.control.controllers import (
     register,
 )
 from armando_drake.control.pid import ANTIWINDUP_STRATEGIES, PidGains, compute_command
-from armando_drake.messages.types import JointTrajectory, JointTrajectoryPoint
+from armando_drake.messages.types import (
+    JointTrajectory,
+    JointTrajectoryPoint,
+    SpeedScalingFactor,
+)
 
 # Upstream's "is this velocity zero" threshold: std::numeric_limits<float>::epsilon().
 _FLOAT_EPSILON = float(np.finfo(np.float32).eps)
@@ -887,8 +891,11 @@ class JointTrajectoryController(Controller):
         # [-] upstream's scaling_factor_: with position commands alone the initial scaling
         # factor, else 1.0 (with a warning when another was given).
         self._scaling = 1.0
+        # Upstream subscribes ~/speed_scaling_input with position commands alone.
+        self.extra_topics = {}
         if commands == ["position"]:
             self._scaling = params.speed_scaling.initial_scaling_factor
+            self.extra_topics = {"speed_scaling_input": SpeedScalingFactor}
         elif params.speed_scaling.initial_scaling_factor != 1.0:
             self.log_warning(
                 name,
@@ -1016,6 +1023,8 @@ class JointTrajectoryController(Controller):
 
     def initial_memory(self) -> ControllerMemory:
         memory = super().initial_memory()
+        if self._scaling != 1.0:
+            memory = dataclasses.replace(memory, speed_scaling=self._scaling)
         if self._pid is not None:
             # The PID runs at every update, from activation on (holding the measured
             # position read at activation: no position command interface to read).
@@ -1040,16 +1049,32 @@ class JointTrajectoryController(Controller):
         if message is not None or memory.clock is None or not memory.busy:
             clock = now
         else:
-            clock = memory.clock + self.update_period * self._scaling
+            clock = memory.clock + self.update_period * memory.speed_scaling
         tracked = self._Track(clock, message, memory, measure)
         if rejected is not None:
             tracked = dataclasses.replace(tracked, status=self.reject(tracked.status, rejected))
         if tracked.busy and tracked.clock != clock:
             tracked = dataclasses.replace(tracked, clock=clock)
+        if tracked.speed_scaling != memory.speed_scaling:
+            tracked = dataclasses.replace(tracked, speed_scaling=memory.speed_scaling)
         return tracked
 
+    def receive(self, topic, message, memory):
+        """``~/speed_scaling_input`` (upstream's set_scaling_factor): a factor >= 0 from the
+        next update on; a negative one is ignored with upstream's warning."""
+        if not isinstance(message, SpeedScalingFactor) or not math.isfinite(message.factor):
+            return dataclasses.replace(
+                memory, status=self.reject(memory.status, f"invalid speed scaling {message!r}")
+            )
+        if message.factor < 0:
+            self.log_warning(
+                self.name, "Scaling factor has to be greater or equal to 0.0 - Ignoring input!"
+            )
+            return memory
+        return dataclasses.replace(memory, speed_scaling=float(message.factor))
+
     def update(self, now, message, memory, measure):
-        if self._scaling != 1.0:
+        if memory.speed_scaling != 1.0 or memory.clock is not None:
             return self._Scaled(now, message, memory, measure)
         if self._pid is None:
             tracked = self._Track(now, message, memory, measure)

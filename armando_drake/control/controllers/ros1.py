@@ -220,6 +220,10 @@ class Ros1JointTrajectoryController(JointTrajectoryController):
         raw["allow_nonzero_velocity_at_trajectory_end"] = True
         return super().ros_layout(raw)
 
+    def __init__(self, *, name, joints, params=None):
+        super().__init__(name=name, joints=joints, params=params)
+        self.extra_topics = {}  # ROS 1's controller has no speed scaling input
+
 
 # --------------------------------------------------------------------------------------
 # effort_controllers/JointPositionController: a PID to effort
