@@ -34,6 +34,8 @@ from armando_drake.messages.types import (
     Publication,
     SpeedScalingFactor,
 )
+from armando_drake.simulation.builder import MakeWorld
+from armando_drake.simulation.scenario import ScenarioError, load_scenario
 from tests.control.test_controllers import NAMES, Harness
 from tests.control.test_upstream_ported import message_point, trajectory
 
@@ -821,3 +823,26 @@ def test_setting_scaling_factor_works_correctly(caplog):
     publish_on(h, "speed_scaling_input", SpeedScalingFactor(0.0))
     h.step(10)  # the trajectory's time stands from the next update on
     np.testing.assert_allclose(h.desired[:3], [0.30 + 0.01] * 3, atol=1e-9)
+
+
+def scenario_world(extra: str):
+    scenario = load_scenario(
+        "position",
+        "sequencer: null\nlogging: {console_rate: 0}\n"
+        "controllers: {activate: [joint_state_broadcaster, trajectory_controller], "
+        + extra
+        + "}\n",
+    )
+    return MakeWorld(scenario, quiet=True)
+
+
+def test_scaling_factor_from_scenario():
+    # scaling_factor_from_param, set from the scenario: controllers.speed_scaling overrides the
+    # YAML's speed_scaling.initial_scaling_factor; the world subscribes speed_scaling_input.
+    world = scenario_world("speed_scaling: {trajectory_controller: 0.5}")
+    (managed,) = world.controller_manager.controllers
+    assert managed.logic.initial_memory().speed_scaling == 0.5
+    assert world.controller_manager.HasInputPort("trajectory_controller.speed_scaling_input")
+    world.close()
+    with pytest.raises(ScenarioError, match="controllers.speed_scaling"):
+        scenario_world("speed_scaling: {position_controller: 0.5}")
