@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -129,8 +130,9 @@ class ControllerManager(LeafSystem):
       velocity joints, the initial position (and zero velocity) on joints no
       controller claims. Entries of effort joints are unused.
     - ``effort_command``: the commanded torques [N m] of every hardware joint
-      (n), non-zero only on effort joints; only when a controller commands
-      efforts.
+      (n), non-zero only on effort joints and on the joints of a controller that
+      feeds efforts forward (the trajectory controller's [position, effort]); only
+      when a controller commands efforts.
     - ``<controller>.status``: each controller's ControllerStatus.
     - ``<controller>.command_count``: only for a stream controller
       (``ManagedController.stream``): vector of one, the number of samples of its
@@ -192,6 +194,9 @@ class ControllerManager(LeafSystem):
         self._measured_rows = []  # per controller: (q indices, v indices) into ``state``
         self._desired_rows = []  # per controller: its [q_d; v_d] rows in ``desired_state``
         self._effort_rows = []  # per controller: its rows in ``effort_command``, or None
+        # The controllers' further topics: (controller index, topic leaf, input port); their
+        # handled counts follow the controllers' in _Memories.handled.
+        self._extra_ports: list[tuple[int, str, Any]] = []
         memories = []
         self._count_ports = []  # per controller: its "<name>.command_count" input, or None
         for controller in self._controllers:
@@ -203,6 +208,16 @@ class ControllerManager(LeafSystem):
                     f"{controller.name}.{logic.topic}", PublicationValue()
                 )
             )
+            for topic in logic.extra_topics:
+                self._extra_ports.append(
+                    (
+                        len(self._command_ports) - 1,
+                        topic,
+                        self.DeclareAbstractInputPort(
+                            f"{controller.name}.{topic}", PublicationValue()
+                        ),
+                    )
+                )
             if controller.stream and not takes_stream(logic):
                 raise ValueError(
                     f"controller {controller.name!r} ({logic.type_name()}) takes no command stream"
@@ -235,15 +250,15 @@ class ControllerManager(LeafSystem):
             )
             desired_rows = np.concatenate([rows, np.asarray(rows, dtype=int) + n]).astype(int)
             self._desired_rows.append(desired_rows)
-            self._effort_rows.append(
-                np.asarray(rows, dtype=int) if logic.interface == "effort" else None
-            )
+            self._effort_rows.append(np.asarray(rows, dtype=int) if logic.effort_output else None)
             logic.configure(update_rate=update_rate)
             memory = logic.initial_memory()
             initial[desired_rows] = memory.desired
             memories.append(memory)
         self._memory_index = self.DeclareAbstractState(
-            AbstractValue.Make(_Memories((0,) * len(memories), tuple(memories)))
+            AbstractValue.Make(
+                _Memories((0,) * (len(memories) + len(self._extra_ports)), tuple(memories))
+            )
         )
         self._desired_index = self.DeclareDiscreteState(initial)
         # [0] when the only controller's desired state is the whole desired_state.
@@ -311,6 +326,17 @@ class ControllerManager(LeafSystem):
         memories = context.get_abstract_state(self._memory_index).get_value()
         handled, items = memories.handled, memories.memories
         new_handled = new_items = None  # copies, made at the first change
+        for e, (k, topic, port) in enumerate(self._extra_ports):
+            slot = len(items) + e
+            if port.HasValue(context):
+                publication = port.Eval(context)
+                if publication.count > handled[slot]:
+                    new_handled = new_handled or list(handled)
+                    new_handled[slot] = publication.count
+                    new_items = new_items or list(items)
+                    new_items[k] = self._controllers[k].logic.receive(
+                        topic, publication.message, new_items[k]
+                    )
         x = None  # the measured state, evaluated when a controller needs it
         for k, controller in enumerate(self._controllers):
             if controller.stream:
@@ -323,13 +349,14 @@ class ControllerManager(LeafSystem):
                     new_handled = new_handled or list(handled)
                     new_handled[k] = publication.count
                     message = publication.message
-            if message is None and not items[k].busy:
+            memory = items[k] if new_items is None else new_items[k]
+            if message is None and not memory.busy:
                 continue  # nothing new and nothing running: the commands hold
             if x is None and self._state.HasValue(context):
                 x = self._state.Eval(context)
             new_items = new_items or list(items)
             new_items[k] = controller.logic.update(
-                context.get_time(), message, items[k], _Measure(x, *self._measured_rows[k])
+                context.get_time(), message, memory, _Measure(x, *self._measured_rows[k])
             )
         if new_handled is None and new_items is None:
             return DID_NOTHING

@@ -95,8 +95,7 @@ def parameter_rows(schema: type, prefix: str = "") -> list[tuple[str, str, str, 
         if "<joint>" in name and inner is not annotation:
             annotation = inner  # one value per joint
         meaning = comments.get(field.name, "")
-        implemented = getattr(schema, "IMPLEMENTED", None)
-        if implemented is not None and field.name not in implemented:
+        if field.name in getattr(schema, "NOT_IN_JAZZY", ()):
             meaning += " Refused unless left at the default."
         default = getattr(defaults, field.name)
         if "<joint>" in name and isinstance(default, dict):

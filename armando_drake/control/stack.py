@@ -13,6 +13,7 @@ inputs by controller name, the controllers' joints, the effort state);
 
 import dataclasses as dc
 import logging
+import math
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -119,6 +120,15 @@ class ControllersConfig:
     # Rate of the controller manager [Hz], overriding the YAML's update_rate; 0 = the
     # YAML's.
     update_rate: int = param(0, unit="Hz")
+    # [-] Per trajectory controller (by name), the speed scaling factor it starts with,
+    # overriding its YAML's speed_scaling.initial_scaling_factor (>= 0; 1.0 = full speed).
+    speed_scaling: dict[str, float] = param({}, unit="-")
+
+    def check(self) -> None:
+        """Each speed scaling factor is finite and >= 0."""
+        for name, factor in self.speed_scaling.items():
+            if not (math.isfinite(factor) and factor >= 0):
+                raise Refusal(f"speed_scaling.{name}", f"={factor!r} must be >= 0")
 
 
 @dc.dataclass
@@ -148,6 +158,15 @@ class ControlStack:
     def broadcaster(self) -> ControllerManager | None:
         """The system with the ``joint_states`` output, when a broadcaster is active."""
         return self.manager if self.broadcaster_name else None
+
+    @property
+    def joint_states_topic(self) -> str:
+        """The broadcaster's JointState topic, relative to the namespace: ``joint_states``,
+        or ``<broadcaster>/joint_states`` with its ``use_local_topics`` (``~/joint_states``)."""
+        logic = self.manager.broadcaster if self.manager is not None else None
+        if logic is not None and getattr(logic.params, "use_local_topics", False):
+            return f"{self.broadcaster_name}/joint_states"
+        return "joint_states"
 
     def entry(self, name: str) -> ControllerConfig:
         """The YAML entry of controller ``name``."""
@@ -332,7 +351,7 @@ def AddControllerManager(
         config=controller_config,
         update_rate=update_rate,
     )
-    broadcaster, managed = _activate(stack, config.activate, where)
+    broadcaster, managed = _activate(stack, config.activate, where, config.speed_scaling)
     if broadcaster is None and not managed:
         return stack
     stack.stream_controller = stream_controller(sequencer, managed, stack)
@@ -360,8 +379,10 @@ def AddControllerManager(
     return stack
 
 
-def _activate(stack: ControlStack, activate: Sequence[str], where: str):
-    """(the broadcaster or None, the managed command controllers) of ``activate``."""
+def _activate(stack: ControlStack, activate: Sequence[str], where: str, speed_scaling=None):
+    """(the broadcaster or None, the managed command controllers) of ``activate``;
+    ``speed_scaling`` overrides the named controllers' initial speed scaling factor."""
+    speed_scaling = dict(speed_scaling or {})
     config, hardware = stack.config, stack.hardware
     validate_joints(config, hardware.joint_names, str(stack.robot.source))
     claimed: dict[str, str] = {}
@@ -404,9 +425,17 @@ def _activate(stack: ControlStack, activate: Sequence[str], where: str):
                         f"joint {joint!r}; activate only one of them"
                     )
                 claimed[joint] = name
+            factor = speed_scaling.pop(name, None)
+            if factor is not None:
+                controller = _with_speed_scaling(controller, factor, where)
             managed.append(_managed_controller(stack, controller, joints))
         stack.controller_joints[name] = list(joints)
         _log.info("activated controller %r", name)
+    for name in speed_scaling:
+        raise ScenarioError(
+            f"{where}controllers.speed_scaling names {name!r}, which is not an activated "
+            "command controller"
+        )
     return broadcaster, managed
 
 
@@ -417,6 +446,21 @@ def controller_name(entry: str, config: ControllerManagerConfig, where: str) -> 
         return find_controller(entry, config, where)
     except LookupError as error:
         raise ScenarioError(str(error.args[0])) from None
+
+
+def _with_speed_scaling(controller: ControllerConfig, factor: float, where: str):
+    """``controller`` starting at speed scaling ``factor`` (its initial_scaling_factor)."""
+    scaling = getattr(controller.params, "speed_scaling", None)
+    if scaling is None:
+        raise ScenarioError(
+            f"{where}controllers.speed_scaling.{controller.name}: {controller.type} has no "
+            "speed scaling"
+        )
+    params = dc.replace(
+        controller.params,
+        speed_scaling=dc.replace(scaling, initial_scaling_factor=float(factor)),
+    )
+    return dc.replace(controller, params=params)
 
 
 def _managed_controller(

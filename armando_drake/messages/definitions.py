@@ -27,6 +27,8 @@ from armando_drake.messages.types import (
     JointState,
     JointTrajectory,
     JointTrajectoryPoint,
+    MultiDOFCommand,
+    SpeedScalingFactor,
 )
 
 # The ROS 2 message definitions, without comments or constants, by type name (pkg/Type).
@@ -39,6 +41,8 @@ DEFINITIONS = {
     "std_msgs/MultiArrayLayout": "std_msgs/MultiArrayDimension[] dim\nuint32 data_offset\n",
     "std_msgs/Float64MultiArray": "std_msgs/MultiArrayLayout layout\nfloat64[] data\n",
     "rosgraph_msgs/Clock": "builtin_interfaces/Time clock\n",
+    "control_msgs/SpeedScalingFactor": "float64 factor\n",
+    "control_msgs/MultiDOFCommand": "string[] dof_names\nfloat64[] values\nfloat64[] values_dot\n",
     "sensor_msgs/JointState": (
         "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\n"
         "float64[] effort\n"
@@ -278,6 +282,20 @@ def _floats(values: Sequence[float]) -> tuple[float, ...]:
 def float64_multi_array_of(message: Any) -> Float64MultiArray:
     """Ours of a received std_msgs/Float64MultiArray (dictionary or DDS message)."""
     return Float64MultiArray(data=_floats(_get(message, "data")))
+
+
+def speed_scaling_factor_of(message: Any) -> SpeedScalingFactor:
+    """Ours of a received control_msgs/SpeedScalingFactor (dictionary or DDS message)."""
+    return SpeedScalingFactor(factor=float(_get(message, "factor")))
+
+
+def multi_dof_command_of(message: Any) -> MultiDOFCommand:
+    """Ours of a received control_msgs/MultiDOFCommand (dictionary or DDS message)."""
+    return MultiDOFCommand(
+        dof_names=tuple(str(name) for name in _get(message, "dof_names")),
+        values=_floats(_get(message, "values")),
+        values_dot=_floats(_get(message, "values_dot")),
+    )
 
 
 def joint_trajectory_of(message: Any) -> JointTrajectory:

@@ -61,6 +61,29 @@ class Float64:
 
 
 @dataclass(frozen=True)
+class SpeedScalingFactor:
+    """control_msgs/SpeedScalingFactor: the trajectory controller's speed scaling input."""
+
+    factor: float = 1.0  # [-] >= 0; 1.0 = full speed
+
+    def __deepcopy__(self, memo):
+        return self  # immutable: see the module docstring
+
+
+@dataclass(frozen=True)
+class MultiDOFCommand:
+    """control_msgs/MultiDOFCommand: a reference per degree of freedom, as upstream's PID
+    controller reads it."""
+
+    dof_names: tuple[str, ...] = ()
+    values: tuple[float, ...] = ()  # the references (a position [rad], a velocity, ...)
+    values_dot: tuple[float, ...] = ()  # their rates (the second reference interface)
+
+    def __deepcopy__(self, memo):
+        return self  # immutable: see the module docstring
+
+
+@dataclass(frozen=True)
 class JointTrajectoryPoint:
     """trajectory_msgs/JointTrajectoryPoint."""
 

@@ -356,6 +356,7 @@ def AddRosbagRecorder(builder, path: str | os.PathLike, topics: WorldTopics) -> 
             cartesian_topic=f"/{task.controller if task else 'operational_space_controller'}"
             "/cartesian_trajectory",
             cameras=cameras,
+            joint_states_topic=f"/{topics.joint_states_topic}",
         )
     )
     recorder.set_name("rosbag_recorder")

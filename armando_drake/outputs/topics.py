@@ -42,5 +42,9 @@ class WorldTopics:
         return self.stack.broadcaster
 
     @property
+    def joint_states_topic(self) -> str:
+        return self.stack.joint_states_topic
+
+    @property
     def controllers(self) -> dict:
         return self.stack.controllers

@@ -17,6 +17,8 @@ topic                                       type                                
 ``/camera/camera_info``                     ``sensor_msgs/msg/CameraInfo``           default
 ``/<controller>/commands`` (in)             ``std_msgs/msg/Float64MultiArray``       default
 ``/<controller>/joint_trajectory`` (in)     ``trajectory_msgs/msg/JointTrajectory``  default
+``/<controller>/speed_scaling_input`` (in)  ``control_msgs/msg/SpeedScalingFactor``  default
+``/<controller>/reference`` (in)            ``control_msgs/msg/MultiDOFCommand``     default
 =========================================== ======================================== ===========
 
 (QoS as in :data:`armando_drake.ros2.dds.QOS`; every name but ``/tf``,
@@ -56,7 +58,9 @@ from armando_drake.messages.definitions import (
     joint_state_message,
     joint_trajectory_of,
     message_definition,
+    multi_dof_command_of,
     resolve_topic,
+    speed_scaling_factor_of,
     string_message,
     transform_stamped,
 )
@@ -75,6 +79,8 @@ _log = logging.getLogger("armando_drake.ros2")
 COMMAND_TYPES: dict[str, tuple[str, Callable[[dict], Any]]] = {
     "commands": ("std_msgs/msg/Float64MultiArray", float64_multi_array_of),
     "joint_trajectory": ("trajectory_msgs/msg/JointTrajectory", joint_trajectory_of),
+    "speed_scaling_input": ("control_msgs/msg/SpeedScalingFactor", speed_scaling_factor_of),
+    "reference": ("control_msgs/msg/MultiDOFCommand", multi_dof_command_of),
 }
 # The topics the bridge publishes: ROS type and QoS profile.
 TOPICS = {
@@ -282,6 +288,7 @@ class Ros2Bridge(LeafSystem):
         commands: Sequence[CommandTopic] = (),
         cameras: Sequence[Any] = (),
         clock_rate: float = 0.0,
+        joint_states_topic: str = "joint_states",
     ):
         super().__init__()
         if not (math.isfinite(update_rate) and update_rate > 0):
@@ -298,7 +305,11 @@ class Ros2Bridge(LeafSystem):
         self._queue: queue.SimpleQueue = queue.SimpleQueue()
         self._received = [0] * len(self._commands)  # messages received per command topic
 
+        # The broadcaster's topic: joint_states, or <broadcaster>/joint_states
+        # (use_local_topics).
+        self._joint_states_topic = joint_states_topic
         for topic, (type_name, qos) in TOPICS.items():
+            topic = joint_states_topic if topic == "joint_states" else topic
             for sink in self._sinks:
                 sink.advertise(topic, type_name, qos)
         self._joint_states = self.DeclareAbstractInputPort(
@@ -446,7 +457,9 @@ class Ros2Bridge(LeafSystem):
             if sample.name and sample.stamp != self._last_stamp:
                 self._last_stamp = sample.stamp
                 message = joint_state_message(sample)
-                self._Publish("joint_states", "sensor_msgs/msg/JointState", message, stamp)
+                self._Publish(
+                    self._joint_states_topic, "sensor_msgs/msg/JointState", message, stamp
+                )
         if self._moving:
             tf = self._Transforms(context, self._moving, stamp)
             self._Publish("/tf", "tf2_msgs/msg/TFMessage", tf, stamp)
@@ -504,6 +517,7 @@ def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
             commands=commands,
             cameras=cameras,
             clock_rate=config.clock_rate,
+            joint_states_topic=topics.joint_states_topic,
         )
     )
     bridge.set_name("ros2_bridge")

@@ -286,8 +286,8 @@ GOOD_PARAMS = "    joints: [j0, j1]"
             + "\n    command_interfaces: [position]\n    state_interfaces: [position]"
             + "\n    constraints: {j7: {goal: 0.1}}",
             "pos.ros__parameters.constraints.j7",
-            "'j7' is neither goal_time, stopped_velocity_tolerance nor one of the "
-            "controller's joints ['j0', 'j1']",
+            "'j7' is neither goal_time, stopped_velocity_tolerance, decelerate_on_cancel nor "
+            "one of the controller's joints ['j0', 'j1']",
         ),
         (
             "100",
@@ -360,7 +360,9 @@ def test_unknown_type_is_noted_and_fails_only_when_used(tmp_path, caplog):
         "task_space_controllers/JointSpaceInverseDynamics, "
         "task_space_controllers/OperationalSpaceInverseDynamics, "
         "vision_controllers/JointSpaceLookAtController, "
-        "vision_controllers/OperationalSpaceLookAtController"
+        "vision_controllers/OperationalSpaceLookAtController, "
+        "forward_command_controller/MultiInterfaceForwardCommandController, "
+        "pid_controller/PidController"
     )
 
 

@@ -403,15 +403,20 @@ def test_trajectory_controller_rejection_keeps_running_trajectory():
 
 
 def test_trajectory_controller_holds_on_start_up():
-    """The command interfaces' values, when upstream can read the whole state from them
-    (a position command interface and no velocity state interface without a velocity
-    command interface); else the measured position read at activation."""
+    """The position command interface's values, whatever the state interfaces (upstream's
+    PR #2356); without set_last_command_interface_value_as_state_on_activation, the
+    measured position read at activation."""
     harness = trajectory_harness(initial=(0.3, -0.3, 1.0), state_interfaces=["position"])
     harness.set_measured(np.array([0.1, 0.1, 0.1]))
     harness.advance(0.5)
     np.testing.assert_array_equal(harness.desired, [0.3, -0.3, 1.0, 0.0, 0.0, 0.0])
     assert (harness.status.state, harness.status.accepted) == ("idle", 0)
-    measured = trajectory_harness(initial=(0.3, -0.3, 1.0))  # measured zeros at activation
+    commanded = trajectory_harness(initial=(0.3, -0.3, 1.0))  # with a velocity state
+    commanded.advance(0.5)
+    np.testing.assert_array_equal(commanded.desired, [0.3, -0.3, 1.0, 0.0, 0.0, 0.0])
+    measured = trajectory_harness(  # measured zeros at activation
+        initial=(0.3, -0.3, 1.0), set_last_command_interface_value_as_state_on_activation=False
+    )
     measured.advance(0.5)
     np.testing.assert_array_equal(measured.desired, [0.0] * 6)
 

@@ -294,10 +294,13 @@ def test_registry_knows_the_shipped_types_and_answers_by_message():
         "task_space_controllers/OperationalSpaceInverseDynamics",
         "vision_controllers/JointSpaceLookAtController",
         "vision_controllers/OperationalSpaceLookAtController",
+        "forward_command_controller/MultiInterfaceForwardCommandController",
+        "pid_controller/PidController",
     )
     assert types_accepting(Float64MultiArray, "velocity") == (
         "forward_command_controller/ForwardCommandController",
         "velocity_controllers/JointGroupVelocityController",
+        "forward_command_controller/MultiInterfaceForwardCommandController",
     )
     assert types_accepting(JointTrajectory) == (
         "joint_trajectory_controller/JointTrajectoryController",

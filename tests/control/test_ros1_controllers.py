@@ -186,9 +186,9 @@ def test_gazebo_ros_control_pid_gains_are_the_position_actuator_gains(tmp_path, 
         ),
         (
             "pid:\n  type: effort_controllers/JointPositionController\n  joint: j1\n"
-            "  pid: {p: -1.0}\n",
+            "  pid: {p: .inf}\n",
             "pid.pid.p",
-            "p=-1.0 must be >= 0",
+            "p=inf must be finite",
         ),
         (
             "traj:\n  type: position_controllers/JointTrajectoryController\n  joints: [j0]\n"
@@ -216,7 +216,7 @@ def test_gazebo_ros_control_pid_gains_are_the_position_actuator_gains(tmp_path, 
         ),
     ],
     ids=["publish-rate-missing", "publish-rate-zero", "p-missing", "joint-missing",
-         "p-negative", "ros2-parameter", "trajectory-gains-missing", "trajectory-gains-unknown",
+         "p-not-finite", "ros2-parameter", "trajectory-gains-missing", "trajectory-gains-unknown",
          "gazebo-p-missing"],
 )  # fmt: skip
 def test_bad_ros1_parameters_name_file_and_key(tmp_path, controller, key, message):
@@ -229,7 +229,9 @@ def test_bad_ros1_parameters_name_file_and_key(tmp_path, controller, key, messag
 def pid_controller(raw: dict, effort_limit: float = 1e4) -> JointPositionPidController:
     params = load_parameters(JointPositionPidController, {"joint": "j", **raw})
     joints = ControllerJoints.make(["j"], lower=[-1.0], upper=[1.0], effort=[effort_limit])
-    return JointPositionPidController(name="pid", joints=joints, params=params)
+    controller = JointPositionPidController(name="pid", joints=joints, params=params)
+    controller.configure(update_rate=1000)  # the 1 ms steps below
+    return controller
 
 
 def measured(q: float):
@@ -437,7 +439,9 @@ def test_an_unsupported_type_in_the_package_config_fails_only_when_activated(tmp
         "task_space_controllers/JointSpaceInverseDynamics, "
         "task_space_controllers/OperationalSpaceInverseDynamics, "
         "vision_controllers/JointSpaceLookAtController, "
-        "vision_controllers/OperationalSpaceLookAtController"
+        "vision_controllers/OperationalSpaceLookAtController, "
+        "forward_command_controller/MultiInterfaceForwardCommandController, "
+        "pid_controller/PidController"
     ), line
 
 

@@ -42,9 +42,7 @@ Not ported, and why:
   before its assertions; our port asserts the future stamp's first segment instead).
 - test_no_hold_on_startup: Humble's start_with_holding, removed in Jazzy (#839: it always
   holds at activation, test_hold_on_startup); the parameter is refused as unknown.
-- test_multi_interface_forward_command_controller.cpp:
-  forward_command_controller/MultiInterfaceForwardCommandController is not a supported
-  controller type (loading a file naming it fails at activation, as for any unknown type).
+- test_multi_interface_forward_command_controller.cpp: ported in test_jazzy_backports.py.
 """
 
 import logging
@@ -569,15 +567,16 @@ def test_hold_on_startup():
     np.testing.assert_array_equal(h.desired, [0.1, 0.2, 0.3, 0.0, 0.0, 0.0])
 
 
-# (command_interfaces, state_interfaces) -> whether upstream's on_activate reads the state
-# from the command interfaces (read_state_from_command_interfaces succeeds)
+# (command_interfaces, state_interfaces) -> whether upstream's on_activate reads the positions
+# from the command interfaces (update_state_from_command_interfaces, PR #2356: whenever the
+# position command interface holds values)
 OFFSET_CASES = [
     (["position"], ["position"], True),
-    (["position"], ["position", "velocity"], False),
-    (["position"], ["position", "velocity", "acceleration"], False),
+    (["position"], ["position", "velocity"], True),
+    (["position"], ["position", "velocity", "acceleration"], True),
     (["position", "velocity"], ["position"], True),
     (["position", "velocity"], ["position", "velocity"], True),
-    (["position", "velocity"], ["position", "velocity", "acceleration"], False),
+    (["position", "velocity"], ["position", "velocity", "acceleration"], True),
     (["position", "velocity", "acceleration"], ["position", "velocity", "acceleration"], True),
     (["velocity"], ["position", "velocity"], False),
     (["effort"], ["position", "velocity"], False),
@@ -587,10 +586,9 @@ OFFSET_CASES = [
 @pytest.mark.parametrize("commands, states, from_commands", OFFSET_CASES)
 def test_hw_states_has_offset_later_controller_start(commands, states, from_commands):
     """open_loop_control, the command interfaces holding values (3.1, 4.1, 5.1) that differ
-    from the measured state: the state at activation is the command interfaces' only when
-    every interface the state has can be read from a command interface; else the state
-    interfaces'. Observed through the first trajectory's start (open loop: from that
-    state) and the hold at activation."""
+    from the measured state: the positions at activation are the position command
+    interface's whenever there is one; else the state interfaces'. Observed through the
+    first trajectory's start (open loop: from that state) and the hold at activation."""
     initial = (3.1, 4.1, 5.1)
     controller = JointTrajectoryController(
         name="ctl",
@@ -1345,8 +1343,13 @@ arm_controller:
     [
         ("bogus: 1", "arm_controller.ros__parameters.bogus: unknown parameter"),
         (
-            "speed_scaling: {initial_scaling_factor: 0.5}",
-            "speed_scaling: not simulated: the trajectory runs at speed 1.0",
+            "speed_scaling: {state_interface: speed_scaling/speed_scaling_factor}",
+            "speed_scaling.state_interface: state_interface='speed_scaling/speed_scaling_factor'"
+            ": the simulated hardware has no speed-scaling interface",
+        ),
+        (
+            "speed_scaling_interface_name: speed_scaling/speed_scaling_factor",
+            "speed_scaling_interface_name: unknown parameter",
         ),
         ("is_async: true", "is_async: is_async=True is not simulated"),
         ("update_rate: 50", "update_rate: update_rate=50 differs from controller_manager's 100"),
@@ -1357,13 +1360,13 @@ arm_controller:
         ),
         (
             "command_interfaces: [effort]\nstate_interfaces: [position]",
-            "'effort' command interface can only be used alone if 'velocity' and 'position' "
-            "state interfaces are present",
+            "'effort' command interface can only be used alone or with 'position' command "
+            "interface if 'velocity' and 'position' state interfaces are present",
         ),
         ("command_interfaces: [acceleration]", "'acceleration' command interface can only be"),
         (
-            "command_interfaces: [position, effort]",
-            "'effort' command interface has to be used alone",
+            "command_interfaces: [position, velocity, effort]",
+            "'effort' command interface has to be used alone or with a 'position' interface",
         ),
         ("state_interfaces: [velocity]", "has no 'position' state interface"),
         ("interpolation_method: cubic", "unknown method 'cubic'"),
@@ -1391,7 +1394,7 @@ def test_trajectory_parameters_accepted():
         "    allow_integration_in_goal_trajectories: true\n"
         "    interpolate_from_desired_state: true\n"
         "    cmd_timeout: 2.0\n"
-        "    speed_scaling_interface_name: speed_scaling/speed_scaling_factor\n"
+        "    speed_scaling: {initial_scaling_factor: 0.5}\n"
         "    gains: {j0: {p: 10.0, i: 0.1, d: 0.5, i_clamp: 1.0, ff_velocity_scale: 1.0}}\n"
         "    update_rate: 100\n"
     )

@@ -163,8 +163,11 @@ def test_payloads_on_the_wire_equal_rosbags_cdr():
 
 
 # Messages of packages outside ROS 2 Jazzy's core set, with their fields as the
-# package's .msg files list them (Universal Robots' cartesian_control_msgs).
+# package's .msg files list them (Universal Robots' cartesian_control_msgs, ros2_control's
+# control_msgs).
 NOT_IN_JAZZY = {
+    "control_msgs/msg/MultiDOFCommand": ["dof_names", "values", "values_dot"],
+    "control_msgs/msg/SpeedScalingFactor": ["factor"],
     "cartesian_control_msgs/msg/CartesianPosture": [
         "posture_joint_names", "posture_joint_values"
     ],

@@ -461,6 +461,11 @@ class ControllerMemory:
     # A value the controller keeps for its next update (the trajectory controller: the
     # time and [q; v] of its latest sample), if any.
     reference: Any = None
+    # [s] the trajectory time of the latest update, where it runs apart from the simulation
+    # time (the trajectory controller's speed scaling), else None.
+    clock: float | None = None
+    # [-] the factor by which that time runs (the trajectory controller's speed scaling).
+    speed_scaling: float = 1.0
     # Whether the controller has work at every update, without a new message: a
     # trajectory being executed, or a running loop. Derived from the fields above.
     busy: bool = dataclasses.field(init=False, repr=False, compare=False)
@@ -491,6 +496,9 @@ class Controller:
     message: ClassVar[type | None] = None  # the command message class
     topic: ClassVar[str | None] = None  # the command topic: /<controller>/<topic>
     fixed_interface: ClassVar[str | None] = None  # the interface claimed, if fixed
+    # Further input topics, by topic leaf: the message class each carries (upstream's other
+    # subscriptions); their messages go to receive(), before update().
+    extra_topics: ClassVar[dict[str, type]] = {}
     initial_state: ClassVar[str] = "holding"  # ControllerStatus.state before any command
     broadcaster: ClassVar[bool] = False  # publishes joint states instead of commanding
     type_names: ClassVar[tuple[str, ...]] = ()  # set by register()
@@ -513,6 +521,12 @@ class Controller:
     def command_interface(cls, params) -> str | None:
         """The command interface the controller claims on each of its joints."""
         return cls.fixed_interface
+
+    @classmethod
+    def commands_effort(cls, params) -> bool:
+        """Whether it writes efforts [N m] (its memory's ``effort``): on the effort
+        interface, or as a feed-forward torque added to another interface's actuator."""
+        return cls.command_interface(params) == "effort"
 
     @classmethod
     def position_targets(cls, params) -> bool:
@@ -541,10 +555,12 @@ class Controller:
         self.lower, self.upper = joints.lower, joints.upper
         self.params = params if params is not None else self.default_parameters(joints)
         self.interface = self.command_interface(self.params)
+        # Whether its memory has efforts [N m] (the effort interface, or a feed-forward).
+        self.effort_output = self.commands_effort(self.params)
         self._initial = ControllerMemory(
             desired=np.concatenate([joints.initial_positions, np.zeros(n)]),
             status=ControllerStatus(state=self.initial_state),
-            effort=np.zeros(n) if self.interface == "effort" else None,
+            effort=np.zeros(n) if self.effort_output else None,
         )
 
     @classmethod
@@ -571,6 +587,10 @@ class Controller:
         or None; ``measure(desired)`` gives the measured (q, v) [rad, rad/s] of the
         controller's joints. Returns ``memory`` itself when nothing changes."""
         raise NotImplementedError
+
+    def receive(self, topic: str, message: Any, memory: ControllerMemory) -> ControllerMemory:
+        """A message on one of :attr:`extra_topics`: the memory with it taken in."""
+        return memory
 
     def reject(self, status: ControllerStatus, reason: str) -> ControllerStatus:
         """``status`` after rejecting a message for ``reason`` (logged)."""

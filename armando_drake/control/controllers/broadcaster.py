@@ -32,11 +32,14 @@ _DEFAULT_MAPPING = {"position": "position", "velocity": "velocity", "effort": "e
 class InterfaceMapping:
     """``map_interface_to_joint_state``: the state interface behind each JointState field."""
 
-    # Interface published as JointState.position; only "position" is simulated.
+    # Interface published as JointState.position (ignored when position is listed in
+    # interfaces; a name the joints do not have publishes their position interface).
     position: str = "position"
-    # Interface published as JointState.velocity; only "velocity" is simulated.
+    # Interface published as JointState.velocity (ignored when velocity is listed in
+    # interfaces; a name the joints do not have publishes their velocity interface).
     velocity: str = "velocity"
-    # Interface published as JointState.effort; only "effort" is simulated.
+    # Interface published as JointState.effort (ignored when effort is listed in
+    # interfaces; a name the joints do not have publishes their effort interface).
     effort: str = "effort"
 
 
@@ -53,15 +56,15 @@ class JointStateBroadcasterParameters:
     # Names appended to JointState with zero position, velocity and effort (joints the
     # hardware does not have, e.g. a passive gripper finger).
     extra_joints: list[str] = dataclasses.field(default_factory=list)
-    # Publish on ~/joint_states instead of /joint_states; only false is simulated (the
-    # DDS bridge publishes /joint_states).
+    # Publish on ~/joint_states (<broadcaster>/joint_states in the robot's namespace)
+    # instead of joint_states.
     use_local_topics: bool = False
     # Publish only joints the URDF has; every simulated joint is a URDF joint, so both
     # values publish the same.
     use_urdf_to_filter: bool = True
     # JointState header.frame_id; only upstream's default base_link is simulated.
     frame_id: str = "base_link"
-    # The state interface behind each JointState field; only the identity is simulated.
+    # The state interface behind each JointState field (upstream's mapping).
     map_interface_to_joint_state: InterfaceMapping = dataclasses.field(
         default_factory=InterfaceMapping
     )
@@ -81,25 +84,27 @@ class JointStateBroadcasterParameters:
                     f"({', '.join(_DEFAULT_MAPPING.values())}); upstream's activation fails on "
                     "an interface the hardware does not export",
                 )
-        if self.use_local_topics:
-            raise ParameterError(
-                "use_local_topics",
-                "not simulated: the DDS bridge publishes /joint_states (use_local_topics: false)",
-            )
         if self.frame_id != "base_link":
             raise ParameterError(
                 "frame_id",
                 f"frame_id={self.frame_id!r} is not simulated: JointState carries upstream's "
                 "default base_link",
             )
-        for field, interface in _DEFAULT_MAPPING.items():
+        for field in _DEFAULT_MAPPING:
             given = getattr(self.map_interface_to_joint_state, field)
-            if given != interface:
-                raise ParameterError(
-                    f"map_interface_to_joint_state.{field}",
-                    f"{given!r} is not simulated: the hardware's {field} interface is "
-                    f"published as JointState.{field}",
-                )
+            # Upstream's get_map_interface_parameter: a field listed in interfaces keeps its
+            # own interface (the mapping ignored, with a warning); else the interface named
+            # is published in its place. The simulated joints' state interfaces are
+            # position, velocity and effort: another name maps nothing (every joint keeps
+            # publishing its own), a name listed in interfaces is refused above.
+            if given == field or field in self.interfaces or given not in _DEFAULT_MAPPING:
+                continue
+            raise ParameterError(
+                f"map_interface_to_joint_state.{field}",
+                f"{given!r} is not simulated: publishing the {given} interface as "
+                f"JointState.{field} (in the {given} field too) mixes two interfaces in one "
+                "field",
+            )
 
     @property
     def all_interfaces(self) -> bool:
@@ -142,6 +147,15 @@ class JointStateBroadcaster(Controller):
         # Which standard interfaces are published (the others are NaN).
         self._published = {field: every or field in listed for field in _DEFAULT_MAPPING}
         self._extra = tuple(getattr(params, "extra_joints", ()))
+        mapping = getattr(params, "map_interface_to_joint_state", None)
+        for field in _DEFAULT_MAPPING if mapping is not None else ():
+            given = getattr(mapping, field)
+            if given != field and field in listed:
+                self.log_warning(
+                    name,
+                    f"Mapping from '{given}' to interface '{field}' will not be done, because "
+                    f"'{field}' is defined in 'interface' parameter.",
+                )
         self.names = self.joint_names + self._extra  # the JointState names
 
     def initial_message(self) -> JointState:

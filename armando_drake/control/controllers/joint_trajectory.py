@@ -2,7 +2,7 @@
 
 Reads ``trajectory_msgs/JointTrajectory`` on ``/<controller>/joint_trajectory``
 and drives its joints along it, as upstream's
-controller (ros2_controllers, Jazzy, with its PR #1306) does at every update
+controller (ros2_controllers' ``jazzy`` branch, commit ed360c97) does at every update
 ``t`` of period ``dt``:
 
 - A message is validated as upstream does, in upstream's order, and then more
@@ -37,7 +37,13 @@ controller (ros2_controllers, Jazzy, with its PR #1306) does at every update
   first sample), a joint further than its ``trajectory`` tolerance from the
   desired position aborts with "path tolerance violated". An abort (and
   ``cmd_timeout``) keeps the update's command and holds the measured position
-  from the next update on.
+  from the next update on (with ``decelerate_on_cancel``: ramps each joint from its
+  measured velocity to a stop at its ``max_deceleration_on_cancel``).
+- Activation holds the position command interface's values (PR #2356), or with
+  velocity or effort alone the measured position. ``[position, effort]`` commands the
+  positions and feeds the desired effort (sampled at ``t``) forward, without a PID.
+- ``speed_scaling.initial_scaling_factor`` (position commands alone): the trajectory's
+  time advances by ``factor * dt`` per update; ``t`` above is that time.
 """
 
 import bisect
@@ -56,7 +62,12 @@ from armando_drake.control.controllers import (
     non_negative,
     register,
 )
-from armando_drake.messages.types import JointTrajectory, JointTrajectoryPoint
+from armando_drake.control.pid import ANTIWINDUP_STRATEGIES, PidGains, compute_command
+from armando_drake.messages.types import (
+    JointTrajectory,
+    JointTrajectoryPoint,
+    SpeedScalingFactor,
+)
 
 # Upstream's "is this velocity zero" threshold: std::numeric_limits<float>::epsilon().
 _FLOAT_EPSILON = float(np.finfo(np.float32).eps)
@@ -68,14 +79,13 @@ INTERPOLATION_METHODS = ("splines", "none")
 
 @dataclasses.dataclass
 class JointGains:
-    """Upstream's PID gains of one joint (``gains.<joint>``), as its schema has them.
-    Used only with a velocity-only or an effort command interface; the gains beyond p, i,
-    d, i_clamp and ff_velocity_scale are refused unless left at their defaults."""
+    """Upstream's PID gains of one joint (``gains.<joint>``), as Jazzy's schema has them,
+    for control_toolbox's PID (:mod:`armando_drake.control.pid`). Used only with a
+    velocity-only or an effort command interface."""
 
-    # The gains the simulated PID has; any other is refused unless left at its default
-    # (the README's parameter table says so).
-    IMPLEMENTED: ClassVar[frozenset[str]] = frozenset(
-        {"p", "i", "d", "i_clamp", "ff_velocity_scale"}
+    # Gains older schemas had and Jazzy's does not; refused unless left at the default.
+    NOT_IN_JAZZY: ClassVar[frozenset[str]] = frozenset(
+        {"normalize_error", "angle_wraparound", "antiwindup", "saturation"}
     )
 
     # [command unit/rad] proportional gain.
@@ -84,33 +94,66 @@ class JointGains:
     i: float = 0.0
     # [command unit s/rad] derivative gain.
     d: float = 0.0
-    # [command unit] symmetric bound of the integral term (Humble/Jazzy).
-    i_clamp: float = 0.0
+    # [command unit] symmetric bound of the integral term (deprecated upstream); used
+    # where i_clamp_max / i_clamp_min are infinite.
+    i_clamp: float = math.inf
+    # [command unit] upper bound of the integral term (>= 0).
+    i_clamp_max: float = math.inf
+    # [command unit] lower bound of the integral term (<= 0).
+    i_clamp_min: float = -math.inf
     # Feed-forward scale of the desired velocity.
     ff_velocity_scale: float = 0.0
-    # Normalize the position error into [-pi, pi] (deprecated upstream).
+    # [command unit] upper bound of the output.
+    u_clamp_max: float = math.inf
+    # [command unit] lower bound of the output.
+    u_clamp_min: float = -math.inf
+    # legacy | none | back_calculation | conditional_integration (control_toolbox's).
+    antiwindup_strategy: str = "legacy"
+    # [s] back_calculation's tracking time constant; 0 = sqrt(d / i), or p / i.
+    tracking_time_constant: float = 0.0
+    # [rad] no integration while |error| <= error_deadband.
+    error_deadband: float = 0.0
+    # Normalize the position error into [-pi, pi] (not in Jazzy's schema: Jazzy wraps the
+    # URDF's continuous joints).
     normalize_error: bool = False
-    # Normalize the position error into [-pi, pi] (deprecated upstream: Jazzy wraps the
+    # Normalize the position error into [-pi, pi] (not in Jazzy's schema: Jazzy wraps the
     # URDF's continuous joints).
     angle_wraparound: bool = False
-    # [command unit] upper bound of the integral term (newer control_toolbox).
-    i_clamp_max: float = math.inf
-    # [command unit] lower bound of the integral term (newer control_toolbox).
-    i_clamp_min: float = -math.inf
-    # [command unit] upper bound of the output (newer control_toolbox).
-    u_clamp_max: float = math.inf
-    # [command unit] lower bound of the output (newer control_toolbox).
-    u_clamp_min: float = -math.inf
-    # Anti-windup on (older control_toolbox).
+    # Anti-windup on (not in Jazzy's schema: Humble's control_toolbox).
     antiwindup: bool = False
-    # none | back_calculation | conditional_integration (newer control_toolbox).
-    antiwindup_strategy: str = "none"
-    # [s] back-calculation tracking time constant (newer control_toolbox).
-    tracking_time_constant: float = 0.0
-    # [rad] error below which the integral stops (newer control_toolbox).
-    error_deadband: float = 0.0
-    # Saturate the output (newer control_toolbox).
+    # Saturate the output (not in Jazzy's schema: rolling's control_toolbox).
     saturation: bool = False
+
+    def pid_gains(self) -> PidGains:
+        """The gains of control_toolbox's PID, as upstream's ``update_pids``: i_clamp_max /
+        i_clamp_min where finite, else +-i_clamp."""
+        return PidGains(
+            p=self.p,
+            i=self.i,
+            d=self.d,
+            u_max=self.u_clamp_max,
+            u_min=self.u_clamp_min,
+            i_max=self.i_clamp_max if math.isfinite(self.i_clamp_max) else self.i_clamp,
+            i_min=self.i_clamp_min if math.isfinite(self.i_clamp_min) else -self.i_clamp,
+            antiwindup_strategy=self.antiwindup_strategy,
+            tracking_time_constant=self.tracking_time_constant,
+            error_deadband=self.error_deadband,
+        )
+
+
+@dataclasses.dataclass
+class SpeedScaling:
+    """Upstream's ``speed_scaling`` parameters (Jazzy, backport #2105)."""
+
+    # [-] the trajectory's time advances by this factor times the update period (>= 0;
+    # 0.5 runs it at half speed); used with command_interfaces [position] only, else 1.0.
+    initial_scaling_factor: float = 1.0
+    # The hardware's speed-scaling state interface; the simulated hardware has none, so
+    # only "" (none) is accepted.
+    state_interface: str = ""
+    # The hardware's speed-scaling command interface; the simulated hardware has none, so
+    # only "" (none) is accepted.
+    command_interface: str = ""
 
 
 @dataclasses.dataclass
@@ -130,6 +173,8 @@ class JointTrajectoryControllerParams:
         "stopped_velocity_tolerance": "constraints.stopped_velocity_tolerance",
         "trajectory_tolerance": "constraints.<joint>.trajectory",
         "goal_tolerance": "constraints.<joint>.goal",
+        "decelerate_on_cancel": "constraints.decelerate_on_cancel",
+        "max_deceleration_on_cancel": "constraints.<joint>.max_deceleration_on_cancel",
         "gains": "gains",
     }
 
@@ -137,9 +182,10 @@ class JointTrajectoryControllerParams:
     joints: list[str] = dataclasses.field(default_factory=list)
     # Joints commanded; empty or equal to joints (other command joints are not simulated).
     command_joints: list[str] = dataclasses.field(default_factory=list)
-    # Command interfaces: [position], [position, velocity] or [position, velocity,
-    # acceleration] (the desired state's positions and velocities drive the position
-    # actuators); [velocity] or [effort]: a PID per joint on the tracking error (gains).
+    # Command interfaces: position [, velocity [, acceleration]] (the desired state's
+    # positions and velocities drive the position actuators); [position, effort] (the
+    # desired effort fed forward as torque on the position actuators); [velocity] or
+    # [effort]: a PID per joint on the tracking error (gains).
     command_interfaces: list[str] = dataclasses.field(default_factory=lambda: ["position"])
     # State interfaces read: position [, velocity [, acceleration]]; the first segment
     # starts from the measured velocity only with velocity (acceleration reads 0 rad/s^2).
@@ -156,16 +202,14 @@ class JointTrajectoryControllerParams:
     # velocities and accelerations given.
     allow_integration_in_goal_trajectories: bool = False
     # Hold the last command at activation (true) or the measured position (false). As
-    # upstream, true reads the command interfaces only when they hold the whole state: a
-    # position one, and velocity (acceleration) ones wherever velocity (acceleration) is a
-    # state interface; otherwise, and with velocity or effort alone, the measured position.
+    # upstream (PR #2356), true takes the position command interface's values whatever the
+    # state interfaces; without a position command interface, the measured position.
     set_last_command_interface_value_as_state_on_activation: bool = True
     # [Hz] upstream's action-status polling rate (>= 0.1); the status output here
     # changes at the update that decides it, so this rate moves nothing.
     action_monitor_rate: float = 20.0
-    # The hardware's speed-scaling state interface; the simulated hardware has none, so
-    # the trajectory runs at upstream's default scaling factor 1.0.
-    speed_scaling_interface_name: str = "speed_scaling/speed_scaling_factor"
+    # The speed scaling of the trajectory's time (upstream's speed_scaling.*).
+    speed_scaling: SpeedScaling = dataclasses.field(default_factory=lambda: SpeedScaling())
     # splines (linear / cubic / quintic per segment) | none (the next point's values).
     interpolation_method: str = "splines"
     # Accept a last point with non-zero velocities (commanded after the end).
@@ -182,8 +226,15 @@ class JointTrajectoryControllerParams:
     trajectory_tolerance: dict[str, float] = dataclasses.field(default_factory=dict)
     # [rad] per joint: allowed |measured - desired| after the end; absent or 0 = unchecked.
     goal_tolerance: dict[str, float] = dataclasses.field(default_factory=dict)
+    # On an abort (path or goal tolerance, cmd_timeout) stop at each joint's
+    # max_deceleration_on_cancel from the measured velocity instead of holding the measured
+    # position; needs a velocity state interface, every joint's deceleration > 0 and a URDF
+    # velocity limit > 0 (else, as upstream, it holds the position).
+    decelerate_on_cancel: bool = False
+    # [rad/s^2] per joint: the deceleration of decelerate_on_cancel; absent or 0 = none.
+    max_deceleration_on_cancel: dict[str, float] = dataclasses.field(default_factory=dict)
     # Per joint, the PID gains of a velocity-only or effort command interface
-    # (u = ff_velocity_scale v_d + p e + clamp(integral of i e, +-i_clamp) + d de/dt);
+    # (u = ff_velocity_scale v_d + control_toolbox's PID on the tracking error);
     # upstream uses none with position commands, neither do we.
     gains: dict[str, JointGains] = dataclasses.field(default_factory=dict)
 
@@ -211,23 +262,45 @@ class JointTrajectoryControllerParams:
                 "action_monitor_rate",
                 f"action_monitor_rate={self.action_monitor_rate!r} must be >= 0.1 [Hz]",
             )
-        implemented = JointGains.IMPLEMENTED
         for joint, gains in self.gains.items():
             if not isinstance(gains, JointGains):
                 continue  # a subclass's own gains (ROS 1's effort trajectory controller)
             for field in dataclasses.fields(JointGains):
                 value = getattr(gains, field.name)
-                if field.name in implemented:
-                    if not math.isfinite(value):
-                        raise ParameterError(
-                            f"gains.{joint}.{field.name}", f"{field.name}={value!r} must be finite"
-                        )
-                elif value != field.default:
+                if field.name in JointGains.NOT_IN_JAZZY and value != field.default:
                     raise ParameterError(
                         f"gains.{joint}.{field.name}",
-                        f"{field.name}={value!r} is not simulated; the PID has p, i, d, "
-                        "i_clamp and ff_velocity_scale",
+                        f"{field.name}={value!r}: not a parameter of upstream's Jazzy schema",
                     )
+                if field.name in ("p", "i", "d", "ff_velocity_scale") and not math.isfinite(value):
+                    raise ParameterError(
+                        f"gains.{joint}.{field.name}", f"{field.name}={value!r} must be finite"
+                    )
+            if gains.antiwindup_strategy not in ANTIWINDUP_STRATEGIES:
+                raise ParameterError(
+                    f"gains.{joint}.antiwindup_strategy",
+                    f"antiwindup_strategy={gains.antiwindup_strategy!r} must be one of "
+                    f"{list(ANTIWINDUP_STRATEGIES)}",
+                )
+            try:
+                gains.pid_gains().validate()
+            except ValueError as error:
+                raise ParameterError(f"gains.{joint}", str(error)) from None
+        scaling = self.speed_scaling
+        if not (
+            math.isfinite(scaling.initial_scaling_factor) and scaling.initial_scaling_factor >= 0
+        ):
+            raise ParameterError(
+                "speed_scaling.initial_scaling_factor",
+                f"initial_scaling_factor={scaling.initial_scaling_factor!r} must be >= 0.0",
+            )
+        for name in ("state_interface", "command_interface"):
+            if getattr(scaling, name):
+                raise ParameterError(
+                    f"speed_scaling.{name}",
+                    f"{name}={getattr(scaling, name)!r}: the simulated hardware has no "
+                    "speed-scaling interface (upstream fails activation when it is not found)",
+                )
         if not math.isfinite(self.cmd_timeout):
             raise ParameterError("cmd_timeout", f"cmd_timeout={self.cmd_timeout!r} must be finite")
 
@@ -250,23 +323,27 @@ def _interfaces(value: Any, allowed: tuple[str, ...], parameter: str) -> list[st
 
 
 def _check_combinations(command: list[str], state: list[str]) -> None:
-    """Upstream's interface combination rules (``validate_jtc_parameters``), then ours:
-    the simulated trajectory controller commands positions."""
-    if "effort" in command and len(command) > 1:
-        raise ParameterError(
-            "command_interfaces", "'effort' command interface has to be used alone"
-        )
+    """Upstream's interface combination rules (``validate_jtc_parameters``: effort,
+    velocity, position [velocity [acceleration]], position + effort) and on_configure's
+    state requirements, in upstream's order and words."""
     if "velocity" in command and len(command) > 1 and "position" not in command:
         raise ParameterError(
             "command_interfaces",
             "'velocity' command interface can be used either alone or 'position' command "
             "interface has to be present",
         )
-    if "acceleration" in command and not ("velocity" in command and "position" in command):
+    if "acceleration" in command and not ("velocity" in command or "position" in command):
         raise ParameterError(
             "command_interfaces",
             "'acceleration' command interface can only be used if 'velocity' and 'position' "
             "command interfaces are present",
+        )
+    if "effort" in command and not (
+        len(command) == 1 or (len(command) == 2 and "position" in command)
+    ):
+        raise ParameterError(
+            "command_interfaces",
+            "'effort' command interface has to be used alone or with a 'position' interface",
         )
     if "position" not in state:
         raise ParameterError("state_interfaces", f"{state!r} has no 'position' state interface")
@@ -276,12 +353,18 @@ def _check_combinations(command: list[str], state: list[str]) -> None:
             "'acceleration' state interface cannot be used if 'position' and 'velocity' "
             "interfaces are not present",
         )
-    alone = "velocity" if command == ["velocity"] else "effort" if "effort" in command else None
-    if alone and not ("velocity" in state and "position" in state):
+    has_both = "velocity" in state and "position" in state
+    if command == ["velocity"] and not has_both:
         raise ParameterError(
             "state_interfaces",
-            f"'{alone}' command interface can only be used alone if 'velocity' and "
+            "'velocity' command interface can only be used alone if 'velocity' and "
             "'position' state interfaces are present",
+        )
+    if "effort" in command and not has_both:
+        raise ParameterError(
+            "state_interfaces",
+            "'effort' command interface can only be used alone or with 'position' command "
+            "interface if 'velocity' and 'position' state interfaces are present",
         )
 
 
@@ -640,11 +723,28 @@ class SampledTrajectory:
         )
 
 
+def _pid_arrays(gains: list[JointGains]) -> dict[str, Any]:
+    """The joints' PIDs as arrays: ``ff`` the feed-forward scales, ``pids`` per
+    anti-windup strategy the joints' indices and their gains (one PID per joint)."""
+    pids = []
+    for strategy in ANTIWINDUP_STRATEGIES:
+        joints = [j for j, g in enumerate(gains) if g.antiwindup_strategy == strategy]
+        if not joints:
+            continue
+        each = [gains[j].pid_gains() for j in joints]
+        arrays = {
+            field.name: np.array([getattr(g, field.name) for g in each], dtype=float)
+            for field in dataclasses.fields(PidGains)
+            if field.name not in ("antiwindup_strategy", "legacy_antiwindup")
+        }
+        pid = PidGains(**arrays, antiwindup_strategy=strategy).checked()
+        pids.append((np.array(joints), pid))
+    return {"ff": np.array([g.ff_velocity_scale for g in gains]), "pids": pids}
+
+
 # Upstream parameters the simulation cannot honour: refused with the reason.
 _REFUSED = {
     "state_publish_rate": "not a parameter of upstream's Jazzy schema (Humble's; removed)",
-    "speed_scaling": "not simulated: the trajectory runs at speed 1.0",
-    "decelerate_on_cancel": "not a parameter of upstream's Jazzy schema (rolling's)",
 }
 
 
@@ -675,7 +775,7 @@ class JointTrajectoryController(Controller):
     def known_parameters(cls) -> frozenset[str]:
         names = {f.name for f in dataclasses.fields(cls.parameters)}
         names -= {"goal_time", "stopped_velocity_tolerance", "trajectory_tolerance"}
-        names -= {"goal_tolerance"}
+        names -= {"goal_tolerance", "decelerate_on_cancel", "max_deceleration_on_cancel"}
         return frozenset(names | {"constraints"})
 
     @classmethod
@@ -695,33 +795,44 @@ class JointTrajectoryController(Controller):
         constraints = raw.pop("constraints", None) or {}
         if not isinstance(constraints, dict):
             raise ParameterError("constraints", f"expected a mapping, got {constraints!r}")
-        trajectory_tolerance, goal_tolerance = {}, {}
+        trajectory_tolerance, goal_tolerance, deceleration = {}, {}, {}
+        per_joint = {
+            "trajectory": trajectory_tolerance,
+            "goal": goal_tolerance,
+            "max_deceleration_on_cancel": deceleration,
+        }
         for name, value in constraints.items():
             where = f"constraints.{name}"
             if name in ("goal_time", "stopped_velocity_tolerance"):
                 raw[name] = non_negative(value, where)
             elif name == "decelerate_on_cancel":
-                raise ParameterError(where, _REFUSED["decelerate_on_cancel"])
+                if not isinstance(value, bool):
+                    raise ParameterError(where, f"expected true or false, got {value!r}")
+                raw[name] = value
             elif name in joints:
                 if not isinstance(value, dict):
-                    raise ParameterError(where, f"expected 'trajectory' and 'goal', got {value!r}")
-                for tolerance, number in value.items():
-                    if tolerance == "trajectory":
-                        trajectory_tolerance[name] = non_negative(number, f"{where}.trajectory")
-                    elif tolerance == "goal":
-                        goal_tolerance[name] = non_negative(number, f"{where}.goal")
-                    else:
+                    raise ParameterError(
+                        where,
+                        f"expected 'trajectory', 'goal' and 'max_deceleration_on_cancel', "
+                        f"got {value!r}",
+                    )
+                for key, number in value.items():
+                    if key not in per_joint:
                         raise ParameterError(
-                            f"{where}.{tolerance}", "unknown tolerance; expected trajectory, goal"
+                            f"{where}.{key}",
+                            "unknown constraint; expected trajectory, goal, "
+                            "max_deceleration_on_cancel",
                         )
+                    per_joint[key][name] = non_negative(number, f"{where}.{key}")
             else:
                 raise ParameterError(
                     where,
-                    f"'{name}' is neither goal_time, stopped_velocity_tolerance nor one of the "
-                    f"controller's joints {joints}",
+                    f"'{name}' is neither goal_time, stopped_velocity_tolerance, "
+                    f"decelerate_on_cancel nor one of the controller's joints {joints}",
                 )
         raw["trajectory_tolerance"] = trajectory_tolerance
         raw["goal_tolerance"] = goal_tolerance
+        raw["max_deceleration_on_cancel"] = deceleration
         gains = raw.get("gains")
         if gains is not None:
             if not isinstance(gains, dict):
@@ -777,6 +888,24 @@ class JointTrajectoryController(Controller):
                 f"Command timeout must be higher than goal_time tolerance "
                 f"({params.cmd_timeout:f} vs. {params.goal_time:f})",
             )
+        # [-] upstream's scaling_factor_: with position commands alone the initial scaling
+        # factor, else 1.0 (with a warning when another was given).
+        self._scaling = 1.0
+        # Upstream subscribes ~/speed_scaling_input with position commands alone.
+        self.extra_topics = {}
+        if commands == ["position"]:
+            self._scaling = params.speed_scaling.initial_scaling_factor
+            self.extra_topics = {"speed_scaling_input": SpeedScalingFactor}
+        elif params.speed_scaling.initial_scaling_factor != 1.0:
+            self.log_warning(
+                name,
+                "Speed scaling is currently only supported for position interfaces. If you want "
+                "to make use of speed scaling, please only use a position interface when "
+                "configuring this controller.",
+            )
+        # [rad/s^2] upstream's should_decelerate_on_cancel_ and max_decel_: per joint the
+        # deceleration of the stop after an abort, or None to hold the measured position.
+        self._deceleration = self._Deceleration(params, joints)
         # [rad, rad/s] bounds of [q_d; v_d]: the position limits, velocities unbounded.
         self._state_lower = np.concatenate([self.lower, np.full(self.n, -np.inf)])
         self._state_upper = np.concatenate([self.upper, np.full(self.n, np.inf)])
@@ -787,24 +916,81 @@ class JointTrajectoryController(Controller):
         self._pid = None
         # (upstream's use_closed_loop_pid_adapter_: velocity alone and not open_loop_control,
         # or effort; velocity alone with open_loop_control writes the desired velocity).
-        if (commands == ["velocity"] and not params.open_loop_control) or "effort" in commands:
-            gains = [params.gains.get(joint, JointGains()) for joint in names]
-            self._pid = {
-                "p": np.array([g.p for g in gains]),
-                "i": np.array([g.i for g in gains]),
-                "d": np.array([g.d for g in gains]),
-                "i_clamp": np.array([abs(g.i_clamp) for g in gains]),
-                "ff": np.array([g.ff_velocity_scale for g in gains]),
-            }
+        if (commands == ["velocity"] and not params.open_loop_control) or commands == ["effort"]:
+            self._pid = _pid_arrays([params.gains.get(joint, JointGains()) for joint in names])
+
+    def _Deceleration(self, params, joints) -> np.ndarray | None:
+        """Upstream's on_configure check of decelerate_on_cancel: every joint needs a
+        max_deceleration_on_cancel > 0 and a URDF velocity limit > 0, and the controller a
+        velocity state interface; else it logs why and holds the position on an abort."""
+        if not params.decelerate_on_cancel:
+            return None
+        deceleration = np.array(
+            [params.max_deceleration_on_cancel.get(name, 0.0) for name in self.joint_names]
+        )
+        for name, decel, limit in zip(self.joint_names, deceleration, joints.velocity, strict=True):
+            if decel <= 0.0:
+                problem = f"invalid max_deceleration_on_cancel [{decel:.1f}]"
+            elif not 0.0 < limit < math.inf:
+                problem = f"has invalid joint velocity defined in URDF [{limit:.1f}]"
+            else:
+                continue
+            self.log_warning(
+                self.name,
+                f"Joint [{name}] {problem}. Falling back to hold position on cancel.",
+            )
+            return None
+        if "velocity" not in params.state_interfaces:
+            self.log_warning(
+                self.name,
+                "Decelerate on cancel is enabled but hardware does not support velocity state "
+                "interface. Falling back to hold position on cancel.",
+            )
+            return None
+        return deceleration
+
+    def _StopTrajectory(self, now: float, q: np.ndarray, v: np.ndarray) -> "SampledTrajectory":
+        """Upstream's ``decelerate_to_hold_position``: from the measured ``q``, ``v`` a
+        ramp at constant deceleration to ``q + sign(v) v^2 / (2 a)``, one point per update
+        period, starting at the next update (``now`` + dt)."""
+        dt = self.update_period
+        a = self._deceleration
+        direction = np.where(v >= 0.0, 1.0, -1.0)
+        stop_time = np.abs(v) / a
+        hold = q + direction * v * v / (2.0 * a)
+        count = int(math.ceil(float(stop_time.max()) / dt)) + 1 if dt > 0 else 1
+        start = now + dt
+        points = []
+        for k in range(count):
+            t = k * dt
+            moving = (t < stop_time) & (np.abs(v) > _FLOAT_EPSILON)
+            velocity = v - direction * a * t
+            velocity = np.where(velocity * direction < 0.0, 0.0, velocity)
+            position = q + v * t - 0.5 * direction * a * t * t
+            points.append(
+                _Point(
+                    start + t,
+                    np.where(moving, position, hold),
+                    np.where(moving, velocity, 0.0),
+                    np.where(moving, -direction * a, 0.0),
+                )
+            )
+        before = _Point(start, points[0].positions, points[0].velocities, None)
+        return SampledTrajectory.build(before, points, interpolate=True)
 
     @classmethod
     def command_interface(cls, params) -> str:
         """The joints' command interface: position (with velocity and acceleration
-        commands as the desired state's), or velocity or effort alone (a PID per joint
-        on the tracking error, upstream's closed-loop adapter)."""
-        if params.command_interfaces == ["velocity"]:
-            return "velocity"
-        return "effort" if "effort" in params.command_interfaces else "position"
+        commands as the desired state's, an effort command as a feed-forward torque), or
+        velocity or effort alone (a PID per joint on the tracking error, upstream's
+        closed-loop adapter)."""
+        if params.command_interfaces in (["velocity"], ["effort"]):
+            return params.command_interfaces[0]
+        return "position"
+
+    @classmethod
+    def commands_effort(cls, params) -> bool:
+        return "effort" in params.command_interfaces
 
     @classmethod
     def position_targets(cls, params) -> bool:
@@ -824,20 +1010,21 @@ class JointTrajectoryController(Controller):
         self.update_period = 1.0 / update_rate
 
     def _holds_command_values(self) -> bool:
-        """Whether activation holds the command interfaces' values (upstream's on_activate:
-        ``set_last_command_interface_value_as_state_on_activation`` and
-        ``read_state_from_command_interfaces`` succeeding, which needs a position command
-        interface, and a velocity (acceleration) command interface wherever there is a
-        velocity (acceleration) state interface); else the measured state."""
-        commands, states = self._params.command_interfaces, self._params.state_interfaces
+        """Whether activation holds the command interfaces' values (upstream's on_activate,
+        ``update_state_from_command_interfaces``, ros2_controllers PR #2356): with
+        ``set_last_command_interface_value_as_state_on_activation``, the positions come from
+        the position command interface whenever it holds values (here it always does: the
+        hardware starts it at the initial positions), whatever the state interfaces; without
+        a position command interface, from the state interfaces."""
         return (
             self._params.set_last_command_interface_value_as_state_on_activation
-            and "position" in commands
-            and all(name in commands for name in ("velocity", "acceleration") if name in states)
+            and "position" in self._params.command_interfaces
         )
 
     def initial_memory(self) -> ControllerMemory:
         memory = super().initial_memory()
+        if self._scaling != 1.0:
+            memory = dataclasses.replace(memory, speed_scaling=self._scaling)
         if self._pid is not None:
             # The PID runs at every update, from activation on (holding the measured
             # position read at activation: no position command interface to read).
@@ -848,9 +1035,60 @@ class JointTrajectoryController(Controller):
         # Hold the measured position read at activation (the first update).
         return dataclasses.replace(memory, running=True)
 
+    def _Scaled(self, now, message, memory, measure):
+        """Speed scaling (upstream's traj_time_): a trajectory is first sampled at the
+        update that accepts it, then its time advances by ``factor * dt`` per update while
+        the command is still sampled one (unscaled) period ahead; the tolerances and the
+        timeout count in that time too."""
+        rejected = None
+        if message is not None:
+            try:
+                self._Validate(message, now)
+            except Rejected as rejection:
+                rejected, message = str(rejection), None
+        if message is not None or memory.clock is None or not memory.busy:
+            clock = now
+        else:
+            clock = memory.clock + self.update_period * memory.speed_scaling
+        tracked = self._Track(clock, message, memory, measure)
+        if rejected is not None:
+            tracked = dataclasses.replace(tracked, status=self.reject(tracked.status, rejected))
+        if tracked.busy and tracked.clock != clock:
+            tracked = dataclasses.replace(tracked, clock=clock)
+        if tracked.speed_scaling != memory.speed_scaling:
+            tracked = dataclasses.replace(tracked, speed_scaling=memory.speed_scaling)
+        return tracked
+
+    def receive(self, topic, message, memory):
+        """``~/speed_scaling_input`` (upstream's set_scaling_factor): a factor >= 0 from the
+        next update on; a negative one is ignored with upstream's warning."""
+        if not isinstance(message, SpeedScalingFactor) or not math.isfinite(message.factor):
+            return dataclasses.replace(
+                memory, status=self.reject(memory.status, f"invalid speed scaling {message!r}")
+            )
+        if message.factor < 0:
+            self.log_warning(
+                self.name, "Scaling factor has to be greater or equal to 0.0 - Ignoring input!"
+            )
+            return memory
+        return dataclasses.replace(memory, speed_scaling=float(message.factor))
+
     def update(self, now, message, memory, measure):
+        if memory.speed_scaling != 1.0 or memory.clock is not None:
+            return self._Scaled(now, message, memory, measure)
         if self._pid is None:
-            return self._Track(now, message, memory, measure)
+            tracked = self._Track(now, message, memory, measure)
+            if not self._has_effort or tracked is memory:
+                return tracked
+            # command_interfaces [position, effort]: positions as with position alone, the
+            # effort command the desired state's effort at t (state_desired_.effort, no
+            # PID); the aborting update writes nothing.
+            effort = memory.effort
+            if tracked.trajectory is not None and not (
+                tracked.running and tracked.status.state == "aborted"
+            ):
+                effort = tracked.trajectory.effort(now)
+            return dataclasses.replace(tracked, effort=effort)
         # Upstream's closed-loop adapter: the trajectory tracked as with position commands,
         # then u = ff_velocity_scale v_d(t + dt) + PID(q_d(t) - q, v_d(t) - v) per joint.
         state = memory.internal
@@ -875,24 +1113,21 @@ class JointTrajectoryController(Controller):
             reference = tracked.desired
         elif tracked.status.state == "executing":
             reference = tracked.trajectory.state(now)
-        else:
-            reference = tracked.trajectory.final[: 2 * n]
+        else:  # a hold (final from the start) or decelerate_on_cancel's stop
+            reference = tracked.trajectory.state(now)
         gains = self._pid
         error, error_dot = self._Error(reference[:n], q), reference[n:] - v
-        integral = state.integral + gains["i"] * self.update_period * error
-        integral_term = np.clip(integral, -gains["i_clamp"], gains["i_clamp"])
+        pid_output, integral = np.zeros(n), state.integral.copy()
+        for joints, pid in gains["pids"]:
+            pid_output[joints], integral[joints] = compute_command(
+                pid, error[joints], error_dot[joints], self.update_period, state.integral[joints]
+            )
         # The effort sampled at t + dt (command_next_.effort), fed forward only with the
         # effort command interface.
         effort_next = np.zeros(n)
         if self._has_effort and tracked.trajectory is not None:
             effort_next = tracked.trajectory.effort(now + self.update_period)
-        command = (
-            gains["ff"] * tracked.desired[n:]
-            + effort_next
-            + gains["p"] * error
-            + integral_term
-            + gains["d"] * error_dot
-        )
+        command = gains["ff"] * tracked.desired[n:] + effort_next + pid_output
         internal = _PidState(integral, tracked.desired)
         if self.interface == "effort":
             limit = self.joints.effort
@@ -1103,9 +1338,10 @@ class JointTrajectoryController(Controller):
                 status = self.accept(status, "executing", detail)
         if status.state != "executing":
             if memory.running and trajectory is not None:
-                # An abort's hold, from the update after it.
-                hold = self._Command(trajectory.final[: 2 * n])
-                return ControllerMemory(hold, status, trajectory)
+                # An abort's hold (or decelerate_on_cancel's stop), from the update after it.
+                hold = self._Command(trajectory.state(ahead))
+                running = not trajectory.ended(ahead)
+                return ControllerMemory(hold, status, trajectory, running=running)
             if memory.running:  # activation without the command interfaces' values
                 return ControllerMemory(np.concatenate([q, np.zeros(n)]), status)
             return ControllerMemory(desired, status, trajectory, reference=memory.reference)
@@ -1167,6 +1403,11 @@ class JointTrajectoryController(Controller):
             status = dataclasses.replace(
                 status, state="aborted", last_error=outcome, detail=dict(status.detail)
             )
-            return ControllerMemory(desired, status, SampledTrajectory.hold(q.copy()), running=True)
+            stop = (
+                SampledTrajectory.hold(q.copy())
+                if self._deceleration is None
+                else self._StopTrajectory(now, q, v)
+            )
+            return ControllerMemory(desired, status, stop, running=True)
         command = self._Command(x_next)
         return ControllerMemory(command, status, trajectory, reference=(ahead, x_next))

@@ -42,7 +42,6 @@ from armando_drake.control.controllers import (
     ControllerMemory,
     ParameterError,
     Rejected,
-    non_negative,
     register,
 )
 from armando_drake.control.controllers.broadcaster import JointStateBroadcaster
@@ -221,9 +220,19 @@ class Ros1JointTrajectoryController(JointTrajectoryController):
         raw["allow_nonzero_velocity_at_trajectory_end"] = True
         return super().ros_layout(raw)
 
+    def __init__(self, *, name, joints, params=None):
+        super().__init__(name=name, joints=joints, params=params)
+        self.extra_topics = {}  # ROS 1's controller has no speed scaling input
+
 
 # --------------------------------------------------------------------------------------
 # effort_controllers/JointPositionController: a PID to effort
+
+
+def _finite(value: float, parameter: str) -> None:
+    """control_toolbox takes any gain, negative ones too; a non-finite one is refused."""
+    if not math.isfinite(value):
+        raise ParameterError(parameter, f"{parameter.rsplit('.', 1)[-1]}={value!r} must be finite")
 
 
 @dataclasses.dataclass
@@ -273,7 +282,7 @@ class JointPositionPidParameters:
         if not isinstance(gains, dict) or "p" not in gains:
             raise ParameterError("pid.p", "No p gain specified for pid")
         for name in ("p", "i", "d"):
-            non_negative(getattr(self.pid, name), f"pid.{name}")
+            _finite(getattr(self.pid, name), f"pid.{name}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -314,6 +323,13 @@ class JointPositionPidController(Controller):
     def default_parameters(cls, joints):
         return cls.parameters(joint=joints.names[0], pid=PidGains(p=1.0))
 
+    def __init__(self, *, name, joints, params=None):
+        super().__init__(name=name, joints=joints, params=params)
+        self._period = 0.0  # [s] the controller manager's update period
+
+    def configure(self, *, update_rate: int) -> None:
+        self._period = 1.0 / update_rate
+
     def initial_memory(self) -> ControllerMemory:
         return dataclasses.replace(super().initial_memory(), running=True)
 
@@ -321,8 +337,9 @@ class JointPositionPidController(Controller):
         state, status = memory.internal, memory.status
         q, _ = measure(memory.desired)
         position = float(q[0])
-        if state is None:  # the first update: hold the measured position
-            state = _PidState(position, 0.0, 0.0, now)
+        first = state is None
+        if first:  # the first update: hold the measured position
+            state = _PidState(position, 0.0, 0.0, now - self._period)
         target = state.target
         if message is not None:
             try:
@@ -345,7 +362,8 @@ class JointPositionPidController(Controller):
                 status = self.accept(status, "active", detail)
         error = target - position
         dt = now - state.last_time
-        derivative = (error - state.last_error) / dt if dt > 0 else 0.0
+        # Pid::computeCommand(error, dt): no derivative before a previous error exists.
+        derivative = (error - state.last_error) / dt if dt > 0 and not first else 0.0
         effort, integral = pid_command(self.params.pid, error, derivative, state.integral, dt)
         limit = float(self.joints.effort[0])
         return dataclasses.replace(
@@ -362,12 +380,15 @@ def pid_command(
     """control_toolbox's ``Pid::computeCommand(error, error_dot, dt)``: the command
     ``p error + i integral + d error_dot`` [N m] and the new integrated error [rad s]
     (integrated over ``dt`` [s]; with ``antiwindup`` the integrated error is bounded
-    to i_clamp / i, else the integral term to [i_min, i_max])."""
-    if dt > 0:
-        integral += dt * error
-        if gains.antiwindup and gains.i != 0:
-            bound = abs(gains.i)
-            integral = min(max(integral, gains.i_min / bound), gains.i_max / bound)
+    to ``minmax(i_min / i, i_max / i)``, else the integral term to [i_min, i_max]); 0 and
+    the integral unchanged when ``dt`` is 0 or an error is not finite, as ROS 1's."""
+    if dt == 0 or not (math.isfinite(error) and math.isfinite(error_dot)):
+        return 0.0, integral  # upstream returns 0 and integrates nothing
+    integral += dt * error
+    if gains.antiwindup and gains.i != 0:
+        # boost::minmax(i_min / i, i_max / i): a negative i swaps the bounds.
+        low, high = sorted((gains.i_min / gains.i, gains.i_max / gains.i))
+        integral = min(max(integral, low), high)
     integral_term = gains.i * integral
     if not gains.antiwindup:
         integral_term = min(max(integral_term, gains.i_min), gains.i_max)
@@ -397,7 +418,7 @@ class EffortTrajectoryParameters(JointTrajectoryControllerParams):
             if not isinstance(given.get(joint), dict) or "p" not in given[joint]:
                 raise ParameterError(f"gains.{joint}.p", "No p gain specified for pid")
             for name in ("p", "i", "d"):
-                non_negative(getattr(self.gains[joint], name), f"gains.{joint}.{name}")
+                _finite(getattr(self.gains[joint], name), f"gains.{joint}.{name}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -421,6 +442,10 @@ class EffortJointTrajectoryController(Ros1JointTrajectoryController):
     @classmethod
     def command_interface(cls, params) -> str:
         return "effort"  # its own PIDs (ROS 1's adapter), not the ROS 2 closed loop
+
+    @classmethod
+    def commands_effort(cls, params) -> bool:
+        return True
 
     @classmethod
     def known_parameters(cls) -> frozenset[str]:
@@ -452,7 +477,7 @@ class EffortJointTrajectoryController(Ros1JointTrajectoryController):
         q, v = measure(tracked.desired)
         error = tracked.desired[:n] - q
         error_dot = tracked.desired[n:] - v
-        state = memory.internal or _TrajectoryPidState(np.zeros(n), now)
+        state = memory.internal or _TrajectoryPidState(np.zeros(n), now - self.update_period)
         dt = now - state.last_time
         effort, integral = np.zeros(n), np.zeros(n)
         for j, gains in enumerate(self._gains):
