@@ -9,6 +9,7 @@ as separate entries the user can toggle in the Meshcat controls, and a
 saved ``.rviz`` file.
 """
 
+import contextlib
 import dataclasses as dc
 import os
 from collections.abc import Mapping, Sequence
@@ -107,6 +108,22 @@ def make_display(
         q = check_positions(robot, position)
         for joint, value in zip(robot.joints, q, strict=True):
             plant.GetJointByName(joint.name, robot.model_instance).set_default_positions([value])
-    visualizer.Finalize()
+    # Its LCM messages (for Meldis) on an in-process bus unless the user names one: LCM's
+    # default UDP multicast would join the machine's network interface.
+    with _lcm_in_process():
+        visualizer.Finalize()
     apply_view(visualizer.meshcat(), view)
     return visualizer, robot
+
+
+@contextlib.contextmanager
+def _lcm_in_process():
+    """LCM_DEFAULT_URL set to an in-process bus for the block, when the user set none."""
+    if "LCM_DEFAULT_URL" in os.environ:
+        yield
+        return
+    os.environ["LCM_DEFAULT_URL"] = "memq://"
+    try:
+        yield
+    finally:
+        os.environ.pop("LCM_DEFAULT_URL", None)

@@ -1,10 +1,12 @@
-"""Meshcat's world joins no multicast group: Drake's visualization publishes its LCM
-messages (for Meldis) on an in-process bus, not on LCM's default UDP multicast
-(239.255.76.67:7667), which would join the machine's network interface."""
+"""Meshcat's world and the display join no multicast group: Drake's visualization
+publishes its LCM messages (for Meldis) on an in-process bus, not on LCM's default UDP
+multicast (239.255.76.67:7667), which would join the machine's network interface."""
 
 import json
 import subprocess
 import sys
+
+import pytest
 
 LCM_DEFAULT_PORT = 7667
 
@@ -18,10 +20,15 @@ from pydrake.systems.analysis import Simulator
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import load_scenario
 
-world = MakeWorld(
-    load_scenario("position", "logging: {console_rate: 0}"), meshcat=Meshcat(), quiet=True
-)
-Simulator(world.diagram).AdvanceTo(0.2)  # the visualizers published
+from armando_drake.description.viewer import make_display
+
+if DISPLAY:
+    visualizer, _ = make_display(meshcat=Meshcat())
+else:
+    world = MakeWorld(
+        load_scenario("position", "logging: {console_rate: 0}"), meshcat=Meshcat(), quiet=True
+    )
+    Simulator(world.diagram).AdvanceTo(0.2)  # the visualizers published
 inodes = set()
 for fd in os.listdir("/proc/self/fd"):
     try:
@@ -42,9 +49,11 @@ print(json.dumps(sockets))
 """
 
 
-def test_a_world_drawn_in_meshcat_opens_no_lcm_multicast_socket():
+@pytest.mark.parametrize("display", [False, True], ids=["world", "display"])
+def test_meshcat_opens_no_lcm_multicast_socket(display):
+    code = f"DISPLAY = {display}\n{WORLD}"
     result = subprocess.run(
-        [sys.executable, "-c", WORLD], capture_output=True, text=True, timeout=300
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300
     )
     assert result.returncode == 0, result.stderr
     sockets = json.loads(result.stdout.strip().splitlines()[-1])
