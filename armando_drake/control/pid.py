@@ -96,6 +96,22 @@ class PidGains:
         )
 
 
+def check_gains(gains, key: str, error: type) -> None:
+    """Raises ``error(key, problem)`` (a controller's ParameterError) for the gains of one
+    joint (a parameters dataclass with ``antiwindup_strategy`` and ``pid_gains()``) that
+    control_toolbox refuses."""
+    if gains.antiwindup_strategy not in ANTIWINDUP_STRATEGIES:
+        raise error(
+            f"{key}.antiwindup_strategy",
+            f"antiwindup_strategy={gains.antiwindup_strategy!r} must be one of "
+            f"{list(ANTIWINDUP_STRATEGIES)}",
+        )
+    try:
+        gains.pid_gains().validate()
+    except ValueError as problem:
+        raise error(key, str(problem)) from None
+
+
 def _is_zero(value, tolerance=DOUBLE_EPSILON):
     return np.abs(value) <= tolerance
 

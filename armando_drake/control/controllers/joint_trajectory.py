@@ -62,7 +62,7 @@ from armando_drake.control.controllers import (
     non_negative,
     register,
 )
-from armando_drake.control.pid import ANTIWINDUP_STRATEGIES, PidGains, compute_command
+from armando_drake.control.pid import ANTIWINDUP_STRATEGIES, PidGains, check_gains, compute_command
 from armando_drake.messages.types import (
     JointTrajectory,
     JointTrajectoryPoint,
@@ -276,16 +276,7 @@ class JointTrajectoryControllerParams:
                     raise ParameterError(
                         f"gains.{joint}.{field.name}", f"{field.name}={value!r} must be finite"
                     )
-            if gains.antiwindup_strategy not in ANTIWINDUP_STRATEGIES:
-                raise ParameterError(
-                    f"gains.{joint}.antiwindup_strategy",
-                    f"antiwindup_strategy={gains.antiwindup_strategy!r} must be one of "
-                    f"{list(ANTIWINDUP_STRATEGIES)}",
-                )
-            try:
-                gains.pid_gains().validate()
-            except ValueError as error:
-                raise ParameterError(f"gains.{joint}", str(error)) from None
+            check_gains(gains, f"gains.{joint}", ParameterError)
         scaling = self.speed_scaling
         if not (
             math.isfinite(scaling.initial_scaling_factor) and scaling.initial_scaling_factor >= 0

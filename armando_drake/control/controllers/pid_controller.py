@@ -35,7 +35,7 @@ from armando_drake.control.controllers import (
     register,
 )
 from armando_drake.control.controllers.joint_trajectory import shortest_angular_distance
-from armando_drake.control.pid import ANTIWINDUP_STRATEGIES, PidGains, compute_command
+from armando_drake.control.pid import PidGains, check_gains, compute_command
 from armando_drake.messages.types import MultiDOFCommand
 
 REFERENCE_INTERFACES = ("position", "velocity")  # the joints' state interfaces
@@ -157,16 +157,7 @@ class PidControllerParameters:
                     f"gains.{dof}.activate_state_publisher",
                     "not simulated: the PID state is not published",
                 )
-            if gains.antiwindup_strategy not in ANTIWINDUP_STRATEGIES:
-                raise ParameterError(
-                    f"gains.{dof}.antiwindup_strategy",
-                    f"antiwindup_strategy={gains.antiwindup_strategy!r} must be one of "
-                    f"{list(ANTIWINDUP_STRATEGIES)}",
-                )
-            try:
-                gains.pid_gains().validate()
-            except ValueError as error:
-                raise ParameterError(f"gains.{dof}", str(error)) from None
+            check_gains(gains, f"gains.{dof}", ParameterError)
 
 
 @dataclasses.dataclass(frozen=True)
