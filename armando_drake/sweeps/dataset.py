@@ -394,6 +394,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
 
     with user_errors(), reported():
+        _check_output_file(args.output)
         robot = RobotSpec(
             description=args.robot,
             xacro_args=parse_xacro_args(args.xacro_arg),
@@ -425,3 +426,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             solved = sum(pq.read_table(path, columns=["ik_success"])["ik_success"].to_pylist())
             print(f"inverse kinematics solved for {solved} of {args.samples} rows")
     return 0
+
+
+def _check_output_file(output: str) -> None:
+    """``--output`` names a file, not a folder (checked before the rows are drawn and
+    solved; its folder is made when missing)."""
+    path = Path(output)
+    if path.is_dir():
+        example = path / "ik.parquet"
+        raise SweepError(f"--output {output}: a folder; name the data set's file, e.g. {example}")

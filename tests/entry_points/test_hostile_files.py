@@ -202,3 +202,15 @@ def test_work_sized_by_user_numbers_is_refused_with_its_estimate(tmp_path, comma
     )
     assert expected in one_line_error(result)
     assert time.monotonic() - start < 30  # nothing was materialised
+
+
+def test_a_data_set_written_to_a_folder_is_one_line_naming_it(tmp_path):
+    result = subprocess.run(
+        [sys.executable, "-m", "armando_drake.dataset", "ik", "--samples", "5"]
+        + ["--output", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=TIME_LIMIT,
+        cwd=tmp_path,
+    )
+    assert f"--output {tmp_path}: a folder" in one_line_error(result)
