@@ -331,8 +331,9 @@ def add_description_arguments(parser, default: str) -> None:
     )
 
 
-# The longest message printed: a value the user gave may be megabytes long.
-MAX_MESSAGE = 1000
+# The longest message printed (a list of choices fits): a value the user gave may be
+# megabytes long.
+MAX_MESSAGE = 5000
 
 
 def _one_line(text: str) -> str:
