@@ -36,7 +36,7 @@ from armando_drake.tools.schema import ConfigError, Refusal, check_config, param
 
 GROUND_COLOR = (0.85, 0.85, 0.82, 1.0)  # RGBA of the ground, in Meshcat and in cameras
 # The default scene: the ground slab the cameras see (its colour GROUND_COLOR).
-GROUND_SCENE = MODELS_DIR / "scenes" / "ground.sdf"
+GROUND_SCENE = MODELS_DIR / "scenes" / "ground.urdf"
 
 
 class SceneObjectError(ConfigError):
@@ -177,7 +177,7 @@ def AddSceneObjects(plant: MultibodyPlant, objects: list[SceneObject]) -> None:
 
 
 def AddGround(plant: MultibodyPlant, scene_graph: SceneGraph) -> None:
-    """The default scene, ``models/scenes/ground.sdf``: a 2 m x 2 m slab whose top face
+    """The default scene, ``models/scenes/ground.urdf``: a 2 m x 2 m slab whose top face
     is the plane z = 0.
 
     Cameras see it (perception role); Meshcat does not (its illustration role is
