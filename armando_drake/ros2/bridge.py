@@ -45,6 +45,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+from xml.etree import ElementTree
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -139,6 +140,21 @@ def robot_links(plant, model_instance) -> tuple[list[_Link], list[_Link]]:
     return moving, fixed
 
 
+def referenced_files(urdf: str) -> list[str]:
+    """The ``filename`` URIs of a URDF's meshes and textures, as the URDF writes them."""
+    try:
+        root = ElementTree.fromstring(urdf)
+    except ElementTree.ParseError:
+        return []
+    return sorted(
+        {
+            element.get("filename", "")
+            for element in root.iter()
+            if element.tag in ("mesh", "texture") and element.get("filename")
+        }
+    )
+
+
 class FoxgloveServer:
     """The topics over Foxglove's WebSocket protocol (``foxglove-sdk``), CDR-encoded.
 
@@ -155,6 +171,7 @@ class FoxgloveServer:
         port: int = 8765,
         namespace: str = "",
         packages: dict[str, Any] | None = None,
+        assets: Sequence[str] = (),
         name: str = "armando_drake",
     ):
         import foxglove
@@ -169,6 +186,7 @@ class FoxgloveServer:
         self._latched: dict[str, tuple[bytes, int]] = {}
         self._namespace = namespace
         self._packages = {name: Path(path).resolve() for name, path in (packages or {}).items()}
+        self._assets = frozenset(assets)
         self._server = foxglove.start_server(
             name=name,
             host=host,
@@ -215,18 +233,24 @@ class FoxgloveServer:
         self._channels[topic].log(data, log_time=log_time)
 
     def _asset(self, uri: str) -> bytes | None:
-        """A ``package://pkg/file`` of the robot's packages (the URDF's meshes), for
-        Foxglove's 3-D panel; anything else, or outside the packages, is refused (None)."""
-        if not uri.startswith("package://"):
+        """A file the robot's URDF references (its meshes and textures, by the URI the
+        URDF gives), for Foxglove's 3-D panel; any other URI is refused (None), even one
+        naming another file of the same package."""
+        if uri not in self._assets:
             return None
-        package, _, relative = uri[len("package://") :].partition("/")
-        root = self._packages.get(package)
-        if root is None:
+        if uri.startswith("file://"):
+            path = Path(uri[len("file://") :])
+        elif uri.startswith("package://"):
+            package, _, relative = uri[len("package://") :].partition("/")
+            root = self._packages.get(package)
+            if root is None:
+                return None
+            path = (root / relative).resolve()
+            if not path.is_relative_to(root):
+                return None
+        else:
             return None
-        path = (root / relative).resolve()
-        if not path.is_relative_to(root) or not path.is_file():
-            return None
-        return path.read_bytes()
+        return path.read_bytes() if path.is_file() else None
 
     def set_time(self, stamp: float) -> None:
         self._server.broadcast_time(max(0, round(stamp * 1e9)))
@@ -570,6 +594,7 @@ def _sinks(config, topics: WorldTopics) -> tuple[list[Any], DdsNode | None]:
                 port=config.foxglove_port,
                 namespace=config.namespace,
                 packages=topics.robot.packages.packages,
+                assets=referenced_files(topics.robot.urdf),
             )
         except Exception as error:  # a bad port, or one in use
             raise ScenarioError(

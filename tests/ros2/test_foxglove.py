@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 
-from armando_drake import MODELS_DIR
+from armando_drake.ros2.bridge import FoxgloveServer, referenced_files
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import load_scenario
 
@@ -102,7 +102,27 @@ def test_websocket_client_receives_decoded_joint_states():
         stamps.append(stamp)
     # One message per tick of the broadcaster (100 Hz), in order.
     assert np.allclose(np.diff(stamps), 1e9 / world.update_rate, atol=1e3)
-    package = MODELS_DIR / "armando_description"
-    assert assets[ASSETS[0]] == (0, (package / "package.xml").read_bytes())
-    assert assets[ASSETS[1]][0] == 1  # refused: outside the package
-    assert assets[ASSETS[2]][0] == 1  # refused: not a package:// URI
+    # Armando's URDF references no file: every request is refused, even one naming
+    # a file inside its package.
+    assert [assets[uri][0] for uri in ASSETS] == [1, 1, 1]
+
+
+def test_asset_handler_serves_exactly_the_files_the_urdf_references(course_package):
+    urdf = (course_package / "urdf" / "arm.urdf").read_text()
+    referenced = referenced_files(urdf)
+    assert referenced and all(uri.startswith("package://arm_description/") for uri in referenced)
+    server = FoxgloveServer(port=0, packages={"arm_description": course_package}, assets=referenced)
+    try:
+        for uri in referenced:
+            relative = uri[len("package://arm_description/") :]
+            assert server._asset(uri) == (course_package / relative).read_bytes()
+        refused = [
+            "package://arm_description/package.xml",  # in the package, not referenced
+            "package://arm_description/urdf/arm.urdf",
+            referenced[0].replace("meshes/", "meshes/../meshes/"),  # same file, other URI
+            "file://" + str(course_package / referenced[0].split("/", 3)[-1]),
+            "file:///etc/hostname",
+        ]
+        assert [server._asset(uri) for uri in refused] == [None] * len(refused)
+    finally:
+        server.close()
