@@ -112,6 +112,32 @@ def _interface_element(interface: str) -> str:
     return f"<NetworkInterface address='{interface}'/>"
 
 
+def check_interface_exists(interface: str) -> None:
+    """Refuses an interface name or address this machine does not have, before
+    Cyclone DDS prints its own line about it."""
+    if not interface:
+        return
+    try:
+        address = ipaddress.ip_address(interface)
+    except ValueError:
+        names = sorted(name for _, name in socket.if_nameindex())
+        if interface not in names:
+            raise Ros2Error(
+                f"ros2.network_interface={interface!r}: this machine has no such network "
+                f"interface (it has: {', '.join(names)})"
+            ) from None
+        return
+    family = socket.AF_INET6 if address.version == 6 else socket.AF_INET
+    with socket.socket(family, socket.SOCK_DGRAM) as probe:
+        try:
+            probe.bind((str(address), 0))
+        except OSError:
+            raise Ros2Error(
+                f"ros2.network_interface={interface!r}: no network interface of this machine "
+                "has that address"
+            ) from None
+
+
 def cyclonedds_config(interface: str = "") -> str:
     """The Cyclone DDS XML configuration of a participant on ``interface``.
 
@@ -198,6 +224,7 @@ def domain(domain_id: int, interface: str = "") -> Any:
     """The process's DDS domain ``domain_id`` on ``interface`` (created once)."""
     if isinstance(domain_id, bool) or not isinstance(domain_id, int) or not 0 <= domain_id <= 232:
         raise Ros2Error(f"ros2.domain_id={domain_id!r} must be an integer in [0, 232]")
+    check_interface_exists(interface)
     config = cyclonedds_config(interface)
     with _domains_lock:
         existing = _domains.get(domain_id)

@@ -91,3 +91,37 @@ def test_names_and_addresses_ros2_accepts_pass(override):
     from armando_drake.simulation.validation import check_scenario
 
     check_scenario(load_scenario("position", override))
+
+
+@pytest.mark.parametrize(
+    "interface, message",
+    [
+        ("nosuchif0", "this machine has no such network interface (it has: "),
+        ("192.0.2.77", "no network interface of this machine has that address"),
+    ],
+)
+def test_a_missing_network_interface_is_one_line_before_cyclone_says_anything(interface, message):
+    import subprocess
+    import sys
+
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "armando_drake.world",
+            "--scenario",
+            "ros2",
+            "--no-meshcat",
+            "--duration",
+            "0.1",
+            "--set",
+            f"ros2: {{enabled: true, network_interface: '{interface}'}}",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 2, result.stderr
+    (line,) = [line for line in result.stderr.splitlines() if line.strip()]
+    assert line.startswith(f"error: ros2.network_interface={interface!r}: {message}")
+    assert "cyclone" not in (result.stdout + result.stderr).lower()
