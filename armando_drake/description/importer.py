@@ -192,6 +192,46 @@ class _Preparation:
         LOGGER.warning("%s", message)
         self.result.warnings.append(message)
 
+    def check_tree(self) -> None:
+        """Refuses a link that is the child of two joints (a kinematic loop, which a URDF
+        cannot describe and ROS's parser refuses too), naming both joints."""
+        parents: dict[str, ET.Element] = {}
+        for joint in self.root.findall("joint"):
+            child = joint.find("child")
+            link = child.get("link", "") if child is not None else ""
+            first = parents.setdefault(link, joint)
+            if first is not joint:
+                raise DescriptionError(
+                    f"{self.where(joint)}: joint {joint.get('name')!r} makes link {link!r} the "
+                    f"child of a second joint (the first is {first.get('name')!r}, line "
+                    f"{self.lines.get(first, '?')}): the joints form a kinematic loop, which a "
+                    "URDF cannot describe"
+                )
+
+    def check_shapes(self) -> None:
+        """Refuses a box, cylinder or sphere with a size that is not a positive finite
+        length (Drake cannot build it), naming the file, line, link and value."""
+        sizes = {"box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",)}
+        for name, link in self.links.items():
+            for kind in ("visual", "collision"):
+                for item in link.findall(kind):
+                    for shape in item.findall("geometry/*"):
+                        for attribute in sizes.get(shape.tag, ()):
+                            text = shape.get(attribute, "")
+                            try:
+                                values = [float(v) for v in text.split()]
+                            except ValueError:
+                                values = []
+                            count = 3 if attribute == "size" else 1
+                            if len(values) != count or not all(
+                                math.isfinite(v) and v > 0 for v in values
+                            ):
+                                raise DescriptionError(
+                                    f"{self.where(shape)}: link {name!r} <{kind}> <{shape.tag} "
+                                    f'{attribute}="{text}">: must be {count} positive length'
+                                    f"{'s' if count > 1 else ''} [m]"
+                                )
+
     # Meshes ---------------------------------------------------------------
 
     def mesh_elements(self, link: ET.Element, kind: str) -> list[ET.Element]:
@@ -573,6 +613,8 @@ def prepare_urdf(
     if edit is not None:
         edit(step.root)
         step.links = {link.get("name", ""): link for link in step.root.findall("link")}
+    step.check_tree()
+    step.check_shapes()
     step.resolve_meshes()
     step.fix_negative_masses()
     mode = step.resolve_collision_mode(collision)

@@ -214,3 +214,65 @@ def test_a_data_set_written_to_a_folder_is_one_line_naming_it(tmp_path):
         cwd=tmp_path,
     )
     assert f"--output {tmp_path}: a folder" in one_line_error(result)
+
+
+LINK = (
+    '<link name="{name}"><visual><geometry>{shape}</geometry></visual><inertial>'
+    '<mass value="1"/><inertia ixx="1e-3" iyy="1e-3" izz="1e-3" ixy="0" ixz="0" iyz="0"/>'
+    "</inertial></link>\n"
+)
+JOINT = (
+    '<joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/>'
+    '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="10" velocity="1"/></joint>\n'
+)
+
+
+def chain_urdf(shape: str = '<box size="0.1 0.1 0.1"/>', extra_joint: str = "") -> str:
+    links = "".join(
+        LINK.format(name=n, shape=shape if n == "b" else "<sphere radius='0.05'/>") for n in "abc"
+    )
+    joints = "".join(
+        JOINT.format(name=f"j{i}", parent=p, child=c)
+        for i, (p, c) in enumerate([("base_link", "a"), ("a", "b"), ("b", "c")])
+    )
+    return (
+        '<?xml version="1.0"?>\n<robot name="chain">\n<link name="base_link"/>\n'
+        f"{links}{joints}{extra_joint}</robot>\n"
+    )
+
+
+@pytest.mark.parametrize(
+    "urdf, expected",
+    [
+        (
+            chain_urdf(extra_joint=JOINT.format(name="j3", parent="c", child="a")),
+            "chain.urdf:10: joint 'j3' makes link 'a' the child of a second joint (the first "
+            "is 'j0', line 7): the joints form a kinematic loop",
+        ),
+        (
+            chain_urdf(shape='<box size="0.1 -0.2 0.1"/>'),
+            "chain.urdf:5: link 'b' <visual> <box size=\"0.1 -0.2 0.1\">: must be 3 positive "
+            "lengths [m]",
+        ),
+        (
+            chain_urdf(shape='<cylinder radius="0.05" length="nan"/>'),
+            "chain.urdf:5: link 'b' <visual> <cylinder length=\"nan\">: must be 1 positive "
+            "length [m]",
+        ),
+    ],
+    ids=["kinematic loop", "negative box side", "cylinder length nan"],
+)
+def test_a_urdf_drake_cannot_build_is_one_line_naming_file_line_and_value(tmp_path, urdf, expected):
+    (tmp_path / "chain.urdf").write_text(urdf)
+    run, _ = world("--description", "chain.urdf", cwd=tmp_path)
+    assert expected in one_line_error(run)
+    display = subprocess.run(
+        [sys.executable, "-m", "armando_drake.display", "--description", "chain.urdf"]
+        + ["--loop-once"],
+        capture_output=True,
+        text=True,
+        timeout=TIME_LIMIT,
+        cwd=tmp_path,
+    )
+    assert display.returncode == 2 and "Traceback" not in display.stderr, display.stderr
+    assert expected in display.stderr.strip().splitlines()[-1]
