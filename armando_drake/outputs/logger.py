@@ -52,6 +52,7 @@ from pydrake.systems.primitives import VectorLogSink
 from armando_drake.control.manager import AddJointStateVector
 from armando_drake.control.stack import ControlStack
 from armando_drake.outputs.config import LoggingConfig
+from armando_drake.tools.files import OutputFile
 
 
 def csv_header(joint_names: list[str] | tuple[str, ...]) -> str:
@@ -172,7 +173,7 @@ class JointStateLogger(VectorLogSink):
         if self._csv_path is not None:
             self._csv_path.parent.mkdir(parents=True, exist_ok=True)
             # Unbuffered: each flush is one write() of complete lines.
-            self._file = open(self._csv_path, "wb", buffering=0)
+            self._file = OutputFile(self._csv_path, "wb", buffering=0)
             self._file.write((csv_header(joint_names) + "\n").encode())
 
         # The sink records at update_rate (declared first, so at a common time the
@@ -356,7 +357,9 @@ class CommandsCsv:
 
     def __init__(self, path: Path, joint_names: list[str]):
         self._joint_names = list(joint_names)
-        self._file: TextIO | None = open(path, "w", buffering=1, newline="", encoding="utf-8")
+        self._file: TextIO | None = OutputFile(  # type: ignore[assignment]
+            path, "w", buffering=1, newline="", encoding="utf-8"
+        )
         self._writer = csv.writer(self._file)
         self._writer.writerow(["time", *self._joint_names])
 

@@ -47,6 +47,7 @@ import numpy as np
 
 from armando_drake.outputs.logger import read_csv, read_joint_states
 from armando_drake.tools.cli import add_version_argument
+from armando_drake.tools.files import writing
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -217,7 +218,8 @@ def write_plots(output_dir: str | Path) -> list[Path]:
 
     def save(fig, name: str) -> None:
         path = folder / name
-        fig.savefig(path, dpi=DPI)
+        with writing(path):
+            fig.savefig(path, dpi=DPI)
         written.append(path)
 
     # A long run is drawn through the envelope of its samples (same look, bounded memory).

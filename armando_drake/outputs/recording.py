@@ -62,6 +62,7 @@ from armando_drake.outputs.vision_recording import AddVisionRecorder
 from armando_drake.perception.pipeline import NO_RESULT
 from armando_drake.perception.systems import CLUSTER_COLOURS
 from armando_drake.sensors.image_view import PUBLISH_OFFSET_FRACTION
+from armando_drake.tools.files import OutputFile
 from armando_drake.tools.version import provenance
 
 # The MCAP metadata record naming the code that wrote the file: version, and git commit
@@ -192,7 +193,7 @@ class RosbagRecorder(LeafSystem):
             "cartesian_trajectory": cartesian_topic,
         }
         try:
-            self._file: IO[bytes] | None = open(self._path, "wb")
+            self._file: IO[bytes] | None = OutputFile(self._path, "wb")  # type: ignore[assignment]
         except OSError as error:
             raise RecordingError(f"--record {path}: cannot write: {error.strerror}") from None
         self._writer = Writer(self._file)

@@ -37,6 +37,7 @@ from pydrake.systems.lcm import LcmInterfaceSystem
 from pydrake.visualization import ApplyVisualizationConfig
 
 from armando_drake.outputs.view import AddViewFramer
+from armando_drake.tools.files import writing
 
 REPLAY_FILE = "replay.html"
 REPLAY_RATE = 32.0  # [frames/s] sampling rate of a replay until it outgrows its frames
@@ -197,7 +198,8 @@ def _release_freed_memory() -> None:
 def write_replay(meshcat: Meshcat, path: str | Path) -> Path:
     """Writes the scene with the published animation to ``path``, one self-contained page."""
     path = Path(path)
-    path.write_text(meshcat.StaticHtml(), encoding="utf-8")
+    with writing(path):
+        path.write_text(meshcat.StaticHtml(), encoding="utf-8")
     _release_freed_memory()  # the page's text, built and copied in pieces
     return path
 

@@ -38,6 +38,7 @@ from armando_drake.outputs.view import wait_for_browser as wait
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import Scenario, default_duration
 from armando_drake.tools.cli import STOP_SIGNALS, meshcat_urls
+from armando_drake.tools.files import writing
 from armando_drake.tools.version import provenance
 from armando_drake.vision.outputs import write_vision_outputs
 
@@ -147,10 +148,11 @@ def write_scenario(scenario: Scenario, path: Path) -> None:
     reads back to an equal scenario."""
     from pydrake.common.yaml import yaml_dump_typed
 
-    path.write_text(
-        "# The effective scenario of this run: the file with every override applied.\n"
-        + yaml_dump_typed(scenario)
-    )
+    with writing(path):
+        path.write_text(
+            "# The effective scenario of this run: the file with every override applied.\n"
+            + yaml_dump_typed(scenario)
+        )
 
 
 def controller_mode(scenario: Scenario) -> str:
@@ -507,7 +509,8 @@ def run(
         result.interrupted = interrupted
         result.output_dir = None if output_dir is None else str(output_dir)
         if log_dir is not None:
-            (log_dir / "summary.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
+            with writing(log_dir / "summary.json"):
+                (log_dir / "summary.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
     # A Ctrl-C that came while they were written stops the plots and the replay.
     signals.raise_pending(f"the logs are complete in {log_dir}" if log_dir else "")
     if log_dir is not None and plots:

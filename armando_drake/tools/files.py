@@ -9,8 +9,11 @@ the file and the limit it passed.
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import os
 import stat
+from collections.abc import Iterator
 from pathlib import Path
 
 import yaml
@@ -121,3 +124,74 @@ def read_yaml_file(path: str | os.PathLike, *, what: str) -> str:
     text = read_text_file(path, what=what)
     check_yaml_expansion(text, str(Path(path)))
     return text
+
+
+# The errors of a write that the machine, not the code, causes: each names the file.
+WRITE_ERRORS = {
+    errno.ENOSPC: "no space left on the device (the disk is full)",
+    errno.EDQUOT: "disk quota exceeded",
+    errno.EFBIG: "the file is larger than this file system or the file size limit allows",
+    errno.EROFS: "the file system is read-only",
+    errno.EIO: "input/output error of the device",
+}
+
+
+class OutputFileError(UserInputError, OSError):
+    """An output file that cannot be written (disk full, quota, read-only); the
+    message names it."""
+
+
+def _named_write_error(path: str | os.PathLike, error: OSError) -> OSError:
+    if isinstance(error, OutputFileError) or error.errno not in WRITE_ERRORS:
+        return error
+    named = OutputFileError(f"{path}: cannot write: {WRITE_ERRORS[error.errno]}")
+    named.errno = error.errno
+    return named
+
+
+@contextlib.contextmanager
+def writing(path: str | os.PathLike) -> Iterator[None]:
+    """Turns a write error of the machine (disk full, quota, read-only) inside the block
+    into one line naming ``path``."""
+    try:
+        yield
+    except OSError as error:
+        named = _named_write_error(path, error)
+        if named is error:
+            raise
+        raise named from None
+
+
+class OutputFile:
+    """A file open for writing whose write errors name it (:func:`writing`): the rest
+    of the file object's interface is the file's own."""
+
+    def __init__(self, path: str | os.PathLike, mode: str = "wb", **options):
+        self.path = Path(path)
+        with writing(path):
+            self._file = open(path, mode, **options)  # noqa: SIM115 (closed by close())
+
+    def write(self, data):
+        with writing(self.path):
+            return self._file.write(data)
+
+    def writelines(self, lines) -> None:
+        with writing(self.path):
+            self._file.writelines(lines)
+
+    def flush(self) -> None:
+        with writing(self.path):
+            self._file.flush()
+
+    def close(self) -> None:
+        with writing(self.path):
+            self._file.close()
+
+    def __getattr__(self, name: str):
+        return getattr(self._file, name)
+
+    def __enter__(self) -> OutputFile:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

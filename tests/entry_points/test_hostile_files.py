@@ -276,3 +276,20 @@ def test_a_urdf_drake_cannot_build_is_one_line_naming_file_line_and_value(tmp_pa
     )
     assert display.returncode == 2 and "Traceback" not in display.stderr, display.stderr
     assert expected in display.stderr.strip().splitlines()[-1]
+
+
+@pytest.mark.parametrize("name", ["joint_states.csv", "commands.csv", "summary.json", "run.mcap"])
+def test_a_full_disk_is_one_line_naming_the_file_it_could_not_write(tmp_path, name):
+    """/dev/full answers every write with ENOSPC, as a full disk does."""
+    if not os.path.exists("/dev/full"):
+        pytest.skip("this system has no /dev/full")
+    output = tmp_path / "out"
+    output.mkdir()
+    (output / name).symlink_to("/dev/full")
+    where = ["--record", str(output / name)] if name.endswith(".mcap") else ["--output", "out"]
+    result, _ = world(*where, cwd=tmp_path)
+    line = one_line_error(result)
+    assert line == (
+        f"error: {output / name if name.endswith('.mcap') else 'out/' + name}: cannot write: "
+        "no space left on the device (the disk is full)"
+    )
