@@ -192,8 +192,8 @@ def resolve_scenario_path(name: str | os.PathLike) -> Path:
     """A scenario file: a path, or the name of a file in ``diagrams/``."""
     path = Path(name)
     try:
-        if path.is_file():
-            return path
+        if path.is_file() or (path.exists() and path.suffix in (".yaml", ".yml")):
+            return path  # a FIFO, a device or a directory: the reader says which
         for candidate in (DIAGRAMS_DIR / path, DIAGRAMS_DIR / f"{path}.yaml"):
             if candidate.is_file():
                 return candidate
