@@ -434,6 +434,7 @@ def load_scenario(
             source = str(path)
             _refuse_duplicate_keys(read_yaml_file(path, what="the scenario"), source)
             scenario = yaml_load_typed(filename=str(path), defaults=scenario)
+            _anchor_file_paths(scenario, path)
         if overrides:
             scenario = merge_overrides(scenario, overrides, label="override")
     except (ScenarioError, FileInputError):
@@ -447,6 +448,27 @@ def load_scenario(
     if source != "<defaults>":
         sources_of(scenario).file = source
     return scenario
+
+
+def _anchored(value: str, scenario_file: Path) -> str:
+    """A relative path a scenario file names: as given where it exists from the working
+    folder (as before), else from the scenario file's folder, else, for a scenario of
+    ``diagrams/``, from the project's root (where ``models/`` is), so a scenario runs
+    from any folder."""
+    if not value or "://" in value or Path(value).is_absolute() or Path(value).exists():
+        return value
+    bases = [scenario_file.parent]
+    if scenario_file.resolve().parent == DIAGRAMS_DIR.resolve():
+        bases.append(DIAGRAMS_DIR.parent)
+    for base in bases:
+        if (base / value).exists():
+            return str(base / value)
+    return value
+
+
+def _anchor_file_paths(scenario: Scenario, scenario_file: Path) -> None:
+    """The relative file paths of a scenario file (its controller YAML), see :func:`_anchored`."""
+    scenario.controllers.config = _anchored(scenario.controllers.config, scenario_file)
 
 
 def note_option(scenario, keys: Iterable[str], option: str) -> None:

@@ -1,6 +1,7 @@
 """Scenario files: the tagged unions (sequencer modes, object shapes), overrides, errors."""
 
 import math
+from pathlib import Path
 
 import pytest
 
@@ -170,3 +171,25 @@ def test_drakes_unknown_tag_message_is_parsed():
     tag, field, options = parse_unknown_tag(str(error.value))
     assert (tag, options.split(", ")[:2]) == ("Median", ["!CropBox", "!VoxelDownsample"])
     assert parse_unknown_tag("Unknown key 'perod'") is None
+
+
+def test_a_scenario_names_its_controller_yaml_relative_to_itself_from_any_folder(
+    tmp_path, monkeypatch
+):
+    """A relative path in a scenario file: from the working folder where it exists there,
+    else from the scenario's folder, else (for diagrams/) from the project's root."""
+    monkeypatch.chdir(tmp_path)
+    bundled = load_scenario("task_js")
+    assert Path(bundled.controllers.config).is_file(), bundled.controllers.config
+    assert Path(bundled.controllers.config).name == "iiwa_controllers.yaml"
+
+    own = tmp_path / "mine"
+    (own / "config").mkdir(parents=True)
+    (own / "config" / "c.yaml").write_text("controller_manager: {}\n")
+    (own / "s.yaml").write_text("controllers: {config: config/c.yaml}\n")
+    assert load_scenario(own / "s.yaml").controllers.config == str(own / "config" / "c.yaml")
+    (tmp_path / "config").mkdir()
+    (tmp_path / "config" / "c.yaml").write_text("controller_manager: {}\n")
+    assert load_scenario(own / "s.yaml").controllers.config == "config/c.yaml"  # cwd first
+    (own / "s.yaml").write_text("controllers: {config: missing.yaml}\n")
+    assert load_scenario(own / "s.yaml").controllers.config == "missing.yaml"  # named as given
