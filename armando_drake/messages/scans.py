@@ -26,7 +26,9 @@ class LaserScan:
     range_min: float = 0.0  # [m]
     range_max: float = 0.0  # [m]
     ranges: np.ndarray = field(default_factory=lambda: np.zeros(0))  # [m] one per beam (read only)
-    intensities: np.ndarray = field(default_factory=lambda: np.zeros(0))  # empty: no intensities are simulated
+    intensities: np.ndarray = field(
+        default_factory=lambda: np.zeros(0)
+    )  # empty: no intensities are simulated
 
     def __deepcopy__(self, memo):
         return self  # immutable: see armando_drake/messages/types.py
@@ -50,6 +52,5 @@ class LaserScan:
     def describe(self) -> str:
         """One line: beams, field of view, ranges."""
         span = math.degrees(self.angle_max - self.angle_min)
-        return (
-            f"{len(self.ranges)} beams over {span:.1f} deg, {self.range_min:g}..{self.range_max:g} m"
-        )
+        limits = f"{self.range_min:g}..{self.range_max:g} m"
+        return f"{len(self.ranges)} beams over {span:.1f} deg, {limits}"

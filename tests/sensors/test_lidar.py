@@ -106,7 +106,8 @@ def test_wall_scan_matches_the_ray_cast(tmp_path):
     assert 120 < hit.sum() < 140
     assert np.all(np.isfinite(scan.ranges[hit]))
     error = np.abs(scan.ranges[hit] - truth[hit])
-    assert error.max() < 0.01, f"worst beam {np.argmax(error)}: {error.max():.4f} m"
+    # Within the range resolution (1 cm); interpolated inverse depth is exact on a plane.
+    assert error.max() < 1e-3, f"worst beam {np.argmax(error)}: {error.max():.4f} m"
     assert np.all(np.isposinf(scan.ranges[~hit])), "beyond range_max and behind: inf"
 
 
