@@ -43,12 +43,14 @@ from armando_drake.control.stack import (
     controller_update_rate,
 )
 from armando_drake.description.loader import AddRobot
+from armando_drake.description.worlds import AddWorld
 from armando_drake.outputs.logger import AddJointStateLogger, CommandsCsv
 from armando_drake.outputs.recording import AddRosbagRecorder
 from armando_drake.outputs.replay import AddVisualization
 from armando_drake.outputs.topics import WorldTopics
 from armando_drake.perception.systems import AddPerception
 from armando_drake.ros2.bridge import AddRos2Bridge
+from armando_drake.sensors import lidar  # noqa: F401  (registers the lidar sensor types)
 from armando_drake.sensors.cameras import AddCameras
 from armando_drake.sensors.objects import AddGround, AddSceneObjects, SceneObjectError
 from armando_drake.sensors.registry import AddSensors
@@ -146,7 +148,11 @@ def _add_physics(builder: DiagramBuilder, scenario: Scenario, where: str):
     plant, scene_graph = AddMultibodyPlant(scenario.plant_config, builder)
     ApplyMultibodyPlantConfig(scenario.plant_config, plant)
     robot = AddRobot(plant, scenario.robot)
-    if scenario.ground:
+    if scenario.world_file:
+        where = _origin(scenario, "world_file")
+        paths = scenario.world_resource_paths
+        AddWorld(plant, scenario.world_file, resource_paths=paths, where=where)
+    elif scenario.ground:
         AddGround(plant, scene_graph)
     try:
         AddSceneObjects(plant, scenario.objects)
@@ -284,7 +290,7 @@ def _add_outputs(
             scene_graph=scene_graph,
             meshcat=meshcat,
             robot_instances=[topics.robot.model_instance],
-            ground=scenario.ground,
+            ground=scenario.ground and not scenario.world_file,
         )
     return replay_sampler, bridge
 

@@ -99,8 +99,14 @@ class Scenario:
             time_step=0.001, discrete_contact_approximation="lagged", use_sampled_output_ports=False
         )
     )
-    # Whether a ground plane (a half space at z = 0) is added.
+    # Whether a ground plane (a half space at z = 0) is added (not with a world_file).
     ground: bool = True
+    # A Gazebo world (SDFormat <world> file, or package://pkg/worlds/x.sdf) as the scene,
+    # instead of the ground: its included models (docs/worlds.md); "" = none.
+    world_file: str = ""
+    # Extra folders where the world's model://NAME includes are looked for, before the
+    # world's own package (after GZ_SIM_RESOURCE_PATH and the like).
+    world_resource_paths: list[str] = dc.field(default_factory=list)
     # Simple static objects placed in the world.
     objects: list[SceneObject] = dc.field(default_factory=list)
     # The hardware interface's actuators.

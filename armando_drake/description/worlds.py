@@ -1,0 +1,619 @@
+"""Gazebo worlds (SDFormat ``<world>`` files) as the scene of a Drake plant.
+
+Drake's own SDFormat parser cannot take a Gazebo world as it is: it does not find
+``model://`` includes, and it neither renders nor collides with STL. So the world is
+read here, model by model: each ``<include>`` (and each ``<model>`` written in the
+world) becomes one SDFormat model given to Drake's parser, after these edits:
+
+- ``<include>``: ``<uri>`` ``model://NAME`` is the folder ``NAME`` on the resource
+  path: ``GZ_SIM_RESOURCE_PATH``, ``IGN_GAZEBO_RESOURCE_PATH``,
+  ``GAZEBO_MODEL_PATH``, ``SDF_PATH``, the scenario's ``world_resource_paths``,
+  then the ``models/`` folder of the world's ROS package and the folders next to
+  the world file; then the ROS packages (``model://pkg/...`` and ``package://pkg``
+  as in ``robot.description``). A Fuel URL is looked for by its model name in the
+  same places and in Gazebo's Fuel cache. In the folder, ``model.config`` names
+  the SDFormat file (else ``model.sdf``). The include's ``<name>``, ``<pose>`` and
+  ``<static>`` replace the model's own. ``ground_plane`` and ``sun``, which Gazebo
+  installs, are built in when not found.
+- meshes: STL and Collada files are converted to OBJ once, into the mesh cache
+  (:func:`~armando_drake.description.meshes.convert_mesh`). A mesh's collision
+  becomes convex pieces Drake collides with: each connected part of the mesh that
+  is (within 5 % of its volume) convex is its convex hull; any other part is one
+  thin prism (1 cm deep, behind each face) per triangle, so that concave shapes
+  (a tunnel, an L-shaped wall) keep their openings.
+- materials: ``<diffuse>`` colours are kept; Gazebo classic's named colours
+  (``Gazebo/White`` ...) become their colour; a texture (a classic
+  ``<script>`` material's ``texture`` image, Gazebo Sim's ``<pbr>`` ``albedo_map``)
+  on a box is drawn on each of its faces (the ArUco marker models).
+- lights, physics, plugins, the GUI and other world settings Drake has no use
+  for are ignored, named in one warning line.
+
+A world that names a model the resource path does not hold is one error line naming
+the world file, the ``<include>``'s line and the URI, and where it was looked for.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import logging
+import os
+import re
+import shutil
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from pydrake.common import MemoryFile
+from pydrake.geometry import (
+    AddContactMaterial,
+    AddRigidHydroelasticProperties,
+    Convex,
+    InMemoryMesh,
+    Mesh,
+    ProximityProperties,
+)
+from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
+from pydrake.multibody.tree import ModelInstanceIndex
+
+from armando_drake.description.importer import parse_with_lines
+from armando_drake.description.meshes import cache_dir, convert_mesh
+from armando_drake.description.packages import DescriptionError, PackageSearch, find_packages
+
+_log = logging.getLogger("armando_drake.world")
+
+# Environment variables of model folders, in Gazebo Sim's order, then classic's.
+RESOURCE_PATH_VARIABLES = (
+    "GZ_SIM_RESOURCE_PATH",
+    "IGN_GAZEBO_RESOURCE_PATH",
+    "GAZEBO_MODEL_PATH",
+    "SDF_PATH",
+)
+# Where Gazebo keeps the models it downloaded from Fuel.
+FUEL_CACHES = ("~/.gz/fuel", "~/.ignition/fuel")
+# World elements that are scene content; every other one is ignored (named once).
+SCENE_ELEMENTS = ("include", "model")
+# Model elements Drake has no use for, taken out before Drake reads the model.
+STRIPPED_ELEMENTS = (
+    "plugin",
+    "sensor",
+    "light",
+    "cast_shadows",
+    "audio_source",
+    "audio_sink",
+    "battery",
+    "projector",
+    "particle_emitter",
+    "laser_retro",
+    "enable_wind",
+    "velocity_decay",
+)
+# Gazebo classic's named materials (gazebo.material), as diffuse RGBA.
+NAMED_COLORS = {
+    "white": (1.0, 1.0, 1.0, 1.0),
+    "grey": (0.7, 0.7, 0.7, 1.0),
+    "gray": (0.7, 0.7, 0.7, 1.0),
+    "darkgrey": (0.35, 0.35, 0.35, 1.0),
+    "black": (0.0, 0.0, 0.0, 1.0),
+    "red": (1.0, 0.0, 0.0, 1.0),
+    "green": (0.0, 1.0, 0.0, 1.0),
+    "blue": (0.0, 0.0, 1.0, 1.0),
+    "yellow": (1.0, 1.0, 0.0, 1.0),
+    "orange": (1.0, 0.5088, 0.0468, 1.0),
+    "purple": (1.0, 0.0, 1.0, 1.0),
+    "turquoise": (0.0, 1.0, 1.0, 1.0),
+    "wood": (0.66, 0.47, 0.26, 1.0),
+}
+# Convexity threshold: a part whose volume is this fraction of its hull's is convex.
+CONVEX_FRACTION = 0.95
+PRISM_DEPTH = 0.01  # [m] of a face's collision prism
+PRISM_FACES = np.array(
+    [[0, 1, 2], [3, 5, 4], [0, 3, 1], [1, 3, 4], [1, 4, 2], [2, 4, 5], [2, 5, 0], [0, 5, 3]]
+)
+# A concave part of more faces than this is one non-convex mesh: Drake collides with its
+# true surface under hydroelastic contact, with its convex hull under point contact.
+MAX_PRISMS = 128
+DEFAULT_FRICTION = 1.0  # Gazebo's default mu
+
+BUILTIN_MODELS = {
+    "ground_plane": """<sdf version="1.6"><model name="ground_plane"><static>true</static>
+  <link name="link">
+    <collision name="collision"><geometry><plane><normal>0 0 1</normal></plane></geometry>
+    </collision>
+    <visual name="visual"><pose>0 0 -0.005 0 0 0</pose>
+      <geometry><box><size>100 100 0.01</size></box></geometry>
+      <material><diffuse>0.8 0.8 0.8 1</diffuse></material></visual>
+  </link></model></sdf>""",
+    "sun": None,  # a light: nothing to add
+}
+
+
+class WorldError(DescriptionError):
+    """A world file that cannot be loaded; one line naming the file, line and value."""
+
+
+@dataclass
+class LoadedWorld:
+    """What :func:`load_world` put into the plant."""
+
+    source: Path
+    name: str  # the <world name>
+    models: dict[str, ModelInstanceIndex] = field(default_factory=dict)  # by include name
+    ignored: list[str] = field(default_factory=list)  # world elements not simulated
+    warnings: list[str] = field(default_factory=list)
+
+
+@dataclass
+class _Resources:
+    """Where ``model://`` and ``package://`` URIs point."""
+
+    roots: list[tuple[str, Path]]
+    packages: PackageSearch
+
+    def searched(self) -> str:
+        return "; ".join(f"{label}: {path}" for label, path in self.roots) or "(nothing)"
+
+    def model_dir(self, name: str) -> Path | None:
+        for _, root in self.roots:
+            if (root / name).is_dir():
+                return root / name
+        if name in self.packages.packages:
+            return self.packages.packages[name]
+        return None
+
+    def resolve(self, uri: str, base: Path) -> Path | None:
+        """The file a mesh or texture URI names (None if it is nowhere)."""
+        uri = uri.strip()
+        for scheme in ("model://", "package://"):
+            if uri.startswith(scheme):
+                name, _, rest = uri[len(scheme) :].partition("/")
+                folder = self.model_dir(name)
+                return folder / rest if folder is not None else None
+        if uri.startswith("file://"):
+            uri = uri[len("file://") :]
+        path = Path(uri).expanduser()
+        return path if path.is_absolute() else base / path
+
+
+def resource_roots(world: Path, extra=()) -> list[tuple[str, Path]]:
+    """The folders ``model://NAME`` is looked for in, in order (see the module docstring)."""
+    roots = []
+    for variable in RESOURCE_PATH_VARIABLES:
+        for entry in filter(None, os.environ.get(variable, "").split(os.pathsep)):
+            roots.append((variable, Path(entry).expanduser()))
+    roots += [("world_resource_paths", Path(entry).expanduser()) for entry in extra]
+    folder = world.resolve().parent
+    for candidate in [folder, *list(folder.parents)[:3]]:
+        if (candidate / "package.xml").is_file() or (candidate / "models").is_dir():
+            roots.append(("models of the world's package", candidate / "models"))
+            break
+    roots.append(("next to the world", folder))
+    return [(label, path) for label, path in roots if path.is_dir()]
+
+
+def _fuel_model(uri: str) -> Path | None:
+    """The newest version of a Fuel model in Gazebo's cache, by its URL."""
+    match = re.match(r"https?://([^/]+)/(?:[^/]+/)?([^/]+)/models/([^/]+)", uri)
+    if not match:
+        return None
+    host, owner, name = match.groups()
+    name = name.replace("%20", " ")
+    for cache in FUEL_CACHES:
+        folder = Path(cache).expanduser() / host / owner.lower() / "models" / name.lower()
+        versions = sorted((p for p in folder.glob("*") if p.is_dir()), key=lambda p: p.name)
+        if versions:
+            return versions[-1]
+    return None
+
+
+def _model_file(folder: Path) -> Path | None:
+    """The SDFormat file of a model folder: ``model.config``'s newest ``<sdf>``, else
+    ``model.sdf``, else the folder's only ``.sdf``."""
+    config = folder / "model.config"
+    if config.is_file():
+        try:
+            entries = ET.parse(config).getroot().findall("sdf")
+        except ET.ParseError:
+            entries = []
+        entries.sort(key=lambda e: [int(n) for n in re.findall(r"\d+", e.get("version", "0"))])
+        for entry in reversed(entries):
+            if entry.text and (folder / entry.text.strip()).is_file():
+                return folder / entry.text.strip()
+    if (folder / "model.sdf").is_file():
+        return folder / "model.sdf"
+    files = sorted(folder.glob("*.sdf"))
+    return files[0] if len(files) == 1 else None
+
+
+def _floats(text: str | None, count: int, where: str) -> list[float]:
+    try:
+        values = [float(v) for v in (text or "").split()]
+    except ValueError:
+        values = []
+    if len(values) != count:
+        raise WorldError(f"{where}: {text!r} is not {count} numbers")
+    return values
+
+
+class _WorldReader:
+    """Reads one world file into a plant (see the module docstring)."""
+
+    def __init__(self, plant: MultibodyPlant, path: Path, resources: _Resources):
+        self.plant, self.path, self.resources = plant, path, resources
+        self.stripped: set[str] = set()
+        self.collisions: list[tuple[str, str, RigidTransform, Path, np.ndarray, float]] = []
+        self.warnings: list[str] = []
+        self.lines: dict[ET.Element, int] = {}
+
+    def where(self, element: ET.Element) -> str:
+        return f"{self.path}:{self.lines.get(element, 0)}"
+
+    # ---- includes --------------------------------------------------------
+
+    def included_model(self, include: ET.Element) -> ET.Element | None:
+        """The ``<model>`` an include names, with the include's name, pose and static."""
+        uri = (include.findtext("uri") or "").strip()
+        where = f"{self.where(include)}: <include> {uri or '(no <uri>)'}"
+        if not uri:
+            raise WorldError(f"{where}: the include has no <uri>")
+        name = uri.rstrip("/").split("/")[-1]
+        if uri.startswith(("model://", "package://")):
+            folder = self.resources.model_dir(uri.split("://", 1)[1].split("/")[0])
+        elif uri.startswith(("http://", "https://")):
+            folder = _fuel_model(uri) or self.resources.model_dir(name.lower().replace(" ", "_"))
+            name = name.lower().replace("%20", "_").replace(" ", "_")
+        else:
+            candidate = self.resources.resolve(uri, self.path.parent)
+            folder = candidate if candidate is not None and candidate.exists() else None
+        if folder is None and name in BUILTIN_MODELS:
+            text = BUILTIN_MODELS[name]
+            if text is None:
+                self.stripped.add(f"include {name} (a light)")
+                return None
+            model = ET.fromstring(text).find("model")
+            model_file = self.path
+        else:
+            if folder is None:
+                raise WorldError(
+                    f"{where}: model not found (looked in {self.resources.searched()}; "
+                    "add its folder to GZ_SIM_RESOURCE_PATH or world_resource_paths)"
+                )
+            model_file = folder if folder.is_file() else _model_file(folder)
+            if model_file is None:
+                raise WorldError(f"{where}: {folder} has no model.config or model.sdf")
+            root, _ = parse_with_lines(model_file.read_text(), str(model_file))
+            model = root if root.tag == "model" else root.find("model")
+            if model is None:
+                raise WorldError(f"{where}: {model_file} has no <model>")
+        for tag in ("name", "pose", "static"):
+            value = include.find(tag)
+            if value is not None and (value.text or "").strip():
+                if tag == "name":
+                    model.set("name", value.text.strip())
+                    continue
+                old = model.find(tag)
+                if old is not None:
+                    model.remove(old)
+                model.insert(0, value)
+        self.rewrite(model, model_file)
+        return model
+
+    # ---- model edits -----------------------------------------------------
+
+    def rewrite(self, model: ET.Element, model_file: Path) -> None:
+        """Edits one model (and its nested models) for Drake, in place."""
+        for parent in list(model.iter()):
+            for child in list(parent):
+                if child.tag in STRIPPED_ELEMENTS:
+                    parent.remove(child)
+                    self.stripped.add(child.tag)
+                elif child.tag == "include":
+                    index = list(parent).index(child)
+                    parent.remove(child)
+                    nested = self.included_model(child)
+                    if nested is not None:
+                        parent.insert(index, nested)
+        for link in model.iter("link"):
+            for visual in link.findall("visual"):
+                self.visual(visual, model_file)
+            for collision in link.findall("collision"):
+                self.collision(model, link, collision, model_file)
+
+    def mesh_file(self, mesh: ET.Element, model_file: Path) -> Path:
+        uri = (mesh.findtext("uri") or "").strip()
+        path = self.resources.resolve(uri, model_file.parent)
+        if path is None or not path.is_file():
+            raise WorldError(f"{model_file}: mesh {uri!r} not found")
+        return path
+
+    def visual(self, visual: ET.Element, model_file: Path) -> None:
+        geometry = visual.find("geometry")
+        mesh = geometry.find("mesh") if geometry is not None else None
+        if mesh is not None:
+            mesh.find("uri").text = convert_mesh(self.mesh_file(mesh, model_file)).path.as_uri()
+        material = visual.find("material")
+        if material is None:
+            return
+        texture = self.texture(material, model_file)
+        script = material.find("script")
+        if script is not None:
+            material.remove(script)
+            color = NAMED_COLORS.get((script.findtext("name") or "").split("/")[-1].lower())
+            if color and material.find("diffuse") is None:
+                ET.SubElement(material, "diffuse").text = " ".join(map(str, color))
+        if material.text and material.text.strip():  # <material>Gazebo/White</material>
+            color = NAMED_COLORS.get(material.text.strip().split("/")[-1].lower())
+            material.text = None
+            if color:
+                ET.SubElement(material, "diffuse").text = " ".join(map(str, color))
+        for tag in ("pbr", "shader", "lighting", "double_sided"):
+            for child in material.findall(tag):
+                material.remove(child)
+        box = geometry.find("box") if geometry is not None else None
+        if texture is not None and box is not None:
+            size = _floats(box.findtext("size"), 3, f"{model_file}: <box><size>")
+            geometry.remove(box)
+            mesh = ET.SubElement(geometry, "mesh")
+            ET.SubElement(mesh, "uri").text = textured_box(size, texture).as_uri()
+            visual.remove(material)  # the MTL's texture, not a colour, is drawn
+        elif texture is not None:
+            shape = geometry[0].tag if geometry is not None and len(geometry) else "?"
+            self.warnings.append(
+                f"{model_file}: texture {texture.name} on a {shape} visual is not drawn "
+                "(textures are drawn on boxes and on meshes' own materials)"
+            )
+
+    def texture(self, material: ET.Element, model_file: Path) -> Path | None:
+        """The image of a classic material script or of a PBR albedo map (None if none)."""
+        albedo = material.findtext("pbr/metal/albedo_map") or material.findtext(
+            "pbr/specular/albedo_map"
+        )
+        if albedo and albedo.strip():
+            path = self.resources.resolve(albedo, model_file.parent)
+            return path if path is not None and path.is_file() else None
+        script = material.find("script")
+        if script is None:
+            return None
+        name = (script.findtext("name") or "").strip()
+        folders = [
+            self.resources.resolve(u.text or "", model_file.parent) for u in script.iter("uri")
+        ]
+        folders = [f for f in folders if f is not None and f.is_dir()]
+        for folder in folders:
+            for script_file in sorted(folder.glob("*.material")):
+                image = _script_texture(script_file.read_text(errors="replace"), name)
+                for candidate in folders:
+                    if image and (candidate / image).is_file():
+                        return candidate / image
+        return None
+
+    def collision(
+        self, model: ET.Element, link: ET.Element, collision: ET.Element, model_file: Path
+    ) -> None:
+        """A mesh collision is taken out, to be added as convex pieces after parsing."""
+        mesh = collision.find("geometry/mesh")
+        if mesh is None:
+            return
+        pose = collision.find("pose")
+        if pose is not None and pose.get("relative_to"):
+            declare = ET.SubElement(mesh, "drake:declare_convex")
+            declare.text = None
+            mesh.find("uri").text = convert_mesh(self.mesh_file(mesh, model_file)).path.as_uri()
+            return
+        values = _floats(pose.text, 6, f"{model_file}: <pose>") if pose is not None else [0] * 6
+        scale = mesh.findtext("scale")
+        scale3 = np.array(_floats(scale, 3, f"{model_file}: <scale>") if scale else [1, 1, 1])
+        mu = collision.findtext("surface/friction/ode/mu") or collision.findtext(
+            "surface/friction/bullet/friction"
+        )
+        self.collisions.append(
+            (
+                model.get("name", ""),
+                link.get("name", ""),
+                RigidTransform(RollPitchYaw(values[3:]), values[:3]),
+                self.mesh_file(mesh, model_file),
+                scale3,
+                float(mu) if mu else DEFAULT_FRICTION,
+            )
+        )
+        link.remove(collision)
+
+    # ---- the world -------------------------------------------------------
+
+    def read(self) -> LoadedWorld:
+        try:
+            text = self.path.read_text()
+        except OSError as error:
+            raise WorldError(f"{self.path}: cannot read the world: {error.strerror}") from None
+        root, self.lines = parse_with_lines(text, str(self.path))
+        world = root.find("world") if root.tag == "sdf" else None
+        if world is None:
+            raise WorldError(f"{self.path}: no <sdf><world> (is it a model file?)")
+        loaded = LoadedWorld(source=self.path, name=world.get("name", ""))
+        models: list[tuple[str, ET.Element]] = []
+        for element in world:
+            if not isinstance(element.tag, str):
+                continue
+            if element.tag not in SCENE_ELEMENTS:
+                loaded.ignored.append(element.tag)
+                continue
+            where = self.where(element)
+            if element.tag == "model":
+                self.rewrite(element, self.path)
+                model = element
+            else:
+                model = self.included_model(element)
+            if model is not None:
+                models.append((where, model))
+        for where, model in models:
+            name = model.get("name", "").strip()
+            model.set("name", name)
+            if name in loaded.models:
+                raise WorldError(f"{where}: model name {name!r} is used twice")
+            loaded.models[name] = self.add(model, where)
+        self.add_collisions(loaded)
+        loaded.ignored += sorted(self.stripped)
+        loaded.warnings = self.warnings
+        return loaded
+
+    def add(self, model: ET.Element, where: str) -> ModelInstanceIndex:
+        sdf = ET.Element("sdf", version="1.9")
+        sdf.append(model)
+        text = ET.tostring(sdf, encoding="unicode").replace(
+            "<sdf ", '<sdf xmlns:drake="http://drake.mit.edu" ', 1
+        )
+        try:
+            (instance,) = Parser(self.plant).AddModelsFromString(text, "sdf")
+        except Exception as error:  # Drake's parser raises RuntimeError with its diagnostic
+            message = " ".join(str(error).split())
+            raise WorldError(
+                f"{where}: Drake could not load model {model.get('name')!r}: {message}"
+            ) from None
+        return instance
+
+    def add_collisions(self, loaded: LoadedWorld) -> None:
+        plant = self.plant
+        for model, link, X_LC, path, scale, mu in self.collisions:
+            instance = loaded.models.get(model) or plant.GetModelInstanceByName(model)
+            body = plant.GetBodyByName(link, instance)
+            friction = CoulombFriction(mu, mu)
+            pieces = convex_pieces(path, tuple(scale))
+            concave = sum(1 for convex, _ in pieces if not convex)
+            if concave:
+                self.warnings.append(
+                    f"{path.name} of {model!r}: {concave} concave part(s) of over {MAX_PRISMS} "
+                    "faces collide as their convex hull under point contact (their true "
+                    "surface under hydroelastic contact)"
+                )
+            for index, (convex, piece) in enumerate(pieces):
+                data = InMemoryMesh(mesh_file=MemoryFile(piece, ".obj", path.name))
+                name = f"{link}_{path.stem}_{index}"
+                if convex:
+                    plant.RegisterCollisionGeometry(body, X_LC, Convex(data), name, friction)
+                    continue
+                properties = ProximityProperties()
+                AddContactMaterial(friction=friction, properties=properties)
+                AddRigidHydroelasticProperties(properties=properties)
+                plant.RegisterCollisionGeometry(body, X_LC, Mesh(data), name, properties)
+
+
+def _script_texture(text: str, name: str) -> str | None:
+    """The ``texture`` image of material ``name`` in an OGRE material script."""
+    match = re.search(r"material\s+" + re.escape(name) + r"\s*(?::\s*\S+\s*)?\{", text)
+    if not match:
+        return None
+    found = re.search(r"\btexture\s+(\S+)", text[match.end() :])
+    return found.group(1) if found else None
+
+
+def _obj(vertices: np.ndarray, faces: np.ndarray) -> str:
+    lines = [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in vertices]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces]
+    return "\n".join(lines) + "\n"
+
+
+@functools.lru_cache(maxsize=256)
+def convex_pieces(path: Path, scale: tuple[float, float, float]) -> tuple[tuple[bool, bytes], ...]:
+    """The collision pieces of a mesh, each (convex, OBJ text); see the module docstring.
+    A concave part of more than :data:`MAX_PRISMS` faces is one non-convex piece."""
+    import trimesh
+
+    mesh = trimesh.load(str(path), force="mesh", process=True)
+    mesh.merge_vertices(merge_tex=True, merge_norm=True)  # connected through shared corners
+    mesh.apply_scale(np.asarray(scale, dtype=float))
+    labels = trimesh.graph.connected_component_labels(
+        mesh.face_adjacency, node_count=len(mesh.faces)
+    )
+    pieces = []
+    for label in np.unique(labels):
+        part = trimesh.Trimesh(mesh.vertices, mesh.faces[labels == label], process=True)
+        try:
+            hull = part.convex_hull
+            convex = part.is_watertight and part.volume >= CONVEX_FRACTION * hull.volume
+        except Exception:  # a flat or degenerate part has no hull
+            convex = False
+        if convex:
+            pieces.append((True, _obj(hull.vertices, hull.faces).encode()))
+        elif len(part.faces) > MAX_PRISMS:
+            pieces.append((False, _obj(part.vertices, part.faces).encode()))
+        else:
+            for triangle, normal in zip(part.triangles, part.face_normals, strict=True):
+                prism = np.vstack([triangle, triangle - PRISM_DEPTH * normal])
+                pieces.append((True, _obj(prism, PRISM_FACES).encode()))
+    return tuple(pieces)
+
+
+def textured_box(size: list[float], image: Path) -> Path:
+    """An OBJ box of ``size`` with ``image`` on each face (cached by size and image)."""
+    digest = hashlib.sha256(image.read_bytes() + repr(size).encode()).hexdigest()[:16]
+    folder = cache_dir() / "textured"
+    obj = folder / f"box-{digest}.obj"
+    if obj.is_file():
+        return obj
+    folder.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(image, folder / f"box-{digest}{image.suffix}")
+    half = np.asarray(size, dtype=float) / 2
+    lines = ["mtllib " + f"box-{digest}.mtl", "usemtl face"]
+    lines += ["vt 0 0", "vt 1 0", "vt 1 1", "vt 0 1"]
+    count = 0
+    for axis in range(3):
+        for sign in (1.0, -1.0):
+            u_axis, v_axis = [(1, 2), (2, 0), (0, 1)][axis]
+            if sign < 0:
+                u_axis, v_axis = v_axis, u_axis
+            normal = np.zeros(3)
+            normal[axis] = sign
+            lines.append("vn {:g} {:g} {:g}".format(*normal))
+            for du, dv in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+                corner = normal * half
+                corner[u_axis] = du * half[u_axis]
+                corner[v_axis] = dv * half[v_axis]
+                lines.append("v {:.9g} {:.9g} {:.9g}".format(*corner))
+            n = count // 4 + 1
+            a = count + 1
+            lines.append(f"f {a}/1/{n} {a + 1}/2/{n} {a + 2}/3/{n} {a + 3}/4/{n}")
+            count += 4
+    (folder / f"box-{digest}.mtl").write_text(
+        f"newmtl face\nKa 1 1 1\nKd 1 1 1\nKs 0 0 0\nmap_Kd box-{digest}{image.suffix}\n"
+    )
+    obj.write_text("\n".join(lines) + "\n")
+    return obj
+
+
+def load_world(plant: MultibodyPlant, path: str | os.PathLike, *, resource_paths=()) -> LoadedWorld:
+    """Adds every model of the world file ``path`` to ``plant`` (before ``Finalize``);
+    ignored world elements are named in one warning line."""
+    path = Path(path).expanduser()
+    if not path.is_file():
+        raise WorldError(f"{path}: the world file does not exist")
+    resources = _Resources(resource_roots(path, resource_paths), find_packages(near=path))
+    reader = _WorldReader(plant, path, resources)
+    loaded = reader.read()
+    if loaded.ignored:
+        _log.warning(
+            "%s: not simulated, ignored: %s", path, ", ".join(dict.fromkeys(loaded.ignored))
+        )
+    for line in loaded.warnings:
+        _log.warning("%s", line)
+    _log.info("world %s: %d models from %s", loaded.name, len(loaded.models), path)
+    return loaded
+
+
+def AddWorld(
+    plant: MultibodyPlant, world_file: str, *, resource_paths=(), where: str = ""
+) -> LoadedWorld:
+    """The scenario's ``world_file`` (a path, or ``package://pkg/worlds/x.sdf``) as the
+    scene; ``where``: the key's origin, named when the file is not there."""
+    path = Path(world_file).expanduser()
+    if world_file.startswith("package://"):
+        package, _, rest = world_file[len("package://") :].partition("/")
+        search = find_packages(resource_paths)
+        if package not in search.packages:
+            raise WorldError(f"{where}world_file={world_file!r}: unknown package {package!r}")
+        path = search.packages[package] / rest
+    if not path.is_file():
+        raise WorldError(f"{where}world_file={world_file!r}: no such file")
+    return load_world(plant, path, resource_paths=resource_paths)

@@ -1,0 +1,207 @@
+"""Gazebo worlds as the scene: the course's race field with every include, a small world
+of our own (model:// include, an STL mesh, a textured marker, the built-in ground
+plane), one-line errors for a missing model, GZ_SIM_RESOURCE_PATH."""
+
+import re
+import xml.etree.ElementTree as ET
+
+import pytest
+import trimesh
+from PIL import Image
+from pydrake.geometry import Convex, Mesh, Role
+from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
+from pydrake.systems.framework import DiagramBuilder
+
+from armando_drake.description.worlds import WorldError, load_world
+from armando_drake.simulation.builder import MakeWorld
+from tests.conftest import SHARED, skip_or_fail
+
+RACE_FIELD = SHARED / "upstream" / "rl_fra2mo_description" / "worlds" / "leonardo_race_field.sdf"
+
+WORLD = """<?xml version="1.0"?>
+<sdf version="1.9">
+  <world name="yard">
+    <physics name="1ms" type="ignored"><max_step_size>0.001</max_step_size></physics>
+    <plugin filename="gz-sim-physics-system" name="gz::sim::systems::Physics"/>
+    <light type="directional" name="sun"><pose>0 0 10 0 0 0</pose></light>
+    <include><uri>model://ground_plane</uri></include>
+    <include>
+      <name>crate_a</name>
+      <pose>1.5 -0.5 0 0 0 0.7</pose>
+      <uri>model://crate</uri>
+    </include>
+    <include>
+      <name>tag</name>
+      <pose>0 2 0.5 0 1.5708 0</pose>
+      <uri>model://tag</uri>
+    </include>
+  </world>
+</sdf>
+"""
+CRATE = """<?xml version="1.0"?>
+<sdf version="1.6"><model name="crate"><static>true</static>
+  <link name="link">
+    <visual name="visual"><cast_shadows>true</cast_shadows>
+      <geometry><mesh><uri>model://crate/meshes/crate.stl</uri><scale>0.001 0.001 0.001</scale>
+      </mesh></geometry>
+      <material><script><uri>file://media/materials/scripts/gazebo.material</uri>
+        <name>Gazebo/Orange</name></script></material>
+    </visual>
+    <collision name="collision">
+      <geometry><mesh><uri>model://crate/meshes/crate.stl</uri><scale>0.001 0.001 0.001</scale>
+      </mesh></geometry>
+    </collision>
+  </link></model></sdf>
+"""
+TAG = """<?xml version="1.0"?>
+<sdf version="1.4"><model name="marker"><static>true</static>
+  <link name="marker">
+    <visual name="tag"><geometry><box><size>0.2 0.2 0.002</size></box></geometry>
+      <material><script>
+        <uri>model://tag/materials/scripts</uri><uri>model://tag/materials/textures</uri>
+        <name>tag_face</name></script></material>
+    </visual>
+    <collision name="collision"><geometry><box><size>0.2 0.2 0.002</size></box></geometry>
+    </collision>
+  </link></model></sdf>
+"""
+CONFIG = (
+    """<?xml version="1.0"?><model><name>{name}</name><sdf version="1.6">{file}</sdf></model>"""
+)
+
+
+def _models(folder):
+    """model://crate (a 0.4 m STL cube, in mm, on the floor) and model://tag (a textured box)."""
+    crate = folder / "crate"
+    (crate / "meshes").mkdir(parents=True)
+    box = trimesh.creation.box(extents=[400, 400, 400])
+    box.apply_translation([0, 0, 200])
+    box.export(crate / "meshes" / "crate.stl")
+    (crate / "crate.sdf").write_text(CRATE)
+    (crate / "model.config").write_text(CONFIG.format(name="crate", file="crate.sdf"))
+    tag = folder / "tag"
+    (tag / "materials" / "scripts").mkdir(parents=True)
+    (tag / "materials" / "textures").mkdir(parents=True)
+    Image.new("RGB", (8, 8), (0, 0, 0)).save(tag / "materials" / "textures" / "face.png")
+    (tag / "materials" / "scripts" / "tag.material").write_text(
+        "material tag_face\n{\n technique\n {\n  pass\n  {\n   texture_unit\n   {\n"
+        "    texture face.png\n   }\n  }\n }\n}\n"
+    )
+    (tag / "model.sdf").write_text(TAG)
+
+
+def _plant():
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.001)
+    return builder, plant, scene_graph
+
+
+def _pose(plant, builder, instance, link="link"):
+    plant.Finalize()
+    diagram = builder.Build()
+    context = plant.GetMyContextFromRoot(diagram.CreateDefaultContext())
+    return plant.EvalBodyPoseInWorld(context, plant.GetBodyByName(link, instance))
+
+
+def test_race_field_loads_every_include():
+    """The race field: one model per <include> (13), obstacle_03 at its <pose>, every
+    one with collision geometry."""
+    if not RACE_FIELD.is_file():
+        skip_or_fail(f"the race field is not at {RACE_FIELD}")
+    includes = ET.parse(RACE_FIELD).getroot().findall("world/include")
+    builder, plant, scene_graph = _plant()
+    world = load_world(plant, RACE_FIELD)
+    assert len(world.models) == len(includes) == 13
+    assert {"roof", "obstacle_03", "obstacle_03_second", "intruder_two"} <= set(world.models)
+    assert {"physics", "light", "plugin"} <= set(world.ignored)
+    inspector = scene_graph.model_inspector()
+    for name, instance in world.models.items():
+        body = plant.GetBodyByName("link", instance)
+        assert plant.GetCollisionGeometriesForBody(body), name
+        assert plant.GetVisualGeometriesForBody(body), name
+    X_WO = _pose(plant, builder, world.models["obstacle_03"])
+    expected = RigidTransform(RollPitchYaw(0, 0, -1.57), [2.802, 1.684, 0.1])
+    assert X_WO.IsNearlyEqualTo(expected, 1e-9)
+    # The field's 13 walls and floor are boxes: 13 convex pieces on its link.
+    field = plant.GetBodyByName("link", world.models["race_field"])
+    shapes = [inspector.GetShape(g) for g in plant.GetCollisionGeometriesForBody(field)]
+    assert len(shapes) == 13 and all(isinstance(s, Convex) for s in shapes)
+
+
+def test_small_world(tmp_path):
+    """Our world: the built-in ground plane, the STL crate at its include's pose with a
+    convex collision of its 0.4 m cube, the tag's texture on an OBJ box."""
+    _models(tmp_path / "models")
+    (tmp_path / "worlds").mkdir()
+    world_file = tmp_path / "worlds" / "yard.sdf"
+    world_file.write_text(WORLD)
+    builder, plant, scene_graph = _plant()
+    world = load_world(plant, world_file)
+    assert list(world.models) == ["ground_plane", "crate_a", "tag"]
+    assert {"physics", "plugin", "light", "cast_shadows"} <= set(world.ignored)
+    inspector = scene_graph.model_inspector()
+    crate = plant.GetBodyByName("link", world.models["crate_a"])
+    (collision,) = plant.GetCollisionGeometriesForBody(crate)
+    hull = inspector.GetShape(collision)
+    assert isinstance(hull, Convex)
+    (visual,) = plant.GetVisualGeometriesForBody(crate)
+    assert isinstance(inspector.GetShape(visual), Mesh)
+    assert inspector.GetShape(visual).extension() == ".obj"
+    orange = inspector.GetIllustrationProperties(visual).GetProperty("phong", "diffuse")
+    assert (orange.r(), orange.g(), orange.b()) == pytest.approx((1.0, 0.5088, 0.0468))
+    (tag_visual,) = plant.GetVisualGeometriesForBody(
+        plant.GetBodyByName("marker", world.models["tag"])
+    )
+    tag_mesh = inspector.GetShape(tag_visual)
+    assert isinstance(tag_mesh, Mesh)
+    mtl = str(tag_mesh.source().path()).replace(".obj", ".mtl")
+    assert re.search(r"map_Kd box-\w+\.png", open(mtl).read())
+    X_WC = _pose(plant, builder, world.models["crate_a"])
+    assert X_WC.IsNearlyEqualTo(RigidTransform(RollPitchYaw(0, 0, 0.7), [1.5, -0.5, 0]), 1e-9)
+    # The hull's top face is 0.4 m up (mm scaled to m).
+    assert inspector.num_geometries() == len(inspector.GetAllGeometryIds())
+    assert scene_graph.model_inspector().NumGeometriesWithRole(Role.kProximity) == 3
+
+
+def test_missing_model_is_one_line(tmp_path):
+    """A world naming a model nowhere on the path: one line with the file, the line of
+    the <include>, the URI and where it was looked for."""
+    world_file = tmp_path / "yard.sdf"
+    world_file.write_text(WORLD)
+    _, plant, _ = _plant()
+    with pytest.raises(WorldError) as error:
+        load_world(plant, world_file)
+    message = str(error.value)
+    assert "\n" not in message
+    assert message.startswith(f"{world_file}:8: <include> model://crate: model not found")
+    assert "GZ_SIM_RESOURCE_PATH" in message
+
+
+def test_resource_path_variable(tmp_path, monkeypatch):
+    """Models in a folder only GZ_SIM_RESOURCE_PATH names are found."""
+    _models(tmp_path / "elsewhere")
+    world_file = tmp_path / "worlds" / "yard.sdf"
+    world_file.parent.mkdir()
+    world_file.write_text(WORLD)
+    monkeypatch.setenv("GZ_SIM_RESOURCE_PATH", f"/nonexistent:{tmp_path / 'elsewhere'}")
+    _, plant, _ = _plant()
+    assert set(load_world(plant, world_file).models) == {"ground_plane", "crate_a", "tag"}
+
+
+def test_scenario_world_file(tmp_path):
+    """A scenario's world_file is the scene: the world's models in the diagram, no
+    default ground slab; a missing file names the key."""
+    from armando_drake.simulation.scenario import load_scenario
+
+    _models(tmp_path / "models")
+    world_file = tmp_path / "yard.sdf"
+    world_file.write_text(WORLD)
+    scenario = load_scenario("position", f"world_file: {world_file}")
+    world = MakeWorld(scenario)
+    plant = world.topics.plant
+    assert plant.HasModelInstanceNamed("crate_a") and plant.HasModelInstanceNamed("tag")
+    assert not plant.HasModelInstanceNamed("scene")
+    scenario = load_scenario("position", f"world_file: {tmp_path / 'none.sdf'}")
+    with pytest.raises(WorldError, match=r"world_file='.*none\.sdf': no such file"):
+        MakeWorld(scenario)
