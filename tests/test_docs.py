@@ -75,6 +75,14 @@ def test_the_readme_is_short_and_gives_the_ci_command():
     assert lines.index(ci_command) < 15, "the two commands come first"
 
 
+def test_the_readme_links_to_files_that_exist():
+    """The README's relative links and its picture (mkdocs checks only docs/)."""
+    targets = re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", README.read_text(encoding="utf-8"))
+    relative = [t for t in targets if "://" not in t]
+    assert "docs/images/armando.png" in relative
+    assert [t for t in relative if not (REPO / t).exists()] == []
+
+
 def test_commands_are_found():
     modules = {_argv(command)[0] for _, command in COMMANDS}
     assert {"world", "display", "graph", "sweep", "dataset", "bench", "plots"} <= modules
