@@ -242,13 +242,14 @@ def test_a_package_data_pattern_removed_fails_the_check(tmp_path):
 def test_sdist_holds_the_project(dists):
     """The source distribution builds the wheel (``python -m build`` built it from it) and
     holds every file of the project a user builds or tests from: the package, its data,
-    README, LICENSE, NOTICE, CHANGELOG, tests, notebooks, examples, benchmarks."""
+    README, LICENSE, NOTICE, CHANGELOG, tests, notebooks, examples, benchmarks, the docs."""
     (sdist,) = dists.glob("armando_drake-*.tar.gz")
     with tarfile.open(sdist) as archive:
         top = f"{sdist.name.removesuffix('.tar.gz')}/"
         names = {name.removeprefix(top) for name in archive.getnames()}
     expected = {"pyproject.toml", "README.md", "LICENSE", "NOTICE", "CHANGELOG.md", "MANIFEST.in"}
-    for folder in ("armando_drake", *map(str, DATA_DIRS), "tests", "notebooks", "examples"):
+    expected.add("mkdocs.yml")
+    for folder in ("armando_drake", *map(str, DATA_DIRS), "tests", "notebooks", "examples", "docs"):
         expected |= {p.relative_to(REPO).as_posix() for p in _files_under(REPO / folder)}
     expected |= {p.relative_to(REPO).as_posix() for p in _files_under(REPO / "benchmarks")}
     assert sorted(expected - names) == []

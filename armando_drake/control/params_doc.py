@@ -1,14 +1,15 @@
-"""The controller parameters, as the README lists them, generated from the dataclasses.
+"""The controller parameters, as the docs list them, generated from the dataclasses.
 
 Each registered ROS 2 controller type's parameters dataclass becomes one markdown
 table: the ROS parameter name (``constraints.goal_time`` where the dataclass
 keeps a flat field), its type, its default and the field's comment (unit and
 meaning); then the upstream parameters the type refuses, with the reason.
-The README's block between :data:`BEGIN` and :data:`END` is this text
-(``tests/control/test_params_doc.py`` checks it)::
+The docs' reference page "Controller parameters" is this block, made at each build of
+the site by ``docs/hooks.py`` (``tests/control/test_params_doc.py`` checks it); ``--write``
+replaces the block between :data:`BEGIN` and :data:`END` of any markdown file::
 
     python -m armando_drake.control.params_doc            # prints the block
-    python -m armando_drake.control.params_doc --write README.md
+    python -m armando_drake.control.params_doc --write FILE.md
 """
 
 from __future__ import annotations
@@ -148,9 +149,9 @@ def replace_block(text: str, block: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Prints the README's controller parameter tables, or writes them into a README."""
+    """Prints the controller parameter tables, or writes them into a markdown file."""
     parser = argparse.ArgumentParser(description=main.__doc__)
-    parser.add_argument("--write", type=Path, help="the README to update in place")
+    parser.add_argument("--write", type=Path, help="the markdown file to update in place")
     args = parser.parse_args(argv)
     block = render()
     if args.write is None:

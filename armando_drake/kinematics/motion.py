@@ -41,10 +41,11 @@ class TaskSpaceMotion:
     # [m] linear: goal - start, used when goal is empty
     offset: list[float] = param([0.0, 0.0, 0.0], unit="m")
     radius: float = param(0.05, unit="m", gt=0)  # [m] circular: the radius
-    normal: list[float] = param([1.0, 0.0, 0.0], unit="-")  # circular: the
-    # plane's normal (default: the y-z plane through the start, as the course's seed)
-    center_direction: list[float] = param([0.0, 0.0, -1.0], unit="-")  # [-]
-    # circular: from the start towards the centre (projected into the plane)
+    # [-] circular: the plane's normal (default: the y-z plane through the start, as
+    # the course's seed)
+    normal: list[float] = param([1.0, 0.0, 0.0], unit="-")
+    # [-] circular: from the start towards the centre (projected into the plane)
+    center_direction: list[float] = param([0.0, 0.0, -1.0], unit="-")
     # [rad] circular: the arc turned about the normal
     angle: float = param(2.0 * math.pi, unit="rad")
     # [rad] rotation vector (base frame) from the start orientation to the goal's,

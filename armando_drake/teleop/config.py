@@ -44,7 +44,7 @@ class GamepadMapping:
     linear_axes: list[int] = param([1, 0, 3], unit="-", ge=0, length=3)
     linear_signs: list[float] = param([-1.0, -1.0, -1.0], unit="-", choices=(-1.0, 1.0))
     # Cartesian mode: the axes of the rotations the arm can follow (the end effector's
-    # own axes, see README "Live jog"), in order, and their signs; a rotation beyond
+    # own axes, see the docs' "Live jog"), in order, and their signs; a rotation beyond
     # this list takes the next pair of angular_buttons.
     angular_axes: list[int] = param([2], unit="-", ge=0)
     angular_signs: list[float] = param([1.0], unit="-", choices=(-1.0, 1.0))

@@ -1,5 +1,6 @@
-"""The README's controller parameter tables are the ones generated from the dataclasses."""
+"""The docs' controller parameter tables are the ones generated from the dataclasses."""
 
+import importlib.util
 from pathlib import Path
 
 import pytest
@@ -7,15 +8,17 @@ import pytest
 from armando_drake.control import params_doc
 from armando_drake.control.controllers.joint_trajectory import JointTrajectoryControllerParams
 
-README = Path(__file__).resolve().parents[2] / "README.md"
+HOOKS = Path(__file__).resolve().parents[2] / "docs" / "hooks.py"
 
 
-def test_readme_block_is_the_generated_text():
-    text = README.read_text(encoding="utf-8")
-    start, end = text.index(params_doc.BEGIN), text.index(params_doc.END)
-    assert text[start : end + len(params_doc.END)] == params_doc.render(), (
-        "regenerate with: python -m armando_drake.control.params_doc --write README.md"
-    )
+def test_docs_page_is_the_generated_text():
+    """The site's reference page (made by docs/hooks.py at each build) holds the block."""
+    spec = importlib.util.spec_from_file_location("docs_hooks", HOOKS)
+    hooks = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(hooks)
+    page = hooks.controller_parameters_page()
+    assert params_doc.render() in page
+    assert "`joint_trajectory_controller/JointTrajectoryController`" in page
 
 
 def test_rows_carry_ros_name_type_default_and_comment():

@@ -31,7 +31,7 @@ from armando_drake.messages.types import Float64MultiArray
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import ScenarioError, load_scenario
 
-README = Path(__file__).resolve().parents[2] / "README.md"
+EXTENDING = Path(__file__).resolve().parents[2] / "docs" / "how-to" / "extending.md"
 PACKAGE = Path(armando_drake.__file__).resolve().parent
 CONTROLLERS = PACKAGE / "control" / "controllers"
 # What a ROS controller type string looks like: <package>/<Type>, the package named
@@ -169,9 +169,9 @@ def test_no_file_of_the_package_outside_the_controllers_names_a_type_string():
 
 
 def _extending_example() -> tuple[str, dict[str, str]]:
-    """The README's Extending section: the module's text and its entry points."""
-    section = README.read_text().split("\n## Extending\n", 1)[1].split("\n## ", 1)[0]
-    section = section.split("\n### A new controller type\n", 1)[1].split("\n### ", 1)[0]
+    """The Extending guide's "A new controller type": the module's text and its entry points."""
+    section = EXTENDING.read_text().split("\n## A new controller type\n", 1)[1]
+    section = section.split("\n## ", 1)[0]
     blocks = dict(re.findall(r"```(python|toml)\n(.*?)```", section, re.S))
     header = f'[project.entry-points."{ENTRY_POINT_GROUP}"]'
     assert blocks["toml"].startswith(header + "\n")

@@ -1,4 +1,4 @@
-"""The ros2: section: bad values named, the printed configuration the one the README gives."""
+"""The ros2: section: bad values named, the printed configuration the one the docs give."""
 
 from pathlib import Path
 
@@ -8,14 +8,14 @@ from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import ScenarioError, load_scenario
 
 pytest.importorskip("cyclonedds")
-README = Path(__file__).resolve().parents[2] / "README.md"
+ROS2_PAGE = Path(__file__).resolve().parents[2] / "docs" / "tutorials" / "ros2.md"
 
 
-def test_the_readme_gives_the_loopback_configuration_the_world_prints():
+def test_the_docs_give_the_loopback_configuration_the_world_prints():
     from armando_drake.ros2.dds import cyclonedds_config, reachability
 
     xml = cyclonedds_config()
-    assert f'export CYCLONEDDS_URI="{xml}"' in README.read_text()
+    assert f'export CYCLONEDDS_URI="{xml}"' in ROS2_PAGE.read_text()
     assert f'CYCLONEDDS_URI="{xml}"' in reachability(0)
     assert "127.0.0.1" in xml and "<AllowMulticast>false</AllowMulticast>" in xml
     assert "<NetworkInterface name='eth1'/>" in cyclonedds_config("eth1")

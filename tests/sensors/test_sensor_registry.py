@@ -1,5 +1,5 @@
-"""A new sensor type is one module plus its registration (README "Extending"): the
-README's altimeter, installed by an entry point, measures a falling pendulum's link."""
+"""A new sensor type is one module plus its registration (docs/how-to/extending.md): the
+guide's altimeter, installed by an entry point, measures a falling pendulum's link."""
 
 import logging
 import re
@@ -14,7 +14,7 @@ from armando_drake.sensors import registry
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import load_scenario
 
-README = Path(__file__).resolve().parents[2] / "README.md"
+EXTENDING = Path(__file__).resolve().parents[2] / "docs" / "how-to" / "extending.md"
 
 # A pendulum: link "arm" (0.4 m, 1 kg at its end) on a revolute joint about 1 m up,
 # starting horizontal, with an altimeter at its tip (<pose>) sampled at 50 Hz, and a sonar
@@ -45,8 +45,8 @@ PENDULUM = """<?xml version="1.0"?>
 
 
 def _sensor_example() -> tuple[str, dict[str, str]]:
-    """The README's "A new sensor" subsection: the module's text and its entry points."""
-    section = README.read_text().split("\n### A new sensor\n", 1)[1].split("\n### ", 1)[0]
+    """The Extending guide's "A new sensor": the module's text and its entry points."""
+    section = EXTENDING.read_text().split("\n## A new sensor\n", 1)[1].split("\n## ", 1)[0]
     blocks = dict(re.findall(r"```(python|toml)\n(.*?)```", section, re.S))
     assert blocks["toml"].startswith(f'[project.entry-points."{registry.ENTRY_POINT_GROUP}"]\n')
     return blocks["python"], dict(re.findall(r'^(\S+) = "(\S+)"$', blocks["toml"], re.M))
@@ -54,7 +54,7 @@ def _sensor_example() -> tuple[str, dict[str, str]]:
 
 @pytest.fixture
 def installed_altimeter(tmp_path, monkeypatch):
-    """The README's module and entry point in a folder on sys.path, as pip installs them."""
+    """The guide's module and entry point in a folder on sys.path, as pip installs them."""
     text, entry_points = _sensor_example()
     assert entry_points == {"toy_sensors": "toy_sensors"}
     (tmp_path / "toy_sensors.py").write_text(text)

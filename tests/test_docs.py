@@ -1,0 +1,157 @@
+"""The documentation: the site builds with no warning, the README stays short and gives
+the command CI runs, and every command the README and the pages show is one the
+commands accept (a few of them run for real, briefly)."""
+
+import contextlib
+import importlib
+import io
+import os
+import re
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from conftest import skip_or_fail
+
+REPO = Path(__file__).resolve().parents[1]
+README = REPO / "README.md"
+DOCS = REPO / "docs"
+README_MAX_LINES = 260
+PREFIXES = ("python -m armando_drake.", ".venv/bin/python -m armando_drake.")
+
+# The commands whose parser the test can ask for (argv checked in full: unknown options
+# and bad values fail); the others get --help appended, which must exit 0.
+PARSERS = {
+    "world": "armando_drake.world",
+    "display": "armando_drake.display",
+    "graph": "armando_drake.graph",
+    "sweep": "armando_drake.sweeps.sweep",
+    "dataset": "armando_drake.sweeps.dataset",
+}
+# Commands of the README and the pages run for real, with SHORT appended (the last
+# --duration wins): they fit in a second of simulated time each.
+REAL_RUNS = [
+    ".venv/bin/python -m armando_drake.world",
+    ".venv/bin/python -m armando_drake.world --controller trajectory",
+    ".venv/bin/python -m armando_drake.world --scenario task_armando "
+    "--set 'task: {path: circular, radius: 0.04}'",
+]
+SHORT = ["--duration", "1", "--no-meshcat", "--realtime-rate", "0", "--no-wait", "--quiet"]
+
+
+def documented_commands() -> list[tuple[str, str]]:
+    """(where, command) of every line of a fenced bash block in the README and docs/ that
+    runs ``python -m armando_drake.<module>``; continuation lines joined."""
+    found = []
+    for path in [README, *sorted(DOCS.rglob("*.md"))]:
+        text = path.read_text(encoding="utf-8")
+        for block in re.finditer(r"^```bash\n(.*?)^```", text, re.S | re.M):
+            first_line = text[: block.start()].count("\n") + 2
+            joined = re.sub(r"\\\n\s*", " ", block.group(1))
+            for offset, line in enumerate(joined.splitlines()):
+                line = line.strip()
+                if line.startswith(PREFIXES):
+                    found.append((f"{path.relative_to(REPO)}:{first_line + offset}", line))
+    return found
+
+
+COMMANDS = documented_commands()
+
+
+def _argv(command: str) -> tuple[str, list[str]]:
+    """(the module after armando_drake., its arguments) of a documented command."""
+    words = shlex.split(command, comments=True)
+    assert words[1] == "-m", command
+    return words[2].removeprefix("armando_drake."), words[3:]
+
+
+def test_the_readme_is_short_and_gives_the_ci_command():
+    lines = README.read_text(encoding="utf-8").splitlines()
+    assert len(lines) <= README_MAX_LINES, f"README.md has {len(lines)} lines"
+    ci_command = (REPO / ".ci" / "run").read_text().strip().splitlines()[-1]
+    assert ci_command in lines, "the README's test command is the one .ci/run runs"
+    assert lines.index(ci_command) < 15, "the two commands come first"
+
+
+def test_the_readme_links_to_files_that_exist():
+    """The README's relative links and its picture (mkdocs checks only docs/)."""
+    targets = re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", README.read_text(encoding="utf-8"))
+    relative = [t for t in targets if "://" not in t]
+    assert "docs/images/armando.png" in relative
+    assert [t for t in relative if not (REPO / t).exists()] == []
+
+
+def test_commands_are_found():
+    modules = {_argv(command)[0] for _, command in COMMANDS}
+    assert {"world", "display", "graph", "sweep", "dataset", "bench", "plots"} <= modules
+    assert len(COMMANDS) >= 40
+    shown = {shlex.join(shlex.split(command, comments=True)) for _, command in COMMANDS}
+    assert [run for run in REAL_RUNS if shlex.join(shlex.split(run)) not in shown] == []
+
+
+@pytest.mark.parametrize("where, command", COMMANDS, ids=[where for where, _ in COMMANDS])
+def test_documented_command_parses(where, command):
+    module, argv = _argv(command)
+    if module in PARSERS:
+        parser = importlib.import_module(PARSERS[module])._parser()
+        errors = io.StringIO()
+        with contextlib.redirect_stderr(errors):
+            try:
+                parser.parse_args(argv)
+            except SystemExit:
+                pytest.fail(f"{where}: {command}\n{errors.getvalue()}")
+        return
+    output = io.StringIO()
+    with contextlib.redirect_stdout(output), contextlib.redirect_stderr(output):
+        with pytest.raises(SystemExit) as exit_:
+            importlib.import_module(f"armando_drake.{module}").main([*argv, "--help"])
+    assert exit_.value.code in (0, None), f"{where}: {command}\n{output.getvalue()}"
+    assert "usage:" in output.getvalue()
+
+
+@pytest.mark.parametrize("command", REAL_RUNS)
+def test_documented_command_runs(command, tmp_path):
+    module, argv = _argv(command)
+    result = subprocess.run(
+        [sys.executable, "-m", f"armando_drake.{module}", *argv, *SHORT],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "1.00 s simulated" in result.stdout
+
+
+def test_site_builds_without_a_warning(tmp_path):
+    """mkdocs build --strict: a broken link or anchor, a page missing from the nav or a
+    nav entry without its page fails it (mkdocs.yml's validation settings)."""
+    try:
+        import material  # noqa: F401
+        import mkdocs  # noqa: F401
+    except ImportError:
+        skip_or_fail("MkDocs and its Material theme are not installed (pip install -e '.[docs]')")
+    site = tmp_path / "site"
+    result = subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(site)],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, "NO_MKDOCS_2_WARNING": "1"},
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "WARNING" not in result.stderr, result.stderr
+    # The generated reference pages, from the code.
+    cli = (site / "reference" / "cli" / "index.html").read_text()
+    assert "usage: python -m armando_drake.world" in cli
+    assert "usage: python -m armando_drake.dataset ik" in cli
+    keys = (site / "reference" / "scenario-keys" / "index.html").read_text()
+    assert "actuators.kp" in keys and "N m/rad" in keys
+    assert "sequencer !Sinusoid: frequency" in keys
+    parameters = (site / "reference" / "controller-parameters" / "index.html").read_text()
+    assert "constraints.goal_time" in parameters
+    pages = list(site.rglob("index.html"))
+    assert len(pages) >= 25, len(pages)
