@@ -48,6 +48,7 @@ from pydrake.systems.primitives import (
 )
 from pydrake.trajectories import PiecewisePolynomial
 
+from armando_drake.control.clearance import clear_targets
 from armando_drake.control.controllers import takes_stream
 from armando_drake.messages.types import (
     Float64MultiArray,
@@ -919,7 +920,19 @@ def AddSequencer(
     name = targets[0]
     joints = stack.controller_joints[name]
     rows = stack.joints_of(joints)
+    seed = is_seed(getattr(config, "targets", None) or [])
     config = sized_seed(config, rows, stack.robot.name)
+    if seed and stack.scene_graph is not None:  # seed-style targets clear of collisions
+        clear = clear_targets(
+            stack.plant,
+            stack.scene_graph,
+            stack.robot.model_instance,
+            joints,
+            config.targets,
+            [joint.initial_position for joint in rows],
+            stack.robot.name,
+        )
+        config = dataclasses.replace(config, targets=clear)
     validate(
         config,
         joints,

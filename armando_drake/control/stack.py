@@ -168,6 +168,8 @@ class ControlStack:
     # The controller whose commands are a C++ stream (a sinusoid) that drives the
     # hardware directly, without the manager's update; "" if none.
     stream_controller: str = ""
+    # The plant's scene graph, for the collision checks of the seed targets (None: none).
+    scene_graph: SceneGraph | None = None
 
     @property
     def broadcaster(self) -> ControllerManager | None:
@@ -429,6 +431,7 @@ def AddControllerManager(
     update_rate: int,
     sequencer=None,
     where: str = "",
+    scene_graph: SceneGraph | None = None,
 ) -> ControlStack:
     """Loads and activates ``config.activate`` (a broadcaster and command controllers,
     each joint claimed once) in one :class:`ControllerManager`, wired to the plant
@@ -440,6 +443,7 @@ def AddControllerManager(
         hardware=hardware,
         config=controller_config,
         update_rate=update_rate,
+        scene_graph=scene_graph,
     )
     broadcaster, managed = _activate(stack, config.activate, where, config.speed_scaling)
     if broadcaster is None and not managed:
