@@ -139,7 +139,12 @@ def clear_targets(
     """``targets`` (the first one is home), each one's excursion from home scaled back
     until it, the path to it from the one before (from ``start`` for the first) and the
     path from it back home are free of collisions; logs each one scaled back."""
-    checker = _Checker(plant, scene_graph, instance, joint_names)
+    try:
+        checker = _Checker(plant, scene_graph, instance, joint_names)
+        checker.collides(None)
+    except RuntimeError as error:  # a scene whose geometry SceneGraph cannot query
+        _log.info("seed targets of %s not checked for collisions: %s", robot_name, error)
+        return [list(map(float, target)) for target in targets]
     targets_ = np.asarray(targets, dtype=float)
     home = targets_[0]
     previous = np.asarray(start, dtype=float)

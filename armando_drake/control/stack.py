@@ -360,6 +360,15 @@ def _settle_gains(plant, robot, hardware, actuators, explicit, from_yaml, chosen
     }
     rule = GainRule(actuators.natural_frequency, actuators.damping_ratio)
     derived = derive_gains(plant, robot, hardware, wanted, rule)
+    unlimited = [j.name for j in hardware.joints if j.name in derived and math.isinf(j.effort)]
+    if unlimited:
+        _log.warning(
+            "%s: no effort limit (effort missing or 0) on %s: their actuators apply any "
+            "torque, and their derived kp is bounded by %g only",
+            robot.source,
+            ", ".join(unlimited),
+            MAX_GAIN,
+        )
     rows: list[JointGains] = []
     for joint in hardware.joints:
         if joint.name in derived:

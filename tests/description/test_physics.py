@@ -82,6 +82,23 @@ def test_an_arm_without_gains_reaches_the_seed_targets(tmp_path, caplog, arm, ma
         assert kp > 0 and kd >= 0
 
 
+def test_an_arm_without_inertials_or_effort_limits_reaches_the_seed_targets(tmp_path, caplog):
+    """A ROS-Industrial style description: no <inertial>, effort="0". Its links weigh
+    their boxes at 1000 kg/m^3; its actuators are unlimited, and say so."""
+    arm = dict(HEAVY, efforts=[0] * 6)
+    urdf = write(tmp_path, "bare_arm", chain_urdf("bare_arm", **arm, inertials=False))
+    with caplog.at_level(logging.INFO):
+        result, ran = run_seed(tmp_path, urdf)
+    messages = [r.message for r in caplog.records]
+    (masses,) = [m for m in messages if "6 link(s) declare no mass" in m]
+    total = 1000.0 * 0.12**2 * sum(HEAVY["lengths"])
+    assert f"{total:.4g} kg in all" in masses
+    assert any("no effort limit (effort missing or 0) on joint_1" in m for m in messages)
+    assert sorted(ran.actuators.gains) == [f"joint_{k}" for k in range(1, 7)]
+    errors = [step.final_error for step in result.steps]
+    assert len(errors) == 5 and max(errors) <= 0.01, errors
+
+
 def test_derived_stiffness_holds_the_heavy_arm_within_the_sag_bound(tmp_path):
     """Without feed-forward, gravity bends each joint by at most tau_g / kp: below
     SAG_ROTATION wherever the effort limit allows that stiffness."""
