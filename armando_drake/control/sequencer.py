@@ -50,6 +50,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from armando_drake.control.clearance import clear_targets
 from armando_drake.control.controllers import takes_stream
+from armando_drake.description.loader import is_builtin_armando
 from armando_drake.messages.types import (
     Float64MultiArray,
     JointTrajectory,
@@ -922,7 +923,9 @@ def AddSequencer(
     rows = stack.joints_of(joints)
     seed = is_seed(getattr(config, "targets", None) or [])
     config = sized_seed(config, rows, stack.robot.name)
-    if seed and stack.scene_graph is not None:  # seed-style targets clear of collisions
+    # Seed-style targets clear of collisions; the seed itself was written for the built-in
+    # Armando (tests/description/test_physics.py checks it is clear).
+    if seed and stack.scene_graph is not None and not is_builtin_armando(stack.robot):
         clear = clear_targets(
             stack.plant,
             stack.scene_graph,

@@ -22,7 +22,6 @@ from pydrake.geometry import CollisionFilterDeclaration, SceneGraph
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder, InputPort, OutputPort
 
-from armando_drake import DEFAULT_DESCRIPTION
 from armando_drake.control.config import (
     ControllerConfig,
     ControllerConfigError,
@@ -62,7 +61,7 @@ from armando_drake.control.manager import (
     ManagedController,
 )
 from armando_drake.control.sequencer import stream_controller
-from armando_drake.description.loader import LoadedRobot
+from armando_drake.description.loader import LoadedRobot, is_builtin_armando
 from armando_drake.description.packages import package_of
 from armando_drake.tools.errors import ScenarioError
 from armando_drake.tools.schema import Refusal, param
@@ -340,14 +339,6 @@ def AddHardware(
 # [N m/rad], [N m s/rad]: the gains of the built-in Armando's Dynamixel servos, its
 # position joints' gains when the scenario gives none.
 ARMANDO_GAINS = (8.0, 0.4)
-
-
-def is_builtin_armando(robot: LoadedRobot) -> bool:
-    """Whether ``robot`` is the project's own Armando description."""
-    try:
-        return Path(robot.source).resolve() == DEFAULT_DESCRIPTION.resolve()
-    except OSError:
-        return False
 
 
 def _settle_gains(plant, robot, hardware, actuators, explicit, from_yaml, chosen) -> None:

@@ -260,6 +260,14 @@ class LoadedRobot:
         return [joint for joint in self.joints if joint.mimic]
 
 
+def is_builtin_armando(robot: LoadedRobot) -> bool:
+    """Whether ``robot`` is the project's own Armando description."""
+    try:
+        return Path(robot.source).resolve() == DEFAULT_DESCRIPTION.resolve()
+    except OSError:
+        return False
+
+
 def _description_files(folder: Path, depth: int = 3) -> list[Path]:
     """Top-level description files (``*.urdf.xacro``, ``*.urdf``) below ``folder``."""
     found = []

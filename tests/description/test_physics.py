@@ -219,6 +219,22 @@ def test_seed_targets_that_hit_the_floor_are_scaled_back(tmp_path, caplog):
     assert max(step.final_error for step in result.steps) <= 0.01
 
 
+def test_armandos_own_seed_is_clear_of_collisions():
+    """The built-in Armando's seed targets are not checked in a world (they were written
+    for it): they are clear, paths included."""
+    from armando_drake.control.clearance import clear_targets
+    from armando_drake.control.sequencer import SEED_TARGETS
+    from armando_drake.simulation.builder import MakeWorld
+
+    world = MakeWorld(load_scenario("position", QUIET), quiet=True)
+    seed = [list(target) for target in SEED_TARGETS]
+    names = world.hardware.joint_names
+    start = [joint.initial_position for joint in world.hardware.joints]
+    instance = world.robot.model_instance
+    assert clear_targets(world.plant, world.scene_graph, instance, names, seed, start) == seed
+    world.close()
+
+
 # ---------------------------------------------------------------------------- inertia
 
 NO_INERTIAL = """<?xml version="1.0"?>
