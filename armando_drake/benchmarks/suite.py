@@ -74,6 +74,7 @@ import numpy as np
 from armando_drake import MODELS_DIR
 from armando_drake.control.hardware import AddHardwareInterface, FinishHardwareInterface
 from armando_drake.control.sequencer import SEED_TARGETS
+from armando_drake.control.stack import ARMANDO_GAINS
 from armando_drake.description.lidar_sensors import LidarInfo
 from armando_drake.description.loader import load_robot
 from armando_drake.outputs.plots import write_plots
@@ -347,8 +348,10 @@ def add_bare_plant(builder, scenario_name: str, time_step: float | None = None):
     ApplyMultibodyPlantConfig(config, plant)
     robot = load_robot(plant)
     AddGround(plant, scene_graph)
-    actuators = scenario.actuators
-    hardware = AddHardwareInterface(plant, robot, kp=actuators.kp, kd=actuators.kd)
+    actuators = scenario.actuators  # the built-in Armando: its servos' gains unless given
+    kp = actuators.kp if actuators.kp is not None else ARMANDO_GAINS[0]
+    kd = actuators.kd if actuators.kd is not None else ARMANDO_GAINS[1]
+    hardware = AddHardwareInterface(plant, robot, kp=kp, kd=kd)
     plant.Finalize()
     FinishHardwareInterface(plant, robot, hardware)
     return plant, robot, hardware
@@ -650,8 +653,8 @@ def bench_mujoco(report: Report, period: float) -> None:
         model = mujoco_model(
             world.robot.urdf,
             world.hardware,
-            kp=actuators.kp,
-            kd=actuators.kd,
+            kp=world.hardware.joints[0].kp,
+            kd=world.hardware.joints[0].kd,
             time_step=time_step,
             gravcomp=actuators.gravity_feedforward,
         )

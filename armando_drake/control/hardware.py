@@ -67,6 +67,12 @@ class HardwareJoint:
     # Whether the URDF joint is continuous (upstream's trajectory controller wraps its
     # position errors into [-pi, pi]).
     continuous: bool = False
+    # The gains its actuator uses: [N m/rad] kp and [N m s/rad] kd of a position joint,
+    # kp 0 and the velocity gain kv of a velocity joint; 0, 0 on an effort joint.
+    kp: float = 0.0
+    kd: float = 0.0
+    # Where they came from: "scenario", "controller YAML", "derived", "Armando's servos".
+    gains_origin: str = ""
 
 
 @dataclass
@@ -189,8 +195,9 @@ def _set_gains(
     kp: float,
     kd: float,
     kv: float,
-) -> None:
-    """Sets the PD gains of a position or velocity joint's actuator (effort: none)."""
+) -> tuple[float, float]:
+    """Sets the PD gains of a position or velocity joint's actuator (effort: none);
+    returns them (kp, kd), (0, kv) or (0, 0)."""
     if interface == "position":
         joint_kp, joint_kd = gains.get(joint_name, [kp, kd])
         if not (joint_kp > 0 and joint_kd >= 0):
@@ -199,7 +206,8 @@ def _set_gains(
                 f"kd={joint_kd!r} >= 0"
             )
         actuator.set_controller_gains(PdControllerGains(p=joint_kp, d=joint_kd))
-    elif interface == "velocity":
+        return joint_kp, joint_kd
+    if interface == "velocity":
         joint_kp, joint_kv = gains.get(joint_name, [0.0, kv])
         if joint_kp != 0 or not joint_kv > 0:
             raise ValueError(
@@ -207,6 +215,8 @@ def _set_gains(
                 f"the velocity gain kv={joint_kv!r} > 0"
             )
         actuator.set_controller_gains(PdControllerGains(p=0.0, d=joint_kv))
+        return 0.0, joint_kv
+    return 0.0, 0.0
 
 
 def _add_hardware_joint(
@@ -228,7 +238,7 @@ def _add_hardware_joint(
     joint.set_default_positions([q0])
     effort = info.effort if np.isfinite(info.effort) and info.effort > 0 else np.inf
     actuator = _joint_actuator(plant, joint, joint_name, effort)
-    _set_gains(actuator, joint_name, interface, gains, kp=kp, kd=kd, kv=kv)
+    joint_kp, joint_kd = _set_gains(actuator, joint_name, interface, gains, kp=kp, kd=kd, kv=kv)
     velocity = info.velocity if np.isfinite(info.velocity) and info.velocity > 0 else np.inf
     return HardwareJoint(
         name=joint_name,
@@ -239,6 +249,8 @@ def _add_hardware_joint(
         command_interface=interface,
         velocity=velocity,
         continuous=info.type == "continuous",
+        kp=joint_kp,
+        kd=joint_kd,
     )
 
 

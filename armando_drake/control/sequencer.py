@@ -48,7 +48,9 @@ from pydrake.systems.primitives import (
 )
 from pydrake.trajectories import PiecewisePolynomial
 
+from armando_drake.control.clearance import clear_targets
 from armando_drake.control.controllers import takes_stream
+from armando_drake.description.loader import is_builtin_armando
 from armando_drake.messages.types import (
     Float64MultiArray,
     JointTrajectory,
@@ -919,7 +921,21 @@ def AddSequencer(
     name = targets[0]
     joints = stack.controller_joints[name]
     rows = stack.joints_of(joints)
+    seed = is_seed(getattr(config, "targets", None) or [])
     config = sized_seed(config, rows, stack.robot.name)
+    # Seed-style targets clear of collisions; the seed itself was written for the built-in
+    # Armando (tests/description/test_physics.py checks it is clear).
+    if seed and stack.scene_graph is not None and not is_builtin_armando(stack.robot):
+        clear = clear_targets(
+            stack.plant,
+            stack.scene_graph,
+            stack.robot.model_instance,
+            joints,
+            config.targets,
+            [joint.initial_position for joint in rows],
+            stack.robot.name,
+        )
+        config = dataclasses.replace(config, targets=clear)
     validate(
         config,
         joints,

@@ -36,6 +36,16 @@ from armando_drake.control.controllers import (
     default_controller_config,
     find_controller,
 )
+from armando_drake.control.gains import (
+    DAMPING_RATIO,
+    MAX_DAMPING,
+    MAX_GAIN,
+    NATURAL_FREQUENCY,
+    GainRule,
+    JointGains,
+    derive_gains,
+    gains_table,
+)
 from armando_drake.control.hardware import (
     AddEffortState,
     AddHardwareInterface,
@@ -51,7 +61,7 @@ from armando_drake.control.manager import (
     ManagedController,
 )
 from armando_drake.control.sequencer import stream_controller
-from armando_drake.description.loader import LoadedRobot
+from armando_drake.description.loader import LoadedRobot, is_builtin_armando
 from armando_drake.description.packages import package_of
 from armando_drake.tools.errors import ScenarioError
 from armando_drake.tools.schema import Refusal, param
@@ -63,12 +73,6 @@ _log = logging.getLogger("armando_drake.world")
 # dataclass field types at run time and does not resolve string annotations.
 
 
-# [N m/rad] (or N/m) the largest proportional gain accepted. Industrial servos
-# run at 1e3..1e5; above 1e6 the discrete step's implicit PD is all stiffness
-# and a position command throws the joint to its limit.
-MAX_GAIN = 1e6
-# [N m s/rad] (or N s/m) the largest derivative (and velocity) gain accepted.
-MAX_DAMPING = 1e5
 _TOO_STIFF = "stiffer than any real servo, it throws the joint against its limits"
 
 
@@ -76,16 +80,26 @@ _TOO_STIFF = "stiffer than any real servo, it throws the joint against its limit
 class ActuatorConfig:
     """The simulated position interface: Drake PD-controlled joint actuators."""
 
-    # Proportional gain of every actuated joint [N m/rad].
-    kp: float = param(8.0, unit="N m/rad", gt=0, over=(MAX_GAIN, _TOO_STIFF))
-    # Derivative gain of every actuated joint [N m s/rad].
-    kd: float = param(0.4, unit="N m s/rad", ge=0, over=(MAX_DAMPING, _TOO_STIFF))
+    # Proportional gain of every position joint [N m/rad]; null (the default): each
+    # joint's own, derived from the robot's inertia, gravity and effort limits
+    # (control/gains.py, docs/physics.md); the built-in Armando's servos: 8.
+    kp: float | None = param(None, unit="N m/rad", gt=0, over=(MAX_GAIN, _TOO_STIFF))
+    # Derivative gain of every position joint [N m s/rad]; null (the default): each
+    # joint's own, the damping ratio below at its inertia; the built-in Armando's: 0.4.
+    kd: float | None = param(None, unit="N m s/rad", ge=0, over=(MAX_DAMPING, _TOO_STIFF))
     # Velocity gain of every joint with a velocity command interface [N m s/rad]: the
     # torque per rad/s of velocity error of its damping-only servo (kp = 0).
     kv: float = param(1.0, unit="N m s/rad", ge=0, over=(MAX_DAMPING, _TOO_STIFF))
     # Per-joint gains overriding kp and kd, as joint: [kp, kd] (a velocity joint:
     # [0, kv]) [N m/rad, N m s/rad]; each pair checked by check().
     gains: dict[str, list[float]] = param({}, unit="N m/rad, N m s/rad")
+    # Natural frequency of the derived gains [rad/s]: kp >= M wn^2 at the joint's
+    # largest inertia M.
+    natural_frequency: float = param(
+        NATURAL_FREQUENCY, unit="rad/s", gt=0, over=(1e4, "no servo loop is that fast")
+    )
+    # Damping ratio of the derived gains [-]: kd = 2 zeta sqrt(kp M) (less the URDF damping).
+    damping_ratio: float = param(DAMPING_RATIO, unit="-", gt=0, over=(100.0, "all damping"))
     # Adds the torque that holds the arm against gravity at the commanded
     # position, through the actuation input, so the steady-state error does not
     # depend on how stiff the gains are.
@@ -153,6 +167,8 @@ class ControlStack:
     # The controller whose commands are a C++ stream (a sinusoid) that drives the
     # hardware directly, without the manager's update; "" if none.
     stream_controller: str = ""
+    # The plant's scene graph, for the collision checks of the seed targets (None: none).
+    scene_graph: SceneGraph | None = None
 
     @property
     def broadcaster(self) -> ControllerManager | None:
@@ -278,14 +294,25 @@ def AddHardware(
     self_collision: bool = False,
     start_positions: Sequence[tuple[Sequence[float], str, str]] = (),
 ) -> HardwareInterface:
-    """The actuators of the hardware interface (gains: ``actuators``', per joint the
-    controller YAML's ``gazebo_ros_control`` ones unless ``actuators`` names the
-    joint); finalizes the plant. Each of ``start_positions`` is (positions [rad] in
+    """The actuators of the hardware interface; finalizes the plant. A position joint's
+    gains: the scenario's ``actuators.gains`` for it, else the controller YAML's
+    ``gazebo_ros_control`` ones, else ``actuators.kp``/``kd``, each one that is null
+    derived from the robot (:mod:`armando_drake.control.gains`; the built-in Armando's
+    servos: :data:`ARMANDO_GAINS`). Each of ``start_positions`` is (positions [rad] in
     hardware order, their origin, their key): the joints start there."""
     interfaces = command_interfaces(robot, warn=False)[2]  # warned by AddHardwareInterface
-    gains = {**_yaml_gains(config, interfaces), **actuators.gains}  # the scenario's win
+    from_yaml = _yaml_gains(config, interfaces)
+    explicit = {**from_yaml, **actuators.gains}  # the scenario's win
+    own = ARMANDO_GAINS if is_builtin_armando(robot) else (None, None)
+    kp = actuators.kp if actuators.kp is not None else own[0]
+    kd = actuators.kd if actuators.kd is not None else own[1]
     hardware = AddHardwareInterface(
-        plant, robot, kp=actuators.kp, kd=actuators.kd, kv=actuators.kv, gains=gains
+        plant,
+        robot,
+        kp=1.0 if kp is None else kp,  # placeholders until the plant is final
+        kd=0.0 if kd is None else kd,
+        kv=actuators.kv,
+        gains=explicit,
     )
     plant.Finalize()
     if not self_collision:  # the robot's links do not collide with each other (Gazebo's default)
@@ -305,7 +332,72 @@ def AddHardware(
             for j in hardware.joints
         ),
     )
+    _settle_gains(plant, robot, hardware, actuators, explicit, from_yaml, (kp, kd, own))
     return hardware
+
+
+# [N m/rad], [N m s/rad]: the gains of the built-in Armando's Dynamixel servos, its
+# position joints' gains when the scenario gives none.
+ARMANDO_GAINS = (8.0, 0.4)
+
+
+def _settle_gains(plant, robot, hardware, actuators, explicit, from_yaml, chosen) -> None:
+    """Derives the gains left null (``chosen``: kp, kd, the robot's own), records every
+    joint's gains and origin in ``hardware`` and logs them in one line."""
+    kp, kd, own = chosen
+    position = [j for j in hardware.joints if j.command_interface == "position"]
+    wanted = {
+        j.name: (kp, kd) for j in position if j.name not in explicit and (kp is None or kd is None)
+    }
+    rule = GainRule(actuators.natural_frequency, actuators.damping_ratio)
+    derived = derive_gains(plant, robot, hardware, wanted, rule)
+    unlimited = [j.name for j in hardware.joints if j.name in derived and math.isinf(j.effort)]
+    if unlimited:
+        _log.warning(
+            "%s: no effort limit (effort missing or 0) on %s: their actuators apply any "
+            "torque, and their derived kp is bounded by %g only",
+            robot.source,
+            ", ".join(unlimited),
+            MAX_GAIN,
+        )
+    rows: list[JointGains] = []
+    for joint in hardware.joints:
+        if joint.name in derived:
+            joint.kp, joint.kd = derived[joint.name].kp, derived[joint.name].kd
+            joint.gains_origin = "derived"
+        elif joint.name in actuators.gains:
+            joint.gains_origin = "scenario"
+        elif joint.name in from_yaml:
+            joint.gains_origin = "controller YAML"
+        elif joint.command_interface == "position" and (
+            (actuators.kp is None and own[0] is not None)
+            or (actuators.kd is None and own[1] is not None)
+        ):
+            joint.gains_origin = "Armando's servos"
+        elif joint.command_interface == "velocity":
+            joint.gains_origin = "actuators.kv"
+        elif joint.command_interface == "position":
+            joint.gains_origin = "scenario"
+        else:
+            continue
+        rows.append(JointGains(joint.name, joint.kp, joint.kd, joint.gains_origin))
+    if rows:
+        _log.info("%s", gains_table(robot.name, rows, rule))
+
+
+def effective_actuators(actuators: ActuatorConfig, hardware: HardwareInterface) -> ActuatorConfig:
+    """``actuators`` with the gains the robot's own rules gave written out: per joint the
+    derived ones, kp and kd of the built-in Armando's servos; loading the result gives
+    every joint the gains it had."""
+    gains = dict(actuators.gains)
+    kp, kd = actuators.kp, actuators.kd
+    for joint in hardware.joints:
+        if joint.gains_origin == "derived":
+            gains[joint.name] = [joint.kp, joint.kd]
+        elif joint.gains_origin == "Armando's servos":
+            kp = joint.kp if kp is None else kp
+            kd = joint.kd if kd is None else kd
+    return dc.replace(actuators, kp=kp, kd=kd, gains=gains)
 
 
 def set_start_positions(
@@ -339,6 +431,7 @@ def AddControllerManager(
     update_rate: int,
     sequencer=None,
     where: str = "",
+    scene_graph: SceneGraph | None = None,
 ) -> ControlStack:
     """Loads and activates ``config.activate`` (a broadcaster and command controllers,
     each joint claimed once) in one :class:`ControllerManager`, wired to the plant
@@ -350,6 +443,7 @@ def AddControllerManager(
         hardware=hardware,
         config=controller_config,
         update_rate=update_rate,
+        scene_graph=scene_graph,
     )
     broadcaster, managed = _activate(stack, config.activate, where, config.speed_scaling)
     if broadcaster is None and not managed:

@@ -19,8 +19,13 @@ class RobotConfig:
     xacro_args: dict[str, str] = dc.field(default_factory=dict)
     # Extra folders searched for ROS packages, before ROS_PACKAGE_PATH.
     package_paths: list[str] = dc.field(default_factory=list)
-    # Collision geometry: auto | boxes | convex | as-is | none.
+    # Collision geometry: auto (convex when a link collides through a mesh) | boxes (one
+    # box around each link's visual geometry) | convex (each collision mesh its convex
+    # hull) | as-is | none. See docs/physics.md.
     collision: str = param("auto", choices=("auto", "boxes", "convex", "as-is", "none"))
+    # [kg/m^3] Density of the geometry of a link that declares no mass: it gets the mass
+    # and inertia of its collision (else visual) geometry at this density.
+    density: float = param(1000.0, unit="kg/m^3", gt=0)
     # Whether the robot's links collide with each other. Off by default, as in
     # Gazebo (<self_collide> false); the robot always collides with the ground
     # and the scene objects.

@@ -10,21 +10,26 @@ Drake parses an expanded URDF, :func:`prepare_urdf` rewrites it (XML to XML):
 2. collision geometry, by ``collision`` mode:
 
    - ``boxes``: each link's collisions become one box around its visual geometry;
-   - ``convex``: each collision mesh becomes its convex hull
-     (``<drake:declare_convex/>``);
+   - ``convex``: each collision mesh (STL, DAE, OBJ, glTF) becomes its convex
+     hull, computed by trimesh and cached as an OBJ keyed by the mesh's content
+     (:func:`~armando_drake.description.meshes.convex_hull`), declared convex
+     (``<drake:declare_convex/>``); one hull per mesh, primitives kept;
    - ``as-is``: kept (meshes converted);
    - ``none``: removed;
-   - ``auto``: ``boxes`` when some collision mesh is not a format Drake can
-     collide with (STL, DAE, ...), else ``as-is``;
+   - ``auto``: ``convex`` when a link collides through a mesh, else ``as-is``;
 
    and, unless ``none``, links on the two sides of a moving joint (with every
    link welded to them) never collide with each other;
 3. inertias: a link whose inertia is not physically valid, or whose largest
    principal moment exceeds :data:`INERTIA_RATIO_LIMIT` times that of its visual
-   bounding box at its declared mass, gets the bounding box's inertia; a link on
-   the child side of a moving joint that carries no mass at all (neither it nor
-   the links welded below it) gets :data:`DEFAULT_MASS`. Each change is a
-   warning naming the link, the old and the new values.
+   bounding box at its declared mass, gets the bounding box's inertia (one
+   warning each); a link on the child side of a moving joint that carries no
+   mass at all (neither it nor the links welded below it) gets the mass and
+   inertia of its collision (else visual) geometry at ``density``
+   (:mod:`armando_drake.description.inertia`), and a link with a mass but no
+   ``<inertia>`` its geometry's inertia at that mass (one warning per robot
+   listing them); a massless link without geometry gets :data:`DEFAULT_MASS`
+   (a warning).
 
 Before any of this, a negative mass is taken as no mass (with a warning), and
 a Collada visual shows its own materials rather than the URDF ``<material>``.
@@ -51,10 +56,17 @@ import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.tree import RotationalInertia
 
+from armando_drake.description.inertia import (
+    DEFAULT_DENSITY,
+    SolidProperties,
+    geometry_properties,
+)
 from armando_drake.description.meshes import (
     DRAKE_FORMATS,
     ConvertedMesh,
     convert_mesh,
+    convex_hull,
+    mass_properties,
     resolve_mesh,
 )
 from armando_drake.description.packages import DescriptionError, PackageSearch
@@ -92,8 +104,10 @@ class InertiaFix:
     reason: str  # why it was replaced, in words
     mass: float  # [kg] the mass the link now has
     old: tuple[float, ...] | None  # [kg m^2] declared (ixx, iyy, izz, ixy, ixz, iyz); None if none
-    new: tuple[float, float, float]  # [kg m^2] new (ixx, iyy, izz) in link axes, products zero
-    box: tuple[float, float, float]  # [m] size of the box whose inertia was taken
+    new: tuple[float, float, float]  # [kg m^2] new (ixx, iyy, izz) in link axes
+    box: tuple[float, float, float]  # [m] size of the box whose inertia was taken (or around
+    # the geometry whose was)
+    volume: float | None = None  # [m^3] the geometry's volume, when its inertia was taken
 
 
 @dataclass
@@ -181,6 +195,10 @@ class _Preparation:
         self.result = PreparedUrdf(urdf="")
         self.files: dict[ET.Element, Path] = {}  # <mesh> element -> its source file
         self.meshes: dict[Path, ConvertedMesh] = {}
+        self.hulls: dict[Path, ConvertedMesh] = {}  # convex hulls, by source file
+        self.solids: dict[tuple, tuple] = {}  # mesh mass properties, by (file, scale)
+        self.from_geometry: list[tuple] = []  # (link, mass, solid, scaled to a declared mass)
+        self.density = DEFAULT_DENSITY
         self.vertices: dict[Path, np.ndarray] = {}
         self.links = {link.get("name", ""): link for link in self.root.findall("link")}
 
@@ -266,6 +284,13 @@ class _Preparation:
                 self.result.converted.append(mesh)
         return self.meshes[path]
 
+    def hull(self, path: Path) -> ConvertedMesh:
+        if path not in self.hulls:
+            self.hulls[path] = hull = convex_hull(path)
+            if hull.converted:
+                self.result.converted.append(hull)
+        return self.hulls[path]
+
     def mesh_vertices(self, path: Path) -> np.ndarray:
         if path not in self.vertices:
             self.vertices[path] = self.converted(path).vertices()
@@ -332,9 +357,11 @@ class _Preparation:
                 mesh.set("filename", f"file://{self.converted(self.files[mesh]).path}")
             for mesh in self.mesh_elements(link, "collision"):
                 source = self.files[mesh]
+                if self.result.collision == "convex":  # the hull, one per mesh file
+                    source = self.hull(source).path
                 # Drake collides with its own formats as they are (an OBJ without normals
                 # is rewritten for the renderers only).
-                if source.suffix.lower() not in COLLIDABLE_FORMATS:
+                elif source.suffix.lower() not in COLLIDABLE_FORMATS:
                     source = self.converted(source).path
                 mesh.set("filename", f"file://{source}")
             for visual in link.findall("visual"):
@@ -359,21 +386,20 @@ class _Preparation:
             raise DescriptionError(f"collision={collision!r} must be one of {COLLISION_MODES}")
         if collision != "auto":
             return collision
-        unusable = sorted(
-            {
-                self.files[mesh].name
-                for link in self.links.values()
-                for mesh in self.mesh_elements(link, "collision")
-                if self.files[mesh].suffix.lower() not in COLLIDABLE_FORMATS
-            }
-        )
-        if not unusable:
+        meshes = {
+            self.files[mesh].name
+            for link in self.links.values()
+            for mesh in self.mesh_elements(link, "collision")
+        }
+        if not meshes:
             return "as-is"
-        self.warn(
-            f"{self.source}: collision meshes Drake cannot collide with ({', '.join(unusable)}): "
-            "each link collides as one box around its visual geometry (collision='boxes')"
+        LOGGER.info(
+            "%s: %d collision mesh(es) collide as their convex hulls (collision='convex'; "
+            "'boxes' makes each link one box)",
+            self.source,
+            len(meshes),
         )
-        return "boxes"
+        return "convex"
 
     def apply_collision_mode(self, mode: str) -> None:
         for name, link in self.links.items():
@@ -461,9 +487,11 @@ class _Preparation:
         for name, link in self.links.items():
             massless = masses[name] <= 0 and welded_mass(name, set()) <= 0
             if name in moving_children and massless:
-                self.give_default_mass(name, link)
+                if not self.give_geometry_mass(name, link):
+                    self.give_default_mass(name, link)
             else:
                 self.check_inertia(name, link)
+        self.report_geometry_masses()
 
     def fix_negative_masses(self) -> None:
         """A negative mass is taken as no mass (Drake refuses it), with a warning."""
@@ -506,7 +534,7 @@ class _Preparation:
             return centre, np.full(3, DEFAULT_BOX_SIDE)
         return centre, np.maximum(size, MIN_BOX_SIDE)
 
-    def write_inertial(self, link, mass, centre, new) -> None:
+    def write_inertial(self, link, mass, centre, new, products=(0.0, 0.0, 0.0)) -> None:
         inertial = link.find("inertial")
         if inertial is None:
             inertial = ET.SubElement(link, "inertial")
@@ -521,10 +549,79 @@ class _Preparation:
                 inertial.remove(element)
         ET.SubElement(inertial, "mass", value=f"{mass:.9g}")
         ixx, iyy, izz = new
+        ixy, ixz, iyz = products
         ET.SubElement(
             inertial, "inertia", ixx=f"{ixx:.9g}", iyy=f"{iyy:.9g}", izz=f"{izz:.9g}",
-            ixy="0", ixz="0", iyz="0",
+            ixy=f"{ixy:.9g}", ixz=f"{ixz:.9g}", iyz=f"{iyz:.9g}",
         )  # fmt: skip
+
+    def mesh_properties(self, shape: ET.Element):
+        """(volume, centre, inertia per unit density) of a ``<mesh>`` with its scale."""
+        key = (self.files[shape], tuple(_floats(shape.get("scale"), 3, 1.0)))
+        if key not in self.solids:
+            self.solids[key] = mass_properties(*key)
+        return self.solids[key]
+
+    def geometry_solid(self, link: ET.Element) -> SolidProperties | None:
+        """The unit-density solid of the link's collision geometry, else its visual one."""
+        for kind in ("collision", "visual"):
+            try:
+                solid = geometry_properties(link, kind, self.mesh_properties)
+            except (TypeError, ValueError) as error:
+                raise DescriptionError(
+                    f"{self.where(link)}: link {link.get('name')!r}: bad {kind} geometry: {error}"
+                ) from None
+            if solid is not None:
+                return solid
+        return None
+
+    def give_geometry_mass(self, name: str, link: ET.Element, mass: float = 0.0) -> bool:
+        """Gives a link its geometry's inertia: at the density when it has no ``mass``,
+        else scaled to ``mass`` (its declared centre of mass kept); False without geometry."""
+        solid = self.geometry_solid(link)
+        if solid is None:
+            return False
+        old = self.declared_inertia(link)
+        if mass > 0:
+            inertia, centre = solid.inertia * mass / solid.volume, None
+        else:
+            mass, inertia = solid.at_density(self.density)
+            centre = solid.centre
+        diagonal = (inertia[0, 0], inertia[1, 1], inertia[2, 2])
+        products = (inertia[0, 1], inertia[0, 2], inertia[1, 2])
+        self.write_inertial(link, mass, centre, diagonal, products)
+        reason = "no inertia: that of its geometry" if centre is None else "no mass: its geometry's"
+        size = tuple(self.bounding_box(link, ("collision", "visual"))[1])
+        self.result.inertia_fixes.append(
+            InertiaFix(name, reason, mass, old, diagonal, size, volume=solid.volume)
+        )
+        self.from_geometry.append((name, mass, solid, centre is None))
+        return True
+
+    def report_geometry_masses(self) -> None:
+        """One warning naming every link given its geometry's mass or inertia."""
+        if not self.from_geometry:
+            return
+        masses = [(n, m, s) for n, m, s, scaled in self.from_geometry if not scaled]
+        scaled = [(n, m, s) for n, m, s, scaled in self.from_geometry if scaled]
+
+        def listed(rows) -> str:
+            return ", ".join(f"{n} {m:.4g} kg ({' + '.join(s.shapes)})" for n, m, s in rows)
+
+        parts = []
+        if masses:
+            total = sum(m for _, m, _ in masses)
+            parts.append(
+                f"{len(masses)} link(s) declare no mass: each given the mass and inertia of "
+                f"its collision (else visual) geometry at {self.density:g} kg/m^3, as "
+                f"MuJoCo's inertiafromgeom: {listed(masses)}; {total:.4g} kg in all"
+            )
+        if scaled:
+            parts.append(
+                f"{len(scaled)} link(s) declare a mass but no <inertia>: given their "
+                f"geometry's inertia at that mass: {listed(scaled)}"
+            )
+        self.warn(f"{self.source}: " + "; ".join(parts))
 
     def give_default_mass(self, name: str, link: ET.Element) -> None:
         centre, size = self.inertia_box(link)
@@ -557,6 +654,8 @@ class _Preparation:
             return
         mass = self.declared_mass(link)
         old = self.declared_inertia(link)
+        if mass > 0 and old is None and self.give_geometry_mass(name, link, mass):
+            return
         if mass <= 0 or old is None:
             return  # a massless link welded to or carrying massive ones is fine for Drake
         ixx, iyy, izz, ixy, ixz, iyz = old
@@ -595,12 +694,14 @@ def prepare_urdf(
     collision: str = "auto",
     source: str | os.PathLike = "",
     edit=None,
+    density: float = DEFAULT_DENSITY,
 ) -> PreparedUrdf:
     """Rewrites an expanded URDF so that Drake loads and simulates it.
 
     ``search`` resolves ``package://`` names; ``source`` is the description
     file (named in errors and warnings; relative mesh paths are relative to its
-    folder). ``collision`` is one of :data:`COLLISION_MODES`. See the module
+    folder). ``collision`` is one of :data:`COLLISION_MODES`; ``density``
+    [kg/m^3] is that of the geometry of links without mass. See the module
     docstring for what is changed; every change is logged on
     ``armando_drake.description.importer`` and listed in ``warnings``.
     ``edit``, if given, is called with the parsed ``<robot>`` element first
@@ -608,6 +709,7 @@ def prepare_urdf(
     numbers in messages are still those of ``urdf_text``.
     """
     step = _Preparation(urdf_text, search, str(source))
+    step.density = density
     if step.root.tag != "robot":
         raise DescriptionError(f"{step.source}: not a URDF: the root element is <{step.root.tag}>")
     if edit is not None:
@@ -618,10 +720,10 @@ def prepare_urdf(
     step.resolve_meshes()
     step.fix_negative_masses()
     mode = step.resolve_collision_mode(collision)
+    step.result.collision = mode
     step.fix_inertias()
     step.apply_collision_mode(mode)
     step.rewrite_meshes()
-    step.result.collision = mode
     step.result.urdf = '<?xml version="1.0"?>\n' + ET.tostring(step.root, encoding="unicode")
     return step.result
 

@@ -37,6 +37,7 @@ from armando_drake import DEFAULT_DESCRIPTION
 from armando_drake.description.camera_sensors import parse_camera_sensors
 from armando_drake.description.config import RobotConfig
 from armando_drake.description.importer import PreparedUrdf, actuation, prepare_urdf
+from armando_drake.description.inertia import DEFAULT_DENSITY
 from armando_drake.description.packages import (
     LOGGER,
     MISSING_PACKAGE_DIR,
@@ -259,6 +260,14 @@ class LoadedRobot:
         return [joint for joint in self.joints if joint.mimic]
 
 
+def is_builtin_armando(robot: LoadedRobot) -> bool:
+    """Whether ``robot`` is the project's own Armando description."""
+    try:
+        return Path(robot.source).resolve() == DEFAULT_DESCRIPTION.resolve()
+    except OSError:
+        return False
+
+
 def _description_files(folder: Path, depth: int = 3) -> list[Path]:
     """Top-level description files (``*.urdf.xacro``, ``*.urdf``) below ``folder``."""
     found = []
@@ -362,6 +371,7 @@ def _prepare(
     source: Path,
     joints: list[JointInfo],
     warnings: list[str],
+    density: float = DEFAULT_DENSITY,
 ) -> tuple[PreparedUrdf, list[BaseWeld]]:
     """(the URDF Drake loads, the links to weld): repairs, the ``world`` link taken out and
     what Drake must not see stripped; the repairs' warnings go to ``warnings``."""
@@ -379,7 +389,9 @@ def _prepare(
         for element in tree.findall("transmission"):
             tree.remove(element)
 
-    prepared = prepare_urdf(urdf, search, collision=collision, source=source, edit=edit)
+    prepared = prepare_urdf(
+        urdf, search, collision=collision, source=source, edit=edit, density=density
+    )
     warnings.extend(prepared.warnings)
     return prepared, welds
 
@@ -429,6 +441,7 @@ def load_robot(
     weld: bool = True,
     model_name: str | None = None,
     collision: str = "auto",
+    density: float = DEFAULT_DENSITY,
 ) -> LoadedRobot:
     """Adds a robot description to ``plant`` and returns its summary.
 
@@ -441,7 +454,8 @@ def load_robot(
     is False. Meaningless joint values are repaired (:func:`repair_joints`),
     then the URDF goes through
     :func:`armando_drake.description.importer.prepare_urdf` (mesh conversion,
-    ``collision`` mode, mass and inertia repairs). Every repair is a warning,
+    ``collision`` mode, mass and inertia repairs, links without mass at ``density``
+    [kg/m^3]). Every repair is a warning,
     logged and kept in ``LoadedRobot.warnings``.
     """
 
@@ -458,7 +472,13 @@ def load_robot(
         (LOGGER.warning if isinstance(message, Warning) else LOGGER.info)("%s: %s", source, message)
     transmissions = parse_transmissions(root)
     prepared, welds = _prepare(
-        urdf, search, collision=collision, source=source, joints=joints, warnings=warnings
+        urdf,
+        search,
+        collision=collision,
+        source=source,
+        joints=joints,
+        warnings=warnings,
+        density=density,
     )
     model_instance = _add_model(plant, prepared, search, model_name=model_name, source=source)
     if weld:
@@ -495,4 +515,5 @@ def AddRobot(plant: MultibodyPlant, config: RobotConfig) -> LoadedRobot:
         package_paths=config.package_paths,
         X_WB=RigidTransform(RollPitchYaw(config.base_rpy), config.base_xyz),
         collision=config.collision,
+        density=config.density,
     )

@@ -21,6 +21,11 @@ second load converts nothing:
 - alongside each OBJ a ``.npy`` keeps the vertices, so bounding boxes of
   cached meshes cost no parsing.
 
+:func:`convex_hull` writes a mesh's convex hull (computed by trimesh) into the same
+cache, keyed by the source's content: what Drake collides with, one hull per mesh file.
+:func:`mass_properties` gives the volume, centre and inertia of the solid a mesh bounds
+(the importer's masses of links that declare none).
+
 :func:`resolve_mesh` turns a URDF ``filename`` (``package://``, ``model://``,
 ``file://``, absolute or relative) into a file through a
 :class:`~armando_drake.description.loader.PackageSearch`.
@@ -307,6 +312,69 @@ def convert_mesh(source: str | os.PathLike) -> ConvertedMesh:
     _write_atomically(_vertices_file(target), save_vertices)
     _write_atomically(target, lambda name: Path(name).write_text(text))
     return ConvertedMesh(source=source, path=target, converted=True)
+
+
+# Bumped whenever the hull written for the same source would differ.
+HULL_VERSION = 1
+# [m] (in the file's units) the thinnest side of the box standing in for a flat mesh's hull.
+MIN_HULL_SIDE = 1e-3
+
+
+def _hull_of(mesh):
+    """The convex hull (a trimesh) of ``mesh``'s vertices; a flat or degenerate mesh (no
+    volume to wrap) gets the box around its vertices, no side thinner than
+    :data:`MIN_HULL_SIDE`."""
+    import trimesh
+
+    try:
+        hull = mesh.convex_hull
+        if hull.volume > 0 and len(hull.faces) >= 4:
+            return hull
+    except Exception:  # qhull refuses coplanar points (QhullError), trimesh may raise others
+        pass
+    low, high = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+    extents = np.maximum(high - low, MIN_HULL_SIDE)
+    return trimesh.creation.box(extents=extents).apply_translation((low + high) / 2)
+
+
+def convex_hull(source: str | os.PathLike) -> ConvertedMesh:
+    """The convex hull of a mesh file (STL, DAE, OBJ, glTF; Collada in metres by its
+    ``<unit>``) as an OBJ with face normals in the cache, keyed by the source's content;
+    ``converted`` is True when this call wrote it. What Drake collides with, declared
+    convex: one hull per mesh file."""
+    source = Path(source).resolve()
+    if source.suffix.lower() not in SUPPORTED_FORMATS:
+        convert_mesh(source)  # raises the unsupported-format message
+    folder = cache_dir()
+    digest = hashlib.sha256(f"hull {HULL_VERSION} {_content_key(source)}".encode())
+    target = folder / f"{source.stem}-{digest.hexdigest()[:24]}.hull.obj"
+    if target.is_file() and _vertices_file(target).is_file():
+        return ConvertedMesh(source=source, path=target, converted=False)
+    folder.mkdir(parents=True, exist_ok=True)
+    hull = _hull_of(_load_trimesh(source))
+    vertices = np.asarray(hull.vertices, dtype=float)
+    faces = np.asarray(hull.faces, dtype=np.int64)
+    text = _obj_text(vertices, faces, np.asarray(hull.face_normals, dtype=float), source.name)
+
+    def save_vertices(name: str) -> None:
+        with open(name, "wb") as stream:
+            np.save(stream, vertices)
+
+    _write_atomically(_vertices_file(target), save_vertices)
+    _write_atomically(target, lambda name: Path(name).write_text(text))
+    return ConvertedMesh(source=source, path=target, converted=True)
+
+
+def mass_properties(path: str | os.PathLike, scale=(1.0, 1.0, 1.0)):
+    """(volume [m^3], centre [m], inertia per unit density [m^5] about the centre, in
+    the file's axes) of the solid a mesh file bounds, scaled by ``scale``: the mesh itself
+    when it is closed, else its convex hull."""
+    mesh = _load_trimesh(Path(path)).copy()
+    mesh.apply_transform(np.diag([*np.asarray(scale, dtype=float), 1.0]))
+    if not (mesh.is_watertight and mesh.is_volume and mesh.volume > 0):
+        mesh = _hull_of(mesh)
+    mesh.density = 1.0
+    return float(mesh.volume), np.asarray(mesh.center_mass), np.asarray(mesh.moment_inertia)
 
 
 def resolve_mesh(

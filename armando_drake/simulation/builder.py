@@ -196,6 +196,7 @@ def _add_control(builder, scenario: Scenario, plant, scene_graph, robot) -> Cont
         update_rate=update_rate,
         sequencer=scenario.sequencer,
         where=_origin(scenario, "controllers"),
+        scene_graph=scene_graph,
     )
 
 

@@ -16,6 +16,7 @@ version of armando-drake that ran, and its git commit from a checkout).
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import io
 import json
 import math
@@ -31,6 +32,7 @@ import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
 from armando_drake.control.sequencer import Sinusoid, mode_of, wave_of
+from armando_drake.control.stack import effective_actuators
 from armando_drake.outputs.plots import write_plots
 from armando_drake.outputs.replay import REPLAY_FILE, RecordingMeshcat, publish_replay, write_replay
 from armando_drake.outputs.task_space import TASK_SPACE_CSV, TaskSpaceTracker, write_task_space_csv
@@ -476,8 +478,9 @@ def run(
         record=record,
         host=host,
     )
-    if log_dir is not None:  # what ran: the scenario after every override
-        write_scenario(scenario, log_dir / SCENARIO_FILE)
+    if log_dir is not None:  # what ran: the scenario after every override, gains derived
+        actuators = effective_actuators(scenario.actuators, world.hardware)
+        write_scenario(dataclasses.replace(scenario, actuators=actuators), log_dir / SCENARIO_FILE)
     # The step table (or the sinusoid's tracking error) from the logger's rows.
     table = _table_of(world)
     tracker = _task_tracker_of(world)

@@ -220,7 +220,11 @@ def test_interfaces_from_ros2_control_command_interface_names(tmp_path):
     source, interfaces, gains = mini_hardware(tmp_path, ROS2_CONTROL)
     # q2 declares effort and position: position wins (Drake's PD actuator).
     assert (source, interfaces) == ("ros2_control", {"q1": "velocity", "q2": "position"})
-    assert gains == [(0.0, 1.0), (8.0, 0.4)]  # scenario defaults kv = 1, kp = 8, kd = 0.4
+    # kv = 1 (the scenario's default); q2's derived: its link's 1e-4 kg m^2 about its axis
+    # at wn = 30 rad/s, no gravity torque (its centre of mass on the axis):
+    # kp = M wn^2 = 0.09 N m/rad, kd = 2 sqrt(kp M) = 0.006 N m s/rad.
+    assert gains[0] == (0.0, 1.0)
+    assert gains[1] == (pytest.approx(0.09), pytest.approx(0.006))
 
 
 def test_interfaces_from_ros1_transmissions(tmp_path):

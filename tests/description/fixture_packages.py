@@ -156,3 +156,79 @@ def make_workspace(root: Path, names=None) -> Path:
             shutil.copytree(package, target)
             write_meshes(target)
     return src
+
+
+def box_inertia(mass: float, size) -> str:
+    """The ``<inertia>`` of a solid box of ``mass`` [kg] and ``size`` [m] about its centre."""
+    a, b, c = size
+    return (
+        f'<inertia ixx="{mass * (b * b + c * c) / 12:.9g}" iyy="{mass * (a * a + c * c) / 12:.9g}" '
+        f'izz="{mass * (a * a + b * b) / 12:.9g}" ixy="0" ixz="0" iyz="0"/>'
+    )
+
+
+# The joints of a six-joint arm: yaw, pitch, pitch, roll, pitch, roll.
+ARM_AXES = ("0 0 1", "0 1 0", "0 1 0", "0 0 1", "0 1 0", "0 0 1")
+
+
+def chain_urdf(
+    name: str,
+    *,
+    width: float,
+    lengths,
+    masses,
+    efforts,
+    base=(0.2, 0.1, 1.0),
+    axes=ARM_AXES,
+    inertials: bool = True,
+) -> str:
+    """A serial arm standing upright at home: a base box (``base``: side [m], height [m],
+    mass [kg]) and one box link per joint, ``width`` [m] square and ``lengths[i]`` [m]
+    tall, of ``masses[i]`` [kg] (with their ``<inertial>`` unless ``inertials`` is
+    False), each joint about ``axes[i]`` at the top of the link below, limits +-2.9 rad
+    and ``efforts[i]`` [N m]. No ``<ros2_control>`` or transmission: every joint is a
+    position joint."""
+    side, height, base_mass = base
+    links = [
+        f'<link name="base_link"><visual><origin xyz="0 0 {height / 2}"/><geometry>'
+        f'<box size="{side} {side} {height}"/></geometry></visual><collision><origin '
+        f'xyz="0 0 {height / 2}"/><geometry><box size="{side} {side} {height}"/></geometry>'
+        f'</collision><inertial><origin xyz="0 0 {height / 2}"/><mass value="{base_mass}"/>'
+        f"{box_inertia(base_mass, (side, side, height))}</inertial></link>"
+    ]
+    parent, top = "base_link", height
+    for i, (length, mass, effort) in enumerate(zip(lengths, masses, efforts, strict=True)):
+        size = (width, width, length)
+        shape = f'<origin xyz="0 0 {length / 2}"/><geometry><box size="{width} {width} {length}"/></geometry>'
+        inertial = (
+            f'<inertial><origin xyz="0 0 {length / 2}"/><mass value="{mass}"/>'
+            f"{box_inertia(mass, size)}</inertial>"
+            if inertials
+            else ""
+        )
+        links.append(
+            f'<link name="link_{i + 1}"><visual>{shape}</visual><collision>{shape}</collision>'
+            f"{inertial}</link>"
+            f'<joint name="joint_{i + 1}" type="revolute"><parent link="{parent}"/>'
+            f'<child link="link_{i + 1}"/><origin xyz="0 0 {top}"/><axis xyz="{axes[i]}"/>'
+            f'<limit lower="-2.9" upper="2.9" effort="{effort}" velocity="3"/></joint>'
+        )
+        parent, top = f"link_{i + 1}", length
+    return f'<?xml version="1.0"?>\n<robot name="{name}">\n' + "\n".join(links) + "\n</robot>\n"
+
+
+def l_profile(thickness: float, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """An L of two bars in the link's x-z plane, ``thickness`` [m] square, from the
+    origin along +x and along +z to ``reach`` [m]: vertices and outward triangles."""
+    import trimesh
+
+    along_x = trimesh.creation.box(
+        extents=(reach, thickness, thickness),
+        transform=trimesh.transformations.translation_matrix((reach / 2, 0, thickness / 2)),
+    )
+    along_z = trimesh.creation.box(
+        extents=(thickness, thickness, reach),
+        transform=trimesh.transformations.translation_matrix((thickness / 2, 0, reach / 2)),
+    )
+    both = trimesh.util.concatenate([along_x, along_z])
+    return np.asarray(both.vertices), np.asarray(both.faces)

@@ -32,7 +32,6 @@ from pydrake.systems.sensors import CameraInfo
 
 from armando_drake.control.controllers import default_controller_config
 from armando_drake.description.importer import (
-    DEFAULT_MASS,
     actuated_joints,
     prepare_urdf,
 )
@@ -212,7 +211,7 @@ def test_arm_second_preparation_converts_nothing(arm, cache):
 @pytest.mark.parametrize(
     "mode, shape_type, per_body",
     [
-        ("auto", Box, 1),
+        ("auto", Convex, 1),
         ("boxes", Box, 1),
         ("convex", Convex, 1),
         ("as-is", Mesh, 1),
@@ -353,16 +352,19 @@ def write_urdf(package: Path, collision: str) -> Path:
     return path
 
 
-def test_synthetic_loads_with_stl_dae_and_default_mass(synthetic, caplog):
+def test_synthetic_loads_with_stl_dae_and_geometry_mass(synthetic, caplog):
     with caplog.at_level(logging.WARNING, logger="armando_drake.description.importer"):
-        builder, plant, scene_graph, robot = _plant_with(synthetic)
+        builder, plant, scene_graph, robot = _plant_with(synthetic, collision="boxes")
     tip = plant.GetBodyByName("tip")
-    assert tip.default_mass() == DEFAULT_MASS
-    # 4 x 2 x 6 cm box at DEFAULT_MASS: ixx = m (b^2 + c^2) / 12.
+    # The massless tip weighs its 4 x 2 x 6 cm Collada visual (in cm) at 1000 kg/m^3.
+    mass = 1000.0 * 0.04 * 0.02 * 0.06
+    assert tip.default_mass() == pytest.approx(mass)
+    # About its centre: ixx = m (b^2 + c^2) / 12.
     moments = tip.default_rotational_inertia().get_moments()
-    assert np.allclose(moments, DEFAULT_MASS * np.array([40, 52, 20]) * 1e-4 / 12)
-    assert "'tip'" in caplog.text and "default mass of 0.01 kg" in caplog.text
-    # The arm's STL collision became one box around its rotated visual: 2 x 4 x 6 cm at z 5 cm.
+    assert np.allclose(moments, mass * np.array([40, 52, 20]) * 1e-4 / 12)
+    assert "1 link(s) declare no mass" in caplog.text and "tip 0.048 kg" in caplog.text
+    # With collision boxes, the arm's STL collision became one box around its rotated
+    # visual: 2 x 4 x 6 cm at z 5 cm.
     (box,) = _proximity_shapes(plant, scene_graph)["arm"]
     assert np.allclose(box.size(), [0.02, 0.04, 0.06])
     # The simulation runs (a massless tip would fail here).
@@ -414,7 +416,7 @@ def test_synthetic_actuation_and_default_controllers(synthetic):
 
 def test_synthetic_obj_collision_passes_through_as_is(synthetic):
     write_urdf(synthetic, "package://synthetic/meshes/hull.obj")
-    _, plant, scene_graph, _ = _plant_with(synthetic)
+    _, plant, scene_graph, _ = _plant_with(synthetic, collision="as-is")
     (mesh,) = _proximity_shapes(plant, scene_graph)["arm"]
     assert isinstance(mesh, Mesh)
     assert Path(mesh.source().path()) == synthetic / "meshes" / "hull.obj"

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import trimesh
 from fixture_packages import DAE_RED, OBJ_GREEN, TEXTURE_BLUE, make_workspace
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import DiscreteContactApproximation, MultibodyPlant
@@ -472,7 +473,7 @@ def test_a_package_with_its_descriptions_in_subfolders(workspace, tmp_path, capl
 
 def test_meshes_every_format_and_path_form(workspace, tmp_path, monkeypatch):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
-    from pydrake.geometry import Box, Role, SceneGraph
+    from pydrake.geometry import Convex, Role, SceneGraph
 
     plant = MultibodyPlant(0.001)
     scene_graph = SceneGraph()
@@ -487,14 +488,18 @@ def test_meshes_every_format_and_path_form(workspace, tmp_path, monkeypatch):
         )
         return [inspector.GetShape(i) for i in ids]
 
-    # Collada in centimetres: 4 cm body + plate from x = 4 to 6 cm, 6 cm tall.
-    (base_box,) = shapes("base_link", Role.kProximity)
-    assert isinstance(base_box, Box)
-    np.testing.assert_allclose(base_box.size(), [0.08, 0.04, 0.06], atol=1e-9)
+    def extent(shape) -> np.ndarray:  # [m] the size of the box around a collision hull
+        assert isinstance(shape, Convex) and shape.source().path().name.endswith(".hull.obj")
+        vertices = trimesh.load(shape.source().path()).vertices * shape.scale3()
+        return vertices.max(axis=0) - vertices.min(axis=0)
+
+    # Collada in centimetres: 4 cm body + plate from x = 4 to 6 cm, 6 cm tall: its hull.
+    (base_hull,) = shapes("base_link", Role.kProximity)
+    np.testing.assert_allclose(extent(base_hull), [0.08, 0.04, 0.06], atol=1e-9)
     # STL in millimetres with scale 0.001, shared by two links.
     for link in ("link2", "link3"):
         (rod,) = shapes(link, Role.kProximity)
-        np.testing.assert_allclose(rod.size(), [0.02, 0.02, 0.1], atol=1e-9)
+        np.testing.assert_allclose(extent(rod), [0.02, 0.02, 0.1], atol=1e-9)
     (visual,) = shapes("base_link", Role.kIllustration)
     obj = Path(visual.source().path())
     mtl = obj.with_suffix(".mtl").read_text()
@@ -618,10 +623,15 @@ def test_meaningless_values_are_repaired_with_a_warning_each(workspace):
     assert robot.joint("effort_zero").effort == np.inf
     assert "joint 'effort_zero': effort=\"0\", which Gazebo takes as no effort limit" in warnings
     assert "link 'negative_mass': mass -0.5 kg is not physically meaningful" in warnings
-    assert "link 'zero_mass' is the child of a moving joint and has no mass" in warnings
+    # Both weigh their 3 x 3 x 20 cm visual box at 1000 kg/m^3, named in one warning.
+    assert (
+        "2 link(s) declare no mass: each given the mass and inertia of its collision (else "
+        "visual) geometry at 1000 kg/m^3, as MuJoCo's inertiafromgeom: zero_mass 0.18 kg "
+        "(visual box), negative_mass 0.18 kg (visual box); 0.36 kg in all"
+    ) in warnings
     assert "link 'bad_inertia': inertia" in warnings and "is not physically valid" in warnings
     for link in ("zero_mass", "negative_mass"):
-        assert plant.GetBodyByName(link).default_mass() == pytest.approx(0.01)
+        assert plant.GetBodyByName(link).default_mass() == pytest.approx(0.18)
     inertia = plant.GetBodyByName("bad_inertia").default_rotational_inertia()
     assert inertia.CouldBePhysicallyValid()
     joint = plant.GetJointByName("swapped_limits")

@@ -225,7 +225,11 @@ def test_an_initial_value_outside_the_limits_is_clamped_with_a_warning(capsys, c
 
 def test_a_value_from_the_file_names_the_file(tmp_path, capsys):
     scenario = tmp_path / "mine.yaml"
-    scenario.write_text((DIAGRAMS_DIR / "position.yaml").read_text().replace("kp: 8.0", "kp: -8.0"))
+    scenario.write_text(
+        (DIAGRAMS_DIR / "position.yaml")
+        .read_text()
+        .replace("  gravity_feedforward: true", "  kp: -8.0\n  gravity_feedforward: true")
+    )
     code, _, err = run_main("--scenario", str(scenario), capsys=capsys)
     assert code == 2
     assert_one_line(err, f"{scenario}: actuators.kp=-8.0 must be positive")
