@@ -1,4 +1,5 @@
-"""The README's controller parameter tables are the ones generated from the dataclasses."""
+"""docs/parameters.md's controller parameter tables are the ones generated from the
+dataclasses."""
 
 from pathlib import Path
 
@@ -7,14 +8,14 @@ import pytest
 from armando_drake.control import params_doc
 from armando_drake.control.controllers.joint_trajectory import JointTrajectoryControllerParams
 
-README = Path(__file__).resolve().parents[2] / "README.md"
+PAGE = Path(__file__).resolve().parents[2] / "docs" / "parameters.md"
 
 
-def test_readme_block_is_the_generated_text():
-    text = README.read_text(encoding="utf-8")
+def test_page_block_is_the_generated_text():
+    text = PAGE.read_text(encoding="utf-8")
     start, end = text.index(params_doc.BEGIN), text.index(params_doc.END)
     assert text[start : end + len(params_doc.END)] == params_doc.render(), (
-        "regenerate with: python -m armando_drake.control.params_doc --write README.md"
+        "regenerate with: python -m armando_drake.control.params_doc --write docs/parameters.md"
     )
 
 
