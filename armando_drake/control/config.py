@@ -294,7 +294,18 @@ def _parse_ros2(documents: Sequence[tuple[str, Any]], strict: bool) -> Controlle
             strict, name, lambda n=name, p=node: _ros2_controller(n, p, manager, update_rate)
         )
     for entry in entries.values():
-        if id(entry) not in used and not entry.wildcard:
+        if id(entry) in used or entry.wildcard:
+            continue
+        if entry.namespace != namespace:
+            _logger.warning(
+                "%s: %s: a node of namespace %s, not of the controller manager's (%s); "
+                "ignored",
+                entry.file,
+                entry.key,
+                entry.namespace or "/",
+                namespace or "/",
+            )
+        else:
             _logger.warning(
                 "%s: %s: '%s' is not a controller of controller_manager; ignored",
                 entry.file,
