@@ -298,8 +298,7 @@ def _parse_ros2(documents: Sequence[tuple[str, Any]], strict: bool) -> Controlle
             continue
         if entry.namespace != namespace:
             _logger.warning(
-                "%s: %s: a node of namespace %s, not of the controller manager's (%s); "
-                "ignored",
+                "%s: %s: a node of namespace %s, not of the controller manager's (%s); ignored",
                 entry.file,
                 entry.key,
                 entry.namespace or "/",

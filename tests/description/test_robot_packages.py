@@ -48,11 +48,12 @@ def arm_package(root, name: str, controllers: dict[str, str], **files: str):
 
 def repeated_node_keys(root):
     # `/**:` three times in one file: ROS 2 merges them into one node key.
-    return arm_package(
-        root,
-        "repeated_description",
-        {
-            "config/repeated_controllers.yaml": f"""\
+    return (
+        arm_package(
+            root,
+            "repeated_description",
+            {
+                "config/repeated_controllers.yaml": f"""\
                 /**:
                   controller_manager:
                     ros__parameters:
@@ -71,18 +72,22 @@ def repeated_node_keys(root):
                       command_interfaces: [position]
                       state_interfaces: [position, velocity]
                 """
-        },
-    ), [], ["'arm_controller'", "at 200 Hz"]
+            },
+        ),
+        [],
+        ["'arm_controller'", "at 200 Hz"],
+    )
 
 
 def undeclared_parameters(root):
     # Humble's state_publish_rate, the forward controller's interface_name, gains and
     # constraints of names that are not joints, old PID keys: Jazzy declares none of them.
-    return arm_package(
-        root,
-        "legacy_description",
-        {
-            "config/legacy_controllers.yaml": f"""\
+    return (
+        arm_package(
+            root,
+            "legacy_description",
+            {
+                "config/legacy_controllers.yaml": f"""\
                 controller_manager:
                   ros__parameters:
                     update_rate: 100
@@ -109,19 +114,23 @@ def undeclared_parameters(root):
                     gains:
                       j1: {{p: 100.0, normalize_error: true}}
                 """
-        },
-    ), [], ["arm_controller.ros__parameters.state_publish_rate: " + JTC]
+            },
+        ),
+        [],
+        ["arm_controller.ros__parameters.state_publish_rate: " + JTC],
+    )
 
 
 def type_in_own_parameters(root):
     # No controller_manager node: each controller's type in its own ros__parameters (the
     # current ros2_control demos, spawner --param-file), joints named through a launch
     # argument the package's launch file declares.
-    return arm_package(
-        root,
-        "own_type_description",
-        {
-            "config/arm_controllers.yaml": f"""\
+    return (
+        arm_package(
+            root,
+            "own_type_description",
+            {
+                "config/arm_controllers.yaml": f"""\
                 joint_state_broadcaster:
                   ros__parameters:
                     type: {JSB}
@@ -135,7 +144,7 @@ def type_in_own_parameters(root):
                       - $(var joint_prefix)3
                     interface_name: position
                 """,
-            "launch/arm.launch.py": """\
+                "launch/arm.launch.py": """\
                 from launch.actions import DeclareLaunchArgument
                 ARGUMENTS = [
                     DeclareLaunchArgument(
@@ -143,8 +152,11 @@ def type_in_own_parameters(root):
                     ),
                 ]
                 """,
-        },
-    ), [], ["'forward_position_controller'"]
+            },
+        ),
+        [],
+        ["'forward_position_controller'"],
+    )
 
 
 def split_ros1_files(root):
@@ -247,7 +259,10 @@ def several_files(root):
                 """,
         },
     )
-    files = [package / "config" / "layered_controllers.yaml", package / "config/site/overrides.yaml"]
+    files = [
+        package / "config" / "layered_controllers.yaml",
+        package / "config/site/overrides.yaml",
+    ]
     args = [arg for path in files for arg in ("--param-file", str(path))]
     return package, args, ["at 250 Hz", "'arm_controller'"]
 
@@ -255,11 +270,12 @@ def several_files(root):
 def wildcard_and_qualified_names(root):
     # Fully qualified node names in a namespace, the type from a wildcard key, the
     # joints from the qualified one; another namespace's node is not this manager's.
-    return arm_package(
-        root,
-        "namespaced_description",
-        {
-            "config/namespaced_controllers.yaml": f"""\
+    return (
+        arm_package(
+            root,
+            "namespaced_description",
+            {
+                "config/namespaced_controllers.yaml": f"""\
                 /robot/controller_manager:
                   ros__parameters:
                     update_rate: 100
@@ -280,8 +296,11 @@ def wildcard_and_qualified_names(root):
                   ros__parameters:
                     use_sim_time: true
                 """
-        },
-    ), [], ["'arm_controller'"]
+            },
+        ),
+        [],
+        ["'arm_controller'"],
+    )
 
 
 PATTERNS = [
@@ -304,7 +323,7 @@ def test_package_displays_and_its_default_run_reaches_the_targets(pattern, tmp_p
     out = tmp_path / "out"
     result = run(
         "armando_drake.world", "--description", str(package), *args,
-        "--set", "sequencer: {period: 2.0}", "--duration", "10",
+        "--set", "sequencer: {period: 1.2}", "--duration", "6",
         "--no-meshcat", "--realtime-rate", "0", "--no-replay", "--output", str(out),
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
