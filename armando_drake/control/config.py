@@ -11,16 +11,20 @@ The file is the one a ROS 2 user already has::
       ros__parameters:
         joints: [j0, j1, j2, j3]
 
-Node blocks may also sit under a namespace key (``/**:``, ``/robot:``) or be
-named with one (``/**/controller_manager:``, ``robot/position_controller:``);
-ROS parameter names with dots (``constraints.goal_time: 0.5``) are the same
-as nested mappings. Which types exist, and which parameters each reads, the
-controller registry (:mod:`armando_drake.control.controllers`) says. Every error
-names the file and the key at fault, as
-``<file>: <key>: <problem>``.
+It is read as ROS reads it (:mod:`armando_drake.control.param_files`): several files
+in order (later values win), a node key given again merged, wildcards (``/**``,
+``/*``) and fully qualified names (``/ns/controller_manager``), the manager's
+namespace taken from the file; ROS parameter names with dots
+(``constraints.goal_time``) are the same as nested mappings. A controller is a
+mapping of the manager with a ``type``, or a node whose own parameters have a
+``type`` (``spawner --param-file``); there may be no manager node at all. Which types
+exist, and which parameters each declares, the controller registry
+(:mod:`armando_drake.control.controllers`) says: a parameter the type does not declare
+is ignored with one warning, as ROS ignores it. Every error names the file and the key
+at fault, as ``<file>: <key>: <problem>``.
 
 A ROS 1 (``ros_control``) file, one with no ``ros__parameters`` anywhere, is
-read too::
+read too (several, as ``rosparam load`` loads them in turn into one tree)::
 
     rrbot:                               # any namespace, or none
       joint1_position_controller:
@@ -41,7 +45,9 @@ As upstream's controller manager, which fails only when it loads a controller
 of a type it has no plugin for, a controller of a type the registry does not
 know (``GripperActionController``, ...) is noted with one warning and the file
 loads; activating that controller is the error, naming the file, the key and
-the type (:attr:`ControllerConfig.controller_class`).
+the type (:attr:`ControllerConfig.controller_class`). Read leniently (``strict=False``,
+as a world reads it), a controller whose parameters cannot be used is the same: one
+warning, and the error when it is activated.
 """
 
 from __future__ import annotations
