@@ -3,10 +3,12 @@
 Each registered ROS 2 controller type's parameters dataclass becomes one markdown
 table: the ROS parameter name (``constraints.goal_time`` where the dataclass
 keeps a flat field), its type, its default and the field's comment (unit and
-meaning); then the upstream parameters the type refuses, with the reason.
-The docs' reference page "Controller parameters" is this block, made at each build of
-the site by ``docs/hooks.py`` (``tests/control/test_params_doc.py`` checks it); ``--write``
-replaces the block between :data:`BEGIN` and :data:`END` of any markdown file::
+meaning); then the upstream parameters the type declares and the simulation ignores
+(each ignored with a warning: it would not change the motion), and those it refuses,
+with the reason. A parameter upstream (Jazzy) does not declare is in no table: it is
+ignored with a warning, as ROS ignores it. The docs' reference page "Controller
+parameters" is this block, made at each build of the site by ``docs/hooks.py``
+(``tests/control/test_params_doc.py`` checks it); ``--write`` replaces the block between :data:`BEGIN` and :data:`END` of any markdown file::
 
     python -m armando_drake.control.params_doc            # prints the block
     python -m armando_drake.control.params_doc --write FILE.md
@@ -96,8 +98,6 @@ def parameter_rows(schema: type, prefix: str = "") -> list[tuple[str, str, str, 
         if "<joint>" in name and inner is not annotation:
             annotation = inner  # one value per joint
         meaning = comments.get(field.name, "")
-        if field.name in getattr(schema, "NOT_IN_JAZZY", ()):
-            meaning += " Refused unless left at the default."
         default = getattr(defaults, field.name)
         if "<joint>" in name and isinstance(default, dict):
             default = 0.0  # a joint left out
@@ -113,10 +113,12 @@ def render() -> str:
     """The markdown block: one table per parameters class, every ROS 2 type using it."""
     groups: dict[type, list[str]] = {}
     refused: dict[type, dict[str, str]] = {}
+    ignored: dict[type, set[str]] = {}
     for type_name in registered_types():
         cls = lookup(type_name)
         groups.setdefault(cls.parameters, []).append(type_name)
         refused.setdefault(cls.parameters, {}).update(cls.refused_parameters)
+        ignored.setdefault(cls.parameters, set()).update(cls.ignored_parameters)
     lines = [BEGIN, ""]
     for schema, type_names in groups.items():
         lines.append(", ".join(f"`{name}`" for name in type_names) + ":")
@@ -127,6 +129,13 @@ def render() -> str:
             lines.append(
                 f"| `{_escape(name)}` | `{_escape(type_)}` | `{_escape(default)}` | "
                 f"{_escape(meaning)} |"
+            )
+        if ignored[schema]:
+            lines.append("")
+            lines.append(
+                "Declared upstream, not simulated (ignored with a warning): "
+                + ", ".join(f"`{name}`" for name in sorted(ignored[schema]))
+                + "."
             )
         if refused[schema]:
             lines.append("")

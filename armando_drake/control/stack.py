@@ -27,14 +27,18 @@ from armando_drake.control.config import (
     ControllerConfigError,
     ControllerManagerConfig,
     check_update_rate,
+    file_generation,
     load_controller_config,
     parse_controller_config,
     validate_joints,
 )
 from armando_drake.control.controllers import (
+    DEFAULT_CONTROLLERS,
     ControllerJoints,
+    controller_type_for,
     default_controller_config,
     find_controller,
+    lookup,
 )
 from armando_drake.control.gains import (
     DAMPING_RATIO,
@@ -60,9 +64,15 @@ from armando_drake.control.manager import (
     ControllerManager,
     ManagedController,
 )
-from armando_drake.control.sequencer import stream_controller
+from armando_drake.control.sequencer import (
+    JointTrajectoryTargets,
+    PositionTargets,
+    Sinusoid,
+    stream_controller,
+)
 from armando_drake.description.loader import LoadedRobot, is_builtin_armando
-from armando_drake.description.packages import package_of
+from armando_drake.description.packages import installed_view, package_of
+from armando_drake.messages.types import Float64MultiArray, JointTrajectory
 from armando_drake.tools.errors import ScenarioError
 from armando_drake.tools.schema import Refusal, param
 
@@ -126,9 +136,13 @@ class ActuatorConfig:
 class ControllersConfig:
     """The ros2_control controller manager."""
 
-    # A ros2_control controller YAML; "" is the description package's
-    # config/<robot>_controllers.yaml, or a generated default.
-    config: str = ""
+    # The controller parameter file(s), a path or a list read in order (later values
+    # win, as ``--param-file`` takes them); empty: the description's <gazebo> plugin's,
+    # else the description package's config/*controller*.yaml, else a generated default.
+    config: list[str] = dc.field(default_factory=list)
+    # The launch arguments ``$(var name)`` stands for in the parameter files (default:
+    # robot.xacro_args, then the defaults the launch files of the file's package declare).
+    arguments: dict[str, str] = dc.field(default_factory=dict)
     # Controllers to activate, by name, in order. Empty: none (the arm falls).
     activate: list[str] = dc.field(default_factory=list)
     # Rate of the controller manager [Hz], overriding the YAML's update_rate; 0 = the
@@ -169,6 +183,9 @@ class ControlStack:
     stream_controller: str = ""
     # The plant's scene graph, for the collision checks of the seed targets (None: none).
     scene_graph: SceneGraph | None = None
+    # Whether, with no command controller active, the hardware holds every joint at its
+    # start position (the robot's own controllers cannot run); else nothing drives it.
+    hold: bool = False
 
     @property
     def broadcaster(self) -> ControllerManager | None:
@@ -207,21 +224,38 @@ class ControlStack:
         return [self.hardware.joints[i] for i in self.hardware.find(joints)]
 
 
-def LoadControllerConfig(config: ControllersConfig, robot: LoadedRobot) -> ControllerManagerConfig:
-    """The controller YAML of ``config``, of the description's ``<gazebo><plugin>``
-    ``<parameters>``, of the description package, or a default on the joints the
-    hardware interface will actuate."""
+def LoadControllerConfig(
+    config: ControllersConfig, robot: LoadedRobot, *, arguments: dict[str, str] | None = None
+) -> ControllerManagerConfig:
+    """The controller parameter files of ``config``, of the description's
+    ``<gazebo><plugin>`` ``<parameters>``, of the description package
+    (:func:`package_controller_files`), or a default on the joints the hardware
+    interface will actuate. ``arguments``: the launch arguments of ``$(var name)``
+    (``config.arguments`` win). Read leniently: a controller whose parameters cannot
+    be used fails only when activated."""
+    arguments = {**(arguments or {}), **config.arguments}
+
+    def load(files):
+        return load_controller_config(files, strict=False, arguments=arguments)
+
     if config.config:
-        return load_controller_config(Path(config.config))
-    for named in robot.controller_files:
-        if named.is_file():
-            _log.info("controller configuration from the description's <gazebo> plugin: %s", named)
-            return load_controller_config(named)
-        _log.warning("the description's <gazebo> plugin names %s, which does not exist", named)
-    package_dir = package_of(robot.source)
-    candidates = sorted((package_dir / "config").glob("*controllers*.yaml")) if package_dir else []
+        return load([Path(path).expanduser() for path in config.config])
+    named = [path for path in robot.controller_files if path.is_file()]
+    for missing in robot.controller_files:
+        if not missing.is_file():
+            _log.warning(
+                "the description's <gazebo> plugin names %s, which does not exist", missing
+            )
+    if named:
+        _log.info(
+            "controller configuration from the description's <gazebo> plugin: %s",
+            ", ".join(map(str, named)),
+        )
+        return load(named)
+    candidates = package_controller_files(robot)
     if candidates:
-        return load_controller_config(candidates[0])
+        _log.info("controller configuration of the package: %s", ", ".join(map(str, candidates)))
+        return load(candidates)
     actuated = list(command_interfaces(robot, warn=False)[2])
     if not actuated:
         raise ScenarioError(
@@ -230,6 +264,178 @@ def LoadControllerConfig(config: ControllersConfig, robot: LoadedRobot) -> Contr
         )
     data = default_controller_config(actuated)
     return parse_controller_config(data, source=f"<default controllers of {robot.name}>")
+
+
+# Parameter files of a package that hold no ros2_control controllers: MoveIt's, and the
+# demos' command publishers.
+_NOT_CONTROLLER_FILES = ("moveit", "fake_controller", "publisher", "simple_controller")
+
+
+def package_controller_files(robot: LoadedRobot) -> list[Path]:
+    """The controller files of the description's package, as an install lays it out
+    (:func:`~armando_drake.description.packages.installed_view`): its
+    ``config/*controller*.yaml``, those naming the robot first. ROS 2: the first, as
+    a launch file names one; ROS 1: every one, as a launch file loads a file per
+    controller (a joint_state_controller file and an arm's), merged."""
+    package_dir = package_of(robot.source)
+    if package_dir is None:
+        return []
+    folder = installed_view(package_dir, note=False) / "config"
+    files = sorted(
+        path.resolve()  # the package's own file, named in messages
+        for path in folder.glob("*.y*ml")
+        if "controller" in path.stem and not any(s in path.stem for s in _NOT_CONTROLLER_FILES)
+    )
+    files.sort(key=lambda path: robot.name.lower() not in path.stem.lower())
+    if not files:
+        return []
+    try:
+        generations = {path: file_generation(path) for path in files}
+    except ControllerConfigError:
+        return files[:1]  # its error is reported when it is read
+    ros1 = [path for path in files if generations[path] == 1]
+    ros2 = [path for path in files if generations[path] == 2]
+    return ros2[:1] if ros2 else ros1 or files[:1]
+
+
+# --------------------------------------------------------------------------------------
+# The controllers a run activates
+
+
+@dc.dataclass
+class ControllerChoice:
+    """What :func:`choose_controllers` decided: the controllers to activate, the
+    sequencer that drives them, and whether the hardware holds the arm instead."""
+
+    activate: list[str]
+    sequencer: object
+    hold: bool = False
+
+
+def arm_controllers(config: ControllerManagerConfig) -> list[ControllerConfig]:
+    """The supported controllers of ``config`` that a sequence of position targets can
+    drive, in the order a run prefers them: joint trajectory controllers, then
+    forward position groups, each with the most joints first (the arm before a
+    gripper), in the file's order."""
+    found = []
+    for controller in config.controllers.values():
+        if not controller.supported or controller.controller_class.broadcaster:
+            continue
+        message = controller.controller_class.message
+        if controller.position_targets and message in (JointTrajectory, Float64MultiArray):
+            found.append(controller)
+    return sorted(
+        found,
+        key=lambda c: (c.controller_class.message is not JointTrajectory, -len(c.joints)),
+    )
+
+
+def _sequencer_for(controller: ControllerConfig, current):
+    """The sequencer that drives ``controller``: ``current`` turned into the kind it
+    takes, keeping its targets, period, cyclic and start delay (a sinusoid as it is on
+    a position group; on a trajectory controller, the seed targets)."""
+    kind = (
+        JointTrajectoryTargets
+        if controller.controller_class.message is JointTrajectory
+        else PositionTargets
+    )
+    if isinstance(current, kind) or (kind is PositionTargets and isinstance(current, Sinusoid)):
+        return current
+    if isinstance(current, (PositionTargets, JointTrajectoryTargets)):
+        return kind(
+            targets=current.targets,
+            period=current.period,
+            cyclic=current.cyclic,
+            start_delay=current.start_delay,
+        )
+    return kind()
+
+
+def _add_default_broadcaster(config: ControllerManagerConfig) -> str:
+    """Adds the registry's joint state broadcaster (on every joint) to ``config``, for a
+    file that has none; its name."""
+    name = "joint_state_broadcaster"
+    type_name = controller_type_for("broadcaster", ros=config.ros)
+    cls = lookup(type_name, ros=config.ros)
+    config.controllers[name] = ControllerConfig(
+        name, type_name, [], cls.default_parameters(None), {}, "<added>", ros=config.ros
+    )
+    return name
+
+
+def choose_controllers(
+    activate: Sequence[str], config: ControllerManagerConfig, sequencer, where: str = ""
+) -> ControllerChoice:
+    """The controllers a run activates for the scenario's ``activate``, given the robot's
+    controller file ``config``: each name the file defines, and ``type:<plugin>`` as it
+    is. A default name the file lacks (:data:`DEFAULT_CONTROLLERS`:
+    ``joint_state_broadcaster``, ``position_controller``, ``trajectory_controller``)
+    stands for the file's controller of that role: its broadcaster (the registry's,
+    added, if it has none), its arm controller (:func:`arm_controllers`), driven by
+    ``sequencer`` turned into the kind it takes; a file without one the simulation
+    supports leaves the arm held at its start position. Each such choice is one line
+    of the log."""
+    chosen, hold = [], False
+    broadcasters = [
+        name
+        for name, c in config.controllers.items()
+        if c.supported and c.controller_class.broadcaster
+    ]
+    for entry in activate:
+        kind = DEFAULT_CONTROLLERS.get(entry)
+        wants_broadcaster = kind == "broadcaster" or (
+            entry.startswith("type:") and _names_broadcaster(entry)
+        )
+        if entry in config.controllers or (kind is None and not wants_broadcaster):
+            chosen.append(entry)
+        elif wants_broadcaster:
+            if not broadcasters:
+                broadcasters.append(_add_default_broadcaster(config))
+                _log.info(
+                    "%s defines no joint state broadcaster: %r added on every joint",
+                    config.source,
+                    broadcasters[0],
+                )
+            elif not entry.startswith("type:"):
+                _log.info(
+                    "%s: %r runs as the joint state broadcaster", config.source, broadcasters[0]
+                )
+            chosen.append(broadcasters[0] if not entry.startswith("type:") else entry)
+        else:
+            arms = arm_controllers(config)
+            if not arms:
+                hold, sequencer = True, None
+                unsupported = [
+                    f"{name} ({c.type or 'unusable'})"
+                    for name, c in config.controllers.items()
+                    if not c.supported
+                ]
+                _log.warning(
+                    "%s defines no arm controller the simulation supports%s: the arm holds "
+                    "its start position",
+                    config.source,
+                    f" (not supported: {', '.join(unsupported)})" if unsupported else "",
+                )
+                continue
+            arm = arms[0]
+            sequencer = _sequencer_for(arm, sequencer)
+            chosen.append(arm.name)
+            _log.info(
+                "%s has no %r: driving its %r (%s on %s) with the scenario's targets",
+                config.source,
+                entry,
+                arm.name,
+                arm.type,
+                ", ".join(arm.joints),
+            )
+    return ControllerChoice(chosen, sequencer, hold)
+
+
+def _names_broadcaster(entry: str) -> bool:
+    try:
+        return lookup(entry[len("type:") :]).broadcaster
+    except KeyError:
+        return False
 
 
 def controller_update_rate(
@@ -432,11 +638,13 @@ def AddControllerManager(
     sequencer=None,
     where: str = "",
     scene_graph: SceneGraph | None = None,
+    hold: bool = False,
 ) -> ControlStack:
     """Loads and activates ``config.activate`` (a broadcaster and command controllers,
     each joint claimed once) in one :class:`ControllerManager`, wired to the plant
     through the hardware interface. ``sequencer``: the scenario's sequencer section; a
-    sinusoid's controller takes it as a C++ stream when it can."""
+    sinusoid's controller takes it as a C++ stream when it can. ``hold``: with no
+    command controller, the hardware holds the joints at their start positions."""
     stack = ControlStack(
         plant=plant,
         robot=robot,
@@ -444,9 +652,10 @@ def AddControllerManager(
         config=controller_config,
         update_rate=update_rate,
         scene_graph=scene_graph,
+        hold=hold,
     )
     broadcaster, managed = _activate(stack, config.activate, where, config.speed_scaling)
-    if broadcaster is None and not managed:
+    if broadcaster is None and not managed and not hold:
         return stack
     stack.stream_controller = stream_controller(sequencer, managed, stack)
     if stack.stream_controller:
@@ -478,11 +687,11 @@ def _activate(stack: ControlStack, activate: Sequence[str], where: str, speed_sc
     ``speed_scaling`` overrides the named controllers' initial speed scaling factor."""
     speed_scaling = dict(speed_scaling or {})
     config, hardware = stack.config, stack.hardware
-    validate_joints(config, hardware.joint_names, str(stack.robot.source))
+    names = [controller_name(name, config, where) for name in activate]
+    validate_joints(config, hardware.joint_names, str(stack.robot.source), names)
     claimed: dict[str, str] = {}
     broadcaster, managed = None, []
-    for name in activate:
-        name = controller_name(name, config, where)
+    for name in names:
         if name not in config.controllers:
             raise ScenarioError(
                 f"{where}controllers.activate names {name!r}, which {config.source} does not "
@@ -519,6 +728,7 @@ def _activate(stack: ControlStack, activate: Sequence[str], where: str, speed_sc
                         f"joint {joint!r}; activate only one of them"
                     )
                 claimed[joint] = name
+            check_hardware_interfaces(controller, stack.robot, where)
             factor = speed_scaling.pop(name, None)
             if factor is not None:
                 controller = _with_speed_scaling(controller, factor, where)
@@ -531,6 +741,35 @@ def _activate(stack: ControlStack, activate: Sequence[str], where: str, speed_sc
             "command controller"
         )
     return broadcaster, managed
+
+
+def check_hardware_interfaces(controller: ControllerConfig, robot: LoadedRobot, where: str) -> None:
+    """Fails, as upstream's activation, where ``controller`` claims a hardware interface
+    (:meth:`~armando_drake.control.controllers.Controller.hardware_interfaces`) that the
+    robot's ``<ros2_control>`` does not declare."""
+    wanted = controller.controller_class.hardware_interfaces(controller.params)
+    if not wanted:
+        return
+    declared = {
+        f"{component.name}/{interface.name}"
+        for info in robot.ros2_control
+        for component in (*info.joints, *info.sensors, *info.gpios)
+        for interface in (*component.state_interfaces, *component.command_interfaces)
+    }
+    for parameter, interface in wanted.items():
+        if interface not in declared:
+            raise ScenarioError(
+                f"{where}controllers.activate: {controller.file}: {controller.key}.{parameter}: "
+                f"{interface!r} is not an interface of the robot's <ros2_control> (upstream "
+                "fails the activation)"
+            )
+        _log.warning(
+            "%s: %s.%s: %r is held at its value: the speed scaling factor is not simulated",
+            controller.file,
+            controller.key,
+            parameter,
+            interface,
+        )
 
 
 def controller_name(entry: str, config: ControllerManagerConfig, where: str) -> str:
@@ -597,7 +836,7 @@ def ConnectControlStack(
     feed-forward of the position joints. Exports ``desired_state``; returns the
     gravity feed-forward's output, or None without one."""
     manager = stack.manager
-    if manager is None or not stack.controllers:
+    if manager is None or not (stack.controllers or stack.hold):
         return None
     desired = manager.GetOutputPort("desired_state")
     if stack.stream_controller:

@@ -40,6 +40,7 @@ from armando_drake.control.stack import (
     ControlStack,
     ExportFreeControllerPorts,
     LoadControllerConfig,
+    choose_controllers,
     controller_update_rate,
 )
 from armando_drake.description.loader import AddRobot
@@ -166,7 +167,14 @@ def _add_control(builder, scenario: Scenario, plant, scene_graph, robot) -> Cont
     controller manager running the activated controllers."""
     # The controller YAML before the actuators: a ROS 1 file's gazebo_ros_control gains
     # are theirs; its update rate, which the scenario may override.
-    controller_config = LoadControllerConfig(scenario.controllers, robot)
+    controller_config = LoadControllerConfig(
+        scenario.controllers, robot, arguments=scenario.robot.xacro_args
+    )
+    # The scenario's default controllers stand for the file's own (one line each).
+    choice = choose_controllers(
+        scenario.controllers.activate, controller_config, scenario.sequencer
+    )
+    scenario.controllers.activate, scenario.sequencer = choice.activate, choice.sequencer
     update_rate = controller_update_rate(
         controller_config, scenario.controllers, _origin(scenario, "controllers.update_rate")
     )
@@ -197,6 +205,7 @@ def _add_control(builder, scenario: Scenario, plant, scene_graph, robot) -> Cont
         sequencer=scenario.sequencer,
         where=_origin(scenario, "controllers"),
         scene_graph=scene_graph,
+        hold=choice.hold,
     )
 
 

@@ -83,6 +83,15 @@ def world_parser(doc: str) -> argparse.ArgumentParser:
         "broadcaster (default: as the scenario says)",
     )
     parser.add_argument(
+        "--param-file",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="a controller parameter file (ROS 2 or ROS 1 YAML) to read instead of the "
+        "robot's own; repeatable, read in order with later values winning, as spawner "
+        "--param-file (default: as the scenario says)",
+    )
+    parser.add_argument(
         "--duration",
         type=float,
         metavar="SECONDS",
@@ -271,6 +280,9 @@ def scenario_from_arguments(scenario, args):
             )
         _apply_controller(scenario, "none")
         note_option(scenario, ("sequencer", "controllers.activate"), "--controller none")
+    if args.param_file:
+        scenario.controllers.config = list(args.param_file)
+        note_option(scenario, ("controllers.config",), "--param-file")
     _apply_run_options(scenario, args)
     _apply_camera_options(scenario, args)
     return scenario

@@ -324,6 +324,18 @@ def _check_lists(data, schema, prefix: str = "") -> None:
             _check_lists(value, member, f"{key}.")
 
 
+def _one_or_many(data) -> None:
+    """The fields that take one value or a list, as lists: ``controllers.config: a.yaml``
+    is ``[a.yaml]``, ``""`` (or null) none."""
+    controllers = data.get("controllers") if isinstance(data, dict) else None
+    if isinstance(controllers, dict) and "config" in controllers:
+        value = controllers["config"]
+        if value is None or value == "":
+            controllers["config"] = []
+        elif isinstance(value, str):
+            controllers["config"] = [value]
+
+
 def _merge(scenario: Scenario, text: str) -> Scenario:
     """``scenario`` with the YAML ``text`` merged over it (see :func:`_keep_variants`)."""
     data = yaml_load(data=text)
@@ -333,6 +345,7 @@ def _merge(scenario: Scenario, text: str) -> Scenario:
         )
     if not isinstance(data, dict):
         raise ScenarioError(f"expected a YAML mapping, got {data!r}")
+    _one_or_many(data)
     _check_lists(data, Scenario)
     _keep_variants(data, scenario)
     return yaml_load_typed(data=yaml_dump(data), defaults=scenario)
@@ -439,7 +452,12 @@ def load_scenario(
             path = resolve_scenario_path(filename)
             source = str(path)
             _refuse_duplicate_keys(read_yaml_file(path, what="the scenario"), source)
-            scenario = yaml_load_typed(filename=str(path), defaults=scenario)
+            data = yaml_load(filename=str(path))
+            if isinstance(data, dict) and isinstance(data.get("controllers"), dict):
+                _one_or_many(data)
+                scenario = yaml_load_typed(data=yaml_dump(data), defaults=scenario)
+            else:
+                scenario = yaml_load_typed(filename=str(path), defaults=scenario)
             _anchor_file_paths(scenario, path)
         if overrides:
             scenario = merge_overrides(scenario, overrides, label="override")
@@ -473,8 +491,11 @@ def _anchored(value: str, scenario_file: Path) -> str:
 
 
 def _anchor_file_paths(scenario: Scenario, scenario_file: Path) -> None:
-    """The relative file paths of a scenario file (its controller YAML), see :func:`_anchored`."""
-    scenario.controllers.config = _anchored(scenario.controllers.config, scenario_file)
+    """The relative file paths of a scenario file (its controller YAML files), see
+    :func:`_anchored`."""
+    scenario.controllers.config = [
+        _anchored(value, scenario_file) for value in scenario.controllers.config
+    ]
 
 
 def note_option(scenario, keys: Iterable[str], option: str) -> None:

@@ -227,14 +227,6 @@ GOOD_PARAMS = "    joints: [j0, j1]"
         ),
         (
             "100",
-            GOOD_TYPE,
-            "    joints: [j0]\n    gains: {j0: {p: 1}}",
-            "pos.ros__parameters.gains",
-            "unknown parameter for position_controllers/JointGroupPositionController; "
-            "known: ['interface_name', 'joints']",
-        ),
-        (
-            "100",
             "type: forward_command_controller/ForwardCommandController",
             GOOD_PARAMS,
             "pos.ros__parameters.interface_name",
@@ -284,16 +276,6 @@ GOOD_PARAMS = "    joints: [j0, j1]"
             "type: joint_trajectory_controller/JointTrajectoryController",
             GOOD_PARAMS
             + "\n    command_interfaces: [position]\n    state_interfaces: [position]"
-            + "\n    constraints: {j7: {goal: 0.1}}",
-            "pos.ros__parameters.constraints.j7",
-            "'j7' is neither goal_time, stopped_velocity_tolerance, decelerate_on_cancel nor "
-            "one of the controller's joints ['j0', 'j1']",
-        ),
-        (
-            "100",
-            "type: joint_trajectory_controller/JointTrajectoryController",
-            GOOD_PARAMS
-            + "\n    command_interfaces: [position]\n    state_interfaces: [position]"
             + "\n    constraints: {goal_time: -1}",
             "pos.ros__parameters.constraints.goal_time",
             "goal_time=-1 must be >= 0",
@@ -307,14 +289,12 @@ GOOD_PARAMS = "    joints: [j0, j1]"
         "joints-missing",
         "joints-empty",
         "joints-duplicated",
-        "unknown-parameter",
         "interface-missing",
         "interface-empty",
         "interface-acceleration",
         "command-interfaces-missing",
         "state-interface-unknown",
         "interpolation-unknown",
-        "tolerance-unknown-joint",
         "goal-time-negative",
     ],
 )

@@ -607,12 +607,43 @@ def test_scaling_factor_only_for_position_interfaces():
     np.testing.assert_allclose(h.desired[:3], [0.51] * 3, atol=1e-9)
 
 
+def _robot_with_ros2_control(gpio: str = ""):
+    """What check_hardware_interfaces reads of a robot: its <ros2_control> blocks."""
+    import xml.etree.ElementTree as ET
+    from types import SimpleNamespace
+
+    from armando_drake.description.ros2_control import parse_ros2_control
+
+    xml = (
+        '<robot name="r"><link name="a"/><link name="b"/><joint name="j0" type="revolute">'
+        '<parent link="a"/><child link="b"/><limit lower="-1" upper="1" effort="1" '
+        'velocity="1"/></joint><ros2_control name="hw" type="system"><hardware><plugin>p'
+        '</plugin></hardware><joint name="j0"><command_interface name="position"/></joint>'
+        f"{gpio}</ros2_control></robot>"
+    )
+    return SimpleNamespace(ros2_control=parse_ros2_control(ET.fromstring(xml)))
+
+
 def test_wrong_scaling_state_interface_parameter_controller_fails_activation():
     # test_trajectory_controller.cpp, wrong_scaling_state_interface_parameter_controller_fails_
-    # activation (and the command interface's): the simulated hardware has no such interface.
+    # activation (and the command interface's): an interface the hardware does not declare
+    # fails the activation; one its <ros2_control> declares (a GPIO) is held at its value.
+    from armando_drake.control.stack import check_hardware_interfaces
+    from armando_drake.tools.errors import ScenarioError
+
+    scaling = '<gpio name="speed_scaling"><state_interface name="factor"/></gpio>'
     for name in ("state_interface", "command_interface"):
-        with pytest.raises(ControllerConfigError, match=f"speed_scaling.{name}"):
-            arm_params(f"command_interfaces: [position]\nspeed_scaling: {{{name}: idontexist}}")
+        text = CONFIG + f"    command_interfaces: [position]\n    speed_scaling: {{{name}: x/y}}\n"
+        controller = parse_controller_config(yaml.safe_load(text), "c.yaml").controllers[
+            "arm_controller"
+        ]
+        with pytest.raises(ScenarioError, match=f"speed_scaling.{name}: 'x/y' is not an interface"):
+            check_hardware_interfaces(controller, _robot_with_ros2_control(scaling), "")
+    text = CONFIG + "    speed_scaling: {state_interface: speed_scaling/factor}\n"
+    controller = parse_controller_config(yaml.safe_load(text), "c.yaml").controllers[
+        "arm_controller"
+    ]
+    check_hardware_interfaces(controller, _robot_with_ros2_control(scaling), "")
     with pytest.raises(ControllerConfigError, match="initial_scaling_factor"):
         arm_params("command_interfaces: [position]\nspeed_scaling: {initial_scaling_factor: -1}")
 

@@ -120,11 +120,15 @@ def test_ros1_file_maps_onto_the_ros2_controllers_and_interfaces(tmp_path, caplo
     assert trajectory.allow_nonzero_velocity_at_trajectory_end  # ROS 1 does not check it
     # The gripper's type is not simulated: one warning, and the file loads.
     assert not c["gripper_controller"].supported
-    assert [r.getMessage() for r in caplog.records] == [
+    messages = [r.getMessage() for r in caplog.records]
+    assert (
         f"{path}: armando/gripper_controller.type: controller type "
         "'position_controllers/GripperActionController' is not supported; "
-        "'gripper_controller' fails if activated",
-    ]
+        "'gripper_controller' fails if activated"
+    ) in messages
+    # The others: ROS 1 parameters the simulation does not need, each named once.
+    others = [m for m in messages if "gripper_controller" not in m]
+    assert others and all("not simulated: ignored" in m for m in others), others
     assert config.pid_gains == {"j0": (100.0, 0.01, 10.0)}  # gazebo_ros_control's
     # The same type string means the ROS 2 controller in a ROS 2 file.
     assert lookup("position_controllers/JointGroupPositionController").topic == "commands"
@@ -191,22 +195,10 @@ def test_gazebo_ros_control_pid_gains_are_the_position_actuator_gains(tmp_path, 
             "p=inf must be finite",
         ),
         (
-            "traj:\n  type: position_controllers/JointTrajectoryController\n  joints: [j0]\n"
-            "  command_interfaces: [position]\n",
-            "traj.command_interfaces",
-            "'command_interfaces' is a ROS 2 parameter, not ROS 1's",
-        ),
-        (
             "traj:\n  type: effort_controllers/JointTrajectoryController\n  joints: [j0, j1]\n"
             "  gains: {j0: {p: 100.0, d: 1.0}}\n",
             "traj.gains.j1.p",
             "No p gain specified for pid",
-        ),
-        (
-            "traj:\n  type: effort_controllers/JointTrajectoryController\n  joints: [j0]\n"
-            "  gains: {j0: {p: 1.0}, j9: {p: 1.0}}\n",
-            "traj.gains.j9",
-            "'j9' is not one of the controller's joints",
         ),
         (
             "js: {type: joint_state_controller/JointStateController, publish_rate: 50}\n"
@@ -216,7 +208,7 @@ def test_gazebo_ros_control_pid_gains_are_the_position_actuator_gains(tmp_path, 
         ),
     ],
     ids=["publish-rate-missing", "publish-rate-zero", "p-missing", "joint-missing",
-         "p-not-finite", "ros2-parameter", "trajectory-gains-missing", "trajectory-gains-unknown",
+         "p-not-finite", "trajectory-gains-missing",
          "gazebo-p-missing"],
 )  # fmt: skip
 def test_bad_ros1_parameters_name_file_and_key(tmp_path, controller, key, message):
@@ -563,3 +555,19 @@ def test_sinusoid_flag_on_another_robot_sizes_the_seed_wave(tmp_path):
     # Within the position PD's lag (Armando's own sinusoid tracks within about 0.03 rad).
     error = np.abs(q[late] - wave).max(axis=0)
     assert error[0] <= 0.05 and error[1] <= 0.05 and error[2] <= 0.005, error
+
+
+def test_ros1_parameters_a_controller_does_not_read_are_ignored(tmp_path, caplog):
+    path = write(
+        tmp_path,
+        "traj:\n  type: effort_controllers/JointTrajectoryController\n  joints: [j0]\n"
+        "  command_interfaces: [position]\n  gains: {j0: {p: 1.0}, j9: {p: 1.0}}\n",
+    )
+    with caplog.at_level(logging.WARNING, logger="armando_drake.control.config"):
+        config = load_controller_config(path)
+    assert config.controllers["traj"].params.gains["j0"].p == 1.0
+    assert [r.getMessage() for r in caplog.records] == [
+        f"{path}: traj.{name}: effort_controllers/JointTrajectoryController (ROS 1) does not "
+        "declare it; ignored, as ROS ignores it"
+        for name in ("command_interfaces", "gains.j9")
+    ]

@@ -1341,16 +1341,6 @@ arm_controller:
 @pytest.mark.parametrize(
     "extra, message",
     [
-        ("bogus: 1", "arm_controller.ros__parameters.bogus: unknown parameter"),
-        (
-            "speed_scaling: {state_interface: speed_scaling/speed_scaling_factor}",
-            "speed_scaling.state_interface: state_interface='speed_scaling/speed_scaling_factor'"
-            ": the simulated hardware has no speed-scaling interface",
-        ),
-        (
-            "speed_scaling_interface_name: speed_scaling/speed_scaling_factor",
-            "speed_scaling_interface_name: unknown parameter",
-        ),
         ("is_async: true", "is_async: is_async=True is not simulated"),
         ("update_rate: 50", "update_rate: update_rate=50 differs from controller_manager's 100"),
         (
@@ -1371,7 +1361,6 @@ arm_controller:
         ("state_interfaces: [velocity]", "has no 'position' state interface"),
         ("interpolation_method: cubic", "unknown method 'cubic'"),
         ("action_monitor_rate: 0.01", "action_monitor_rate=0.01 must be >= 0.1"),
-        ("gains: {j9: {p: 1.0}}", "gains.j9: 'j9' is not one of the controller's joints"),
     ],
 )
 def test_trajectory_parameters_refused_name_the_parameter(extra, message):
@@ -1380,6 +1369,32 @@ def test_trajectory_parameters_refused_name_the_parameter(extra, message):
         parse_controller_config(yaml.safe_load(text), "c.yaml")
     assert message in str(error.value)
     assert "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize(
+    "extra, ignored",
+    [
+        ("bogus: 1", "bogus"),
+        ("state_publish_rate: 100.0", "state_publish_rate"),  # Humble's, removed in Jazzy
+        ("interface_name: position", "interface_name"),  # the forward controller's
+        ("speed_scaling_interface_name: speed_scaling/factor", "speed_scaling_interface_name"),
+        ("gains: {j9: {p: 1.0}}", "gains.j9"),  # not one of the joints (Jazzy's __map_joints)
+        ("gains: {j0: {p: 1.0, normalize_error: true}}", "gains.j0.normalize_error"),
+        ("constraints: {j7: {goal: 0.1}}", "constraints.j7"),
+        ("constraints: {j0: {goal: 0.1, path: 0.2}}", "constraints.j0.path"),
+    ],
+)
+def test_parameters_jazzy_does_not_declare_are_ignored_with_one_warning(extra, ignored, caplog):
+    # As ROS: the controller's node takes undeclared parameters and never reads them.
+    text = CONFIG + "".join(f"    {line}\n" for line in extra.splitlines())
+    with caplog.at_level("WARNING", logger="armando_drake.control.config"):
+        params = arm_controller_params(text)
+    assert params.joints == ["j0"]
+    assert [r.getMessage() for r in caplog.records] == [
+        f"c.yaml: arm_controller.ros__parameters.{ignored}: "
+        "joint_trajectory_controller/JointTrajectoryController (ROS 2 Jazzy) does not declare "
+        "it; ignored, as ROS ignores it"
+    ]
 
 
 def arm_controller_params(text: str):

@@ -232,3 +232,83 @@ def l_profile(thickness: float, reach: float) -> tuple[np.ndarray, np.ndarray]:
     )
     both = trimesh.util.concatenate([along_x, along_z])
     return np.asarray(both.vertices), np.asarray(both.faces)
+
+
+# --------------------------------------------------------------------------------------
+# Light arms in the layouts public ROS packages use (controller files of every pattern)
+
+ARM_JOINTS = ("j1", "j2", "j3")
+
+_ARM_LINK = """  <link name="{name}">
+    <visual><geometry><box size="0.03 0.03 {length}"/></geometry></visual>
+    <collision><geometry><box size="0.03 0.03 {length}"/></geometry></collision>
+    <inertial><origin xyz="0 0 {half}"/><mass value="0.1"/>
+      <inertia ixx="1e-4" iyy="1e-4" izz="1e-5" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+"""
+_ARM_JOINT = """  <joint name="{prefix}{name}" type="revolute">
+    <parent link="{parent}"/><child link="{child}"/>
+    <origin xyz="0 0 {z}"/><axis xyz="{axis}"/>
+    <limit lower="-2" upper="2" effort="10" velocity="3"/>
+  </joint>
+"""
+
+
+def arm_xacro(name: str, *, include: str = "", prefix: str = "", extra: str = "") -> str:
+    """A light three-joint arm (links of 0.1 kg) as xacro: ``include`` is a file the
+    robot includes (its ros2_control block); ``prefix`` goes before each joint name."""
+    links = [("base_link", 0.05)] + [(f"link{k}", 0.15) for k in (1, 2, 3)]
+    body = "".join(
+        _ARM_LINK.format(name=link, length=length, half=length / 2) for link, length in links
+    )
+    axes = ("0 0 1", "0 1 0", "0 1 0")
+    for k, joint in enumerate(ARM_JOINTS):
+        z = 0.05 if k == 0 else 0.15
+        body += _ARM_JOINT.format(
+            prefix=prefix, name=joint, parent=links[k][0], child=links[k + 1][0], z=z, axis=axes[k]
+        )
+    included = f'  <xacro:include filename="{include}"/>\n' if include else ""
+    return (
+        f'<?xml version="1.0"?>\n<robot name="{name}" xmlns:xacro="http://www.ros.org/wiki/xacro">\n'
+        f"{body}{included}{extra}</robot>\n"
+    )
+
+
+def ros2_control_xacro(joints=ARM_JOINTS, *, prefix: str = "", gpio: str = "") -> str:
+    """A ros2_control block (as a xacro file to include): position command, position and
+    velocity state interfaces on each joint."""
+    blocks = "".join(
+        f'    <joint name="{prefix}{joint}"><command_interface name="position"/>'
+        '<state_interface name="position"/><state_interface name="velocity"/></joint>\n'
+        for joint in joints
+    )
+    return (
+        '<?xml version="1.0"?>\n<robot xmlns:xacro="http://www.ros.org/wiki/xacro">\n'
+        '  <ros2_control name="FixtureArm" type="system">\n'
+        "    <hardware><plugin>mock_components/GenericSystem</plugin></hardware>\n"
+        f"{blocks}{gpio}  </ros2_control>\n</robot>\n"
+    )
+
+
+ROS1_TRANSMISSIONS = "".join(
+    f'  <transmission name="t_{joint}"><type>transmission_interface/SimpleTransmission</type>'
+    f'<joint name="{joint}"><hardwareInterface>hardware_interface/PositionJointInterface'
+    f'</hardwareInterface></joint><actuator name="m_{joint}"><mechanicalReduction>1'
+    "</mechanicalReduction></actuator></transmission>\n"
+    for joint in ARM_JOINTS
+)
+
+
+def write_package(root: Path, name: str, files: dict[str, str]) -> Path:
+    """A ROS package ``name`` under ``root`` with ``package.xml`` and ``files`` (relative
+    path -> text, dedented); returns its folder."""
+    import textwrap
+
+    package = root / name
+    package.mkdir(parents=True)
+    (package / "package.xml").write_text(f'<package format="3"><name>{name}</name></package>\n')
+    for relative, text in files.items():
+        path = package / relative
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(textwrap.dedent(text))
+    return package

@@ -292,13 +292,7 @@ CONTROLLER_CASES = [
         + "        jsb:\n          ros__parameters:\n            interfaces: [torque]\n",
         ["jsb.ros__parameters.interfaces", "'torque' is not a state interface"],
     ),
-    (
-        "duplicate-key",
-        controllers_yaml().replace(
-            "update_rate: 100", "update_rate: 100\n" + " " * 12 + "update_rate: 50"
-        ),
-        ["key 'update_rate' is given twice"],
-    ),
+    # A key given twice is merged as ROS merges it (tests/control/test_param_files.py).
 ]
 
 

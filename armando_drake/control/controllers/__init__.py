@@ -60,6 +60,7 @@ import importlib.metadata
 import logging
 import math
 import pkgutil
+import typing
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -310,24 +311,50 @@ def non_negative(value: Any, parameter: str) -> float:
     return float(value)
 
 
-def load_parameters(cls: type[Controller], raw: dict[str, Any]):
+def load_parameters(
+    cls: type[Controller],
+    raw: dict[str, Any],
+    *,
+    undeclared: list[str] | None = None,
+    ignored: list[str] | None = None,
+):
     """``cls.parameters`` from the ``ros__parameters`` mapping ``raw`` (dotted names
-    already nested): unknown names are errors, ignored ones are dropped, the rest
-    is read with ``yaml_load_typed`` and checked by the dataclass's ``check()``."""
+    already nested): a parameter the type does not declare (upstream's schema) is
+    dropped and its dotted name appended to ``undeclared``, as ROS ignores it; refused
+    ones are errors; ignored ones (declared, not simulated: :attr:`Controller.ignored_parameters`,
+    dotted names for nested ones) are dropped and appended to ``ignored``; the rest is
+    read with ``yaml_load_typed`` and checked by the dataclass's ``check()``."""
+    notes = undeclared if undeclared is not None else []
     for name, reason in cls.refused_parameters.items():
         if name in raw:
             raise ParameterError(name, reason)
-    raw = cls.ros_layout(dict(raw))
+    raw = dict(raw)
+    for name in sorted(cls.ignored_parameters):
+        *parents, leaf = name.split(".")
+        holder = raw
+        for parent in parents:
+            holder = holder.get(parent) if isinstance(holder, dict) else None
+        if isinstance(holder, dict) and leaf in holder:
+            if parents:
+                holder = _copied_path(raw, parents)
+            del holder[leaf]
+            if ignored is not None:
+                ignored.append(name)
+    declared = cls.known_parameters() | _COMMON_IGNORED
+    kept = {}
+    for name, value in raw.items():
+        if name in declared:
+            kept[name] = value
+        else:
+            notes.append(name)
+    raw = cls.ros_layout(kept, undeclared=notes)
     fields = {f.name for f in dataclasses.fields(cls.parameters)}
-    known = cls.known_parameters()
     data = {}
     for name, value in raw.items():
         if name in fields:
-            data[name] = value
-        elif name not in cls.ignored_parameters and name not in _COMMON_IGNORED:
-            raise ParameterError(
-                name, f"unknown parameter for {cls.type_name()}; known: {sorted(known)}"
-            )
+            data[name] = _declared_only(cls.parameters, name, value, notes)
+        elif name not in _COMMON_IGNORED:
+            notes.append(name)
     try:
         params = _load_typed(cls.parameters, data)
     except Exception as whole:  # yaml_load_typed raises RuntimeError, TypeError, ValueError
@@ -342,6 +369,46 @@ def load_parameters(cls: type[Controller], raw: dict[str, Any]):
         raise ParameterError(name, " ".join(problem.split())) from None
     params.check(raw)
     return params
+
+
+def _copied_path(raw: dict[str, Any], parents: list[str]) -> dict[str, Any]:
+    """The mapping at ``parents`` in ``raw``, each mapping on the way copied (so that
+    removing from it leaves the caller's data alone)."""
+    holder = raw
+    for parent in parents:
+        holder[parent] = dict(holder[parent])
+        holder = holder[parent]
+    return holder
+
+
+def _declared_only(schema: type, name: str, value: Any, notes: list[str]) -> Any:
+    """``value`` of the field ``name`` of ``schema`` without the keys a nested
+    parameters dataclass (or a mapping of them, per joint) does not declare; each
+    dropped key's dotted name is appended to ``notes``."""
+    hint = typing.get_type_hints(schema).get(name)
+    arguments = typing.get_args(hint)
+    if dataclasses.is_dataclass(hint) and isinstance(value, dict):
+        return _known_keys(hint, value, name, notes)
+    if typing.get_origin(hint) is dict and arguments and dataclasses.is_dataclass(arguments[-1]):
+        if isinstance(value, dict):
+            return {
+                key: _known_keys(arguments[-1], item, f"{name}.{key}", notes)
+                if isinstance(item, dict)
+                else item
+                for key, item in value.items()
+            }
+    return value
+
+
+def _known_keys(schema: type, value: dict[str, Any], prefix: str, notes: list[str]) -> dict:
+    fields = {f.name for f in dataclasses.fields(schema)}
+    kept = {}
+    for key, item in value.items():
+        if key in fields:
+            kept[key] = _declared_only(schema, key, item, notes)
+        else:
+            notes.append(f"{prefix}.{key}")
+    return kept
 
 
 def _load_typed(schema: type, data: dict[str, Any]):
@@ -513,14 +580,23 @@ class Controller:
         return frozenset(f.name for f in dataclasses.fields(cls.parameters))
 
     @classmethod
-    def ros_layout(cls, raw: dict[str, Any]) -> dict[str, Any]:
-        """``raw`` (the ROS parameters) in the layout of :attr:`parameters`."""
+    def ros_layout(cls, raw: dict[str, Any], *, undeclared: list[str]) -> dict[str, Any]:
+        """``raw`` (the ROS parameters the type declares) in the layout of
+        :attr:`parameters`; a nested parameter it does not declare is dropped, its dotted
+        name appended to ``undeclared``."""
         return raw
 
     @classmethod
     def command_interface(cls, params) -> str | None:
         """The command interface the controller claims on each of its joints."""
         return cls.fixed_interface
+
+    @classmethod
+    def hardware_interfaces(cls, params) -> dict[str, str]:
+        """Further hardware interfaces it claims (``<component>/<interface>``), by the
+        parameter that names each: activating it fails where the robot's
+        ``<ros2_control>`` declares none of that name, as upstream's."""
+        return {}
 
     @classmethod
     def commands_effort(cls, params) -> bool:

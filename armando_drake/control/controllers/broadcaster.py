@@ -117,6 +117,8 @@ class JointStateBroadcaster(Controller):
     """The broadcaster's message: a :class:`JointState` of its joints."""
 
     parameters = JointStateBroadcasterParameters
+    # Upstream's DynamicJointState topic, not published here.
+    ignored_parameters = frozenset({"publish_dynamic_joint_states"})
     broadcaster = True
     initial_state = "active"
 

@@ -166,7 +166,7 @@ class JointGroupPositionController(ForwardCommandController):
         return super().known_parameters() | {"interface_name"}
 
     @classmethod
-    def ros_layout(cls, raw: dict[str, Any]) -> dict[str, Any]:
+    def ros_layout(cls, raw: dict[str, Any], *, undeclared: list[str]) -> dict[str, Any]:
         """Upstream's schema has ``interface_name`` here too, and the type overrides it
         with its own interface; a different one is refused rather than overridden."""
         given = raw.pop("interface_name", None)

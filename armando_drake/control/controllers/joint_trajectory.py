@@ -83,11 +83,6 @@ class JointGains:
     for control_toolbox's PID (:mod:`armando_drake.control.pid`). Used only with a
     velocity-only or an effort command interface."""
 
-    # Gains older schemas had and Jazzy's does not; refused unless left at the default.
-    NOT_IN_JAZZY: ClassVar[frozenset[str]] = frozenset(
-        {"normalize_error", "angle_wraparound", "antiwindup", "saturation"}
-    )
-
     # [command unit/rad] proportional gain.
     p: float = 0.0
     # [command unit/(rad s)] integral gain.
@@ -113,16 +108,6 @@ class JointGains:
     tracking_time_constant: float = 0.0
     # [rad] no integration while |error| <= error_deadband.
     error_deadband: float = 0.0
-    # Normalize the position error into [-pi, pi] (not in Jazzy's schema: Jazzy wraps the
-    # URDF's continuous joints).
-    normalize_error: bool = False
-    # Normalize the position error into [-pi, pi] (not in Jazzy's schema: Jazzy wraps the
-    # URDF's continuous joints).
-    angle_wraparound: bool = False
-    # Anti-windup on (not in Jazzy's schema: Humble's control_toolbox).
-    antiwindup: bool = False
-    # Saturate the output (not in Jazzy's schema: rolling's control_toolbox).
-    saturation: bool = False
 
     def pid_gains(self) -> PidGains:
         """The gains of control_toolbox's PID, as upstream's ``update_pids``: i_clamp_max /
@@ -148,11 +133,11 @@ class SpeedScaling:
     # [-] the trajectory's time advances by this factor times the update period (>= 0;
     # 0.5 runs it at half speed); used with command_interfaces [position] only, else 1.0.
     initial_scaling_factor: float = 1.0
-    # The hardware's speed-scaling state interface; the simulated hardware has none, so
-    # only "" (none) is accepted.
+    # The hardware's speed-scaling state interface ("<component>/<interface>"); "" = none.
+    # Activation fails unless the robot's <ros2_control> declares it; its value is not
+    # simulated (the factor stays initial_scaling_factor).
     state_interface: str = ""
-    # The hardware's speed-scaling command interface; the simulated hardware has none, so
-    # only "" (none) is accepted.
+    # The hardware's speed-scaling command interface, as state_interface; "" = none.
     command_interface: str = ""
 
 
@@ -267,11 +252,6 @@ class JointTrajectoryControllerParams:
                 continue  # a subclass's own gains (ROS 1's effort trajectory controller)
             for field in dataclasses.fields(JointGains):
                 value = getattr(gains, field.name)
-                if field.name in JointGains.NOT_IN_JAZZY and value != field.default:
-                    raise ParameterError(
-                        f"gains.{joint}.{field.name}",
-                        f"{field.name}={value!r}: not a parameter of upstream's Jazzy schema",
-                    )
                 if field.name in ("p", "i", "d", "ff_velocity_scale") and not math.isfinite(value):
                     raise ParameterError(
                         f"gains.{joint}.{field.name}", f"{field.name}={value!r} must be finite"
@@ -285,13 +265,6 @@ class JointTrajectoryControllerParams:
                 "speed_scaling.initial_scaling_factor",
                 f"initial_scaling_factor={scaling.initial_scaling_factor!r} must be >= 0.0",
             )
-        for name in ("state_interface", "command_interface"):
-            if getattr(scaling, name):
-                raise ParameterError(
-                    f"speed_scaling.{name}",
-                    f"{name}={getattr(scaling, name)!r}: the simulated hardware has no "
-                    "speed-scaling interface (upstream fails activation when it is not found)",
-                )
         if not math.isfinite(self.cmd_timeout):
             raise ParameterError("cmd_timeout", f"cmd_timeout={self.cmd_timeout!r} must be finite")
 
@@ -734,9 +707,7 @@ def _pid_arrays(gains: list[JointGains]) -> dict[str, Any]:
 
 
 # Upstream parameters the simulation cannot honour: refused with the reason.
-_REFUSED = {
-    "state_publish_rate": "not a parameter of upstream's Jazzy schema (Humble's; removed)",
-}
+_REFUSED: dict[str, str] = {}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -763,6 +734,21 @@ class JointTrajectoryController(Controller):
     initial_state = "idle"
 
     @classmethod
+    def hardware_interfaces(cls, params) -> dict[str, str]:
+        """The speed-scaling interfaces it reads or writes (``speed_scaling.state_interface``,
+        ``.command_interface``): upstream fails activation when the hardware lacks one.
+        The simulated hardware holds such an interface at its value, so the factor stays
+        ``initial_scaling_factor`` (the hardware at full speed)."""
+        scaling = getattr(params, "speed_scaling", None)
+        if scaling is None:
+            return {}
+        return {
+            f"speed_scaling.{name}": getattr(scaling, name)
+            for name in ("state_interface", "command_interface")
+            if getattr(scaling, name)
+        }
+
+    @classmethod
     def known_parameters(cls) -> frozenset[str]:
         names = {f.name for f in dataclasses.fields(cls.parameters)}
         names -= {"goal_time", "stopped_velocity_tolerance", "trajectory_tolerance"}
@@ -770,9 +756,10 @@ class JointTrajectoryController(Controller):
         return frozenset(names | {"constraints"})
 
     @classmethod
-    def ros_layout(cls, raw: dict[str, Any]) -> dict[str, Any]:
+    def ros_layout(cls, raw: dict[str, Any], *, undeclared: list[str]) -> dict[str, Any]:
         """ROS's ``constraints`` and ``gains`` mappings as the flat fields of the
-        parameters."""
+        parameters; what they hold for a name that is not one of the joints (Jazzy's
+        ``__map_joints``) is not declared."""
         if "joints" not in raw:
             raise ParameterError("joints", "'joints' parameter is missing")
         joints = joint_list(raw["joints"])
@@ -809,18 +796,11 @@ class JointTrajectoryController(Controller):
                     )
                 for key, number in value.items():
                     if key not in per_joint:
-                        raise ParameterError(
-                            f"{where}.{key}",
-                            "unknown constraint; expected trajectory, goal, "
-                            "max_deceleration_on_cancel",
-                        )
+                        undeclared.append(f"{where}.{key}")
+                        continue
                     per_joint[key][name] = non_negative(number, f"{where}.{key}")
             else:
-                raise ParameterError(
-                    where,
-                    f"'{name}' is neither goal_time, stopped_velocity_tolerance, "
-                    f"decelerate_on_cancel nor one of the controller's joints {joints}",
-                )
+                undeclared.append(where)
         raw["trajectory_tolerance"] = trajectory_tolerance
         raw["goal_tolerance"] = goal_tolerance
         raw["max_deceleration_on_cancel"] = deceleration
@@ -828,12 +808,11 @@ class JointTrajectoryController(Controller):
         if gains is not None:
             if not isinstance(gains, dict):
                 raise ParameterError("gains", f"expected a mapping of joints, got {gains!r}")
-            for joint, values in gains.items():
+            for joint, values in list(gains.items()):
                 if joint not in joints:
-                    raise ParameterError(
-                        f"gains.{joint}", f"'{joint}' is not one of the controller's joints"
-                    )
-                if not isinstance(values, dict):
+                    undeclared.append(f"gains.{joint}")
+                    del gains[joint]
+                elif not isinstance(values, dict):
                     raise ParameterError(f"gains.{joint}", f"expected a mapping, got {values!r}")
         return raw
 

@@ -211,14 +211,11 @@ class Ros1JointTrajectoryController(JointTrajectoryController):
         return frozenset({"joints", "constraints", "allow_partial_joints_goal"})
 
     @classmethod
-    def ros_layout(cls, raw: dict[str, Any]) -> dict[str, Any]:
-        for name in ("command_interfaces", "state_interfaces", "interpolation_method"):
-            if name in raw:
-                raise ParameterError(name, f"'{name}' is a ROS 2 parameter, not ROS 1's")
+    def ros_layout(cls, raw: dict[str, Any], *, undeclared: list[str]) -> dict[str, Any]:
         raw["command_interfaces"] = ["position"]
         raw["state_interfaces"] = ["position", "velocity"]
         raw["allow_nonzero_velocity_at_trajectory_end"] = True
-        return super().ros_layout(raw)
+        return super().ros_layout(raw, undeclared=undeclared)
 
     def __init__(self, *, name, joints, params=None):
         super().__init__(name=name, joints=joints, params=params)
