@@ -8,7 +8,8 @@ meaning); then the upstream parameters the type declares and the simulation igno
 with the reason. A parameter upstream (Jazzy) does not declare is in no table: it is
 ignored with a warning, as ROS ignores it. The docs' reference page "Controller
 parameters" is this block, made at each build of the site by ``docs/hooks.py``
-(``tests/control/test_params_doc.py`` checks it); ``--write`` replaces the block between :data:`BEGIN` and :data:`END` of any markdown file::
+(``tests/control/test_params_doc.py`` checks it); ``--write`` replaces the block between
+:data:`BEGIN` and :data:`END` of any markdown file::
 
     python -m armando_drake.control.params_doc            # prints the block
     python -m armando_drake.control.params_doc --write FILE.md
