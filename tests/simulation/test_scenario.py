@@ -180,16 +180,19 @@ def test_a_scenario_names_its_controller_yaml_relative_to_itself_from_any_folder
     else from the scenario's folder, else (for diagrams/) from the project's root."""
     monkeypatch.chdir(tmp_path)
     bundled = load_scenario("task_js")
-    assert Path(bundled.controllers.config).is_file(), bundled.controllers.config
-    assert Path(bundled.controllers.config).name == "iiwa_controllers.yaml"
+    (config,) = bundled.controllers.config
+    assert Path(config).is_file() and Path(config).name == "iiwa_controllers.yaml", config
 
     own = tmp_path / "mine"
     (own / "config").mkdir(parents=True)
     (own / "config" / "c.yaml").write_text("controller_manager: {}\n")
     (own / "s.yaml").write_text("controllers: {config: config/c.yaml}\n")
-    assert load_scenario(own / "s.yaml").controllers.config == str(own / "config" / "c.yaml")
+    assert load_scenario(own / "s.yaml").controllers.config == [str(own / "config" / "c.yaml")]
     (tmp_path / "config").mkdir()
     (tmp_path / "config" / "c.yaml").write_text("controller_manager: {}\n")
-    assert load_scenario(own / "s.yaml").controllers.config == "config/c.yaml"  # cwd first
-    (own / "s.yaml").write_text("controllers: {config: missing.yaml}\n")
-    assert load_scenario(own / "s.yaml").controllers.config == "missing.yaml"  # named as given
+    assert load_scenario(own / "s.yaml").controllers.config == ["config/c.yaml"]  # cwd first
+    (own / "s.yaml").write_text("controllers: {config: [missing.yaml, config/c.yaml]}\n")
+    assert load_scenario(own / "s.yaml").controllers.config == [
+        "missing.yaml",
+        "config/c.yaml",
+    ]  # named as given
