@@ -466,6 +466,8 @@ def validate_joints(
     for controller in config.controllers.values():
         for joint in controller.joints:  # none for an unsupported type
             where = "joint" if "joint" in controller.parameters else "joints"
+            if where == "joints":
+                where = controller.controller_class.joint_key(controller.params, joint)
             if joint not in known:
                 raise ControllerConfigError(
                     f"{config.source}: {controller.key}.{where}: unknown joint "
