@@ -21,6 +21,7 @@ axis. (No ``from __future__ import annotations`` here: ``yaml_load_typed``
 needs the field types as types, not strings.)
 """
 
+import logging
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -194,6 +195,18 @@ def AddGround(plant: MultibodyPlant, scene_graph: SceneGraph) -> None:
 # a half space: no edge to drive off).
 FLOOR_SIDE = 40.0
 GROUND_FRICTION = 0.8  # [-] the ground's friction (models/scenes/ground.urdf's)
+
+
+class _NoDeformableNote(logging.Filter):
+    """Drops Drake's note that deformable bodies ignore a rigid half space: the floor's
+    (a world has no deformable body)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return "half spaces are not currently supported for deformable" not in record.getMessage()
+
+
+_DRAKE_LOG = logging.getLogger("drake")
+_DRAKE_LOG.addFilter(_NoDeformableNote())
 
 
 def AddFloor(plant: MultibodyPlant, scene_graph: SceneGraph) -> None:
