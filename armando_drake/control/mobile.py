@@ -222,6 +222,8 @@ def _plugin_entries(robot: LoadedRobot, config: ControllerManagerConfig) -> list
     """The description's plugin drives added to ``config`` as controllers; their names."""
     names = []
     for k, drive in enumerate(robot.drives):
+        if not drive.base_frame:  # Gazebo Sim's default: the model's canonical link
+            drive = dataclasses.replace(drive, base_frame=robot.base_link)
         name = "diff_drive" if k == 0 else f"diff_drive_{k + 1}"
         while name in config.controllers:
             name += "_plugin"

@@ -186,6 +186,13 @@ def _gazebo_ros(reader: _Reader, name: str, filename: str, ros1: bool) -> DriveP
         raise DescriptionError(
             f"{reader.where}: <{acceleration}>{wheel_acceleration:g} must be >= 0"
         )
+    # ROS 2: <ros><namespace> and <remapping>cmd_vel:=...</remapping> rename the topics.
+    remapped = {}
+    for text in reader.texts("ros/remapping") + reader.texts("ros/argument"):
+        source_topic, _, target = text.removeprefix("--remap").strip().partition(":=")
+        if target:
+            remapped[source_topic.strip().lstrip("~/")] = target.strip()
+    namespace = reader.text("ros/namespace", "").strip("/")
     odometry = reader.text(source, "1").lower()
     if odometry not in ("0", "1", "encoder", "world"):
         raise DescriptionError(
@@ -199,8 +206,8 @@ def _gazebo_ros(reader: _Reader, name: str, filename: str, ros1: bool) -> DriveP
         right_joints=tuple(reader.texts(right)),
         wheel_separation=reader.positive(separation, reader.number(separation, 0.34)),
         wheel_radius=wheel_diameter / 2,
-        topic=reader.text(command, "cmd_vel"),
-        odom_topic=reader.text(odom, "odom"),
+        topic=_in(namespace, remapped.get("cmd_vel", reader.text(command, "cmd_vel"))),
+        odom_topic=_in(namespace, remapped.get("odom", reader.text(odom, "odom"))),
         odom_frame=reader.text(frame, "odom"),
         base_frame=reader.text(base, "base_footprint"),
         odom_rate=reader.number(rate, 100.0),
@@ -211,6 +218,13 @@ def _gazebo_ros(reader: _Reader, name: str, filename: str, ros1: bool) -> DriveP
         publish_odom_tf=reader.flag(tf, ros1),
         where=reader.where,
     )
+
+
+def _in(namespace: str, topic: str) -> str:
+    """``topic`` in ``namespace`` (an absolute topic stays as it is)."""
+    if topic.startswith("/") or not namespace:
+        return topic
+    return f"{namespace}/{topic}"
 
 
 def _check_joints(drive: DrivePlugin, kinds: dict[str, str]) -> None:
