@@ -33,7 +33,6 @@ import dataclasses
 import logging
 import math
 from collections.abc import Sequence
-from typing import Any
 
 from pydrake.geometry import Cylinder, ProximityProperties, RoleAssign, SceneGraph, Sphere
 from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
@@ -89,28 +88,30 @@ class MobileBase:
     wheels: list[str] = dataclasses.field(default_factory=list)  # every drive's wheel joints
     gains: dict[str, list[float]] = dataclasses.field(default_factory=dict)  # wheel servos
 
-    def activation(self, activate: Sequence[str], config: ControllerManagerConfig) -> list[str]:
-        """``activate`` with each plugin drive added, unless an activated controller
-        already claims one of its wheels (it then drives them, the plugin does not)."""
-        claimed = set()
-        for entry in activate:
-            try:
-                name = find_controller(entry, config)
-            except LookupError:
-                continue  # reported by the controller manager
-            controller = config.controllers.get(name)
-            if controller is not None and controller.supported:
-                claimed |= set(controller.joints)
-        result = list(activate)
-        for name in self.plugins:
-            wheels = set(config.controllers[name].joints)
-            if name in result:
-                continue
-            if wheels & claimed:
-                _log.info("%s is not run: an activated controller drives its wheels", name)
-                continue
-            result.append(name)
-        return result
+    def activation(self, activate: Sequence[str]) -> list[str]:
+        """``activate`` with the plugin drives that run added."""
+        return list(activate) + [name for name in self.plugins if name not in activate]
+
+
+def _running(plugins: list[str], activate: Sequence[str], config: ControllerManagerConfig):
+    """The plugin drives Gazebo would run: those whose wheels no activated controller
+    claims (that one drives them then)."""
+    claimed = set()
+    for entry in activate:
+        try:
+            name = find_controller(entry, config)
+        except LookupError:
+            continue  # reported by the controller manager
+        controller = config.controllers.get(name)
+        if controller is not None and controller.supported and name not in plugins:
+            claimed |= set(controller.joints)
+    running = []
+    for name in plugins:
+        if set(config.controllers[name].joints) & claimed:
+            _log.info("%s is not run: an activated controller drives its wheels", name)
+        else:
+            running.append(name)
+    return running
 
 
 def _drive_controllers(config: ControllerManagerConfig) -> list[ControllerConfig]:
@@ -283,11 +284,13 @@ def AddMobileBase(
     config: RobotConfig,
     controller_config: ControllerManagerConfig,
     *,
+    activate: Sequence[str] = (),
     where: str = "",
 ) -> MobileBase:
     """Welds the robot (loaded with ``weld=False``) at ``config``'s base pose, or spawns it
-    there free (see the module docstring); returns its :class:`MobileBase`. ``where``:
-    the origin of ``robot.base`` for messages."""
+    there free (see the module docstring); returns its :class:`MobileBase`. ``activate``:
+    the scenario's controllers to activate (a plugin drive whose wheels one of them claims
+    does not run); ``where``: the origin of ``robot.base`` for messages."""
     plugins = _plugin_entries(robot, controller_config)
     yaml_drives = [c.name for c in _drive_controllers(controller_config) if c.name not in plugins]
     # The drives' wheels are joints of the robot (the others are checked with the hardware).
@@ -297,20 +300,9 @@ def AddMobileBase(
     )
     validate_joints(drives_only, [joint.name for joint in robot.joints], str(robot.source))
     floating = _decide(config, robot, bool(plugins or yaml_drives), where)
-    X_WB = base_pose(config)
     base = MobileBase(floating=floating, base_link=robot.base_link)
-    if not floating:
-        weld_robot(plant, robot, X_WB)
-        return base
-    if config.base == "floating" and len(robot.welds) > 1:
-        raise ScenarioError(
-            f"{where}robot.base=floating: the `world` link holds {len(robot.welds)} links "
-            f"({', '.join(w.link for w in robot.welds)}); only one can float"
-        )
-    body = plant.GetBodyByName(robot.base_link, robot.model_instance)
-    plant.SetDefaultFloatingBaseBodyPose(body, X_WB @ robot.welds[0].X_DL)
-    base.drives = plugins + yaml_drives
-    base.plugins = plugins
+    base.plugins = _running(plugins, activate, controller_config)
+    base.drives = base.plugins + yaml_drives
     base.wheels = list(
         dict.fromkeys(j for name in base.drives for j in controller_config.controllers[name].joints)
     )
@@ -325,6 +317,17 @@ def AddMobileBase(
         _check_kinematics(
             plant, scene_graph, robot, name, left, right, logic.separation, logic.left_radius
         )
+    X_WB = base_pose(config)
+    if not floating:  # an arm; or a mobile robot on a stand, its wheels turning in the air
+        weld_robot(plant, robot, X_WB)
+        return base
+    if config.base == "floating" and len(robot.welds) > 1:
+        raise ScenarioError(
+            f"{where}robot.base=floating: the `world` link holds {len(robot.welds)} links "
+            f"({', '.join(w.link for w in robot.welds)}); only one can float"
+        )
+    body = plant.GetBodyByName(robot.base_link, robot.model_instance)
+    plant.SetDefaultFloatingBaseBodyPose(body, X_WB @ robot.welds[0].X_DL)
     _set_friction(plant, scene_graph, robot, set(base.wheels))
     _log.info(
         "%s: floating base %r spawned at xyz %s rpy %s",
@@ -334,20 +337,3 @@ def AddMobileBase(
         list(config.base_rpy),
     )
     return base
-
-
-def drive_status(stack: Any, base: MobileBase) -> dict[str, Any]:
-    """Per active drive, its wheels and kinematics (for the summary)."""
-    result = {}
-    for name in base.drives:
-        if name not in stack.controllers:
-            continue
-        logic = next(c.logic for c in stack.manager.controllers if c.name == name)
-        result[name] = {
-            "type": stack.entry(name).type,
-            "wheels": list(logic.joint_names),
-            "wheel_separation": logic.separation,
-            "wheel_radius": [logic.left_radius, logic.right_radius],
-            "cmd_vel": stack.entry(name).ros_topic,
-        }
-    return result

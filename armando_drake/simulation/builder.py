@@ -163,6 +163,7 @@ def _add_physics(builder: DiagramBuilder, scenario: Scenario, where: str):
         robot,
         scenario.robot,
         controller_config,
+        activate=scenario.controllers.activate,
         where=_origin(scenario, "robot.base"),
     )
     if scenario.ground:
@@ -200,7 +201,7 @@ def _add_control(builder, scenario: Scenario, plant, scene_graph, robot, physics
         self_collision=scenario.robot.self_collision,
         start_positions=_start_positions(scenario),
     )
-    activate = mobile.activation(scenario.controllers.activate, controller_config)
+    activate = mobile.activation(scenario.controllers.activate)
     return AddControllerManager(
         builder,
         dc.replace(scenario.controllers, activate=activate),
