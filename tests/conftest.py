@@ -24,6 +24,7 @@ REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
 COURSE_PACKAGE = SHARED / "upstream" / "arm_description"
 IIWA_PACKAGE = SHARED / "upstream" / "iiwa_description"
+FRA2MO_PACKAGE = SHARED / "upstream" / "rl_fra2mo_description"
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 
 
@@ -48,6 +49,14 @@ def iiwa_package() -> Path:
     if not (IIWA_PACKAGE / "urdf" / "iiwa14.urdf.xacro").is_file():
         skip_or_fail(f"the iiwa package is not at {IIWA_PACKAGE}")
     return IIWA_PACKAGE
+
+
+@pytest.fixture
+def fra2mo_package() -> Path:
+    """The course's fra2mo mobile robot (rl_fra2mo_description; read only, never copied)."""
+    if not (FRA2MO_PACKAGE / "urdf" / "fra2mo.urdf.xacro").is_file():
+        skip_or_fail(f"the fra2mo package is not at {FRA2MO_PACKAGE}")
+    return FRA2MO_PACKAGE
 
 
 @pytest.fixture

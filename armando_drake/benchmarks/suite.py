@@ -39,6 +39,8 @@ same machine load:
    and each detector's cost per frame in milliseconds;
 10. lidar: wall time of one scan of a 640-beam, 360 deg lidar (fra2mo's) in a room
     of boxes and cylinders, in milliseconds.
+11. mobile: real-time factor of ``diagrams/fra2mo.yaml`` (fra2mo on its wheels, its
+    DiffDrive plugin driven by a cmd_vel sequence, the base log on), target >= 2.
 
 Each figure is the median of ``--repeat`` repetitions, with min and max. The
 table is printed as markdown and written with the raw samples to a JSON file.
@@ -103,6 +105,7 @@ SECTIONS = (
     "sweep",
     "vision",
     "lidar",
+    "mobile",
 )
 SCENARIOS = ("position", "trajectory", "sinusoid")
 # [rad] j0..j3: the seed targets (diagrams/position.yaml's), 3 s apart.
@@ -292,6 +295,20 @@ def bench_task(report: Report, duration: float, ticks: int) -> None:
         "Task: the iiwa's task scenarios with the CSV logger on, not paced; the update row "
         f"is the mean of {ticks} calls of the controller's logic mid-motion (pure Python: "
         "the manager's event dispatch and the plant step come on top)."
+    )
+
+
+def bench_mobile(report: Report, duration: float) -> None:
+    """fra2mo (diagrams/fra2mo.yaml): a floating base on its wheels in contact with the
+    floor at 1 kHz, its DiffDrive plugin at 100 Hz, a cmd_vel sequence, the base log."""
+    rtf = [pipeline_rtf("fra2mo", duration) for _ in range(report.repeat)]
+    report.add(Row("mobile", f"fra2mo driving a cmd_vel sequence, {duration:g} s", RTF, rtf)).check(
+        ">=", 2.0
+    )
+    report.notes.append(
+        "Mobile: diagrams/fra2mo.yaml (straight, turn, straight) with the CSV loggers and "
+        "base.csv on, not paced; the wheels' and caster's contact with the floor is most of "
+        "the cost."
     )
 
 
@@ -1297,11 +1314,12 @@ class Settings:
     memory_seconds: float  # [s] simulated in the memory soak
     task_seconds: float = 3.0  # [s] simulated per task-space run (the motion is 2.5 s)
     task_ticks: int = 2000  # controller updates timed
+    mobile_seconds: float = 11.14  # [s] simulated of fra2mo's sequence (all of it)
 
     @staticmethod
     def of(quick: bool) -> Settings:
         if quick:
-            return Settings(1.0, 1, 1.0, 5, 0.5, 20.0, 0.5, 100)
+            return Settings(1.0, 1, 1.0, 5, 0.5, 20.0, 0.5, 100, 1.0)
         return Settings(10.0, 5, TARGET_PERIOD, 60, 5.0, 3600.0)
 
 
@@ -1328,6 +1346,7 @@ def run_suite(
         "sweep": lambda: bench_sweep(report),
         "vision": lambda: bench_vision(report, settings.camera_seconds),
         "lidar": lambda: bench_lidar(report, settings.camera_frames),
+        "mobile": lambda: bench_mobile(report, settings.mobile_seconds),
     }
     for section in sections:
         print(f"[bench] {section} ...", file=sys.stderr, flush=True)

@@ -623,6 +623,8 @@ def validate_joints(
             continue
         for joint in controller.joints:  # none for an unsupported type
             where = "joint" if "joint" in controller.parameters else "joints"
+            if where == "joints":
+                where = controller.controller_class.joint_key(controller.params, joint)
             if joint not in known:
                 raise ControllerConfigError(
                     f"{controller.file or config.source}: {controller.key}.{where}: unknown joint "

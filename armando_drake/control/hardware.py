@@ -27,7 +27,7 @@ limits, the tighter winning; the position state interface's ``initial_value``
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
@@ -87,6 +87,11 @@ class HardwareInterface:
     # Index of each joint's velocity in the model instance's state vector [q; v].
     velocity_index: list[int]
     num_model_states: int  # size of the model instance's state vector
+    # A floating base's rows in the model instance's state vector: its quaternion and
+    # position (qw qx qy qz x y z) and its spatial velocity in the world (wx wy wz vx vy
+    # vz); empty for a welded robot.
+    base_position_index: list[int] = field(default_factory=list)
+    base_velocity_index: list[int] = field(default_factory=list)
 
     @property
     def joint_names(self) -> list[str]:
@@ -307,16 +312,23 @@ def FinishHardwareInterface(
     instance = robot.model_instance
     nq = plant.num_positions(instance)
     nv = plant.num_velocities(instance)
-    # Positions and velocities of the instance, in instance order, by joint.
+    # Where each of the plant's positions and velocities is in the instance's state.
+    q_rows = plant.GetPositionsFromArray(instance, np.arange(plant.num_positions()))
+    v_rows = plant.GetVelocitiesFromArray(instance, np.arange(plant.num_velocities()))
+    q_of = {int(g): i for i, g in enumerate(q_rows)}
+    v_of = {int(g): nq + i for i, g in enumerate(v_rows)}
+    # Positions and velocities of the instance, by joint (a floating base's come first).
     q_start = {}
     v_start = {}
-    q_offset = v_offset = 0
     for index in plant.GetJointIndices(instance):
         joint = plant.get_joint(index)
-        q_start[joint.name()] = q_offset
-        v_start[joint.name()] = nq + v_offset
-        q_offset += joint.num_positions()
-        v_offset += joint.num_velocities()
+        if joint.num_positions() == 0:
+            continue
+        q_start[joint.name()] = q_of[joint.position_start()]
+        v_start[joint.name()] = v_of[joint.velocity_start()]
+        if joint.num_positions() == 7 and joint.num_velocities() == 6:  # a floating base
+            hardware.base_position_index = [q_of[joint.position_start() + k] for k in range(7)]
+            hardware.base_velocity_index = [v_of[joint.velocity_start() + k] for k in range(6)]
     # The desired-state port follows increasing actuator index.
     actuators = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices(instance)]
     order = [actuator.joint().name() for actuator in actuators]

@@ -34,6 +34,7 @@ pays most for beyond the physics, so:
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -78,13 +79,45 @@ class ManagedController:
         return self.logic.topic
 
 
-def _Measure(x: np.ndarray | None, q_rows: np.ndarray, v_rows: np.ndarray):
+class _Measure:
     """A controller's ``measure(desired)``: its (q, v) from the state vector ``x``, or its
-    desired state when the state input is unconnected (``x`` None)."""
-    if x is None:
-        n = len(q_rows)
-        return lambda desired: (desired[:n].copy(), desired[n:].copy())
-    return lambda desired: (x[q_rows], x[v_rows])
+    desired state when the state input is unconnected (``x`` None). ``base()`` gives a
+    floating base's planar pose and twist (x, y, heading [m, m, rad], forward speed [m/s],
+    yaw rate [rad/s]) when the robot has one (``base_rows``: its 7 position and 6 velocity
+    rows in ``x``), else None."""
+
+    __slots__ = ("x", "q_rows", "v_rows", "base_rows")
+
+    def __init__(self, x, q_rows, v_rows, base_rows=None):
+        self.x, self.q_rows, self.v_rows, self.base_rows = x, q_rows, v_rows, base_rows
+
+    def __call__(self, desired):
+        if self.x is None:
+            n = len(self.q_rows)
+            return desired[:n].copy(), desired[n:].copy()
+        return self.x[self.q_rows], self.x[self.v_rows]
+
+    def base(self):
+        if self.x is None or self.base_rows is None:
+            return None
+        return planar_base(self.x[self.base_rows[0]], self.x[self.base_rows[1]])
+
+
+def _base_rows(hardware: HardwareInterface):
+    """A floating base's (position rows, velocity rows) in the state input, or None."""
+    if not hardware.base_position_index:
+        return None
+    return np.array(hardware.base_position_index), np.array(hardware.base_velocity_index)
+
+
+def planar_base(q: np.ndarray, v: np.ndarray) -> tuple[float, float, float, float, float]:
+    """(x, y, heading, forward speed, yaw rate) [m, m, rad, m/s, rad/s] of a floating base
+    from its quaternion and position (qw qx qy qz x y z) and world spatial velocity (wx wy
+    wz vx vy vz)."""
+    w, qx, qy, qz = q[:4]
+    heading = math.atan2(2.0 * (w * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+    forward = v[3] * math.cos(heading) + v[4] * math.sin(heading)
+    return float(q[4]), float(q[5]), heading, float(forward), float(v[2])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -166,6 +199,7 @@ class ControllerManager(LeafSystem):
         self._broadcaster = broadcaster
         self._controllers = tuple(controllers)
         self._state = self.DeclareVectorInputPort("state", hardware.num_model_states)
+        self._base_rows = _base_rows(hardware)
         self._effort = self.DeclareVectorInputPort("effort", n)
 
         # The broadcaster's joints: where they are in the state and effort inputs.
@@ -284,9 +318,27 @@ class ControllerManager(LeafSystem):
                 prerequisites,
             )
 
+        self._DeclarePublications()
+
         # Streams need no update: they drive the hardware in C++.
         if any(not controller.stream for controller in self._controllers):
             self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / update_rate, 0.0, self._Update)
+
+    def _DeclarePublications(self) -> None:
+        """What the controllers publish (a drive's odometry): ``<controller>.<leaf>``
+        outputs computed from their memory."""
+        for k, controller in enumerate(self._controllers):
+            for leaf in controller.logic.outputs:
+                self.DeclareAbstractOutputPort(
+                    f"{controller.name}.{leaf}",
+                    lambda logic=controller.logic, leaf=leaf: AbstractValue.Make(
+                        logic.output(leaf, logic.initial_memory())
+                    ),
+                    lambda context, output, k=k, leaf=leaf: output.set_value(
+                        self._Output(context, k, leaf)
+                    ),
+                    {self.abstract_state_ticket(self._memory_index)},
+                )
 
     @property
     def broadcaster(self) -> JointStateBroadcaster | None:
@@ -303,6 +355,10 @@ class ControllerManager(LeafSystem):
             return status
         count = round(float(port.Eval(context)[0])) if port.HasValue(context) else 0
         return self._controllers[k].logic.stream_status(status, count)
+
+    def _Output(self, context, k: int, leaf: str):
+        memory = context.get_abstract_state(self._memory_index).get_value().memories[k]
+        return self._controllers[k].logic.output(leaf, memory)
 
     def _CalcJointStates(self, context, output) -> None:
         if not self._state.HasValue(context):
@@ -356,7 +412,10 @@ class ControllerManager(LeafSystem):
                 x = self._state.Eval(context)
             new_items = new_items or list(items)
             new_items[k] = controller.logic.update(
-                context.get_time(), message, memory, _Measure(x, *self._measured_rows[k])
+                context.get_time(),
+                message,
+                memory,
+                _Measure(x, *self._measured_rows[k], self._base_rows),
             )
         if new_handled is None and new_items is None:
             return DID_NOTHING

@@ -30,7 +30,13 @@ class RobotConfig:
     # Gazebo (<self_collide> false); the robot always collides with the ground
     # and the scene objects.
     self_collision: bool = False
-    # Position of the base in the world [m]; the base is welded there.
+    # Position of the base in the world [m]: a fixed base is welded there, a floating
+    # one spawned there (as `ros2 run ros_gz_sim create -x -y -z`).
     base_xyz: list[float] = param([0.0, 0.0, 0.0], unit="m", length=3, coordinate=True)
-    # Orientation of the base in the world, roll pitch yaw [rad].
+    # Orientation of the base in the world, roll pitch yaw [rad] (a spawn's -R -P -Y).
     base_rpy: list[float] = param([0.0, 0.0, 0.0], unit="rad", length=3)
+    # How the base is held: fixed (welded to the world), floating (free: a mobile robot
+    # resting on its wheels), or auto: floating when the description has no `world`
+    # link and drives wheels (a differential drive in its <gazebo><plugin> blocks or its
+    # controller YAML), else fixed.
+    base: str = param("auto", choices=("auto", "fixed", "floating"))

@@ -6,7 +6,8 @@ Drake parses an expanded URDF, :func:`prepare_urdf` rewrites it (XML to XML):
 1. meshes: STL and Collada files are converted to cached OBJ files (see
    :mod:`armando_drake.description.meshes`) and the ``filename`` attributes point at them;
    missing files, unknown packages and unsupported formats are errors naming
-   the file, the link and the URDF line;
+   the file, the link and the URDF line, except for a visual's mesh: a visual whose
+   file is missing is dropped with a warning (it only draws the link);
 2. collision geometry, by ``collision`` mode:
 
    - ``boxes``: each link's collisions become one box around its visual geometry;
@@ -17,6 +18,8 @@ Drake parses an expanded URDF, :func:`prepare_urdf` rewrites it (XML to XML):
    - ``as-is``: kept (meshes converted);
    - ``none``: removed;
    - ``auto``: ``convex`` when a link collides through a mesh, else ``as-is``;
+     a wheel (the child of a continuous joint) with a collision mesh collides as a
+     cylinder about the joint's axis around its mesh (a hull would thump as it turns);
 
    and, unless ``none``, links on the two sides of a moving joint (with every
    link welded to them) never collide with each other;
@@ -53,7 +56,7 @@ from pathlib import Path
 from xml.parsers import expat
 
 import numpy as np
-from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.tree import RotationalInertia
 
 from armando_drake.description.inertia import (
@@ -346,9 +349,21 @@ class _Preparation:
 
     def resolve_meshes(self) -> None:
         for link in self.links.values():
-            for kind in ("visual", "collision"):
-                for mesh in self.mesh_elements(link, kind):
+            for visual in link.findall("visual"):
+                mesh = visual.find("geometry/mesh")
+                if mesh is None:
+                    continue
+                try:
                     self.files[mesh] = self.check_mesh(link, mesh)
+                except DescriptionError as error:
+                    if "not found" not in str(error) and "unknown package" not in str(error):
+                        raise
+                    # A visual only draws the link: the robot runs without it (RViz and
+                    # Gazebo show nothing there either).
+                    link.remove(visual)
+                    self.warn(f"{error}: the link is drawn without this visual")
+            for mesh in self.mesh_elements(link, "collision"):
+                self.files[mesh] = self.check_mesh(link, mesh)
 
     def rewrite_meshes(self) -> None:
         overridden = []
@@ -401,22 +416,74 @@ class _Preparation:
         )
         return "convex"
 
+    def continuous_axes(self) -> dict[str, np.ndarray]:
+        """The child link of each continuous joint -> the joint's unit axis (child frame)."""
+        axes = {}
+        for joint in self.root.findall("joint"):
+            child = joint.find("child")
+            if joint.get("type") != "continuous" or child is None:
+                continue
+            try:
+                axis = _floats(joint.find("axis").get("xyz"), 3, 0.0)
+            except (AttributeError, ValueError):
+                axis = np.array([1.0, 0.0, 0.0])
+            norm = np.linalg.norm(axis)
+            axes[child.get("link")] = axis / norm if norm > 0 else np.array([1.0, 0.0, 0.0])
+        return axes
+
+    def wheel_cylinder(self, name: str, link: ET.Element, axis: np.ndarray) -> None:
+        """Replaces the collisions of ``link`` by one cylinder about ``axis`` (through the
+        link origin) around its collision geometry: a wheel rolls on it as it would on
+        its mesh, where a box would make it thump."""
+        points = [
+            p for item in link.findall("collision") if (p := self.geometry_points(item)) is not None
+        ]
+        if not points:
+            return
+        stacked = np.vstack(points)
+        along = stacked @ axis
+        radial = np.linalg.norm(stacked - np.outer(along, axis), axis=1)
+        radius, low, high = float(radial.max()), float(along.min()), float(along.max())
+        for item in link.findall("collision"):
+            link.remove(item)
+        # Drake's cylinder runs along its z: turn z onto the axis.
+        z = np.array([0.0, 0.0, 1.0])
+        rotation = RotationMatrix.MakeFromOneVector(axis, 2) if abs(axis @ z) < 1 else None
+        rpy = RollPitchYaw(rotation).vector() if rotation is not None else np.zeros(3)
+        centre = axis * (low + high) / 2
+        element = ET.SubElement(link, "collision", name=f"{name}_wheel")
+        ET.SubElement(
+            element,
+            "origin",
+            xyz=" ".join(f"{c:.9g}" for c in centre),
+            rpy=" ".join(f"{c:.9g}" for c in rpy),
+        )
+        geometry = ET.SubElement(element, "geometry")
+        width = max(high - low, MIN_BOX_SIDE)
+        ET.SubElement(geometry, "cylinder", radius=f"{radius:.9g}", length=f"{width:.9g}")
+        LOGGER.info(
+            "%s: link %r collides as a cylinder %.4g m in radius and %.4g m wide about its "
+            "continuous joint's axis",
+            self.source,
+            name,
+            radius,
+            width,
+        )
+
     def apply_collision_mode(self, mode: str) -> None:
+        if mode == "convex":
+            wheels = self.continuous_axes()
+            for name, link in self.links.items():
+                if name in wheels and self.mesh_elements(link, "collision"):
+                    self.wheel_cylinder(name, link, wheels[name])
         for name, link in self.links.items():
             collisions = link.findall("collision")
             if mode in ("boxes", "none"):
                 if mode == "boxes":
-                    centre, size = self.bounding_box(link)
-                    if not size.any():
-                        centre, size = self.bounding_box(link, ("collision",))
-                for item in collisions:
-                    link.remove(item)
-                if mode == "boxes" and size.any():
-                    box = ET.SubElement(link, "collision", name=f"{name}_bounding_box")
-                    ET.SubElement(box, "origin", xyz=" ".join(f"{c:.9g}" for c in centre))
-                    sides = np.maximum(size, MIN_BOX_SIDE)
-                    geometry = ET.SubElement(box, "geometry")
-                    ET.SubElement(geometry, "box", size=" ".join(f"{s:.9g}" for s in sides))
+                    self.box_collision(name, link)
+                else:
+                    for item in collisions:
+                        link.remove(item)
             elif mode == "convex":
                 for mesh in self.mesh_elements(link, "collision"):
                     if mesh.find("drake:declare_convex") is None:
@@ -426,6 +493,21 @@ class _Preparation:
         uses_drake = any(e.tag.startswith("drake:") for e in self.root.iter())
         if uses_drake and "xmlns:drake" not in self.root.attrib:
             self.root.set("xmlns:drake", "http://drake.mit.edu")
+
+    def box_collision(self, name: str, link: ET.Element) -> None:
+        """Replaces the collisions of ``link`` by one box around its visual geometry (its
+        collision geometry when it has no visual)."""
+        centre, size = self.bounding_box(link)
+        if not size.any():
+            centre, size = self.bounding_box(link, ("collision",))
+        for item in link.findall("collision"):
+            link.remove(item)
+        if size.any():
+            box = ET.SubElement(link, "collision", name=f"{name}_bounding_box")
+            ET.SubElement(box, "origin", xyz=" ".join(f"{c:.9g}" for c in centre))
+            sides = np.maximum(size, MIN_BOX_SIDE)
+            geometry = ET.SubElement(box, "geometry")
+            ET.SubElement(geometry, "box", size=" ".join(f"{s:.9g}" for s in sides))
 
     def filter_adjacent_collisions(self) -> None:
         """Links on the two sides of a moving joint, and all links welded to them, never collide.
@@ -530,6 +612,8 @@ class _Preparation:
 
     def inertia_box(self, link: ET.Element) -> tuple[np.ndarray, np.ndarray]:
         centre, size = self.bounding_box(link)
+        if not size.any():  # no visual (or a missing one): the collision geometry's box
+            centre, size = self.bounding_box(link, ("collision",))
         if not size.any():
             return centre, np.full(3, DEFAULT_BOX_SIDE)
         return centre, np.maximum(size, MIN_BOX_SIDE)

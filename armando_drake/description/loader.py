@@ -36,6 +36,7 @@ from pydrake.multibody.tree import ModelInstanceIndex
 from armando_drake import DEFAULT_DESCRIPTION
 from armando_drake.description.camera_sensors import parse_camera_sensors
 from armando_drake.description.config import RobotConfig
+from armando_drake.description.drive import DrivePlugin, link_friction, parse_drive_plugins
 from armando_drake.description.importer import PreparedUrdf, actuation, prepare_urdf
 from armando_drake.description.inertia import DEFAULT_DENSITY
 from armando_drake.description.packages import (
@@ -247,6 +248,16 @@ class LoadedRobot:
     # Every <gazebo reference=...><sensor> block (cameras too), for the sensor types
     # of armando_drake.sensors.registry.
     sensors: list[SensorBlock] = field(default_factory=list)
+    # The differential drives of its <gazebo><plugin> blocks (Gazebo Sim's DiffDrive,
+    # gazebo_ros_diff_drive), in URDF order.
+    drives: list[DrivePlugin] = field(default_factory=list)
+    # Whether the URDF fixes the robot to a `world` link (an arm); without one a mobile
+    # robot's root link is free.
+    world_link: bool = False
+    # Per link, the friction coefficient its <gazebo reference><mu1> gives.
+    friction: dict[str, float] = field(default_factory=dict)
+    # Whether its base is welded to Drake's world (see weld_robot).
+    welded: bool = False
 
     def joint(self, name: str) -> JointInfo:
         for joint in self.joints:
@@ -431,6 +442,13 @@ def _weld_bases(
         )
 
 
+def weld_robot(plant: MultibodyPlant, robot: LoadedRobot, X_WB: RigidTransform | None) -> None:
+    """Welds the base link(s) of a robot loaded with ``weld=False`` to Drake's world at
+    ``X_WB`` (times each weld's own pose), as :func:`load_robot` does by default."""
+    _weld_bases(plant, robot.model_instance, robot.welds, X_WB)
+    robot.welded = True
+
+
 def load_robot(
     plant: MultibodyPlant,
     description: str | os.PathLike | None = None,
@@ -471,6 +489,8 @@ def load_robot(
     for message in notes:  # a Warning among them is one
         (LOGGER.warning if isinstance(message, Warning) else LOGGER.info)("%s: %s", source, message)
     transmissions = parse_transmissions(root)
+    drives = parse_drive_plugins(root, source)
+    world_link = any(link.get("name") == "world" for link in root.findall("link"))
     prepared, welds = _prepare(
         urdf,
         search,
@@ -500,20 +520,31 @@ def load_robot(
         actuation_source=actuation_source,
         controller_files=controller_files(root, source),
         warnings=warnings,
+        drives=drives,
+        world_link=world_link,
+        friction=link_friction(root),
+        welded=weld,
     )
     _check_mimic_support(plant, robot)
     return robot
 
 
-def AddRobot(plant: MultibodyPlant, config: RobotConfig) -> LoadedRobot:
+def base_pose(config: RobotConfig) -> RigidTransform:
+    """X_WB: the pose ``base_xyz``/``base_rpy`` of the scenario's ``robot:`` section."""
+    return RigidTransform(RollPitchYaw(config.base_rpy), config.base_xyz)
+
+
+def AddRobot(plant: MultibodyPlant, config: RobotConfig, *, weld: bool = True) -> LoadedRobot:
     """The description of the scenario's ``robot:`` section, its base welded at
-    ``base_xyz``/``base_rpy`` (:func:`load_robot`)."""
+    ``base_xyz``/``base_rpy`` (:func:`load_robot`); with ``weld`` False nothing is welded
+    yet (:func:`weld_robot` does, or the base stays free)."""
     return load_robot(
         plant,
         config.description or None,
         xacro_args=config.xacro_args,
         package_paths=config.package_paths,
-        X_WB=RigidTransform(RollPitchYaw(config.base_rpy), config.base_xyz),
+        X_WB=base_pose(config),
+        weld=weld,
         collision=config.collision,
         density=config.density,
     )

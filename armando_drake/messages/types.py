@@ -19,6 +19,7 @@ of a message would cost more than the controller's own work.
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -141,6 +142,55 @@ class CartesianTrajectory:
     frame_id: str = ""
     controlled_frame: str = ""
     points: tuple[CartesianTrajectoryPoint, ...] = ()
+
+    def __deepcopy__(self, memo):
+        return self  # immutable: see the module docstring
+
+
+@dataclass(frozen=True)
+class Twist:
+    """geometry_msgs/Twist: a velocity command (cmd_vel), in the robot's base frame."""
+
+    linear: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [m/s] x forward, y left, z up
+    angular: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [rad/s] about x, y, z
+
+    def __deepcopy__(self, memo):
+        return self  # immutable: see the module docstring
+
+
+@dataclass(frozen=True)
+class TwistStamped:
+    """geometry_msgs/TwistStamped: a Twist with header.stamp (0: "now", as upstream's
+    diff_drive_controller takes it) and header.frame_id."""
+
+    stamp: float = 0.0  # [s] simulation time
+    frame_id: str = ""
+    twist: Twist = field(default_factory=Twist)
+
+    def __deepcopy__(self, memo):
+        return self  # immutable: see the module docstring
+
+
+@dataclass(frozen=True)
+class Odometry:
+    """nav_msgs/Odometry: the pose of ``child_frame_id`` in ``frame_id`` (odom ->
+    base_footprint) and its twist in the child frame, as a drive's odometry publishes it."""
+
+    stamp: float = 0.0  # [s] simulation time
+    frame_id: str = "odom"
+    child_frame_id: str = "base_link"
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [m]
+    orientation: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)  # (w, x, y, z)
+    linear: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [m/s] in the child frame
+    angular: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [rad/s]
+    pose_covariance: tuple[float, ...] = (0.0,) * 6  # the diagonal (x, y, z, roll, pitch, yaw)
+    twist_covariance: tuple[float, ...] = (0.0,) * 6  # the diagonal
+
+    @property
+    def yaw(self) -> float:
+        """[rad] the heading (rotation about z) of the orientation."""
+        w, x, y, z = self.orientation
+        return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
     def __deepcopy__(self, memo):
         return self  # immutable: see the module docstring

@@ -45,6 +45,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from armando_drake.outputs.base import BASE_CSV, write_base_plots
 from armando_drake.outputs.logger import read_csv, read_joint_states
 from armando_drake.tools.cli import add_version_argument
 from armando_drake.tools.files import writing
@@ -198,8 +199,13 @@ def write_plots(output_dir: str | Path) -> list[Path]:
     """Writes the PNG plots of the run in ``output_dir``; returns their paths (none when
     the run logged no joint states: no joint state broadcaster was active)."""
     folder = Path(output_dir)
+    if (folder / BASE_CSV).is_file():  # a mobile base: its path and velocities
+        _, title, _ = _read_summary(folder)
+        base_plots = write_base_plots(folder, title, DPI, FIGURE_SIZE)
+    else:
+        base_plots = []
     if not (folder / "joint_states.csv").is_file():
-        return []
+        return base_plots
     states = read_joint_states(folder / "joint_states.csv")
     joints = states.joint_names
     if not joints:
@@ -214,7 +220,7 @@ def write_plots(output_dir: str | Path) -> list[Path]:
         for k, name in enumerate(command_joints):
             commanded[:, joints.index(name)] = held[:, k]
 
-    written = []
+    written = base_plots
 
     def save(fig, name: str) -> None:
         path = folder / name

@@ -24,6 +24,10 @@ class WorldTopics:
     detectors: Any = None  # AddedDetectors, if the scenario has a vision block
     # The outputs of the description's other sensors (sensors.registry), by sensor name.
     sensors: dict = field(default_factory=dict)
+    mobile: Any = None  # the MobileBase (control.mobile): how the base is held, its drives
+    twist: Any = None  # the TwistSequencer, if the scenario has a twist sequence
+    twist_target: str = ""  # the drive it commands
+    base_log: Any = None  # the BaseLogger of a floating base with a drive
 
     @property
     def plant(self):

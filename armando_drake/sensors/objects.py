@@ -21,6 +21,7 @@ axis. (No ``from __future__ import annotations`` here: ``yaml_load_typed``
 needs the field types as types, not strings.)
 """
 
+import logging
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -188,3 +189,37 @@ def AddGround(plant: MultibodyPlant, scene_graph: SceneGraph) -> None:
     for body in plant.GetBodyIndices(instance):
         for geometry_id in plant.GetVisualGeometriesForBody(plant.get_body(body)):
             scene_graph.RemoveRole(plant.get_source_id(), geometry_id, Role.kIllustration)
+
+
+# [m] side of the floor a mobile robot drives on, as the cameras see it (its collision is
+# a half space: no edge to drive off).
+FLOOR_SIDE = 40.0
+GROUND_FRICTION = 0.8  # [-] the ground's friction (models/scenes/ground.urdf's)
+
+
+class _NoDeformableNote(logging.Filter):
+    """Drops Drake's note that deformable bodies ignore a rigid half space: the floor's
+    (a world has no deformable body)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return "half spaces are not currently supported for deformable" not in record.getMessage()
+
+
+_DRAKE_LOG = logging.getLogger("drake")
+_DRAKE_LOG.addFilter(_NoDeformableNote())
+
+
+def AddFloor(plant: MultibodyPlant, scene_graph: SceneGraph) -> None:
+    """The ground of a mobile robot: the plane z = 0 as a half space (friction
+    :data:`GROUND_FRICTION`, the default scene's), and for the cameras a slab
+    :data:`FLOOR_SIDE` m wide of the ground's colour (Meshcat draws its own ground, as for
+    :func:`AddGround`). A half space costs less at every contact query than a box."""
+    world = plant.world_body()
+    friction = CoulombFriction(GROUND_FRICTION, GROUND_FRICTION)
+    plant.RegisterCollisionGeometry(
+        world, RigidTransform(), geometry.HalfSpace(), "floor", friction
+    )
+    slab = geometry.Box(FLOOR_SIDE, FLOOR_SIDE, 0.05)
+    X_WS = RigidTransform([0.0, 0.0, -0.025])
+    visual = plant.RegisterVisualGeometry(world, X_WS, slab, "floor_visual", np.array(GROUND_COLOR))
+    scene_graph.RemoveRole(plant.get_source_id(), visual, Role.kIllustration)

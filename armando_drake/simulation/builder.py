@@ -24,6 +24,7 @@ Ports of the diagram, by name:
 
 from __future__ import annotations
 
+import dataclasses as dc
 import os
 from pathlib import Path
 
@@ -32,6 +33,7 @@ from pydrake.multibody.plant import AddMultibodyPlant, ApplyMultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
 
 from armando_drake.control.hardware import command_interfaces
+from armando_drake.control.mobile import AddMobileBase
 from armando_drake.control.sequencer import AddSequencer
 from armando_drake.control.stack import (
     AddControllerManager,
@@ -43,8 +45,10 @@ from armando_drake.control.stack import (
     choose_controllers,
     controller_update_rate,
 )
+from armando_drake.control.twist import AddTwistSequence
 from armando_drake.description.loader import AddRobot
 from armando_drake.description.worlds import AddWorld
+from armando_drake.outputs.base import BASE_CSV, AddBaseLogger
 from armando_drake.outputs.logger import AddJointStateLogger, CommandsCsv
 from armando_drake.outputs.recording import AddRosbagRecorder
 from armando_drake.outputs.replay import AddVisualization
@@ -53,7 +57,7 @@ from armando_drake.perception.systems import AddPerception
 from armando_drake.ros2.bridge import AddRos2Bridge
 from armando_drake.sensors import lidar  # noqa: F401  (registers the lidar sensor types)
 from armando_drake.sensors.cameras import AddCameras
-from armando_drake.sensors.objects import AddGround, AddSceneObjects, SceneObjectError
+from armando_drake.sensors.objects import AddFloor, AddGround, AddSceneObjects, SceneObjectError
 from armando_drake.sensors.registry import AddSensors
 from armando_drake.simulation.scenario import Scenario, ScenarioError, sources_of
 from armando_drake.simulation.validation import check_against_world, check_scenario
@@ -90,11 +94,11 @@ def MakeWorld(
     # Every value of the scenario checked before Drake sees it.
     check_scenario(scenario, source)
     builder = DiagramBuilder()
-    # The physics, the robot at its spawn pose, the ground and the objects.
-    plant, scene_graph, robot = _add_physics(builder, scenario, where)
+    # The physics, the robot at its spawn pose (welded or free), the ground and the objects.
+    plant, scene_graph, robot, physics = _add_physics(builder, scenario, where)
     # The hardware interface and the controller manager of the controller YAML.
-    stack = _add_control(builder, scenario, plant, scene_graph, robot)
-    topics = WorldTopics(stack=stack)
+    stack = _add_control(builder, scenario, plant, scene_graph, robot, physics)
+    topics = WorldTopics(stack=stack, mobile=physics[1])
     # What drives the controllers: the command sequencer, the task, the live jog.
     commands_csv = Path(output_dir) / "commands.csv" if output_dir and write_commands else None
     _add_drivers(builder, scenario, topics, meshcat, commands_csv, closers)
@@ -110,6 +114,10 @@ def MakeWorld(
     )
     if logger is not None:
         closers.append(logger.close)
+    command = topics.twist.GetOutputPort("command") if topics.twist is not None else None
+    topics.base_log = AddBaseLogger(builder, stack, topics.mobile, command=command)
+    if topics.base_log is not None and output_dir is not None:
+        closers.append(lambda: topics.base_log.write(Path(output_dir) / BASE_CSV))
     clusters_dir = output_dir if write_commands else None
     places = (source, clusters_dir, host)
     image_view = _add_sensing(builder, scenario, topics, scene_graph, meshcat, places)
@@ -144,32 +152,44 @@ def _origin(scenario: Scenario, key: str) -> str:
 
 
 def _add_physics(builder: DiagramBuilder, scenario: Scenario, where: str):
-    """The plant and scene graph of ``scenario.plant_config``; the robot welded at its
-    spawn pose, the ground and the objects."""
+    """The plant and scene graph of ``scenario.plant_config``; the robot at its spawn pose
+    (welded, or free on its wheels), the ground and the objects; (plant, scene graph,
+    robot, (its controller YAML, its MobileBase))."""
     plant, scene_graph = AddMultibodyPlant(scenario.plant_config, builder)
     ApplyMultibodyPlantConfig(scenario.plant_config, plant)
-    robot = AddRobot(plant, scenario.robot)
+    robot = AddRobot(plant, scenario.robot, weld=False)
+    # The controller YAML before the base is placed: a drive controller in it frees the base.
+    controller_config = LoadControllerConfig(
+        scenario.controllers, robot, arguments=scenario.robot.xacro_args
+    )
+    mobile = AddMobileBase(
+        plant,
+        scene_graph,
+        robot,
+        scenario.robot,
+        controller_config,
+        activate=scenario.controllers.activate,
+        where=_origin(scenario, "robot.base"),
+    )
     if scenario.world_file:
         where = _origin(scenario, "world_file")
         paths = scenario.world_resource_paths
         AddWorld(plant, scenario.world_file, resource_paths=paths, where=where)
     elif scenario.ground:
-        AddGround(plant, scene_graph)
+        (AddFloor if mobile.floating else AddGround)(plant, scene_graph)
     try:
         AddSceneObjects(plant, scenario.objects)
     except SceneObjectError as error:
         raise ScenarioError(f"{where}objects: {error}") from None
-    return plant, scene_graph, robot
+    return plant, scene_graph, robot, (controller_config, mobile)
 
 
-def _add_control(builder, scenario: Scenario, plant, scene_graph, robot) -> ControlStack:
-    """The controller YAML, the hardware interface (then the plant is final) and the
-    controller manager running the activated controllers."""
+def _add_control(builder, scenario: Scenario, plant, scene_graph, robot, physics) -> ControlStack:
+    """The hardware interface (then the plant is final) and the controller manager running
+    the activated controllers (and a mobile base's drive plugins) of the controller YAML."""
     # The controller YAML before the actuators: a ROS 1 file's gazebo_ros_control gains
     # are theirs; its update rate, which the scenario may override.
-    controller_config = LoadControllerConfig(
-        scenario.controllers, robot, arguments=scenario.robot.xacro_args
-    )
+    controller_config, mobile = physics
     # The scenario's default controllers stand for the file's own (one line each).
     choice = choose_controllers(
         scenario.controllers.activate, controller_config, scenario.sequencer
@@ -185,18 +205,20 @@ def _add_control(builder, scenario: Scenario, plant, scene_graph, robot) -> Cont
         update_rate_source=controller_config.source,
         joints=command_interfaces(robot, warn=False)[2],
     )
+    actuators = dc.replace(scenario.actuators, gains={**mobile.gains, **scenario.actuators.gains})
     hardware = AddHardware(
         plant,
         scene_graph,
         robot,
-        scenario.actuators,
+        actuators,
         controller_config,
         self_collision=scenario.robot.self_collision,
         start_positions=_start_positions(scenario),
     )
+    activate = mobile.activation(scenario.controllers.activate)
     return AddControllerManager(
         builder,
-        scenario.controllers,
+        dc.replace(scenario.controllers, activate=activate),
         plant=plant,
         robot=robot,
         hardware=hardware,
@@ -226,6 +248,10 @@ def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, comm
             stack,
             commands_log=commands_log if commands_csv is not None else None,
             where=_origin(scenario, "sequencer"),
+        )
+    if scenario.twist is not None:
+        topics.twist, topics.twist_target = AddTwistSequence(
+            builder, scenario.twist, stack, where=_origin(scenario, "twist")
         )
     if scenario.task is not None:
         topics.task = AddTask(

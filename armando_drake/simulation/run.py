@@ -86,6 +86,8 @@ class RunResult:
     driven: str = ""
     # Vision: frames, detections, final_pointing_error [rad], marker_position_error [m]
     vision: dict[str, Any] | None = None
+    # A mobile base: distance travelled [m], final pose, odometry drift (outputs/base.py)
+    base: dict[str, Any] | None = None
 
     def summary(self) -> dict[str, Any]:
         """The ``summary.json`` contract; ``armando_drake`` names the code that produced
@@ -114,6 +116,7 @@ class RunResult:
                 for step in self.steps
             ],
             "vision": self.vision,
+            "base": self.base,
         }
 
     def headline(self) -> str:
@@ -130,6 +133,8 @@ class RunResult:
             what = f"{name} with the camera's detections driving the arm"
         elif self.controller == "dds":
             what = f"{name} with DDS commands driving the arm"
+        elif self.controller == "twist":
+            what = f"{name} with a cmd_vel sequence"
         elif self.controller == "none":
             what = f"{name} with no controller driving the arm"
         elif self.controller == "sinusoid":
@@ -158,10 +163,12 @@ def write_scenario(scenario: Scenario, path: Path) -> None:
 
 
 def controller_mode(scenario: Scenario) -> str:
-    """position | trajectory | sinusoid | task | jog | none: what drives the arm."""
+    """position | trajectory | sinusoid | task | jog | twist | none: what drives the robot."""
     if scenario.sequencer is None:
         if scenario.task is not None:
             return "task"
+        if scenario.twist is not None:
+            return "twist"
         return "none" if scenario.jog is None else "jog"
     return mode_of(scenario.sequencer)
 
@@ -611,6 +618,7 @@ def _result(scenario, world, simulator, table, tracker, log_dir, name: str = "")
         interrupted=False,
         joint_names=world.hardware.joint_names,
         driven=world.sequencer_target
+        or world.topics.twist_target
         or (world.task.controller if world.task else "")
         or (world.jog.controller if world.jog else "")
         or ", ".join(vision_driven)
@@ -631,6 +639,8 @@ def _result(scenario, world, simulator, table, tracker, log_dir, name: str = "")
             world.meshcat.SetLine(
                 "task/end_effector_trace", errors.actual.T, 2.0, Rgba(1.0, 0.3, 0.1, 1.0)
             )
+    if world.base_log is not None:
+        result.base = world.base_log.summary()
     if world.detectors is not None:
         result.vision = write_vision_outputs(
             world.topics,

@@ -42,6 +42,7 @@ from armando_drake.control.sequencer import (
     one_pass,
 )
 from armando_drake.control.stack import ActuatorConfig, ControllersConfig
+from armando_drake.control.twist import TwistSequence
 from armando_drake.description.config import RobotConfig
 from armando_drake.kinematics.motion import TaskSpaceMotion
 from armando_drake.outputs.config import LoggingConfig
@@ -117,6 +118,9 @@ class Scenario:
     # !JointTrajectoryTargets or !Sinusoid (control/sequencer.py); absent or
     # null = nothing (commands come from the diagram's input ports).
     sequencer: PositionTargets | JointTrajectoryTargets | Sinusoid | None = None
+    # Velocity commands (cmd_vel) to a mobile base's drive: steps of {linear [m/s],
+    # angular [rad/s], duration [s]} published at `rate` (control/twist.py); absent = none.
+    twist: TwistSequence | None = None
     # A task-space motion of the end effector (path, time law, start positions):
     # published once at t = 0 to the active controller that takes a Cartesian
     # trajectory (as a CartesianTrajectory) or else a joint trajectory (planned by
@@ -188,9 +192,11 @@ class Scenario:
 
 def default_duration(scenario: Scenario) -> float:
     """[s] one pass of the command sequence; the task's motion and 0.5 s of holding
-    without one; 2 s without either."""
+    without one; the twist sequence and 1 s of stopping without either; 2 s without any."""
     if scenario.sequencer is None:
-        return 2.0 if scenario.task is None else scenario.task.duration + 0.5
+        if scenario.task is not None:
+            return scenario.task.duration + 0.5
+        return 2.0 if scenario.twist is None else scenario.twist.one_pass() + 1.0
     return one_pass(scenario.sequencer)
 
 

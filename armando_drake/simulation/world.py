@@ -56,6 +56,9 @@ class World:
     jog = property(lambda self: self.topics.jog)
     perception = property(lambda self: self.topics.perception)
     detectors = property(lambda self: self.topics.detectors)
+    mobile = property(lambda self: self.topics.mobile)
+    twist = property(lambda self: self.topics.twist)
+    base_log = property(lambda self: self.topics.base_log)
     image_view_url = property(lambda self: self.image_view.url if self.image_view else None)
 
     def publish(self, context: Context, controller: str, message: Any) -> None:

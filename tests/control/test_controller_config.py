@@ -330,6 +330,7 @@ def test_unknown_type_is_noted_and_fails_only_when_used(tmp_path, caplog):
         f"{path}: {key}: unknown controller type "
         "'position_controllers/JointGroupVelocityController'; "
         "supported: joint_state_broadcaster/JointStateBroadcaster, "
+        "diff_drive_controller/DiffDriveController, "
         "forward_command_controller/ForwardCommandController, "
         "position_controllers/JointGroupPositionController, "
         "velocity_controllers/JointGroupVelocityController, "

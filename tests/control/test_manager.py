@@ -283,6 +283,7 @@ def test_two_controllers_of_the_same_name_are_refused():
 def test_registry_knows_the_shipped_types_and_answers_by_message():
     assert registered_types() == (
         "joint_state_broadcaster/JointStateBroadcaster",
+        "diff_drive_controller/DiffDriveController",
         "forward_command_controller/ForwardCommandController",
         "position_controllers/JointGroupPositionController",
         "velocity_controllers/JointGroupVelocityController",

@@ -421,6 +421,7 @@ def test_an_unsupported_type_in_the_package_config_fails_only_when_activated(tmp
         f"controllers.activate: 'gripper_controller': {config}: {key}: unknown controller "
         "type 'position_controllers/GripperActionController'; supported: "
         "joint_state_broadcaster/JointStateBroadcaster, "
+        "diff_drive_controller/DiffDriveController, "
         "forward_command_controller/ForwardCommandController, "
         "position_controllers/JointGroupPositionController, "
         "velocity_controllers/JointGroupVelocityController, "

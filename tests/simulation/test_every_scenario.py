@@ -37,9 +37,11 @@ def test_scenario_builds_and_simulates(path, monkeypatch):
 
 @pytest.mark.parametrize("package", MODELS, ids=[p.name for p in MODELS])
 def test_model_holds_its_initial_pose_under_position_control(package):
+    # Welded, as an arm is: a mobile robot's wheels then hold their positions too.
     scenario = load_scenario(
         "position",
-        f"robot: {{description: {package}}}\nsequencer: null\nlogging: {{console_rate: 0}}",
+        f"robot: {{description: {package}, base: fixed}}\nsequencer: null\n"
+        "logging: {console_rate: 0}",
     )
     world = MakeWorld(scenario, quiet=True)
     simulator = Simulator(world.diagram)

@@ -566,6 +566,9 @@ class Controller:
     # Further input topics, by topic leaf: the message class each carries (upstream's other
     # subscriptions); their messages go to receive(), before update().
     extra_topics: ClassVar[dict[str, type]] = {}
+    # Topics it publishes, by topic leaf: the message class of each (upstream's publishers:
+    # a drive's odometry); the manager's outputs ``<controller>.<leaf>`` (see output()).
+    outputs: ClassVar[dict[str, type]] = {}
     initial_state: ClassVar[str] = "holding"  # ControllerStatus.state before any command
     broadcaster: ClassVar[bool] = False  # publishes joint states instead of commanding
     type_names: ClassVar[tuple[str, ...]] = ()  # set by register()
@@ -663,6 +666,15 @@ class Controller:
         or None; ``measure(desired)`` gives the measured (q, v) [rad, rad/s] of the
         controller's joints. Returns ``memory`` itself when nothing changes."""
         raise NotImplementedError
+
+    def output(self, topic: str, memory: ControllerMemory) -> Any:
+        """The latest message published on ``topic`` (a key of :attr:`outputs`)."""
+        raise NotImplementedError
+
+    @classmethod
+    def joint_key(cls, params, joint: str) -> str:
+        """The parameter naming ``joint``, for messages (``joints``)."""
+        return "joints"
 
     def receive(self, topic: str, message: Any, memory: ControllerMemory) -> ControllerMemory:
         """A message on one of :attr:`extra_topics`: the memory with it taken in."""

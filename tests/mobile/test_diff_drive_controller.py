@@ -1,0 +1,304 @@
+"""``diff_drive_controller/DiffDriveController``: upstream's cases (ros2_controllers jazzy,
+diff_drive_controller/test/test_diff_drive_controller.cpp) re-expressed on the logic, and
+its parameters as the YAML loader reads them."""
+
+import math
+
+import numpy as np
+import pytest
+
+from armando_drake.control.config import ControllerConfigError, parse_controller_config
+from armando_drake.control.controllers import ControllerJoints, lookup
+from armando_drake.control.controllers.diff_drive import RateLimiter
+from armando_drake.messages.types import Twist, TwistStamped
+
+TYPE = "diff_drive_controller/DiffDriveController"
+LEFT, RIGHT = "left_wheels", "right_wheels"
+
+
+def controller(**parameters):
+    """The controller of a one-file YAML with these ros__parameters (upstream's test
+    defaults: wheel_separation 1.0, wheel_radius 0.1)."""
+    params = {
+        "left_wheel_names": [LEFT],
+        "right_wheel_names": [RIGHT],
+        "wheel_separation": 1.0,
+        "wheel_radius": 0.1,
+        **parameters,
+    }
+    config = parse_controller_config(
+        {
+            "controller_manager": {"ros__parameters": {"update_rate": 100, "base": {"type": TYPE}}},
+            "base": {"ros__parameters": params},
+        },
+        "test.yaml",
+    )
+    entry = config.controllers["base"]
+    logic = lookup(TYPE)(
+        name="base", joints=ControllerJoints.make([LEFT, RIGHT]), params=entry.params
+    )
+    logic.configure(update_rate=100)
+    return logic
+
+
+class Wheels:
+    """The wheels' feedback: positions integrated from the commanded velocities."""
+
+    def __init__(self):
+        self.q = np.zeros(2)
+        self.v = np.zeros(2)
+
+    def __call__(self, desired):
+        return self.q.copy(), self.v.copy()
+
+
+def step(logic, memory, now, message=None, wheels=None, dt=0.01):
+    wheels = wheels or Wheels()
+    memory = logic.update(now, message, memory, wheels)
+    wheels.v = memory.desired[2:].copy()
+    wheels.q = wheels.q + wheels.v * dt
+    return memory
+
+
+def twist(linear, angular=0.0, stamp=0.0):
+    return TwistStamped(stamp=stamp, twist=Twist(linear=(linear, 0, 0), angular=(0, 0, angular)))
+
+
+def wheel_velocities(memory):
+    return memory.desired[2:]
+
+
+def test_speed_limiter():
+    """test_speed_limiter: acceleration 2, deceleration -4, reverse acceleration -8, reverse
+    deceleration 10 m/s^2: each 1 m/s step reaches its wheel speed (10 rad/s at radius 0.1)
+    only after |step| / limit seconds, never before. (Upstream's updates all have time 0, so
+    its command never times out; here the clock runs, so the timeout is off.)"""
+    logic = controller(
+        **{
+            "linear.x.max_acceleration": 2.0,
+            "linear.x.max_deceleration": -4.0,
+            "linear.x.max_acceleration_reverse": -8.0,
+            "linear.x.max_deceleration_reverse": 10.0,
+            "cmd_vel_timeout": 0.0,
+        }
+    )
+    memory, wheels, now, dt = logic.initial_memory(), Wheels(), 0.0, 0.001
+    memory = step(logic, memory, now, twist(0.0), wheels, dt)
+    for _ in range(3):
+        now += 0.01
+        memory = step(logic, memory, now, None, wheels, 0.01)
+        assert np.allclose(wheel_velocities(memory), 0.0, atol=1e-3)
+    for linear, time_acc, below in ((1.0, 0.5, True), (0.0, 0.25, False), (-1.0, 0.125, False),
+                                    (0.0, 0.1, True)):  # fmt: skip
+        target = linear / 0.1
+        message = twist(linear)
+        for i in range(math.floor(time_acc / dt) - 1):
+            now += dt
+            memory = step(logic, memory, now, message if i == 0 else None, wheels, dt)
+            velocities = wheel_velocities(memory)
+            assert np.all(velocities < target) if below else np.all(velocities > target), (i, now)
+        now += dt
+        memory = step(logic, memory, now, None, wheels, dt)
+        assert np.allclose(wheel_velocities(memory), target, atol=1e-3)
+        for _ in range(3):
+            now += 0.01
+            memory = step(logic, memory, now, None, wheels, 0.01)
+            assert np.allclose(wheel_velocities(memory), target, atol=1e-3)
+
+
+def test_cmd_vel_timeout_brakes_then_a_timely_command_drives():
+    """A command older than cmd_vel_timeout (0.5 s) sets the wheels to 0; a new one drives
+    them (wheel_radius 1 so that rad/s = m/s)."""
+    logic = controller(wheel_separation=0.4, wheel_radius=1.0)
+    memory = logic.initial_memory()
+    memory = step(logic, memory, 0.0, twist(1.0))
+    assert np.allclose(wheel_velocities(memory), 1.0)
+    memory = step(logic, memory, 0.501)
+    assert np.array_equal(wheel_velocities(memory), [0.0, 0.0])
+    assert memory.status.detail["timed_out"]
+    memory = step(logic, memory, 0.6, twist(1.0))
+    assert np.array_equal(wheel_velocities(memory), [1.0, 1.0])
+    assert not memory.status.detail["timed_out"]
+
+
+def test_before_any_command_nothing_is_written_then_the_timeout_brakes():
+    logic = controller(wheel_radius=1.0)
+    memory = step(logic, logic.initial_memory(), 0.0)
+    assert np.array_equal(wheel_velocities(memory), [0.0, 0.0])
+    assert math.isnan(memory.internal.reference[0])
+    memory = step(logic, memory, 0.6)
+    assert memory.internal.reference == (0.0, 0.0)
+
+
+def test_zero_cmd_vel_timeout_disables_timeout():
+    """A command stamped 1 s, updated at 11 s: the wheels still follow it."""
+    logic = controller(wheel_separation=0.4, wheel_radius=1.0, cmd_vel_timeout=0.0)
+    memory = step(logic, logic.initial_memory(), 0.0)
+    memory = step(logic, memory, 1.0, twist(1.0, stamp=1.0))
+    memory = step(logic, memory, 11.0)
+    assert np.array_equal(wheel_velocities(memory), [1.0, 1.0])
+
+
+def test_a_command_already_older_than_the_timeout_is_ignored():
+    logic = controller(wheel_radius=1.0)
+    memory = step(logic, logic.initial_memory(), 0.0)
+    memory = step(logic, memory, 2.0, twist(1.0, stamp=1.0))
+    assert memory.status.rejected == 1
+    assert "older than the current time by 1.0000000000 seconds" in memory.status.last_error
+    assert not np.any(wheel_velocities(memory))
+
+
+def test_a_zero_stamp_and_a_plain_twist_count_as_now():
+    logic = controller(wheel_radius=1.0)
+    memory = step(logic, logic.initial_memory(), 5.0, twist(0.5, stamp=0.0))
+    assert np.allclose(wheel_velocities(memory), 0.5)
+    memory = step(logic, memory, 5.1, Twist(linear=(0.25, 0, 0)))
+    assert np.allclose(wheel_velocities(memory), 0.25)
+    assert memory.status.accepted == 2
+
+
+def test_nan_command_keeps_the_reference():
+    logic = controller(wheel_radius=1.0)
+    memory = step(logic, logic.initial_memory(), 0.0, twist(0.3))
+    memory = step(logic, memory, 0.01, twist(math.nan))
+    assert memory.internal.reference == (0.3, 0.0)
+    assert memory.status.rejected == 1
+    assert np.allclose(wheel_velocities(memory), 0.3)
+
+
+def test_correct_initialization_using_parameters():
+    """wheel_separation 0.4, radius 1.0: linear 1 m/s -> both wheels 1 rad/s; a turn
+    spins them apart by w * separation / 2 / radius."""
+    logic = controller(wheel_separation=0.4, wheel_radius=1.0)
+    memory = step(logic, logic.initial_memory(), 0.0, twist(1.0))
+    assert np.array_equal(wheel_velocities(memory), [1.0, 1.0])
+    memory = step(logic, memory, 0.01, twist(0.0, 1.0))
+    assert np.allclose(wheel_velocities(memory), [-0.2, 0.2])
+
+
+def test_multipliers_scale_the_kinematics():
+    logic = controller(
+        wheel_separation=0.4,
+        wheel_radius=1.0,
+        wheel_separation_multiplier=2.0,
+        left_wheel_radius_multiplier=0.5,
+        right_wheel_radius_multiplier=2.0,
+    )
+    memory = step(logic, logic.initial_memory(), 0.0, twist(1.0, 1.0))
+    # (1 - 1 * 0.8 / 2) / 0.5 and (1 + 0.4) / 2
+    assert np.allclose(wheel_velocities(memory), [1.2, 0.7])
+
+
+@pytest.mark.parametrize("clamped", [True, False])
+def test_open_loop_odometry_with_clamped_and_unclamped_input(clamped):
+    """Open loop, dt 0.1 s: a 5 m/s command integrates 0.5 m/s (clamped) or 5 m/s for the
+    step, then 5 rad/s the heading."""
+    limits = {"linear.x.max_velocity": 0.5, "angular.z.max_velocity": 0.5} if clamped else {}
+    logic = controller(open_loop=True, **limits)
+    expected = 0.5 if clamped else 5.0
+    memory = step(logic, logic.initial_memory(), 0.0)
+    memory = step(logic, memory, 0.1, twist(5.0))
+    odometry = memory.internal.odometry
+    assert odometry.linear == pytest.approx(expected, abs=1e-3)
+    assert odometry.x == pytest.approx(expected * 0.1, abs=1e-3)
+    memory = step(logic, memory, 0.2, twist(0.0, 5.0))
+    odometry = memory.internal.odometry
+    assert odometry.angular == pytest.approx(expected, abs=1e-3)
+    assert odometry.heading == pytest.approx(expected * 0.1, abs=1e-3)
+
+
+def test_position_feedback_odometry_integrates_an_arc_exactly():
+    """Wheels that turned a quarter circle of radius 1 m (separation 0.5 m) in one update:
+    the exact integration puts the base at (1, 1) heading pi/2."""
+    logic = controller(wheel_separation=0.5, wheel_radius=1.0, velocity_rolling_window_size=1)
+    memory = logic.initial_memory()
+    quarter = math.pi / 2
+    wheels = Wheels()
+    wheels.q = np.array([quarter * 0.75, quarter * 1.25])  # arcs of radius 0.75 m, 1.25 m
+    memory = logic.update(1.0, None, memory, wheels)
+    odometry = memory.internal.odometry
+    assert (odometry.x, odometry.y, odometry.heading) == pytest.approx((1.0, 1.0, quarter))
+    message = logic.output("odom", memory)
+    assert message.yaw == pytest.approx(quarter) and message.position[:2] == pytest.approx((1, 1))
+
+
+def test_odometry_is_published_at_publish_rate():
+    logic = controller(publish_rate=20.0, wheel_radius=1.0)
+    memory, stamps = logic.initial_memory(), []
+    for k in range(21):
+        memory = step(logic, memory, k * 0.01, twist(0.1) if k == 0 else None)
+        stamp = logic.output("odom", memory).stamp
+        if not stamps or stamp != stamps[-1]:
+            stamps.append(stamp)
+    assert stamps == pytest.approx([0.0, 0.06, 0.11, 0.16])
+
+
+@pytest.mark.parametrize(
+    "enable, prefix, expected",
+    [
+        (False, "test_prefix", ("odom", "base_link")),
+        (True, "test_prefix", ("test_prefix/odom", "test_prefix/base_link")),
+        (True, "", ("odom", "base_link")),
+    ],
+)
+def test_frame_ids_with_tf_prefix(enable, prefix, expected):
+    """configure_succeeds_tf_*_no_namespace: the prefix only when enabled and given."""
+    logic = controller(tf_frame_prefix_enable=enable, tf_frame_prefix=prefix)
+    message = logic.output("odom", logic.initial_memory())
+    assert (message.frame_id, message.child_frame_id) == expected
+
+
+@pytest.mark.parametrize(
+    "parameters, match",
+    [
+        (
+            {"right_wheel_names": []},
+            r"base\.ros__parameters\.right_wheel_names: 'right_wheel_names' parameter is empty",
+        ),
+        (
+            {"right_wheel_names": ["a", "b"]},
+            r"The number of left wheels \[1\] and the number of right wheels \[2\] are different",
+        ),
+        (
+            {"wheel_radius": -0.035},
+            r"test\.yaml: base\.ros__parameters\.wheel_radius: wheel_radius=-0\.035 must be > 0",
+        ),
+        ({"wheel_separation": 0.0}, r"wheel_separation=0\.0 must be > 0"),
+        ({"linear.x.max_velocity": -1.0}, r"linear\.x\.max_velocity=-1\.0 must be >= 0"),
+        (
+            {"linear.x.max_velocity": 1.0, "linear.x.min_velocity": 2.0},
+            r"linear\.x\.min_velocity=2\.0 must be <= 0",
+        ),
+        ({"cmd_vel_timeout": -1.0}, r"cmd_vel_timeout=-1\.0 must be >= 0"),
+        ({"odometry_topic": "odom"}, r"base\.ros__parameters\.odometry_topic: unknown parameter"),
+    ],
+)
+def test_bad_parameters_are_one_line_errors_naming_file_key_and_value(parameters, match):
+    with pytest.raises(ControllerConfigError, match=match) as error:
+        controller(**parameters)
+    assert "\n" not in str(error.value)
+
+
+def test_deprecated_has_limits_false_disables_them():
+    logic = controller(
+        wheel_radius=1.0,
+        **{"linear.x.has_velocity_limits": False, "linear.x.max_velocity": 0.1},
+    )
+    memory = step(logic, logic.initial_memory(), 0.0, twist(1.0))
+    assert np.allclose(wheel_velocities(memory), 1.0)
+
+
+def test_rate_limiter_is_control_toolbox_s():
+    """Asymmetric first derivative limits by the sign of the previous value; the jerk limited
+    only while accelerating; bounds that are not an interval refused."""
+    limiter = RateLimiter.ros_limiter(math.nan, 1.0, -8.0, 2.0, -4.0, 10.0)
+    assert limiter.min_value == -1.0
+    assert limiter.limit(1.0, 0.5, 0.5, 0.1) == pytest.approx(0.7)  # +2 m/s^2 going forward
+    assert limiter.limit(0.0, 0.5, 0.5, 0.1) == pytest.approx(0.1)  # -4 m/s^2 slowing forward
+    assert limiter.limit(-2.0, -0.5, -0.5, 0.1) == pytest.approx(-1.0)  # -8 m/s^2, then -1
+    assert limiter.limit(1.0, -0.5, -0.5, 0.1) == pytest.approx(0.5)  # +10 m/s^2 in reverse
+    jerky = RateLimiter.ros_limiter(max_second_derivative=1.0)
+    assert jerky.limit(1.0, 0.0, 0.0, 0.1) == pytest.approx(0.01)  # the jerk speeds it up
+    assert jerky.limit(0.6, 0.5, 0.0, 0.1) == 0.6  # the jerk against the acceleration: free
+    with pytest.raises(ValueError, match="Invalid value limits"):
+        RateLimiter.ros_limiter(2.0, 1.0)
