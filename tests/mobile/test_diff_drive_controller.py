@@ -270,13 +270,20 @@ def test_frame_ids_with_tf_prefix(enable, prefix, expected):
             r"linear\.x\.min_velocity=2\.0 must be <= 0",
         ),
         ({"cmd_vel_timeout": -1.0}, r"cmd_vel_timeout=-1\.0 must be >= 0"),
-        ({"odometry_topic": "odom"}, r"base\.ros__parameters\.odometry_topic: unknown parameter"),
     ],
 )
 def test_bad_parameters_are_one_line_errors_naming_file_key_and_value(parameters, match):
     with pytest.raises(ControllerConfigError, match=match) as error:
         controller(**parameters)
     assert "\n" not in str(error.value)
+
+
+def test_a_parameter_jazzy_does_not_declare_is_ignored_with_one_warning(caplog):
+    """As ROS ignores an undeclared parameter (a likely typo stays visible)."""
+    with caplog.at_level("WARNING"):
+        controller(odometry_topic="odom")
+    (line,) = [r.getMessage() for r in caplog.records if "odometry_topic" in r.getMessage()]
+    assert "base.ros__parameters.odometry_topic" in line and "does not declare it" in line
 
 
 def test_deprecated_has_limits_false_disables_them():
