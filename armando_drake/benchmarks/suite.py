@@ -36,7 +36,10 @@ same machine load:
 9. vision: real-time factor of ``diagrams/vision_blob.yaml`` (a 640 x 480
    camera at 30 Hz) with no detector, with the seed's blob detector on every
    frame, with OpenCV's SimpleBlobDetector as it is and with ArUco + solvePnP,
-   and each detector's cost per frame in milliseconds.
+   and each detector's cost per frame in milliseconds;
+10. learned IK: milliseconds per pose of the learned inverse kinematics network
+    (``models/learned_ik/armando_ik_network.onnx`` in ONNX Runtime), alone (budget
+    0.2 ms) and with 3 Gauss-Newton steps, and of Drake's InverseKinematics.
 
 Each figure is the median of ``--repeat`` repetitions, with min and max. The
 table is printed as markdown and written with the raw samples to a JSON file.
@@ -73,6 +76,8 @@ from armando_drake import MODELS_DIR
 from armando_drake.control.hardware import AddHardwareInterface, FinishHardwareInterface
 from armando_drake.control.sequencer import SEED_TARGETS
 from armando_drake.description.loader import load_robot
+from armando_drake.kinematics.inverse_kinematics import solve_ik
+from armando_drake.learning.network import IkModel, refine
 from armando_drake.outputs.plots import write_plots
 from armando_drake.outputs.replay import RecordingMeshcat, publish_replay, write_replay
 from armando_drake.sensors.camera import choose_renderer
@@ -97,6 +102,7 @@ SECTIONS = (
     "task",
     "sweep",
     "vision",
+    "learned_ik",
 )
 SCENARIOS = ("position", "trajectory", "sinusoid")
 # [rad] j0..j3: the seed targets (diagrams/position.yaml's), 3 s apart.
@@ -1195,6 +1201,54 @@ def bench_sweep(report: Report) -> None:
     )
 
 
+LEARNED_IK_NETWORK = MODELS_DIR / "learned_ik" / "armando_ik_network.onnx"
+LEARNED_IK_BUDGET = 0.2  # [ms] one pose through the network
+
+
+def bench_learned_ik(report: Report, poses: int) -> None:
+    """Milliseconds per pose of the learned IK (models/learned_ik/armando_ik_network.onnx,
+    ONNX Runtime on one thread), one pose at a time as a node answers targets: the
+    network alone, and with 3 Gauss-Newton steps on the plant; and Drake's
+    InverseKinematics on the same poses (a tenth of them)."""
+    model = IkModel(LEARNED_IK_NETWORK)
+    arm = model.make_arm()
+    rng = np.random.default_rng(0)
+    q = rng.uniform(
+        np.maximum(arm.lower, -2.5), np.minimum(arm.upper, 2.5), (poses, arm.num_joints)
+    )
+    targets = []
+    for row in q:
+        arm.set_state(row)
+        targets.append(arm.pose())
+    network, refined, drake = [], [], []
+    for _ in range(report.repeat):
+        start = time.perf_counter()
+        answers = [model.predict(X) for X in targets]
+        network.append((time.perf_counter() - start) / poses * 1e3)
+        start = time.perf_counter()
+        for answer, X in zip(answers, targets, strict=True):
+            refine(arm, answer, X, 3)
+        refined.append(network[-1] + (time.perf_counter() - start) / poses * 1e3)
+        count = max(1, poses // 10)
+        start = time.perf_counter()
+        for X in targets[:count]:
+            solve_ik(arm, X, orientation="constraint")
+        drake.append((time.perf_counter() - start) / count * 1e3)
+    report.add(
+        Row("learned_ik", "learned IK, network per pose", "ms", network).check(
+            "<=", LEARNED_IK_BUDGET
+        )
+    )
+    report.add(Row("learned_ik", "learned IK, network + 3 Gauss-Newton steps", "ms", refined))
+    report.add(Row("learned_ik", "Drake InverseKinematics per pose", "ms", drake))
+    report.notes.append(
+        f"Learned IK: {poses} random poses of Armando, one at a time through "
+        f"{LEARNED_IK_NETWORK.name} (ONNX Runtime, one thread); the refinement's steps run "
+        "on the plant in Python; Drake's IK (solve_ik, the whole pose as a constraint) on "
+        "a tenth of them."
+    )
+
+
 # --- the suite ----------------------------------------------------------------------
 
 
@@ -1210,11 +1264,12 @@ class Settings:
     memory_seconds: float  # [s] simulated in the memory soak
     task_seconds: float = 3.0  # [s] simulated per task-space run (the motion is 2.5 s)
     task_ticks: int = 2000  # controller updates timed
+    learned_ik_poses: int = 2000  # poses the learned IK answers, one at a time
 
     @staticmethod
     def of(quick: bool) -> Settings:
         if quick:
-            return Settings(1.0, 1, 1.0, 5, 0.5, 20.0, 0.5, 100)
+            return Settings(1.0, 1, 1.0, 5, 0.5, 20.0, 0.5, 100, 100)
         return Settings(10.0, 5, TARGET_PERIOD, 60, 5.0, 3600.0)
 
 
@@ -1240,6 +1295,7 @@ def run_suite(
         "task": lambda: bench_task(report, settings.task_seconds, settings.task_ticks),
         "sweep": lambda: bench_sweep(report),
         "vision": lambda: bench_vision(report, settings.camera_seconds),
+        "learned_ik": lambda: bench_learned_ik(report, settings.learned_ik_poses),
     }
     for section in sections:
         print(f"[bench] {section} ...", file=sys.stderr, flush=True)

@@ -49,6 +49,7 @@ from armando_drake.perception.config import PerceptionConfig
 from armando_drake.ros2.config import Ros2Config
 from armando_drake.sensors.config import CameraSettings
 from armando_drake.sensors.objects import SceneObject
+from armando_drake.task.learned_ik import LearnedIkConfig
 from armando_drake.teleop.config import JogConfig
 from armando_drake.tools.errors import ScenarioError
 from armando_drake.tools.files import FileInputError, check_yaml_expansion, read_yaml_file
@@ -116,6 +117,10 @@ class Scenario:
     # trajectory (as a CartesianTrajectory) or else a joint trajectory (planned by
     # closed-loop inverse kinematics, as a JointTrajectory); absent = none.
     task: TaskSpaceMotion | None = None
+    # Target poses of the end effector through a learned IK network (an ONNX file of
+    # python -m armando_drake.learn ik) to the first active position controller
+    # (armando_drake/task/learned_ik.py); absent = none.
+    learned_ik: LearnedIkConfig | None = None
     # Live jog from the Meshcat page: joint sliders, Cartesian jog buttons and keys,
     # a gamepad, home; publishing on a position controller's command topic
     # (armando_drake/teleop/config.py); absent = none.
@@ -182,9 +187,14 @@ class Scenario:
 
 def default_duration(scenario: Scenario) -> float:
     """[s] one pass of the command sequence; the task's motion and 0.5 s of holding
-    without one; 2 s without either."""
+    without one; the learned IK's targets, a period each, without either; else 2 s."""
     if scenario.sequencer is None:
-        return 2.0 if scenario.task is None else scenario.task.duration + 0.5
+        if scenario.task is not None:
+            return scenario.task.duration + 0.5
+        if scenario.learned_ik is not None:
+            learned = scenario.learned_ik
+            return learned.start_delay + max(1, len(learned.targets)) * learned.period
+        return 2.0
     return one_pass(scenario.sequencer)
 
 
@@ -467,8 +477,11 @@ def _anchored(value: str, scenario_file: Path) -> str:
 
 
 def _anchor_file_paths(scenario: Scenario, scenario_file: Path) -> None:
-    """The relative file paths of a scenario file (its controller YAML), see :func:`_anchored`."""
+    """The relative file paths of a scenario file (its controller YAML, the learned IK
+    network), see :func:`_anchored`."""
     scenario.controllers.config = _anchored(scenario.controllers.config, scenario_file)
+    if scenario.learned_ik is not None:
+        scenario.learned_ik.network = _anchored(scenario.learned_ik.network, scenario_file)
 
 
 def note_option(scenario, keys: Iterable[str], option: str) -> None:
