@@ -141,14 +141,9 @@ def learn_ik(data: IkData, output: Path, settings: TrainSettings, quiet: bool = 
     path = export(pipeline, features, metadata, output / NETWORK_FILE)
     model = IkModel(path)
     expected = pipeline.predict(data.features[np.ix_(test, columns)])
-    got = model.session.run(
-        None,
-        {
-            model.session.get_inputs()[0].name: data.features[np.ix_(test, columns)].astype(
-                np.float32
-            )
-        },
-    )[0]
+    inputs = {model.session.get_inputs()[0].name: data.features[np.ix_(test, columns)]}
+    got = model.session.run(None, {k: v.astype(np.float32) for k, v in inputs.items()})[0]
+    got = np.asarray(got).reshape(expected.shape)
     mismatch = float(np.max(np.abs(expected - got)))
     _log(f"ONNX Runtime answers scikit-learn's outputs within {mismatch:.1e}", quiet)
     if mismatch > 1e-3:
