@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from armando_drake import MODELS_DIR
 from armando_drake.learning.network import (
     ALL_FEATURES,
     IkModel,
@@ -96,6 +97,19 @@ def _check(settings: TrainSettings) -> None:
         raise SweepError(f"--min-dexterity {settings.min_dexterity} must be >= 0")
 
 
+def portable_robot(robot: dict) -> dict:
+    """The data set's robot with a description among the project's models/ as a
+    ``package://`` URL (found wherever the project is installed)."""
+    robot = dict(robot)
+    path = Path(robot["description"])
+    try:
+        relative = path.resolve().relative_to(MODELS_DIR.resolve())
+    except (ValueError, OSError):
+        return robot
+    robot["description"] = f"package://{relative.as_posix()}"
+    return robot
+
+
 def learn_ik(data: IkData, output: Path, settings: TrainSettings, quiet: bool = True):
     """Trains, exports and checks the network of ``data`` (see the module doc); the
     network file and the :class:`Evaluation`."""
@@ -126,14 +140,14 @@ def learn_ik(data: IkData, output: Path, settings: TrainSettings, quiet: bool = 
     _log(f"trained on {len(fit)} poses in {train_seconds:.1f} s", quiet)
     metadata = {
         "kind": "ik_network",
-        "robot": data.metadata["robot"],
+        "robot": portable_robot(data.metadata["robot"]),
         "frame": data.metadata["frame"],
         "base_link": data.metadata.get("base_link", ""),
         "joint_names": data.joint_names,
         "lower": data.metadata["lower"],
         "upper": data.metadata["upper"],
         "angular": [bool(a) for a in angular],
-        "dataset": {"file": str(data.path), "seed": data.metadata.get("seed")},
+        "dataset": {"file": data.path.name, "seed": data.metadata.get("seed")},
         "training": {**{k: v for k, v in vars(settings).items()}, "rows": len(fit)},
         "branch": {"rows": len(branch.rows), "min_dexterity_m": branch.threshold},
         "armando_drake": provenance(),

@@ -164,10 +164,10 @@ def AddLearnedIk(
     )
     poses = np.array(config.targets, dtype=float)
     times = [config.start_delay + k * config.period for k in range(len(poses))]
-    if len(poses) == 1:
-        trajectory = PiecewisePolynomial(poses[0].reshape(6, 1))
-    else:
-        trajectory = PiecewisePolynomial.ZeroOrderHold(times, poses.T)
+    # A zero-order hold keeps a sample until the next break: one more break after the
+    # last target keeps it (past the end, the last segment holds).
+    breaks = [*times, times[-1] + config.period]
+    trajectory = PiecewisePolynomial.ZeroOrderHold(breaks, np.vstack([poses, poses[-1:]]).T)
     source = builder.AddNamedSystem("learned_ik_targets", TrajectorySource(trajectory))
     builder.Connect(source.get_output_port(), network.GetInputPort("pose"))
     # The network's joints in the controller's order (the others held at their start).

@@ -14,7 +14,6 @@ from pydrake.math import RollPitchYaw
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource
-from test_input_errors import assert_one_line
 
 from armando_drake import MODELS_DIR
 from armando_drake.learning.network import IkModel, IkNetwork, pose_errors, refine
@@ -23,6 +22,16 @@ from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import load_scenario
 from armando_drake.sweeps import learn
 from armando_drake.tools.errors import ScenarioError
+
+
+def assert_one_line(err: str, *needles: str) -> None:
+    """``err`` is one ``error: ...`` line holding every needle, with no traceback."""
+    assert "Traceback" not in err, err
+    lines = [line for line in err.splitlines() if line.startswith("error:")]
+    assert len(lines) == 1, err
+    for needle in needles:
+        assert needle in lines[0], lines[0]
+
 
 SHIPPED = MODELS_DIR / "learned_ik" / "armando_ik_network.onnx"
 SMALL = ["--max-iter", "60", "--drake-poses", "3", "--workers", "1", "--quiet"]
