@@ -120,6 +120,8 @@ class RunResult:
         name = Path(self.scenario).name if self.scenario else "the scenario"
         if self.controller == "task":
             what = f"{name} with a task-space motion"
+        elif self.controller == "learned_ik":
+            what = f"{name} with target poses through the learned IK"
         elif self.controller == "jog" and self.driven:
             what = f"{name} jogged from the viewer"
         elif self.controller == "jog":
@@ -156,10 +158,12 @@ def write_scenario(scenario: Scenario, path: Path) -> None:
 
 
 def controller_mode(scenario: Scenario) -> str:
-    """position | trajectory | sinusoid | task | jog | none: what drives the arm."""
+    """position | trajectory | sinusoid | task | learned_ik | jog | none: what drives the arm."""
     if scenario.sequencer is None:
         if scenario.task is not None:
             return "task"
+        if scenario.learned_ik is not None:
+            return "learned_ik"
         return "none" if scenario.jog is None else "jog"
     return mode_of(scenario.sequencer)
 
