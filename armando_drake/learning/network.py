@@ -22,6 +22,7 @@ millimetres, two or three steps reach round-off.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from pathlib import Path
@@ -69,15 +70,30 @@ def encode_joints(q: np.ndarray, angular) -> np.ndarray:
 def decode_joints(outputs: np.ndarray, angular) -> np.ndarray:
     """Joint positions (N, n) [rad or m] from the network's outputs (:func:`encode_joints`)."""
     outputs = np.asarray(outputs, dtype=float)
-    columns, k = [], 0
-    for is_angle in angular:
+    angular = tuple(bool(a) for a in angular)
+    if all(angular):  # the usual arm: sine, cosine, sine, cosine, ...
+        return np.arctan2(outputs[:, 0::2], outputs[:, 1::2])
+    angles, sines, lengths, length_columns = _output_columns(angular)
+    q = np.empty((len(outputs), len(angular)))
+    q[:, angles] = np.arctan2(outputs[:, sines], outputs[:, sines + 1])
+    q[:, lengths] = outputs[:, length_columns]
+    return q
+
+
+@functools.lru_cache(maxsize=16)
+def _output_columns(angular: tuple[bool, ...]) -> tuple[np.ndarray, ...]:
+    """(angular joints, their sine columns, prismatic joints, their columns)."""
+    angles, sines, lengths, length_columns, k = [], [], [], [], 0
+    for joint, is_angle in enumerate(angular):
         if is_angle:
-            columns.append(np.arctan2(outputs[:, k], outputs[:, k + 1]))
+            angles.append(joint)
+            sines.append(k)
             k += 2
         else:
-            columns.append(outputs[:, k])
+            lengths.append(joint)
+            length_columns.append(k)
             k += 1
-    return np.column_stack(columns)
+    return tuple(np.array(v, dtype=int) for v in (angles, sines, lengths, length_columns))
 
 
 def angular_joints(arm: ArmModel) -> list[bool]:
@@ -132,8 +148,9 @@ class IkModel:
         self.joint_names = list(self.metadata["joint_names"])
         self.lower = np.array(self.metadata["lower"], dtype=float)
         self.upper = np.array(self.metadata["upper"], dtype=float)
-        self.angular = [bool(a) for a in self.metadata["angular"]]
+        self.angular = tuple(bool(a) for a in self.metadata["angular"])
         self._input = self.session.get_inputs()[0].name
+        self._output = [self.session.get_outputs()[0].name]
 
     @property
     def num_joints(self) -> int:
@@ -142,8 +159,8 @@ class IkModel:
     def predict_features(self, features: np.ndarray) -> np.ndarray:
         """(N, n) joint positions [rad or m] from (N, 12) :data:`ALL_FEATURES` rows."""
         rows = np.asarray(features, dtype=np.float32).reshape(-1, len(ALL_FEATURES))
-        outputs = self.session.run(None, {self._input: rows[:, self._columns]})[0]
-        q = decode_joints(np.asarray(outputs).reshape(len(rows), -1), self.angular)
+        outputs = self.session.run(self._output, {self._input: rows[:, self._columns]})[0]
+        q = decode_joints(outputs.reshape(len(rows), -1), self.angular)
         return np.clip(q, self.lower, self.upper)
 
     def predict(self, X_DE: RigidTransform) -> np.ndarray:

@@ -62,7 +62,7 @@ class TrainSettings:
     """How the network is trained and checked (``python -m armando_drake.learn ik``)."""
 
     hidden: tuple[int, ...] = (64, 64)  # neurons of each hidden layer
-    max_iter: int = 800  # L-BFGS iterations at most
+    max_iter: int = 1500  # L-BFGS iterations at most
     held_out: float = 0.1  # [-] share of the rows kept out of training, for the table
     seed: int = 0  # the split, the network's initial weights
     neighbours: int = 8  # poses each continuation step reaches from a labelled one

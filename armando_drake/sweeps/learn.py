@@ -63,6 +63,8 @@ from armando_drake.tools.cli import command_parser, package_folder, parse_xacro_
 from armando_drake.tools.version import provenance
 
 NETWORK_FILE = "ik_network.onnx"
+# [-] the least share of the data set's poses a branch must hold to be trained on alone
+MIN_BRANCH_SHARE = 0.05
 DATASET_FILE = "ik.parquet"
 
 
@@ -110,6 +112,18 @@ def portable_robot(robot: dict) -> dict:
     return robot
 
 
+def _check_onnx(pipeline, model: IkModel, features: np.ndarray, quiet: bool) -> None:
+    """ONNX Runtime's outputs for ``features`` are scikit-learn's (float32 round-off)."""
+    expected = pipeline.predict(features)
+    got = model.session.run(None, {model.session.get_inputs()[0].name: features.astype(np.float32)})
+    mismatch = float(np.max(np.abs(expected - np.asarray(got[0]).reshape(expected.shape))))
+    _log(f"ONNX Runtime answers scikit-learn's outputs within {mismatch:.1e}", quiet)
+    if mismatch > 1e-3:
+        raise LearnedIkError(
+            f"{model.path}: ONNX Runtime differs from scikit-learn by {mismatch:.3g}"
+        )
+
+
 def learn_ik(data: IkData, output: Path, settings: TrainSettings, quiet: bool = True):
     """Trains, exports and checks the network of ``data`` (see the module doc); the
     network file and the :class:`Evaluation`."""
@@ -122,7 +136,17 @@ def learn_ik(data: IkData, output: Path, settings: TrainSettings, quiet: bool = 
     angular = np.array(angular_joints(arm))[[arm.joint_names.index(n) for n in data.joint_names]]
     branch = label_branch(arm, data, np.arange(len(data.q)), angular, settings)
     _log(f"{len(branch.rows)} of {len(data.q)} poses on one IK branch", quiet)
-    rows = np.random.default_rng(settings.seed).permutation(branch.rows)
+    chosen = branch.rows
+    if len(chosen) < MIN_BRANCH_SHARE * len(data.q):
+        # Too few samples for this arm to link its poses (e.g. 7 joints): every row, and
+        # the network answers an average of the solutions for the refinement to finish.
+        chosen = np.arange(len(data.q))
+        _log(
+            f"under {MIN_BRANCH_SHARE:.0%} of the poses on one branch: training on all "
+            f"{len(chosen)} rows (the network alone is coarse; refine its answers)",
+            quiet,
+        )
+    rows = np.random.default_rng(settings.seed).permutation(chosen)
     held_out = max(1, round(settings.held_out * len(rows)))
     if len(rows) - held_out < 10:
         raise SweepError(
@@ -149,19 +173,16 @@ def learn_ik(data: IkData, output: Path, settings: TrainSettings, quiet: bool = 
         "angular": [bool(a) for a in angular],
         "dataset": {"file": data.path.name, "seed": data.metadata.get("seed")},
         "training": {**{k: v for k, v in vars(settings).items()}, "rows": len(fit)},
-        "branch": {"rows": len(branch.rows), "min_dexterity_m": branch.threshold},
+        "branch": {
+            "rows": len(branch.rows),
+            "min_dexterity_m": branch.threshold,
+            "all_rows": len(chosen) == len(data.q) and len(branch.rows) < len(data.q),
+        },
         "armando_drake": provenance(),
     }
     path = export(pipeline, features, metadata, output / NETWORK_FILE)
     model = IkModel(path)
-    expected = pipeline.predict(data.features[np.ix_(test, columns)])
-    inputs = {model.session.get_inputs()[0].name: data.features[np.ix_(test, columns)]}
-    got = model.session.run(None, {k: v.astype(np.float32) for k, v in inputs.items()})[0]
-    got = np.asarray(got).reshape(expected.shape)
-    mismatch = float(np.max(np.abs(expected - got)))
-    _log(f"ONNX Runtime answers scikit-learn's outputs within {mismatch:.1e}", quiet)
-    if mismatch > 1e-3:
-        raise LearnedIkError(f"{path}: ONNX Runtime differs from scikit-learn by {mismatch:.3g}")
+    _check_onnx(pipeline, model, data.features[np.ix_(test, columns)], quiet)
     evaluation = Evaluation(
         robot=data.metadata["robot"]["name"],
         frame=data.metadata["frame"],
@@ -170,6 +191,7 @@ def learn_ik(data: IkData, output: Path, settings: TrainSettings, quiet: bool = 
         rows={
             "in the data set": len(data.q),
             "on the branch": len(branch.rows),
+            "trained from": len(chosen),
             "trained on": len(fit),
             "held out": len(test),
         },
