@@ -4,7 +4,7 @@ Layers, bottom to top; a module may import from its own layer's packages and fro
 the layers below, never from a layer above::
 
     0  tools, messages, the package root        generic helpers, message layouts
-    1  description, kinematics                  robot files; task-space math
+    1  description, kinematics, learning        robot files; task-space math; learned IK
     2  control, sensors                         ros2_control; cameras, objects
     3  vision, perception, task, teleop         what reads sensors or drives control
     4  ros2, outputs                            live ROS 2; logs, bags, plots, views
@@ -30,6 +30,7 @@ LAYERS = {
     "": 0,  # armando_drake/__init__.py
     "description": 1,
     "kinematics": 1,
+    "learning": 1,
     "control": 2,
     "sensors": 2,
     "vision": 3,

@@ -20,7 +20,7 @@ import pytest
 import armando_drake
 
 REPO = Path(__file__).resolve().parents[1]
-COMMANDS = ("world", "display", "graph", "plots", "bench", "sweep", "dataset")
+COMMANDS = ("world", "display", "graph", "plots", "bench", "sweep", "dataset", "learn")
 # The source tree's folders the package resolves at run time, by their name in the wheel:
 # models/ and diagrams/ ship as armando_drake/models and armando_drake/diagrams.
 DATA_DIRS = [folder.relative_to(REPO) for folder in armando_drake.DATA_DIRS]

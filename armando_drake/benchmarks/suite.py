@@ -41,6 +41,9 @@ same machine load:
     of boxes and cylinders, in milliseconds.
 11. mobile: real-time factor of ``diagrams/fra2mo.yaml`` (fra2mo on its wheels, its
     DiffDrive plugin driven by a cmd_vel sequence, the base log on), target >= 2.
+12. learned IK: milliseconds per pose of the learned inverse kinematics network
+    (``models/learned_ik/armando_ik_network.onnx`` in ONNX Runtime), alone (budget
+    0.2 ms) and with 3 Gauss-Newton steps, and of Drake's InverseKinematics.
 
 Each figure is the median of ``--repeat`` repetitions, with min and max. The
 table is printed as markdown and written with the raw samples to a JSON file.
@@ -79,6 +82,8 @@ from armando_drake.control.sequencer import SEED_TARGETS
 from armando_drake.control.stack import ARMANDO_GAINS
 from armando_drake.description.lidar_sensors import LidarInfo
 from armando_drake.description.loader import load_robot
+from armando_drake.kinematics.inverse_kinematics import solve_ik
+from armando_drake.learning.network import IkModel, refine
 from armando_drake.outputs.plots import write_plots
 from armando_drake.outputs.replay import RecordingMeshcat, publish_replay, write_replay
 from armando_drake.sensors.camera import choose_renderer
@@ -106,6 +111,7 @@ SECTIONS = (
     "vision",
     "lidar",
     "mobile",
+    "learned_ik",
 )
 SCENARIOS = ("position", "trajectory", "sinusoid")
 # [rad] j0..j3: the seed targets (diagrams/position.yaml's), 3 s apart.
@@ -1299,6 +1305,56 @@ def bench_lidar(report: Report, scans: int) -> None:
     )
 
 
+# --- 12. learned IK -------------------------------------------------------------------
+
+LEARNED_IK_NETWORK = MODELS_DIR / "learned_ik" / "armando_ik_network.onnx"
+LEARNED_IK_BUDGET = 0.2  # [ms] one pose through the network
+
+
+def bench_learned_ik(report: Report, poses: int) -> None:
+    """Milliseconds per pose of the learned IK (models/learned_ik/armando_ik_network.onnx,
+    ONNX Runtime on one thread), one pose at a time as a node answers targets: the
+    network alone, and with 3 Gauss-Newton steps on the plant; and Drake's
+    InverseKinematics on the same poses (a tenth of them)."""
+    model = IkModel(LEARNED_IK_NETWORK)
+    arm = model.make_arm()
+    rng = np.random.default_rng(0)
+    q = rng.uniform(
+        np.maximum(arm.lower, -2.5), np.minimum(arm.upper, 2.5), (poses, arm.num_joints)
+    )
+    targets = []
+    for row in q:
+        arm.set_state(row)
+        targets.append(arm.pose())
+    network, refined, drake = [], [], []
+    for _ in range(report.repeat):
+        start = time.perf_counter()
+        answers = [model.predict(X) for X in targets]
+        network.append((time.perf_counter() - start) / poses * 1e3)
+        start = time.perf_counter()
+        for answer, X in zip(answers, targets, strict=True):
+            refine(arm, answer, X, 3)
+        refined.append(network[-1] + (time.perf_counter() - start) / poses * 1e3)
+        count = max(1, poses // 10)
+        start = time.perf_counter()
+        for X in targets[:count]:
+            solve_ik(arm, X, orientation="constraint")
+        drake.append((time.perf_counter() - start) / count * 1e3)
+    report.add(
+        Row("learned_ik", "learned IK, network per pose", "ms", network).check(
+            "<=", LEARNED_IK_BUDGET
+        )
+    )
+    report.add(Row("learned_ik", "learned IK, network + 3 Gauss-Newton steps", "ms", refined))
+    report.add(Row("learned_ik", "Drake InverseKinematics per pose", "ms", drake))
+    report.notes.append(
+        f"Learned IK: {poses} random poses of Armando, one at a time through "
+        f"{LEARNED_IK_NETWORK.name} (ONNX Runtime, one thread); the refinement's steps run "
+        "on the plant in Python; Drake's IK (solve_ik, the whole pose as a constraint) on "
+        "a tenth of them."
+    )
+
+
 # --- the suite ----------------------------------------------------------------------
 
 
@@ -1315,11 +1371,12 @@ class Settings:
     task_seconds: float = 3.0  # [s] simulated per task-space run (the motion is 2.5 s)
     task_ticks: int = 2000  # controller updates timed
     mobile_seconds: float = 11.14  # [s] simulated of fra2mo's sequence (all of it)
+    learned_ik_poses: int = 2000  # poses the learned IK answers, one at a time
 
     @staticmethod
     def of(quick: bool) -> Settings:
         if quick:
-            return Settings(1.0, 1, 1.0, 5, 0.5, 20.0, 0.5, 100, 1.0)
+            return Settings(1.0, 1, 1.0, 5, 0.5, 20.0, 0.5, 100, 1.0, 100)
         return Settings(10.0, 5, TARGET_PERIOD, 60, 5.0, 3600.0)
 
 
@@ -1347,6 +1404,7 @@ def run_suite(
         "vision": lambda: bench_vision(report, settings.camera_seconds),
         "lidar": lambda: bench_lidar(report, settings.camera_frames),
         "mobile": lambda: bench_mobile(report, settings.mobile_seconds),
+        "learned_ik": lambda: bench_learned_ik(report, settings.learned_ik_poses),
     }
     for section in sections:
         print(f"[bench] {section} ...", file=sys.stderr, flush=True)

@@ -19,6 +19,7 @@ class WorldTopics:
     sequencer: Any = None  # the command sequencer, if any
     sequencer_target: str = ""  # the controller it drives
     task: Any = None  # the TaskReference, if the scenario has a task
+    learned_ik: Any = None  # the LearnedIk, if the scenario has learned_ik
     jog: Any = None  # the MeshcatJog, if the scenario has a jog and a Meshcat
     perception: Any = None  # AddedPerception, if the scenario has a perception block
     detectors: Any = None  # AddedDetectors, if the scenario has a vision block

@@ -14,8 +14,9 @@ loop), then add what drives and watches them.
 Ports of the diagram, by name:
 
 - ``<controller>.<topic>`` (``commands``, ``joint_trajectory``, ...): command
-  inputs of the active controllers that no sequencer, task or live jog drives (a
-  :class:`~armando_drake.messages.types.Publication`; see :meth:`World.publish`);
+  inputs of the active controllers that no sequencer, task, learned IK or live jog
+  drives (a :class:`~armando_drake.messages.types.Publication`; see
+  :meth:`World.publish`);
 - ``<controller>.status``: each command controller's ControllerStatus;
 - ``joint_states``: the broadcaster's JointState;
 - ``desired_state``: [q_d; v_d] sent to the actuators, hardware joint order;
@@ -29,6 +30,7 @@ import os
 from pathlib import Path
 
 from pydrake.geometry import Meshcat
+from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import AddMultibodyPlant, ApplyMultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
 
@@ -62,6 +64,7 @@ from armando_drake.sensors.registry import AddSensors
 from armando_drake.simulation.scenario import Scenario, ScenarioError, sources_of
 from armando_drake.simulation.validation import check_against_world, check_scenario
 from armando_drake.simulation.world import World
+from armando_drake.task.learned_ik import AddLearnedIk
 from armando_drake.task.reference import AddTask
 from armando_drake.teleop.jog import AddJog
 from armando_drake.vision.detectors import AddDetectors
@@ -232,8 +235,8 @@ def _add_control(builder, scenario: Scenario, plant, scene_graph, robot, physics
 
 
 def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, commands_csv, closers):
-    """The scenario's command sequencer (its commands in ``commands_csv``), task and
-    live jog, on the controllers of ``topics.stack``."""
+    """The scenario's command sequencer (its commands in ``commands_csv``), task,
+    learned IK and live jog, on the controllers of ``topics.stack``."""
     stack = topics.stack
     if scenario.sequencer is not None:
 
@@ -256,6 +259,12 @@ def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, comm
     if scenario.task is not None:
         topics.task = AddTask(
             builder, scenario.task, stack, meshcat=meshcat, where=_origin(scenario, "task")
+        )
+    if scenario.learned_ik is not None:
+        base = RigidTransform(RollPitchYaw(scenario.robot.base_rpy), scenario.robot.base_xyz)
+        where = _origin(scenario, "learned_ik")
+        topics.learned_ik = AddLearnedIk(
+            builder, scenario.learned_ik, stack, base_pose=base, where=where
         )
     if scenario.jog is not None:
         where = _origin(scenario, "jog")

@@ -125,6 +125,8 @@ class RunResult:
         name = Path(self.scenario).name if self.scenario else "the scenario"
         if self.controller == "task":
             what = f"{name} with a task-space motion"
+        elif self.controller == "learned_ik":
+            what = f"{name} with target poses through the learned IK"
         elif self.controller == "jog" and self.driven:
             what = f"{name} jogged from the viewer"
         elif self.controller == "jog":
@@ -163,10 +165,13 @@ def write_scenario(scenario: Scenario, path: Path) -> None:
 
 
 def controller_mode(scenario: Scenario) -> str:
-    """position | trajectory | sinusoid | task | jog | twist | none: what drives the robot."""
+    """position | trajectory | sinusoid | task | learned_ik | jog | twist | none: what drives
+    the robot."""
     if scenario.sequencer is None:
         if scenario.task is not None:
             return "task"
+        if scenario.learned_ik is not None:
+            return "learned_ik"
         if scenario.twist is not None:
             return "twist"
         return "none" if scenario.jog is None else "jog"

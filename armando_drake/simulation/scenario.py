@@ -50,6 +50,7 @@ from armando_drake.perception.config import PerceptionConfig
 from armando_drake.ros2.config import Ros2Config
 from armando_drake.sensors.config import CameraSettings
 from armando_drake.sensors.objects import SceneObject
+from armando_drake.task.learned_ik import LearnedIkConfig
 from armando_drake.teleop.config import JogConfig
 from armando_drake.tools.errors import ScenarioError
 from armando_drake.tools.files import FileInputError, check_yaml_expansion, read_yaml_file
@@ -126,6 +127,10 @@ class Scenario:
     # trajectory (as a CartesianTrajectory) or else a joint trajectory (planned by
     # closed-loop inverse kinematics, as a JointTrajectory); absent = none.
     task: TaskSpaceMotion | None = None
+    # Target poses of the end effector through a learned IK network (an ONNX file of
+    # python -m armando_drake.learn ik) to the first active position controller
+    # (armando_drake/task/learned_ik.py); absent = none.
+    learned_ik: LearnedIkConfig | None = None
     # Live jog from the Meshcat page: joint sliders, Cartesian jog buttons and keys,
     # a gamepad, home; publishing on a position controller's command topic
     # (armando_drake/teleop/config.py); absent = none.
@@ -192,10 +197,14 @@ class Scenario:
 
 def default_duration(scenario: Scenario) -> float:
     """[s] one pass of the command sequence; the task's motion and 0.5 s of holding
-    without one; the twist sequence and 1 s of stopping without either; 2 s without any."""
+    without one; the learned IK's targets, a period each, without either; the twist
+    sequence and 1 s of stopping; 2 s without any."""
     if scenario.sequencer is None:
         if scenario.task is not None:
             return scenario.task.duration + 0.5
+        if scenario.learned_ik is not None:
+            learned = scenario.learned_ik
+            return learned.start_delay + max(1, len(learned.targets)) * learned.period
         return 2.0 if scenario.twist is None else scenario.twist.one_pass() + 1.0
     return one_pass(scenario.sequencer)
 
@@ -497,11 +506,13 @@ def _anchored(value: str, scenario_file: Path) -> str:
 
 
 def _anchor_file_paths(scenario: Scenario, scenario_file: Path) -> None:
-    """The relative file paths of a scenario file (its controller YAML files), see
-    :func:`_anchored`."""
+    """The relative file paths of a scenario file (its controller YAML files, the learned
+    IK network), see :func:`_anchored`."""
     scenario.controllers.config = [
         _anchored(value, scenario_file) for value in scenario.controllers.config
     ]
+    if scenario.learned_ik is not None:
+        scenario.learned_ik.network = _anchored(scenario.learned_ik.network, scenario_file)
 
 
 def note_option(scenario, keys: Iterable[str], option: str) -> None:

@@ -32,9 +32,10 @@ Parquet schema, one row per sample (angles [rad], lengths [m]):
   ``ik_orientation_error`` (float64, the angle of R_WE(q)^T R_WE(ik_q) [rad]).
 
 The file's metadata key ``armando_drake`` holds JSON: the robot's description
-and name, the frame, joint names and the limits drawn from, seed, sample
-count, the IK settings, Drake's version and armando-drake's (``armando_drake``:
-version, and git commit from a checkout).
+and name (with the xacro arguments and package folders it was read with), the
+frame, joint names and the limits drawn from, seed, sample count, the IK
+settings, Drake's version and armando-drake's (``armando_drake``: version, and
+git commit from a checkout).
 
 Examples:
   python -m armando_drake.dataset ik --samples 10000 --seed 1 --output out/ik.parquet
@@ -282,7 +283,12 @@ def make_shards(
     ]
     metadata = {
         "kind": "ik",
-        "robot": {"description": str(model.robot.source), "name": model.robot.name},
+        "robot": {
+            "description": str(model.robot.source),
+            "name": model.robot.name,
+            "xacro_args": dict(robot.xacro_args),
+            "package_paths": [str(Path(path).resolve()) for path in robot.package_paths],
+        },
         "frame": model.frame_name,
         "base_link": model.robot.base_link,
         "joint_names": model.joint_names,

@@ -18,6 +18,13 @@ EXTRAS = {
     "ros2": ("ros2", ("cyclonedds",), "Cyclone DDS (cyclonedds)"),  # --ros2
     "foxglove": ("ros2", ("foxglove",), "the Foxglove SDK (foxglove)"),  # --foxglove
     "cluster": ("cluster", ("ray",), "Ray (ray)"),  # sweeps on Ray
+    # python -m armando_drake.learn: training and export of the learned IK network
+    "learn": (
+        "learn",
+        ("sklearn", "skl2onnx", "onnxruntime"),
+        "scikit-learn, skl2onnx and ONNX Runtime",
+    ),
+    "learned_ik": ("learn", ("onnxruntime",), "ONNX Runtime (onnxruntime)"),  # running it
 }
 
 

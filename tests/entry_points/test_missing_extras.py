@@ -29,6 +29,7 @@ def block(monkeypatch, *names: str) -> None:
         ("cv2", ["--scenario", "vision_dynamic"], ["object 'marker'", "OpenCV (cv2)", "[vision]"]),
         ("sklearn", ["--scenario", "perception"], ["scikit-learn and SciPy", "[perception]"]),
         ("foxglove", ["--foxglove", "0"], ["--foxglove", "Foxglove SDK", "[ros2]"]),
+        ("onnxruntime", ["--scenario", "learned_ik"], ["learned_ik", "ONNX Runtime", "[learn]"]),
     ],
     ids=[
         "vision_blob",
@@ -37,6 +38,7 @@ def block(monkeypatch, *names: str) -> None:
         "vision_dynamic",
         "perception",
         "foxglove",
+        "learned_ik",
     ],
 )
 def test_a_missing_extra_is_one_line_naming_it(blocked, args, needles, monkeypatch, capsys):

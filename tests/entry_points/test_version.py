@@ -17,7 +17,7 @@ from armando_drake.outputs.recording import METADATA_NAME
 from armando_drake.tools import version
 
 REPO = Path(__file__).resolve().parents[2]
-COMMANDS = ("world", "display", "graph", "plots", "bench", "sweep", "dataset")
+COMMANDS = ("world", "display", "graph", "plots", "bench", "sweep", "dataset", "learn")
 GIT = ["git", "-c", "user.name=test", "-c", "user.email=test@invalid", "-c", "commit.gpgsign=false"]
 
 
