@@ -61,7 +61,12 @@ from armando_drake.sensors import lidar  # noqa: F401  (registers the lidar sens
 from armando_drake.sensors.cameras import AddCameras
 from armando_drake.sensors.objects import AddFloor, AddGround, AddSceneObjects, SceneObjectError
 from armando_drake.sensors.registry import AddSensors
-from armando_drake.simulation.scenario import Scenario, ScenarioError, sources_of
+from armando_drake.simulation.scenario import (
+    Scenario,
+    ScenarioError,
+    sources_of,
+    start_positions,
+)
 from armando_drake.simulation.validation import check_against_world, check_scenario
 from armando_drake.simulation.world import World
 from armando_drake.task.learned_ik import AddLearnedIk
@@ -190,9 +195,7 @@ def _add_physics(builder: DiagramBuilder, scenario: Scenario, where: str):
 def _add_control(builder, scenario: Scenario, plant, scene_graph, robot, physics) -> ControlStack:
     """The hardware interface (then the plant is final) and the controller manager running
     the activated controllers (and a mobile base's drive plugins) of the controller YAML."""
-    # The controller YAML before the actuators: a ROS 1 file's gazebo_ros_control gains
-    # are theirs; its update rate, which the scenario may override.
-    controller_config, mobile = physics
+    controller_config, mobile = physics  # the YAML: its gains, its rate (overridable)
     # The scenario's default controllers stand for the file's own (one line each).
     choice = choose_controllers(
         scenario.controllers.activate, controller_config, scenario.sequencer
@@ -216,7 +219,7 @@ def _add_control(builder, scenario: Scenario, plant, scene_graph, robot, physics
         actuators,
         controller_config,
         self_collision=scenario.robot.self_collision,
-        start_positions=_start_positions(scenario),
+        start_positions=start_positions(scenario),
     )
     activate = mobile.activation(scenario.controllers.activate)
     return AddControllerManager(
@@ -262,9 +265,12 @@ def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, comm
         )
     if scenario.learned_ik is not None:
         base = RigidTransform(RollPitchYaw(scenario.robot.base_rpy), scenario.robot.base_xyz)
-        where = _origin(scenario, "learned_ik")
         topics.learned_ik = AddLearnedIk(
-            builder, scenario.learned_ik, stack, base_pose=base, where=where
+            builder,
+            scenario.learned_ik,
+            stack,
+            base_pose=base,
+            where=_origin(scenario, "learned_ik"),
         )
     if scenario.jog is not None:
         where = _origin(scenario, "jog")
@@ -338,15 +344,3 @@ def _add_outputs(
             ground=scenario.ground and not scenario.world_file,
         )
     return replay_sampler, bridge
-
-
-def _start_positions(scenario: Scenario) -> list[tuple[list[float], str, str]]:
-    """The joints' start positions the task and the jog give, with their origins."""
-    starts = []
-    if scenario.task is not None and scenario.task.start_positions:
-        key = "task.start_positions"
-        starts.append((scenario.task.start_positions, _origin(scenario, key), key))
-    if scenario.jog is not None and scenario.jog.home_positions:
-        key = "jog.home_positions"
-        starts.append((scenario.jog.home_positions, _origin(scenario, key), key))
-    return starts

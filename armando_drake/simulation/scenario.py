@@ -537,3 +537,15 @@ def apply_scenario_arguments(scenario, args):
 def _shortened(text: str, limit: int = 200) -> str:
     """``text`` cut to ``limit`` characters for a message (an override may be huge)."""
     return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
+
+
+def start_positions(scenario: Scenario) -> list[tuple[list[float], str, str]]:
+    """The joints' start positions the task and the jog give, with their origins."""
+    starts = []
+    if scenario.task is not None and scenario.task.start_positions:
+        key = "task.start_positions"
+        starts.append((scenario.task.start_positions, f"{sources_of(scenario).of(key)}: ", key))
+    if scenario.jog is not None and scenario.jog.home_positions:
+        key = "jog.home_positions"
+        starts.append((scenario.jog.home_positions, f"{sources_of(scenario).of(key)}: ", key))
+    return starts
