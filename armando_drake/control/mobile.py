@@ -34,6 +34,7 @@ import logging
 import math
 from collections.abc import Sequence
 
+import numpy as np
 from pydrake.geometry import Cylinder, ProximityProperties, RoleAssign, SceneGraph, Sphere
 from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
 
@@ -89,8 +90,15 @@ class MobileBase:
     gains: dict[str, list[float]] = dataclasses.field(default_factory=dict)  # wheel servos
 
     def activation(self, activate: Sequence[str]) -> list[str]:
-        """``activate`` with the plugin drives that run added."""
-        return list(activate) + [name for name in self.plugins if name not in activate]
+        """``activate`` with the plugin drives that run added; with neither a plugin nor
+        one of the controller file's drives among them, the file's first drive too (as
+        its bring-up spawns it), said in one line."""
+        active = list(activate) + [name for name in self.plugins if name not in activate]
+        own = [name for name in self.drives if name not in self.plugins]
+        if own and not self.plugins and not set(own) & set(active):
+            _log.info("drive: the controller file's own %r takes cmd_vel", own[0])
+            active.append(own[0])
+        return active
 
 
 def _running(plugins: list[str], activate: Sequence[str], config: ControllerManagerConfig):
@@ -195,6 +203,30 @@ def _wheel_geometry(plant, scene_graph, robot: LoadedRobot, left, right):
     return separation, (sum(radii) / len(radii) if radii else None)
 
 
+def _wheel_sides(plant, robot: LoadedRobot, left, right) -> list[str]:
+    """What is mirrored in the wheels' placement, as sentences: "left" wheels on the
+    base's right (-y), or a wheel whose positive turn rolls it backwards (-x)."""
+    found = []
+    lateral = {}
+    for side, joints in (("left", left), ("right", right)):
+        ys = []
+        for name in joints:
+            joint = plant.GetJointByName(name, robot.model_instance)
+            if not hasattr(joint, "revolute_axis"):
+                return []
+            X_PJ = joint.frame_on_parent().GetFixedPoseInBodyFrame()
+            ys.append(X_PJ.translation()[1])
+            rolls = float(np.cross(X_PJ.rotation() @ joint.revolute_axis(), [0.0, 0.0, 1.0])[0])
+            if rolls < -1e-6:
+                found.append(f"a positive turn of {side} wheel {name!r} rolls it backwards")
+        lateral[side] = sum(ys) / max(1, len(ys))
+    if lateral["left"] < lateral["right"]:
+        found.append(
+            "its left wheels are on the base's right (-y): a commanded left turn turns right"
+        )
+    return found
+
+
 def _check_kinematics(plant, scene_graph, robot, name: str, left, right, separation, radius):
     """Warns where a drive's wheel separation or radius is not its wheels' geometry: the
     robot then drives (and its odometry errs) as it would in Gazebo."""
@@ -216,6 +248,10 @@ def _check_kinematics(plant, scene_graph, robot, name: str, left, right, separat
     for effect in effects:
         _log.warning(
             "%s: %s: %s, and its odometry errs as much (as in Gazebo)", robot.source, name, effect
+        )
+    for mirrored in _wheel_sides(plant, robot, left, right):
+        _log.warning(
+            "%s: %s: %s (as in Gazebo; its odometry does not see it)", robot.source, name, mirrored
         )
 
 

@@ -2,6 +2,8 @@
 a diff_drive_controller YAML) and a TurtleBot3-style one (Gazebo classic's
 gazebo_ros_diff_drive with ROS 1 tags). Both fixtures are our own (tests/mobile/fixtures)."""
 
+import shutil
+
 import numpy as np
 import pytest
 from mobile_world import CLASSIC_BOT, MINIBOT, run, scenario
@@ -163,3 +165,37 @@ def test_a_plugin_wheel_joint_that_does_not_exist_names_the_file_and_joint(tmp_p
     assert str(package / "urdf" / "classic_bot.urdf.xacro") in message
     assert "left wheel joint 'wheel_lef_joint' is not a joint of the robot" in message
     assert "(its moving joints: wheel_left_joint, wheel_right_joint)" in message
+
+
+def test_a_file_drive_not_activated_is_activated_as_its_bring_up_spawns_it(caplog):
+    """fra2mo's scenario on another robot: its activation list names only the broadcaster;
+    the controller file's own drive takes cmd_vel, said in one line."""
+    twist = "twist: {start_delay: 0.3, steps: [{linear: 0.3, angular: 0.0, duration: 1.0}]}"
+    overrides = ("controllers: {config: '', activate: [joint_state_broadcaster]}", twist)
+    with caplog.at_level("INFO", logger="armando_drake.world"):
+        result = run(minibot(*overrides), 1.3)
+    assert result.world.topics.twist_target == "minibot_base_controller"
+    lines = [r.getMessage() for r in caplog.records if r.getMessage().startswith("drive: ")]
+    assert lines == ["drive: the controller file's own 'minibot_base_controller' takes cmd_vel"]
+    assert abs(np.mean(result.between("linear", 1.0, 1.3)) - 0.3) < 0.01
+
+
+def test_left_wheels_on_the_right_are_warned_and_drive_as_placed(tmp_path, caplog):
+    """A description whose "left" wheel sits at -y (as ros2_control_demos' diffbot): a left
+    turn command turns it right, as Gazebo would, and one warning says why."""
+    package = tmp_path / "minibot_description"
+    shutil.copytree(MINIBOT, package)
+    xacro = package / "urdf" / "minibot.urdf.xacro"
+    source = xacro.read_text()
+    swapped = source.replace('side="left" y="${wheel_y}"', 'side="left" y="${-wheel_y}"')
+    swapped = swapped.replace('side="right" y="${-wheel_y}"', 'side="right" y="${wheel_y}"')
+    assert swapped.count("${-wheel_y}") == 1 and swapped != source
+    xacro.write_text(swapped)
+    mirrored = package
+    twist = "twist: {start_delay: 0.3, steps: [{linear: 0.0, angular: 0.5, duration: 1.0}]}"
+    with caplog.at_level("WARNING"):
+        result = run(minibot(f"robot: {{description: {mirrored}}}", twist), 1.3)
+    assert any(
+        "its left wheels are on the base's right (-y)" in r.getMessage() for r in caplog.records
+    )
+    assert np.mean(result.between("angular", 0.9, 1.3)) < -0.4  # turning right
