@@ -181,6 +181,17 @@ def test_camera_sees_every_point_within_the_field_of_view():
     assert vertical.max() == pytest.approx(-vertical.min(), rel=1e-6)
 
 
+@pytest.mark.parametrize("size", [0.3, 1.3, 5.0])  # Armando, the iiwa, a mobile robot's scene
+def test_the_framing_scales_with_the_scene(size):
+    """The same scene at any size is seen the same: camera and target scale with it."""
+    rng = np.random.default_rng(5)
+    points = rng.uniform([-0.5, -0.5, 0.0], [0.5, 0.5, 1.0], size=(100, 3))
+    camera, target = camera_pose_for(points, [0.45, -0.45, 0.23])
+    scaled = camera_pose_for(size * points, [0.45, -0.45, 0.23])
+    assert np.allclose(scaled[0], size * camera, rtol=1e-6)
+    assert np.allclose(scaled[1], size * target, rtol=1e-6)
+
+
 def test_replay_sampler_keeps_a_bounded_evenly_spaced_set_of_frames():
     builder = DiagramBuilder()
     source = builder.AddSystem(ConstantVectorSource([1.0, 2.0]))
