@@ -67,6 +67,18 @@ def chromium() -> str:
     return CHROMIUM
 
 
+@pytest.fixture(scope="module")
+def module_page():
+    """One page of Debian's headless Chromium for a whole test module (a browser takes
+    seconds to start)."""
+    from browser import browser_page
+
+    if not os.path.exists(CHROMIUM):
+        skip_or_fail("Debian's chromium is not installed (apt-get install chromium)")
+    with browser_page(CHROMIUM) as page:
+        yield page
+
+
 # A two-joint URDF without xacro or package: the robot the input tests mutate.
 MINI_URDF = """\
 <?xml version="1.0"?>

@@ -21,6 +21,7 @@ from pydrake.geometry import Meshcat
 from pydrake.visualization import ModelVisualizer
 
 from armando_drake import DIAGRAMS_DIR
+from armando_drake.description.framing import content_frames, frame_view, scene_points
 from armando_drake.description.loader import DescriptionError, LoadedRobot, load_robot
 
 # Meshcat paths of the two geometry layers that ApplyVisualizationConfig draws.
@@ -30,11 +31,17 @@ COLLISION_LAYER = "/drake/proximity"
 
 @dc.dataclass
 class ViewConfig:
-    """A saved view of the robot, like an ``.rviz`` file."""
+    """A saved view of the robot, like an ``.rviz`` file.
 
-    # Where the Meshcat camera sits, in world coordinates [m].
+    The camera looks from ``camera_position`` towards ``camera_target``: that direction
+    is kept, and the camera is moved along and across it until the robot (and the
+    objects) fill 90 % of the view's height
+    (:func:`~armando_drake.description.framing.frame_view`)."""
+
+    # A point on the camera's side of the robot, in world coordinates [m]: with
+    # camera_target, the direction the camera looks from.
     camera_position: list[float] = dc.field(default_factory=lambda: [0.45, -0.45, 0.35])
-    # The point the Meshcat camera looks at, in world coordinates [m].
+    # A point the camera looks towards, in world coordinates [m].
     camera_target: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.12])
     # Whether the visual geometry layer is shown.
     show_visual: bool = True
@@ -75,12 +82,12 @@ def check_positions(robot: LoadedRobot, position: Sequence[float]) -> np.ndarray
     return np.asarray(position, dtype=float)
 
 
-def apply_view(meshcat: Meshcat, view: ViewConfig) -> None:
-    """Points the Meshcat camera and shows or hides the geometry layers."""
-    meshcat.SetCameraPose(
-        camera_in_world=np.asarray(view.camera_position, dtype=float),
-        target_in_world=np.asarray(view.camera_target, dtype=float),
-    )
+def apply_view(meshcat: Meshcat, view: ViewConfig, points=None) -> None:
+    """Shows or hides the geometry layers; given ``points`` (n, 3) [m] of the robot,
+    frames them from the view's direction
+    (:func:`~armando_drake.description.framing.frame_view`)."""
+    if points is not None:
+        frame_view(meshcat, points, np.subtract(view.camera_position, view.camera_target))
     meshcat.SetProperty(VISUAL_LAYER, "visible", view.show_visual)
     meshcat.SetProperty(COLLISION_LAYER, "visible", view.show_collision)
 
@@ -112,8 +119,18 @@ def make_display(
     # default UDP multicast would join the machine's network interface.
     with _lcm_in_process():
         visualizer.Finalize()
-    apply_view(visualizer.meshcat(), view)
+    apply_view(visualizer.meshcat(), view, _robot_points(visualizer, robot))
     return visualizer, robot
+
+
+def _robot_points(visualizer: ModelVisualizer, robot: LoadedRobot) -> np.ndarray:
+    """(n, 3) points [m] of the robot's visual geometry at its initial pose in the
+    finalized ``visualizer`` (:func:`~armando_drake.description.framing.scene_points`).
+    ModelVisualizer keeps its diagram and context to itself (Drake 1.51): read there."""
+    diagram, context = visualizer._diagram, visualizer._context
+    scene_graph = diagram.scene_graph()
+    query = scene_graph.get_query_output_port().Eval(scene_graph.GetMyContextFromRoot(context))
+    return scene_points(query, content_frames(diagram.plant(), [robot.model_instance]))
 
 
 @contextlib.contextmanager

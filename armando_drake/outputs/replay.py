@@ -14,6 +14,12 @@ time scrubber; three.js interpolates between frames), and
 :func:`write_replay` saves the scene, its meshes and the animation with
 :meth:`Meshcat.StaticHtml` as one file that plays offline in any browser.
 
+During a run, Drake's geometry visualizers draw the scene once, at the start;
+on a live Meshcat a :class:`MovedPoses` then sends only the poses that moved
+(Drake's visualizers would resend every pose 64 times a second, more than a
+browser without a graphics card keeps up with: the page would fall ever
+further behind the run).
+
 A run with a live Meshcat replays into it (the browser keeps the animation
 after the run). A run without one (``--no-meshcat``) gets a
 :class:`RecordingMeshcat` just for the replay: it listens on an ephemeral
@@ -27,11 +33,14 @@ from __future__ import annotations
 
 import copy
 import logging
+import time
 from pathlib import Path
 
 import numpy as np
-from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer
+from pydrake.common.value import Value
+from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer, QueryObject, Role
 from pydrake.lcm import DrakeLcm
+from pydrake.math import RigidTransform
 from pydrake.systems.framework import LeafSystem
 from pydrake.systems.lcm import LcmInterfaceSystem
 from pydrake.visualization import ApplyVisualizationConfig
@@ -205,14 +214,120 @@ def write_replay(meshcat: Meshcat, path: str | Path) -> Path:
 
 
 def visualization_for(config, meshcat: Meshcat):
-    """``config`` (a ``VisualizationConfig``), for a :class:`RecordingMeshcat` with the
-    visualizers publishing once a simulated hour (the replay draws its frames after the
-    run); unchanged for any other Meshcat."""
-    if not getattr(meshcat, "recording_only", False):
-        return config
+    """``config`` (a ``VisualizationConfig``) for Drake's visualizers on ``meshcat``: the
+    geometry layers publish once a simulated hour (they draw the scene at the start, and
+    the replay's frames after the run); on a live Meshcat a :class:`MovedPoses` streams
+    what moves and the contact forces keep ``config``'s period (they are published by
+    :func:`contacts_only`), on a :class:`RecordingMeshcat` they are drawn no more often
+    than the layers."""
+    live = not getattr(meshcat, "recording_only", False)
     config = copy.copy(config)
     config.publish_period = RECORDING_ONLY_PUBLISH_PERIOD
+    config.publish_contacts = config.publish_contacts and not live
     return config
+
+
+def contacts_only(config):
+    """``config`` with only the contact forces published, at its own period: they
+    appear and vanish, which :class:`MovedPoses` does not stream."""
+    config = copy.copy(config)
+    config.publish_illustration = False
+    config.publish_proximity = False
+    config.publish_inertia = False
+    return config
+
+
+# Meshcat layers of Drake's visualization: (name, role, whether geometry that names no
+# layer in its ("meshcat", "accepting") property is drawn there).
+LAYERS = (
+    ("illustration", Role.kIllustration, True),
+    ("proximity", Role.kProximity, True),
+    ("inertia", Role.kIllustration, False),
+)
+LAYER_PREFIX = "/drake"  # Meshcat path of the layers (Drake's default prefix)
+POSE_TOLERANCE = 1e-6  # [m] (and [rad] about) a frame moved less is not sent again
+RATE_INTERVAL = 1.0  # [s] of wall-clock time between real-time rates sent to the page
+
+
+def layer_paths(inspector, config) -> dict:
+    """Meshcat paths of the moving frames of each layer ``config`` (a
+    ``VisualizationConfig``) publishes, as Drake's ``MeshcatVisualizer`` names them
+    (the layer's prefix, then the frame's name with ``::`` as ``/``): {frame id:
+    [path, ...]}. Frames fixed to the world are left out."""
+    published = {
+        "illustration": config.publish_illustration,
+        "proximity": config.publish_proximity,
+        "inertia": config.publish_inertia,
+    }
+    paths: dict = {}
+    world = inspector.world_frame_id()
+    for layer, role, unspecified in LAYERS:
+        if not published[layer]:
+            continue
+        frames = set()
+        for geometry in inspector.GetAllGeometryIds(role):
+            properties = inspector.GetProperties(geometry, role)
+            accepting = properties.GetPropertyOrDefault("meshcat", "accepting", "")
+            if accepting == layer or (not accepting and unspecified):
+                frames.add(inspector.GetFrameId(geometry))
+        for frame in frames - {world}:
+            name = inspector.GetName(frame).replace("::", "/")
+            paths.setdefault(frame, []).append(f"{LAYER_PREFIX}/{layer}/{name}")
+    return paths
+
+
+class MovedPoses(LeafSystem):
+    """Streams to a live Meshcat the poses of the frames that moved.
+
+    Drake's ``MeshcatVisualizer`` sends every frame's pose at each publish, moved or
+    not: about 40 messages 64 times a second for Armando's three layers, more than a
+    browser without a graphics card draws, so the page falls ever further behind the
+    run (it shows the start while the arm has long moved). This system sends, every
+    ``period``, only the poses that changed by more than :data:`POSE_TOLERANCE` since
+    they were last sent, at the paths Drake's visualizers drew them
+    (:func:`layer_paths`): a still robot costs the page nothing, a jog only the links
+    it moves. It also sends the real-time rate (the page's plot) once a second.
+
+    Input ports:
+      query: the SceneGraph's query object.
+    """
+
+    def __init__(self, *, meshcat: Meshcat, paths: dict, period: float):
+        super().__init__()
+        if not period > 0:
+            raise ValueError(f"period={period!r} must be positive [s]")
+        self._meshcat = meshcat
+        self._paths = dict(paths)
+        self._query_port = self.DeclareAbstractInputPort("query", Value[QueryObject]())
+        self.DeclareInitializationPublishEvent(self._Start)
+        self.DeclarePeriodicPublishEvent(period, 0.0, self._Send)
+        self._sent = {}  # frame id -> the pose last sent (X_WF)
+        self._rate_mark = None  # (wall-clock time, simulated time) of the last rate sent
+        self.messages = 0  # poses sent since the start
+
+    def _Start(self, context) -> None:
+        # Drake's visualizers draw every pose at the start (their initialization).
+        query = self._query_port.Eval(context)
+        # Copies: the query's poses are views of a cache the next step overwrites.
+        self._sent = {frame: RigidTransform(query.GetPoseInWorld(frame)) for frame in self._paths}
+        self._rate_mark = (time.monotonic(), context.get_time())
+        self.messages = 0
+
+    def _Send(self, context) -> None:
+        query = self._query_port.Eval(context)
+        for frame, paths in self._paths.items():
+            X_WF = RigidTransform(query.GetPoseInWorld(frame))
+            if X_WF.IsNearlyEqualTo(self._sent[frame], POSE_TOLERANCE):
+                continue
+            self._sent[frame] = X_WF
+            for path in paths:
+                self._meshcat.SetTransform(path, X_WF)
+            self.messages += len(paths)
+        now = time.monotonic()
+        wall, simulated = self._rate_mark
+        if now - wall >= RATE_INTERVAL:
+            self._meshcat.SetRealtimeRate((context.get_time() - simulated) / (now - wall))
+            self._rate_mark = (now, context.get_time())
 
 
 def AddVisualization(
@@ -220,9 +335,12 @@ def AddVisualization(
 ):
     """Drake's visualization of ``plant`` in ``meshcat`` (``config``: a
     ``VisualizationConfig``), the collision layer hidden; the camera framed on the
-    robots of ``robot_instances`` and (with ``ground``) the ground drawn to the scene's
-    size when the run starts. Returns the :class:`ReplaySampler` of the plant's state
-    at a bounded number of instants, for the replay after the run.
+    robots of ``robot_instances`` and the objects, and (with ``ground``) the ground drawn
+    to the scene's size when the run starts. Drake's geometry visualizers draw the scene
+    at the start (and the replay after the run); on a live Meshcat a
+    :class:`MovedPoses` streams what moves at ``config.publish_period``. Returns the
+    :class:`ReplaySampler` of the plant's state at a bounded number of instants, for the
+    replay after the run.
 
     Drake's visualization also publishes LCM messages (for Meldis); they go to an
     in-process bus, not to LCM's default UDP multicast group, which would join the
@@ -230,15 +348,21 @@ def AddVisualization(
     in_process = DrakeLcm("memq://")
     # The diagram owns the bus (its system keeps it alive as long as the diagram lives).
     builder.AddNamedSystem("lcm_in_process", LcmInterfaceSystem(in_process))
-    ApplyVisualizationConfig(
-        visualization_for(config, meshcat),
-        builder,
-        plant=plant,
-        scene_graph=scene_graph,
-        meshcat=meshcat,
-        lcm=in_process,
-    )
+    live = not getattr(meshcat, "recording_only", False)
+    parts = [visualization_for(config, meshcat)]
+    parts += [contacts_only(config)] if live and config.publish_contacts else []
+    for part in parts:
+        ApplyVisualizationConfig(
+            part, builder, plant=plant, scene_graph=scene_graph, meshcat=meshcat, lcm=in_process
+        )
     meshcat.SetProperty("/drake/proximity", "visible", False)
+    if live:
+        paths = layer_paths(scene_graph.model_inspector(), config)
+        poses = builder.AddNamedSystem(
+            "meshcat_moved_poses",
+            MovedPoses(meshcat=meshcat, paths=paths, period=config.publish_period),
+        )
+        builder.Connect(scene_graph.get_query_output_port(), poses.get_input_port())
     AddViewFramer(
         builder, plant, scene_graph, meshcat, robot_instances=robot_instances, ground=ground
     )

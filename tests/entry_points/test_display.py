@@ -101,7 +101,8 @@ def test_meshcat_page_shows_every_link_in_both_layers(chromium):
     from matplotlib import image
 
     pixels = image.imread(io.BytesIO(png), format="png")[..., :3]
-    middle = pixels[200:520, 440:840]
-    # The background is a grey gradient (r == g == b); the arm has coloured parts.
-    saturation = middle.max(axis=-1) - middle.min(axis=-1)
-    assert (saturation > 0.15).sum() > 500, "no coloured robot pixels in the middle of the view"
+    view = pixels[60:]  # below the page's real-time rate plot
+    # The background is a grey gradient (r == g == b); the arm has coloured parts (the
+    # red base, the blue gripper). test_framing.py measures where it is drawn.
+    saturation = view.max(axis=-1) - view.min(axis=-1)
+    assert (saturation > 0.15).sum() > 5000, "no coloured robot pixels in the view"

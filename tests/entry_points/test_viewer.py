@@ -6,6 +6,7 @@ import re
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,8 +14,8 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
+from armando_drake.description.framing import FIELD_OF_VIEW, camera_pose_for
 from armando_drake.outputs.replay import ReplaySampler
-from armando_drake.outputs.view import camera_pose_for
 from armando_drake.simulation.run import Progress
 
 HALF = 0.5  # the robot's image spans at least this share of the view's height or width
@@ -165,14 +166,30 @@ def test_camera_sees_every_point_within_the_field_of_view():
     up /= np.linalg.norm(up)
     right = np.cross(up, back)
     depth = (camera - points) @ back
-    vertical = np.abs((points - camera) @ up) / depth
-    horizontal = np.abs((points - camera) @ right) / depth
-    slope = np.tan(np.radians(75) / 2)
-    # Every point in the view (16:9 and 4:3 screens); the nearest such distance, so the
-    # extreme points reach 90 % of the half view (up-down or, at 3:2, left-right).
-    assert vertical.max() <= 0.9 * slope + 1e-9
-    assert horizontal.max() <= 1.5 * 0.9 * slope + 1e-9
-    assert max(vertical.max(), horizontal.max() / 1.5) == pytest.approx(0.9 * slope, rel=0.05)
+    vertical = ((points - camera) @ up) / depth
+    horizontal = ((points - camera) @ right) / depth
+    slope = 0.9 * np.tan(np.radians(FIELD_OF_VIEW) / 2)
+    # Every point within 90 % of the half view up-down and left-right (a square view:
+    # the height of any landscape view); from the nearest such camera, so the extreme
+    # points of one direction reach both edges, and they lie as far from each edge.
+    assert np.abs(vertical).max() <= slope + 1e-9
+    assert np.abs(horizontal).max() <= slope + 1e-9
+    binding = vertical if np.abs(vertical).max() > np.abs(horizontal).max() else horizontal
+    assert binding.max() == pytest.approx(slope, rel=1e-6)
+    assert binding.min() == pytest.approx(-slope, rel=1e-6)
+    assert horizontal.max() == pytest.approx(-horizontal.min(), rel=1e-6)
+    assert vertical.max() == pytest.approx(-vertical.min(), rel=1e-6)
+
+
+@pytest.mark.parametrize("size", [0.3, 1.3, 5.0])  # Armando, the iiwa, a mobile robot's scene
+def test_the_framing_scales_with_the_scene(size):
+    """The same scene at any size is seen the same: camera and target scale with it."""
+    rng = np.random.default_rng(5)
+    points = rng.uniform([-0.5, -0.5, 0.0], [0.5, 0.5, 1.0], size=(100, 3))
+    camera, target = camera_pose_for(points, [0.45, -0.45, 0.23])
+    scaled = camera_pose_for(size * points, [0.45, -0.45, 0.23])
+    assert np.allclose(scaled[0], size * camera, rtol=1e-6)
+    assert np.allclose(scaled[1], size * target, rtol=1e-6)
 
 
 def test_replay_sampler_keeps_a_bounded_evenly_spaced_set_of_frames():
@@ -260,3 +277,29 @@ def test_the_view_frames_the_arm_not_the_accessories_fixed_beside_it():
     left_out = sorted(names[f] for f in everything - framed)
     assert left_out == ["camera_link"], left_out
     assert {"base_link", "wrist"} <= {names[f] for f in framed}
+
+
+def test_a_live_page_gets_only_the_poses_that_moved():
+    """On a live Meshcat the poses stream only when they change: nothing while the arm
+    holds still, the moving links while it moves, at the paths Drake's visualizers drew."""
+    sys.path.insert(0, str(Path(__file__).parents[1] / "teleop"))
+    from jog_worlds import jog_world
+
+    run = jog_world()
+    try:
+        streamer = run.world.diagram.GetSubsystemByName("meshcat_moved_poses")
+        paths = [path for paths in streamer._paths.values() for path in paths]
+        assert "/drake/illustration/armando/crawer_base" in paths
+        assert "/drake/proximity/armando/crawer_base" in paths
+        assert any(path.startswith("/drake/inertia/") for path in paths)
+        assert all(run.meshcat.HasPath(path) for path in paths), paths
+        run.advance(1.0)
+        assert streamer.messages == 0  # the arm holds its home posture
+        run.meshcat.SetSliderValue("j1", 0.8)
+        run.advance(2.0)
+        moved = streamer.messages
+        assert moved > 0
+        run.advance(1.0)
+        assert streamer.messages == moved  # at rest again
+    finally:
+        run.close()
