@@ -42,13 +42,6 @@ def _parser() -> argparse.ArgumentParser:
         parser, default=str(DEFAULT_DESCRIPTION.relative_to(DIAGRAMS_DIR.parent))
     )
     parser.add_argument(
-        "--xacro-arg",
-        action="append",
-        default=[],
-        metavar="NAME:=VALUE",
-        help="a xacro:arg value, as on the xacro command line (repeatable)",
-    )
-    parser.add_argument(
         "--position",
         nargs="+",
         type=float,

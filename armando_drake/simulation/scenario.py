@@ -52,6 +52,7 @@ from armando_drake.sensors.config import CameraSettings
 from armando_drake.sensors.objects import SceneObject
 from armando_drake.task.learned_ik import LearnedIkConfig
 from armando_drake.teleop.config import JogConfig
+from armando_drake.tools.cli import parse_xacro_args
 from armando_drake.tools.errors import ScenarioError
 from armando_drake.tools.files import FileInputError, check_yaml_expansion, read_yaml_file
 from armando_drake.tools.schema import Refusal, param
@@ -524,13 +525,20 @@ def note_option(scenario, keys: Iterable[str], option: str) -> None:
 
 
 def apply_scenario_arguments(scenario, args):
-    """The scenario with ``--set``, ``--description`` and ``--package-path`` applied."""
+    """The scenario with ``--set``, ``--description``, ``--package-path`` and
+    ``--xacro-arg`` applied."""
 
     scenario = merge_overrides(scenario, args.set)
     if args.description is not None:
         scenario.robot.description = args.description
         note_option(scenario, ("robot.description",), "--description")
     scenario.robot.package_paths += args.package_path
+    if getattr(args, "xacro_arg", None):
+        scenario.robot.xacro_args = {
+            **scenario.robot.xacro_args,
+            **parse_xacro_args(args.xacro_arg),
+        }
+        note_option(scenario, ("robot.xacro_args",), "--xacro-arg")
     return scenario
 
 

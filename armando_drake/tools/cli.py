@@ -314,7 +314,7 @@ def keeps_serving(args) -> bool:
 
 
 def add_description_arguments(parser, default: str) -> None:
-    """``--description PATH`` and repeatable ``--package-path DIR``."""
+    """``--description PATH``, repeatable ``--package-path DIR`` and ``--xacro-arg``."""
     parser.add_argument(
         "--description",
         metavar="PATH",
@@ -328,6 +328,13 @@ def add_description_arguments(parser, default: str) -> None:
         default=[],
         metavar="DIR",
         help="a folder to search for ROS packages before ROS_PACKAGE_PATH (repeatable)",
+    )
+    parser.add_argument(
+        "--xacro-arg",
+        action="append",
+        default=[],
+        metavar="NAME:=VALUE",
+        help="a xacro:arg value, as on the xacro command line (repeatable)",
     )
 
 
