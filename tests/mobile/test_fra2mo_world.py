@@ -1,0 +1,49 @@
+"""fra2mo with its lidar in a world: the package's own arena (diagrams/fra2mo.yaml) and
+the course's race field; the scan sees the obstacles where the world puts them."""
+
+import math
+
+import numpy as np
+from mobile_world import run, scenario
+
+IDLE = "twist: null"
+
+
+def _scan(result):
+    """The latest LaserScan of fra2mo's lidar."""
+    port = result.world.topics.sensors["laser_frame"]["scan"]
+    context = port.get_system().GetMyContextFromRoot(result.simulator.get_context())
+    return port.Eval(context).message
+
+
+def _beam(scan, angle: float) -> float:
+    """[m] the range of the beam nearest ``angle`` [rad]."""
+    return float(scan.ranges[int(np.argmin(np.abs(scan.angles() - angle)))])
+
+
+def test_lidar_scans_the_arena():
+    """At rest at the origin: 640 beams over 359.8 deg at 10 Hz, the crate's face 1.45 m
+    ahead, the pillar's side 1.1 m to the left, the south wall 2.5 m to the right, each
+    within 1 cm (the lidar is over base_footprint)."""
+    result = run(scenario(IDLE), 0.45)
+    scan = _scan(result)
+    assert len(scan.ranges) == 640 and scan.frame_id == "laser_frame"
+    assert abs(math.degrees(scan.angle_max - scan.angle_min) - 359.8) < 0.1
+    assert (scan.range_min, scan.range_max, scan.scan_time) == (0.1, 10.0, 0.1)
+    assert abs(scan.stamp - 0.4) < 1e-9  # scans at 0, 0.1, ..., 0.4 s
+    assert abs(_beam(scan, 0.0) - 1.45) < 0.01, _beam(scan, 0.0)
+    assert abs(_beam(scan, math.pi / 2) - 1.1) < 0.01, _beam(scan, math.pi / 2)
+    assert abs(_beam(scan, -math.pi / 2) - 2.5) < 0.01, _beam(scan, -math.pi / 2)
+    # Inside closed walls every beam hits something within 10 m.
+    assert scan.hits() == 640
+
+
+def test_fra2mo_on_the_course_race_field(fra2mo_package):
+    """The course's leonardo_race_field.sdf as fra2mo's world: spawned as the course spawns
+    it (0.1 m up, on the field's floor), it rests there and its lidar sees the field."""
+    world_file = fra2mo_package / "worlds" / "leonardo_race_field.sdf"
+    result = run(scenario(IDLE, f"world_file: {world_file}"), 0.6)
+    z = result.between("z", 0.4, 0.6)
+    assert np.ptp(z) < 1e-3 and abs(np.mean(z) - 0.1) < 2e-3, np.mean(z)
+    scan = _scan(result)
+    assert len(scan.ranges) == 640 and scan.hits() > 100
