@@ -47,3 +47,25 @@ def test_fra2mo_on_the_course_race_field(fra2mo_package):
     assert np.ptp(z) < 1e-3 and abs(np.mean(z) - 0.1) < 2e-3, np.mean(z)
     scan = _scan(result)
     assert len(scan.ranges) == 640 and scan.hits() > 100
+
+
+# The crate crate_1 (0.3 m cube, 0.5 m high) at x = 1.6: its face toward the origin at x = 1.45.
+CRATE_FACE = 1.45  # [m]
+BODY_RADIUS = 0.11  # [m] fra2mo's body cylinder, about base_footprint
+
+
+def test_driven_into_a_crate_it_stops_against_it(tmp_path):
+    """fra2mo spawned 0.35 m short of the crate and driven at it at 0.2 m/s for 3 s (0.6 m):
+    it stops against the face (no tunnelling: its front never passes the face by more than
+    3 mm) and stays there; the summary counts one contact episode, with crate_1."""
+    spawn = "robot: {base_xyz: [1.0, 0.0, 0.1]}"
+    twist = "twist: {start_delay: 0.5, steps: [{linear: 0.2, angular: 0.0, duration: 3.0}]}"
+    result = run(scenario(spawn, twist), 3.6)
+    front = result.column("x") + BODY_RADIUS
+    assert front.max() < CRATE_FACE + 0.003, front.max() - CRATE_FACE
+    assert abs(front[-1] - CRATE_FACE) < 0.003, front[-1] - CRATE_FACE
+    assert abs(result.column("y")[-1]) < 0.01 and abs(result.column("yaw")[-1]) < 0.02
+    contacts = result.world.base_log.summary()["contacts"]
+    assert contacts["episodes"] == 1 and contacts["bodies"] == ["crate_1::link"], contacts
+    # It reaches the face 0.34 m after starting (0.5 s + 1.7 s at 0.2 m/s, plus the start).
+    assert 2.1 < contacts["first_contact_time"] < 2.5, contacts
