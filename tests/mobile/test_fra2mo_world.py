@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 from mobile_world import run, scenario
+from pydrake.systems.analysis import Simulator
 
 IDLE = "twist: null"
 
@@ -69,3 +70,20 @@ def test_driven_into_a_crate_it_stops_against_it(tmp_path):
     assert contacts["episodes"] == 1 and contacts["bodies"] == ["crate_1::link"], contacts
     # It reaches the face 0.34 m after starting (0.5 s + 1.7 s at 0.2 m/s, plus the start).
     assert 2.1 < contacts["first_contact_time"] < 2.5, contacts
+
+
+def test_scan_drawn_in_meshcat():
+    """With Meshcat on, the lidar's scan is drawn as points at /drake/lidar/laser_frame,
+    redrawn at each scan (10 Hz)."""
+    from pydrake.geometry import Meshcat
+
+    from armando_drake.simulation.builder import MakeWorld
+
+    meshcat = Meshcat()
+    world = MakeWorld(scenario(IDLE), meshcat=meshcat, quiet=True)
+    simulator = Simulator(world.diagram)
+    simulator.AdvanceTo(0.35)
+    view = world.diagram.GetSubsystemByName("scan_view_laser_frame")
+    assert view.drawn == 4  # the scans of 0, 0.1, 0.2, 0.3 s
+    assert meshcat.HasPath("/drake/lidar/laser_frame")
+    world.close(simulator.get_context())
