@@ -21,6 +21,7 @@ import functools
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from armando_drake.messages.scans import LaserScan
 from armando_drake.messages.types import (
     CartesianTrajectory,
     Float64MultiArray,
@@ -28,7 +29,10 @@ from armando_drake.messages.types import (
     JointTrajectory,
     JointTrajectoryPoint,
     MultiDOFCommand,
+    Odometry,
     SpeedScalingFactor,
+    Twist,
+    TwistStamped,
 )
 
 # The ROS 2 message definitions, without comments or constants, by type name (pkg/Type).
@@ -124,6 +128,18 @@ DEFINITIONS = {
     "visualization_msgs/MarkerArray": "visualization_msgs/Marker[] markers\n",
     # The ArUco detector's marker pose, /aruco_single/pose as aruco_ros.
     "geometry_msgs/PoseStamped": "std_msgs/Header header\ngeometry_msgs/Pose pose\n",
+    "geometry_msgs/TwistStamped": "std_msgs/Header header\ngeometry_msgs/Twist twist\n",
+    "geometry_msgs/PoseWithCovariance": "geometry_msgs/Pose pose\nfloat64[36] covariance\n",
+    "geometry_msgs/TwistWithCovariance": "geometry_msgs/Twist twist\nfloat64[36] covariance\n",
+    "nav_msgs/Odometry": (
+        "std_msgs/Header header\nstring child_frame_id\n"
+        "geometry_msgs/PoseWithCovariance pose\ngeometry_msgs/TwistWithCovariance twist\n"
+    ),
+    "sensor_msgs/LaserScan": (
+        "std_msgs/Header header\nfloat32 angle_min\nfloat32 angle_max\n"
+        "float32 angle_increment\nfloat32 time_increment\nfloat32 scan_time\n"
+        "float32 range_min\nfloat32 range_max\nfloat32[] ranges\nfloat32[] intensities\n"
+    ),
 }
 _SEPARATOR = "=" * 80 + "\n"
 
@@ -369,3 +385,91 @@ def image_message(stamp: float, frame_id: str, rgb) -> dict[str, Any]:
         "step": 3 * int(width),
         "data": rgb.tobytes(),
     }
+
+
+def _covariance(diagonal: Sequence[float]) -> list[float]:
+    """The 6 x 6 covariance (row-major) of its diagonal."""
+    matrix = [0.0] * 36
+    for k, value in enumerate(tuple(diagonal)[:6]):
+        matrix[7 * k] = float(value)
+    return matrix
+
+
+def odometry_message(message: Odometry) -> dict[str, Any]:
+    """nav_msgs/Odometry of ours."""
+    w, x, y, z = (float(v) for v in message.orientation)
+    return {
+        "header": header(message.stamp, message.frame_id),
+        "child_frame_id": message.child_frame_id,
+        "pose": {
+            "pose": {
+                "position": _vector3(message.position),
+                "orientation": {"x": x, "y": y, "z": z, "w": w},
+            },
+            "covariance": _covariance(message.pose_covariance),
+        },
+        "twist": {
+            "twist": {"linear": _vector3(message.linear), "angular": _vector3(message.angular)},
+            "covariance": _covariance(message.twist_covariance),
+        },
+    }
+
+
+def odometry_transform(message: Odometry) -> dict[str, Any]:
+    """geometry_msgs/TransformStamped ``frame_id -> child_frame_id`` of an odometry, as a
+    drive's odometry broadcasts it on /tf."""
+    w, x, y, z = (float(v) for v in message.orientation)
+    return {
+        "header": header(message.stamp, message.frame_id),
+        "child_frame_id": message.child_frame_id,
+        "transform": {
+            "translation": _vector3(message.position),
+            "rotation": {"x": x, "y": y, "z": z, "w": w},
+        },
+    }
+
+
+def laser_scan_message(message: LaserScan) -> dict[str, Any]:
+    """sensor_msgs/LaserScan of ours (ranges as float32; inf and -inf kept)."""
+    return {
+        "header": header(message.stamp, message.frame_id),
+        "angle_min": float(message.angle_min),
+        "angle_max": float(message.angle_max),
+        "angle_increment": float(message.angle_increment),
+        "time_increment": float(message.time_increment),
+        "scan_time": float(message.scan_time),
+        "range_min": float(message.range_min),
+        "range_max": float(message.range_max),
+        "ranges": [float(r) for r in message.ranges],
+        "intensities": [float(i) for i in message.intensities],
+    }
+
+
+def twist_message(message: TwistStamped | Twist) -> dict[str, Any]:
+    """geometry_msgs/Twist of ours (the twist of a TwistStamped)."""
+    twist = message.twist if isinstance(message, TwistStamped) else message
+    return {"linear": _vector3(twist.linear), "angular": _vector3(twist.angular)}
+
+
+def twist_stamped_of(message: Any, stamp: float = 0.0) -> TwistStamped:
+    """Ours of a received geometry_msgs/Twist or TwistStamped (dictionary or DDS message);
+    a Twist gets ``stamp`` (0: "now", as the drives take it)."""
+    inner = _get(message, "twist") if _has(message, "twist") else message
+    frame_id, time = "", stamp
+    if _has(message, "header"):
+        head = _get(message, "header")
+        frame_id, time = str(_get(head, "frame_id")), seconds(_get(head, "stamp"))
+
+    def vector(name: str) -> tuple[float, float, float]:
+        v = _get(inner, name)
+        return (float(_get(v, "x")), float(_get(v, "y")), float(_get(v, "z")))
+
+    return TwistStamped(
+        stamp=time,
+        frame_id=frame_id,
+        twist=Twist(linear=vector("linear"), angular=vector("angular")),
+    )
+
+
+def _has(message: Any, name: str) -> bool:
+    return name in message if isinstance(message, Mapping) else hasattr(message, name)

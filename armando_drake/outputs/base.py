@@ -10,7 +10,8 @@ and the two compare directly: where the wheels slip, the odometry drifts.
 With an output folder the samples are written to ``base.csv``; :meth:`BaseLogger.summary`
 is ``summary.json``'s ``base`` section: distance travelled, final pose (world and
 odometry), odometry drift (final and largest position error [m], final heading error
-[rad]). :func:`write_base_plots` draws ``base_path.png`` (x-y path, ground truth and
+[rad]) and the contacts with obstacles (see :class:`ObstacleContacts`).
+:func:`write_base_plots` draws ``base_path.png`` (x-y path, ground truth and
 odometry) and ``base_velocity.png`` (commanded, measured and odometry twist).
 """
 
@@ -23,6 +24,8 @@ from typing import Any
 
 import numpy as np
 from pydrake.common.value import AbstractValue
+from pydrake.multibody.plant import ContactResults
+from pydrake.multibody.tree import BodyIndex
 from pydrake.systems.framework import EventStatus, LeafSystem
 
 from armando_drake.control.manager import planar_base
@@ -39,6 +42,86 @@ COLUMNS = (
     "cmd_linear", "cmd_angular",  # the commanded twist (NaN without a twist sequence)
     "axle_drift",  # [m] the odometry's error at the wheel axle's midpoint (see BaseLogger)
 )  # fmt: skip
+
+
+# A contact whose normal is within this of vertical (|n_z| above it) holds the robot up
+# (the floor, a ramp): not an obstacle.
+SUPPORT_NORMAL_Z = 0.7
+
+
+class ObstacleContacts:
+    """The robot's contacts with obstacles, from the plant's contact results.
+
+    An obstacle contact is one between a body of the robot and a body of another model
+    whose normal is more horizontal than :data:`SUPPORT_NORMAL_Z` (the floor under the
+    wheels is not one). An episode is an obstacle body starting to be touched (sampled
+    at the logger's rate): driving into a crate and resting against it is one episode.
+    """
+
+    def __init__(self, plant, robot_instance):
+        self._plant, self._robot = plant, robot_instance
+        self._geometry_body = {
+            geometry: body
+            for index in range(plant.num_bodies())
+            for body in [plant.get_body(BodyIndex(index))]
+            for geometry in plant.GetCollisionGeometriesForBody(body)
+        }
+        self.episodes = 0
+        self.bodies: list[str] = []  # scoped names (model::body), in the order first touched
+        self.time_in_contact = 0.0  # [s]
+        self.first_time: float | None = None  # [s] of the first contact
+        self._touching: set[str] = set()
+
+    def _name(self, body) -> str | None:
+        """The scoped name of an obstacle body (None for one of the robot's)."""
+        if body.model_instance() == self._robot:
+            return None
+        return f"{self._plant.GetModelInstanceName(body.model_instance())}::{body.name()}"
+
+    def _pairs(self, results: ContactResults):
+        """(body, body, unit normal or force direction) of every contact."""
+        plant = self._plant
+        for k in range(results.num_point_pair_contacts()):
+            info = results.point_pair_contact_info(k)
+            yield (
+                plant.get_body(info.bodyA_index()),
+                plant.get_body(info.bodyB_index()),
+                (info.point_pair().nhat_BA_W),
+            )
+        for k in range(results.num_hydroelastic_contacts()):
+            info = results.hydroelastic_contact_info(k)
+            surface = info.contact_surface()
+            body_m = self._geometry_body.get(surface.id_M())
+            body_n = self._geometry_body.get(surface.id_N())
+            if body_m is not None and body_n is not None:
+                yield body_m, body_n, info.F_Ac_W().translational()
+
+    def sample(self, results: ContactResults, time: float, period: float) -> None:
+        touching = set()
+        for body_a, body_b, direction in self._pairs(results):
+            names = (self._name(body_a), self._name(body_b))
+            if (names[0] is None) == (names[1] is None):
+                continue  # the robot's own, or between two other bodies
+            norm = float(np.linalg.norm(direction))
+            if norm > 0 and abs(direction[2]) / norm > SUPPORT_NORMAL_Z:
+                continue  # what holds it up
+            touching.add(names[0] or names[1])
+        for name in sorted(touching - self._touching):
+            self.episodes += 1
+            if name not in self.bodies:
+                self.bodies.append(name)
+        if touching:
+            self.time_in_contact += period
+            self.first_time = time if self.first_time is None else self.first_time
+        self._touching = touching
+
+    def summary(self) -> dict[str, Any]:
+        return {
+            "episodes": self.episodes,
+            "bodies": list(self.bodies),
+            "time_in_contact": self.time_in_contact,
+            "first_contact_time": self.first_time,
+        }
 
 
 def wrap(angle: float) -> float:
@@ -60,7 +143,9 @@ class BaseLogger(LeafSystem):
     - ``state``: the robot's model-instance state [q; v]; ``base_rows`` are its floating
       base's 7 position and 6 velocity rows;
     - ``odom``: the drive's Odometry;
-    - ``command``: (linear [m/s], angular [rad/s]) commanded (optional).
+    - ``command``: (linear [m/s], angular [rad/s]) commanded (optional);
+    - ``contact_results``: the plant's ContactResults (optional): with ``contacts``, its
+      contacts with obstacles are counted (:class:`ObstacleContacts`).
 
     A drive's odometry integrates the motion of the midpoint of its wheel axle; where the
     base frame is not there (fra2mo's base_footprint is 4 cm behind its wheels) the
@@ -70,15 +155,27 @@ class BaseLogger(LeafSystem):
     """
 
     def __init__(
-        self, *, state_size: int, base_rows, rate: float, drive: str = "", axle=(0.0, 0.0)
+        self,
+        *,
+        state_size: int,
+        base_rows,
+        rate: float,
+        drive: str = "",
+        axle=(0.0, 0.0),
+        contacts: ObstacleContacts | None = None,
     ):
         super().__init__()
         self.drive = drive
+        self.contacts = contacts
+        self._period = 1.0 / rate
         self.axle = (float(axle[0]), float(axle[1]))
         self._q_rows, self._v_rows = (np.asarray(rows, dtype=int) for rows in base_rows)
         self._state = self.DeclareVectorInputPort("state", state_size)
         self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
         self._command = self.DeclareVectorInputPort("command", 2)
+        self._contact_results = self.DeclareAbstractInputPort(
+            "contact_results", AbstractValue.Make(ContactResults())
+        )
         self.rows: list[tuple[float, ...]] = []
         self._recent: list[tuple[float, tuple]] = []  # (time, ground truth) of the last ticks
         self._origin: tuple[float, float, float] | None = None
@@ -104,6 +201,8 @@ class BaseLogger(LeafSystem):
         truth = (px, py, float(q[6]), yaw, c * dx + s * dy, -s * dx + c * dy, wrap(yaw - yaw0),
                  linear, angular, float(command[0]), float(command[1]))  # fmt: skip
         self._recent = [*self._recent[-7:], (time, truth)]
+        if self.contacts is not None and self._contact_results.HasValue(context):
+            self.contacts.sample(self._contact_results.Eval(context), time, self._period)
         odom = self._odom.Eval(context) if self._odom.HasValue(context) else Odometry()
         if self.rows and odom.stamp <= self.rows[-1][0] + 1e-9:
             return EventStatus.DidNothing()
@@ -139,7 +238,10 @@ class BaseLogger(LeafSystem):
 
     def summary(self) -> dict[str, Any] | None:
         """``summary.json``'s ``base`` section (None before any sample)."""
-        return base_summary(self.array(), self.drive)
+        summary = base_summary(self.array(), self.drive)
+        if summary is not None and self.contacts is not None:
+            summary["contacts"] = self.contacts.summary()
+        return summary
 
 
 def base_summary(rows: np.ndarray, drive: str = "") -> dict[str, Any] | None:
@@ -197,11 +299,13 @@ def AddBaseLogger(builder, stack, base, *, command=None) -> BaseLogger | None:
             rate=rate,
             drive=drive,
             axle=axle,
+            contacts=ObstacleContacts(stack.plant, stack.robot.model_instance),
         )
     )
     logger.set_name("base_logger")
     plant, instance = stack.plant, stack.robot.model_instance
     builder.Connect(plant.get_state_output_port(instance), logger.GetInputPort("state"))
+    builder.Connect(plant.get_contact_results_output_port(), logger.GetInputPort("contact_results"))
     builder.Connect(stack.manager.GetOutputPort(f"{drive}.odom"), logger.GetInputPort("odom"))
     if command is not None:
         builder.Connect(command, logger.GetInputPort("command"))

@@ -16,6 +16,9 @@ topic                                message type
 ``/camera/camera_info``              ``sensor_msgs/msg/CameraInfo``
 ``/camera/points`` (perception on)   ``sensor_msgs/msg/PointCloud2``
 ``/perception/clusters``             ``visualization_msgs/msg/MarkerArray``
+``/odom``, ``/tf`` (mobile base)     ``nav_msgs/msg/Odometry``, ``tf2_msgs/msg/TFMessage``
+``/cmd_vel`` (twist sequence)        ``geometry_msgs/msg/Twist``
+``/scan`` (a lidar's topic)          ``sensor_msgs/msg/LaserScan``
 ==================================== ====================================
 
 Times are simulation time: each message's log time and header stamp are the
@@ -57,6 +60,7 @@ from armando_drake.messages.definitions import (  # the message definitions, sha
     ros_time,
 )
 from armando_drake.messages.types import JointState, PublicationValue
+from armando_drake.outputs.mobile_topics import AddMobileTopics
 from armando_drake.outputs.topics import WorldTopics
 from armando_drake.outputs.vision_recording import AddVisionRecorder
 from armando_drake.perception.pipeline import NO_RESULT
@@ -383,6 +387,8 @@ def AddRosbagRecorder(builder, path: str | os.PathLike, topics: WorldTopics) -> 
         AddPerceptionRecorder(builder, topics, recorder)
     if topics.detectors is not None:  # detections
         AddVisionRecorder(builder, topics, recorder)
+    # A mobile base's odometry, /tf, cmd_vel and its lidars' scans.
+    AddMobileTopics(builder, topics, recorder.write, name="mobile_recorder")
     return recorder
 
 

@@ -19,7 +19,16 @@ topic                                       type                                
 ``/<controller>/joint_trajectory`` (in)     ``trajectory_msgs/msg/JointTrajectory``  default
 ``/<controller>/speed_scaling_input`` (in)  ``control_msgs/msg/SpeedScalingFactor``  default
 ``/<controller>/reference`` (in)            ``control_msgs/msg/MultiDOFCommand``     default
+``/odom`` (a mobile base)                   ``nav_msgs/msg/Odometry``                default
+``/scan`` (a lidar's topic)                 ``sensor_msgs/msg/LaserScan``            default
+``/cmd_vel`` (in; a drive's topic)          ``geometry_msgs/msg/Twist`` (plugin)     default
 =========================================== ======================================== ===========
+
+A floating base with a drive has ``odom -> base_footprint`` on ``/tf`` from its wheel
+odometry (not ``world -> base``), as the course's odometry TF node broadcasts it; the
+twist sequence's ``/cmd_vel`` is published when it drives the base, else ``/cmd_vel`` is
+subscribed (``geometry_msgs/msg/Twist`` for a Gazebo plugin, ``TwistStamped`` on
+``/<controller>/cmd_vel`` for a diff_drive_controller).
 
 (QoS as in :data:`armando_drake.ros2.dds.QOS`; every name but ``/tf``,
 ``/tf_static`` and ``/clock`` in the scenario's namespace.) The topics go to
@@ -64,8 +73,10 @@ from armando_drake.messages.definitions import (
     speed_scaling_factor_of,
     string_message,
     transform_stamped,
+    twist_stamped_of,
 )
 from armando_drake.messages.types import JointState, Publication
+from armando_drake.outputs.mobile_topics import AddMobileTopics
 from armando_drake.outputs.recording import camera_stream
 from armando_drake.outputs.topics import WorldTopics
 from armando_drake.ros2.dds import DdsNode, Ros2Error, reachability
@@ -82,6 +93,7 @@ COMMAND_TYPES: dict[str, tuple[str, Callable[[dict], Any]]] = {
     "joint_trajectory": ("trajectory_msgs/msg/JointTrajectory", joint_trajectory_of),
     "speed_scaling_input": ("control_msgs/msg/SpeedScalingFactor", speed_scaling_factor_of),
     "reference": ("control_msgs/msg/MultiDOFCommand", multi_dof_command_of),
+    "cmd_vel": ("geometry_msgs/msg/TwistStamped", twist_stamped_of),
 }
 # The topics the bridge publishes: ROS type and QoS profile.
 TOPICS = {
@@ -100,11 +112,13 @@ class CommandTopic:
 
     controller: str  # the controller's name, e.g. "position_controller"
     suffix: str  # its port suffix and topic leaf: "commands" or "joint_trajectory"
+    ros_topic: str = ""  # the topic when not <controller>/<suffix> (a drive plugin's /cmd_vel)
+    ros_type: str = ""  # the type when not COMMAND_TYPES' (a plugin's geometry_msgs/Twist)
 
     @property
     def topic(self) -> str:
         """The ROS 2 topic, relative to the namespace: ``<controller>/<suffix>``."""
-        return f"{self.controller}/{self.suffix}"
+        return self.ros_topic or f"{self.controller}/{self.suffix}"
 
     @property
     def port(self) -> str:
@@ -112,7 +126,7 @@ class CommandTopic:
 
     @property
     def type_name(self) -> str:
-        return COMMAND_TYPES[self.suffix][0]
+        return self.ros_type or COMMAND_TYPES[self.suffix][0]
 
 
 @dataclass(frozen=True)
@@ -313,6 +327,7 @@ class Ros2Bridge(LeafSystem):
         cameras: Sequence[Any] = (),
         clock_rate: float = 0.0,
         joint_states_topic: str = "joint_states",
+        exclude_children: Sequence[str] = (),
     ):
         super().__init__()
         if not (math.isfinite(update_rate) and update_rate > 0):
@@ -324,6 +339,8 @@ class Ros2Bridge(LeafSystem):
         self._sinks = list(sinks)
         self._urdf = urdf
         self._moving, self._fixed = robot_links(plant, model_instance)
+        # Links whose pose another broadcaster gives (the odometry's base frame).
+        self._moving = [link for link in self._moving if link.child_frame not in exclude_children]
         self._last_stamp: float | None = None
         self._commands = tuple(commands)
         self._queue: queue.SimpleQueue = queue.SimpleQueue()
@@ -442,6 +459,10 @@ class Ros2Bridge(LeafSystem):
         return EventStatus.Succeeded()
 
     # -- publishing ---------------------------------------------------------------------------
+    def publish(self, topic: str, type_name: str, message: dict, stamp: float) -> None:
+        """Sends one message to every sink (for the mobile base's topics)."""
+        self._Publish(topic, type_name, message, stamp)
+
     def _Publish(self, topic: str, type_name: str, message: dict, stamp: float) -> None:
         for sink in self._sinks:
             sink.publish(topic, type_name, message, stamp)
@@ -530,6 +551,7 @@ def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
     commands = _free_commands(builder, topics, subscribe=node is not None)
     cameras = [camera_stream(name, camera) for name, camera in topics.cameras.items()]
     plant = topics.plant
+    odometry = topics.base_log is not None  # odom -> base on /tf, not world -> base
     bridge = builder.AddSystem(
         Ros2Bridge(
             plant=plant,
@@ -542,9 +564,11 @@ def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
             cameras=cameras,
             clock_rate=config.clock_rate,
             joint_states_topic=topics.joint_states_topic,
+            exclude_children=[topics.mobile.base_link] if odometry else [],
         )
     )
     bridge.set_name("ros2_bridge")
+    AddMobileTopics(builder, topics, bridge.publish, name="mobile_bridge")
     if topics.broadcaster is not None:
         builder.Connect(
             topics.broadcaster.GetOutputPort("joint_states"), bridge.GetInputPort("joint_states")
@@ -622,5 +646,14 @@ def _free_commands(builder, topics: WorldTopics, *, subscribe: bool) -> list[Com
             elif suffix not in COMMAND_TYPES:
                 _log.warning("%s/%s not subscribed: no ROS 2 type known for it", name, suffix)
             elif subscribe:
-                commands.append(CommandTopic(name, suffix))
+                commands.append(_command_topic(topics, name, suffix))
     return commands
+
+
+def _command_topic(topics: WorldTopics, name: str, suffix: str) -> CommandTopic:
+    """The topic of a controller's command input: a drive plugin's cmd_vel is its own
+    topic (``/cmd_vel``), a geometry_msgs/Twist as Gazebo's bridge takes it."""
+    if suffix == "cmd_vel" and topics.mobile is not None and name in topics.mobile.plugins:
+        topic = topics.stack.entry(name).ros_topic or "/cmd_vel"
+        return CommandTopic(name, suffix, ros_topic=topic, ros_type="geometry_msgs/msg/Twist")
+    return CommandTopic(name, suffix)

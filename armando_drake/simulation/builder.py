@@ -54,6 +54,7 @@ from armando_drake.outputs.base import BASE_CSV, AddBaseLogger
 from armando_drake.outputs.logger import AddJointStateLogger, CommandsCsv
 from armando_drake.outputs.recording import AddRosbagRecorder
 from armando_drake.outputs.replay import AddVisualization
+from armando_drake.outputs.scan_view import AddScanViews
 from armando_drake.outputs.topics import WorldTopics
 from armando_drake.perception.systems import AddPerception
 from armando_drake.ros2.bridge import AddRos2Bridge
@@ -343,4 +344,5 @@ def _add_outputs(
             robot_instances=[topics.robot.model_instance],
             ground=scenario.ground and not scenario.world_file,
         )
+        AddScanViews(builder, topics, meshcat)  # the lidars' scans as points
     return replay_sampler, bridge

@@ -1,0 +1,142 @@
+"""A mobile base's topics: what the course's fra2mo publishes through ros_gz_bridge.
+
+==================== ================================= =====================================
+topic                type                              from
+==================== ================================= =====================================
+``/odom``            ``nav_msgs/msg/Odometry``         the drive's wheel odometry
+``/tf``              ``tf2_msgs/msg/TFMessage``        odom -> base_footprint, of the odometry
+``/cmd_vel``         ``geometry_msgs/msg/Twist``       the twist sequence (the drive's topic)
+``/scan``            ``sensor_msgs/msg/LaserScan``     each lidar, on its ``<topic>``
+==================== ================================= =====================================
+
+:class:`MobileTopics` reads them at the controller manager's rate and hands each new
+message (a new odometry stamp, a new publication of a scan or a twist) to ``send(topic,
+type_name, message, stamp)``: the MCAP recorder's ``write`` or the live bridge's
+publish. Nothing at the plant's steps.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import LeafSystem
+
+from armando_drake.messages.definitions import (
+    laser_scan_message,
+    odometry_message,
+    odometry_transform,
+    twist_message,
+)
+from armando_drake.messages.types import Odometry, PublicationValue
+from armando_drake.outputs.topics import WorldTopics
+
+ODOM_TOPIC = "/odom"
+
+Send = Callable[[str, str, dict, float], None]
+
+
+@dataclass(frozen=True)
+class MobileTopicNames:
+    """Where each of a base's messages goes (``""``: not published)."""
+
+    odom: str = ODOM_TOPIC
+    tf: str = "/tf"
+    cmd_vel: str = ""
+    scans: tuple[tuple[str, str], ...] = ()  # (sensor name, topic)
+
+
+class MobileTopics(LeafSystem):
+    """Sends a mobile base's odometry, its /tf, its cmd_vel and its lidars' scans.
+
+    Ports:
+      - input ``odom`` (Odometry): sent on ``odom`` and ``tf`` at each new stamp;
+      - input ``cmd_vel`` (Publication of TwistStamped, optional): each new one as a Twist;
+      - input ``<sensor>.scan`` (Publication of LaserScan): each new scan.
+    """
+
+    def __init__(self, names: MobileTopicNames, *, send: Send, rate: float):
+        super().__init__()
+        if not (math.isfinite(rate) and rate > 0):
+            raise ValueError(f"rate={rate!r} must be positive [Hz]")
+        self.names = names
+        self._send = send
+        self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
+        self._cmd_vel = self.DeclareAbstractInputPort("cmd_vel", PublicationValue())
+        self._scans = [
+            (topic, self.DeclareAbstractInputPort(f"{name}.scan", PublicationValue()))
+            for name, topic in names.scans
+        ]
+        self._last_odom: float | None = None
+        self._counts: dict[str, int] = {}
+        self.DeclarePeriodicPublishEvent(1.0 / rate, 0.0, self._Publish)
+
+    def _new(self, key: str, port, context):
+        """The latest message of a Publication input if it is new since the last call."""
+        if not port.HasValue(context):
+            return None
+        publication = port.Eval(context)
+        if publication.count <= self._counts.get(key, 0):
+            return None
+        self._counts[key] = publication.count
+        return publication
+
+    def _Publish(self, context) -> None:
+        names = self.names
+        if self._odom.HasValue(context):
+            odom = self._odom.Eval(context)
+            if odom.stamp > 0 and odom.stamp != self._last_odom:
+                self._last_odom = odom.stamp
+                if names.odom:
+                    message = odometry_message(odom)
+                    self._send(names.odom, "nav_msgs/msg/Odometry", message, odom.stamp)
+                if names.tf:
+                    tf = {"transforms": [odometry_transform(odom)]}
+                    self._send(names.tf, "tf2_msgs/msg/TFMessage", tf, odom.stamp)
+        twist = self._new("cmd_vel", self._cmd_vel, context) if names.cmd_vel else None
+        if twist is not None:
+            message = twist_message(twist.message)
+            self._send(names.cmd_vel, "geometry_msgs/msg/Twist", message, twist.stamp)
+        for topic, port in self._scans:
+            scan = self._new(topic, port, context)
+            if scan is not None:
+                message = laser_scan_message(scan.message)
+                self._send(topic, "sensor_msgs/msg/LaserScan", message, scan.message.stamp)
+
+
+def mobile_topic_names(topics: WorldTopics, *, cmd_vel: bool = True) -> MobileTopicNames:
+    """The topics of ``topics``' base and lidars (``cmd_vel``: the twist sequence's too)."""
+    scans = tuple(
+        (name, "/" + ports["scan"].get_system().info.topic.strip("/"))
+        for name, ports in topics.sensors.items()
+        if "scan" in ports
+    )
+    odom = ODOM_TOPIC if topics.base_log is not None else ""
+    twist = ""
+    if cmd_vel and topics.twist is not None:
+        twist = topics.stack.entry(topics.twist_target).ros_topic or "/cmd_vel"
+    return MobileTopicNames(odom=odom, tf="/tf" if odom else "", cmd_vel=twist, scans=scans)
+
+
+def AddMobileTopics(
+    builder, topics: WorldTopics, send: Send, *, cmd_vel: bool = True, name: str = "mobile_topics"
+) -> MobileTopics | None:
+    """A :class:`MobileTopics` on the base's odometry (a floating base with a drive), the
+    twist sequence's cmd_vel (with ``cmd_vel``) and every lidar of ``topics``; None when
+    there is none of them."""
+    names = mobile_topic_names(topics, cmd_vel=cmd_vel)
+    if not (names.odom or names.cmd_vel or names.scans):
+        return None
+    system = builder.AddNamedSystem(name, MobileTopics(names, send=send, rate=topics.update_rate))
+    if names.odom:
+        drive = topics.base_log.drive
+        builder.Connect(
+            topics.stack.manager.GetOutputPort(f"{drive}.odom"), system.GetInputPort("odom")
+        )
+    if names.cmd_vel:
+        builder.Connect(topics.twist.GetOutputPort("cmd_vel"), system.GetInputPort("cmd_vel"))
+    for sensor, _ in names.scans:
+        builder.Connect(topics.sensors[sensor]["scan"], system.GetInputPort(f"{sensor}.scan"))
+    return system
