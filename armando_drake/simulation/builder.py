@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import dataclasses as dc
 import os
+from functools import partial
 from pathlib import Path
 
 from pydrake.geometry import Meshcat
@@ -72,7 +73,7 @@ from armando_drake.simulation.validation import check_against_world, check_scena
 from armando_drake.simulation.world import World
 from armando_drake.task.learned_ik import AddLearnedIk
 from armando_drake.task.reference import AddTask
-from armando_drake.teleop.jog import AddJog
+from armando_drake.teleop.add import AddTeleop
 from armando_drake.vision.detectors import AddDetectors
 
 
@@ -240,7 +241,7 @@ def _add_control(builder, scenario: Scenario, plant, scene_graph, robot, physics
 
 def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, commands_csv, closers):
     """The scenario's command sequencer (its commands in ``commands_csv``), task,
-    learned IK and live jog, on the controllers of ``topics.stack``."""
+    learned IK and live jogs (the arm's, the base's), on the controllers of ``topics.stack``."""
     stack = topics.stack
     if scenario.sequencer is not None:
 
@@ -273,11 +274,8 @@ def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, comm
             base_pose=base,
             where=_origin(scenario, "learned_ik"),
         )
-    if scenario.jog is not None:
-        where = _origin(scenario, "jog")
-        topics.jog = AddJog(builder, scenario.jog, stack, meshcat=meshcat, where=where)
-        if topics.jog is not None:
-            closers.append(topics.jog.delete_controls)
+    where = partial(_origin, scenario)
+    AddTeleop(builder, scenario, topics, meshcat=meshcat, where=where, closers=closers)
 
 
 def _add_sensing(builder, scenario: Scenario, topics: WorldTopics, scene_graph, meshcat, where):

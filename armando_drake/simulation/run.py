@@ -131,6 +131,10 @@ class RunResult:
             what = f"{name} jogged from the viewer"
         elif self.controller == "jog":
             what = f"{name} with no viewer to jog from (the arm held its home posture)"
+        elif self.controller == "twist_jog" and self.driven:
+            what = f"{name} driven from the viewer's keys"
+        elif self.controller == "twist_jog":
+            what = f"{name} with no viewer to drive from (the base stood still)"
         elif self.controller == "vision":
             what = f"{name} with the camera's detections driving the arm"
         elif self.controller == "dds":
@@ -165,8 +169,8 @@ def write_scenario(scenario: Scenario, path: Path) -> None:
 
 
 def controller_mode(scenario: Scenario) -> str:
-    """position | trajectory | sinusoid | task | learned_ik | jog | twist | none: what drives
-    the robot."""
+    """position | trajectory | sinusoid | task | learned_ik | jog | twist | twist_jog | none:
+    what drives the robot."""
     if scenario.sequencer is None:
         if scenario.task is not None:
             return "task"
@@ -174,6 +178,8 @@ def controller_mode(scenario: Scenario) -> str:
             return "learned_ik"
         if scenario.twist is not None:
             return "twist"
+        if scenario.twist_jog is not None and scenario.jog is None:
+            return "twist_jog"
         return "none" if scenario.jog is None else "jog"
     return mode_of(scenario.sequencer)
 

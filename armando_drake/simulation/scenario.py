@@ -51,7 +51,7 @@ from armando_drake.ros2.config import Ros2Config
 from armando_drake.sensors.config import CameraSettings
 from armando_drake.sensors.objects import SceneObject
 from armando_drake.task.learned_ik import LearnedIkConfig
-from armando_drake.teleop.config import JogConfig
+from armando_drake.teleop.config import JogConfig, TwistJogConfig
 from armando_drake.tools.cli import parse_xacro_args
 from armando_drake.tools.errors import ScenarioError
 from armando_drake.tools.files import FileInputError, check_yaml_expansion, read_yaml_file
@@ -136,6 +136,10 @@ class Scenario:
     # a gamepad, home; publishing on a position controller's command topic
     # (armando_drake/teleop/config.py); absent = none.
     jog: JogConfig | None = None
+    # Live cmd_vel from the Meshcat page's keys, as teleop_twist_keyboard's (u i o / j k l
+    # / m , . and q z w x e c), to a mobile base's drive (armando_drake/teleop/config.py,
+    # twist_jog.py); absent = none.
+    twist_jog: TwistJogConfig | None = None
     # Camera sensors of the description.
     camera: CameraSettings = dc.field(default_factory=CameraSettings)
     # Cameras on links of the robot, with the fields of a <gazebo><sensor>

@@ -118,3 +118,30 @@ class JogConfig:
     # How long a note (a clamped command, a jog stopped at a limit) stays in the
     # viewer's controls [s of simulated time].
     note_time: float = param(5.0, unit="s", gt=0)
+
+
+@dc.dataclass
+class TwistJogConfig:
+    """Keys of the Meshcat page that drive a mobile base, as ROS's teleop_twist_keyboard:
+    u i o / j k l / m , . move (i forward, "," backward, j / l turn left / right, k
+    stop, u o m . the diagonals), q / z scale both speeds by +-10 %, w / x the linear
+    speed only, e / c the angular speed only."""
+
+    # The drive it publishes cmd_vel to: an active diff_drive_controller or drive
+    # plugin; "" = the first active one.
+    controller: str = ""
+    # The linear speed of i and "," at the start [m/s] (teleop_twist_keyboard's
+    # `speed`).
+    speed: float = param(0.5, unit="m/s", gt=0)
+    # The angular speed of j and l at the start [rad/s] (teleop_twist_keyboard's
+    # `turn`).
+    turn: float = param(1.0, unit="rad/s", gt=0)
+    # How often the current twist is published [Hz]: above 1 / the drive's
+    # cmd_vel_timeout, so a held command is not braked.
+    rate: float = param(10.0, unit="Hz", gt=0)
+    # [s of simulated time] without a key for this long the twist goes to zero (as
+    # ROS 1's teleop_twist_keyboard's `key_timeout`; a held key repeats); 0 = the last
+    # command holds until k or another key (as ROS 2's).
+    key_timeout: float = param(0.0, unit="s", ge=0)
+    # header.frame_id of the TwistStamped messages.
+    frame_id: str = ""

@@ -1,0 +1,148 @@
+"""The twist jog (diagrams/fra2mo_teleop.yaml): teleop_twist_keyboard's keys on the
+Meshcat page drive fra2mo. A key press is what the page sends for it: a ``button``
+message over Meshcat's websocket, counted by Meshcat as a click."""
+
+import time
+
+import msgpack
+import numpy as np
+import pytest
+from pydrake.geometry import Meshcat
+from pydrake.systems.analysis import Simulator
+from websockets.sync.client import connect
+
+from armando_drake.outputs.base import COLUMNS
+from armando_drake.simulation.builder import MakeWorld
+from armando_drake.simulation.scenario import ScenarioError, load_scenario, merge_overrides
+from armando_drake.teleop.twist_jog import button_label
+
+
+class TeleopWorld:
+    """fra2mo_teleop.yaml built with a Meshcat, unpaced, and a websocket to its page."""
+
+    def __init__(self, *overrides: str):
+        scenario = merge_overrides(
+            load_scenario("fra2mo_teleop"),
+            ["logging: {console_rate: 0}", "simulator_config: {target_realtime_rate: 0}"]
+            + list(overrides),
+        )
+        self.meshcat = Meshcat()
+        self.world = MakeWorld(scenario, meshcat=self.meshcat, quiet=True)
+        self.simulator = Simulator(self.world.diagram)
+        self.simulator.Initialize()
+
+    @property
+    def context(self):
+        return self.simulator.get_context()
+
+    def press(self, key: str) -> None:
+        """The page's message for ``key`` (a click of its button), waited for."""
+        label = button_label(key)
+        before = self.meshcat.GetButtonClicks(label)
+        url = self.meshcat.web_url().replace("http", "ws")
+        with connect(url, close_timeout=0.1) as page:
+            page.send(msgpack.packb({"type": "button", "name": label}))
+        deadline = time.monotonic() + 5.0
+        while self.meshcat.GetButtonClicks(label) == before:
+            assert time.monotonic() < deadline, f"Meshcat did not count the click of {label}"
+            time.sleep(0.002)
+
+    def advance(self, seconds: float) -> None:
+        self.simulator.AdvanceTo(self.context.get_time() + seconds)
+
+    def published(self):
+        """(count, linear.x, angular.z) of the cmd_vel publication."""
+        publication = self.world.twist.GetOutputPort("cmd_vel").Eval(
+            self.world.twist.GetMyContextFromRoot(self.context)
+        )
+        if publication.count == 0:
+            return 0, None, None
+        twist = publication.message.twist
+        return publication.count, twist.linear[0], twist.angular[2]
+
+    def base(self, name: str) -> np.ndarray:
+        return self.world.base_log.array()[:, COLUMNS.index(name)]
+
+    def close(self) -> None:
+        self.world.close(self.context)
+
+
+@pytest.fixture
+def teleop():
+    world = TeleopWorld()
+    yield world
+    world.close()
+
+
+def test_the_keys_publish_teleop_twist_keyboards_twists(teleop):
+    assert len(teleop.world.twist.buttons) == 15
+    teleop.advance(0.25)
+    assert teleop.published() == (0, None, None)  # nothing before the first key
+    teleop.press("i")
+    teleop.advance(0.1)
+    _, linear, angular = teleop.published()
+    assert (linear, angular) == (0.5, 0.0)
+    teleop.press("q")  # all speeds +10 %, the direction kept
+    teleop.advance(0.1)
+    _, linear, angular = teleop.published()
+    assert linear == pytest.approx(0.55, abs=1e-12) and angular == 0.0
+    assert teleop.world.twist.speeds(teleop.context) == pytest.approx((0.55, 1.1))
+    teleop.press(".")  # back left: backing up as a car turns (teleop_twist_keyboard's)
+    teleop.advance(0.1)
+    assert teleop.published()[1:] == pytest.approx((-0.55, 1.1))
+    teleop.press("x")  # linear only -10 %
+    teleop.press("j")  # turn in place, left
+    teleop.advance(0.1)
+    assert teleop.published()[1:] == pytest.approx((0.0, 1.1))
+    teleop.press("k")
+    teleop.advance(0.1)
+    assert teleop.published()[1:] == (0.0, 0.0)
+    assert teleop.world.twist.speeds(teleop.context) == pytest.approx((0.495, 1.1))
+
+
+def test_the_base_drives_forward_after_i_and_stops_after_k(teleop):
+    teleop.advance(0.5)  # settled on its wheels
+    teleop.press("i")
+    teleop.advance(2.0)
+    count, linear, _ = teleop.published()
+    assert linear == 0.5 and count >= 19  # repeated at 10 Hz while it holds
+    x, y, speed = teleop.base("x"), teleop.base("y"), teleop.base("linear")
+    assert x[-1] - x[0] > 0.8  # about 0.5 m/s for 2 s, less the start
+    assert abs(y[-1]) < 0.02
+    assert speed[-1] == pytest.approx(0.5, abs=0.02)
+    teleop.press("k")
+    teleop.advance(1.0)
+    x_stop = teleop.base("x")[-1]
+    teleop.advance(0.5)
+    assert abs(teleop.base("x")[-1] - x_stop) < 1e-3
+    assert abs(teleop.base("linear")[-1]) < 0.01
+
+
+def test_with_a_key_timeout_the_twist_falls_to_zero():
+    world = TeleopWorld("twist_jog: {key_timeout: 0.3}")
+    try:
+        world.press("i")
+        world.advance(0.25)
+        assert world.published()[1] == 0.5
+        world.advance(0.2)
+        assert world.published()[1:] == (0.0, 0.0)
+    finally:
+        world.close()
+
+
+def test_a_drive_that_a_twist_sequence_drives_is_refused():
+    scenario = merge_overrides(
+        load_scenario("fra2mo_teleop"),
+        [
+            "logging: {console_rate: 0}",
+            "twist: {steps: [{linear: 0.1, angular: 0.0, duration: 1.0}]}",
+        ],
+    )
+    with pytest.raises(ScenarioError, match=r"diff_drive already takes its cmd_vel"):
+        MakeWorld(scenario, meshcat=Meshcat(), quiet=True)
+
+
+def test_without_a_meshcat_there_is_no_twist_jog():
+    scenario = merge_overrides(load_scenario("fra2mo_teleop"), ["logging: {console_rate: 0}"])
+    world = MakeWorld(scenario, quiet=True)
+    assert world.twist is None
