@@ -12,6 +12,7 @@ from pathlib import Path
 
 import nbclient
 import nbformat
+import pytest
 from conftest import COURSE_PACKAGE, run_notebook
 
 NOTEBOOKS = Path(__file__).resolve().parents[2] / "notebooks"
@@ -102,3 +103,20 @@ def test_task_space(monkeypatch):
     for path in ("linear", "circular"):
         match = re.search(rf"^Armando {path}: max position error (\S+) mm$", text, re.M)
         assert match and float(match[1]) <= 2.0
+
+
+def test_mobile_robot(monkeypatch):
+    text, pictures = execute("09_mobile_robot", monkeypatch)
+    assert pictures == 2  # the x-y path, the scan
+    # 4.5 s: the fall, then 0.2 m/s straight from 1 s: about 0.7 m.
+    travelled = re.search(r"^distance travelled: (\S+) m$", text, re.M)
+    assert travelled and 0.6 < float(travelled[1]) < 0.8
+    drift = re.search(r"^odometry drift: (\S+) mm$", text, re.M)
+    assert drift and float(drift[1]) < 20.0
+    samples = re.search(r"^base.csv: (\d+) samples over (\S+) s$", text, re.M)
+    assert samples and float(samples[2]) == pytest.approx(4.5, abs=0.05)
+    scan = re.search(
+        r"^/scan: (\d+) messages, 640 ranges each, (\d+) hits, nearest (\S+) m$", text, re.M
+    )
+    assert scan and int(scan[1]) >= 40 and int(scan[2]) > 300
+    assert 0.1 <= float(scan[3]) < 2.0
