@@ -45,12 +45,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from pydrake.common import MemoryFile
 from pydrake.geometry import (
     AddContactMaterial,
     AddRigidHydroelasticProperties,
     Convex,
-    InMemoryMesh,
     Mesh,
     ProximityProperties,
 )
@@ -121,8 +119,8 @@ DEFAULT_FRICTION = 1.0  # Gazebo's default mu
 BUILTIN_MODELS = {
     "ground_plane": """<sdf version="1.6"><model name="ground_plane"><static>true</static>
   <link name="link">
-    <collision name="collision"><geometry><plane><normal>0 0 1</normal></plane></geometry>
-    </collision>
+    <collision name="collision"><pose>0 0 -0.05 0 0 0</pose>
+      <geometry><box><size>100 100 0.1</size></box></geometry></collision>
     <visual name="visual"><pose>0 0 -0.005 0 0 0</pose>
       <geometry><box><size>100 100 0.01</size></box></geometry>
       <material><diffuse>0.8 0.8 0.8 1</diffuse></material></visual>
@@ -489,7 +487,9 @@ class _WorldReader:
                     "surface under hydroelastic contact)"
                 )
             for index, (convex, piece) in enumerate(pieces):
-                data = InMemoryMesh(mesh_file=MemoryFile(piece, ".obj", path.name))
+                # A file, not an in-memory mesh: Drake 1.51's proximity engine crashes when
+                # it copies a Convex of an InMemoryMesh once an earlier plant is freed.
+                data = _piece_file(piece)
                 name = f"{link}_{path.stem}_{index}"
                 if convex:
                     plant.RegisterCollisionGeometry(body, X_LC, Convex(data), name, friction)
@@ -498,6 +498,18 @@ class _WorldReader:
                 AddContactMaterial(friction=friction, properties=properties)
                 AddRigidHydroelasticProperties(properties=properties)
                 plant.RegisterCollisionGeometry(body, X_LC, Mesh(data), name, properties)
+
+
+def _piece_file(piece: bytes) -> str:
+    """The OBJ file of a collision piece in the mesh cache, named by its content."""
+    folder = cache_dir() / "pieces"
+    path = folder / f"{hashlib.sha256(piece).hexdigest()[:32]}.obj"
+    if not path.is_file():
+        folder.mkdir(parents=True, exist_ok=True)
+        temporary = path.with_suffix(f".{os.getpid()}.tmp")
+        temporary.write_bytes(piece)
+        os.replace(temporary, path)
+    return str(path)
 
 
 def _script_texture(text: str, name: str) -> str | None:
