@@ -358,9 +358,12 @@ DESCRIPTION_CASES = [
     ("bad-number", URDF.replace('lower="-2"', 'lower="abc"'), ["joint 'q1'", "'abc'"]),
     ("truncated", URDF[:300], ["not valid XML"]),
     (
-        "missing-mesh-package",
+        "missing-collision-mesh-package",
         URDF.replace(
-            '<box size="0.03 0.03 0.2"/>', '<mesh filename="package://nowhere/a.stl"/>', 1
+            '<visual><geometry><box size="0.03 0.03 0.2"/></geometry></visual>',
+            '<collision><geometry><mesh filename="package://nowhere/a.stl"/></geometry>'
+            "</collision>",
+            1,
         ),
         ["unknown package 'nowhere'"],
     ),
