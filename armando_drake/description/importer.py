@@ -56,13 +56,15 @@ from pathlib import Path
 from xml.parsers import expat
 
 import numpy as np
-from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
+from pydrake.math import RollPitchYaw, RotationMatrix
 from pydrake.multibody.tree import RotationalInertia
 
 from armando_drake.description.inertia import (
     DEFAULT_DENSITY,
     SolidProperties,
     geometry_properties,
+    parse_floats,
+    parse_origin,
 )
 from armando_drake.description.meshes import (
     DRAKE_FORMATS,
@@ -154,23 +156,6 @@ def parse_with_lines(text: str, source: str = "") -> tuple[ET.Element, dict[ET.E
             f"{source or '<urdf>'}:{error.lineno}: not valid XML: {error}"
         ) from None
     return builder.close(), lines
-
-
-def _floats(text: str | None, count: int, default: float = 0.0) -> np.ndarray:
-    if text is None or not text.strip():
-        return np.full(count, default)
-    values = np.array([float(v) for v in text.split()])
-    if len(values) != count:
-        raise ValueError(f"expected {count} numbers, got {text!r}")
-    return values
-
-
-def _origin(element: ET.Element) -> RigidTransform:
-    origin = element.find("origin")
-    if origin is None:
-        return RigidTransform()
-    rpy = _floats(origin.get("rpy"), 3)
-    return RigidTransform(RollPitchYaw(rpy), _floats(origin.get("xyz"), 3))
 
 
 def _box_corners(half: np.ndarray) -> np.ndarray:
@@ -310,7 +295,7 @@ class _Preparation:
         kind = shape.tag.removeprefix("drake:")
         try:
             if kind == "box":
-                points = _box_corners(_floats(shape.get("size"), 3) / 2)
+                points = _box_corners(parse_floats(shape.get("size"), 3) / 2)
             elif kind == "cylinder":
                 radius, length = float(shape.get("radius")), float(shape.get("length"))
                 points = _box_corners(np.array([radius, radius, length / 2]))
@@ -323,12 +308,12 @@ class _Preparation:
                 points = _box_corners(np.array([float(shape.get(k)) for k in "abc"]))
             elif kind == "mesh":
                 path = self.files[shape]
-                points = self.mesh_vertices(path) * _floats(shape.get("scale"), 3, 1.0)
+                points = self.mesh_vertices(path) * parse_floats(shape.get("scale"), 3, 1.0)
             else:
                 return None
         except (TypeError, ValueError) as error:
             raise DescriptionError(f"{self.where(shape)}: bad <{shape.tag}>: {error}") from None
-        X_LG = _origin(item)
+        X_LG = parse_origin(item)
         return (X_LG.rotation().matrix() @ points.T).T + X_LG.translation()
 
     def bounding_box(self, link: ET.Element, kinds=("visual",)) -> tuple[np.ndarray, np.ndarray]:
@@ -424,7 +409,7 @@ class _Preparation:
             if joint.get("type") != "continuous" or child is None:
                 continue
             try:
-                axis = _floats(joint.find("axis").get("xyz"), 3, 0.0)
+                axis = parse_floats(joint.find("axis").get("xyz"), 3, 0.0)
             except (AttributeError, ValueError):
                 axis = np.array([1.0, 0.0, 0.0])
             norm = np.linalg.norm(axis)
@@ -641,7 +626,7 @@ class _Preparation:
 
     def mesh_properties(self, shape: ET.Element):
         """(volume, centre, inertia per unit density) of a ``<mesh>`` with its scale."""
-        key = (self.files[shape], tuple(_floats(shape.get("scale"), 3, 1.0)))
+        key = (self.files[shape], tuple(parse_floats(shape.get("scale"), 3, 1.0)))
         if key not in self.solids:
             self.solids[key] = mass_properties(*key)
         return self.solids[key]

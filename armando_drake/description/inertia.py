@@ -37,7 +37,7 @@ class SolidProperties:
         return density * self.volume, density * self.inertia
 
 
-def _floats(text: str | None, count: int, default: float = 0.0) -> np.ndarray:
+def parse_floats(text: str | None, count: int, default: float = 0.0) -> np.ndarray:
     if text is None or not text.strip():
         return np.full(count, default)
     values = np.array([float(v) for v in text.split()])
@@ -46,12 +46,12 @@ def _floats(text: str | None, count: int, default: float = 0.0) -> np.ndarray:
     return values
 
 
-def _origin(item: ET.Element) -> RigidTransform:
+def parse_origin(item: ET.Element) -> RigidTransform:
     origin = item.find("origin")
     if origin is None:
         return RigidTransform()
-    rpy = _floats(origin.get("rpy"), 3)
-    return RigidTransform(RollPitchYaw(rpy), _floats(origin.get("xyz"), 3))
+    rpy = parse_floats(origin.get("rpy"), 3)
+    return RigidTransform(RollPitchYaw(rpy), parse_floats(origin.get("xyz"), 3))
 
 
 def primitive_properties(shape: ET.Element) -> tuple[float, np.ndarray] | None:
@@ -60,7 +60,7 @@ def primitive_properties(shape: ET.Element) -> tuple[float, np.ndarray] | None:
     anything else."""
     kind = shape.tag.removeprefix("drake:")
     if kind == "box":
-        a, b, c = np.abs(_floats(shape.get("size"), 3))
+        a, b, c = np.abs(parse_floats(shape.get("size"), 3))
         volume = a * b * c
         return volume, volume / 12 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
     if kind == "cylinder":
@@ -118,7 +118,7 @@ def geometry_properties(
             shapes.append(f"{kind} {shape.tag.removeprefix('drake:')}")
         if not volume > 0:
             continue
-        X = _origin(item)
+        X = parse_origin(item)
         R = X.rotation().matrix()
         parts.append((volume, X.multiply(np.asarray(centre, dtype=float)), R @ inertia @ R.T))
     if not parts:
