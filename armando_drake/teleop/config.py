@@ -145,3 +145,14 @@ class TwistJogConfig:
     key_timeout: float = param(0.0, unit="s", ge=0)
     # header.frame_id of the TwistStamped messages.
     frame_id: str = ""
+    # The browser's first gamepad, as ROS's teleop_twist_joy maps a joystick: while
+    # the enable button is held, the left stick's forward axis gives the linear speed
+    # and its sideways axis the turn (left turns left); releasing it stops the base.
+    gamepad: bool = True
+    # The enable (dead-man) button's index in the Gamepad API's standard mapping
+    # (0 = A / cross), teleop_twist_joy's `enable_button`.
+    gamepad_enable_button: int = param(0, ge=0)
+    # [m/s] at full forward stick (teleop_twist_joy's `scale_linear.x`).
+    gamepad_scale_linear: float = param(0.5, unit="m/s", gt=0)
+    # [rad/s] at full sideways stick (teleop_twist_joy's `scale_angular.yaw`).
+    gamepad_scale_angular: float = param(0.5, unit="rad/s", gt=0)

@@ -39,9 +39,13 @@ from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 from armando_drake.control.stack import ControlStack
 from armando_drake.messages.types import PublicationValue, Twist, TwistStamped
 from armando_drake.teleop.config import TwistJogConfig
+from armando_drake.teleop.gamepad import dead_zone
 from armando_drake.tools.errors import ScenarioError
 
 _log = logging.getLogger("armando_drake.world")
+
+# joy_node's default dead zone: stick values below it read 0.
+JOY_DEAD_ZONE = 0.05
 
 # key -> (KeyboardEvent.code, (x, th)): teleop_twist_keyboard's moveBindings.
 MOVE_KEYS = {
@@ -102,6 +106,7 @@ class TwistJogState:
     clicks: dict[str, int] = field(default_factory=dict)  # per button
     started: bool = False  # a key was pressed: publishing
     last_key: float = 0.0  # [s] when a key was last pressed
+    stick: tuple[float, float] | None = None  # the gamepad's (linear, angular) while enabled
 
 
 class TwistJog(LeafSystem):
@@ -125,6 +130,9 @@ class TwistJog(LeafSystem):
         self._config = config
         # Where the click counts come from (a callable of a button's label): the page.
         self.clicks_source = meshcat.GetButtonClicks
+        # Where the gamepad state comes from (a Meshcat.Gamepad): the page's first gamepad;
+        # a test may feed synthetic states instead.
+        self.gamepad_source = meshcat.GetGamepad
         self._buttons: dict[str, str] = {}  # label -> key
         for key, (code, _) in list(MOVE_KEYS.items()) + list(SPEED_KEYS.items()):
             label = button_label(key)
@@ -179,10 +187,11 @@ class TwistJog(LeafSystem):
         timeout = self._config.key_timeout
         if jog.started and timeout > 0 and now - jog.last_key >= timeout - 1e-12:
             jog.x = jog.th = 0
+        self._read_gamepad(jog, now)
         state.get_mutable_abstract_state(self._state).set_value(jog)
         if not jog.started:
             return EventStatus.DidNothing()
-        linear, angular = jog.x * jog.speed, jog.th * jog.turn
+        linear, angular = jog.stick or (jog.x * jog.speed, jog.th * jog.turn)
         message = TwistStamped(
             stamp=now,
             frame_id=self._config.frame_id,
@@ -192,6 +201,26 @@ class TwistJog(LeafSystem):
         state.get_mutable_abstract_state(self._topic).set_value(publication.publish(message, now))
         state.get_mutable_discrete_state(self._command).set_value([linear, angular])
         return EventStatus.Succeeded()
+
+    def _read_gamepad(self, jog: TwistJogState, now: float) -> None:
+        """teleop_twist_joy's mapping: while the enable button is held, the left stick
+        (Gamepad API axes 1 forward-down, 0 sideways-right, so both negated as ROS's joy
+        reports them) sets the twist; on its release the base stops."""
+        config = self._config
+        gamepad = self.gamepad_source() if config.gamepad else None
+        held = False
+        if gamepad is not None and gamepad.index is not None:
+            buttons = gamepad.button_values
+            held = config.gamepad_enable_button < len(buttons) and (
+                buttons[config.gamepad_enable_button] > 0.5
+            )
+        if held:
+            axes = list(gamepad.axes) + [0.0, 0.0]
+            forward, left = (-dead_zone(axes[1], JOY_DEAD_ZONE), -dead_zone(axes[0], JOY_DEAD_ZONE))
+            jog.stick = (forward * config.gamepad_scale_linear, left * config.gamepad_scale_angular)
+            jog.started, jog.last_key = True, now
+        elif jog.stick is not None:  # released: stop, as teleop_twist_joy does
+            jog.stick, jog.x, jog.th = None, 0, 0
 
     def _pressed(self, jog: TwistJogState) -> list[str]:
         """The keys pressed since the last reading, each as often as it was (the move

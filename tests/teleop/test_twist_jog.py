@@ -146,3 +146,29 @@ def test_without_a_meshcat_there_is_no_twist_jog():
     scenario = merge_overrides(load_scenario("fra2mo_teleop"), ["logging: {console_rate: 0}"])
     world = MakeWorld(scenario, quiet=True)
     assert world.twist is None
+
+
+class Pad:
+    """A gamepad state as Meshcat.Gamepad gives it (Gamepad API standard mapping)."""
+
+    def __init__(self, enable: bool, forward: float = 0.0, left: float = 0.0):
+        self.index = 0
+        self.button_values = [1.0 if enable else 0.0] + [0.0] * 15
+        self.axes = [-left, -forward, 0.0, 0.0]  # axes 0, 1: right and down positive
+
+
+def test_a_gamepad_drives_as_teleop_twist_joy_while_its_enable_button_is_held(teleop):
+    jog = teleop.world.twist
+    jog.gamepad_source = lambda: Pad(enable=False, forward=1.0)
+    teleop.advance(0.3)
+    assert teleop.published()[0] == 0  # the stick without the enable button: nothing
+    jog.gamepad_source = lambda: Pad(enable=True, forward=1.0, left=0.5)
+    teleop.advance(0.3)
+    _, linear, angular = teleop.published()
+    assert linear == pytest.approx(0.5)  # scale_linear.x at full stick
+    assert angular == pytest.approx(0.5 * (0.5 - 0.05) / 0.95)  # dead zone 0.05 rescaled
+    teleop.advance(1.5)
+    assert np.mean(teleop.base("linear")[-20:]) == pytest.approx(0.5, abs=0.02)
+    jog.gamepad_source = lambda: Pad(enable=False, forward=1.0)
+    teleop.advance(0.3)
+    assert teleop.published()[1:] == (0.0, 0.0)  # released: stopped
