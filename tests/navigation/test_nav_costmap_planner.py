@@ -137,7 +137,7 @@ def test_planner_path_around_a_wall(use_astar):
     blocked = costmap.costs >= 253
     shortest = _shortest_free(blocked, costmap.world_to_cell(*start), costmap.world_to_cell(*goal))
     length = path_length(path)
-    # figures: shortest about 6.1 m over the inflated grid; NavFn keeps off the walls
+    # figures: shortest 5.73 m on the inflated grid, NavFn 6.66 m (1.16x): it keeps off walls
     assert shortest < length <= 1.25 * shortest, (length, shortest)
 
 
