@@ -5,7 +5,7 @@ the layers below, never from a layer above::
 
     0  tools, messages, the package root        generic helpers, message layouts
     1  description, kinematics, learning        robot files; task-space math; learned IK
-    2  control, sensors                         ros2_control; cameras, objects
+    2  control, sensors, navigation             ros2_control; cameras, objects; Nav2 maps
     3  vision, perception, task, teleop         what reads sensors or drives control
     4  ros2, outputs                            live ROS 2; logs, bags, plots, views
     5  simulation                               the scenario and the one builder
@@ -33,6 +33,7 @@ LAYERS = {
     "learning": 1,
     "control": 2,
     "sensors": 2,
+    "navigation": 2,
     "vision": 3,
     "perception": 3,
     "task": 3,

@@ -1,0 +1,236 @@
+"""Occupancy maps in map_server's format: a map YAML and its PGM/PNG image.
+
+Loading follows nav2_map_server's ``map_io.cpp`` (``loadMapYaml`` / ``loadMapFromFile``):
+the image is read as grayscale, ``p = 1 - value/255`` (``value/255`` with ``negate``);
+``p >= occupied_thresh`` is occupied (100), ``p <= free_thresh`` free (0), the rest unknown
+(-1), or in ``scale`` mode scaled to ``round(100 (p - free)/(occupied - free))``; pixels
+that are not opaque are unknown; ``raw`` mode takes the pixel value itself (0..100, else
+-1). The image's top row is the map's last row: ``OccupancyMap.data[0]`` is the bottom row,
+at the map's origin, as in a nav_msgs/OccupancyGrid.
+
+Saving writes map_saver's trinary output: 254 free, 0 occupied, 205 unknown, with the YAML
+map_saver writes (``occupied_thresh: 0.65``, ``free_thresh: 0.196``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import yaml
+from PIL import Image
+
+from armando_drake.tools.errors import ConfigError
+
+MODES = ("trinary", "scale", "raw")
+UNKNOWN = -1
+FREE = 0
+OCCUPIED = 100
+
+
+class MapError(ConfigError):
+    """A map YAML or image that cannot be loaded; one line naming the file and the key."""
+
+
+@dataclass
+class OccupancyMap:
+    """An occupancy grid as nav_msgs/OccupancyGrid holds it.
+
+    ``data`` is int8 of shape (height, width), row 0 at the bottom (at ``origin``), values
+    -1 unknown or 0..100; ``origin`` is the bottom-left corner of cell (0, 0) as
+    ``(x, y, yaw)`` in metres and radians; ``resolution`` metres per cell.
+    """
+
+    data: np.ndarray
+    resolution: float
+    origin: tuple[float, float, float]
+    source: str = "<memory>"
+
+    @property
+    def width(self) -> int:
+        return int(self.data.shape[1])
+
+    @property
+    def height(self) -> int:
+        return int(self.data.shape[0])
+
+    @property
+    def size_m(self) -> tuple[float, float]:
+        """The map's extent (width, height) in metres."""
+        return self.width * self.resolution, self.height * self.resolution
+
+
+def _number(doc: dict, key: str, path: Path) -> float:
+    if key not in doc:
+        raise MapError(f"{path}: key '{key}' is missing")
+    value = doc[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise MapError(f"{path}: key '{key}' must be a number, not {value!r}")
+    return float(value)
+
+
+def _read_yaml(path: Path) -> dict:
+    if not path.is_file():
+        raise MapError(f"{path}: the map YAML does not exist")
+    try:
+        doc = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as error:
+        raise MapError(f"{path}: not YAML ({' '.join(str(error).split())})") from None
+    if not isinstance(doc, dict):
+        raise MapError(f"{path}: a map YAML is a mapping (image, resolution, origin, ...)")
+    return doc
+
+
+def load_map_yaml(path: str | Path) -> dict:
+    """The checked parameters of a map YAML, as ``loadMapYaml``: image (a path, relative
+    to the YAML's folder), resolution, origin, free/occupied thresholds, mode, negate."""
+    path = Path(path)
+    doc = _read_yaml(path)
+    image = doc.get("image")
+    if not isinstance(image, str) or not image:
+        raise MapError(f"{path}: key 'image' must name the map's image, not {image!r}")
+    image_path = Path(image) if image.startswith("/") else path.parent / image
+    resolution = _number(doc, "resolution", path)
+    if not resolution > 0:
+        raise MapError(f"{path}: key 'resolution' must be positive, not {resolution}")
+    origin = doc.get("origin")
+    if not isinstance(origin, list) or len(origin) != 3:
+        raise MapError(f"{path}: key 'origin' must be [x, y, yaw] (3 numbers), not {origin!r}")
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in origin):
+        raise MapError(f"{path}: key 'origin' must hold numbers, not {origin!r}")
+    free = _number(doc, "free_thresh", path)
+    occupied = _number(doc, "occupied_thresh", path)
+    if not 0.0 <= free < occupied <= 1.0:
+        raise MapError(
+            f"{path}: keys 'free_thresh' {free} and 'occupied_thresh' {occupied} must be "
+            "0 <= free_thresh < occupied_thresh <= 1"
+        )
+    mode = doc.get("mode", "trinary")
+    if mode not in MODES:
+        raise MapError(f"{path}: key 'mode' is {mode!r}, not one of {', '.join(MODES)}")
+    negate = doc.get("negate", 0)
+    if negate not in (0, 1, True, False):
+        raise MapError(f"{path}: key 'negate' must be 0 or 1, not {negate!r}")
+    return {
+        "image": image_path,
+        "resolution": resolution,
+        "origin": tuple(float(v) for v in origin),
+        "free_thresh": free,
+        "occupied_thresh": occupied,
+        "mode": mode,
+        "negate": bool(negate),
+    }
+
+
+def _read_image(path: Path, yaml_path: Path) -> tuple[np.ndarray, np.ndarray | None]:
+    """The image's gray values (uint8) and, if it has one, its alpha channel."""
+    if not path.is_file():
+        raise MapError(f"{yaml_path}: key 'image': the image {path} does not exist")
+    try:
+        with Image.open(path) as image:
+            alpha = None
+            if image.mode in ("RGBA", "LA", "PA") or "transparency" in image.info:
+                alpha = np.asarray(image.convert("RGBA"))[..., 3]
+            gray = np.asarray(image.convert("L"))
+    except OSError as error:
+        raise MapError(f"{yaml_path}: key 'image': {path} cannot be read ({error})") from None
+    return gray, alpha
+
+
+def occupancy_from_image(
+    gray: np.ndarray,
+    *,
+    mode: str = "trinary",
+    negate: bool = False,
+    free_thresh: float = 0.25,
+    occupied_thresh: float = 0.65,
+    alpha: np.ndarray | None = None,
+) -> np.ndarray:
+    """map_io's conversion of a grayscale image (top row first) into occupancy values
+    (int8, bottom row first)."""
+    if mode == "raw":
+        result = gray.astype(np.int16)
+        result[(result < FREE) | (result > OCCUPIED)] = UNKNOWN
+        return np.flipud(result.astype(np.int8))
+    p = gray.astype(np.float32) / np.float32(255.0)
+    if not negate:
+        p = np.float32(1.0) - p
+    result = np.full(gray.shape, UNKNOWN, dtype=np.int8)
+    result[p >= np.float32(occupied_thresh)] = OCCUPIED
+    result[p <= np.float32(free_thresh)] = FREE
+    if mode == "scale":
+        between = (p > np.float32(free_thresh)) & (p < np.float32(occupied_thresh))
+        scaled = (p - np.float32(free_thresh)) / np.float32(occupied_thresh - free_thresh)
+        result[between] = np.round(scaled[between] * np.float32(100.0)).astype(np.int8)
+    if alpha is not None:
+        result[alpha < 255] = UNKNOWN
+    return np.flipud(result)
+
+
+def load_map(path: str | Path) -> OccupancyMap:
+    """A map_server map: the YAML's parameters and its image as an :class:`OccupancyMap`."""
+    path = Path(path)
+    params = load_map_yaml(path)
+    gray, alpha = _read_image(params["image"], path)
+    data = occupancy_from_image(
+        gray,
+        mode=params["mode"],
+        negate=params["negate"],
+        free_thresh=params["free_thresh"],
+        occupied_thresh=params["occupied_thresh"],
+        alpha=alpha,
+    )
+    return OccupancyMap(
+        data=np.ascontiguousarray(data),
+        resolution=params["resolution"],
+        origin=params["origin"],
+        source=str(path),
+    )
+
+
+def save_map(
+    grid: OccupancyMap,
+    path: str | Path,
+    *,
+    free_thresh: float = 0.25,
+    occupied_thresh: float = 0.65,
+) -> Path:
+    """map_saver's trinary output: ``<path>.pgm`` (254 free, 0 occupied, 205 unknown) and
+    ``<path>.yaml``; ``path`` is given without suffix (a ``.yaml`` one is dropped).
+    A cell is free at ``value <= rint(100 free_thresh)``, occupied at ``value >=
+    rint(100 occupied_thresh)``. Returns the YAML's path."""
+    path = Path(path)
+    if path.suffix == ".yaml":
+        path = path.with_suffix("")
+    if not 0.0 <= free_thresh < occupied_thresh <= 1.0:
+        raise MapError(
+            f"{path}: free_thresh {free_thresh} and occupied_thresh {occupied_thresh} must be "
+            "0 <= free_thresh < occupied_thresh <= 1"
+        )
+    data = grid.data.astype(np.int16)
+    pixels = np.full(data.shape, 205, dtype=np.uint8)
+    known = (data >= 0) & (data <= 100)
+    pixels[known & (data <= round(free_thresh * 100.0))] = 254
+    pixels[known & (data >= round(occupied_thresh * 100.0))] = 0
+    image_path = path.with_suffix(".pgm")
+    Image.fromarray(np.flipud(pixels), mode="L").save(image_path)
+    x, y, yaw = grid.origin
+    text = (
+        f"image: {image_path.name}\n"
+        "mode: trinary\n"
+        f"resolution: {grid.resolution:.3f}\n"
+        f"origin: [{x:.3f}, {y:.3f}, {_g7(yaw)}]\n"
+        "negate: 0\n"
+        "occupied_thresh: 0.65\n"
+        "free_thresh: 0.196\n"
+    )
+    yaml_path = path.with_suffix(".yaml")
+    yaml_path.write_text(text)
+    return yaml_path
+
+
+def _g7(value: float) -> str:
+    """A number with 7 significant digits, as yaml-cpp's emitter at Precision(7)."""
+    return "0" if value == 0 or not math.isfinite(value) else f"{value:.7g}"

@@ -1,0 +1,164 @@
+"""NavFn's global planner over a costmap: the least-cost path from a start to a goal.
+
+NavFn's cost of a cell (``NavFn::setCostmap``): ``COST_NEUTRAL + COST_FACTOR * cost`` =
+``50 + 0.8 cost`` for costs below 253 (capped at 253); inscribed (253) and lethal (254)
+cells are blocked, unknown (255) ones cost 253 with ``allow_unknown`` and are blocked
+without. The path is the least-cost one on the 8-connected grid (a step costs the mean of
+its two cells' costs times its length, 1 or sqrt 2 cells) found by SciPy's Dijkstra
+(``scipy.sparse.csgraph``) from the start cell; ``use_astar`` is accepted and gives the
+same path (A* with an admissible heuristic finds the same least cost; only the search
+order differs). Upstream interpolates a smooth path on the potential field; here the path
+is the sequence of cell centres.
+
+As NavfnPlanner, the start cell is cleared (the robot stands there), and a goal that is
+blocked or unreachable is replaced by the reachable cell nearest to it within
+``tolerance`` metres; with none, the goal is refused.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import yaml
+from scipy import sparse
+from scipy.sparse import csgraph
+
+from armando_drake.navigation.costmap import (
+    INSCRIBED_INFLATED_OBSTACLE,
+    NO_INFORMATION,
+    Costmap,
+)
+from armando_drake.tools.errors import ConfigError, UserInputError
+
+COST_NEUTRAL = 50
+COST_FACTOR = 0.8
+COST_OBS = 254
+NAVFN = "nav2_navfn_planner/NavfnPlanner"
+
+
+class PlanningError(UserInputError):
+    """A start or goal the planner refuses; one line naming the point and why."""
+
+
+@dataclass
+class PlannerParameters:
+    """NavfnPlanner's parameters (defaults: upstream's)."""
+
+    tolerance: float = 0.5
+    use_astar: bool = False
+    allow_unknown: bool = True
+
+
+def planner_parameters(path: str | Path, name: str = "GridBased") -> PlannerParameters:
+    """The ``planner_server`` plugin ``name``'s parameters of a Nav2 YAML."""
+    path = Path(path)
+    doc = yaml.safe_load(path.read_text())
+    where = f"{path}: planner_server.ros__parameters.{name}"
+    try:
+        node = doc["planner_server"]["ros__parameters"][name]
+    except (KeyError, TypeError):
+        raise ConfigError(f"{where}: missing") from None
+    if node.get("plugin") != NAVFN:
+        raise ConfigError(f"{where}.plugin is {node.get('plugin')!r}; only {NAVFN} is known")
+    params = PlannerParameters()
+    tolerance = node.get("tolerance", params.tolerance)
+    if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)) or tolerance < 0:
+        raise ConfigError(f"{where}.tolerance must be a number >= 0, not {tolerance!r}")
+    params.tolerance = float(tolerance)
+    params.use_astar = bool(node.get("use_astar", params.use_astar))
+    params.allow_unknown = bool(node.get("allow_unknown", params.allow_unknown))
+    return params
+
+
+def navfn_costs(costs: np.ndarray, allow_unknown: bool) -> np.ndarray:
+    """NavFn's cell costs (float, ``inf`` where blocked) of a costmap's costs."""
+    c = np.minimum(COST_NEUTRAL + COST_FACTOR * costs.astype(float), COST_OBS - 1)
+    c = np.floor(c)  # NavFn stores them as unsigned char
+    c[costs >= INSCRIBED_INFLATED_OBSTACLE] = np.inf
+    if allow_unknown:
+        c[costs == NO_INFORMATION] = COST_OBS - 1
+    return c
+
+
+def _graph(cell_costs: np.ndarray) -> sparse.csr_matrix:
+    """The 8-connected grid graph between passable cells (undirected, upper half)."""
+    h, w = cell_costs.shape
+    index = np.arange(h * w).reshape(h, w)
+    rows, cols, weights = [], [], []
+    for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        r0, r1 = slice(0, h - dr), slice(dr, h)
+        c0, c1 = (slice(0, w - dc), slice(dc, w)) if dc >= 0 else (slice(1, w), slice(0, w - 1))
+        a, b = cell_costs[r0, c0], cell_costs[r1, c1]
+        ok = np.isfinite(a) & np.isfinite(b)
+        step = math.hypot(dr, dc)
+        rows.append(index[r0, c0][ok])
+        cols.append(index[r1, c1][ok])
+        weights.append(step * 0.5 * (a[ok] + b[ok]))
+    return sparse.csr_matrix(
+        (np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
+        shape=(h * w, h * w),
+    )
+
+
+def _goal_cell(costmap: Costmap, reachable: np.ndarray, goal, tolerance: float):
+    """The goal's cell, or the reachable one nearest to it within ``tolerance``."""
+    row, col = costmap.world_to_cell(*goal)
+    if costmap.contains(row, col) and reachable[row, col]:
+        return row, col
+    radius = int(math.ceil(tolerance / costmap.resolution))
+    h, w = reachable.shape
+    r0, r1 = max(0, row - radius), min(h, row + radius + 1)
+    c0, c1 = max(0, col - radius), min(w, col + radius + 1)
+    if r0 < r1 and c0 < c1:
+        rr, cc = np.nonzero(reachable[r0:r1, c0:c1])
+        centres = costmap.cell_to_world(rr + r0, cc + c0)
+        d = np.hypot(centres[:, 0] - goal[0], centres[:, 1] - goal[1])
+        if d.size and d.min() <= tolerance:
+            k = int(np.argmin(d))
+            return int(rr[k] + r0), int(cc[k] + c0)
+    where = (
+        "outside the map"
+        if not costmap.contains(row, col)
+        else (
+            f"in an obstacle (cost {int(costmap.costs[row, col])})"
+            if costmap.costs[row, col] >= INSCRIBED_INFLATED_OBSTACLE
+            else "unreachable from the start"
+        )
+    )
+    raise PlanningError(
+        f"goal ({goal[0]:.3f}, {goal[1]:.3f}) is {where}, with no reachable cell within "
+        f"the tolerance of {tolerance} m"
+    )
+
+
+def plan(costmap: Costmap, start, goal, params: PlannerParameters | None = None) -> np.ndarray:
+    """NavFn's path from ``start`` (x, y) to ``goal`` (x, y) in world coordinates: the
+    centres of the cells it crosses, shape (n, 2), start cell first."""
+    params = params or PlannerParameters()
+    srow, scol = costmap.world_to_cell(*start)
+    if not costmap.contains(srow, scol):
+        raise PlanningError(f"start ({start[0]:.3f}, {start[1]:.3f}) is outside the map")
+    cell_costs = navfn_costs(costmap.costs, params.allow_unknown)
+    cell_costs[srow, scol] = COST_NEUTRAL  # clearRobotCell
+    h, w = cell_costs.shape
+    source = srow * w + scol
+    distances, predecessors = csgraph.dijkstra(
+        _graph(cell_costs), directed=False, indices=source, return_predecessors=True
+    )
+    reachable = np.isfinite(distances).reshape(h, w)
+    grow, gcol = _goal_cell(costmap, reachable, goal, params.tolerance)
+    node = grow * w + gcol
+    nodes = [node]
+    while node != source:
+        node = predecessors[node]
+        nodes.append(node)
+    nodes = np.array(nodes[::-1])
+    return costmap.cell_to_world(nodes // w, nodes % w)
+
+
+def path_length(path: np.ndarray) -> float:
+    """The length of a path of points (n, 2), in metres."""
+    return float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
