@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,7 +37,6 @@ class Run:
 
 def scenario(*overrides: str, base: str = "fra2mo"):
     """The scenario ``base`` with the YAML ``overrides`` merged, quiet."""
-    logging.getLogger("armando_drake").setLevel(logging.WARNING)
     loaded = load_scenario(base)
     return merge_overrides(loaded, ["logging: {console_rate: 0}", *overrides])
 

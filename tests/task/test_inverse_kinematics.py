@@ -107,7 +107,7 @@ def test_plan_follows_a_line_with_slerp(iiwa, caplog):
         path=LinearPath(start=X0.translation(), goal=X0.translation() + [-0.1, 0.25, 0.15]),
         orientation=OrientationPath(start=X0.rotation(), goal=R1),
     )
-    with caplog.at_level(logging.INFO):
+    with caplog.at_level(logging.INFO, logger="armando_drake.kinematics.inverse_kinematics"):
         plan = plan_joint_reference(iiwa, trajectory, q0, period=2e-3)
     assert "position (3) + orientation (3)" in caplog.text
     references = trajectory.reference(plan.times)
@@ -133,7 +133,7 @@ def test_armando_plan_logs_the_orientation_it_can_follow(armando, caplog):
         path=LinearPath(start=X0.translation(), goal=X0.translation() + [0.03, 0.05, 0.04]),
         orientation=OrientationPath(start=X0.rotation()),
     )
-    with caplog.at_level(logging.INFO):
+    with caplog.at_level(logging.INFO, logger="armando_drake.kinematics.inverse_kinematics"):
         plan = plan_joint_reference(armando, trajectory, q0, period=2e-3)
     assert "task = position (3)" in caplog.text
     assert "1 component(s) the arm can follow" in caplog.text
