@@ -151,7 +151,7 @@ class TwistJogConfig:
     gamepad: bool = True
     # The enable (dead-man) button's index in the Gamepad API's standard mapping
     # (0 = A / cross), teleop_twist_joy's `enable_button`.
-    gamepad_enable_button: int = param(0, ge=0)
+    gamepad_enable_button: int = param(0, unit="-", ge=0)
     # [m/s] at full forward stick (teleop_twist_joy's `scale_linear.x`).
     gamepad_scale_linear: float = param(0.5, unit="m/s", gt=0)
     # [rad/s] at full sideways stick (teleop_twist_joy's `scale_angular.yaw`).
