@@ -304,14 +304,7 @@ def convert_mesh(source: str | os.PathLike) -> ConvertedMesh:
         faces = np.asarray(mesh.faces, dtype=np.int64)
         normals = np.asarray(mesh.face_normals, dtype=float)
         text = _obj_text(vertices, faces, normals, source.name)
-
-    def save_vertices(name: str) -> None:
-        with open(name, "wb") as stream:
-            np.save(stream, vertices)
-
-    _write_atomically(_vertices_file(target), save_vertices)
-    _write_atomically(target, lambda name: Path(name).write_text(text))
-    return ConvertedMesh(source=source, path=target, converted=True)
+    return _write_converted(source, target, vertices, text)
 
 
 # Bumped whenever the hull written for the same source would differ.
@@ -355,6 +348,11 @@ def convex_hull(source: str | os.PathLike) -> ConvertedMesh:
     vertices = np.asarray(hull.vertices, dtype=float)
     faces = np.asarray(hull.faces, dtype=np.int64)
     text = _obj_text(vertices, faces, np.asarray(hull.face_normals, dtype=float), source.name)
+    return _write_converted(source, target, vertices, text)
+
+
+def _write_converted(source: Path, target: Path, vertices: np.ndarray, text: str) -> ConvertedMesh:
+    """Writes a converted mesh's OBJ ``text`` at ``target`` and its vertices beside it."""
 
     def save_vertices(name: str) -> None:
         with open(name, "wb") as stream:
