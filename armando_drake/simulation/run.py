@@ -590,6 +590,8 @@ def _simulate(
             if progress:
                 progress.update(target)
         signals.raising = False  # from here on a Ctrl-C waits for the logs
+        if signals.raised:  # raised, but caught by a library that went on
+            raise KeyboardInterrupt
     except KeyboardInterrupt:
         interrupted = True
         print(f"\n{interrupted_message}", file=stream, flush=True)

@@ -419,6 +419,10 @@ def user_errors() -> Iterator[None]:
         with contextlib.suppress(ValueError):  # not the main thread: leave SIGINT alone
             previous = {sig: signal.signal(sig, on_sigint) for sig in STOP_SIGNALS}
         yield
+        # A library may catch the KeyboardInterrupt and go on (trimesh's imports catch
+        # BaseException): the signal still stops the command.
+        if interrupted:
+            raise KeyboardInterrupt
     except KeyboardInterrupt as interrupt:
         _exit_interrupted(f"interrupted: {interrupt}" if str(interrupt) else "interrupted")
     except SystemExit:

@@ -114,3 +114,29 @@ def test_ctrl_c_during_the_run_says_what_it_still_writes(tmp_path, output):
         assert (tmp_path / "summary.json").is_file()
     else:
         assert said == ["interrupted"], stdout
+
+
+SWALLOWED = """
+import os, signal, time
+from armando_drake.tools.cli import user_errors
+with user_errors():
+    try:  # as trimesh's imports do: catch BaseException, go on
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(5)
+    except BaseException:
+        pass
+    print("went on")
+print("finished")
+"""
+
+
+def test_a_ctrl_c_a_library_swallows_still_stops_the_command():
+    """A KeyboardInterrupt caught by a library during start-up (trimesh's imports catch
+    BaseException) still ends the command with 130 before it goes any further."""
+    process = subprocess.run(
+        [sys.executable, "-c", SWALLOWED], capture_output=True, text=True, timeout=120
+    )
+    assert process.returncode == 130, process.stderr
+    assert "went on" in process.stdout  # the library did go on ...
+    assert "finished" not in process.stdout  # ... but the command stopped there
+    assert process.stderr.strip() == "interrupted"
