@@ -387,8 +387,7 @@ def check_goals(goals: list[NavigationGoal], costmap: Costmap, where: str = "") 
         row, col = costmap.world_to_cell(goal.x, goal.y)
         if not costmap.contains(row, col):
             raise PlanningError(
-                f"{where}navigation goal {goal.name!r} ({goal.x:g}, {goal.y:g}) is outside "
-                "the map"
+                f"{where}navigation goal {goal.name!r} ({goal.x:g}, {goal.y:g}) is outside the map"
             )
         cost = int(costmap.costs[row, col])
         if INSCRIBED_INFLATED_OBSTACLE <= cost <= 254:

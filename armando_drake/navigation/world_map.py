@@ -202,7 +202,6 @@ def world_map(
     return grid
 
 
-
 def lidar_height(plant, scene_graph, robot) -> float:
     """[m] the height of the robot's first lidar above the lowest point of its collision
     geometry (where it stands on the ground); :data:`DEFAULT_SCAN_HEIGHT` without one."""
@@ -211,7 +210,7 @@ def lidar_height(plant, scene_graph, robot) -> float:
         return DEFAULT_SCAN_HEIGHT
     context = plant.CreateDefaultContext()
     frame = plant.GetBodyByName(lidars[0].link, robot.model_instance).body_frame()
-    z = (plant.CalcRelativeTransform(context, plant.world_frame(), frame) @ lidars[0].X_LS)
+    z = plant.CalcRelativeTransform(context, plant.world_frame(), frame) @ lidars[0].X_LS
     shapes = obstacle_shapes(
         plant,
         scene_graph.model_inspector(),

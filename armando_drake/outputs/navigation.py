@@ -61,9 +61,7 @@ def write_navigation_outputs(folder: Path, navigation, summary: dict, rows: np.n
     axis.imshow(shade, cmap="gray", vmin=0, vmax=1, origin="lower", extent=(x0, x0 + w, y0, y0 + h))
     costs = navigation.costmap.costs.astype(float)
     inflated = np.ma.masked_where((costs == 0) | (costs >= 254), costs)
-    axis.imshow(
-        inflated, cmap="Blues", alpha=0.35, origin="lower", extent=(x0, x0 + w, y0, y0 + h)
-    )
+    axis.imshow(inflated, cmap="Blues", alpha=0.35, origin="lower", extent=(x0, x0 + w, y0, y0 + h))
     if len(rows):
         col = {name: rows[:, k] for k, name in enumerate(COLUMNS)}
         axis.plot(col["x"], col["y"], color="tab:red", lw=1.5, label="driven path")

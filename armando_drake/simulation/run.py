@@ -71,7 +71,7 @@ class RunResult:
     """What a run did."""
 
     scenario: str
-    controller: str  # position | trajectory | sinusoid | task | jog | navigation | vision | dds | none
+    controller: str  # what drove the robot: controller_mode(), or vision | dds
     sim_time: float  # [s]
     wall_time: float  # [s]
     realtime_factor: float

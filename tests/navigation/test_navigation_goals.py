@@ -176,5 +176,6 @@ def test_the_courses_navigation_yaml_loads_with_its_parameters(fra2mo_package, c
     assert rpp.max_angular_accel == 5.0
     assert params.expected_planner_frequency == 1.0
     # The one parameter not applied is named.
-    assert params.ignored == ["%s: controller_server.ros__parameters.FollowPath.transform_tolerance" % path]
+    key = "controller_server.ros__parameters.FollowPath.transform_tolerance"
+    assert params.ignored == [f"{path}: {key}"]
     assert "FollowPath.transform_tolerance: not applied here" in caplog.text
