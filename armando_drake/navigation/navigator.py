@@ -57,6 +57,7 @@ from armando_drake.navigation.planner import (
 )
 from armando_drake.navigation.world_map import lidar_height, world_map
 from armando_drake.tools.errors import ConfigError, ScenarioError
+from armando_drake.tools.extras import require_extra
 
 _log = logging.getLogger("armando_drake.navigation")
 
@@ -426,6 +427,7 @@ def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") 
     """The :class:`Navigator` of ``config`` on the floating base of ``stack``'s robot,
     publishing cmd_vel to the first active drive (or ``config.controller``); exports
     ``navigation_command``."""
+    require_extra("navigation", f"{where}navigation")
     takers = stack.taking(TwistStamped)
     if config.controller:
         takers = [name for name in takers if name == config.controller]

@@ -32,7 +32,6 @@ from pydrake.geometry import (
     Sphere,
 )
 from pydrake.multibody.tree import BodyIndex, ModelInstanceIndex
-from scipy.spatial import ConvexHull
 
 from armando_drake.navigation.maps import FREE, OCCUPIED, OccupancyMap
 
@@ -44,6 +43,8 @@ DEFAULT_MARGIN = 0.5  # [m] free border around the obstacles when no extent is g
 def _hull_planes(shape):
     """(n, 4) unit outward normals and offsets of a mesh's convex hull (n.p + d <= 0
     inside), and its vertices (3, n)."""
+    from scipy.spatial import ConvexHull  # the navigation extra: imported where used
+
     hull = shape.GetConvexHull()
     vertices = np.array([hull.vertex(k) for k in range(hull.num_vertices())])
     if len(vertices) < 4:
