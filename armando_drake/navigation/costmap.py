@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+
 from armando_drake.navigation.maps import OccupancyMap
 from armando_drake.tools.errors import ConfigError
 
