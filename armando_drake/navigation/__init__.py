@@ -5,7 +5,12 @@
 - :mod:`.costmap`: nav2_costmap_2d's static and inflation layers, with the parameters of a
   Nav2 YAML (``global_costmap``/``local_costmap``).
 - :mod:`.planner`: NavFn's global plan (Dijkstra over the costmap's navigation costs).
+- :mod:`.world_map`: the world's true occupancy (its collision geometry cut at the
+  lidar's height).
+- :mod:`.follower`: the controller server's parameters, Regulated Pure Pursuit.
+- :mod:`.config`, :mod:`.navigator`: the scenario's ``navigation:`` section and the Drake
+  system that drives to its goals (:func:`~.navigator.AddNavigation`).
 
-Pure computation on numpy arrays; the Drake systems (localization, the controller) are to
-come on top of it.
+The maps, costmaps, planner and follower are pure computation on numpy arrays (SciPy
+imported where used: the ``navigation`` extra).
 """
