@@ -20,7 +20,7 @@ import math
 
 from armando_drake.tools.schema import Refusal, param
 
-LOCALIZATIONS = ("ground_truth",)
+LOCALIZATIONS = ("ground_truth", "amcl")
 
 
 @dc.dataclass
@@ -55,8 +55,12 @@ class NavigationConfig:
     goals: list[NavigationGoal] = dc.field(default_factory=list)
     # The goals' names in the order they are visited; [] = the order of `goals`.
     order: list[str] = dc.field(default_factory=list)
-    # Where the robot's pose comes from: the ground truth (the plant's state).
+    # Where the robot's pose comes from: the ground truth (the plant's state), or AMCL
+    # (the Nav2 YAML's amcl section) on the drive's odometry and the lidar's scans.
     localization: str = param("ground_truth", choices=LOCALIZATIONS)
+    # [m, m, rad] AMCL's initial pose estimate (x, y, yaw); [] = the Nav2 YAML's
+    # amcl.initial_pose with set_initial_pose, else where the robot is spawned.
+    initial_pose: list[float] = param([], unit="m")
     # [s] simulation time at which the first goal is sent (the robot settles first).
     start_delay: float = param(1.0, unit="s", ge=0)
     # The drive controller that gets cmd_vel, by name; "" = the first active one.
@@ -77,6 +81,8 @@ class NavigationConfig:
             names.add(goal.name)
             if not all(math.isfinite(v) for v in (goal.x, goal.y, goal.yaw)):
                 raise Refusal(f"goals.{k}", f": goal {goal.name!r} is not finite")
+        if self.initial_pose and len(self.initial_pose) != 3:
+            raise Refusal("initial_pose", f"={self.initial_pose!r} must be [x, y, yaw] or []")
         for k, name in enumerate(self.order):
             if name not in names:
                 raise Refusal(

@@ -120,7 +120,7 @@ _SERVER_KNOWN = {
 _NOT_APPLIED = {"transform_tolerance", "interpolate_curvature_after_goal"}
 
 
-def _read(path: Path) -> dict:
+def read_yaml(path: Path) -> dict:
     try:
         doc = yaml.safe_load(path.read_text())
     except (OSError, yaml.YAMLError) as error:
@@ -128,14 +128,14 @@ def _read(path: Path) -> dict:
     return doc if isinstance(doc, dict) else {}
 
 
-def _ros(doc: dict, node: str, path: Path) -> dict:
+def ros_parameters(doc: dict, node: str, path: Path) -> dict:
     ros = (doc.get(node) or {}).get("ros__parameters") if isinstance(doc.get(node), dict) else None
     if not isinstance(ros, dict):
         raise ConfigError(f"{path}: {node}.ros__parameters: missing (no {node} in the file)")
     return ros
 
 
-def _set(target, node: dict, key: str, where: str, *, ge: float | None = 0.0) -> None:
+def set_parameter(target, node: dict, key: str, where: str, *, ge: float | None = 0.0) -> None:
     """``target.key = node[key]`` when given, of the default's type (a number >= ``ge``)."""
     if key not in node:
         return
@@ -172,8 +172,8 @@ def controller_parameters(path: str | Path) -> ControllerParameters:
     """controller_server's parameters of a Nav2 YAML (and planner_server's
     ``expected_planner_frequency``); keys not applied are warned about by name."""
     path = Path(path)
-    doc = _read(path)
-    ros = _ros(doc, "controller_server", path)
+    doc = read_yaml(path)
+    ros = ros_parameters(doc, "controller_server", path)
     where = f"{path}: controller_server.ros__parameters"
     params = ControllerParameters()
     ignored: list[str] = []
@@ -181,9 +181,9 @@ def controller_parameters(path: str | Path) -> ControllerParameters:
         "min_x_velocity_threshold",
         "min_theta_velocity_threshold",
     ):
-        _set(params, ros, key, where)
-    _set(params, ros, "failure_tolerance", where, ge=-1.0)
-    _set(params, ros, "controller_frequency", where)
+        set_parameter(params, ros, key, where)
+    set_parameter(params, ros, "failure_tolerance", where, ge=-1.0)
+    set_parameter(params, ros, "controller_frequency", where)
     if params.controller_frequency <= 0:
         raise ConfigError(f"{where}.controller_frequency must be positive")
     name, goal = _plugin(ros, "goal_checker_plugins", "goal_checker_plugin", "goal_checker", where)
@@ -194,9 +194,9 @@ def controller_parameters(path: str | Path) -> ControllerParameters:
     if params.stopped_goal_checker:
         keys |= {"trans_stopped_velocity", "rot_stopped_velocity"}
         for key in ("trans_stopped_velocity", "rot_stopped_velocity"):
-            _set(params, goal, key, f"{where}.{name}")
+            set_parameter(params, goal, key, f"{where}.{name}")
     for key in ("xy_goal_tolerance", "yaw_goal_tolerance"):
-        _set(params, goal, key, f"{where}.{name}")
+        set_parameter(params, goal, key, f"{where}.{name}")
     params.goal_stateful = bool(goal.get("stateful", params.goal_stateful))
     ignored += [f"{where}.{name}.{k}" for k in goal if k not in keys]
     known = {name}
@@ -209,11 +209,11 @@ def controller_parameters(path: str | Path) -> ControllerParameters:
         )
     keys = {"plugin", "required_movement_radius", "movement_time_allowance"}
     for key in keys - {"plugin"}:
-        _set(params, progress, key, f"{where}.{name}")
+        set_parameter(params, progress, key, f"{where}.{name}")
     if progress["plugin"] == PROGRESS_CHECKERS[1]:
         params.required_movement_angle = 0.5
         keys.add("required_movement_angle")
-        _set(params, progress, "required_movement_angle", f"{where}.{name}")
+        set_parameter(params, progress, "required_movement_angle", f"{where}.{name}")
     ignored += [f"{where}.{name}.{k}" for k in progress if k not in keys]
     known.add(name)
     name, follow = _plugin(ros, "controller_plugins", "controller_plugin", "FollowPath", where)
@@ -222,7 +222,7 @@ def controller_parameters(path: str | Path) -> ControllerParameters:
     fields = {f.name for f in dc.fields(RppParameters)}
     for key in follow:
         if key in fields:
-            _set(params.rpp, follow, key, f"{where}.{name}")
+            set_parameter(params.rpp, follow, key, f"{where}.{name}")
         elif key != "plugin":
             ignored.append(f"{where}.{name}.{key}")
     known.add(name)
@@ -234,7 +234,7 @@ def controller_parameters(path: str | Path) -> ControllerParameters:
     planner = doc.get("planner_server", {})
     planner = planner.get("ros__parameters", {}) if isinstance(planner, dict) else {}
     if isinstance(planner, dict):
-        _set(params, planner, "expected_planner_frequency", f"{path}: planner_server")
+        set_parameter(params, planner, "expected_planner_frequency", f"{path}: planner_server")
     for key in ignored:
         why = "not applied here" if key.rsplit(".", 1)[-1] in _NOT_APPLIED else "not used here"
         _log.warning("%s: %s", key, why)

@@ -31,7 +31,14 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 
 from armando_drake.control.manager import planar_base
 from armando_drake.description.packages import find_packages
-from armando_drake.messages.types import PublicationValue, Twist, TwistStamped
+from armando_drake.messages.types import Odometry, PublicationValue, Twist, TwistStamped
+from armando_drake.navigation.amcl import (
+    AmclLocalizer,
+    ParticleFilter,
+    amcl_parameters,
+    body_odometry,
+    compose,
+)
 from armando_drake.navigation.config import NavigationConfig, NavigationGoal
 from armando_drake.navigation.costmap import (
     INSCRIBED_INFLATED_OBSTACLE,
@@ -55,7 +62,7 @@ from armando_drake.navigation.planner import (
     plan,
     planner_parameters,
 )
-from armando_drake.navigation.world_map import lidar_height, world_map
+from armando_drake.navigation.world_map import LIDAR_TYPES, lidar_height, world_map
 from armando_drake.tools.errors import ConfigError, ScenarioError
 from armando_drake.tools.extras import require_extra
 
@@ -113,6 +120,7 @@ class Navigator(LeafSystem):
         - command
 
     - ``state``: the robot model instance's state (its floating base's pose and twist);
+    - with AMCL, ``odom`` (the drive's Odometry) and ``map_to_odom`` (x, y, yaw) too;
     - ``cmd_vel``: a Publication of TwistStamped (``frame_id`` ``base_link``);
     - ``command``: vector (linear [m/s], angular [rad/s]) of the latest message.
     """
@@ -129,6 +137,7 @@ class Navigator(LeafSystem):
         inscribed_radius: float,
         start_delay: float = 0.0,
         grid: OccupancyMap | None = None,
+        amcl_axle: float | None = None,
     ):
         super().__init__()
         self.goals = list(goals)
@@ -139,6 +148,10 @@ class Navigator(LeafSystem):
         self._inscribed = inscribed_radius
         self._q_rows, self._v_rows = base_rows
         self._state = self.DeclareVectorInputPort("state", state_size)
+        self._axle = amcl_axle  # None: the ground truth; else AMCL, the drive's axle offset
+        if amcl_axle is not None:
+            self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
+            self._map_to_odom = self.DeclareVectorInputPort("map_to_odom", 3)
         self._nav = self.DeclareAbstractState(AbstractValue.Make(NavState()))
         self._topic = self.DeclareAbstractState(PublicationValue())
         self._command = self.DeclareDiscreteState(BasicVector(np.zeros(2)))
@@ -150,8 +163,14 @@ class Navigator(LeafSystem):
     # -- the loop
 
     def _pose(self, context):
-        x = self._state.Eval(context)
-        px, py, yaw, v, w = planar_base(x[self._q_rows], x[self._v_rows])
+        if self._axle is None:
+            x = self._state.Eval(context)
+            px, py, yaw, v, w = planar_base(x[self._q_rows], x[self._v_rows])
+        else:  # AMCL's map -> odom, then the odometry
+            message = self._odom.Eval(context)
+            odom = body_odometry(message, self._axle)
+            px, py, yaw = compose(self._map_to_odom.Eval(context), odom)
+            v, w = message.linear[0], message.angular[2]
         c = self.controller
         v = 0.0 if abs(v) < c.min_x_velocity_threshold else v
         w = 0.0 if abs(w) < c.min_theta_velocity_threshold else w
@@ -407,6 +426,9 @@ class Navigation:
     drive: str
     grid: OccupancyMap
     costmap: Costmap
+    amcl: AmclLocalizer | None = None  # with localization: amcl (its scan is connected by
+    # ConnectLocalization, once the sensors are added)
+    lidar: str = ""  # the lidar AMCL reads
 
 
 def navigation_map(config: NavigationConfig, plant, scene_graph, robot, where: str = ""):
@@ -448,6 +470,7 @@ def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") 
     goals = config.visits()
     check_goals(goals, costmap, where)
     hardware = stack.hardware
+    axle = _axle_offset(stack, takers[0]) if config.localization == "amcl" else None
     navigator = builder.AddSystem(
         Navigator(
             goals,
@@ -459,6 +482,7 @@ def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") 
             inscribed_radius=costmap_params.inscribed_radius,
             start_delay=config.start_delay,
             grid=grid,
+            amcl_axle=axle,
         )
     )
     navigator.set_name("navigator")
@@ -466,4 +490,74 @@ def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") 
     builder.Connect(plant.get_state_output_port(instance), navigator.GetInputPort("state"))
     builder.Connect(navigator.GetOutputPort("cmd_vel"), stack.command_input(takers[0]))
     builder.ExportOutput(navigator.GetOutputPort("command"), "navigation_command")
-    return Navigation(navigator=navigator, drive=takers[0], grid=grid, costmap=costmap)
+    navigation = Navigation(navigator=navigator, drive=takers[0], grid=grid, costmap=costmap)
+    if axle is not None:
+        navigation.amcl = _add_amcl(builder, config, stack, navigation, params_file, axle, where)
+    return navigation
+
+
+def _axle_offset(stack, drive: str) -> float:
+    """[m] the drive's wheel axle midpoint ahead of the floating base's origin."""
+    plant, robot = stack.plant, stack.robot
+    logic = next(c.logic for c in stack.manager.controllers if c.name == drive)
+    body = plant.get_body(next(iter(plant.GetFloatingBaseBodies())))
+    context = plant.CreateDefaultContext()
+    points = [
+        plant.CalcRelativeTransform(
+            context,
+            body.body_frame(),
+            plant.GetJointByName(name, robot.model_instance).frame_on_child(),
+        ).translation()
+        for name in logic.joint_names
+    ]
+    return float(np.mean(points, axis=0)[0])
+
+
+def _add_amcl(builder, config, stack, navigation: Navigation, params_file, axle, where):
+    """The AmclLocalizer on the drive's odometry (and, later, the lidar's scan) feeding
+    the navigator's map -> odom."""
+    plant, robot = stack.plant, stack.robot
+    lidars = [b for b in robot.sensors if b.type in LIDAR_TYPES]
+    if not lidars:
+        raise ScenarioError(f"{where}navigation.localization=amcl needs a lidar on the robot")
+    try:
+        params = amcl_parameters(params_file)
+    except ConfigError as error:
+        raise ConfigError(f"{where}navigation.params_file: {error}") from None
+    context = plant.CreateDefaultContext()
+    body = plant.get_body(next(iter(plant.GetFloatingBaseBodies())))
+    link = plant.GetBodyByName(lidars[0].link, robot.model_instance).body_frame()
+    X_BS = plant.CalcRelativeTransform(context, body.body_frame(), link) @ lidars[0].X_LS
+    laser = (
+        X_BS.translation()[0],
+        X_BS.translation()[1],
+        X_BS.rotation().ToRollPitchYaw().yaw_angle(),
+    )
+    X_WB = plant.EvalBodyPoseInWorld(context, body)
+    spawn = (
+        X_WB.translation()[0],
+        X_WB.translation()[1],
+        X_WB.rotation().ToRollPitchYaw().yaw_angle(),
+    )
+    initial = config.initial_pose or (params.initial_pose if params.set_initial_pose else None)
+    pf = ParticleFilter(params, navigation.grid, laser)
+    rate = 2.0 * max(lidars[0].update_rate, 1.0)  # twice the scans: odometry at each
+    amcl = builder.AddSystem(AmclLocalizer(pf, initial or spawn, axle=axle, rate=rate))
+    amcl.set_name("amcl")
+    odom = stack.manager.GetOutputPort(f"{navigation.drive}.odom")
+    builder.Connect(odom, amcl.GetInputPort("odom"))
+    builder.Connect(odom, navigation.navigator.GetInputPort("odom"))
+    builder.Connect(
+        amcl.GetOutputPort("map_to_odom"), navigation.navigator.GetInputPort("map_to_odom")
+    )
+    builder.ExportOutput(amcl.GetOutputPort("estimate"), "amcl_estimate")
+    navigation.lidar = lidars[0].name
+    return amcl
+
+
+def ConnectLocalization(builder, navigation: Navigation | None, sensors: dict) -> None:
+    """Connects AMCL to its lidar's scan once the sensors are added (nothing to do for the
+    ground truth or without a navigation)."""
+    if navigation is None or navigation.amcl is None:
+        return
+    builder.Connect(sensors[navigation.lidar]["scan"], navigation.amcl.GetInputPort("scan"))

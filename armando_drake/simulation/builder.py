@@ -51,7 +51,7 @@ from armando_drake.control.stack import (
 from armando_drake.control.twist import AddTwistSequence
 from armando_drake.description.loader import AddRobot
 from armando_drake.description.worlds import AddWorld
-from armando_drake.navigation.navigator import AddNavigation
+from armando_drake.navigation.navigator import AddNavigation, ConnectLocalization
 from armando_drake.outputs.base import BASE_CSV, AddBaseLogger
 from armando_drake.outputs.logger import AddJointStateLogger, CommandsCsv
 from armando_drake.outputs.recording import AddRosbagRecorder
@@ -266,9 +266,7 @@ def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, comm
         nav = AddNavigation(builder, scenario.navigation, stack, where=where("navigation"))
         topics.navigation, topics.twist, topics.twist_target = nav, nav.navigator, nav.drive
     if scenario.task is not None:
-        topics.task = AddTask(
-            builder, scenario.task, stack, meshcat=meshcat, where=_origin(scenario, "task")
-        )
+        topics.task = AddTask(builder, scenario.task, stack, meshcat=meshcat, where=where("task"))
     if scenario.learned_ik is not None:
         base = RigidTransform(RollPitchYaw(scenario.robot.base_rpy), scenario.robot.base_xyz)
         topics.learned_ik = AddLearnedIk(
@@ -300,6 +298,7 @@ def _add_sensing(builder, scenario: Scenario, topics: WorldTopics, scene_graph, 
     topics.sensors = AddSensors(
         builder, topics.robot.sensors, plant=topics.plant, robot=topics.robot
     )
+    ConnectLocalization(builder, topics.navigation, topics.sensors)  # AMCL reads a lidar
     if scenario.vision is not None:
         topics.detectors = AddDetectors(
             builder,
