@@ -98,7 +98,7 @@ class NavState:
     rotating_to_goal: bool = False  # RPP's stateful rotation to the goal's heading
     baseline: tuple = ()  # the progress checker's (x, y, yaw, time)
     failing_since: float = math.nan  # the controller's first failure in a row
-    last_pose: tuple = ()
+    last_pose: tuple = ()  # the ground truth's (x, y, yaw): the results are measured on it
     driven: float = 0.0  # [m] path length so far on this goal
     plan_length: float = 0.0
     results: tuple = ()
@@ -162,10 +162,14 @@ class Navigator(LeafSystem):
 
     # -- the loop
 
+    def _truth(self, context) -> tuple[float, float, float, float, float]:
+        x = self._state.Eval(context)
+        return planar_base(x[self._q_rows], x[self._v_rows])
+
     def _pose(self, context):
+        """The localization's pose (x, y, yaw) and the measured twist (v, w)."""
         if self._axle is None:
-            x = self._state.Eval(context)
-            px, py, yaw, v, w = planar_base(x[self._q_rows], x[self._v_rows])
+            px, py, yaw, v, w = self._truth(context)
         else:  # AMCL's map -> odom, then the odometry
             message = self._odom.Eval(context)
             odom = body_odometry(message, self._axle)
@@ -180,10 +184,11 @@ class Navigator(LeafSystem):
         now = context.get_time()
         nav = context.get_abstract_state(self._nav).get_value()
         pose, speed = self._pose(context)
+        truth = self._truth(context)[:3]
         if nav.last_pose:
-            step = math.hypot(pose[0] - nav.last_pose[0], pose[1] - nav.last_pose[1])
+            step = math.hypot(truth[0] - nav.last_pose[0], truth[1] - nav.last_pose[1])
             nav = dc.replace(nav, driven=nav.driven + step)
-        nav = dc.replace(nav, last_pose=pose)
+        nav = dc.replace(nav, last_pose=truth)
         if nav.goal < 0:
             nav = self._start(nav, 0, pose, now)
         linear = angular = 0.0
@@ -236,16 +241,19 @@ class Navigator(LeafSystem):
         return dc.replace(nav, path=path, path_index=0, planned_at=now, plan_length=length)
 
     def _finish(self, nav: NavState, pose, now: float, reason: str) -> NavState:
+        """The goal's result, measured on the ground truth; the next goal sent from
+        ``pose`` (the localization's)."""
         goal = self.goals[nav.goal]
-        error = math.hypot(pose[0] - goal.x, pose[1] - goal.y)
-        yaw_error = abs(wrap(pose[2] - goal.yaw))
+        truth = nav.last_pose
+        error = math.hypot(truth[0] - goal.x, truth[1] - goal.y)
+        yaw_error = abs(wrap(truth[2] - goal.yaw))
         result = GoalResult(
             name=goal.name,
             reached=reason == "reached",
             reason=reason,
             start=nav.started,
             end=now,
-            pose=tuple(float(v) for v in pose),
+            pose=tuple(float(v) for v in truth),
             position_error=error,
             yaw_error=yaw_error,
             path_length=nav.driven,
