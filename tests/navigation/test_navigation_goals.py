@@ -33,9 +33,13 @@ def goals_run():
     world = MakeWorld(scenario, quiet=True)
     simulator = Simulator(world.diagram)
     simulator.Initialize()
-    simulator.AdvanceTo(scenario.simulation.duration)
     context = simulator.get_context()
-    return world, navigation_summary(world, context), world.base_log.array()
+    for end in np.arange(20.0, scenario.simulation.duration + 0.5, 1.0):  # until all are done
+        simulator.AdvanceTo(min(end, scenario.simulation.duration))
+        summary = navigation_summary(world, context)
+        if all(goal["reason"] != "not reached" for goal in summary["goals"]):
+            break
+    return world, summary, world.base_log.array()
 
 
 def _shortest(free: np.ndarray, start, goal) -> float:
