@@ -1,4 +1,4 @@
-"""Navigation as Nav2 computes it, without ROS: maps, costmaps and the global planner.
+"""Navigation as Nav2 computes it, without ROS: maps, costmaps, planner, follower, AMCL.
 
 - :mod:`.maps`: map_server's map YAML + image into an occupancy grid (nav2_map_server's
   map_io), and map_saver's output back.
@@ -8,6 +8,7 @@
 - :mod:`.world_map`: the world's true occupancy (its collision geometry cut at the
   lidar's height).
 - :mod:`.follower`: the controller server's parameters, Regulated Pure Pursuit.
+- :mod:`.amcl`: AMCL's particle filter (localization on the odometry and the lidar).
 - :mod:`.config`, :mod:`.navigator`: the scenario's ``navigation:`` section and the Drake
   system that drives to its goals (:func:`~.navigator.AddNavigation`).
 
