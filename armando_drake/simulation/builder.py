@@ -51,6 +51,7 @@ from armando_drake.control.stack import (
 from armando_drake.control.twist import AddTwistSequence
 from armando_drake.description.loader import AddRobot
 from armando_drake.description.worlds import AddWorld
+from armando_drake.navigation.navigator import AddNavigation, ConnectLocalization
 from armando_drake.outputs.base import BASE_CSV, AddBaseLogger
 from armando_drake.outputs.logger import AddJointStateLogger, CommandsCsv
 from armando_drake.outputs.recording import AddRosbagRecorder
@@ -242,7 +243,7 @@ def _add_control(builder, scenario: Scenario, plant, scene_graph, robot, physics
 def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, commands_csv, closers):
     """The scenario's command sequencer (its commands in ``commands_csv``), task,
     learned IK and live jogs (the arm's, the base's), on the controllers of ``topics.stack``."""
-    stack = topics.stack
+    stack, where = topics.stack, partial(_origin, scenario)
     if scenario.sequencer is not None:
 
         def commands_log(joints):  # commands.csv, for the joints the sequencer drives
@@ -261,10 +262,11 @@ def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, comm
         topics.twist, topics.twist_target = AddTwistSequence(
             builder, scenario.twist, stack, where=_origin(scenario, "twist")
         )
+    if scenario.navigation is not None:
+        nav = AddNavigation(builder, scenario.navigation, stack, where=where("navigation"))
+        topics.navigation, topics.twist, topics.twist_target = nav, nav.navigator, nav.drive
     if scenario.task is not None:
-        topics.task = AddTask(
-            builder, scenario.task, stack, meshcat=meshcat, where=_origin(scenario, "task")
-        )
+        topics.task = AddTask(builder, scenario.task, stack, meshcat=meshcat, where=where("task"))
     if scenario.learned_ik is not None:
         base = RigidTransform(RollPitchYaw(scenario.robot.base_rpy), scenario.robot.base_xyz)
         topics.learned_ik = AddLearnedIk(
@@ -274,7 +276,6 @@ def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, comm
             base_pose=base,
             where=_origin(scenario, "learned_ik"),
         )
-    where = partial(_origin, scenario)
     AddTeleop(builder, scenario, topics, meshcat=meshcat, where=where, closers=closers)
 
 
@@ -297,6 +298,7 @@ def _add_sensing(builder, scenario: Scenario, topics: WorldTopics, scene_graph, 
     topics.sensors = AddSensors(
         builder, topics.robot.sensors, plant=topics.plant, robot=topics.robot
     )
+    ConnectLocalization(builder, topics.navigation, topics.sensors)  # AMCL reads a lidar
     if scenario.vision is not None:
         topics.detectors = AddDetectors(
             builder,
