@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import os
 from functools import partial
-from pathlib import Path
 
 from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform, RollPitchYaw
@@ -96,14 +95,13 @@ def MakeWorld(
     topics = parts[0].topics  # the first robot's: the task, jog, cameras, bridge use it
     # What drives the controllers: the command sequencers, the task, the live jog.
     for part in parts:
-        folder = Path(output_dir) / part.folder if output_dir and write_commands else None
+        folder = part.output_dir(output_dir if write_commands else None)
         AddRobotDrivers(builder, part, folder / "commands.csv" if folder else None, closers)
     _add_drivers(builder, scenario, topics, meshcat, closers)
     # The commands to the plant (desired state, efforts, gravity feed-forward) and the
     # joint-state and base loggers.
     for part in parts:
-        folder = Path(output_dir) / part.folder if output_dir is not None else None
-        ConnectRobot(builder, part, folder, closers, quiet=quiet)
+        ConnectRobot(builder, part, part.output_dir(output_dir), closers, quiet=quiet)
     gravity_feedforward, logger = parts[0].gravity_feedforward, parts[0].logger
     # What watches them: the cameras, the detectors, perception.
     clusters_dir = output_dir if write_commands else None

@@ -77,6 +77,14 @@ class RobotParts:
         """Its output subfolder ("" for the only robot)."""
         return self.namespace.strip("/")
 
+    def output_dir(self, output_dir) -> Path | None:
+        """Its folder of ``output_dir`` (made), where its logs go; None without one."""
+        if output_dir is None:
+            return None
+        folder = Path(output_dir) / self.folder
+        folder.mkdir(parents=True, exist_ok=True)
+        return folder
+
 
 def robot_parts(scenario: Scenario) -> list[RobotParts]:
     """The robots of ``scenario``: its ``robots:``, else the one of its top-level keys."""

@@ -313,7 +313,10 @@ def robot_view(scenario: Scenario, index: int) -> Scenario:
 def default_duration(scenario: Scenario) -> float:
     """[s] one pass of the command sequence; the task's motion and 0.5 s of holding
     without one; the learned IK's targets, a period each, without either; the twist
-    sequence and 1 s of stopping; 2 s without any."""
+    sequence and 1 s of stopping; 2 s without any; the longest of the robots' in a world
+    of several."""
+    if scenario.robots:
+        return max(default_duration(robot_view(scenario, i)) for i in range(len(scenario.robots)))
     if scenario.sequencer is None:
         if scenario.task is not None:
             return scenario.task.duration + 0.5
