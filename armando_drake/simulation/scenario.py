@@ -267,7 +267,7 @@ class Scenario:
         given = [key for key in ROBOT_KEYS if getattr(self, key) != getattr(Scenario(), key)]
         if given:
             raise Refusal(
-                given[0], f": robots: is given, so {given[0]}: belongs in each robot's entry"
+                given[0], ": a key of the one robot, beside robots: (give it in each robot's entry)"
             )
         names, spaces = [], []
         for index, entry in enumerate(self.robots):
