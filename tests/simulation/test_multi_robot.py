@@ -1,14 +1,22 @@
 """Several robots in one world (a scenario's robots:): two Armandos facing each other
-(diagrams/dual_armando.yaml), Armando mounted on fra2mo (diagrams/fra2mo_armando.yaml),
-and the one-line errors of a robots: list."""
+(diagrams/dual_armando.yaml), the two meeting at one point (diagrams/dual_armando_meet.yaml),
+Armando mounted on fra2mo (diagrams/fra2mo_armando.yaml), and the one-line errors of a
+robots: list."""
 
+import dataclasses as dc
 import io
 import json
 
 import numpy as np
 import pytest
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import FixedOffsetFrame
 from pydrake.systems.analysis import Simulator
 
+from armando_drake.description.loader import AddRobot
+from armando_drake.kinematics.arm import ArmModel
+from armando_drake.kinematics.inverse_kinematics import solve_ik
 from armando_drake.outputs.logger import read_joint_states
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.run import run
@@ -85,8 +93,7 @@ def test_two_robots_have_their_own_ports_and_model_instances():
     names = [world.plant.GetModelInstanceName(p.robot.model_instance) for p in world.robots]
     assert names == ["left::armando", "right::armando"]
     outputs = {
-        world.diagram.get_output_port(i).get_name()
-        for i in range(world.diagram.num_output_ports())
+        world.diagram.get_output_port(i).get_name() for i in range(world.diagram.num_output_ports())
     }
     for space in ("left", "right"):
         for port in ("joint_states", "desired_state", "position_controller.status"):
@@ -170,3 +177,103 @@ def test_a_wrong_robots_list_is_one_line_naming_the_key(override, reason):
         MakeWorld(load_scenario("dual_armando", override), quiet=True, source="dual.yaml")
     message = str(error.value)
     assert "\n" not in message and reason in message, message
+
+
+# The meeting of diagrams/dual_armando_meet.yaml: the tool point between the fingers,
+# 4.8 mm beyond their tips (they end 0.0592 m along crawer_base's z), and the shared point.
+TOOL_POINT = np.array([0.0, 0.015, 0.064])  # [m] in crawer_base
+MEETING_POINT = np.array([0.0, 0.0, 0.30])  # [m] in the world, midway between the bases
+MEETING_TIME = 4.0  # [s] the trajectories' second point
+
+
+def _meeting_targets(robot_config) -> list[list[float]]:
+    """Each arm's joint targets by the project's IK: the tool point 5 cm short of the
+    meeting point, then on it, approaching level toward the other arm (its base's +x)."""
+    plant = MultibodyPlant(0.0)
+    robot = AddRobot(plant, dc.replace(robot_config, base_xyz=[0, 0, 0], base_rpy=[0, 0, 0]))
+    crawer = plant.GetFrameByName("crawer_base", robot.model_instance)
+    tool = plant.AddFrame(FixedOffsetFrame("tool", crawer, RigidTransform(TOOL_POINT)))
+    plant.Finalize()
+    arm = ArmModel(plant=plant, end_effector_frame=tool, model_instance=robot.model_instance)
+    X_WB = RigidTransform(RollPitchYaw(robot_config.base_rpy), robot_config.base_xyz)
+    # Level, toward +x of the base: the gripper's approach (z at q = 0) pitched a quarter
+    # turn by j1..j3 (about x), then yawed a quarter turn by j0.
+    R0 = tool.CalcPoseInWorld(plant.CreateDefaultContext()).rotation()
+    R_BT = RotationMatrix.MakeZRotation(np.pi / 2) @ RotationMatrix.MakeXRotation(np.pi / 2) @ R0
+    targets = []
+    for back in (0.05, 0.0):
+        p_W = MEETING_POINT - back * X_WB.rotation().matrix()[:, 0]
+        p_B = X_WB.inverse() @ p_W
+        result = solve_ik(arm, RigidTransform(R_BT, p_B), orientation="cost")
+        assert result.success and result.position_error < 1e-9, result.message
+        targets.append(list(result.q))
+    return targets
+
+
+def test_the_meeting_targets_are_the_ik_of_the_shared_point():
+    """The joint targets written in dual_armando_meet.yaml are the project's IK of the
+    shared point for each arm, within 1e-4 rad."""
+    scenario = load_scenario("dual_armando_meet")
+    for entry in scenario.robots:
+        expected = _meeting_targets(entry.robot)
+        assert np.abs(np.array(entry.sequencer.targets) - expected).max() < 1e-4, entry.name
+
+
+@pytest.fixture(scope="module")
+def meeting():
+    """dual_armando_meet.yaml sampled every 0.05 s: (times, the two tool points [m],
+    the smallest signed distance between a left and a right geometry [m]) per sample."""
+    world = MakeWorld(load_scenario("dual_armando_meet", QUIET), quiet=True)
+    plant, scene_graph = world.plant, world.scene_graph
+    simulator = Simulator(world.diagram)
+    context = simulator.get_context()
+    plant_context = plant.GetMyContextFromRoot(context)
+    graph_context = scene_graph.GetMyContextFromRoot(context)
+    instances = {part.name: part.robot.model_instance for part in world.robots}
+    tools = {name: plant.GetFrameByName("crawer_base", i) for name, i in instances.items()}
+    geometries = {
+        name: {
+            g
+            for body in plant.GetBodyIndices(instance)
+            for g in plant.GetCollisionGeometriesForBody(plant.get_body(body))
+        }
+        for name, instance in instances.items()
+    }
+    times, points, clearances = [], [], []
+    for t in np.arange(0.0, 5.0 + 1e-9, 0.05):
+        simulator.AdvanceTo(t)
+        times.append(t)
+        points.append({n: f.CalcPoseInWorld(plant_context) @ TOOL_POINT for n, f in tools.items()})
+        query = scene_graph.get_query_output_port().Eval(graph_context)
+        pairs = query.ComputeSignedDistancePairwiseClosestPoints(0.2)
+        between = [
+            pair.distance
+            for pair in pairs
+            if {pair.id_A, pair.id_B} & geometries["left"]
+            and {pair.id_A, pair.id_B} & geometries["right"]
+        ]
+        clearances.append(min(between, default=np.inf))
+    world.close(context)
+    return np.array(times), points, np.array(clearances)
+
+
+def test_both_tool_points_reach_the_shared_point_together(meeting):
+    """At the meeting time (4 s) the two tool points are within 1 mm of each other and
+    each within 1 mm of the shared point (measured: 0.1 mm); they stay there."""
+    times, points, _ = meeting
+    for k in np.flatnonzero(times >= MEETING_TIME - 1e-9):
+        left, right = points[k]["left"], points[k]["right"]
+        assert np.linalg.norm(left - right) <= 1e-3, (times[k], left, right)
+        for point in (left, right):
+            assert np.linalg.norm(point - MEETING_POINT) <= 1e-3, (times[k], point)
+    # Together: 0.5 s before, both are still as far (centimetres) from the point.
+    before = points[int(np.argmin(np.abs(times - (MEETING_TIME - 0.5))))]
+    far = [np.linalg.norm(before[n] - MEETING_POINT) for n in ("left", "right")]
+    assert min(far) > 5e-3 and abs(far[0] - far[1]) < 1e-4, far
+
+
+def test_the_two_arms_never_touch(meeting):
+    """The smallest distance between the two arms' collision geometries over the run
+    (SceneGraph's signed distance) stays above 5 mm (measured: 9.2 mm at the meeting)."""
+    _, _, clearances = meeting
+    assert clearances.min() > 5e-3, clearances.min()
