@@ -230,7 +230,8 @@ def _add_outputs(builder, scenario: Scenario, parts, scene_graph, meshcat, recor
     topics = parts[0].topics
     instances = [part.robot.model_instance for part in parts]
     if record is not None:
-        closers.append(AddRosbagRecorder(builder, record, topics).close)
+        others = [part.topics for part in parts[1:]]
+        closers.append(AddRosbagRecorder(builder, record, topics, others).close)
     bridge = AddRos2Bridge(builder, scenario.ros2, topics)
     if bridge is not None:
         closers.append(bridge.close)

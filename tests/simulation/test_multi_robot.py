@@ -277,3 +277,49 @@ def test_the_two_arms_never_touch(meeting):
     (SceneGraph's signed distance) stays above 5 mm (measured: 9.2 mm at the meeting)."""
     _, _, clearances = meeting
     assert clearances.min() > 5e-3, clearances.min()
+
+
+def _topics_of_bag(path) -> dict[str, list]:
+    """The messages per topic of an MCAP file, read with rosbags (not the writer's
+    library), and ``__types__``: each topic's message type."""
+    from rosbags.highlevel import AnyReader
+
+    topics: dict[str, list] = {}
+    with AnyReader([path]) as reader:
+        for connection, _, raw in reader.messages():
+            topics.setdefault(connection.topic, []).append(
+                reader.deserialize(raw, connection.msgtype)
+            )
+        topics["__types__"] = {c.topic: c.msgtype for c in reader.connections}
+    return topics
+
+
+def test_the_recording_has_each_robots_topics_under_its_namespace(tmp_path):
+    """--record of the two Armandos (1.5 s) and of Armando on fra2mo (1.2 s): each robot's
+    joint states and commands on /<namespace>/..., fra2mo's odometry and cmd_vel on
+    /fra2mo/odom and /fra2mo/cmd_vel."""
+    path = tmp_path / "dual.mcap"
+    world = MakeWorld(load_scenario("dual_armando", QUIET), quiet=True, record=path)
+    simulator = Simulator(world.diagram)
+    simulator.AdvanceTo(1.5)
+    world.close(simulator.get_context())
+    bag = _topics_of_bag(path)
+    for space in ("left", "right"):
+        states = bag[f"/{space}/joint_states"]
+        assert len(states) == 151 and list(states[-1].name) == ["j0", "j1", "j2", "j3"]
+        commands = bag[f"/{space}/position_controller/commands"]
+        assert [list(c.data) for c in commands] == [[0.0, 0.0, 0.0, 0.0]]
+    assert "/joint_states" not in bag
+    path = tmp_path / "mounted.mcap"
+    world = MakeWorld(load_scenario("fra2mo_armando", QUIET), quiet=True, record=path)
+    simulator = Simulator(world.diagram)
+    simulator.AdvanceTo(1.2)
+    world.close(simulator.get_context())
+    bag = _topics_of_bag(path)
+    types = bag["__types__"]
+    assert types["/fra2mo/odom"] == "nav_msgs/msg/Odometry"
+    assert types["/fra2mo/cmd_vel"] == "geometry_msgs/msg/Twist"
+    assert list(bag["/fra2mo/joint_states"][-1].name) == ["left_wheel_joint", "right_wheel_joint"]
+    assert len(bag["/armando/joint_states"]) == 121
+    assert len(bag["/armando/position_controller/commands"]) == 1
+    assert abs(bag["/fra2mo/cmd_vel"][-1].linear.x - 0.15) < 1e-9
