@@ -227,12 +227,11 @@ def _add_outputs(builder, scenario: Scenario, parts, scene_graph, meshcat, recor
     """The ROS 2 bag recorder (``record``), the live bridge (the first robot's topics) and
     Meshcat's visualization (every robot's); (its replay sampler or None, the bridge or
     None)."""
-    topics = parts[0].topics
+    topics, others = parts[0].topics, [part.topics for part in parts[1:]]
     instances = [part.robot.model_instance for part in parts]
     if record is not None:
-        others = [part.topics for part in parts[1:]]
         closers.append(AddRosbagRecorder(builder, record, topics, others).close)
-    bridge = AddRos2Bridge(builder, scenario.ros2, topics)
+    bridge = AddRos2Bridge(builder, scenario.ros2, topics, others)
     if bridge is not None:
         closers.append(bridge.close)
     # Meshcat draws the world.
