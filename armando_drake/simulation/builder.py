@@ -97,7 +97,7 @@ def MakeWorld(
     for part in parts:
         folder = part.output_dir(output_dir if write_commands else None)
         AddRobotDrivers(builder, part, folder / "commands.csv" if folder else None, closers)
-    _add_drivers(builder, scenario, topics, meshcat, closers)
+    _add_drivers(builder, scenario, topics, meshcat, closers, parts[0].view.robot)
     # The commands to the plant (desired state, efforts, gravity feed-forward) and the
     # joint-state and base loggers.
     for part in parts:
@@ -160,16 +160,16 @@ def _add_physics(builder: DiagramBuilder, scenario: Scenario, where: str):
     return plant, scene_graph, parts
 
 
-def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, closers):
+def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, closers, robot):
     """The scenario's task, learned IK and live jogs (the arm's, the base's), on the
-    controllers of ``topics.stack`` (the first robot's)."""
+    controllers of ``topics.stack`` (the first robot's, ``robot`` its section)."""
     stack = topics.stack
     if scenario.task is not None:
         topics.task = AddTask(
             builder, scenario.task, stack, meshcat=meshcat, where=_origin(scenario, "task")
         )
     if scenario.learned_ik is not None:
-        base = RigidTransform(RollPitchYaw(scenario.robot.base_rpy), scenario.robot.base_xyz)
+        base = RigidTransform(RollPitchYaw(robot.base_rpy), robot.base_xyz)
         topics.learned_ik = AddLearnedIk(
             builder,
             scenario.learned_ik,

@@ -305,8 +305,8 @@ def robot_view(scenario: Scenario, index: int) -> Scenario:
         sequencer=entry.sequencer,
         twist=entry.twist,
     )
-    file = sources_of(scenario).file
-    view.__dict__["_sources"] = ScenarioSources(file=f"{file}: robots.{index} ({entry.name})")
+    origin = sources_of(scenario).of("robots")  # the file, or the --set that gave them
+    view.__dict__["_sources"] = ScenarioSources(file=f"{origin}: robots.{index} ({entry.name})")
     return view
 
 

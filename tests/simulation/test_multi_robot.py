@@ -170,6 +170,12 @@ def test_the_mounted_arm_rides_with_fra2mo(mounted):
             "robots.1.parent='a::nolink': robot 'a' has no link 'nolink' (links: base_link,",
         ),
         ("robots: [{name: '1a'}]", "robots.0.name='1a': give a name"),
+        ("robots: [{name: a, actuators: {kp: -1}}]", "robots.0.actuators.kp=-1.0 must be positive"),
+        (
+            "robots: [{name: a, controllers: {activate: [joint_state_broadcaster, "
+            "position_controller]}, sequencer: !PositionTargets {targets: [[1, 2]]}}]",
+            "robots.0 (a): target 0 has 2 values, expected 4 (j0, j1, j2, j3)",
+        ),
     ],
 )
 def test_a_wrong_robots_list_is_one_line_naming_the_key(override, reason):
