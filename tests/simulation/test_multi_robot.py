@@ -20,7 +20,8 @@ from armando_drake.kinematics.inverse_kinematics import solve_ik
 from armando_drake.outputs.logger import read_joint_states
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.run import run
-from armando_drake.simulation.scenario import ScenarioError, load_scenario
+from armando_drake.simulation.scenario import load_scenario
+from armando_drake.tools.errors import ConfigError
 
 QUIET = "logging: {console_rate: 0}\nsimulator_config: {target_realtime_rate: 0}"
 TOLERANCE = 0.01  # [rad] the targets reached
@@ -179,7 +180,7 @@ def test_the_mounted_arm_rides_with_fra2mo(mounted):
     ],
 )
 def test_a_wrong_robots_list_is_one_line_naming_the_key(override, reason):
-    with pytest.raises(ScenarioError) as error:
+    with pytest.raises(ConfigError) as error:  # a ScenarioError, a SequencerError
         MakeWorld(load_scenario("dual_armando", override), quiet=True, source="dual.yaml")
     message = str(error.value)
     assert "\n" not in message and reason in message, message
