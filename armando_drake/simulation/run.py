@@ -131,7 +131,10 @@ class RunResult:
         """One line naming what ran and how fast, e.g. ``position.yaml with the
         trajectory controller: 15.00 s simulated in 2.10 s (7.14x real time)``."""
         name = Path(self.scenario).name if self.scenario else "the scenario"
-        if self.controller == "task":
+        if self.robots:  # several robots: what drove each
+            driven = (f"{n} {r['driven_controller'] or 'undriven'}" for n, r in self.robots.items())
+            what = f"{name} with {len(self.robots)} robots ({', '.join(driven)})"
+        elif self.controller == "task":
             what = f"{name} with a task-space motion"
         elif self.controller == "learned_ik":
             what = f"{name} with target poses through the learned IK"
@@ -155,7 +158,7 @@ class RunResult:
             what = f"{name} with a sinusoid on the position controller"
         else:
             what = f"{name} with the {self.controller} controller"
-        if self.driven:
+        if self.driven and not self.robots:
             what += f" ({self.driven})"
         return (
             f"{what}: {self.sim_time:.2f} s simulated in {self.wall_time:.2f} s "
