@@ -16,7 +16,7 @@ shows what any DDS program needs to talk to the world. Start the world first:
     python examples/arm_controller_node.py
 
 Lines it prints (for a person and for the test that runs it):
-    joint_states: N messages in W s of wall time (R Hz)
+    joint_states: N messages in W s of wall time (R Hz), S s of simulation time (R Hz)
     t=12.00 q=[...]
     target K [...] reached: max error E rad
     bad command [...] sent
@@ -193,17 +193,23 @@ def main(argv=None) -> int:
         with latest.lock:
             return list(latest.joint_state.position)
 
-    # The joint states' rate over a window of wall time.
+    def stamp() -> float:
+        header = latest.joint_state.header
+        return header.stamp.sec + header.stamp.nanosec * 1e-9
+
+    # The joint states' rate over a window of wall time, and over the simulation time
+    # their stamps span (the same when the world keeps up with real time).
     with latest.lock:
-        count0 = latest.joint_states_received
+        count0, stamp0 = latest.joint_states_received, stamp()
     wall0 = time.monotonic()
     time.sleep(args.count_window)
     with latest.lock:
-        received = latest.joint_states_received - count0
+        received, simulated = latest.joint_states_received - count0, stamp() - stamp0
     wall = time.monotonic() - wall0
     print(
         f"joint_states: {received} messages in {wall:.2f} s of wall time "
-        f"({received / wall:.1f} Hz)",
+        f"({received / wall:.1f} Hz), {simulated:.3f} s of simulation time "
+        f"({received / max(simulated, 1e-9):.1f} Hz)",
         flush=True,
     )
 

@@ -41,7 +41,9 @@ same machine load:
     of boxes and cylinders, in milliseconds.
 11. mobile: real-time factor of ``diagrams/fra2mo.yaml`` (fra2mo on its wheels in its
     arena of walls, crates and pillars, its DiffDrive plugin driven by a cmd_vel
-    sequence, its lidar scanning at 10 Hz, the base log on), target >= 2.
+    sequence, its lidar scanning at 10 Hz, the base log on), target >= 2; and of
+    ``diagrams/fra2mo_goals.yaml`` (four navigation goals: NavFn and Regulated Pure
+    Pursuit at 20 Hz), target >= 1.
 12. learned IK: milliseconds per pose of the learned inverse kinematics network
     (``models/learned_ik/armando_ik_network.onnx`` in ONNX Runtime), alone (budget
     0.2 ms) and with 3 Gauss-Newton steps, and of Drake's InverseKinematics.
@@ -305,14 +307,18 @@ def bench_task(report: Report, duration: float, ticks: int) -> None:
     )
 
 
-def bench_mobile(report: Report, duration: float) -> None:
+def bench_mobile(report: Report, duration: float, navigation: float) -> None:
     """fra2mo (diagrams/fra2mo.yaml): a floating base on its wheels in contact with the
     floor (2 ms steps) in its arena, its DiffDrive plugin at 100 Hz, its lidar (640 beams,
-    360 deg) at 10 Hz, a cmd_vel sequence, the base log."""
+    360 deg) at 10 Hz, a cmd_vel sequence, the base log; then driving to the goals of
+    diagrams/fra2mo_goals.yaml for ``navigation`` seconds."""
     rtf = [pipeline_rtf("fra2mo", duration) for _ in range(report.repeat)]
     report.add(Row("mobile", f"fra2mo driving a cmd_vel sequence, {duration:g} s", RTF, rtf)).check(
         ">=", 2.0
     )
+    rtf = [pipeline_rtf("fra2mo_goals", navigation) for _ in range(report.repeat)]
+    what = f"fra2mo navigating to four goals, {navigation:g} s"
+    report.add(Row("mobile", what, RTF, rtf)).check(">=", 1.0)
     report.notes.append(
         "Mobile: diagrams/fra2mo.yaml (straight, turn, straight in the arena of "
         "models/fra2mo_description/worlds/arena.sdf, the lidar at 10 Hz) with the CSV "
@@ -1376,11 +1382,12 @@ class Settings:
     task_ticks: int = 2000  # controller updates timed
     mobile_seconds: float = 11.14  # [s] simulated of fra2mo's sequence (all of it)
     learned_ik_poses: int = 2000  # poses the learned IK answers, one at a time
+    navigation_seconds: float = 34.0  # [s] simulated of fra2mo's goals (all four)
 
     @staticmethod
     def of(quick: bool) -> Settings:
         if quick:
-            return Settings(1.0, 1, 1.0, 5, 0.5, 20.0, 0.5, 100, 1.0, 100)
+            return Settings(1.0, 1, 1.0, 5, 0.5, 20.0, 0.5, 100, 1.0, 100, 2.0)
         return Settings(10.0, 5, TARGET_PERIOD, 60, 5.0, 3600.0)
 
 
@@ -1407,7 +1414,9 @@ def run_suite(
         "sweep": lambda: bench_sweep(report),
         "vision": lambda: bench_vision(report, settings.camera_seconds),
         "lidar": lambda: bench_lidar(report, settings.camera_frames),
-        "mobile": lambda: bench_mobile(report, settings.mobile_seconds),
+        "mobile": lambda: bench_mobile(
+            report, settings.mobile_seconds, settings.navigation_seconds
+        ),
         "learned_ik": lambda: bench_learned_ik(report, settings.learned_ik_poses),
     }
     for section in sections:

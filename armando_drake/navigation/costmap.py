@@ -28,7 +28,6 @@ from pathlib import Path
 
 import numpy as np
 import yaml
-from scipy import ndimage
 
 from armando_drake.navigation.maps import OccupancyMap
 from armando_drake.tools.errors import ConfigError
@@ -260,6 +259,8 @@ def inflate(costs: np.ndarray, resolution: float, params: CostmapParameters) -> 
         sources |= costs == NO_INFORMATION
     if not sources.any():
         return costs.copy()
+    from scipy import ndimage  # the navigation extra: imported where used
+
     distance = ndimage.distance_transform_edt(~sources)
     quantized = np.floor(distance * COST_LUT_PRECISION + 0.5) / COST_LUT_PRECISION
     inflated = inflation_cost(

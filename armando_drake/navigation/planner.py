@@ -23,8 +23,6 @@ from pathlib import Path
 
 import numpy as np
 import yaml
-from scipy import sparse
-from scipy.sparse import csgraph
 
 from armando_drake.navigation.costmap import (
     INSCRIBED_INFLATED_OBSTACLE,
@@ -83,8 +81,11 @@ def navfn_costs(costs: np.ndarray, allow_unknown: bool) -> np.ndarray:
     return c
 
 
-def _graph(cell_costs: np.ndarray) -> sparse.csr_matrix:
-    """The 8-connected grid graph between passable cells (undirected, upper half)."""
+def _graph(cell_costs: np.ndarray):
+    """The 8-connected grid graph between passable cells (undirected, upper half; a
+    SciPy CSR matrix)."""
+    from scipy import sparse  # the navigation extra: imported where used
+
     h, w = cell_costs.shape
     index = np.arange(h * w).reshape(h, w)
     rows, cols, weights = [], [], []
@@ -145,6 +146,8 @@ def plan(costmap: Costmap, start, goal, params: PlannerParameters | None = None)
     cell_costs[srow, scol] = COST_NEUTRAL  # clearRobotCell
     h, w = cell_costs.shape
     source = srow * w + scol
+    from scipy.sparse import csgraph
+
     distances, predecessors = csgraph.dijkstra(
         _graph(cell_costs), directed=False, indices=source, return_predecessors=True
     )

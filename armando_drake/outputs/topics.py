@@ -26,9 +26,10 @@ class WorldTopics:
     # The outputs of the description's other sensors (sensors.registry), by sensor name.
     sensors: dict = field(default_factory=dict)
     mobile: Any = None  # the MobileBase (control.mobile): how the base is held, its drives
-    twist: Any = None  # the TwistSequencer, if the scenario has a twist sequence
+    twist: Any = None  # the TwistSequencer (or the Navigator) publishing cmd_vel, if any
     twist_target: str = ""  # the drive it commands
     base_log: Any = None  # the BaseLogger of a floating base with a drive
+    navigation: Any = None  # the Navigation (navigation.navigator), if the scenario has one
 
     @property
     def plant(self):

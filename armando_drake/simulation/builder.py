@@ -35,6 +35,7 @@ from pydrake.systems.framework import DiagramBuilder
 
 from armando_drake.control.stack import ExportFreeControllerPorts
 from armando_drake.description.worlds import AddWorld
+from armando_drake.navigation.navigator import AddNavigation, ConnectLocalization
 from armando_drake.outputs.recording import AddRosbagRecorder
 from armando_drake.outputs.replay import AddVisualization
 from armando_drake.outputs.scan_view import AddScanViews
@@ -161,13 +162,14 @@ def _add_physics(builder: DiagramBuilder, scenario: Scenario, where: str):
 
 
 def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, closers, robot):
-    """The scenario's task, learned IK and live jogs (the arm's, the base's), on the
-    controllers of ``topics.stack`` (the first robot's, ``robot`` its section)."""
-    stack = topics.stack
+    """The scenario's navigation, task, learned IK and live jogs (the arm's, the base's),
+    on the controllers of ``topics.stack`` (the first robot's, ``robot`` its section)."""
+    stack, where = topics.stack, partial(_origin, scenario)
+    if scenario.navigation is not None:
+        nav = AddNavigation(builder, scenario.navigation, stack, where=where("navigation"))
+        topics.navigation, topics.twist, topics.twist_target = nav, nav.navigator, nav.drive
     if scenario.task is not None:
-        topics.task = AddTask(
-            builder, scenario.task, stack, meshcat=meshcat, where=_origin(scenario, "task")
-        )
+        topics.task = AddTask(builder, scenario.task, stack, meshcat=meshcat, where=where("task"))
     if scenario.learned_ik is not None:
         base = RigidTransform(RollPitchYaw(robot.base_rpy), robot.base_xyz)
         topics.learned_ik = AddLearnedIk(
@@ -177,7 +179,6 @@ def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, clos
             base_pose=base,
             where=_origin(scenario, "learned_ik"),
         )
-    where = partial(_origin, scenario)
     AddTeleop(builder, scenario, topics, meshcat=meshcat, where=where, closers=closers)
 
 
@@ -200,6 +201,7 @@ def _add_sensing(builder, scenario: Scenario, topics: WorldTopics, scene_graph, 
     topics.sensors = AddSensors(
         builder, topics.robot.sensors, plant=topics.plant, robot=topics.robot
     )
+    ConnectLocalization(builder, topics.navigation, topics.sensors)  # AMCL reads a lidar
     if scenario.vision is not None:
         topics.detectors = AddDetectors(
             builder,

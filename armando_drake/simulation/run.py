@@ -33,6 +33,7 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
 from armando_drake.control.sequencer import Sinusoid, mode_of, wave_of
 from armando_drake.control.stack import effective_actuators
+from armando_drake.outputs.navigation import navigation_summary, write_navigation_outputs
 from armando_drake.outputs.plots import write_plots
 from armando_drake.outputs.replay import REPLAY_FILE, RecordingMeshcat, publish_replay, write_replay
 from armando_drake.outputs.task_space import TASK_SPACE_CSV, TaskSpaceTracker, write_task_space_csv
@@ -82,7 +83,7 @@ class RunResult:
     """What a run did."""
 
     scenario: str
-    controller: str  # position | trajectory | sinusoid | task | jog | vision | dds | none
+    controller: str  # what drove the robot: controller_mode(), or vision | dds
     sim_time: float  # [s]
     wall_time: float  # [s]
     realtime_factor: float
@@ -100,6 +101,8 @@ class RunResult:
     vision: dict[str, Any] | None = None
     # A mobile base: distance travelled [m], final pose, odometry drift (outputs/base.py)
     base: dict[str, Any] | None = None
+    # Navigation: per goal reached, errors [m, rad], time [s], path length [m]; collisions
+    navigation: dict[str, Any] | None = None
     # A world of several robots: per robot name, its namespace, joints, driven controller,
     # step table (or tracking error), largest final error [rad] and base (robot_summary).
     robots: dict[str, Any] | None = None
@@ -124,6 +127,7 @@ class RunResult:
             "steps": [step_summary(step) for step in self.steps],
             "vision": self.vision,
             "base": self.base,
+            "navigation": self.navigation,
             **({"robots": self.robots} if self.robots is not None else {}),
         }
 
@@ -152,6 +156,10 @@ class RunResult:
             what = f"{name} with DDS commands driving the arm"
         elif self.controller == "twist":
             what = f"{name} with a cmd_vel sequence"
+        elif self.controller == "navigation":
+            reached = self.navigation["reached"] if self.navigation else 0
+            goals = len(self.navigation["goals"]) if self.navigation else 0
+            what = f"{name} navigating to goals, {reached}/{goals} reached"
         elif self.controller == "none":
             what = f"{name} with no controller driving the arm"
         elif self.controller == "sinusoid":
@@ -180,8 +188,9 @@ def write_scenario(scenario: Scenario, path: Path) -> None:
 
 
 def controller_mode(scenario: Scenario) -> str:
-    """position | trajectory | sinusoid | task | learned_ik | jog | twist | twist_jog | none:
-    what drives the robot; those of several robots joined by ", " (each once)."""
+    """position | trajectory | sinusoid | task | learned_ik | jog | twist | navigation |
+    twist_jog | none: what drives the robot; those of several robots joined by ", " (each
+    once)."""
     if scenario.robots:
         views = [robot_view(scenario, i) for i in range(len(scenario.robots))]
         return ", ".join(dict.fromkeys(controller_mode(view) for view in views))
@@ -192,6 +201,8 @@ def controller_mode(scenario: Scenario) -> str:
             return "learned_ik"
         if scenario.twist is not None:
             return "twist"
+        if scenario.navigation is not None:
+            return "navigation"
         if scenario.twist_jog is not None and scenario.jog is None:
             return "twist_jog"
         return "none" if scenario.jog is None else "jog"
@@ -561,6 +572,9 @@ def run(
     if log_dir is not None and plots:
         for folder in {log_dir / part.folder for part in world.robots}:
             write_plots(folder)
+    if log_dir is not None and result.navigation is not None:
+        rows = world.base_log.array() if world.base_log is not None else np.zeros((0, 1))
+        write_navigation_outputs(log_dir, world.topics.navigation, result.navigation, rows)
     if replay and replay_meshcat is not None and world.replay_sampler is not None:
         _publish_replay(replay_meshcat, world, simulator, log_dir)
     return result
@@ -679,6 +693,7 @@ def _result(scenario, world, simulator, table, tracker, log_dir, name: str = "")
             )
     if world.base_log is not None:
         result.base = world.base_log.summary()
+    result.navigation = navigation_summary(world, simulator.get_context())
     if world.detectors is not None:
         result.vision = write_vision_outputs(
             world.topics,

@@ -45,6 +45,7 @@ from armando_drake.control.stack import ActuatorConfig, ControllersConfig
 from armando_drake.control.twist import TwistSequence
 from armando_drake.description.config import RobotConfig
 from armando_drake.kinematics.motion import TaskSpaceMotion
+from armando_drake.navigation.config import NavigationConfig
 from armando_drake.outputs.config import LoggingConfig
 from armando_drake.perception.config import PerceptionConfig
 from armando_drake.ros2.config import Ros2Config
@@ -65,6 +66,7 @@ MIN_REALTIME_RATE = 1e-3
 # [s] the longest run taken from the sequence itself (no simulation.duration or
 # --duration given): one pass of a sequence longer than this is surely a typo.
 MAX_DEFAULT_DURATION = 3600.0
+NAVIGATION_TIME_PER_GOAL = 30.0  # [s] a navigation's default duration per goal
 # [s] the longest run accepted at all (about 11.6 simulated days): longer, the
 # run would not end in any useful time, as fast as it may go.
 MAX_DURATION = 1e6
@@ -182,6 +184,10 @@ class Scenario:
     # Velocity commands (cmd_vel) to a mobile base's drive: steps of {linear [m/s],
     # angular [rad/s], duration [s]} published at `rate` (control/twist.py); absent = none.
     twist: TwistSequence | None = None
+    # Goals a mobile base drives to as Nav2 does: a global plan on the costmap of the
+    # world's (or a given) map, Regulated Pure Pursuit on it, the parameters of a Nav2
+    # YAML (armando_drake/navigation/config.py, docs/navigation.md); absent = none.
+    navigation: NavigationConfig | None = None
     # A task-space motion of the end effector (path, time law, start positions):
     # published once at t = 0 to the active controller that takes a Cartesian
     # trajectory (as a CartesianTrajectory) or else a joint trajectory (planned by
@@ -237,6 +243,8 @@ class Scenario:
             if obj.name in names:
                 raise Refusal(f"objects.{index}", f": object {obj.name!r} is listed twice")
             names.add(obj.name)
+        if self.navigation is not None and self.twist is not None:
+            raise Refusal("navigation", ": both it and twist would publish cmd_vel; keep one")
         pacing = self.simulator_config.target_realtime_rate
         if 0 < pacing < MIN_REALTIME_RATE:
             raise Refusal(
@@ -313,8 +321,8 @@ def robot_view(scenario: Scenario, index: int) -> Scenario:
 def default_duration(scenario: Scenario) -> float:
     """[s] one pass of the command sequence; the task's motion and 0.5 s of holding
     without one; the learned IK's targets, a period each, without either; the twist
-    sequence and 1 s of stopping; 2 s without any; the longest of the robots' in a world
-    of several."""
+    sequence and 1 s of stopping; the navigation's start delay and 30 s a goal; 2 s
+    without any; the longest of the robots' in a world of several."""
     if scenario.robots:
         return max(default_duration(robot_view(scenario, i)) for i in range(len(scenario.robots)))
     if scenario.sequencer is None:
@@ -323,6 +331,10 @@ def default_duration(scenario: Scenario) -> float:
         if scenario.learned_ik is not None:
             learned = scenario.learned_ik
             return learned.start_delay + max(1, len(learned.targets)) * learned.period
+        if scenario.navigation is not None:  # a bound: give simulation.duration
+            return scenario.navigation.start_delay + NAVIGATION_TIME_PER_GOAL * len(
+                scenario.navigation.goals
+            )
         return 2.0 if scenario.twist is None else scenario.twist.one_pass() + 1.0
     return one_pass(scenario.sequencer)
 

@@ -15,6 +15,7 @@ from armando_drake.tools.errors import UserInputError
 EXTRAS = {
     "vision": ("vision", ("cv2",), "OpenCV (cv2)"),  # detectors and ArUco marker images
     "perception": ("perception", ("sklearn", "scipy"), "scikit-learn and SciPy"),  # point clouds
+    "navigation": ("navigation", ("scipy",), "SciPy"),  # costmaps, the planner, the world's map
     "ros2": ("ros2", ("cyclonedds",), "Cyclone DDS (cyclonedds)"),  # --ros2
     "foxglove": ("ros2", ("foxglove",), "the Foxglove SDK (foxglove)"),  # --foxglove
     "cluster": ("cluster", ("ray",), "Ray (ray)"),  # sweeps on Ray

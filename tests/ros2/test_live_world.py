@@ -64,10 +64,14 @@ def test_example_node_in_another_process_drives_the_arm():
     output = "".join(lines)
     assert node.returncode == 0, output
 
-    # /joint_states at the broadcaster's rate: the count over 5 s of wall time within 5 %.
-    count, seconds = re.search(r"joint_states: (\d+) messages in ([\d.]+) s", output).groups()
-    expected = world.update_rate * float(seconds)
-    assert abs(int(count) - expected) <= 0.05 * expected, output
+    # /joint_states at the broadcaster's rate: the count over 5 s of wall time within 5 %
+    # of the rate times the simulation time their stamps span (a loaded machine runs the
+    # world slower than real time; the rate is per simulated second).
+    pattern = r"joint_states: (\d+) messages in ([\d.]+) s .*, ([\d.]+) s of simulation time"
+    count, seconds, simulated = re.search(pattern, output).groups()
+    expected = world.update_rate * float(simulated)
+    assert float(simulated) >= 1.0, output  # the window saw the world run
+    assert abs(int(count) - expected) <= max(2, 0.05 * expected), output
     # Every seed target reached within 0.01 rad (as the node measured it on /joint_states).
     reached = r"^target \d+ \[.*\] reached: max error (\S+) rad"
     errors = [float(e) for e in re.findall(reached, output, re.M)]

@@ -1,0 +1,345 @@
+"""AMCL as nav2_amcl localizes: a particle filter on the map, the drive's odometry and the
+lidar's scans.
+
+:func:`amcl_parameters` reads ``amcl.ros__parameters`` of a Nav2 YAML. The filter
+(:class:`ParticleFilter`, numpy over all particles at once):
+
+- **motion** (``nav2_amcl::DifferentialMotionModel``): the odometry's change since the
+  last filter update as (rot1, trans, rot2), each particle's drawn with the noise of
+  ``alpha1`` (rotation from rotation), ``alpha2`` (rotation from translation), ``alpha3``
+  (translation from translation) and ``alpha4`` (translation from rotation), as
+  upstream's ``odometryUpdate`` (``alpha5`` is the omni model's: warned about);
+- **sensor** (``likelihood_field``): ``max_beams`` beams of the scan, evenly spread, those
+  within ``laser_min_range`` .. ``laser_max_range``; each beam's end point in the map,
+  ``z`` its distance to the nearest occupied cell (a distance transform, capped at
+  ``laser_likelihood_max_dist``), ``pz = z_hit exp(-z^2 / (2 sigma_hit^2)) + z_rand /
+  range_max``, and a particle's weight multiplied by ``1 + sum pz^3`` (upstream's);
+- an update only after the odometry moved ``update_min_d`` or turned ``update_min_a``
+  (and at the first scan); systematic resampling every ``resample_interval`` updates;
+- ``max_particles`` particles, drawn at the start around the initial pose (``initial_pose``
+  with ``set_initial_pose``, else the scenario's) with upstream's initial covariance
+  (0.5 m, 0.5 m, pi/12 rad standard deviations);
+- the estimate: the particles' weighted mean (circular for the heading); it is published as
+  ``map -> odom`` (the estimate composed with the odometry's inverse), so between
+  updates the pose follows the odometry, as Nav2's TF tree does.
+
+KLD-adaptive sampling (``min_particles``, ``pf_err``, ``pf_z``), the recovery
+(``recovery_alpha_slow``/``fast``) and beam skipping are not applied: warned by name.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import logging
+import math
+from pathlib import Path
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+from armando_drake.messages.types import Odometry, PublicationValue
+from armando_drake.navigation.follower import read_yaml, ros_parameters, set_parameter, wrap
+from armando_drake.navigation.maps import OCCUPIED, OccupancyMap
+from armando_drake.tools.errors import ConfigError
+
+DIFFERENTIAL = "nav2_amcl::DifferentialMotionModel"
+INITIAL_STD = (0.5, 0.5, math.pi / 12)  # nav2_amcl's initial covariance, as deviations
+
+_log = logging.getLogger("armando_drake.navigation")
+
+
+@dc.dataclass
+class AmclParameters:
+    """nav2_amcl's parameters (defaults: upstream's)."""
+
+    alpha1: float = 0.2
+    alpha2: float = 0.2
+    alpha3: float = 0.2
+    alpha4: float = 0.2
+    laser_likelihood_max_dist: float = 2.0
+    laser_max_range: float = 100.0
+    laser_min_range: float = -1.0
+    max_beams: float = 60
+    max_particles: float = 2000
+    sigma_hit: float = 0.2
+    z_hit: float = 0.5
+    z_rand: float = 0.5
+    update_min_a: float = 0.2
+    update_min_d: float = 0.25
+    resample_interval: float = 1
+    set_initial_pose: bool = False
+    initial_pose: tuple | None = None  # (x, y, yaw)
+    ignored: list[str] = dc.field(default_factory=list)
+
+
+_KNOWN = {
+    "use_sim_time", "base_frame_id", "global_frame_id", "odom_frame_id", "scan_topic",
+    "map_topic", "tf_broadcast", "transform_tolerance", "save_pose_rate",
+    "always_reset_initial_pose", "first_map_only", "laser_model_type", "robot_model_type",
+}  # fmt: skip
+_NOT_APPLIED = {
+    "alpha5": "the omni motion model's",
+    "min_particles": "KLD sampling is not applied: max_particles particles",
+    "pf_err": "KLD sampling is not applied",
+    "pf_z": "KLD sampling is not applied",
+    "recovery_alpha_fast": "no recovery by random particles",
+    "recovery_alpha_slow": "no recovery by random particles",
+    "do_beamskip": "no beam skipping",
+    "beam_skip_distance": "no beam skipping",
+    "beam_skip_error_threshold": "no beam skipping",
+    "beam_skip_threshold": "no beam skipping",
+    "lambda_short": "the beam model's",
+    "z_max": "the beam model's",
+    "z_short": "the beam model's",
+}
+
+
+def amcl_parameters(path: str | Path) -> AmclParameters:
+    """``amcl.ros__parameters`` of a Nav2 YAML; keys not applied are warned about."""
+    path = Path(path)
+    ros = ros_parameters(read_yaml(path), "amcl", path)
+    where = f"{path}: amcl.ros__parameters"
+    params = AmclParameters()
+    model = ros.get("laser_model_type", "likelihood_field")
+    if model != "likelihood_field":
+        raise ConfigError(f"{where}.laser_model_type {model!r}: only likelihood_field is known")
+    motion = ros.get("robot_model_type", DIFFERENTIAL)
+    if motion != DIFFERENTIAL:
+        raise ConfigError(f"{where}.robot_model_type {motion!r}: only {DIFFERENTIAL} is known")
+    fields = {f.name for f in dc.fields(AmclParameters)} - {"initial_pose", "ignored"}
+    ignored = []
+    for key in ros:
+        if key in fields:
+            set_parameter(params, ros, key, where, ge=None if key == "laser_min_range" else 0.0)
+        elif key == "initial_pose":
+            pose = ros[key] if isinstance(ros[key], dict) else {}
+            params.initial_pose = tuple(float(pose.get(k, 0.0)) for k in ("x", "y", "yaw"))
+        elif key not in _KNOWN:
+            ignored.append(key)
+            why = _NOT_APPLIED.get(key, "not used here")
+            _log.warning("%s.%s: %s", where, key, why)
+    if params.max_particles < 1 or params.max_beams < 2:
+        raise ConfigError(f"{where}: max_particles >= 1 and max_beams >= 2 are needed")
+    params.ignored = [f"{where}.{k}" for k in ignored]
+    return params
+
+
+def likelihood_field(grid: OccupancyMap, max_dist: float) -> np.ndarray:
+    """[m] each cell's distance to the nearest occupied cell, capped at ``max_dist``."""
+    from scipy import ndimage  # the navigation extra: imported where used
+
+    occupied = grid.data >= OCCUPIED
+    if not occupied.any():
+        return np.full(grid.data.shape, max_dist)
+    distance = ndimage.distance_transform_edt(~occupied) * grid.resolution
+    return np.minimum(distance, max_dist)
+
+
+@dc.dataclass(frozen=True)
+class FilterState:
+    """The particles and what the filter last used; never mutated."""
+
+    particles: np.ndarray  # (n, 3) x, y, yaw in the map
+    weights: np.ndarray  # (n,) summing to 1
+    odom: tuple  # the odometry pose (x, y, yaw) of the last update
+    updates: int = 0
+
+    def __deepcopy__(self, memo):
+        return self
+
+
+class ParticleFilter:
+    """AMCL's filter over a map (see the module docstring)."""
+
+    def __init__(self, params: AmclParameters, grid: OccupancyMap, laser_pose, seed: int = 0):
+        self.params = params
+        self.grid = grid
+        self.field = likelihood_field(grid, params.laser_likelihood_max_dist)
+        self.laser = tuple(float(v) for v in laser_pose)  # (x, y, yaw) in the base frame
+        self.rng = np.random.default_rng(seed)
+
+    def start(self, pose, odom) -> FilterState:
+        """Particles around ``pose`` (x, y, yaw) with upstream's initial covariance."""
+        n = int(self.params.max_particles)
+        particles = np.asarray(pose, dtype=float) + self.rng.normal(size=(n, 3)) * INITIAL_STD
+        return FilterState(particles, np.full(n, 1.0 / n), tuple(odom))
+
+    def moved(self, state: FilterState, odom) -> bool:
+        dx, dy = odom[0] - state.odom[0], odom[1] - state.odom[1]
+        turned = abs(wrap(odom[2] - state.odom[2]))
+        return math.hypot(dx, dy) >= self.params.update_min_d or turned >= self.params.update_min_a
+
+    def motion(self, particles: np.ndarray, old, new) -> np.ndarray:
+        """DifferentialMotionModel::odometryUpdate from odometry pose ``old`` to ``new``."""
+        p = self.params
+        dx, dy = new[0] - old[0], new[1] - old[1]
+        trans = math.hypot(dx, dy)
+        rot1 = 0.0 if trans < 0.01 else wrap(math.atan2(dy, dx) - old[2])
+        rot2 = wrap(wrap(new[2] - old[2]) - rot1)
+        rot1_noise = min(abs(wrap(rot1)), abs(wrap(rot1 - math.pi)))
+        rot2_noise = min(abs(wrap(rot2)), abs(wrap(rot2 - math.pi)))
+        n = len(particles)
+        normal = self.rng.normal(size=(3, n))
+        rot1_hat = rot1 - normal[0] * math.sqrt(p.alpha1 * rot1_noise**2 + p.alpha2 * trans**2)
+        trans_hat = trans - normal[1] * math.sqrt(
+            p.alpha3 * trans**2 + p.alpha4 * (rot1_noise**2 + rot2_noise**2)
+        )
+        rot2_hat = rot2 - normal[2] * math.sqrt(p.alpha1 * rot2_noise**2 + p.alpha2 * trans**2)
+        out = particles.copy()
+        out[:, 0] += trans_hat * np.cos(particles[:, 2] + rot1_hat)
+        out[:, 1] += trans_hat * np.sin(particles[:, 2] + rot1_hat)
+        out[:, 2] = np.arctan2(
+            np.sin(particles[:, 2] + rot1_hat + rot2_hat),
+            np.cos(particles[:, 2] + rot1_hat + rot2_hat),
+        )
+        return out
+
+    def likelihood(self, particles: np.ndarray, scan) -> np.ndarray:
+        """LikelihoodFieldModel: ``1 + sum pz^3`` of each particle over the used beams."""
+        p = self.params
+        ranges = np.asarray(scan.ranges, dtype=float)
+        angles = scan.angle_min + scan.angle_increment * np.arange(len(ranges))
+        count = min(int(p.max_beams), len(ranges))
+        pick = np.round(np.linspace(0, len(ranges) - 1, count)).astype(int)
+        ranges, angles = ranges[pick], angles[pick]
+        range_max = min(scan.range_max, p.laser_max_range)
+        range_min = max(scan.range_min, p.laser_min_range)
+        keep = np.isfinite(ranges) & (ranges < range_max) & (ranges >= range_min)
+        ranges, angles = ranges[keep], angles[keep]
+        total = np.ones(len(particles))
+        if not len(ranges):
+            return total
+        x, y, yaw = particles[:, 0:1], particles[:, 1:2], particles[:, 2:3]
+        lx, ly, lyaw = self.laser
+        sx = x + lx * np.cos(yaw) - ly * np.sin(yaw)
+        sy = y + lx * np.sin(yaw) + ly * np.cos(yaw)
+        heading = yaw + lyaw + angles[None, :]
+        ex = sx + ranges[None, :] * np.cos(heading)
+        ey = sy + ranges[None, :] * np.sin(heading)
+        grid = self.grid
+        col = np.floor((ex - grid.origin[0]) / grid.resolution).astype(int)
+        row = np.floor((ey - grid.origin[1]) / grid.resolution).astype(int)
+        inside = (row >= 0) & (row < grid.height) & (col >= 0) & (col < grid.width)
+        z = np.full(ex.shape, p.laser_likelihood_max_dist)
+        z[inside] = self.field[row[inside], col[inside]]
+        pz = p.z_hit * np.exp(-(z * z) / (2 * p.sigma_hit**2)) + p.z_rand / range_max
+        return total + np.sum(pz**3, axis=1)
+
+    def update(self, state: FilterState, odom, scan) -> FilterState:
+        """Motion to ``odom``, the scan's weights, resampling when due."""
+        particles = self.motion(state.particles, state.odom, odom)
+        weights = state.weights * self.likelihood(particles, scan)
+        weights = (
+            weights / weights.sum()
+            if weights.sum() > 0
+            else np.full(len(weights), 1 / len(weights))
+        )
+        updates = state.updates + 1
+        if updates % max(1, int(self.params.resample_interval)) == 0:
+            n = len(particles)
+            positions = (self.rng.random() + np.arange(n)) / n
+            index = np.minimum(np.searchsorted(np.cumsum(weights), positions), n - 1)
+            particles, weights = particles[index], np.full(n, 1.0 / n)
+        return FilterState(particles, weights, tuple(odom), updates)
+
+    @staticmethod
+    def estimate(state: FilterState) -> tuple[float, float, float]:
+        """The weighted mean pose (circular mean of the headings)."""
+        w = state.weights
+        x, y = float(w @ state.particles[:, 0]), float(w @ state.particles[:, 1])
+        yaw = math.atan2(
+            float(w @ np.sin(state.particles[:, 2])), float(w @ np.cos(state.particles[:, 2]))
+        )
+        return x, y, yaw
+
+
+def compose(a, b) -> tuple[float, float, float]:
+    """The planar pose ``a`` then ``b`` (b expressed in a's frame)."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], wrap(a[2] + b[2])
+
+
+def inverse(a) -> tuple[float, float, float]:
+    """The planar pose whose composition with ``a`` is the identity."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return -c * a[0] - s * a[1], s * a[0] - c * a[1], wrap(-a[2])
+
+
+def body_odometry(message, axle: float) -> tuple[float, float, float]:
+    """The odometry's pose of the base frame: a drive integrates the wheel axle's midpoint,
+    ``axle`` [m] ahead of the base frame's origin (both start at the odometry's origin)."""
+    if message is None:
+        return 0.0, 0.0, 0.0
+    odom = (message.position[0], message.position[1], message.yaw)
+    return compose(compose((axle, 0.0, 0.0), odom), (-axle, 0.0, 0.0))
+
+
+ODOM_HISTORY = 8  # odometry poses kept, to pair a scan with the odometry at its stamp
+
+
+@dc.dataclass(frozen=True)
+class _Memory:
+    filter: FilterState | None = None
+    scan_count: int = 0
+    history: tuple = ()  # ((stamp, (x, y, yaw)), ...) the latest odometry poses
+
+    def __deepcopy__(self, memo):
+        return self
+
+
+class AmclLocalizer(LeafSystem):
+    """AMCL on the drive's odometry and a lidar's scans (:class:`ParticleFilter`).
+
+    .. pydrake_system::
+
+        name: AmclLocalizer
+        input_ports:
+        - odom
+        - scan
+        output_ports:
+        - map_to_odom
+        - estimate
+
+    - ``odom``: the drive's latest Odometry; ``scan``: a Publication of LaserScan;
+    - ``map_to_odom``: (x, y, yaw) of the odometry frame in the map;
+    - ``estimate``: (x, y, yaw) of the base in the map at the latest filter update.
+    """
+
+    def __init__(self, pf: ParticleFilter, initial_pose, *, axle: float, rate: float):
+        super().__init__()
+        self.filter = pf
+        self._initial = tuple(float(v) for v in initial_pose)
+        self._axle = axle
+        self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
+        self._scan = self.DeclareAbstractInputPort("scan", PublicationValue())
+        self._memory = self.DeclareAbstractState(AbstractValue.Make(_Memory()))
+        self._map_to_odom = self.DeclareDiscreteState(BasicVector(np.array(self._initial)))
+        self._estimate = self.DeclareDiscreteState(BasicVector(np.array(self._initial)))
+        self.DeclareStateOutputPort("map_to_odom", self._map_to_odom)
+        self.DeclareStateOutputPort("estimate", self._estimate)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._Update)
+
+    def _Update(self, context, state) -> None:
+        message = self._odom.Eval(context)
+        memory = context.get_abstract_state(self._memory).get_value()
+        history = (*memory.history, (message.stamp, body_odometry(message, self._axle)))
+        history = history[-ODOM_HISTORY:]
+        scan = self._scan.Eval(context) if self._scan.HasValue(context) else None
+        if memory.filter is None:
+            memory = _Memory(self.filter.start(self._initial, history[-1][1]), 0, history)
+        elif scan is not None and scan.count != memory.scan_count and scan.message is not None:
+            # The odometry when the scan was taken (as Nav2 looks its TF up at the stamp).
+            stamp = scan.message.stamp
+            odom = min(history, key=lambda entry: abs(entry[0] - stamp))[1]
+            current = memory.filter
+            if current.updates == 0 or self.filter.moved(current, odom):
+                current = self.filter.update(current, odom, scan.message)
+                estimate = self.filter.estimate(current)
+                state.get_mutable_discrete_state(self._estimate).set_value(estimate)
+                map_to_odom = compose(estimate, inverse(odom))
+                state.get_mutable_discrete_state(self._map_to_odom).set_value(map_to_odom)
+            memory = _Memory(current, scan.count, history)
+        else:
+            memory = dc.replace(memory, history=history)
+        state.get_mutable_abstract_state(self._memory).set_value(memory)

@@ -1,0 +1,415 @@
+"""Nav2's controller server: Regulated Pure Pursuit, its goal and progress checkers.
+
+:func:`controller_parameters` reads ``controller_server.ros__parameters`` of a Nav2 YAML:
+``controller_frequency``, ``min_x_velocity_threshold`` / ``min_theta_velocity_threshold``
+(a measured speed below them counts as 0), ``failure_tolerance``, the goal checker
+(``nav2_controller::SimpleGoalChecker`` or ``StoppedGoalChecker``), the progress checker
+(``SimpleProgressChecker`` or ``PoseProgressChecker``) and the ``FollowPath`` plugin,
+``nav2_regulated_pure_pursuit_controller::RegulatedPurePursuitController``. A key of
+these plugins that is not applied here is warned about by name (``transform_tolerance``:
+there are no transforms to wait for), as any unknown one.
+
+:func:`rpp_command` is ``RegulatedPurePursuitController::computeVelocityCommands``: the
+path pruned to the part ahead of the robot (within ``max_robot_pose_search_dist``), the
+lookahead (``lookahead_dist``, or ``|v| lookahead_time`` clamped to
+``[min_lookahead_dist, max_lookahead_dist]``), the carrot on the path at that distance
+(interpolated on the segment that crosses the circle with ``use_interpolation``), the
+curvature ``2 y / (x^2 + y^2)`` to it (or to the point at ``curvature_lookahead_dist``);
+rotation in place toward the path beyond ``rotate_to_heading_min_angle`` or to the goal's
+heading within the goal checker's ``xy_goal_tolerance`` (``rotate_to_heading_angular_vel``
+within ``max_angular_accel``, slowing to stop on the heading); else
+``desired_linear_vel`` regulated by curvature (below ``regulated_linear_scaling_min_radius``
+scaled by ``radius / min_radius``), by the cost under the robot (``cost_scaling_dist``,
+``cost_scaling_gain``, ``inflation_cost_scaling_factor``), not below
+``regulated_linear_scaling_min_speed``, then slowed on the last
+``approach_velocity_scaling_dist`` (not below ``min_approach_linear_velocity``); the
+angular velocity is the linear one times the curvature. With ``use_collision_detection``
+the arc is projected forward (up to ``max_allowed_time_to_collision_up_to_carrot`` and
+the carrot) and a cell at or above the inscribed cost on it stops the robot: a failure
+of the controller (the goal is aborted after ``failure_tolerance`` seconds of them).
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import logging
+import math
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from armando_drake.navigation.costmap import (
+    INSCRIBED_INFLATED_OBSTACLE,
+    NO_INFORMATION,
+    Costmap,
+)
+from armando_drake.tools.errors import ConfigError
+
+RPP = "nav2_regulated_pure_pursuit_controller::RegulatedPurePursuitController"
+GOAL_CHECKERS = ("nav2_controller::SimpleGoalChecker", "nav2_controller::StoppedGoalChecker")
+PROGRESS_CHECKERS = (
+    "nav2_controller::SimpleProgressChecker",
+    "nav2_controller::PoseProgressChecker",
+)
+
+_log = logging.getLogger("armando_drake.navigation")
+
+
+@dc.dataclass
+class RppParameters:
+    """RegulatedPurePursuitController's parameters (defaults: upstream's)."""
+
+    desired_linear_vel: float = 0.5
+    lookahead_dist: float = 0.6
+    min_lookahead_dist: float = 0.3
+    max_lookahead_dist: float = 0.9
+    lookahead_time: float = 1.5
+    rotate_to_heading_angular_vel: float = 1.8
+    use_velocity_scaled_lookahead_dist: bool = False
+    min_approach_linear_velocity: float = 0.05
+    approach_velocity_scaling_dist: float = 0.6
+    use_collision_detection: bool = True
+    max_allowed_time_to_collision_up_to_carrot: float = 1.0
+    use_regulated_linear_velocity_scaling: bool = True
+    use_cost_regulated_linear_velocity_scaling: bool = True
+    cost_scaling_dist: float = 0.6
+    cost_scaling_gain: float = 1.0
+    inflation_cost_scaling_factor: float = 3.0
+    regulated_linear_scaling_min_radius: float = 0.9
+    regulated_linear_scaling_min_speed: float = 0.25
+    use_fixed_curvature_lookahead: bool = False
+    curvature_lookahead_dist: float = 0.6
+    use_rotate_to_heading: bool = True
+    rotate_to_heading_min_angle: float = 0.785
+    max_angular_accel: float = 3.2
+    allow_reversing: bool = False
+    max_robot_pose_search_dist: float = 10.0
+    use_interpolation: bool = True
+    stateful: bool = True
+
+
+@dc.dataclass
+class ControllerParameters:
+    """controller_server's parameters and its plugins'."""
+
+    controller_frequency: float = 20.0
+    min_x_velocity_threshold: float = 0.0001
+    min_theta_velocity_threshold: float = 0.0001
+    failure_tolerance: float = 0.0
+    xy_goal_tolerance: float = 0.25
+    yaw_goal_tolerance: float = 0.25
+    goal_stateful: bool = True
+    stopped_goal_checker: bool = False
+    trans_stopped_velocity: float = 0.25
+    rot_stopped_velocity: float = 0.25
+    required_movement_radius: float = 0.5
+    required_movement_angle: float = math.inf  # only with PoseProgressChecker
+    movement_time_allowance: float = 10.0
+    expected_planner_frequency: float = 1.0
+    rpp: RppParameters = dc.field(default_factory=RppParameters)
+    ignored: list[str] = dc.field(default_factory=list)
+
+
+_SERVER_KNOWN = {
+    "use_sim_time", "odom_topic", "speed_limit_topic", "use_realtime_priority",
+    "enable_stamped_cmd_vel", "publish_zero_velocity", "costmap_update_timeout",
+    "controller_plugins", "goal_checker_plugins", "goal_checker_plugin",
+    "progress_checker_plugins", "progress_checker_plugin", "min_y_velocity_threshold",
+}  # fmt: skip
+_NOT_APPLIED = {"transform_tolerance", "interpolate_curvature_after_goal"}
+
+
+def read_yaml(path: Path) -> dict:
+    try:
+        doc = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as error:
+        raise ConfigError(f"{path}: cannot be read ({' '.join(str(error).split())})") from None
+    return doc if isinstance(doc, dict) else {}
+
+
+def ros_parameters(doc: dict, node: str, path: Path) -> dict:
+    ros = (doc.get(node) or {}).get("ros__parameters") if isinstance(doc.get(node), dict) else None
+    if not isinstance(ros, dict):
+        raise ConfigError(f"{path}: {node}.ros__parameters: missing (no {node} in the file)")
+    return ros
+
+
+def set_parameter(target, node: dict, key: str, where: str, *, ge: float | None = 0.0) -> None:
+    """``target.key = node[key]`` when given, of the default's type (a number >= ``ge``)."""
+    if key not in node:
+        return
+    value, default = node[key], getattr(target, key)
+    if isinstance(default, bool):
+        if not isinstance(value, bool):
+            raise ConfigError(f"{where}.{key} must be true or false, not {value!r}")
+        setattr(target, key, value)
+        return
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ConfigError(f"{where}.{key} must be a number, not {value!r}")
+    if ge is not None and value < ge:
+        raise ConfigError(f"{where}.{key} must be >= {ge:g}, not {value}")
+    setattr(target, key, float(value))
+
+
+def _plugin(ros: dict, names_key: str, name_key: str, default: str, where: str):
+    """(name, parameters) of the server's first plugin of a kind (Nav2 takes a list
+    ``<kind>_plugins`` or, before Humble, one ``<kind>_plugin``)."""
+    names = ros.get(names_key, [ros.get(name_key, default)])
+    if isinstance(names, str):
+        names = [names]
+    if not isinstance(names, list) or not names:
+        raise ConfigError(f"{where}.{names_key} must be a list of plugin names, not {names!r}")
+    if len(names) > 1:
+        _log.warning("%s.%s: only the first, %r, is used", where, names_key, names[0])
+    node = ros.get(names[0])
+    if not isinstance(node, dict) or "plugin" not in node:
+        raise ConfigError(f"{where}.{names[0]}.plugin: the plugin '{names[0]}' has no type")
+    return names[0], node
+
+
+def controller_parameters(path: str | Path) -> ControllerParameters:
+    """controller_server's parameters of a Nav2 YAML (and planner_server's
+    ``expected_planner_frequency``); keys not applied are warned about by name."""
+    path = Path(path)
+    doc = read_yaml(path)
+    ros = ros_parameters(doc, "controller_server", path)
+    where = f"{path}: controller_server.ros__parameters"
+    params = ControllerParameters()
+    ignored: list[str] = []
+    for key in (
+        "min_x_velocity_threshold",
+        "min_theta_velocity_threshold",
+    ):
+        set_parameter(params, ros, key, where)
+    set_parameter(params, ros, "failure_tolerance", where, ge=-1.0)
+    set_parameter(params, ros, "controller_frequency", where)
+    if params.controller_frequency <= 0:
+        raise ConfigError(f"{where}.controller_frequency must be positive")
+    name, goal = _plugin(ros, "goal_checker_plugins", "goal_checker_plugin", "goal_checker", where)
+    if goal["plugin"] not in GOAL_CHECKERS:
+        raise ConfigError(f"{where}.{name}.plugin {goal['plugin']!r}: known: {GOAL_CHECKERS}")
+    params.stopped_goal_checker = goal["plugin"] == GOAL_CHECKERS[1]
+    keys = {"plugin", "xy_goal_tolerance", "yaw_goal_tolerance", "stateful"}
+    if params.stopped_goal_checker:
+        keys |= {"trans_stopped_velocity", "rot_stopped_velocity"}
+        for key in ("trans_stopped_velocity", "rot_stopped_velocity"):
+            set_parameter(params, goal, key, f"{where}.{name}")
+    for key in ("xy_goal_tolerance", "yaw_goal_tolerance"):
+        set_parameter(params, goal, key, f"{where}.{name}")
+    params.goal_stateful = bool(goal.get("stateful", params.goal_stateful))
+    ignored += [f"{where}.{name}.{k}" for k in goal if k not in keys]
+    known = {name}
+    name, progress = _plugin(
+        ros, "progress_checker_plugins", "progress_checker_plugin", "progress_checker", where
+    )
+    if progress["plugin"] not in PROGRESS_CHECKERS:
+        raise ConfigError(
+            f"{where}.{name}.plugin {progress['plugin']!r}: known: {PROGRESS_CHECKERS}"
+        )
+    keys = {"plugin", "required_movement_radius", "movement_time_allowance"}
+    for key in keys - {"plugin"}:
+        set_parameter(params, progress, key, f"{where}.{name}")
+    if progress["plugin"] == PROGRESS_CHECKERS[1]:
+        params.required_movement_angle = 0.5
+        keys.add("required_movement_angle")
+        set_parameter(params, progress, "required_movement_angle", f"{where}.{name}")
+    ignored += [f"{where}.{name}.{k}" for k in progress if k not in keys]
+    known.add(name)
+    name, follow = _plugin(ros, "controller_plugins", "controller_plugin", "FollowPath", where)
+    if follow["plugin"] != RPP:
+        raise ConfigError(f"{where}.{name}.plugin is {follow['plugin']!r}; only {RPP} is known")
+    fields = {f.name for f in dc.fields(RppParameters)}
+    for key in follow:
+        if key in fields:
+            set_parameter(params.rpp, follow, key, f"{where}.{name}")
+        elif key != "plugin":
+            ignored.append(f"{where}.{name}.{key}")
+    known.add(name)
+    ignored += [
+        f"{where}.{k}"
+        for k in ros
+        if k not in known | _SERVER_KNOWN and not hasattr(params, k) and k not in ("plugin",)
+    ]
+    planner = doc.get("planner_server", {})
+    planner = planner.get("ros__parameters", {}) if isinstance(planner, dict) else {}
+    if isinstance(planner, dict):
+        set_parameter(params, planner, "expected_planner_frequency", f"{path}: planner_server")
+    for key in ignored:
+        why = "not applied here" if key.rsplit(".", 1)[-1] in _NOT_APPLIED else "not used here"
+        _log.warning("%s: %s", key, why)
+    params.ignored = ignored
+    return params
+
+
+# ---------------------------------------------------------------------------- the follower
+
+
+def wrap(angle: float) -> float:
+    """``angle`` in (-pi, pi]."""
+    return math.atan2(math.sin(angle), math.cos(angle))
+
+
+def to_robot(points: np.ndarray, pose) -> np.ndarray:
+    """World points (n, 2) in the robot's frame at ``pose`` (x, y, yaw)."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    d = points - np.asarray(pose[:2])
+    return np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)
+
+
+def prune(path: np.ndarray, start: int, pose, search_dist: float) -> int:
+    """The index of the path point nearest the robot, searched from ``start`` over
+    ``search_dist`` metres of path (``transformGlobalPlan``'s pruning)."""
+    steps = np.linalg.norm(np.diff(path[start:], axis=0), axis=1)
+    along = np.concatenate([[0.0], np.cumsum(steps)])
+    end = start + int(np.searchsorted(along, search_dist, side="right"))
+    window = path[start : max(end, start + 1)]
+    d = np.hypot(window[:, 0] - pose[0], window[:, 1] - pose[1])
+    return start + int(np.argmin(d))
+
+
+def carrot(local: np.ndarray, lookahead: float, interpolate: bool) -> np.ndarray:
+    """The point of the path (robot frame, from the nearest point on) at ``lookahead``
+    from the robot: the first point at least that far, or the crossing of the circle on
+    the segment before it (``circleSegmentIntersection``); the last point when none."""
+    d = np.hypot(local[:, 0], local[:, 1])
+    beyond = np.nonzero(d >= lookahead)[0]
+    if not len(beyond):
+        return local[-1]
+    k = int(beyond[0])
+    if not interpolate or k == 0:
+        return local[k]
+    p1, p2 = local[k - 1], local[k]
+    seg = p2 - p1
+    a = seg @ seg
+    b = 2 * (p1 @ seg)
+    c = p1 @ p1 - lookahead * lookahead
+    t = (-b + math.sqrt(max(0.0, b * b - 4 * a * c))) / (2 * a) if a > 0 else 1.0
+    return p1 + min(1.0, max(0.0, t)) * seg
+
+
+@dc.dataclass(frozen=True)
+class Command:
+    """The follower's output and what it decided."""
+
+    linear: float
+    angular: float
+    rotating_to_goal: bool = False
+    collision: bool = False
+
+
+def _rotate(angle: float, current_w: float, p: RppParameters, dt: float) -> float:
+    """rotateToHeading: toward ``angle`` at rotate_to_heading_angular_vel, within
+    max_angular_accel of ``current_w``, slowing to stop on the heading."""
+    target = math.copysign(p.rotate_to_heading_angular_vel, angle)
+    stop = math.sqrt(2.0 * p.max_angular_accel * abs(angle))
+    target = math.copysign(min(abs(target), stop), angle)
+    step = p.max_angular_accel * dt
+    return min(max(target, current_w - step), current_w + step)
+
+
+def _cost_at(costmap: Costmap, x: float, y: float) -> int:
+    row, col = costmap.world_to_cell(x, y)
+    if not costmap.contains(row, col):
+        return NO_INFORMATION
+    return int(costmap.costs[row, col])
+
+
+def _collision_ahead(costmap, pose, v, w, carrot_dist, p: RppParameters) -> bool:
+    """isCollisionImminent: the arc of (v, w) from ``pose``, in steps of a cell, up to
+    the carrot and the allowed time, through a cell of inscribed cost or more."""
+    if _cost_at(costmap, pose[0], pose[1]) in (INSCRIBED_INFLATED_OBSTACLE, 254):
+        return True
+    speed = abs(v) if abs(v) > 0.01 else abs(w) * 0.2
+    if speed <= 0:
+        return False
+    dt = costmap.resolution / speed
+    n = int(p.max_allowed_time_to_collision_up_to_carrot / dt)
+    t = dt * np.arange(1, n + 1)
+    theta = pose[2] + w * t
+    if abs(w) > 1e-9:
+        x = pose[0] + v / w * (np.sin(theta) - math.sin(pose[2]))
+        y = pose[1] - v / w * (np.cos(theta) - math.cos(pose[2]))
+    else:
+        x = pose[0] + v * t * math.cos(pose[2])
+        y = pose[1] + v * t * math.sin(pose[2])
+    keep = np.hypot(x - pose[0], y - pose[1]) <= carrot_dist
+    for xi, yi in zip(x[keep], y[keep], strict=True):
+        cost = _cost_at(costmap, xi, yi)
+        if INSCRIBED_INFLATED_OBSTACLE <= cost < NO_INFORMATION:
+            return True
+    return False
+
+
+def _regulate(p: RppParameters, curvature: float, cost: int, remaining: float, inscribed):
+    """applyConstraints: the linear speed regulated by curvature, cost and approach."""
+    curvature_vel = cost_vel = p.desired_linear_vel
+    radius = abs(1.0 / curvature) if abs(curvature) > 1e-9 else math.inf
+    if p.use_regulated_linear_velocity_scaling and radius < p.regulated_linear_scaling_min_radius:
+        curvature_vel *= radius / p.regulated_linear_scaling_min_radius
+    if p.use_cost_regulated_linear_velocity_scaling and 0 < cost < NO_INFORMATION:
+        ratio = min(1.0, cost / (INSCRIBED_INFLATED_OBSTACLE - 1))
+        distance = -math.log(max(ratio, 1e-9)) / p.inflation_cost_scaling_factor + inscribed
+        if distance < p.cost_scaling_dist:
+            cost_vel *= p.cost_scaling_gain * distance / p.cost_scaling_dist
+    linear = max(min(curvature_vel, cost_vel), p.regulated_linear_scaling_min_speed)
+    if remaining < p.approach_velocity_scaling_dist and p.approach_velocity_scaling_dist > 0:
+        approach = linear * remaining / p.approach_velocity_scaling_dist
+        linear = min(linear, max(approach, p.min_approach_linear_velocity))
+    return min(abs(linear), p.desired_linear_vel)
+
+
+def rpp_command(
+    params: ControllerParameters,
+    costmap: Costmap,
+    local: np.ndarray,
+    pose,
+    speed: tuple[float, float],
+    goal,
+    *,
+    rotating_to_goal: bool,
+    inscribed_radius: float,
+) -> Command:
+    """RegulatedPurePursuitController::computeVelocityCommands for the robot at ``pose``
+    (x, y, yaw) moving at ``speed`` (v, w; thresholded), on the pruned path ``local``
+    (robot frame, nearest point first), toward ``goal`` (x, y, yaw)."""
+    p = params.rpp
+    dt = 1.0 / params.controller_frequency
+    v0, w0 = speed
+    lookahead = p.lookahead_dist
+    if p.use_velocity_scaled_lookahead_dist:
+        lookahead = min(max(abs(v0) * p.lookahead_time, p.min_lookahead_dist), p.max_lookahead_dist)
+    target = carrot(local, lookahead, p.use_interpolation)
+    bend = target
+    if p.use_fixed_curvature_lookahead:
+        bend = carrot(local, p.curvature_lookahead_dist, p.use_interpolation)
+    dist2 = float(bend @ bend)
+    curvature = 2.0 * bend[1] / dist2 if dist2 > 1e-9 else 0.0
+    to_goal = math.hypot(goal[0] - pose[0], goal[1] - pose[1])
+    sign = 1.0
+    if p.allow_reversing:
+        sign = -1.0 if target[0] < 0 else 1.0
+    rotating_to_goal = p.use_rotate_to_heading and (
+        (p.stateful and rotating_to_goal) or to_goal < params.xy_goal_tolerance
+    )
+    if rotating_to_goal:
+        w = _rotate(wrap(goal[2] - pose[2]), w0, p, dt)
+        return Command(0.0, w, rotating_to_goal=True)
+    angle_to_path = math.atan2(target[1], target[0])
+    if (
+        p.use_rotate_to_heading
+        and not p.allow_reversing
+        and abs(angle_to_path) > p.rotate_to_heading_min_angle
+    ):
+        w = _rotate(angle_to_path, w0, p, dt)
+        v = 0.0
+    else:
+        steps = np.linalg.norm(np.diff(local, axis=0), axis=1)
+        remaining = float(np.hypot(*local[0]) + steps.sum())
+        cost = _cost_at(costmap, pose[0], pose[1])
+        v = sign * _regulate(p, curvature, cost, remaining, inscribed_radius)
+        w = v * curvature
+    carrot_dist = float(math.hypot(*target))
+    if p.use_collision_detection and _collision_ahead(costmap, pose, v, w, carrot_dist, p):
+        return Command(0.0, 0.0, collision=True)
+    return Command(v, w)

@@ -1,0 +1,571 @@
+"""Navigation to goals as a Drake system: NavigateToPose's plan, follow, check, in order.
+
+:func:`AddNavigation` reads the scenario's ``navigation:`` section and its Nav2 YAML,
+makes the map (the given map_server map, or the world's true occupancy at the lidar's
+height: :mod:`.world_map`) and the global costmap (:mod:`.costmap`), refuses a goal in
+an obstacle (its name in the one-line error), and adds a :class:`Navigator` that
+publishes cmd_vel to the drive controller.
+
+:class:`Navigator` is one discrete update at ``controller_frequency``, as Nav2's
+controller server's loop: the pose from the localization (the ground truth: the
+plant's state), NavFn's plan on a new goal and at ``expected_planner_frequency`` (the
+default behaviour tree replans at 1 Hz), Regulated Pure Pursuit on it
+(:mod:`.follower`), the goal checker (``xy_goal_tolerance`` then, stateful, the
+``yaw_goal_tolerance``) and the progress checker (``required_movement_radius`` within
+``movement_time_allowance``, else the goal is aborted); the goals in the chosen order.
+Between updates nothing runs in Python. Its state is an immutable :class:`NavState`
+(Drake's copy of it is free).
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import logging
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+from armando_drake.control.manager import planar_base
+from armando_drake.description.packages import find_packages
+from armando_drake.messages.types import Odometry, PublicationValue, Twist, TwistStamped
+from armando_drake.navigation.amcl import (
+    AmclLocalizer,
+    ParticleFilter,
+    amcl_parameters,
+    body_odometry,
+    compose,
+)
+from armando_drake.navigation.config import NavigationConfig, NavigationGoal
+from armando_drake.navigation.costmap import (
+    INSCRIBED_INFLATED_OBSTACLE,
+    Costmap,
+    costmap_parameters,
+    make_costmap,
+)
+from armando_drake.navigation.follower import (
+    ControllerParameters,
+    controller_parameters,
+    prune,
+    rpp_command,
+    to_robot,
+    wrap,
+)
+from armando_drake.navigation.maps import OccupancyMap, load_map
+from armando_drake.navigation.planner import (
+    PlannerParameters,
+    PlanningError,
+    path_length,
+    plan,
+    planner_parameters,
+)
+from armando_drake.navigation.world_map import LIDAR_TYPES, lidar_height, world_map
+from armando_drake.tools.errors import ConfigError, ScenarioError
+from armando_drake.tools.extras import require_extra
+
+_log = logging.getLogger("armando_drake.navigation")
+
+
+@dc.dataclass(frozen=True)
+class GoalResult:
+    """How a goal went."""
+
+    name: str
+    reached: bool
+    reason: str  # "reached", "no progress", "collision ahead", "no plan", "not reached"
+    start: float  # [s] when the goal was sent
+    end: float  # [s] when it was reached or given up (nan: still running)
+    pose: tuple[float, float, float]  # (x, y, yaw) then
+    position_error: float  # [m]
+    yaw_error: float  # [rad]
+    path_length: float  # [m] driven
+    plan_length: float  # [m] the first plan's
+
+
+@dc.dataclass(frozen=True)
+class NavState:
+    """The navigator's state; never mutated (a new one at each update)."""
+
+    goal: int = -1  # index of the current goal in the visits (-1: not started)
+    path: Any = None  # the current plan (n, 2), or None
+    path_index: int = 0  # the nearest point of the path so far
+    planned_at: float = -math.inf
+    started: float = math.nan
+    xy_reached: bool = False  # the stateful goal checker's latch
+    rotating_to_goal: bool = False  # RPP's stateful rotation to the goal's heading
+    baseline: tuple = ()  # the progress checker's (x, y, yaw, time)
+    failing_since: float = math.nan  # the controller's first failure in a row
+    last_pose: tuple = ()  # the ground truth's (x, y, yaw): the results are measured on it
+    driven: float = 0.0  # [m] path length so far on this goal
+    plan_length: float = 0.0
+    results: tuple = ()
+
+    def __deepcopy__(self, memo):
+        return self
+
+
+class Navigator(LeafSystem):
+    """NavigateToPose over a list of goals, with NavFn and Regulated Pure Pursuit.
+
+    .. pydrake_system::
+
+        name: Navigator
+        input_ports:
+        - state
+        output_ports:
+        - cmd_vel
+        - command
+
+    - ``state``: the robot model instance's state (its floating base's pose and twist);
+    - with AMCL, ``odom`` (the drive's Odometry) and ``map_to_odom`` (x, y, yaw) too;
+    - ``cmd_vel``: a Publication of TwistStamped (``frame_id`` ``base_link``);
+    - ``command``: vector (linear [m/s], angular [rad/s]) of the latest message.
+    """
+
+    def __init__(
+        self,
+        goals: list[NavigationGoal],
+        costmap: Costmap,
+        controller: ControllerParameters,
+        planner: PlannerParameters,
+        *,
+        state_size: int,
+        base_rows: tuple[list[int], list[int]],
+        inscribed_radius: float,
+        start_delay: float = 0.0,
+        grid: OccupancyMap | None = None,
+        amcl_axle: float | None = None,
+    ):
+        super().__init__()
+        self.goals = list(goals)
+        self.costmap = costmap
+        self.grid = grid
+        self.controller = controller
+        self.planner = planner
+        self._inscribed = inscribed_radius
+        self._q_rows, self._v_rows = base_rows
+        self._state = self.DeclareVectorInputPort("state", state_size)
+        self._axle = amcl_axle  # None: the ground truth; else AMCL, the drive's axle offset
+        if amcl_axle is not None:
+            self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
+            self._map_to_odom = self.DeclareVectorInputPort("map_to_odom", 3)
+        self._nav = self.DeclareAbstractState(AbstractValue.Make(NavState()))
+        self._topic = self.DeclareAbstractState(PublicationValue())
+        self._command = self.DeclareDiscreteState(BasicVector(np.zeros(2)))
+        self.DeclareStateOutputPort("cmd_vel", self._topic)
+        self.DeclareStateOutputPort("command", self._command)
+        period = 1.0 / controller.controller_frequency
+        self.DeclarePeriodicUnrestrictedUpdateEvent(period, start_delay, self._Update)
+
+    # -- the loop
+
+    def _truth(self, context) -> tuple[float, float, float, float, float]:
+        x = self._state.Eval(context)
+        return planar_base(x[self._q_rows], x[self._v_rows])
+
+    def _pose(self, context):
+        """The localization's pose (x, y, yaw) and the measured twist (v, w)."""
+        if self._axle is None:
+            px, py, yaw, v, w = self._truth(context)
+        else:  # AMCL's map -> odom, then the odometry
+            message = self._odom.Eval(context)
+            odom = body_odometry(message, self._axle)
+            px, py, yaw = compose(self._map_to_odom.Eval(context), odom)
+            v, w = message.linear[0], message.angular[2]
+        c = self.controller
+        v = 0.0 if abs(v) < c.min_x_velocity_threshold else v
+        w = 0.0 if abs(w) < c.min_theta_velocity_threshold else w
+        return (px, py, yaw), (v, w)
+
+    def _Update(self, context, state) -> None:
+        now = context.get_time()
+        nav = context.get_abstract_state(self._nav).get_value()
+        pose, speed = self._pose(context)
+        truth = self._truth(context)[:3]
+        if nav.last_pose:
+            step = math.hypot(truth[0] - nav.last_pose[0], truth[1] - nav.last_pose[1])
+            nav = dc.replace(nav, driven=nav.driven + step)
+        nav = dc.replace(nav, last_pose=truth)
+        if nav.goal < 0:
+            nav = self._start(nav, 0, pose, now)
+        linear = angular = 0.0
+        if 0 <= nav.goal < len(self.goals):
+            nav, linear, angular = self._step(nav, pose, speed, now)
+        state.get_mutable_abstract_state(self._nav).set_value(nav)
+        message = TwistStamped(
+            stamp=now,
+            frame_id="base_link",
+            twist=Twist(linear=(linear, 0.0, 0.0), angular=(0.0, 0.0, angular)),
+        )
+        publication = context.get_abstract_state(self._topic).get_value()
+        state.get_mutable_abstract_state(self._topic).set_value(publication.publish(message, now))
+        state.get_mutable_discrete_state(self._command).set_value([linear, angular])
+
+    def _start(self, nav: NavState, index: int, pose, now: float) -> NavState:
+        """The goal ``index`` sent: reset the checkers, plan."""
+        nav = dc.replace(
+            nav,
+            goal=index,
+            path=None,
+            path_index=0,
+            started=now,
+            xy_reached=False,
+            rotating_to_goal=False,
+            baseline=(*pose, now),
+            failing_since=math.nan,
+            driven=0.0,
+            plan_length=0.0,
+            planned_at=-math.inf,
+        )
+        if index < len(self.goals):
+            goal = self.goals[index]
+            _log.info("goal %r sent: (%.3f, %.3f, %.3f)", goal.name, goal.x, goal.y, goal.yaw)
+            nav = self._plan(nav, pose, now)
+        return nav
+
+    def _plan(self, nav: NavState, pose, now: float) -> NavState:
+        goal = self.goals[nav.goal]
+        try:
+            path = plan(self.costmap, pose[:2], (goal.x, goal.y), self.planner)
+        except PlanningError as error:
+            _log.warning("goal %r: no plan: %s", goal.name, error)
+            return nav if nav.path is not None else dc.replace(nav, planned_at=now)
+        if np.hypot(path[-1, 0] - goal.x, path[-1, 1] - goal.y) <= self.costmap.resolution:
+            path = np.vstack([path[:-1], [goal.x, goal.y]])  # the goal's own pose ends it
+        if len(path) == 1:
+            path = np.vstack([path, path])
+        length = nav.plan_length or path_length(path)
+        return dc.replace(nav, path=path, path_index=0, planned_at=now, plan_length=length)
+
+    def _finish(self, nav: NavState, pose, now: float, reason: str) -> NavState:
+        """The goal's result, measured on the ground truth; the next goal sent from
+        ``pose`` (the localization's)."""
+        goal = self.goals[nav.goal]
+        truth = nav.last_pose
+        error = math.hypot(truth[0] - goal.x, truth[1] - goal.y)
+        yaw_error = abs(wrap(truth[2] - goal.yaw))
+        result = GoalResult(
+            name=goal.name,
+            reached=reason == "reached",
+            reason=reason,
+            start=nav.started,
+            end=now,
+            pose=tuple(float(v) for v in truth),
+            position_error=error,
+            yaw_error=yaw_error,
+            path_length=nav.driven,
+            plan_length=nav.plan_length,
+        )
+        log = _log.info if result.reached else _log.warning
+        log(
+            "goal %r %s at %.2f s: position error %.3f m, yaw error %.3f rad",
+            goal.name,
+            reason,
+            now,
+            error,
+            yaw_error,
+        )
+        nav = dc.replace(nav, results=(*nav.results, result))
+        return self._start(nav, nav.goal + 1, pose, now)
+
+    def _goal_reached(self, nav: NavState, pose, speed) -> tuple[bool, NavState]:
+        """SimpleGoalChecker (StoppedGoalChecker: and stopped)."""
+        c = self.controller
+        goal = self.goals[nav.goal]
+        if not (c.goal_stateful and nav.xy_reached):
+            if math.hypot(pose[0] - goal.x, pose[1] - goal.y) > c.xy_goal_tolerance:
+                return False, nav
+            if c.goal_stateful:
+                nav = dc.replace(nav, xy_reached=True)
+        if abs(wrap(pose[2] - goal.yaw)) > c.yaw_goal_tolerance:
+            return False, nav
+        if c.stopped_goal_checker and (
+            abs(speed[0]) > c.trans_stopped_velocity or abs(speed[1]) > c.rot_stopped_velocity
+        ):
+            return False, nav
+        return True, nav
+
+    def _progress(self, nav: NavState, pose, now: float) -> tuple[bool, NavState]:
+        """SimpleProgressChecker / PoseProgressChecker."""
+        c = self.controller
+        x, y, yaw, since = nav.baseline
+        moved = math.hypot(pose[0] - x, pose[1] - y) > c.required_movement_radius
+        turned = abs(wrap(pose[2] - yaw)) > c.required_movement_angle
+        if moved or turned:
+            return True, dc.replace(nav, baseline=(*pose, now))
+        return now - since <= c.movement_time_allowance, nav
+
+    def _step(self, nav: NavState, pose, speed, now: float):
+        """One cycle of the controller server on the current goal: (state, v, w)."""
+        c = self.controller
+        goal = self.goals[nav.goal]
+        replan = c.expected_planner_frequency > 0 and (
+            now - nav.planned_at >= 1.0 / c.expected_planner_frequency - 1e-9
+        )
+        if nav.path is None or (replan and not nav.xy_reached):
+            nav = self._plan(nav, pose, now)
+        if nav.path is None:
+            return self._finish(nav, pose, now, "no plan"), 0.0, 0.0
+        index = prune(nav.path, nav.path_index, pose, c.rpp.max_robot_pose_search_dist)
+        nav = dc.replace(nav, path_index=index)
+        local = to_robot(nav.path[index:], pose)
+        command = rpp_command(
+            c,
+            self.costmap,
+            local,
+            pose,
+            speed,
+            (goal.x, goal.y, goal.yaw),
+            rotating_to_goal=nav.rotating_to_goal,
+            inscribed_radius=self._inscribed,
+        )
+        nav = dc.replace(nav, rotating_to_goal=command.rotating_to_goal)
+        reached, nav = self._goal_reached(nav, pose, speed)
+        if reached:
+            return self._finish(nav, pose, now, "reached"), 0.0, 0.0
+        if command.collision:
+            since = nav.failing_since if not math.isnan(nav.failing_since) else now
+            nav = dc.replace(nav, failing_since=since)
+            if c.failure_tolerance >= 0 and now - since > c.failure_tolerance:
+                return self._finish(nav, pose, now, "collision ahead"), 0.0, 0.0
+            return nav, 0.0, 0.0
+        nav = dc.replace(nav, failing_since=math.nan)
+        progressing, nav = self._progress(nav, pose, now)
+        if not progressing:
+            return self._finish(nav, pose, now, "no progress"), 0.0, 0.0
+        return nav, command.linear, command.angular
+
+    # -- results
+
+    def results(self, context) -> list[GoalResult]:
+        """Every goal's result at ``context``'s time (those not finished: not reached)."""
+        nav = context.get_abstract_state(self._nav).get_value()
+        results = list(nav.results)
+        now = context.get_time()
+        pose = nav.last_pose or (math.nan,) * 3
+        for index in range(len(results), len(self.goals)):
+            goal = self.goals[index]
+            current = index == nav.goal
+            results.append(
+                GoalResult(
+                    name=goal.name,
+                    reached=False,
+                    reason="not reached",
+                    start=nav.started if current else math.nan,
+                    end=now if current else math.nan,
+                    pose=tuple(pose),
+                    position_error=math.hypot(pose[0] - goal.x, pose[1] - goal.y),
+                    yaw_error=abs(wrap(pose[2] - goal.yaw)),
+                    path_length=nav.driven if current else 0.0,
+                    plan_length=nav.plan_length if current else 0.0,
+                )
+            )
+        return results
+
+    def summary(self, context) -> dict[str, Any]:
+        """``summary.json``'s ``navigation`` section (collisions are added by the run)."""
+        results = self.results(context)
+        c = self.controller
+        return {
+            "goals": [
+                {
+                    "name": r.name,
+                    "reached": r.reached,
+                    "reason": r.reason,
+                    "position_error": r.position_error,
+                    "yaw_error": r.yaw_error,
+                    "time": r.end - r.start if r.reached else None,
+                    "reached_at": r.end if r.reached else None,
+                    "path_length": r.path_length,
+                    "plan_length": r.plan_length,
+                    "pose": list(r.pose),
+                }
+                for r in results
+            ],
+            "reached": sum(r.reached for r in results),
+            "xy_goal_tolerance": c.xy_goal_tolerance,
+            "yaw_goal_tolerance": c.yaw_goal_tolerance,
+        }
+
+
+# ---------------------------------------------------------------------------- building
+
+
+def resolve_file(name: str, key: str, where: str, near: Path | None = None) -> Path:
+    """A path or ``package://pkg/rest`` to an existing file."""
+    path = Path(name).expanduser()
+    if name.startswith("package://"):
+        package, _, rest = name[len("package://") :].partition("/")
+        search = find_packages()
+        if package not in search.packages:
+            raise ScenarioError(f"{where}{key}={name!r}: unknown package {package!r}")
+        path = search.packages[package] / rest
+    if not path.is_file():
+        raise ScenarioError(f"{where}{key}={name!r}: no such file")
+    return path
+
+
+def check_goals(goals: list[NavigationGoal], costmap: Costmap, where: str = "") -> None:
+    """Refuses the first goal outside the map or in an obstacle (within the robot's
+    radius of one: the costmap's inscribed cost or more), naming it."""
+    for goal in goals:
+        row, col = costmap.world_to_cell(goal.x, goal.y)
+        if not costmap.contains(row, col):
+            raise PlanningError(
+                f"{where}navigation goal {goal.name!r} ({goal.x:g}, {goal.y:g}) is outside the map"
+            )
+        cost = int(costmap.costs[row, col])
+        if INSCRIBED_INFLATED_OBSTACLE <= cost <= 254:
+            what = "an obstacle" if cost == 254 else "an obstacle's inflation (robot radius)"
+            raise PlanningError(
+                f"{where}navigation goal {goal.name!r} ({goal.x:g}, {goal.y:g}) is in "
+                f"{what}: cost {cost} on the map"
+            )
+
+
+@dc.dataclass
+class Navigation:
+    """What :func:`AddNavigation` built."""
+
+    navigator: Navigator
+    drive: str
+    grid: OccupancyMap
+    costmap: Costmap
+    amcl: AmclLocalizer | None = None  # with localization: amcl (its scan is connected by
+    # ConnectLocalization, once the sensors are added)
+    lidar: str = ""  # the lidar AMCL reads
+
+
+def navigation_map(config: NavigationConfig, plant, scene_graph, robot, where: str = ""):
+    """The map of ``config``: its map_server map, or the world's at the lidar's height."""
+    if config.map:
+        return load_map(resolve_file(config.map, "navigation.map", where))
+    height = config.scan_height or lidar_height(plant, scene_graph, robot)
+    return world_map(
+        plant,
+        scene_graph,
+        height=height,
+        resolution=config.map_resolution,
+        exclude=[robot.model_instance],
+    )
+
+
+def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") -> Navigation:
+    """The :class:`Navigator` of ``config`` on the floating base of ``stack``'s robot,
+    publishing cmd_vel to the first active drive (or ``config.controller``); exports
+    ``navigation_command``."""
+    require_extra("navigation", f"{where}navigation")
+    takers = stack.taking(TwistStamped)
+    if config.controller:
+        takers = [name for name in takers if name == config.controller]
+    if not takers or not stack.hardware.base_position_index:
+        raise ScenarioError(
+            f"{where}navigation needs a floating base with an active drive "
+            f"(active: {', '.join(stack.controllers) or 'none'})"
+        )
+    params_file = resolve_file(config.params_file, "navigation.params_file", where)
+    try:
+        costmap_params = costmap_parameters(params_file)
+        planner = planner_parameters(params_file)
+        controller = controller_parameters(params_file)
+    except ConfigError as error:
+        raise ConfigError(f"{where}navigation.params_file: {error}") from None
+    grid = navigation_map(config, stack.plant, stack.scene_graph, stack.robot, where)
+    costmap = make_costmap(grid, costmap_params)
+    goals = config.visits()
+    check_goals(goals, costmap, where)
+    hardware = stack.hardware
+    axle = _axle_offset(stack, takers[0]) if config.localization == "amcl" else None
+    navigator = builder.AddSystem(
+        Navigator(
+            goals,
+            costmap,
+            controller,
+            planner,
+            state_size=hardware.num_model_states,
+            base_rows=(hardware.base_position_index, hardware.base_velocity_index),
+            inscribed_radius=costmap_params.inscribed_radius,
+            start_delay=config.start_delay,
+            grid=grid,
+            amcl_axle=axle,
+        )
+    )
+    navigator.set_name("navigator")
+    plant, instance = stack.plant, stack.robot.model_instance
+    builder.Connect(plant.get_state_output_port(instance), navigator.GetInputPort("state"))
+    builder.Connect(navigator.GetOutputPort("cmd_vel"), stack.command_input(takers[0]))
+    builder.ExportOutput(navigator.GetOutputPort("command"), "navigation_command")
+    navigation = Navigation(navigator=navigator, drive=takers[0], grid=grid, costmap=costmap)
+    if axle is not None:
+        navigation.amcl = _add_amcl(builder, config, stack, navigation, params_file, axle, where)
+    return navigation
+
+
+def _axle_offset(stack, drive: str) -> float:
+    """[m] the drive's wheel axle midpoint ahead of the floating base's origin."""
+    plant, robot = stack.plant, stack.robot
+    logic = next(c.logic for c in stack.manager.controllers if c.name == drive)
+    body = plant.get_body(next(iter(plant.GetFloatingBaseBodies())))
+    context = plant.CreateDefaultContext()
+    points = [
+        plant.CalcRelativeTransform(
+            context,
+            body.body_frame(),
+            plant.GetJointByName(name, robot.model_instance).frame_on_child(),
+        ).translation()
+        for name in logic.joint_names
+    ]
+    return float(np.mean(points, axis=0)[0])
+
+
+def _add_amcl(builder, config, stack, navigation: Navigation, params_file, axle, where):
+    """The AmclLocalizer on the drive's odometry (and, later, the lidar's scan) feeding
+    the navigator's map -> odom."""
+    plant, robot = stack.plant, stack.robot
+    lidars = [b for b in robot.sensors if b.type in LIDAR_TYPES]
+    if not lidars:
+        raise ScenarioError(f"{where}navigation.localization=amcl needs a lidar on the robot")
+    try:
+        params = amcl_parameters(params_file)
+    except ConfigError as error:
+        raise ConfigError(f"{where}navigation.params_file: {error}") from None
+    context = plant.CreateDefaultContext()
+    body = plant.get_body(next(iter(plant.GetFloatingBaseBodies())))
+    link = plant.GetBodyByName(lidars[0].link, robot.model_instance).body_frame()
+    X_BS = plant.CalcRelativeTransform(context, body.body_frame(), link) @ lidars[0].X_LS
+    laser = (
+        X_BS.translation()[0],
+        X_BS.translation()[1],
+        X_BS.rotation().ToRollPitchYaw().yaw_angle(),
+    )
+    X_WB = plant.EvalBodyPoseInWorld(context, body)
+    spawn = (
+        X_WB.translation()[0],
+        X_WB.translation()[1],
+        X_WB.rotation().ToRollPitchYaw().yaw_angle(),
+    )
+    initial = config.initial_pose or (params.initial_pose if params.set_initial_pose else None)
+    pf = ParticleFilter(params, navigation.grid, laser)
+    rate = 2.0 * max(lidars[0].update_rate, 1.0)  # twice the scans: odometry at each
+    amcl = builder.AddSystem(AmclLocalizer(pf, initial or spawn, axle=axle, rate=rate))
+    amcl.set_name("amcl")
+    odom = stack.manager.GetOutputPort(f"{navigation.drive}.odom")
+    builder.Connect(odom, amcl.GetInputPort("odom"))
+    builder.Connect(odom, navigation.navigator.GetInputPort("odom"))
+    builder.Connect(
+        amcl.GetOutputPort("map_to_odom"), navigation.navigator.GetInputPort("map_to_odom")
+    )
+    builder.ExportOutput(amcl.GetOutputPort("estimate"), "amcl_estimate")
+    navigation.lidar = lidars[0].name
+    return amcl
+
+
+def ConnectLocalization(builder, navigation: Navigation | None, sensors: dict) -> None:
+    """Connects AMCL to its lidar's scan once the sensors are added (nothing to do for the
+    ground truth or without a navigation)."""
+    if navigation is None or navigation.amcl is None:
+        return
+    builder.Connect(sensors[navigation.lidar]["scan"], navigation.amcl.GetInputPort("scan"))

@@ -1,0 +1,104 @@
+"""A navigation run's outputs: summary.json's ``navigation`` section, the map and
+``navigation.png``.
+
+:func:`navigation_summary` is the navigator's per-goal results (reached, position and
+yaw errors when the goal checker took the goal, time, path length driven and planned)
+with the run's collisions: the base logger's episodes of contact between the robot and
+an obstacle (outputs/base.py). :func:`write_navigation_outputs` writes the map the
+navigation used (``map.yaml`` + ``map.pgm``, map_saver's format) and ``navigation.png``:
+the x-y path over the map, with heading arrows, the goals as coloured dots and arrows,
+and where each was reached.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from armando_drake.navigation.maps import save_map
+from armando_drake.outputs.base import COLUMNS
+
+NAVIGATION_PNG = "navigation.png"
+MAP_NAME = "map"  # map.yaml + map.pgm
+
+
+def navigation_summary(world, context) -> dict[str, Any] | None:
+    """summary.json's ``navigation`` section of a world with a navigation (None without)."""
+    navigation = world.topics.navigation
+    if navigation is None:
+        return None
+    navigator = navigation.navigator
+    summary = navigator.summary(navigator.GetMyContextFromRoot(context))
+    base = world.base_log.summary() if world.base_log is not None else None
+    contacts = (base or {}).get("contacts") or {}
+    summary["collisions"] = contacts.get("episodes", 0)
+    summary["collision_bodies"] = contacts.get("bodies", [])
+    summary["map"] = {
+        "source": navigation.grid.source,
+        "resolution": navigation.grid.resolution,
+        "origin": list(navigation.grid.origin),
+        "size": [navigation.grid.width, navigation.grid.height],
+    }
+    return summary
+
+
+def write_navigation_outputs(folder: Path, navigation, summary: dict, rows: np.ndarray):
+    """``map.yaml``/``map.pgm`` and ``navigation.png`` in ``folder``; ``rows``: the base
+    logger's (:data:`~armando_drake.outputs.base.COLUMNS`). Returns the files written."""
+    from matplotlib.figure import Figure
+
+    folder = Path(folder)
+    written = [save_map(navigation.grid, folder / MAP_NAME)]
+    grid = navigation.grid
+    fig = Figure(figsize=(7.0, 7.0), dpi=110)
+    axis = fig.subplots()
+    x0, y0, _ = grid.origin
+    w, h = grid.size_m
+    shade = np.where(grid.data >= 65, 0.15, np.where(grid.data < 0, 0.6, 1.0))
+    axis.imshow(shade, cmap="gray", vmin=0, vmax=1, origin="lower", extent=(x0, x0 + w, y0, y0 + h))
+    costs = navigation.costmap.costs.astype(float)
+    inflated = np.ma.masked_where((costs == 0) | (costs >= 254), costs)
+    axis.imshow(inflated, cmap="Blues", alpha=0.35, origin="lower", extent=(x0, x0 + w, y0, y0 + h))
+    if len(rows):
+        col = {name: rows[:, k] for k, name in enumerate(COLUMNS)}
+        axis.plot(col["x"], col["y"], color="tab:red", lw=1.5, label="driven path")
+        every = max(1, len(rows) // 40)
+        axis.quiver(
+            col["x"][::every],
+            col["y"][::every],
+            np.cos(col["yaw"][::every]),
+            np.sin(col["yaw"][::every]),
+            color="tab:red",
+            scale=30,
+            width=0.004,
+        )
+        axis.plot(col["x"][:1], col["y"][:1], "ks", label="start")
+    colours = ["tab:orange", "tab:green", "tab:purple", "tab:cyan", "tab:olive", "tab:pink"]
+    goals = navigation.navigator.goals
+    for k, (goal, result) in enumerate(zip(goals, summary["goals"], strict=True)):
+        colour = colours[k % len(colours)]
+        mark = "reached" if result["reached"] else result["reason"]
+        label = f"{k + 1}. {goal.name} ({mark}, {result['position_error']:.3f} m)"
+        axis.plot(goal.x, goal.y, "o", color=colour, ms=10, label=label)
+        axis.arrow(
+            goal.x,
+            goal.y,
+            0.3 * math.cos(goal.yaw),
+            0.3 * math.sin(goal.yaw),
+            color=colour,
+            width=0.02,
+        )
+        axis.annotate(str(k + 1), (goal.x, goal.y), ha="center", va="center", fontsize=7)
+    axis.set_title(f"Navigation: {summary['reached']}/{len(goals)} goals reached, "
+                   f"{summary['collisions']} collisions")  # fmt: skip
+    axis.set_xlabel("x [m]")
+    axis.set_ylabel("y [m]")
+    axis.set_aspect("equal")
+    axis.legend(loc="upper left", fontsize="x-small", framealpha=0.8)
+    fig.tight_layout()
+    fig.savefig(folder / NAVIGATION_PNG)
+    written.append(folder / NAVIGATION_PNG)
+    return written

@@ -1,0 +1,109 @@
+"""AMCL: the particle filter's models, its parameters, and fra2mo localized from a wrong
+initial pose (one short run)."""
+
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+import pytest
+from pydrake.systems.analysis import Simulator
+
+from armando_drake.navigation.amcl import (
+    AmclParameters,
+    ParticleFilter,
+    amcl_parameters,
+    body_odometry,
+    compose,
+    inverse,
+)
+from armando_drake.navigation.maps import OccupancyMap
+from armando_drake.simulation.builder import MakeWorld
+from armando_drake.simulation.scenario import load_scenario, merge_overrides
+
+QUIET = ["logging: {console_rate: 0}", "visualization: {enable_meshcat_creation: false}"]
+
+
+def _room() -> OccupancyMap:
+    data = np.zeros((60, 80), dtype=np.int8)
+    data[0, :] = data[-1, :] = data[:, 0] = data[:, -1] = 100
+    return OccupancyMap(data=data, resolution=0.05, origin=(-2.0, -1.5, 0.0))
+
+
+def test_motion_model_without_noise_moves_each_particle_by_the_odometry():
+    params = AmclParameters(alpha1=0.0, alpha2=0.0, alpha3=0.0, alpha4=0.0)
+    pf = ParticleFilter(params, _room(), (0.0, 0.0, 0.0))
+    particles = np.array([[0.0, 0.0, 0.0], [1.0, -0.5, math.pi / 2]])
+    moved = pf.motion(particles, (0.0, 0.0, 0.0), (0.3, 0.0, 0.2))
+    assert moved[0] == pytest.approx([0.3, 0.0, 0.2])
+    assert moved[1] == pytest.approx([1.0, -0.2, math.pi / 2 + 0.2])
+    # With noise, the spread grows with alpha3 (translation from translation).
+    params.alpha3 = 0.2
+    many = pf.motion(np.zeros((4000, 3)), (0.0, 0.0, 0.0), (1.0, 0.0, 0.0))
+    assert np.std(many[:, 0]) == pytest.approx(math.sqrt(0.2), rel=0.1)
+
+
+def test_the_likelihood_field_peaks_at_the_true_pose():
+    params = AmclParameters(sigma_hit=0.05, z_hit=0.9, z_rand=0.1)
+    grid = _room()
+    pf = ParticleFilter(params, grid, (0.0, 0.0, 0.0))
+
+    class Scan:  # the walls seen from (0, 0): x from -1.95 to 1.95, y from -1.45 to 1.45
+        angle_min, angle_increment, range_min, range_max = -math.pi, 2 * math.pi / 360, 0.1, 10.0
+        angles = -math.pi + 2 * math.pi / 360 * np.arange(360)
+        c, s = np.cos(angles), np.sin(angles)
+        with np.errstate(divide="ignore"):
+            tx = np.where(c > 0, 1.95, -1.95) / c
+            ty = np.where(s > 0, 1.45, -1.45) / s
+        ranges = np.minimum(np.abs(tx), np.abs(ty))
+
+    offsets = np.array([[0, 0, 0], [0.1, 0, 0], [0, -0.1, 0], [0, 0, 0.1]], dtype=float)
+    weights = pf.likelihood(offsets, Scan)
+    assert np.argmax(weights) == 0
+    assert weights[0] > 1.4 * weights[1:].max()
+
+
+def test_poses_compose_and_the_odometry_moves_to_the_base_frame():
+    a = (1.0, 2.0, 0.5)
+    assert compose(a, inverse(a)) == pytest.approx((0.0, 0.0, 0.0), abs=1e-12)
+
+    class Message:
+        position, yaw = (0.0, 0.0, 0.0), math.pi / 2
+
+    # Turning in place about an axle 0.04 m ahead moves the base origin.
+    assert body_odometry(Message, 0.04) == pytest.approx((0.04, -0.04, math.pi / 2))
+
+
+def test_the_courses_amcl_parameters_load_and_those_not_applied_are_named(fra2mo_package, caplog):
+    with caplog.at_level(logging.WARNING, "armando_drake.navigation"):
+        params = amcl_parameters(fra2mo_package / "config" / "navigation.yaml")
+    assert (params.alpha1, params.alpha4, params.sigma_hit) == (0.2, 0.2, 0.9)
+    assert (params.max_particles, params.max_beams) == (500, 60)
+    assert (params.update_min_d, params.update_min_a) == (0.2, 0.3)
+    assert params.set_initial_pose and params.initial_pose == (0.0, 0.0, 0.0)
+    assert "amcl.ros__parameters.alpha5: the omni motion model's" in caplog.text
+    assert "amcl.ros__parameters.min_particles: KLD sampling is not applied" in caplog.text
+
+
+def test_amcl_localizes_fra2mo_from_half_a_metre_and_0_3_rad_off():
+    # The truth is the spawn pose (0, 0, 0): the estimate starts 0.5 m and 0.3 rad off.
+    scenario = merge_overrides(
+        load_scenario("fra2mo_goals"),
+        [*QUIET, "navigation: {localization: amcl, initial_pose: [0.3, 0.4, 0.3]}"],
+    )
+    world = MakeWorld(scenario, quiet=True)
+    simulator = Simulator(world.diagram)
+    simulator.Initialize()
+    simulator.AdvanceTo(10.0)
+    amcl = world.topics.navigation.amcl
+    context = amcl.GetMyContextFromRoot(simulator.get_context())
+    map_to_odom = amcl.GetOutputPort("map_to_odom").Eval(context)
+    pose = compose(map_to_odom, body_odometry(amcl.GetInputPort("odom").Eval(context), 0.04025))
+    plant = world.plant
+    body = plant.get_body(next(iter(plant.GetFloatingBaseBodies())))
+    X = plant.EvalBodyPoseInWorld(plant.GetMyContextFromRoot(simulator.get_context()), body)
+    truth = (*X.translation()[:2], X.rotation().ToRollPitchYaw().yaw_angle())
+    assert math.hypot(truth[0], truth[1]) > 1.0  # it drove toward its first goal
+    assert math.hypot(pose[0] - truth[0], pose[1] - truth[1]) < 0.1
+    assert abs(math.remainder(pose[2] - truth[2], 2 * math.pi)) < 0.05
