@@ -328,8 +328,12 @@ class Ros2Bridge(LeafSystem):
         clock_rate: float = 0.0,
         joint_states_topic: str = "joint_states",
         exclude_children: Sequence[str] = (),
+        prefix: str = "",
+        clock: bool = True,
     ):
         super().__init__()
+        # A robot of several: its topics and tf frames under its namespace ``prefix``.
+        self._prefix = prefix.strip("/")
         if not (math.isfinite(update_rate) and update_rate > 0):
             raise ValueError(f"update_rate={update_rate!r} must be positive [Hz]")
         if not (math.isfinite(clock_rate) and clock_rate >= 0):
@@ -348,11 +352,14 @@ class Ros2Bridge(LeafSystem):
 
         # The broadcaster's topic: joint_states, or <broadcaster>/joint_states
         # (use_local_topics).
-        self._joint_states_topic = joint_states_topic
+        self._joint_states_topic = self.topic_name(joint_states_topic)
+        self._clock = clock
         for topic, (type_name, qos) in TOPICS.items():
+            if topic == "/clock" and not clock:
+                continue
             topic = joint_states_topic if topic == "joint_states" else topic
             for sink in self._sinks:
-                sink.advertise(topic, type_name, qos)
+                sink.advertise(self.topic_name(topic), type_name, qos)
         self._joint_states = self.DeclareAbstractInputPort(
             "joint_states", AbstractValue.Make(JointState())
         )
@@ -362,7 +369,9 @@ class Ros2Bridge(LeafSystem):
         self.DeclareInitializationPublishEvent(self._PublishLatched)
         period = 1.0 / update_rate
         clock_period = 1.0 / clock_rate if clock_rate > 0 else period
-        if math.isclose(clock_period, period):
+        if not clock:
+            self.DeclarePeriodicPublishEvent(period, 0.0, self._PublishState)
+        elif math.isclose(clock_period, period):
             self.DeclarePeriodicPublishEvent(period, 0.0, self._PublishClockAndState)
         else:
             self.DeclarePeriodicPublishEvent(period, 0.0, self._PublishState)
@@ -370,6 +379,17 @@ class Ros2Bridge(LeafSystem):
 
         self._DeclareCameras(cameras)
         self._DeclareCommands(subscriber, period)
+
+    def topic_name(self, topic: str) -> str:
+        """``topic`` under the robot's namespace (a robot of several); /tf, /tf_static
+        and /clock are shared."""
+        if not self._prefix or topic in ("/tf", "/tf_static", "/clock"):
+            return topic
+        return f"{self._prefix}/{topic.lstrip('/')}"
+
+    def _frame(self, frame: str) -> str:
+        """A link's tf frame: ``<namespace>/<link>`` for a robot of several."""
+        return f"{self._prefix}/{frame}" if self._prefix and frame != "world" else frame
 
     def _DeclareCameras(self, cameras) -> None:
         """image_raw and camera_info, a thousandth of a period after each frame."""
@@ -411,7 +431,7 @@ class Ros2Bridge(LeafSystem):
                 )
                 convert = COMMAND_TYPES[command.suffix][1]
                 subscriber.subscribe(
-                    command.topic,
+                    self.topic_name(command.topic),
                     command.type_name,
                     lambda message, k=k, convert=convert: self._Receive(k, convert(message)),
                 )
@@ -473,8 +493,8 @@ class Ros2Bridge(LeafSystem):
             "transforms": [
                 transform_stamped(
                     stamp,
-                    link.parent_frame,
-                    link.child_frame,
+                    self._frame(link.parent_frame),
+                    self._frame(link.child_frame),
                     poses[link.parent].inverse() @ poses[link.child],
                 )
                 for link in links
@@ -483,7 +503,8 @@ class Ros2Bridge(LeafSystem):
 
     def _PublishLatched(self, context, event=None) -> None:
         stamp = context.get_time()
-        self._Publish("robot_description", "std_msgs/msg/String", string_message(self._urdf), stamp)
+        description = self.topic_name("robot_description")
+        self._Publish(description, "std_msgs/msg/String", string_message(self._urdf), stamp)
         if self._fixed:
             static = self._Transforms(context, self._fixed, stamp)
             self._Publish("/tf_static", "tf2_msgs/msg/TFMessage", static, stamp)
@@ -532,7 +553,9 @@ class Ros2Bridge(LeafSystem):
         )
 
 
-def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
+def AddRos2Bridge(
+    builder, config, topics: WorldTopics, others: Sequence[WorldTopics] = ()
+) -> Ros2Bridge | None:
     """Adds a :class:`Ros2Bridge` for the ``ros2:`` scenario section ``config``
     (:class:`~armando_drake.ros2.config.Ros2Config`) to a world being built, on the
     publishers of ``topics``.
@@ -543,15 +566,31 @@ def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
     says where the world is reachable; the bridge's ``close`` closes the participant
     and the server. Call it before the world's free command inputs
     are exported (the bridge drives them instead). Returns None when both are off.
+
+    ``others``: the other robots of a world of several; each robot gets a bridge on the
+    same participant and server, its topics under its namespace (``left/joint_states``,
+    ``left/position_controller/commands``, ``left/robot_description``) and its tf frames
+    named ``left/<link>``; the first robot's bridge (returned) publishes ``/clock`` and
+    the cameras.
     """
     if not (config.enabled or config.foxglove):
         return None
     sinks, node = _sinks(config, topics)
+    bridge = _add_bridge(builder, config, topics, sinks, node, first=True)
+    for other in others:
+        _add_bridge(builder, config, other, sinks, node, first=False)
+    return bridge
 
+
+def _add_bridge(builder, config, topics: WorldTopics, sinks, node, *, first: bool) -> Ros2Bridge:
+    """One robot's :class:`Ros2Bridge` on ``sinks`` (``first``: with the clock and the
+    cameras)."""
     commands = _free_commands(builder, topics, subscribe=node is not None)
     cameras = [camera_stream(name, camera) for name, camera in topics.cameras.items()]
+    cameras = cameras if first else []
     plant = topics.plant
     odometry = topics.base_log is not None  # odom -> base on /tf, not world -> base
+    prefix = topics.stack.namespace.strip("/")
     bridge = builder.AddSystem(
         Ros2Bridge(
             plant=plant,
@@ -565,10 +604,13 @@ def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
             clock_rate=config.clock_rate,
             joint_states_topic=topics.joint_states_topic,
             exclude_children=[topics.mobile.base_link] if odometry else [],
+            prefix=prefix,
+            clock=first,
         )
     )
-    bridge.set_name("ros2_bridge")
-    AddMobileTopics(builder, topics, bridge.publish, name="mobile_bridge")
+    space = f"{prefix}/" if prefix else ""
+    bridge.set_name(f"{space}ros2_bridge")
+    AddMobileTopics(builder, topics, bridge.publish, name=f"{space}mobile_bridge")
     if topics.broadcaster is not None:
         builder.Connect(
             topics.broadcaster.GetOutputPort("joint_states"), bridge.GetInputPort("joint_states")
@@ -584,7 +626,9 @@ def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
             bridge.GetOutputPort(command.port),
             topics.controllers[command.controller].GetInputPort(command.port),
         )
-        _log.info("subscribed %s (%s)", node.resolve(command.topic), command.type_name)
+        _log.info(
+            "subscribed %s (%s)", node.resolve(bridge.topic_name(command.topic)), command.type_name
+        )
     return bridge
 
 
