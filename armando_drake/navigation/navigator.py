@@ -260,7 +260,8 @@ class Navigator(LeafSystem):
         if nav.goal < len(nav.goals):
             nav = self._finish(nav, pose, now, "canceled", then=False)
         kept = nav.goals[: len(nav.results)]
-        nav = dc.replace(nav, goals=kept + task, task_start=len(kept))
+        start = len(kept) if task else nav.task_start  # a cancel ends the current task
+        nav = dc.replace(nav, goals=kept + task, task_start=start)
         for goal in task:
             _log.info("task: goal %r (%.3f, %.3f, %.3f)", goal.name, goal.x, goal.y, goal.yaw)
         if not task:
