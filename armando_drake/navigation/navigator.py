@@ -109,6 +109,9 @@ class NavState:
     task_start: int = 0  # the index of the current task's first goal
     pending: Any = None  # a task the commander requested (a tuple of goals; () cancels)
     received: int = 0  # the goal_pose publications taken so far
+    # With AMCL: (time, position error [m], yaw error [rad]) of the estimate against the
+    # ground truth, each second.
+    localization: tuple = ()
 
     def __deepcopy__(self, memo):
         return self
@@ -207,6 +210,12 @@ class Navigator(LeafSystem):
             step = math.hypot(truth[0] - nav.last_pose[0], truth[1] - nav.last_pose[1])
             nav = dc.replace(nav, driven=nav.driven + step)
         nav = dc.replace(nav, last_pose=truth)
+        if self._axle is not None and (
+            not nav.localization or now - nav.localization[-1][0] >= 1.0 - 1e-9
+        ):
+            error = math.hypot(pose[0] - truth[0], pose[1] - truth[1])
+            sample = (now, error, abs(wrap(pose[2] - truth[2])))
+            nav = dc.replace(nav, localization=(*nav.localization, sample))
         nav, task = self._requested(context, nav)
         if task is not None:
             nav = self._new_task(nav, task, pose, now)
@@ -433,7 +442,7 @@ class Navigator(LeafSystem):
         """``summary.json``'s ``navigation`` section (collisions are added by the run)."""
         results = self.results(context)
         c = self.controller
-        return {
+        summary = {
             "goals": [
                 {
                     "name": r.name,
@@ -454,6 +463,25 @@ class Navigator(LeafSystem):
             "xy_goal_tolerance": c.xy_goal_tolerance,
             "yaw_goal_tolerance": c.yaw_goal_tolerance,
         }
+        if self._axle is not None:
+            summary["localization"] = localization_summary(self.nav_state(context))
+        return summary
+
+
+def localization_summary(nav: NavState, settle: float = 5.0) -> dict[str, Any]:
+    """AMCL's errors against the ground truth: each second's, the last, and the largest
+    from ``settle`` [s] after the navigation started on."""
+    samples = nav.localization
+    after = [s for s in samples if samples and s[0] >= samples[0][0] + settle]
+    return {
+        "method": "amcl",
+        "errors": [{"time": t, "position": e, "yaw": y} for t, e, y in samples],
+        "final_position_error": samples[-1][1] if samples else None,
+        "final_yaw_error": samples[-1][2] if samples else None,
+        "settle_time": settle,
+        "max_position_error_settled": max((s[1] for s in after), default=None),
+        "max_yaw_error_settled": max((s[2] for s in after), default=None),
+    }
 
 
 # ---------------------------------------------------------------------------- building
