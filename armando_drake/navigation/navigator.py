@@ -112,6 +112,7 @@ class NavState:
     # With AMCL: (time, position error [m], yaw error [rad]) of the estimate against the
     # ground truth, each second.
     localization: tuple = ()
+    estimate: tuple = ()  # the localization's (x, y, yaw) at the last update
 
     def __deepcopy__(self, memo):
         return self
@@ -209,7 +210,7 @@ class Navigator(LeafSystem):
         if nav.last_pose:
             step = math.hypot(truth[0] - nav.last_pose[0], truth[1] - nav.last_pose[1])
             nav = dc.replace(nav, driven=nav.driven + step)
-        nav = dc.replace(nav, last_pose=truth)
+        nav = dc.replace(nav, last_pose=truth, estimate=tuple(pose))
         if self._axle is not None and (
             not nav.localization or now - nav.localization[-1][0] >= 1.0 - 1e-9
         ):

@@ -37,6 +37,9 @@ def navigation_summary(world, context) -> dict[str, Any] | None:
     contacts = (base or {}).get("contacts") or {}
     summary["collisions"] = contacts.get("episodes", 0)
     summary["collision_bodies"] = contacts.get("bodies", [])
+    marker_goal = getattr(world.topics.detectors, "marker_goal", None)
+    if marker_goal is not None:
+        summary["aruco"] = marker_goal.summary(marker_goal.GetMyContextFromRoot(context))
     summary["map"] = {
         "source": navigation.grid.source,
         "resolution": navigation.grid.resolution,

@@ -10,6 +10,8 @@ topic                type                              from
                                                        as static_transform_publisher
 ``/tf``              ``tf2_msgs/msg/TFMessage``        ``map -> odom``: AMCL's estimate, or
                                                        the identity (ground truth)
+``/tf``              ``tf2_msgs/msg/TFMessage``        ``map -> aruco_frame``: the ArUco
+                                                       marker on the map (vision.aruco)
 ==================== ================================= =======================================
 
 :class:`NavigationTopics` reads the navigator's state at the controller manager's rate and
@@ -28,11 +30,12 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
 from armando_drake.messages.definitions import header, pose_stamped_message, transform_stamped
-from armando_drake.messages.types import Odometry
+from armando_drake.messages.types import Odometry, PublicationValue
 from armando_drake.navigation.navigator import NavState
 
 Send = Callable[[str, str, dict, float], None]
 MAP_FRAME = "map"
+MARKER_FRAME = "aruco_frame"
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
 
 
@@ -88,7 +91,8 @@ class NavigationTopics(LeafSystem):
     Ports:
       - input ``nav_state`` (the Navigator's :class:`NavState`);
       - input ``odom`` (the drive's Odometry): map -> odom at each new stamp;
-      - input ``map_to_odom`` (x, y, yaw; AMCL's), unconnected: the identity.
+      - input ``map_to_odom`` (x, y, yaw; AMCL's), unconnected: the identity;
+      - input ``marker_in_map`` (Publication of MarkerPose): ``map -> aruco_frame``.
     """
 
     def __init__(self, grid, *, send: Send, rate: float):
@@ -100,6 +104,8 @@ class NavigationTopics(LeafSystem):
         self._nav = self.DeclareAbstractInputPort("nav_state", AbstractValue.Make(NavState()))
         self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
         self._map_to_odom = self.DeclareVectorInputPort("map_to_odom", 3)
+        self._marker = self.DeclareAbstractInputPort("marker_in_map", PublicationValue())
+        self._markers = 0
         self._planned_at = None
         self._goals: tuple = ()
         self._last_odom: float | None = None
@@ -128,6 +134,14 @@ class NavigationTopics(LeafSystem):
             goal = nav.goals[nav.goal]
             message = path_message(nav.path, goal.yaw, nav.planned_at)
             self._send("/plan", "nav_msgs/msg/Path", message, nav.planned_at)
+        if self._marker.HasValue(context):
+            marker = self._marker.Eval(context)
+            if marker.count > self._markers:
+                self._markers = marker.count
+                frame = transform_stamped(
+                    marker.stamp, MAP_FRAME, MARKER_FRAME, marker.message.pose
+                )
+                self._send("/tf", TF_MESSAGE, {"transforms": [frame]}, marker.stamp)
         if not self._odom.HasValue(context):
             return
         odom = self._odom.Eval(context)
@@ -159,4 +173,8 @@ def AddNavigationTopics(builder, topics, send: Send, *, name: str) -> Navigation
         builder.Connect(
             navigation.amcl.GetOutputPort("map_to_odom"), system.GetInputPort("map_to_odom")
         )
+    marker_goal = getattr(topics.detectors, "marker_goal", None)
+    if marker_goal is not None:
+        port = marker_goal.GetOutputPort("marker_in_map")
+        builder.Connect(port, system.GetInputPort("marker_in_map"))
     return system

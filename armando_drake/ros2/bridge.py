@@ -575,7 +575,11 @@ def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
 
     commands = _free_commands(builder, topics, subscribe=node is not None)
     navigator = topics.navigation.navigator if topics.navigation is not None else None
-    if navigator is not None and node is not None:  # RViz's 2D goal
+    if (
+        navigator is not None
+        and node is not None
+        and not builder.IsConnectedOrExported(navigator.GetInputPort("goal_pose"))
+    ):  # RViz's 2D goal (unless the ArUco marker's goal is sent instead)
         commands.append(CommandTopic("navigator", "goal_pose", ros_topic="/goal_pose"))
     cameras = [camera_stream(name, camera) for name, camera in topics.cameras.items()]
     plant = topics.plant
