@@ -51,7 +51,8 @@ class NavigationConfig:
     # [m] the height at which the world is cut for its map; 0 = the lidar's (or 0.2 m
     # without a lidar).
     scan_height: float = param(0.0, unit="m", ge=0)
-    # The goal poses.
+    # The goal poses; [] = none: the robot waits for one (/goal_pose, or a script's
+    # BasicNavigator).
     goals: list[NavigationGoal] = dc.field(default_factory=list)
     # The goals' names in the order they are visited; [] = the order of `goals`.
     order: list[str] = dc.field(default_factory=list)
@@ -70,8 +71,6 @@ class NavigationConfig:
         """Named goals, each once; an order of known names; a parameter file."""
         if not self.params_file:
             raise Refusal("params_file", ": a Nav2 parameter file is needed")
-        if not self.goals:
-            raise Refusal("goals", ": no goal")
         names = set()
         for k, goal in enumerate(self.goals):
             if not goal.name:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -36,6 +37,9 @@ def navigation_summary(world, context) -> dict[str, Any] | None:
     contacts = (base or {}).get("contacts") or {}
     summary["collisions"] = contacts.get("episodes", 0)
     summary["collision_bodies"] = contacts.get("bodies", [])
+    marker_goal = getattr(world.topics.detectors, "marker_goal", None)
+    if marker_goal is not None:
+        summary["aruco"] = marker_goal.summary(marker_goal.GetMyContextFromRoot(context))
     summary["map"] = {
         "source": navigation.grid.source,
         "resolution": navigation.grid.resolution,
@@ -77,9 +81,10 @@ def write_navigation_outputs(folder: Path, navigation, summary: dict, rows: np.n
         )
         axis.plot(col["x"][:1], col["y"][:1], "ks", label="start")
     colours = ["tab:orange", "tab:green", "tab:purple", "tab:cyan", "tab:olive", "tab:pink"]
-    goals = navigation.navigator.goals
-    for k, (goal, result) in enumerate(zip(goals, summary["goals"], strict=True)):
+    for k, result in enumerate(summary["goals"]):
         colour = colours[k % len(colours)]
+        x, y, yaw = result["goal"]
+        goal = SimpleNamespace(name=result["name"], x=x, y=y, yaw=yaw)
         mark = "reached" if result["reached"] else result["reason"]
         label = f"{k + 1}. {goal.name} ({mark}, {result['position_error']:.3f} m)"
         axis.plot(goal.x, goal.y, "o", color=colour, ms=10, label=label)
@@ -92,7 +97,7 @@ def write_navigation_outputs(folder: Path, navigation, summary: dict, rows: np.n
             width=0.02,
         )
         axis.annotate(str(k + 1), (goal.x, goal.y), ha="center", va="center", fontsize=7)
-    axis.set_title(f"Navigation: {summary['reached']}/{len(goals)} goals reached, "
+    axis.set_title(f"Navigation: {summary['reached']}/{len(summary['goals'])} goals reached, "
                    f"{summary['collisions']} collisions")  # fmt: skip
     axis.set_xlabel("x [m]")
     axis.set_ylabel("y [m]")

@@ -61,6 +61,7 @@ from armando_drake.messages.definitions import (  # the message definitions, sha
 )
 from armando_drake.messages.types import JointState, PublicationValue
 from armando_drake.outputs.mobile_topics import AddMobileTopics
+from armando_drake.outputs.navigation_topics import AddNavigationTopics
 from armando_drake.outputs.topics import WorldTopics
 from armando_drake.outputs.vision_recording import AddVisionRecorder
 from armando_drake.perception.pipeline import NO_RESULT
@@ -435,6 +436,8 @@ def AddRosbagRecorder(
     AddMobileTopics(builder, topics, recorder.write, name="mobile_recorder")
     for other in others:
         _record_robot(builder, recorder, other)
+    # A navigation's /map, /plan, goal frames and map -> odom.
+    AddNavigationTopics(builder, topics, recorder.write, name="navigation_recorder")
     return recorder
 
 

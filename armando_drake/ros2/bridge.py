@@ -22,7 +22,14 @@ topic                                       type                                
 ``/odom`` (a mobile base)                   ``nav_msgs/msg/Odometry``                default
 ``/scan`` (a lidar's topic)                 ``sensor_msgs/msg/LaserScan``            default
 ``/cmd_vel`` (in; a drive's topic)          ``geometry_msgs/msg/Twist`` (plugin)     default
+``/map`` (a navigation)                     ``nav_msgs/msg/OccupancyGrid``           latched
+``/plan`` (a navigation)                    ``nav_msgs/msg/Path``                    default
+``/goal_pose`` (in; a navigation)           ``geometry_msgs/msg/PoseStamped``        default
 =========================================== ======================================== ===========
+
+A navigation adds ``map -> <goal>`` frames to ``/tf_static`` and ``map -> odom`` to ``/tf``
+(:mod:`armando_drake.outputs.navigation_topics`); a ``/goal_pose`` (RViz's 2D goal, in the
+map frame) preempts its goals as NavigateToPose would.
 
 A floating base with a drive has ``odom -> base_footprint`` on ``/tf`` from its wheel
 odometry (not ``world -> base``), as the course's odometry TF node broadcasts it; the
@@ -76,7 +83,9 @@ from armando_drake.messages.definitions import (
     twist_stamped_of,
 )
 from armando_drake.messages.types import JointState, Publication
+from armando_drake.navigation.config import NavigationGoal
 from armando_drake.outputs.mobile_topics import AddMobileTopics
+from armando_drake.outputs.navigation_topics import AddNavigationTopics
 from armando_drake.outputs.recording import camera_stream
 from armando_drake.outputs.topics import WorldTopics
 from armando_drake.ros2.dds import DdsNode, Ros2Error, reachability
@@ -87,6 +96,17 @@ from armando_drake.tools.extras import require_extra
 
 _log = logging.getLogger("armando_drake.ros2")
 
+
+def goal_pose_of(message: Any) -> NavigationGoal:
+    """The navigation goal of a received geometry_msgs/PoseStamped (RViz's 2D goal)."""
+    pose = message["pose"]
+    p, q = pose["position"], pose["orientation"]
+    yaw = math.atan2(
+        2.0 * (q["w"] * q["z"] + q["x"] * q["y"]), 1.0 - 2.0 * (q["y"] ** 2 + q["z"] ** 2)
+    )
+    return NavigationGoal(name="goal_pose", x=float(p["x"]), y=float(p["y"]), yaw=yaw)
+
+
 # Command inputs of the controllers by port suffix: ROS type and conversion to ours.
 COMMAND_TYPES: dict[str, tuple[str, Callable[[dict], Any]]] = {
     "commands": ("std_msgs/msg/Float64MultiArray", float64_multi_array_of),
@@ -94,6 +114,7 @@ COMMAND_TYPES: dict[str, tuple[str, Callable[[dict], Any]]] = {
     "speed_scaling_input": ("control_msgs/msg/SpeedScalingFactor", speed_scaling_factor_of),
     "reference": ("control_msgs/msg/MultiDOFCommand", multi_dof_command_of),
     "cmd_vel": ("geometry_msgs/msg/TwistStamped", twist_stamped_of),
+    "goal_pose": ("geometry_msgs/msg/PoseStamped", goal_pose_of),  # the navigator's
 }
 # The topics the bridge publishes: ROS type and QoS profile.
 TOPICS = {
@@ -346,6 +367,7 @@ class Ros2Bridge(LeafSystem):
         # Links whose pose another broadcaster gives (the odometry's base frame).
         self._moving = [link for link in self._moving if link.child_frame not in exclude_children]
         self._last_stamp: float | None = None
+        self._static: dict[str, dict] = {}  # /tf_static's frames so far, by child
         self._commands = tuple(commands)
         self._queue: queue.SimpleQueue = queue.SimpleQueue()
         self._received = [0] * len(self._commands)  # messages received per command topic
@@ -484,6 +506,9 @@ class Ros2Bridge(LeafSystem):
         self._Publish(topic, type_name, message, stamp)
 
     def _Publish(self, topic: str, type_name: str, message: dict, stamp: float) -> None:
+        if topic == "/tf_static":  # one static broadcaster: every frame in each message
+            self._static.update({t["child_frame_id"]: t for t in message["transforms"]})
+            message = {"transforms": list(self._static.values())}
         for sink in self._sinks:
             sink.publish(topic, type_name, message, stamp)
 
@@ -586,6 +611,13 @@ def _add_bridge(builder, config, topics: WorldTopics, sinks, node, *, first: boo
     """One robot's :class:`Ros2Bridge` on ``sinks`` (``first``: with the clock and the
     cameras)."""
     commands = _free_commands(builder, topics, subscribe=node is not None)
+    navigator = topics.navigation.navigator if topics.navigation is not None else None
+    if (
+        navigator is not None
+        and node is not None
+        and not builder.IsConnectedOrExported(navigator.GetInputPort("goal_pose"))
+    ):  # RViz's 2D goal (unless the ArUco marker's goal is sent instead)
+        commands.append(CommandTopic("navigator", "goal_pose", ros_topic="/goal_pose"))
     cameras = [camera_stream(name, camera) for name, camera in topics.cameras.items()]
     cameras = cameras if first else []
     plant = topics.plant
@@ -611,6 +643,10 @@ def _add_bridge(builder, config, topics: WorldTopics, sinks, node, *, first: boo
     space = f"{prefix}/" if prefix else ""
     bridge.set_name(f"{space}ros2_bridge")
     AddMobileTopics(builder, topics, bridge.publish, name=f"{space}mobile_bridge")
+    if navigator is not None:
+        for sink in sinks:
+            sink.advertise("/map", "nav_msgs/msg/OccupancyGrid", "latched")
+        AddNavigationTopics(builder, topics, bridge.publish, name=f"{space}navigation_bridge")
     if topics.broadcaster is not None:
         builder.Connect(
             topics.broadcaster.GetOutputPort("joint_states"), bridge.GetInputPort("joint_states")
@@ -622,10 +658,13 @@ def _add_bridge(builder, config, topics: WorldTopics, sinks, node, *, first: boo
             bridge.GetInputPort(f"{stream.name}.color_image"),
         )
     for command in commands:
-        builder.Connect(
-            bridge.GetOutputPort(command.port),
-            topics.controllers[command.controller].GetInputPort(command.port),
-        )
+        if command.suffix == "goal_pose":
+            builder.Connect(bridge.GetOutputPort(command.port), navigator.GetInputPort("goal_pose"))
+        else:
+            builder.Connect(
+                bridge.GetOutputPort(command.port),
+                topics.controllers[command.controller].GetInputPort(command.port),
+            )
         _log.info(
             "subscribed %s (%s)", node.resolve(bridge.topic_name(command.topic)), command.type_name
         )

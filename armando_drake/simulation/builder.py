@@ -211,6 +211,7 @@ def _add_sensing(builder, scenario: Scenario, topics: WorldTopics, scene_graph, 
             image_view=image_view,
             where=_origin(scenario, "vision"),
             console=scenario.logging.console_rate > 0,  # no console output: no keypoints
+            navigation=topics.navigation,
         )
     if scenario.perception is not None:
         topics.perception = AddPerception(
