@@ -55,6 +55,8 @@ def test_model_holds_its_initial_pose_under_position_control(package):
 # Runs in a clone: every scenario of its diagrams/, built and simulated for 0.1 s.
 _RUN_EVERY_SCENARIO = textwrap.dedent(
     """
+    import gc
+
     import numpy as np
     from pydrake.systems.analysis import Simulator
 
@@ -71,6 +73,10 @@ _RUN_EVERY_SCENARIO = textwrap.dedent(
         simulator.AdvanceTo(0.1)
         assert np.all(np.isfinite(world.joint_positions(simulator.get_context()))), path.name
         world.close()
+        # Freed before the next is built: a world rendering with VTK (EGL) still alive,
+        # Drake's OpenGL engine cannot make its context current (an X error ends the run).
+        del world, simulator
+        gc.collect()
         print("ran", path.stem, flush=True)
     """
 )
