@@ -102,6 +102,7 @@ class NavState:
     driven: float = 0.0  # [m] path length so far on this goal
     plan_length: float = 0.0
     results: tuple = ()
+    explore: Any = None  # the exploration's own state (navigation/explore.py)
 
     def __deepcopy__(self, memo):
         return self
@@ -162,6 +163,14 @@ class Navigator(LeafSystem):
 
     # -- the loop
 
+    def _goal(self, nav: NavState) -> NavigationGoal:
+        """The current goal."""
+        return self.goals[nav.goal]
+
+    def _costmap(self, nav: NavState) -> Costmap:
+        """The costmap the current goal is planned and followed on."""
+        return self.costmap
+
     def _truth(self, context) -> tuple[float, float, float, float, float]:
         x = self._state.Eval(context)
         return planar_base(x[self._q_rows], x[self._v_rows])
@@ -189,11 +198,7 @@ class Navigator(LeafSystem):
             step = math.hypot(truth[0] - nav.last_pose[0], truth[1] - nav.last_pose[1])
             nav = dc.replace(nav, driven=nav.driven + step)
         nav = dc.replace(nav, last_pose=truth)
-        if nav.goal < 0:
-            nav = self._start(nav, 0, pose, now)
-        linear = angular = 0.0
-        if 0 <= nav.goal < len(self.goals):
-            nav, linear, angular = self._step(nav, pose, speed, now)
+        nav, linear, angular = self._advance(context, nav, pose, speed, now)
         state.get_mutable_abstract_state(self._nav).set_value(nav)
         message = TwistStamped(
             stamp=now,
@@ -203,6 +208,14 @@ class Navigator(LeafSystem):
         publication = context.get_abstract_state(self._topic).get_value()
         state.get_mutable_abstract_state(self._topic).set_value(publication.publish(message, now))
         state.get_mutable_discrete_state(self._command).set_value([linear, angular])
+
+    def _advance(self, context, nav: NavState, pose, speed, now: float):
+        """One cycle on the goals: (state, v, w)."""
+        if nav.goal < 0:
+            nav = self._start(nav, 0, pose, now)
+        if 0 <= nav.goal < len(self.goals):
+            return self._step(nav, pose, speed, now)
+        return nav, 0.0, 0.0
 
     def _start(self, nav: NavState, index: int, pose, now: float) -> NavState:
         """The goal ``index`` sent: reset the checkers, plan."""
@@ -221,19 +234,19 @@ class Navigator(LeafSystem):
             planned_at=-math.inf,
         )
         if index < len(self.goals):
-            goal = self.goals[index]
+            goal = self._goal(nav)
             _log.info("goal %r sent: (%.3f, %.3f, %.3f)", goal.name, goal.x, goal.y, goal.yaw)
             nav = self._plan(nav, pose, now)
         return nav
 
     def _plan(self, nav: NavState, pose, now: float) -> NavState:
-        goal = self.goals[nav.goal]
+        goal = self._goal(nav)
         try:
-            path = plan(self.costmap, pose[:2], (goal.x, goal.y), self.planner)
+            path = plan(self._costmap(nav), pose[:2], (goal.x, goal.y), self.planner)
         except PlanningError as error:
             _log.warning("goal %r: no plan: %s", goal.name, error)
             return nav if nav.path is not None else dc.replace(nav, planned_at=now)
-        if np.hypot(path[-1, 0] - goal.x, path[-1, 1] - goal.y) <= self.costmap.resolution:
+        if np.hypot(path[-1, 0] - goal.x, path[-1, 1] - goal.y) <= self._costmap(nav).resolution:
             path = np.vstack([path[:-1], [goal.x, goal.y]])  # the goal's own pose ends it
         if len(path) == 1:
             path = np.vstack([path, path])
@@ -243,7 +256,7 @@ class Navigator(LeafSystem):
     def _finish(self, nav: NavState, pose, now: float, reason: str) -> NavState:
         """The goal's result, measured on the ground truth; the next goal sent from
         ``pose`` (the localization's)."""
-        goal = self.goals[nav.goal]
+        goal = self._goal(nav)
         truth = nav.last_pose
         error = math.hypot(truth[0] - goal.x, truth[1] - goal.y)
         yaw_error = abs(wrap(truth[2] - goal.yaw))
@@ -274,7 +287,7 @@ class Navigator(LeafSystem):
     def _goal_reached(self, nav: NavState, pose, speed) -> tuple[bool, NavState]:
         """SimpleGoalChecker (StoppedGoalChecker: and stopped)."""
         c = self.controller
-        goal = self.goals[nav.goal]
+        goal = self._goal(nav)
         if not (c.goal_stateful and nav.xy_reached):
             if math.hypot(pose[0] - goal.x, pose[1] - goal.y) > c.xy_goal_tolerance:
                 return False, nav
@@ -301,7 +314,7 @@ class Navigator(LeafSystem):
     def _step(self, nav: NavState, pose, speed, now: float):
         """One cycle of the controller server on the current goal: (state, v, w)."""
         c = self.controller
-        goal = self.goals[nav.goal]
+        goal = self._goal(nav)
         replan = c.expected_planner_frequency > 0 and (
             now - nav.planned_at >= 1.0 / c.expected_planner_frequency - 1e-9
         )
@@ -314,7 +327,7 @@ class Navigator(LeafSystem):
         local = to_robot(nav.path[index:], pose)
         command = rpp_command(
             c,
-            self.costmap,
+            self._costmap(nav),
             local,
             pose,
             speed,
@@ -436,7 +449,9 @@ class Navigation:
     costmap: Costmap
     amcl: AmclLocalizer | None = None  # with localization: amcl (its scan is connected by
     # ConnectLocalization, once the sensors are added)
-    lidar: str = ""  # the lidar AMCL reads
+    lidar: str = ""  # the lidar AMCL (or the mapper) reads
+    mapper: Any = None  # with exploration: the SlamMapper (navigation/slam.py)
+    truth: OccupancyMap | None = None  # with exploration: the world's map, to compare
 
 
 def navigation_map(config: NavigationConfig, plant, scene_graph, robot, where: str = ""):
@@ -566,6 +581,8 @@ def _add_amcl(builder, config, stack, navigation: Navigation, params_file, axle,
 def ConnectLocalization(builder, navigation: Navigation | None, sensors: dict) -> None:
     """Connects AMCL to its lidar's scan once the sensors are added (nothing to do for the
     ground truth or without a navigation)."""
-    if navigation is None or navigation.amcl is None:
+    if navigation is None:
         return
-    builder.Connect(sensors[navigation.lidar]["scan"], navigation.amcl.GetInputPort("scan"))
+    for reader in (navigation.amcl, navigation.mapper):
+        if reader is not None:
+            builder.Connect(sensors[navigation.lidar]["scan"], reader.GetInputPort("scan"))
