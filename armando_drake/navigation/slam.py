@@ -177,9 +177,12 @@ def beams(scan, max_range: float, every: int = 1) -> tuple[np.ndarray, np.ndarra
     return angles, np.where(hit, ranges, limit), hit
 
 
-def insert_scan(logodds, grid: OccupancyMap, pose, laser, scan, max_range, footprint=0.0):
+def insert_scan(
+    logodds, grid: OccupancyMap, pose, laser, scan, max_range, footprint=0.0, hits=None
+):
     """``logodds`` (a new array) with the scan taken at base ``pose`` (x, y, yaw) added; the
-    laser at ``laser`` (x, y, yaw) in the base frame."""
+    laser at ``laser`` (x, y, yaw) in the base frame. With ``hits`` (3, height, width): the
+    sums of the end points' x and y and their count in each cell, updated in place."""
     angles, ranges, hit = beams(scan, max_range)
     sx, sy, syaw = compose(pose, laser)
     res = grid.resolution
@@ -201,8 +204,20 @@ def insert_scan(logodds, grid: OccupancyMap, pose, laser, scan, max_range, footp
     ex = sx + np.cos(heading[hit]) * ranges[hit]
     ey = sy + np.sin(heading[hit]) * ranges[hit]
     _mark(occupied, grid, ex, ey)
+    if hits is not None:
+        _accumulate(hits, grid, ex, ey)
     out = logodds + np.where(occupied, L_OCCUPIED, np.where(free, L_FREE, 0.0))
     return np.clip(out, -L_CLAMP, L_CLAMP, out=out)
+
+
+def _accumulate(hits: np.ndarray, grid: OccupancyMap, x: np.ndarray, y: np.ndarray) -> None:
+    _, h, w = hits.shape
+    col = np.floor((x - grid.origin[0]) / grid.resolution).astype(np.int64)
+    row = np.floor((y - grid.origin[1]) / grid.resolution).astype(np.int64)
+    inside = (row >= 0) & (row < h) & (col >= 0) & (col < w)
+    flat = row[inside] * w + col[inside]
+    for k, values in enumerate((x[inside], y[inside], np.ones(int(inside.sum())))):
+        hits[k] += np.bincount(flat, weights=values, minlength=h * w).reshape(h, w)
 
 
 def _mark(mask: np.ndarray, grid: OccupancyMap, x: np.ndarray, y: np.ndarray) -> None:
@@ -215,16 +230,31 @@ def _mark(mask: np.ndarray, grid: OccupancyMap, x: np.ndarray, y: np.ndarray) ->
 # ------------------------------------------------------------------------- scan matching
 
 
-def likelihood(logodds: np.ndarray, resolution: float, smear: float) -> np.ndarray:
-    """The occupied cells smeared: ``exp(-d^2 / (2 smear^2))`` of each cell's distance to
-    the nearest occupied one."""
+def likelihood(logodds: np.ndarray, grid: OccupancyMap, smear: float, hits=None) -> np.ndarray:
+    """The occupied cells smeared: ``exp(-d^2 / (2 smear^2))`` at each cell's centre, ``d``
+    its distance to the nearest occupied cell's centre, or, with ``hits``, to the mean of
+    the end points that fell in that cell (sub-cell: a wall on a cell's edge does not pull
+    the matches half a cell)."""
     from scipy import ndimage  # the navigation extra: imported where used
 
     occupied = logodds > OCCUPIED_ABOVE
+    if hits is not None:
+        occupied &= hits[2] > 0
     if not occupied.any():
-        return np.zeros(logodds.shape)
-    d = ndimage.distance_transform_edt(~occupied) * resolution
-    return np.exp(-(d * d) / (2 * smear * smear)).astype(np.float32)
+        return np.zeros(logodds.shape, dtype=np.float32)
+    if hits is None:
+        d = ndimage.distance_transform_edt(~occupied) * grid.resolution
+        return np.exp(-(d * d) / (2 * smear * smear)).astype(np.float32)
+    rows, cols = ndimage.distance_transform_edt(
+        ~occupied, return_distances=False, return_indices=True
+    )
+    count = np.maximum(hits[2], 1.0)
+    mx, my = (hits[0] / count)[rows, cols], (hits[1] / count)[rows, cols]
+    r, c = np.indices(logodds.shape)
+    xc = grid.origin[0] + (c + 0.5) * grid.resolution
+    yc = grid.origin[1] + (r + 0.5) * grid.resolution
+    d2 = (xc - mx) ** 2 + (yc - my) ** 2
+    return np.exp(-d2 / (2 * smear * smear)).astype(np.float32)
 
 
 def match(field, grid: OccupancyMap, predicted, laser, scan, p: SlamParameters, every=8):
@@ -317,6 +347,7 @@ class SlamState:
     """The mapper's state; never mutated (a new one at each scan used)."""
 
     logodds: np.ndarray
+    hits: np.ndarray  # (3, height, width): the end points' x and y sums, their count
     pose: tuple | None = None  # the base's corrected pose at the last scan used
     odom: tuple | None = None  # the odometry's pose then
     stamp: float = -math.inf  # that scan's stamp
@@ -362,7 +393,8 @@ class SlamMapper(LeafSystem):
         self._start = tuple(float(v) for v in start)
         self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
         self._scan = self.DeclareAbstractInputPort("scan", PublicationValue())
-        initial = SlamState(np.zeros(blank.data.shape, dtype=np.float32))
+        shape = blank.data.shape
+        initial = SlamState(np.zeros(shape, dtype=np.float32), np.zeros((3, *shape)))
         self._state = self.DeclareAbstractState(AbstractValue.Make(initial))
         self._map = self.DeclareAbstractState(AbstractValue.Make(blank))
         self._map_to_odom = self.DeclareDiscreteState(BasicVector(np.array(self._start)))
@@ -405,17 +437,18 @@ class SlamMapper(LeafSystem):
             predicted = compose(s.pose, delta)
         pose, response = tuple(predicted), 0.0
         if p.use_scan_matching and s.used:
-            field = likelihood(
-                s.logodds, self.blank.resolution, p.correlation_search_space_smear_deviation
-            )
+            smear = p.correlation_search_space_smear_deviation
+            field = likelihood(s.logodds, self.blank, smear, s.hits)
             pose, response = match(field, self.blank, predicted, self.laser, scan, p)
+        hits = s.hits.copy()  # the state's own is never changed
         logodds = insert_scan(
-            s.logodds, self.blank, pose, self.laser, scan, p.max_laser_range, self._footprint
-        ).astype(np.float32)
+            s.logodds, self.blank, pose, self.laser, scan, p.max_laser_range, self._footprint,
+            hits,
+        ).astype(np.float32)  # fmt: skip
         state.get_mutable_discrete_state(self._estimate).set_value(pose)
         state.get_mutable_discrete_state(self._map_to_odom).set_value(compose(pose, inverse(odom)))
         return dc.replace(
-            s, logodds=logodds, pose=pose, odom=odom, stamp=scan.stamp, used=s.used + 1,
+            s, logodds=logodds, hits=hits, pose=pose, odom=odom, stamp=scan.stamp, used=s.used + 1,
             response=response,
         )  # fmt: skip
 
