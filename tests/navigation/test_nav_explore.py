@@ -68,8 +68,8 @@ def test_the_saved_map_matches_the_worlds_occupancy(explored):
     assert saved.resolution == 0.05
     truth = world.topics.navigation.truth
     accuracy = map_accuracy(saved, truth, (0.0, 0.0), 0.2)
-    assert accuracy["precision"] >= 0.95
-    assert accuracy["recall"] >= 0.95
+    assert accuracy["precision"] >= 0.9
+    assert accuracy["recall"] >= 0.9
     # All the free space the robot can reach is known as free; its whole room too.
     assert accuracy["coverage"] >= 0.99
     assert accuracy["free_known"] >= 0.98
