@@ -155,7 +155,8 @@ class ExploreState:
     """The exploration's part of the navigator's state."""
 
     goal: NavigationGoal | None = None
-    costmap: Costmap | None = None
+    grid: OccupancyMap | None = None  # the map last searched
+    costmap: Costmap | None = None  # its costmap
     searched_at: float = -math.inf
     frontiers: int = -1  # frontiers found at the last search (-1: none yet)
     blacklist: tuple = ()  # ((x, y), ...)
@@ -221,9 +222,11 @@ class Explorer(Navigator):
     def _search(self, grid: OccupancyMap, nav: NavState, pose, now: float) -> NavState:
         """The frontiers on the map as published; the goal kept or a new one sent."""
         ex = nav.explore
-        costmap = make_costmap(grid, self.costmap_params)
+        costmap = ex.costmap
+        if grid is not ex.grid:  # a map published since: its costmap
+            costmap = make_costmap(grid, self.costmap_params)
         found = frontiers(grid, costmap, pose[:2], self.explore, ex.blacklist)
-        ex = dc.replace(ex, costmap=costmap, searched_at=now, frontiers=len(found))
+        ex = dc.replace(ex, grid=grid, costmap=costmap, searched_at=now, frontiers=len(found))
         if ex.goal is not None:
             cells = costmap.cell_to_world(*np.nonzero(frontier_cells(grid)))
             if len(cells) and np.hypot(*(cells - (ex.goal.x, ex.goal.y)).T).min() <= KEEP_GOAL:

@@ -22,8 +22,8 @@ of a slam_toolbox YAML; the parameters it applies:
   ``transform_publish_period``: map -> odom is published at each scan used.
 
 The grid holds log-odds: a beam's cells before its end are free (-0.7), its end cell
-occupied (+0.9), clamped to +-4, each cell counted once a scan (ray sampling at half a
-cell, numpy over all beams at once). The robot's footprint is free (it stands there). The
+occupied (+0.9), clamped to +-4, each cell counted once a scan (rays sampled every cell,
+numpy over all beams at once). The robot's footprint is free (it stands there). The
 published map: occupied above +0.5, free below -0.5, unknown between and where unseen.
 
 Not applied, warned by name: the pose graph and its solver (``solver_plugin``,
@@ -186,7 +186,7 @@ def insert_scan(
     angles, ranges, hit = beams(scan, max_range)
     sx, sy, syaw = compose(pose, laser)
     res = grid.resolution
-    step = res / 2
+    step = res
     count = int(math.ceil(ranges.max() / step)) if len(ranges) else 0
     t = np.arange(count) * step
     heading = syaw + angles
