@@ -52,6 +52,8 @@ from armando_drake.tools.errors import ConfigError
 NODES = ("slam_toolbox", "slam")  # the node's name in the YAML: upstream's, the course's
 L_FREE, L_OCCUPIED, L_CLAMP = -0.7, 0.9, 4.0
 OCCUPIED_ABOVE, FREE_BELOW = 0.5, -0.5
+SUB = 4  # the likelihood field's cells per map cell, each way
+FIELD_EVERY = 3  # the likelihood field is recomputed every so many scans used
 
 _log = logging.getLogger("armando_drake.navigation")
 
@@ -211,13 +213,13 @@ def insert_scan(
 
 
 def _accumulate(hits: np.ndarray, grid: OccupancyMap, x: np.ndarray, y: np.ndarray) -> None:
-    _, h, w = hits.shape
-    col = np.floor((x - grid.origin[0]) / grid.resolution).astype(np.int64)
-    row = np.floor((y - grid.origin[1]) / grid.resolution).astype(np.int64)
+    """Counts the end points in ``hits``' cells (``grid``'s split in SUB x SUB)."""
+    h, w = hits.shape
+    step = grid.resolution / SUB
+    col = np.floor((x - grid.origin[0]) / step).astype(np.int64)
+    row = np.floor((y - grid.origin[1]) / step).astype(np.int64)
     inside = (row >= 0) & (row < h) & (col >= 0) & (col < w)
-    flat = row[inside] * w + col[inside]
-    for k, values in enumerate((x[inside], y[inside], np.ones(int(inside.sum())))):
-        hits[k] += np.bincount(flat, weights=values, minlength=h * w).reshape(h, w)
+    hits += np.bincount(row[inside] * w + col[inside], minlength=h * w).reshape(h, w)
 
 
 def _mark(mask: np.ndarray, grid: OccupancyMap, x: np.ndarray, y: np.ndarray) -> None:
@@ -231,30 +233,27 @@ def _mark(mask: np.ndarray, grid: OccupancyMap, x: np.ndarray, y: np.ndarray) ->
 
 
 def likelihood(logodds: np.ndarray, grid: OccupancyMap, smear: float, hits=None) -> np.ndarray:
-    """The occupied cells smeared: ``exp(-d^2 / (2 smear^2))`` at each cell's centre, ``d``
-    its distance to the nearest occupied cell's centre, or, with ``hits``, to the mean of
-    the end points that fell in that cell (sub-cell: a wall on a cell's edge does not pull
-    the matches half a cell)."""
+    """The occupied cells smeared: ``exp(-d^2 / (2 smear^2))`` of each cell's distance to
+    the nearest occupied one; with ``hits`` (end point counts on the grid split SUB x SUB),
+    on that finer grid: the distance to the nearest sub-cell an end point fell in, within
+    an occupied cell (a wall on a cell's edge does not pull the matches half a cell)."""
     from scipy import ndimage  # the navigation extra: imported where used
 
     occupied = logodds > OCCUPIED_ABOVE
     if hits is not None:
-        occupied &= hits[2] > 0
+        occupied = np.repeat(np.repeat(occupied, SUB, axis=0), SUB, axis=1) & (hits > 0)
+    field = np.zeros(occupied.shape, dtype=np.float32)
     if not occupied.any():
-        return np.zeros(logodds.shape, dtype=np.float32)
-    if hits is None:
-        d = ndimage.distance_transform_edt(~occupied) * grid.resolution
-        return np.exp(-(d * d) / (2 * smear * smear)).astype(np.float32)
-    rows, cols = ndimage.distance_transform_edt(
-        ~occupied, return_distances=False, return_indices=True
-    )
-    count = np.maximum(hits[2], 1.0)
-    mx, my = (hits[0] / count)[rows, cols], (hits[1] / count)[rows, cols]
-    r, c = np.indices(logodds.shape)
-    xc = grid.origin[0] + (c + 0.5) * grid.resolution
-    yc = grid.origin[1] + (r + 0.5) * grid.resolution
-    d2 = (xc - mx) ** 2 + (yc - my) ** 2
-    return np.exp(-d2 / (2 * smear * smear)).astype(np.float32)
+        return field
+    step = grid.resolution / (SUB if hits is not None else 1)
+    # Only around the occupied cells (beyond 4 smears the field is nought).
+    rows, cols = np.nonzero(occupied.any(axis=1))[0], np.nonzero(occupied.any(axis=0))[0]
+    pad = int(math.ceil(4 * smear / step))
+    r0, r1 = max(rows[0] - pad, 0), rows[-1] + pad + 1
+    c0, c1 = max(cols[0] - pad, 0), cols[-1] + pad + 1
+    d = ndimage.distance_transform_edt(~occupied[r0:r1, c0:c1]) * step
+    field[r0:r1, c0:c1] = np.exp(-(d * d) / (2 * smear * smear))
+    return field
 
 
 def match(field, grid: OccupancyMap, predicted, laser, scan, p: SlamParameters, every=8):
@@ -297,10 +296,11 @@ def _search(
     dx, dy = np.meshgrid(offsets, offsets, indexing="ij")
     tx, ty = centre[0] + dx.ravel(), centre[1] + dy.ravel()  # (translations,)
     # In cells (float32: a cell's hundredth is well within its precision).
-    rc = ((rx - grid.origin[0]) / grid.resolution - 0.5).astype(np.float32)
-    rr = ((ry - grid.origin[1]) / grid.resolution - 0.5).astype(np.float32)
-    col = rc[:, None, :] + (tx / grid.resolution).astype(np.float32)[None, :, None]
-    row = rr[:, None, :] + (ty / grid.resolution).astype(np.float32)[None, :, None]
+    cell = grid.resolution * grid.height / field.shape[0]  # the field's cells: maybe finer
+    rc = ((rx - grid.origin[0]) / cell - 0.5).astype(np.float32)
+    rr = ((ry - grid.origin[1]) / cell - 0.5).astype(np.float32)
+    col = rc[:, None, :] + (tx / cell).astype(np.float32)[None, :, None]
+    row = rr[:, None, :] + (ty / cell).astype(np.float32)[None, :, None]
     values = _nearest(field, row + 0.5, col + 0.5) if nearest else _bilinear(field, row, col)
     response = values.mean(axis=2)  # (angles, translations)
     # Karto's penalties away from the prediction.
@@ -347,7 +347,8 @@ class SlamState:
     """The mapper's state; never mutated (a new one at each scan used)."""
 
     logodds: np.ndarray
-    hits: np.ndarray  # (3, height, width): the end points' x and y sums, their count
+    hits: np.ndarray  # the end points' count in each sub-cell (SUB x SUB a cell)
+    field: np.ndarray | None = None  # the likelihood field matched against
     pose: tuple | None = None  # the base's corrected pose at the last scan used
     odom: tuple | None = None  # the odometry's pose then
     stamp: float = -math.inf  # that scan's stamp
@@ -394,7 +395,8 @@ class SlamMapper(LeafSystem):
         self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
         self._scan = self.DeclareAbstractInputPort("scan", PublicationValue())
         shape = blank.data.shape
-        initial = SlamState(np.zeros(shape, dtype=np.float32), np.zeros((3, *shape)))
+        hits = np.zeros((SUB * shape[0], SUB * shape[1]), dtype=np.int32)
+        initial = SlamState(np.zeros(shape, dtype=np.float32), hits)
         self._state = self.DeclareAbstractState(AbstractValue.Make(initial))
         self._map = self.DeclareAbstractState(AbstractValue.Make(blank))
         self._map_to_odom = self.DeclareDiscreteState(BasicVector(np.array(self._start)))
@@ -435,10 +437,12 @@ class SlamMapper(LeafSystem):
             if not (moved or abs(delta[2]) >= p.minimum_travel_heading):
                 return s
             predicted = compose(s.pose, delta)
-        pose, response = tuple(predicted), 0.0
+        pose, response, field = tuple(predicted), 0.0, s.field
         if p.use_scan_matching and s.used:
             smear = p.correlation_search_space_smear_deviation
-            field = likelihood(s.logodds, self.blank, smear, s.hits)
+            field = s.field
+            if field is None or s.used % FIELD_EVERY == 0:
+                field = likelihood(s.logodds, self.blank, smear, s.hits)
             pose, response = match(field, self.blank, predicted, self.laser, scan, p)
         hits = s.hits.copy()  # the state's own is never changed
         logodds = insert_scan(
@@ -448,8 +452,8 @@ class SlamMapper(LeafSystem):
         state.get_mutable_discrete_state(self._estimate).set_value(pose)
         state.get_mutable_discrete_state(self._map_to_odom).set_value(compose(pose, inverse(odom)))
         return dc.replace(
-            s, logodds=logodds, hits=hits, pose=pose, odom=odom, stamp=scan.stamp, used=s.used + 1,
-            response=response,
+            s, logodds=logodds, hits=hits, field=field, pose=pose, odom=odom, stamp=scan.stamp,
+            used=s.used + 1, response=response,
         )  # fmt: skip
 
     @property
