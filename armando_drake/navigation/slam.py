@@ -10,7 +10,9 @@ of a slam_toolbox YAML; the parameters it applies:
   the odometry moved that much since the last one used, but for the first);
 - ``use_scan_matching``: the scan is matched against the map so far (a correlative scan
   matcher, as Karto's): the map's occupied cells smeared into a likelihood field with
-  ``correlation_search_space_smear_deviation``, each candidate pose scored by the field
+  ``correlation_search_space_smear_deviation`` (on a grid SUB times finer, made of the
+  sub-cells the end points fell in, so that a wall on a cell's edge does not pull the
+  matches half a cell), each candidate pose scored by the field
   at its beams' end points (bilinear), searched over ``correlation_search_space_dimension``
   (x and y) around the odometry's prediction, first at the map's resolution with headings
   within ``coarse_search_angle_offset`` at ``coarse_angle_resolution``, then at
@@ -183,8 +185,8 @@ def insert_scan(
     logodds, grid: OccupancyMap, pose, laser, scan, max_range, footprint=0.0, hits=None
 ):
     """``logodds`` (a new array) with the scan taken at base ``pose`` (x, y, yaw) added; the
-    laser at ``laser`` (x, y, yaw) in the base frame. With ``hits`` (3, height, width): the
-    sums of the end points' x and y and their count in each cell, updated in place."""
+    laser at ``laser`` (x, y, yaw) in the base frame. With ``hits`` (SUB height, SUB
+    width): the end points' count in each sub-cell, updated in place."""
     angles, ranges, hit = beams(scan, max_range)
     sx, sy, syaw = compose(pose, laser)
     res = grid.resolution

@@ -82,9 +82,9 @@ def test_scan_matching_corrects_the_odometrys_drift(explored):
     # The wheel radius 3 % off: the odometry is off by decimetres at the end (its heading by
     # 3 % of the net turn), the scan-matched pose by a few centimetres.
     assert mapping["odometry_position_error"] > 0.15
-    assert mapping["slam_position_error"] < 0.05
-    assert mapping["slam_yaw_error"] < 0.01
-    assert mapping["odometry_position_error"] > 4 * mapping["slam_position_error"]
+    assert mapping["slam_position_error"] < 0.04
+    assert mapping["slam_yaw_error"] < 0.015
+    assert mapping["odometry_position_error"] > 5 * mapping["slam_position_error"]
 
 
 def _room_scan(pose, n=360):
