@@ -19,8 +19,9 @@ with none is dropped.
 ``planner_frequency`` it rebuilds the global costmap on the map being built (the
 :class:`~.slam.SlamMapper`'s) and searches the frontiers; it keeps its goal while the goal
 still lies on a frontier, else sends the cheapest frontier not blacklisted (within 5
-cells of a blacklisted goal, as upstream); a goal reached, aborted or timed out is
-blacklisted. When no frontier is left the exploration is done and the robot stops.
+cells of a blacklisted goal, as upstream; the goal replaced is "superseded"); a goal
+reached, aborted or timed out is blacklisted. When no frontier is left the exploration is
+done and the robot stops.
 """
 
 from __future__ import annotations
@@ -236,6 +237,8 @@ class Explorer(Navigator):
                 ex = dc.replace(ex, goal=None, done_at=now)
                 _log.info("exploration done at %.2f s: no frontier left", now)
             return dc.replace(nav, explore=ex)
+        if ex.goal is not None:  # the frontier explored on the way: a new goal replaces it
+            nav = dc.replace(nav, results=(*nav.results, self._result(nav, now, "superseded")))
         best = found[0]
         heading = math.atan2(best.goal[1] - pose[1], best.goal[0] - pose[0])
         goal = NavigationGoal(f"frontier_{ex.sent + 1}", best.goal[0], best.goal[1], heading)
@@ -265,18 +268,22 @@ class Explorer(Navigator):
     def _finish(self, nav: NavState, pose, now: float, reason: str) -> NavState:
         """The frontier's result; its goal blacklisted; a new search at the next cycle."""
         ex = nav.explore
-        goal, truth = ex.goal, nav.last_pose
-        result = GoalResult(
-            name=goal.name, reached=reason == "reached", reason=reason, start=nav.started,
-            end=now, pose=tuple(float(v) for v in truth),
-            position_error=math.hypot(truth[0] - goal.x, truth[1] - goal.y), yaw_error=0.0,
-            path_length=nav.driven, plan_length=nav.plan_length,
-        )  # fmt: skip
+        goal, result = ex.goal, self._result(nav, now, reason)
         _log.info("frontier %r: %s at %.2f s", goal.name, reason, now)
         ex = dc.replace(
             ex, goal=None, blacklist=(*ex.blacklist, (goal.x, goal.y)), searched_at=-math.inf
         )
         return dc.replace(nav, explore=ex, path=None, results=(*nav.results, result))
+
+    @staticmethod
+    def _result(nav: NavState, now: float, reason: str) -> GoalResult:
+        goal, truth = nav.explore.goal, nav.last_pose
+        return GoalResult(
+            name=goal.name, reached=reason == "reached", reason=reason, start=nav.started,
+            end=now, pose=tuple(float(v) for v in truth),
+            position_error=math.hypot(truth[0] - goal.x, truth[1] - goal.y), yaw_error=0.0,
+            path_length=nav.driven, plan_length=nav.plan_length,
+        )  # fmt: skip
 
     def results(self, context) -> list[GoalResult]:
         return list(context.get_abstract_state(self._nav).get_value().results)

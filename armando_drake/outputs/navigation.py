@@ -122,7 +122,7 @@ def write_navigation_outputs(folder: Path, navigation, summary: dict, rows: np.n
         axis.annotate(str(k + 1), (goal.x, goal.y), ha="center", va="center", fontsize=7)
     if mapping:
         ends = np.array([r["pose"][:2] for r in summary["goals"]]).reshape(-1, 2)
-        axis.plot(*ends.T, "o", color="tab:orange", ms=5, label="frontier goals ended")
+        axis.plot(*ends.T, "o", color="tab:orange", ms=5, label="where each frontier goal ended")
         axis.set_title(
             f"Exploration: {mapping['explored_area']:.1f} m² mapped, precision "
             f"{mapping['precision']:.3f}, recall {mapping['recall']:.3f}, coverage "
