@@ -234,6 +234,9 @@ class Explorer(Navigator):
                 return dc.replace(nav, explore=ex)
         if not found:
             if (grid.data != UNKNOWN).any():
+                if ex.goal is not None:
+                    result = self._result(dc.replace(nav, explore=ex), now, "explored")
+                    nav = dc.replace(nav, results=(*nav.results, result))
                 ex = dc.replace(ex, goal=None, done_at=now)
                 _log.info("exploration done at %.2f s: no frontier left", now)
             return dc.replace(nav, explore=ex)

@@ -124,9 +124,9 @@ def write_navigation_outputs(folder: Path, navigation, summary: dict, rows: np.n
         ends = np.array([r["pose"][:2] for r in summary["goals"]]).reshape(-1, 2)
         axis.plot(*ends.T, "o", color="tab:orange", ms=5, label="where each frontier goal ended")
         axis.set_title(
-            f"Exploration: {mapping['explored_area']:.1f} m² mapped, precision "
-            f"{mapping['precision']:.3f}, recall {mapping['recall']:.3f}, coverage "
-            f"{mapping['coverage']:.3f}, {summary['collisions']} collisions"
+            f"Exploration: {mapping['explored_area']:.1f} m² mapped, "
+            f"{summary['collisions']} collisions\nmap precision {mapping['precision']:.3f}, "
+            f"recall {mapping['recall']:.3f}, coverage {mapping['coverage']:.3f}"
         )
     else:
         axis.set_title(f"Navigation: {summary['reached']}/{len(goals)} goals reached, "

@@ -195,3 +195,8 @@ def test_the_summary_has_the_mapping_section_and_the_figure_is_written(explored,
     write_navigation_outputs(tmp_path, world.topics.navigation, summary, world.base_log.array())
     assert (tmp_path / "map.pgm").is_file() and (tmp_path / "navigation.png").stat().st_size
     assert summary["mapping"]["scans_used"] > 100
+    # Each frontier goal in the summary: replaced on the way, the last one explored.
+    reasons = [goal["reason"] for goal in summary["goals"]]
+    assert len(reasons) == summary["mapping"]["frontier_goals"]
+    assert set(reasons) <= {"superseded", "reached", "explored", "no plan", "progress timeout"}
+    assert reasons[-1] == "explored"
