@@ -14,7 +14,7 @@
 - :mod:`.slam`: slam_toolbox's mapping (an occupancy grid from the scans and the odometry,
   scan matching correcting the drift, map -> odom).
 - :mod:`.explore`: explore_lite's frontiers, the navigator driving to them.
-- :mod:`.setup`: :func:`~.setup.AddNavigation`, the navigation of a scenario added to a
+- :mod:`.building`: :func:`~.building.AddNavigation`, the navigation of a scenario added to a
   diagram (to goals, or exploring).
 
 The maps, costmaps, planner and follower are pure computation on numpy arrays (SciPy

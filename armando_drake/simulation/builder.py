@@ -51,7 +51,7 @@ from armando_drake.control.stack import (
 from armando_drake.control.twist import AddTwistSequence
 from armando_drake.description.loader import AddRobot
 from armando_drake.description.worlds import AddWorld
-from armando_drake.navigation.setup import AddNavigation, ConnectLocalization
+from armando_drake.navigation.building import AddNavigation, ConnectLocalization
 from armando_drake.outputs.base import BASE_CSV, AddBaseLogger
 from armando_drake.outputs.logger import AddJointStateLogger, CommandsCsv
 from armando_drake.outputs.recording import AddRosbagRecorder
