@@ -204,3 +204,9 @@ def run_notebook(name: str, monkeypatch, timeout: int = 120) -> tuple[str, int]:
     text = "\n".join(output.text for output in outputs if output.output_type == "stream")
     pictures = sum("image/png" in output.get("data", {}) for output in outputs)
     return text, pictures
+
+
+def pytest_xdist_auto_num_workers(config):
+    """``-n auto``: a worker per CPU this process may use, at most 4 (the tests start
+    simulations, browsers and servers of their own)."""
+    return max(1, min(4, len(os.sched_getaffinity(0))))

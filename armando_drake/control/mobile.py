@@ -322,11 +322,13 @@ def AddMobileBase(
     *,
     activate: Sequence[str] = (),
     where: str = "",
+    parent=None,
 ) -> MobileBase:
     """Welds the robot (loaded with ``weld=False``) at ``config``'s base pose, or spawns it
     there free (see the module docstring); returns its :class:`MobileBase`. ``activate``:
     the scenario's controllers to activate (a plugin drive whose wheels one of them claims
-    does not run); ``where``: the origin of ``robot.base`` for messages."""
+    does not run); ``where``: the origin of ``robot.base`` for messages; ``parent``: a
+    frame of another robot the base is welded to (at ``config``'s pose in it)."""
     plugins = _plugin_entries(robot, controller_config)
     yaml_drives = [c.name for c in _drive_controllers(controller_config) if c.name not in plugins]
     # The drives' wheels are joints of the robot (the others are checked with the hardware).
@@ -335,7 +337,7 @@ def AddMobileBase(
         controllers={name: controller_config.controllers[name] for name in yaml_drives},
     )
     validate_joints(drives_only, [joint.name for joint in robot.joints], str(robot.source))
-    floating = _decide(config, robot, bool(plugins or yaml_drives), where)
+    floating = parent is None and _decide(config, robot, bool(plugins or yaml_drives), where)
     base = MobileBase(floating=floating, base_link=robot.base_link)
     base.plugins = _running(plugins, activate, controller_config)
     base.drives = base.plugins + yaml_drives
@@ -355,7 +357,7 @@ def AddMobileBase(
         )
     X_WB = base_pose(config)
     if not floating:  # an arm; or a mobile robot on a stand, its wheels turning in the air
-        weld_robot(plant, robot, X_WB)
+        weld_robot(plant, robot, X_WB, parent)
         return base
     if config.base == "floating" and len(robot.welds) > 1:
         raise ScenarioError(

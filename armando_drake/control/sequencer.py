@@ -962,5 +962,5 @@ def AddSequencer(
             sequencer.GetOutputPort("tick_count"),
             stack.controllers[name].GetInputPort(f"{name}.command_count"),
         )
-    builder.ExportOutput(sequencer.GetOutputPort("reference"), "reference")
+    builder.ExportOutput(sequencer.GetOutputPort("reference"), stack.port_name("reference"))
     return sequencer, name

@@ -186,6 +186,14 @@ class ControlStack:
     # Whether, with no command controller active, the hardware holds every joint at its
     # start position (the robot's own controllers cannot run); else nothing drives it.
     hold: bool = False
+    # The robot's namespace in a world of several robots ("/left"); "" for the only one.
+    namespace: str = ""
+
+    def port_name(self, name: str) -> str:
+        """``name`` as a port of the world's diagram: under the robot's namespace
+        (``left/joint_states``) when it has one."""
+        space = self.namespace.strip("/")
+        return f"{space}/{name}" if space else name
 
     @property
     def broadcaster(self) -> ControllerManager | None:
@@ -505,7 +513,39 @@ def AddHardware(
     ``gazebo_ros_control`` ones, else ``actuators.kp``/``kd``, each one that is null
     derived from the robot (:mod:`armando_drake.control.gains`; the built-in Armando's
     servos: :data:`ARMANDO_GAINS`). Each of ``start_positions`` is (positions [rad] in
-    hardware order, their origin, their key): the joints start there."""
+    hardware order, their origin, their key): the joints start there. Several robots in
+    one plant: :func:`BeginHardware` for each, ``plant.Finalize()``, then
+    :func:`FinishHardware` for each."""
+    pending = BeginHardware(plant, robot, actuators, config)
+    plant.Finalize()
+    return FinishHardware(
+        plant,
+        scene_graph,
+        pending,
+        self_collision=self_collision,
+        start_positions=start_positions,
+    )
+
+
+@dc.dataclass
+class PendingHardware:
+    """A hardware interface whose plant is not final yet (:func:`BeginHardware`)."""
+
+    robot: LoadedRobot
+    actuators: ActuatorConfig
+    hardware: HardwareInterface
+    explicit: dict  # joint -> [kp, kd] the scenario or the controller YAML gives
+    from_yaml: dict  # joint -> [kp, kd] of the controller YAML
+    chosen: tuple  # (kp, kd, the robot's own (kp, kd))
+
+
+def BeginHardware(
+    plant: MultibodyPlant,
+    robot: LoadedRobot,
+    actuators: ActuatorConfig,
+    config: ControllerManagerConfig,
+) -> PendingHardware:
+    """The actuators of ``robot``'s hardware interface, before ``plant.Finalize()``."""
     interfaces = command_interfaces(robot, warn=False)[2]  # warned by AddHardwareInterface
     from_yaml = _yaml_gains(config, interfaces)
     explicit = {**from_yaml, **actuators.gains}  # the scenario's win
@@ -520,7 +560,20 @@ def AddHardware(
         kv=actuators.kv,
         gains=explicit,
     )
-    plant.Finalize()
+    return PendingHardware(robot, actuators, hardware, explicit, from_yaml, (kp, kd, own))
+
+
+def FinishHardware(
+    plant: MultibodyPlant,
+    scene_graph: SceneGraph,
+    pending: PendingHardware,
+    *,
+    self_collision: bool = False,
+    start_positions: Sequence[tuple[Sequence[float], str, str]] = (),
+) -> HardwareInterface:
+    """The hardware interface of :func:`BeginHardware`, once the plant is final: the
+    collision filter of the robot's own links, the start positions, the gains."""
+    robot, hardware = pending.robot, pending.hardware
     if not self_collision:  # the robot's links do not collide with each other (Gazebo's default)
         bodies = [plant.get_body(i) for i in plant.GetBodyIndices(robot.model_instance)]
         scene_graph.collision_filter_manager().Apply(
@@ -538,7 +591,15 @@ def AddHardware(
             for j in hardware.joints
         ),
     )
-    _settle_gains(plant, robot, hardware, actuators, explicit, from_yaml, (kp, kd, own))
+    _settle_gains(
+        plant,
+        robot,
+        hardware,
+        pending.actuators,
+        pending.explicit,
+        pending.from_yaml,
+        pending.chosen,
+    )
     return hardware
 
 
@@ -639,12 +700,14 @@ def AddControllerManager(
     where: str = "",
     scene_graph: SceneGraph | None = None,
     hold: bool = False,
+    namespace: str = "",
 ) -> ControlStack:
     """Loads and activates ``config.activate`` (a broadcaster and command controllers,
     each joint claimed once) in one :class:`ControllerManager`, wired to the plant
     through the hardware interface. ``sequencer``: the scenario's sequencer section; a
     sinusoid's controller takes it as a C++ stream when it can. ``hold``: with no
-    command controller, the hardware holds the joints at their start positions."""
+    command controller, the hardware holds the joints at their start positions.
+    ``namespace``: the robot's, in a world of several (its ports' names begin with it)."""
     stack = ControlStack(
         plant=plant,
         robot=robot,
@@ -653,6 +716,7 @@ def AddControllerManager(
         update_rate=update_rate,
         scene_graph=scene_graph,
         hold=hold,
+        namespace=namespace,
     )
     broadcaster, managed = _activate(stack, config.activate, where, config.speed_scaling)
     if broadcaster is None and not managed and not hold:
@@ -676,7 +740,7 @@ def AddControllerManager(
     stack.effort_state = AddEffortState(builder, plant, robot)
     builder.Connect(stack.effort_state, manager.GetInputPort("effort"))
     if broadcaster is not None:
-        builder.ExportOutput(manager.GetOutputPort("joint_states"), "joint_states")
+        builder.ExportOutput(manager.GetOutputPort("joint_states"), stack.port_name("joint_states"))
     for controller in managed:
         stack.controllers[controller.name] = manager
     return stack
@@ -857,7 +921,7 @@ def ConnectControlStack(
         ),
         gravity_feedforward=gravity_feedforward,
     )
-    builder.ExportOutput(desired, "desired_state")
+    builder.ExportOutput(desired, stack.port_name("desired_state"))
     return feedforward
 
 
@@ -866,8 +930,9 @@ def ExportFreeControllerPorts(builder: DiagramBuilder, stack: ControlStack) -> N
     for name, system in stack.controllers.items():
         port = stack.command_input(name)
         if not builder.IsConnectedOrExported(port):
-            builder.ExportInput(port, port.get_name())
-        builder.ExportOutput(system.GetOutputPort(f"{name}.status"), f"{name}.status")
+            builder.ExportInput(port, stack.port_name(port.get_name()))
+        status = f"{name}.status"
+        builder.ExportOutput(system.GetOutputPort(status), stack.port_name(status))
 
 
 def joint_limits(stack: ControlStack, joints: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:

@@ -145,5 +145,5 @@ def AddTwistSequence(builder, config: TwistSequence, stack, *, where: str = ""):
     sequencer = builder.AddSystem(TwistSequencer(config))
     sequencer.set_name("twist_sequencer")
     builder.Connect(sequencer.GetOutputPort("cmd_vel"), stack.command_input(name))
-    builder.ExportOutput(sequencer.GetOutputPort("command"), "twist_command")
+    builder.ExportOutput(sequencer.GetOutputPort("command"), stack.port_name("twist_command"))
     return sequencer, name

@@ -431,21 +431,26 @@ def _weld_bases(
     model_instance: ModelInstanceIndex,
     welds: list[BaseWeld],
     X_WB: RigidTransform | None,
+    parent=None,
 ) -> None:
-    """Welds each base link to Drake's world at ``X_WB`` times its joint's origin."""
+    """Welds each base link to Drake's world (or the ``parent`` frame) at ``X_WB`` times
+    its joint's origin."""
     X_WD = X_WB if X_WB is not None else RigidTransform()
     for base in welds:
         plant.WeldFrames(
-            plant.world_frame(),
+            plant.world_frame() if parent is None else parent,
             plant.GetFrameByName(base.link, model_instance),
             X_WD @ base.X_DL,
         )
 
 
-def weld_robot(plant: MultibodyPlant, robot: LoadedRobot, X_WB: RigidTransform | None) -> None:
-    """Welds the base link(s) of a robot loaded with ``weld=False`` to Drake's world at
-    ``X_WB`` (times each weld's own pose), as :func:`load_robot` does by default."""
-    _weld_bases(plant, robot.model_instance, robot.welds, X_WB)
+def weld_robot(
+    plant: MultibodyPlant, robot: LoadedRobot, X_WB: RigidTransform | None, parent=None
+) -> None:
+    """Welds the base link(s) of a robot loaded with ``weld=False`` to Drake's world (or
+    the ``parent`` frame: a robot mounted on another's link) at ``X_WB`` (times each
+    weld's own pose), as :func:`load_robot` does by default."""
+    _weld_bases(plant, robot.model_instance, robot.welds, X_WB, parent)
     robot.welded = True
 
 
@@ -534,17 +539,27 @@ def base_pose(config: RobotConfig) -> RigidTransform:
     return RigidTransform(RollPitchYaw(config.base_rpy), config.base_xyz)
 
 
-def AddRobot(plant: MultibodyPlant, config: RobotConfig, *, weld: bool = True) -> LoadedRobot:
+def AddRobot(
+    plant: MultibodyPlant,
+    config: RobotConfig,
+    *,
+    weld: bool = True,
+    model_name: str | None = None,
+    xacro_args: Mapping[str, str] | None = None,
+) -> LoadedRobot:
     """The description of the scenario's ``robot:`` section, its base welded at
     ``base_xyz``/``base_rpy`` (:func:`load_robot`); with ``weld`` False nothing is welded
-    yet (:func:`weld_robot` does, or the base stays free)."""
+    yet (:func:`weld_robot` does, or the base stays free). ``model_name``: its model
+    instance's name scope (two robots of one description need two); ``xacro_args``:
+    given instead of ``config.xacro_args``."""
     return load_robot(
         plant,
         config.description or None,
-        xacro_args=config.xacro_args,
+        xacro_args=config.xacro_args if xacro_args is None else xacro_args,
         package_paths=config.package_paths,
         X_WB=base_pose(config),
         weld=weld,
+        model_name=model_name,
         collision=config.collision,
         density=config.density,
     )

@@ -135,6 +135,13 @@ DEFINITIONS = {
         "std_msgs/Header header\nstring child_frame_id\n"
         "geometry_msgs/PoseWithCovariance pose\ngeometry_msgs/TwistWithCovariance twist\n"
     ),
+    # The navigation's plan and map (nav2's planner server, map_server).
+    "nav_msgs/Path": "std_msgs/Header header\ngeometry_msgs/PoseStamped[] poses\n",
+    "nav_msgs/MapMetaData": (
+        "builtin_interfaces/Time map_load_time\nfloat32 resolution\nuint32 width\n"
+        "uint32 height\ngeometry_msgs/Pose origin\n"
+    ),
+    "nav_msgs/OccupancyGrid": ("std_msgs/Header header\nnav_msgs/MapMetaData info\nint8[] data\n"),
     "sensor_msgs/LaserScan": (
         "std_msgs/Header header\nfloat32 angle_min\nfloat32 angle_max\n"
         "float32 angle_increment\nfloat32 time_increment\nfloat32 scan_time\n"

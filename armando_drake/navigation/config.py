@@ -51,7 +51,8 @@ class NavigationConfig:
     # [m] the height at which the world is cut for its map; 0 = the lidar's (or 0.2 m
     # without a lidar).
     scan_height: float = param(0.0, unit="m", ge=0)
-    # The goal poses.
+    # The goal poses; [] = none: the robot waits for one (/goal_pose, or a script's
+    # BasicNavigator).
     goals: list[NavigationGoal] = dc.field(default_factory=list)
     # The goals' names in the order they are visited; [] = the order of `goals`.
     order: list[str] = dc.field(default_factory=list)
@@ -85,8 +86,6 @@ class NavigationConfig:
             for key in ("slam_params_file", "explore_params_file"):
                 if not getattr(self, key):
                     raise Refusal(key, ": a parameter file is needed to explore")
-        elif not self.goals:
-            raise Refusal("goals", ": no goal")
         names = set()
         for k, goal in enumerate(self.goals):
             if not goal.name:

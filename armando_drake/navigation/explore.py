@@ -197,9 +197,6 @@ class Explorer(Navigator):
         super().__init__([], make_costmap(blank, costmap_params), *args, **kwargs)
         self._map = self.DeclareAbstractInputPort("map", AbstractValue.Make(blank))
 
-    def _goal(self, nav: NavState) -> NavigationGoal:
-        return nav.explore.goal
-
     def _costmap(self, nav: NavState) -> Costmap:
         return nav.explore.costmap
 
@@ -246,15 +243,8 @@ class Explorer(Navigator):
         heading = math.atan2(best.goal[1] - pose[1], best.goal[0] - pose[0])
         goal = NavigationGoal(f"frontier_{ex.sent + 1}", best.goal[0], best.goal[1], heading)
         ex = dc.replace(ex, goal=goal, sent=ex.sent + 1, best_distance=math.inf, progress_at=now)
-        return self._start(dc.replace(nav, explore=ex), 0, pose, now)
-
-    def _start(self, nav: NavState, index: int, pose, now: float) -> NavState:
-        nav = super()._start(nav, index, pose, now)
-        goal = nav.explore.goal if nav.explore else None
-        if goal is not None:
-            _log.info("frontier %r sent: (%.3f, %.3f)", goal.name, goal.x, goal.y)
-            nav = self._plan(nav, pose, now)
-        return nav
+        nav = dc.replace(nav, explore=ex, goals=(*nav.goals, goal))
+        return self._start(nav, len(nav.goals) - 1, pose, now)
 
     def _plan(self, nav: NavState, pose, now: float) -> NavState:
         """NavFn's plan on the map as it is; when it fails the old plan is dropped (the
@@ -268,7 +258,7 @@ class Explorer(Navigator):
             self.controller.xy_goal_tolerance
         ), nav
 
-    def _finish(self, nav: NavState, pose, now: float, reason: str) -> NavState:
+    def _finish(self, nav: NavState, pose, now: float, reason: str, then=True) -> NavState:
         """The frontier's result; its goal blacklisted; a new search at the next cycle."""
         ex = nav.explore
         goal, result = ex.goal, self._result(nav, now, reason)
@@ -287,9 +277,6 @@ class Explorer(Navigator):
             position_error=math.hypot(truth[0] - goal.x, truth[1] - goal.y), yaw_error=0.0,
             path_length=nav.driven, plan_length=nav.plan_length,
         )  # fmt: skip
-
-    def results(self, context) -> list[GoalResult]:
-        return list(context.get_abstract_state(self._nav).get_value().results)
 
     def exploration(self, context) -> dict[str, Any]:
         """The exploration's figures at ``context``'s time."""

@@ -75,7 +75,8 @@ class GoalResult:
 
     name: str
     reached: bool
-    reason: str  # "reached", "no progress", "collision ahead", "no plan", "not reached"
+    reason: str  # "reached", "no progress", "collision ahead", "no plan", "not reached",
+    # "canceled" (a new task preempted it, or a cancel)
     start: float  # [s] when the goal was sent
     end: float  # [s] when it was reached or given up (nan: still running)
     pose: tuple[float, float, float]  # (x, y, yaw) then
@@ -102,6 +103,16 @@ class NavState:
     driven: float = 0.0  # [m] path length so far on this goal
     plan_length: float = 0.0
     results: tuple = ()
+    # The goals sent so far, in order (results[k] is goals[k]'s): the scenario's, then
+    # each task's (a /goal_pose, the commander's); a new task drops the pending ones.
+    goals: tuple = ()
+    task_start: int = 0  # the index of the current task's first goal
+    pending: Any = None  # a task the commander requested (a tuple of goals; () cancels)
+    received: int = 0  # the goal_pose publications taken so far
+    # With AMCL: (time, position error [m], yaw error [rad]) of the estimate against the
+    # ground truth, each second.
+    localization: tuple = ()
+    estimate: tuple = ()  # the localization's (x, y, yaw) at the last update
     explore: Any = None  # the exploration's own state (navigation/explore.py)
 
     def __deepcopy__(self, memo):
@@ -116,14 +127,23 @@ class Navigator(LeafSystem):
         name: Navigator
         input_ports:
         - state
+        input_ports:
+        - goal_pose (optional)
         output_ports:
         - cmd_vel
         - command
+        - nav_state
 
     - ``state``: the robot model instance's state (its floating base's pose and twist);
+    - ``goal_pose``: a Publication of a NavigationGoal (or a tuple of them): each new one
+      is a task that preempts the current one (RViz's 2D goal on ``/goal_pose``);
     - with AMCL, ``odom`` (the drive's Odometry) and ``map_to_odom`` (x, y, yaw) too;
     - ``cmd_vel``: a Publication of TwistStamped (``frame_id`` ``base_link``);
-    - ``command``: vector (linear [m/s], angular [rad/s]) of the latest message.
+    - ``command``: vector (linear [m/s], angular [rad/s]) of the latest message;
+    - ``nav_state``: the :class:`NavState` (the plan, the goals, the results).
+
+    :meth:`request` and :meth:`cancel` send a task from a script between two steps of the
+    simulator (:mod:`armando_drake.simulation.commander`).
     """
 
     def __init__(
@@ -153,23 +173,17 @@ class Navigator(LeafSystem):
         if amcl_axle is not None:
             self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
             self._map_to_odom = self.DeclareVectorInputPort("map_to_odom", 3)
-        self._nav = self.DeclareAbstractState(AbstractValue.Make(NavState()))
+        self._nav = self.DeclareAbstractState(AbstractValue.Make(NavState(goals=tuple(goals))))
+        self._goal_pose = self.DeclareAbstractInputPort("goal_pose", PublicationValue())
         self._topic = self.DeclareAbstractState(PublicationValue())
         self._command = self.DeclareDiscreteState(BasicVector(np.zeros(2)))
         self.DeclareStateOutputPort("cmd_vel", self._topic)
         self.DeclareStateOutputPort("command", self._command)
+        self.DeclareStateOutputPort("nav_state", self._nav)
         period = 1.0 / controller.controller_frequency
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, start_delay, self._Update)
 
     # -- the loop
-
-    def _goal(self, nav: NavState) -> NavigationGoal:
-        """The current goal."""
-        return self.goals[nav.goal]
-
-    def _costmap(self, nav: NavState) -> Costmap:
-        """The costmap the current goal is planned and followed on."""
-        return self.costmap
 
     def _truth(self, context) -> tuple[float, float, float, float, float]:
         x = self._state.Eval(context)
@@ -197,7 +211,13 @@ class Navigator(LeafSystem):
         if nav.last_pose:
             step = math.hypot(truth[0] - nav.last_pose[0], truth[1] - nav.last_pose[1])
             nav = dc.replace(nav, driven=nav.driven + step)
-        nav = dc.replace(nav, last_pose=truth)
+        nav = dc.replace(nav, last_pose=truth, estimate=tuple(pose))
+        if self._axle is not None and (
+            not nav.localization or now - nav.localization[-1][0] >= 1.0 - 1e-9
+        ):
+            error = math.hypot(pose[0] - truth[0], pose[1] - truth[1])
+            sample = (now, error, abs(wrap(pose[2] - truth[2])))
+            nav = dc.replace(nav, localization=(*nav.localization, sample))
         nav, linear, angular = self._advance(context, nav, pose, speed, now)
         state.get_mutable_abstract_state(self._nav).set_value(nav)
         message = TwistStamped(
@@ -210,12 +230,62 @@ class Navigator(LeafSystem):
         state.get_mutable_discrete_state(self._command).set_value([linear, angular])
 
     def _advance(self, context, nav: NavState, pose, speed, now: float):
-        """One cycle on the goals: (state, v, w)."""
+        """One cycle on the goals (a task requested taken first): (state, v, w)."""
+        nav, task = self._requested(context, nav)
+        if task is not None:
+            nav = self._new_task(nav, task, pose, now)
         if nav.goal < 0:
             nav = self._start(nav, 0, pose, now)
-        if 0 <= nav.goal < len(self.goals):
+        if 0 <= nav.goal < len(nav.goals):
             return self._step(nav, pose, speed, now)
         return nav, 0.0, 0.0
+
+    def _costmap(self, nav: NavState) -> Costmap:
+        """The costmap the current goal is planned and followed on."""
+        return self.costmap
+
+    # -- tasks
+
+    def request(self, context, goals) -> None:
+        """Sends the task ``goals`` (NavigationGoals; () cancels) in ``context`` (this
+        system's): taken at the next update, it preempts the current task."""
+        nav = context.get_abstract_state(self._nav).get_value()
+        context.SetAbstractState(self._nav, dc.replace(nav, pending=tuple(goals)))
+
+    def cancel(self, context) -> None:
+        """Cancels the current task at the next update (the base is stopped)."""
+        self.request(context, ())
+
+    def nav_state(self, context) -> NavState:
+        """The state in ``context`` (this system's)."""
+        return context.get_abstract_state(self._nav).get_value()
+
+    def _requested(self, context, nav: NavState):
+        """(state, the task requested since the last update or None)."""
+        if nav.pending is not None:
+            return dc.replace(nav, pending=None), nav.pending
+        if self._goal_pose.HasValue(context):
+            publication = self._goal_pose.Eval(context)
+            if publication.count > nav.received:
+                message = publication.message
+                task = tuple(message) if isinstance(message, (tuple, list)) else (message,)
+                return dc.replace(nav, received=publication.count), task
+        return nav, None
+
+    def _new_task(self, nav: NavState, task: tuple, pose, now: float) -> NavState:
+        """The current goal canceled (if any), the pending ones dropped, ``task`` started."""
+        if nav.goal < 0:  # before the first update: instead of the scenario's goals
+            return dc.replace(nav, goals=task, task_start=0)
+        if nav.goal < len(nav.goals):
+            nav = self._finish(nav, pose, now, "canceled", then=False)
+        kept = nav.goals[: len(nav.results)]
+        start = len(kept) if task else nav.task_start  # a cancel ends the current task
+        nav = dc.replace(nav, goals=kept + task, task_start=start)
+        for goal in task:
+            _log.info("task: goal %r (%.3f, %.3f, %.3f)", goal.name, goal.x, goal.y, goal.yaw)
+        if not task:
+            _log.info("task canceled at %.2f s", now)
+        return self._start(nav, len(kept), pose, now)
 
     def _start(self, nav: NavState, index: int, pose, now: float) -> NavState:
         """The goal ``index`` sent: reset the checkers, plan."""
@@ -233,14 +303,14 @@ class Navigator(LeafSystem):
             plan_length=0.0,
             planned_at=-math.inf,
         )
-        if index < len(self.goals):
-            goal = self._goal(nav)
+        if index < len(nav.goals):
+            goal = nav.goals[index]
             _log.info("goal %r sent: (%.3f, %.3f, %.3f)", goal.name, goal.x, goal.y, goal.yaw)
             nav = self._plan(nav, pose, now)
         return nav
 
     def _plan(self, nav: NavState, pose, now: float) -> NavState:
-        goal = self._goal(nav)
+        goal = nav.goals[nav.goal]
         try:
             path = plan(self._costmap(nav), pose[:2], (goal.x, goal.y), self.planner)
         except PlanningError as error:
@@ -253,10 +323,10 @@ class Navigator(LeafSystem):
         length = nav.plan_length or path_length(path)
         return dc.replace(nav, path=path, path_index=0, planned_at=now, plan_length=length)
 
-    def _finish(self, nav: NavState, pose, now: float, reason: str) -> NavState:
+    def _finish(self, nav: NavState, pose, now: float, reason: str, then=True) -> NavState:
         """The goal's result, measured on the ground truth; the next goal sent from
-        ``pose`` (the localization's)."""
-        goal = self._goal(nav)
+        ``pose`` (the localization's) if ``then``."""
+        goal = nav.goals[nav.goal]
         truth = nav.last_pose
         error = math.hypot(truth[0] - goal.x, truth[1] - goal.y)
         yaw_error = abs(wrap(truth[2] - goal.yaw))
@@ -282,12 +352,12 @@ class Navigator(LeafSystem):
             yaw_error,
         )
         nav = dc.replace(nav, results=(*nav.results, result))
-        return self._start(nav, nav.goal + 1, pose, now)
+        return self._start(nav, nav.goal + 1, pose, now) if then else nav
 
     def _goal_reached(self, nav: NavState, pose, speed) -> tuple[bool, NavState]:
         """SimpleGoalChecker (StoppedGoalChecker: and stopped)."""
         c = self.controller
-        goal = self._goal(nav)
+        goal = nav.goals[nav.goal]
         if not (c.goal_stateful and nav.xy_reached):
             if math.hypot(pose[0] - goal.x, pose[1] - goal.y) > c.xy_goal_tolerance:
                 return False, nav
@@ -314,7 +384,7 @@ class Navigator(LeafSystem):
     def _step(self, nav: NavState, pose, speed, now: float):
         """One cycle of the controller server on the current goal: (state, v, w)."""
         c = self.controller
-        goal = self._goal(nav)
+        goal = nav.goals[nav.goal]
         replan = c.expected_planner_frequency > 0 and (
             now - nav.planned_at >= 1.0 / c.expected_planner_frequency - 1e-9
         )
@@ -359,8 +429,8 @@ class Navigator(LeafSystem):
         results = list(nav.results)
         now = context.get_time()
         pose = nav.last_pose or (math.nan,) * 3
-        for index in range(len(results), len(self.goals)):
-            goal = self.goals[index]
+        for index in range(len(results), len(nav.goals)):
+            goal = nav.goals[index]
             current = index == nav.goal
             results.append(
                 GoalResult(
@@ -382,10 +452,11 @@ class Navigator(LeafSystem):
         """``summary.json``'s ``navigation`` section (collisions are added by the run)."""
         results = self.results(context)
         c = self.controller
-        return {
+        summary = {
             "goals": [
                 {
                     "name": r.name,
+                    "goal": [g.x, g.y, g.yaw],
                     "reached": r.reached,
                     "reason": r.reason,
                     "position_error": r.position_error,
@@ -396,12 +467,31 @@ class Navigator(LeafSystem):
                     "plan_length": r.plan_length,
                     "pose": list(r.pose),
                 }
-                for r in results
+                for r, g in zip(results, self.nav_state(context).goals, strict=True)
             ],
             "reached": sum(r.reached for r in results),
             "xy_goal_tolerance": c.xy_goal_tolerance,
             "yaw_goal_tolerance": c.yaw_goal_tolerance,
         }
+        if self._axle is not None:
+            summary["localization"] = localization_summary(self.nav_state(context))
+        return summary
+
+
+def localization_summary(nav: NavState, settle: float = 5.0) -> dict[str, Any]:
+    """AMCL's errors against the ground truth: each second's, the last, and the largest
+    from ``settle`` [s] after the navigation started on."""
+    samples = nav.localization
+    after = [s for s in samples if samples and s[0] >= samples[0][0] + settle]
+    return {
+        "method": "amcl",
+        "errors": [{"time": t, "position": e, "yaw": y} for t, e, y in samples],
+        "final_position_error": samples[-1][1] if samples else None,
+        "final_yaw_error": samples[-1][2] if samples else None,
+        "settle_time": settle,
+        "max_position_error_settled": max((s[1] for s in after), default=None),
+        "max_yaw_error_settled": max((s[2] for s in after), default=None),
+    }
 
 
 # ---------------------------------------------------------------------------- building

@@ -309,7 +309,7 @@ def AddBaseLogger(builder, stack, base, *, command=None) -> BaseLogger | None:
     builder.Connect(stack.manager.GetOutputPort(f"{drive}.odom"), logger.GetInputPort("odom"))
     if command is not None:
         builder.Connect(command, logger.GetInputPort("command"))
-    builder.ExportOutput(stack.manager.GetOutputPort(f"{drive}.odom"), "odom")
+    builder.ExportOutput(stack.manager.GetOutputPort(f"{drive}.odom"), stack.port_name("odom"))
     return logger
 
 

@@ -107,16 +107,17 @@ class MobileTopics(LeafSystem):
 
 
 def mobile_topic_names(topics: WorldTopics, *, cmd_vel: bool = True) -> MobileTopicNames:
-    """The topics of ``topics``' base and lidars (``cmd_vel``: the twist sequence's too)."""
+    """The topics of ``topics``' base and lidars (``cmd_vel``: the twist sequence's too),
+    under the robot's namespace in a world of several (``/tf`` is shared)."""
     scans = tuple(
-        (name, "/" + ports["scan"].get_system().info.topic.strip("/"))
+        (name, topics.topic(ports["scan"].get_system().info.topic))
         for name, ports in topics.sensors.items()
         if "scan" in ports
     )
-    odom = ODOM_TOPIC if topics.base_log is not None else ""
+    odom = topics.topic(ODOM_TOPIC) if topics.base_log is not None else ""
     twist = ""
     if cmd_vel and topics.twist is not None:
-        twist = topics.stack.entry(topics.twist_target).ros_topic or "/cmd_vel"
+        twist = topics.topic(topics.stack.entry(topics.twist_target).ros_topic or "/cmd_vel")
     return MobileTopicNames(odom=odom, tf="/tf" if odom else "", cmd_vel=twist, scans=scans)
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -40,6 +41,9 @@ def navigation_summary(world, context) -> dict[str, Any] | None:
     summary["collision_bodies"] = contacts.get("bodies", [])
     if navigation.mapper is not None:
         summary["mapping"] = mapping_summary(world, navigation, context)
+    marker_goal = getattr(world.topics.detectors, "marker_goal", None)
+    if marker_goal is not None:
+        summary["aruco"] = marker_goal.summary(marker_goal.GetMyContextFromRoot(context))
     summary["map"] = {
         "source": navigation.grid.source,
         "resolution": navigation.grid.resolution,
@@ -104,10 +108,10 @@ def write_navigation_outputs(folder: Path, navigation, summary: dict, rows: np.n
         )
         axis.plot(col["x"][:1], col["y"][:1], "ks", label="start")
     colours = ["tab:orange", "tab:green", "tab:purple", "tab:cyan", "tab:olive", "tab:pink"]
-    goals = navigation.navigator.goals
-    mapping = summary.get("mapping")
-    for k, (goal, result) in enumerate(zip(goals, summary["goals"], strict=not mapping)):
+    for k, result in enumerate(summary["goals"]):
         colour = colours[k % len(colours)]
+        x, y, yaw = result["goal"]
+        goal = SimpleNamespace(name=result["name"], x=x, y=y, yaw=yaw)
         mark = "reached" if result["reached"] else result["reason"]
         label = f"{k + 1}. {goal.name} ({mark}, {result['position_error']:.3f} m)"
         axis.plot(goal.x, goal.y, "o", color=colour, ms=10, label=label)
@@ -120,17 +124,16 @@ def write_navigation_outputs(folder: Path, navigation, summary: dict, rows: np.n
             width=0.02,
         )
         axis.annotate(str(k + 1), (goal.x, goal.y), ha="center", va="center", fontsize=7)
+    mapping = summary.get("mapping")
     if mapping:
-        ends = np.array([r["pose"][:2] for r in summary["goals"]]).reshape(-1, 2)
-        axis.plot(*ends.T, "o", color="tab:orange", ms=5, label="where each frontier goal ended")
         axis.set_title(
             f"Exploration: {mapping['explored_area']:.1f} m² mapped, "
             f"{summary['collisions']} collisions\nmap precision {mapping['precision']:.3f}, "
             f"recall {mapping['recall']:.3f}, coverage {mapping['coverage']:.3f}"
         )
     else:
-        axis.set_title(f"Navigation: {summary['reached']}/{len(goals)} goals reached, "
-                       f"{summary['collisions']} collisions")  # fmt: skip
+        axis.set_title(f"Navigation: {summary['reached']}/{len(summary['goals'])} goals "
+                       f"reached, {summary['collisions']} collisions")  # fmt: skip
     axis.set_xlabel("x [m]")
     axis.set_ylabel("y [m]")
     axis.set_aspect("equal")

@@ -40,7 +40,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
@@ -61,6 +61,7 @@ from armando_drake.messages.definitions import (  # the message definitions, sha
 )
 from armando_drake.messages.types import JointState, PublicationValue
 from armando_drake.outputs.mobile_topics import AddMobileTopics
+from armando_drake.outputs.navigation_topics import AddNavigationTopics
 from armando_drake.outputs.topics import WorldTopics
 from armando_drake.outputs.vision_recording import AddVisionRecorder
 from armando_drake.perception.pipeline import NO_RESULT
@@ -136,6 +137,17 @@ def check_recording_path(path: str | os.PathLike) -> Path:
     return path
 
 
+@dataclass
+class _Tap:
+    """One robot's topics in a :class:`RosbagRecorder`: its inputs and what was written."""
+
+    topics: dict[str, str]  # input name -> topic
+    joint_states: Any  # the joint_states input
+    publications: dict[str, Any]  # commands, joint_trajectory, ... inputs
+    last_stamp: float | None = None  # of the latest joint state written
+    last_publication: dict[str, int] = field(default_factory=dict)  # counts written
+
+
 class RosbagRecorder(LeafSystem):
     """Writes joint states, commands and camera images to an MCAP file (ROS 2, CDR).
 
@@ -190,12 +202,6 @@ class RosbagRecorder(LeafSystem):
         if not (math.isfinite(update_rate) and update_rate > 0):
             raise ValueError(f"update_rate={update_rate!r} must be positive [Hz]")
         self._path = check_recording_path(path)
-        self._topics = {
-            "joint_states": joint_states_topic,
-            "commands": commands_topic,
-            "joint_trajectory": trajectory_topic,
-            "cartesian_trajectory": cartesian_topic,
-        }
         try:
             self._file: IO[bytes] | None = OutputFile(self._path, "wb")  # type: ignore[assignment]
         except OSError as error:
@@ -205,17 +211,14 @@ class RosbagRecorder(LeafSystem):
         self._writer.add_metadata(METADATA_NAME, provenance())
         self._schemas: dict[str, Any] = {}
         self._counts: dict[str, int] = {}  # messages written, by topic
-        self._last_stamp: float | None = None
-        self._last_publication = {"commands": 0, "joint_trajectory": 0, "cartesian_trajectory": 0}
-
-        self._joint_states = self.DeclareAbstractInputPort(
-            "joint_states", AbstractValue.Make(JointState())
-        )
-        self._publications = {
-            name: self.DeclareAbstractInputPort(name, PublicationValue())
-            for name in ("commands", "joint_trajectory", "cartesian_trajectory")
+        self._taps: list[_Tap] = []  # each robot's topics, the first one's first
+        topics = {
+            "joint_states": joint_states_topic,
+            "commands": commands_topic,
+            "joint_trajectory": trajectory_topic,
+            "cartesian_trajectory": cartesian_topic,
         }
-        self.DeclarePeriodicPublishEvent(1.0 / update_rate, 0.0, self._PublishTopics)
+        self._AddTap("", topics, update_rate)
 
         self._cameras = list(cameras)
         for camera in self._cameras:
@@ -269,23 +272,58 @@ class RosbagRecorder(LeafSystem):
         )
         self._counts[topic] = sequence + 1
 
-    def _PublishTopics(self, context: Context) -> None:
-        sample = self._joint_states.Eval(context) if self._joint_states.HasValue(context) else None
-        if sample is not None and sample.name and sample.stamp != self._last_stamp:
+    def add_robot(
+        self, namespace: str, update_rate: float, *, commands_topic: str, trajectory_topic: str
+    ) -> None:
+        """Records another robot of the world too (before the diagram is built), from its
+        inputs ``<namespace>/joint_states``, ``<namespace>/commands`` and
+        ``<namespace>/joint_trajectory`` (``namespace`` without its leading ``/``), on
+        ``/<namespace>/joint_states``, ``commands_topic`` and ``trajectory_topic``,
+        sampled at ``update_rate`` [Hz]."""
+        topics = {
+            "joint_states": f"/{namespace}/joint_states",
+            "commands": commands_topic,
+            "joint_trajectory": trajectory_topic,
+        }
+        self._AddTap(f"{namespace}/", topics, update_rate)
+
+    def _AddTap(self, prefix: str, topics: dict[str, str], update_rate: float) -> None:
+        """The inputs of one robot's topics (their names begin with ``prefix``), read by a
+        periodic publish event at ``update_rate`` [Hz] from t = 0."""
+        names = [n for n in ("commands", "joint_trajectory", "cartesian_trajectory") if n in topics]
+        tap = _Tap(
+            topics=dict(topics),
+            joint_states=self.DeclareAbstractInputPort(
+                f"{prefix}joint_states", AbstractValue.Make(JointState())
+            ),
+            publications={
+                name: self.DeclareAbstractInputPort(f"{prefix}{name}", PublicationValue())
+                for name in names
+            },
+        )
+        self._taps.append(tap)
+        self.DeclarePeriodicPublishEvent(
+            1.0 / update_rate, 0.0, lambda context, tap=tap: self._PublishTopics(context, tap)
+        )
+
+    def _PublishTopics(self, context: Context, tap: _Tap) -> None:
+        port = tap.joint_states
+        sample = port.Eval(context) if port.HasValue(context) else None
+        if sample is not None and sample.name and sample.stamp != tap.last_stamp:
             self._Write(
-                self._topics["joint_states"],
+                tap.topics["joint_states"],
                 "sensor_msgs/msg/JointState",
                 joint_state_message(sample),
                 sample.stamp,
             )
-            self._last_stamp = sample.stamp
-        for name, port in self._publications.items():
+            tap.last_stamp = sample.stamp
+        for name, port in tap.publications.items():
             if not port.HasValue(context):
                 continue
             publication = port.Eval(context)
-            if publication.count <= self._last_publication[name]:
+            if publication.count <= tap.last_publication.get(name, 0):
                 continue
-            self._last_publication[name] = publication.count
+            tap.last_publication[name] = publication.count
             if name == "commands":
                 type_name = "std_msgs/msg/Float64MultiArray"
                 message = float64_multi_array_message(publication.message)
@@ -295,7 +333,7 @@ class RosbagRecorder(LeafSystem):
             else:
                 type_name = "trajectory_msgs/msg/JointTrajectory"
                 message = joint_trajectory_message(publication.message)
-            self._Write(self._topics[name], type_name, message, publication.stamp)
+            self._Write(tap.topics[name], type_name, message, publication.stamp)
 
     def _PublishFrame(self, context: Context, camera: CameraStream, port) -> None:
         image = port.Eval(context)
@@ -336,13 +374,18 @@ def camera_stream(name: str, camera) -> CameraStream:
     )
 
 
-def AddRosbagRecorder(builder, path: str | os.PathLike, topics: WorldTopics) -> RosbagRecorder:
+def AddRosbagRecorder(
+    builder, path: str | os.PathLike, topics: WorldTopics, others: Sequence[WorldTopics] = ()
+) -> RosbagRecorder:
     """Adds a :class:`RosbagRecorder` writing ``path`` to a world being built.
 
     Connects the broadcaster's joint states, the sequencer's (or the live jog's)
     command topic (named after the controller it drives), every camera, the point
     clouds and the detections of ``topics``; the world closes the file (``close``)
-    when it closes.
+    when it closes. ``others``: the other robots of a world of several, whose joint
+    states, sequencer's commands and base's topics are recorded too; each robot's
+    topics are under its namespace (``/left/joint_states``,
+    ``/left/position_controller/commands``).
     """
     jog = topics.jog  # the live jog, when no sequencer drives
     jogged = jog.controller if jog is not None and topics.sequencer is None else ""
@@ -356,12 +399,14 @@ def AddRosbagRecorder(builder, path: str | os.PathLike, topics: WorldTopics) -> 
         RosbagRecorder(
             path=path,
             update_rate=topics.update_rate,
-            commands_topic=f"/{target}/commands",
-            trajectory_topic=f"/{trajectory_owner}/joint_trajectory",
-            cartesian_topic=f"/{task.controller if task else 'operational_space_controller'}"
-            "/cartesian_trajectory",
+            commands_topic=topics.topic(f"{target}/commands"),
+            trajectory_topic=topics.topic(f"{trajectory_owner}/joint_trajectory"),
+            cartesian_topic=topics.topic(
+                f"{task.controller if task else 'operational_space_controller'}"
+                "/cartesian_trajectory"
+            ),
             cameras=cameras,
-            joint_states_topic=f"/{topics.joint_states_topic}",
+            joint_states_topic=topics.topic(topics.joint_states_topic),
         )
     )
     recorder.set_name("rosbag_recorder")
@@ -389,7 +434,34 @@ def AddRosbagRecorder(builder, path: str | os.PathLike, topics: WorldTopics) -> 
         AddVisionRecorder(builder, topics, recorder)
     # A mobile base's odometry, /tf, cmd_vel and its lidars' scans.
     AddMobileTopics(builder, topics, recorder.write, name="mobile_recorder")
+    for other in others:
+        _record_robot(builder, recorder, other)
+    # A navigation's /map, /plan, goal frames and map -> odom.
+    AddNavigationTopics(builder, topics, recorder.write, name="navigation_recorder")
     return recorder
+
+
+def _record_robot(builder, recorder: RosbagRecorder, topics: WorldTopics) -> None:
+    """Another robot's joint states, its sequencer's commands and its base's topics."""
+    space = topics.stack.namespace.strip("/")
+    target = topics.sequencer_target
+    recorder.add_robot(
+        space,
+        topics.update_rate,
+        commands_topic=topics.topic(f"{target or 'position_controller'}/commands"),
+        trajectory_topic=topics.topic(f"{target or 'trajectory_controller'}/joint_trajectory"),
+    )
+    if topics.broadcaster is not None:
+        builder.Connect(
+            topics.broadcaster.GetOutputPort("joint_states"),
+            recorder.GetInputPort(f"{space}/joint_states"),
+        )
+    if topics.sequencer is not None:
+        for port in ("commands", "joint_trajectory"):
+            builder.Connect(
+                topics.sequencer.GetOutputPort(port), recorder.GetInputPort(f"{space}/{port}")
+            )
+    AddMobileTopics(builder, topics, recorder.write, name=f"{space}/mobile_recorder")
 
 
 # --------------------------------------------------------------------------

@@ -51,6 +51,11 @@ class WorldTopics:
     def joint_states_topic(self) -> str:
         return self.stack.joint_states_topic
 
+    def topic(self, name: str) -> str:
+        """The absolute ROS topic of ``name`` (relative or absolute) for this robot: under
+        its namespace in a world of several (``/left/joint_states``), else ``/<name>``."""
+        return f"{self.stack.namespace.rstrip('/')}/{name.lstrip('/')}"
+
     @property
     def controllers(self) -> dict:
         return self.stack.controllers

@@ -22,7 +22,14 @@ topic                                       type                                
 ``/odom`` (a mobile base)                   ``nav_msgs/msg/Odometry``                default
 ``/scan`` (a lidar's topic)                 ``sensor_msgs/msg/LaserScan``            default
 ``/cmd_vel`` (in; a drive's topic)          ``geometry_msgs/msg/Twist`` (plugin)     default
+``/map`` (a navigation)                     ``nav_msgs/msg/OccupancyGrid``           latched
+``/plan`` (a navigation)                    ``nav_msgs/msg/Path``                    default
+``/goal_pose`` (in; a navigation)           ``geometry_msgs/msg/PoseStamped``        default
 =========================================== ======================================== ===========
+
+A navigation adds ``map -> <goal>`` frames to ``/tf_static`` and ``map -> odom`` to ``/tf``
+(:mod:`armando_drake.outputs.navigation_topics`); a ``/goal_pose`` (RViz's 2D goal, in the
+map frame) preempts its goals as NavigateToPose would.
 
 A floating base with a drive has ``odom -> base_footprint`` on ``/tf`` from its wheel
 odometry (not ``world -> base``), as the course's odometry TF node broadcasts it; the
@@ -76,7 +83,9 @@ from armando_drake.messages.definitions import (
     twist_stamped_of,
 )
 from armando_drake.messages.types import JointState, Publication
+from armando_drake.navigation.config import NavigationGoal
 from armando_drake.outputs.mobile_topics import AddMobileTopics
+from armando_drake.outputs.navigation_topics import AddNavigationTopics
 from armando_drake.outputs.recording import camera_stream
 from armando_drake.outputs.topics import WorldTopics
 from armando_drake.ros2.dds import DdsNode, Ros2Error, reachability
@@ -87,6 +96,17 @@ from armando_drake.tools.extras import require_extra
 
 _log = logging.getLogger("armando_drake.ros2")
 
+
+def goal_pose_of(message: Any) -> NavigationGoal:
+    """The navigation goal of a received geometry_msgs/PoseStamped (RViz's 2D goal)."""
+    pose = message["pose"]
+    p, q = pose["position"], pose["orientation"]
+    yaw = math.atan2(
+        2.0 * (q["w"] * q["z"] + q["x"] * q["y"]), 1.0 - 2.0 * (q["y"] ** 2 + q["z"] ** 2)
+    )
+    return NavigationGoal(name="goal_pose", x=float(p["x"]), y=float(p["y"]), yaw=yaw)
+
+
 # Command inputs of the controllers by port suffix: ROS type and conversion to ours.
 COMMAND_TYPES: dict[str, tuple[str, Callable[[dict], Any]]] = {
     "commands": ("std_msgs/msg/Float64MultiArray", float64_multi_array_of),
@@ -94,6 +114,7 @@ COMMAND_TYPES: dict[str, tuple[str, Callable[[dict], Any]]] = {
     "speed_scaling_input": ("control_msgs/msg/SpeedScalingFactor", speed_scaling_factor_of),
     "reference": ("control_msgs/msg/MultiDOFCommand", multi_dof_command_of),
     "cmd_vel": ("geometry_msgs/msg/TwistStamped", twist_stamped_of),
+    "goal_pose": ("geometry_msgs/msg/PoseStamped", goal_pose_of),  # the navigator's
 }
 # The topics the bridge publishes: ROS type and QoS profile.
 TOPICS = {
@@ -328,8 +349,12 @@ class Ros2Bridge(LeafSystem):
         clock_rate: float = 0.0,
         joint_states_topic: str = "joint_states",
         exclude_children: Sequence[str] = (),
+        prefix: str = "",
+        clock: bool = True,
     ):
         super().__init__()
+        # A robot of several: its topics and tf frames under its namespace ``prefix``.
+        self._prefix = prefix.strip("/")
         if not (math.isfinite(update_rate) and update_rate > 0):
             raise ValueError(f"update_rate={update_rate!r} must be positive [Hz]")
         if not (math.isfinite(clock_rate) and clock_rate >= 0):
@@ -342,17 +367,21 @@ class Ros2Bridge(LeafSystem):
         # Links whose pose another broadcaster gives (the odometry's base frame).
         self._moving = [link for link in self._moving if link.child_frame not in exclude_children]
         self._last_stamp: float | None = None
+        self._static: dict[str, dict] = {}  # /tf_static's frames so far, by child
         self._commands = tuple(commands)
         self._queue: queue.SimpleQueue = queue.SimpleQueue()
         self._received = [0] * len(self._commands)  # messages received per command topic
 
         # The broadcaster's topic: joint_states, or <broadcaster>/joint_states
         # (use_local_topics).
-        self._joint_states_topic = joint_states_topic
+        self._joint_states_topic = self.topic_name(joint_states_topic)
+        self._clock = clock
         for topic, (type_name, qos) in TOPICS.items():
+            if topic == "/clock" and not clock:
+                continue
             topic = joint_states_topic if topic == "joint_states" else topic
             for sink in self._sinks:
-                sink.advertise(topic, type_name, qos)
+                sink.advertise(self.topic_name(topic), type_name, qos)
         self._joint_states = self.DeclareAbstractInputPort(
             "joint_states", AbstractValue.Make(JointState())
         )
@@ -362,7 +391,9 @@ class Ros2Bridge(LeafSystem):
         self.DeclareInitializationPublishEvent(self._PublishLatched)
         period = 1.0 / update_rate
         clock_period = 1.0 / clock_rate if clock_rate > 0 else period
-        if math.isclose(clock_period, period):
+        if not clock:
+            self.DeclarePeriodicPublishEvent(period, 0.0, self._PublishState)
+        elif math.isclose(clock_period, period):
             self.DeclarePeriodicPublishEvent(period, 0.0, self._PublishClockAndState)
         else:
             self.DeclarePeriodicPublishEvent(period, 0.0, self._PublishState)
@@ -370,6 +401,17 @@ class Ros2Bridge(LeafSystem):
 
         self._DeclareCameras(cameras)
         self._DeclareCommands(subscriber, period)
+
+    def topic_name(self, topic: str) -> str:
+        """``topic`` under the robot's namespace (a robot of several); /tf, /tf_static
+        and /clock are shared."""
+        if not self._prefix or topic in ("/tf", "/tf_static", "/clock"):
+            return topic
+        return f"{self._prefix}/{topic.lstrip('/')}"
+
+    def _frame(self, frame: str) -> str:
+        """A link's tf frame: ``<namespace>/<link>`` for a robot of several."""
+        return f"{self._prefix}/{frame}" if self._prefix and frame != "world" else frame
 
     def _DeclareCameras(self, cameras) -> None:
         """image_raw and camera_info, a thousandth of a period after each frame."""
@@ -411,7 +453,7 @@ class Ros2Bridge(LeafSystem):
                 )
                 convert = COMMAND_TYPES[command.suffix][1]
                 subscriber.subscribe(
-                    command.topic,
+                    self.topic_name(command.topic),
                     command.type_name,
                     lambda message, k=k, convert=convert: self._Receive(k, convert(message)),
                 )
@@ -464,6 +506,9 @@ class Ros2Bridge(LeafSystem):
         self._Publish(topic, type_name, message, stamp)
 
     def _Publish(self, topic: str, type_name: str, message: dict, stamp: float) -> None:
+        if topic == "/tf_static":  # one static broadcaster: every frame in each message
+            self._static.update({t["child_frame_id"]: t for t in message["transforms"]})
+            message = {"transforms": list(self._static.values())}
         for sink in self._sinks:
             sink.publish(topic, type_name, message, stamp)
 
@@ -473,8 +518,8 @@ class Ros2Bridge(LeafSystem):
             "transforms": [
                 transform_stamped(
                     stamp,
-                    link.parent_frame,
-                    link.child_frame,
+                    self._frame(link.parent_frame),
+                    self._frame(link.child_frame),
                     poses[link.parent].inverse() @ poses[link.child],
                 )
                 for link in links
@@ -483,7 +528,8 @@ class Ros2Bridge(LeafSystem):
 
     def _PublishLatched(self, context, event=None) -> None:
         stamp = context.get_time()
-        self._Publish("robot_description", "std_msgs/msg/String", string_message(self._urdf), stamp)
+        description = self.topic_name("robot_description")
+        self._Publish(description, "std_msgs/msg/String", string_message(self._urdf), stamp)
         if self._fixed:
             static = self._Transforms(context, self._fixed, stamp)
             self._Publish("/tf_static", "tf2_msgs/msg/TFMessage", static, stamp)
@@ -532,7 +578,9 @@ class Ros2Bridge(LeafSystem):
         )
 
 
-def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
+def AddRos2Bridge(
+    builder, config, topics: WorldTopics, others: Sequence[WorldTopics] = ()
+) -> Ros2Bridge | None:
     """Adds a :class:`Ros2Bridge` for the ``ros2:`` scenario section ``config``
     (:class:`~armando_drake.ros2.config.Ros2Config`) to a world being built, on the
     publishers of ``topics``.
@@ -543,15 +591,38 @@ def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
     says where the world is reachable; the bridge's ``close`` closes the participant
     and the server. Call it before the world's free command inputs
     are exported (the bridge drives them instead). Returns None when both are off.
+
+    ``others``: the other robots of a world of several; each robot gets a bridge on the
+    same participant and server, its topics under its namespace (``left/joint_states``,
+    ``left/position_controller/commands``, ``left/robot_description``) and its tf frames
+    named ``left/<link>``; the first robot's bridge (returned) publishes ``/clock`` and
+    the cameras.
     """
     if not (config.enabled or config.foxglove):
         return None
     sinks, node = _sinks(config, topics)
+    bridge = _add_bridge(builder, config, topics, sinks, node, first=True)
+    for other in others:
+        _add_bridge(builder, config, other, sinks, node, first=False)
+    return bridge
 
+
+def _add_bridge(builder, config, topics: WorldTopics, sinks, node, *, first: bool) -> Ros2Bridge:
+    """One robot's :class:`Ros2Bridge` on ``sinks`` (``first``: with the clock and the
+    cameras)."""
     commands = _free_commands(builder, topics, subscribe=node is not None)
+    navigator = topics.navigation.navigator if topics.navigation is not None else None
+    if (
+        navigator is not None
+        and node is not None
+        and not builder.IsConnectedOrExported(navigator.GetInputPort("goal_pose"))
+    ):  # RViz's 2D goal (unless the ArUco marker's goal is sent instead)
+        commands.append(CommandTopic("navigator", "goal_pose", ros_topic="/goal_pose"))
     cameras = [camera_stream(name, camera) for name, camera in topics.cameras.items()]
+    cameras = cameras if first else []
     plant = topics.plant
     odometry = topics.base_log is not None  # odom -> base on /tf, not world -> base
+    prefix = topics.stack.namespace.strip("/")
     bridge = builder.AddSystem(
         Ros2Bridge(
             plant=plant,
@@ -565,10 +636,17 @@ def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
             clock_rate=config.clock_rate,
             joint_states_topic=topics.joint_states_topic,
             exclude_children=[topics.mobile.base_link] if odometry else [],
+            prefix=prefix,
+            clock=first,
         )
     )
-    bridge.set_name("ros2_bridge")
-    AddMobileTopics(builder, topics, bridge.publish, name="mobile_bridge")
+    space = f"{prefix}/" if prefix else ""
+    bridge.set_name(f"{space}ros2_bridge")
+    AddMobileTopics(builder, topics, bridge.publish, name=f"{space}mobile_bridge")
+    if navigator is not None:
+        for sink in sinks:
+            sink.advertise("/map", "nav_msgs/msg/OccupancyGrid", "latched")
+        AddNavigationTopics(builder, topics, bridge.publish, name=f"{space}navigation_bridge")
     if topics.broadcaster is not None:
         builder.Connect(
             topics.broadcaster.GetOutputPort("joint_states"), bridge.GetInputPort("joint_states")
@@ -580,11 +658,16 @@ def AddRos2Bridge(builder, config, topics: WorldTopics) -> Ros2Bridge | None:
             bridge.GetInputPort(f"{stream.name}.color_image"),
         )
     for command in commands:
-        builder.Connect(
-            bridge.GetOutputPort(command.port),
-            topics.controllers[command.controller].GetInputPort(command.port),
+        if command.suffix == "goal_pose":
+            builder.Connect(bridge.GetOutputPort(command.port), navigator.GetInputPort("goal_pose"))
+        else:
+            builder.Connect(
+                bridge.GetOutputPort(command.port),
+                topics.controllers[command.controller].GetInputPort(command.port),
+            )
+        _log.info(
+            "subscribed %s (%s)", node.resolve(bridge.topic_name(command.topic)), command.type_name
         )
-        _log.info("subscribed %s (%s)", node.resolve(command.topic), command.type_name)
     return bridge
 
 

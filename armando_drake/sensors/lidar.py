@@ -44,9 +44,11 @@ from pydrake.geometry import (
     ClippingRange,
     DepthRange,
     DepthRenderCamera,
+    MakeRenderEngineGl,
     MakeRenderEngineVtk,
     QueryObject,
     RenderCameraCore,
+    RenderEngineGlParams,
     RenderEngineVtkParams,
     SceneGraph,
 )
@@ -68,6 +70,7 @@ _log = logging.getLogger("armando_drake.world")
 
 # The SceneGraph renderer every lidar renders with.
 LIDAR_RENDERER = "armando_lidar"
+GL_RENDERER = "gl"  # the name the cameras give Drake's OpenGL engine (camera_config's default)
 # The widest sector one camera of the ring covers.
 MAX_SECTOR = math.pi / 2  # [rad]
 # Pixels per beam at a camera's centre (at least), and the widest image.
@@ -212,6 +215,15 @@ def _scene_graph(builder: DiagramBuilder) -> SceneGraph:
     raise ScenarioError("a lidar needs a SceneGraph in the diagram (AddMultibodyPlant)")
 
 
+def _engine(scene_graph: SceneGraph):
+    """The lidar's depth renderer: VTK through EGL, or Drake's OpenGL engine when the
+    world's cameras render with it (an EGL context beside their GLX one fails to be made
+    current, and the process then dies of an X error)."""
+    if scene_graph.HasRenderer(GL_RENDERER):
+        return MakeRenderEngineGl(RenderEngineGlParams())
+    return MakeRenderEngineVtk(RenderEngineVtkParams())
+
+
 def AddLidar(
     builder: DiagramBuilder, info: LidarInfo, *, plant: MultibodyPlant, robot: LoadedRobot
 ) -> LidarScanner:
@@ -219,7 +231,7 @@ def AddLidar(
     (which gets the lidar renderer the first time)."""
     scene_graph = _scene_graph(builder)
     if not scene_graph.HasRenderer(LIDAR_RENDERER):
-        scene_graph.AddRenderer(LIDAR_RENDERER, MakeRenderEngineVtk(RenderEngineVtkParams()))
+        scene_graph.AddRenderer(LIDAR_RENDERER, _engine(scene_graph))
     if not plant.HasBodyNamed(info.link, robot.model_instance):
         raise ScenarioError(
             f'{info.source}: <gazebo reference="{info.link}"><sensor name="{info.name}">: '

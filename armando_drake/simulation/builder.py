@@ -25,35 +25,17 @@ Ports of the diagram, by name:
 
 from __future__ import annotations
 
-import dataclasses as dc
 import os
 from functools import partial
-from pathlib import Path
 
 from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import AddMultibodyPlant, ApplyMultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
 
-from armando_drake.control.hardware import command_interfaces
-from armando_drake.control.mobile import AddMobileBase
-from armando_drake.control.sequencer import AddSequencer
-from armando_drake.control.stack import (
-    AddControllerManager,
-    AddHardware,
-    ConnectControlStack,
-    ControlStack,
-    ExportFreeControllerPorts,
-    LoadControllerConfig,
-    choose_controllers,
-    controller_update_rate,
-)
-from armando_drake.control.twist import AddTwistSequence
-from armando_drake.description.loader import AddRobot
+from armando_drake.control.stack import ExportFreeControllerPorts
 from armando_drake.description.worlds import AddWorld
 from armando_drake.navigation.building import AddNavigation, ConnectLocalization
-from armando_drake.outputs.base import BASE_CSV, AddBaseLogger
-from armando_drake.outputs.logger import AddJointStateLogger, CommandsCsv
 from armando_drake.outputs.recording import AddRosbagRecorder
 from armando_drake.outputs.replay import AddVisualization
 from armando_drake.outputs.scan_view import AddScanViews
@@ -64,13 +46,14 @@ from armando_drake.sensors import lidar  # noqa: F401  (registers the lidar sens
 from armando_drake.sensors.cameras import AddCameras
 from armando_drake.sensors.objects import AddFloor, AddGround, AddSceneObjects, SceneObjectError
 from armando_drake.sensors.registry import AddSensors
-from armando_drake.simulation.scenario import (
-    Scenario,
-    ScenarioError,
-    sources_of,
-    start_positions,
+from armando_drake.simulation.robots import (
+    AddRobotBodies,
+    AddRobotDrivers,
+    AddRobotStacks,
+    ConnectRobot,
 )
-from armando_drake.simulation.validation import check_against_world, check_scenario
+from armando_drake.simulation.scenario import Scenario, ScenarioError, sources_of
+from armando_drake.simulation.validation import check_scenario
 from armando_drake.simulation.world import World
 from armando_drake.task.learned_ik import AddLearnedIk
 from armando_drake.task.reference import AddTask
@@ -105,30 +88,23 @@ def MakeWorld(
     # Every value of the scenario checked before Drake sees it.
     check_scenario(scenario, source)
     builder = DiagramBuilder()
-    # The physics, the robot at its spawn pose (welded or free), the ground and the objects.
-    plant, scene_graph, robot, physics = _add_physics(builder, scenario, where)
-    # The hardware interface and the controller manager of the controller YAML.
-    stack = _add_control(builder, scenario, plant, scene_graph, robot, physics)
-    topics = WorldTopics(stack=stack, mobile=physics[1])
-    # What drives the controllers: the command sequencer, the task, the live jog.
-    commands_csv = Path(output_dir) / "commands.csv" if output_dir and write_commands else None
-    _add_drivers(builder, scenario, topics, meshcat, commands_csv, closers)
-    # The commands to the plant: desired state, efforts, gravity feed-forward.
-    tick = topics.sequencer.GetOutputPort("tick_command") if stack.stream_controller else None
-    feedforward = scenario.actuators.gravity_feedforward
-    gravity_feedforward = ConnectControlStack(
-        builder, stack, gravity_feedforward=feedforward, tick_command=tick
-    )
-    # What watches them: the joint-state logger, the cameras, the detectors, perception.
-    logger = AddJointStateLogger(
-        builder, scenario.logging, stack, output_dir=output_dir, quiet=quiet
-    )
-    if logger is not None:
-        closers.append(logger.close)
-    command = topics.twist.GetOutputPort("command") if topics.twist is not None else None
-    topics.base_log = AddBaseLogger(builder, stack, topics.mobile, command=command)
-    if topics.base_log is not None and output_dir is not None:
-        closers.append(lambda: topics.base_log.write(Path(output_dir) / BASE_CSV))
+    # The physics, each robot at its spawn pose (welded, mounted or free), the ground and
+    # the objects.
+    plant, scene_graph, parts = _add_physics(builder, scenario, where)
+    # Each robot's hardware interface and controller manager of its controller YAML.
+    AddRobotStacks(builder, plant, scene_graph, parts)
+    topics = parts[0].topics  # the first robot's: the task, jog, cameras, bridge use it
+    # What drives the controllers: the command sequencers, the task, the live jog.
+    for part in parts:
+        folder = part.output_dir(output_dir if write_commands else None)
+        AddRobotDrivers(builder, part, folder / "commands.csv" if folder else None, closers)
+    _add_drivers(builder, scenario, topics, meshcat, closers, parts[0].view.robot)
+    # The commands to the plant (desired state, efforts, gravity feed-forward) and the
+    # joint-state and base loggers.
+    for part in parts:
+        ConnectRobot(builder, part, part.output_dir(output_dir), closers, quiet=quiet)
+    gravity_feedforward, logger = parts[0].gravity_feedforward, parts[0].logger
+    # What watches them: the cameras, the detectors, perception.
     clusters_dir = output_dir if write_commands else None
     places = (source, clusters_dir, host)
     image_view = _add_sensing(builder, scenario, topics, scene_graph, meshcat, places)
@@ -137,10 +113,11 @@ def MakeWorld(
         closers.append(topics.perception.log.close)
     # The ROS 2 bag recorder, the live DDS / Foxglove bridge, Meshcat.
     replay_sampler, bridge = _add_outputs(
-        builder, scenario, topics, scene_graph, meshcat, record, closers
+        builder, scenario, parts, scene_graph, meshcat, record, closers
     )
     # Export what no system drives (command inputs, statuses), for notebooks and tests.
-    ExportFreeControllerPorts(builder, stack)
+    for part in parts:
+        ExportFreeControllerPorts(builder, part.topics.stack)
     diagram = builder.Build()
     diagram.set_name("armando_world")
     return World(
@@ -154,6 +131,7 @@ def MakeWorld(
         replay_sampler=replay_sampler,
         ros2_bridge=bridge,
         closers=closers,
+        robots=parts,
     )
 
 
@@ -163,112 +141,37 @@ def _origin(scenario: Scenario, key: str) -> str:
 
 
 def _add_physics(builder: DiagramBuilder, scenario: Scenario, where: str):
-    """The plant and scene graph of ``scenario.plant_config``; the robot at its spawn pose
-    (welded, or free on its wheels), the ground and the objects; (plant, scene graph,
-    robot, (its controller YAML, its MobileBase))."""
+    """The plant and scene graph of ``scenario.plant_config``; each robot at its spawn
+    pose (welded, mounted, or free on its wheels), the ground and the objects; (plant,
+    scene graph, the robots' RobotParts)."""
     plant, scene_graph = AddMultibodyPlant(scenario.plant_config, builder)
     ApplyMultibodyPlantConfig(scenario.plant_config, plant)
-    robot = AddRobot(plant, scenario.robot, weld=False)
-    # The controller YAML before the base is placed: a drive controller in it frees the base.
-    controller_config = LoadControllerConfig(
-        scenario.controllers, robot, arguments=scenario.robot.xacro_args
-    )
-    mobile = AddMobileBase(
-        plant,
-        scene_graph,
-        robot,
-        scenario.robot,
-        controller_config,
-        activate=scenario.controllers.activate,
-        where=_origin(scenario, "robot.base"),
-    )
+    parts = AddRobotBodies(plant, scene_graph, scenario)
     if scenario.world_file:
         where = _origin(scenario, "world_file")
         paths = scenario.world_resource_paths
         AddWorld(plant, scenario.world_file, resource_paths=paths, where=where)
     elif scenario.ground:
-        (AddFloor if mobile.floating else AddGround)(plant, scene_graph)
+        floating = any(part.mobile.floating for part in parts)
+        (AddFloor if floating else AddGround)(plant, scene_graph)
     try:
         AddSceneObjects(plant, scenario.objects)
     except SceneObjectError as error:
         raise ScenarioError(f"{where}objects: {error}") from None
-    return plant, scene_graph, robot, (controller_config, mobile)
+    return plant, scene_graph, parts
 
 
-def _add_control(builder, scenario: Scenario, plant, scene_graph, robot, physics) -> ControlStack:
-    """The hardware interface (then the plant is final) and the controller manager running
-    the activated controllers (and a mobile base's drive plugins) of the controller YAML."""
-    controller_config, mobile = physics  # the YAML: its gains, its rate (overridable)
-    # The scenario's default controllers stand for the file's own (one line each).
-    choice = choose_controllers(
-        scenario.controllers.activate, controller_config, scenario.sequencer
-    )
-    scenario.controllers.activate, scenario.sequencer = choice.activate, choice.sequencer
-    update_rate = controller_update_rate(
-        controller_config, scenario.controllers, _origin(scenario, "controllers.update_rate")
-    )
-    # Rates, gains and periods checked against the robot and the controller YAML.
-    check_against_world(
-        scenario,
-        update_rate=update_rate,
-        update_rate_source=controller_config.source,
-        joints=command_interfaces(robot, warn=False)[2],
-    )
-    actuators = dc.replace(scenario.actuators, gains={**mobile.gains, **scenario.actuators.gains})
-    hardware = AddHardware(
-        plant,
-        scene_graph,
-        robot,
-        actuators,
-        controller_config,
-        self_collision=scenario.robot.self_collision,
-        start_positions=start_positions(scenario),
-    )
-    activate = mobile.activation(scenario.controllers.activate)
-    return AddControllerManager(
-        builder,
-        dc.replace(scenario.controllers, activate=activate),
-        plant=plant,
-        robot=robot,
-        hardware=hardware,
-        controller_config=controller_config,
-        update_rate=update_rate,
-        sequencer=scenario.sequencer,
-        where=_origin(scenario, "controllers"),
-        scene_graph=scene_graph,
-        hold=choice.hold,
-    )
-
-
-def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, commands_csv, closers):
-    """The scenario's command sequencer (its commands in ``commands_csv``), task,
-    learned IK and live jogs (the arm's, the base's), on the controllers of ``topics.stack``."""
+def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, closers, robot):
+    """The scenario's navigation, task, learned IK and live jogs (the arm's, the base's),
+    on the controllers of ``topics.stack`` (the first robot's, ``robot`` its section)."""
     stack, where = topics.stack, partial(_origin, scenario)
-    if scenario.sequencer is not None:
-
-        def commands_log(joints):  # commands.csv, for the joints the sequencer drives
-            log = CommandsCsv(commands_csv, joints)
-            closers.append(log.close)
-            return log
-
-        topics.sequencer, topics.sequencer_target = AddSequencer(
-            builder,
-            scenario.sequencer,
-            stack,
-            commands_log=commands_log if commands_csv is not None else None,
-            where=_origin(scenario, "sequencer"),
-        )
-    if scenario.twist is not None:
-        topics.twist, topics.twist_target = AddTwistSequence(
-            builder, scenario.twist, stack, where=_origin(scenario, "twist")
-        )
     if scenario.navigation is not None:
         nav = AddNavigation(builder, scenario.navigation, stack, where=where("navigation"))
         topics.navigation, topics.twist, topics.twist_target = nav, nav.navigator, nav.drive
     if scenario.task is not None:
         topics.task = AddTask(builder, scenario.task, stack, meshcat=meshcat, where=where("task"))
     if scenario.learned_ik is not None:
-        base = RigidTransform(RollPitchYaw(scenario.robot.base_rpy), scenario.robot.base_xyz)
+        base = RigidTransform(RollPitchYaw(robot.base_rpy), robot.base_xyz)
         topics.learned_ik = AddLearnedIk(
             builder,
             scenario.learned_ik,
@@ -308,6 +211,7 @@ def _add_sensing(builder, scenario: Scenario, topics: WorldTopics, scene_graph, 
             image_view=image_view,
             where=_origin(scenario, "vision"),
             console=scenario.logging.console_rate > 0,  # no console output: no keypoints
+            navigation=topics.navigation,
         )
     if scenario.perception is not None:
         topics.perception = AddPerception(
@@ -322,14 +226,15 @@ def _add_sensing(builder, scenario: Scenario, topics: WorldTopics, scene_graph, 
     return image_view
 
 
-def _add_outputs(
-    builder, scenario: Scenario, topics: WorldTopics, scene_graph, meshcat, record, closers
-):
-    """The ROS 2 bag recorder (``record``), the live bridge and Meshcat's visualization;
-    (its replay sampler or None, the bridge or None)."""
+def _add_outputs(builder, scenario: Scenario, parts, scene_graph, meshcat, record, closers):
+    """The ROS 2 bag recorder (``record``), the live bridge (the first robot's topics) and
+    Meshcat's visualization (every robot's); (its replay sampler or None, the bridge or
+    None)."""
+    topics, others = parts[0].topics, [part.topics for part in parts[1:]]
+    instances = [part.robot.model_instance for part in parts]
     if record is not None:
-        closers.append(AddRosbagRecorder(builder, record, topics).close)
-    bridge = AddRos2Bridge(builder, scenario.ros2, topics)
+        closers.append(AddRosbagRecorder(builder, record, topics, others).close)
+    bridge = AddRos2Bridge(builder, scenario.ros2, topics, others)
     if bridge is not None:
         closers.append(bridge.close)
     # Meshcat draws the world.
@@ -341,7 +246,7 @@ def _add_outputs(
             plant=topics.plant,
             scene_graph=scene_graph,
             meshcat=meshcat,
-            robot_instances=[topics.robot.model_instance],
+            robot_instances=instances,
             ground=scenario.ground and not scenario.world_file,
         )
         AddScanViews(builder, topics, meshcat)  # the lidars' scans as points

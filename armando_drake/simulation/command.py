@@ -332,7 +332,11 @@ def _apply_camera_options(scenario, args) -> None:
 def _report(result, args, started: float) -> None:
     """The run's headline, step table, tracking errors and the files it wrote."""
     print(f"\n{result.headline()}")
-    if result.steps:
+    for name, steps in result.robot_steps.items():  # a world of several robots
+        section = result.robots[name]
+        print(f"{name} ({section['namespace']}):")
+        print(format_table(section["joint_names"], steps))
+    if result.steps and not result.robot_steps:
         print(format_table(result.joint_names, result.steps))
     if result.tracking_error is not None:
         print(f"sinusoid tracking error after 1 s: {result.tracking_error:.4f} rad")

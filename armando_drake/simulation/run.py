@@ -39,7 +39,7 @@ from armando_drake.outputs.replay import REPLAY_FILE, RecordingMeshcat, publish_
 from armando_drake.outputs.task_space import TASK_SPACE_CSV, TaskSpaceTracker, write_task_space_csv
 from armando_drake.outputs.view import wait_for_browser as wait
 from armando_drake.simulation.builder import MakeWorld
-from armando_drake.simulation.scenario import Scenario, default_duration
+from armando_drake.simulation.scenario import Scenario, default_duration, robot_view
 from armando_drake.tools.cli import STOP_SIGNALS, meshcat_urls
 from armando_drake.tools.files import writing
 from armando_drake.tools.version import provenance
@@ -64,6 +64,18 @@ class StepResult:
     largest_error_after_settling: float | None
     # [s] from start until within SETTLE_TOLERANCE for good; None if never.
     settling_time: float | None
+
+
+def step_summary(step: StepResult) -> dict[str, Any]:
+    """A step of the table as summary.json has it."""
+    return {
+        "target": step.target,
+        "reached": step.reached,
+        "final_error": step.final_error,
+        "largest_error_after_settling": step.largest_error_after_settling,
+        "settling_time": step.settling_time,
+        "start": step.start,
+    }
 
 
 @dataclass
@@ -91,11 +103,16 @@ class RunResult:
     base: dict[str, Any] | None = None
     # Navigation: per goal reached, errors [m, rad], time [s], path length [m]; collisions
     navigation: dict[str, Any] | None = None
+    # A world of several robots: per robot name, its namespace, joints, driven controller,
+    # step table (or tracking error), largest final error [rad] and base (robot_summary).
+    robots: dict[str, Any] | None = None
+    # Their step tables, by robot name (not in summary.json: robots has them).
+    robot_steps: dict[str, list[StepResult]] = field(default_factory=dict)
 
     def summary(self) -> dict[str, Any]:
         """The ``summary.json`` contract; ``armando_drake`` names the code that produced
         the run (version, and the git commit when run from a checkout)."""
-        return {
+        return {  # the top-level joints, steps, base: the first robot's of several
             "armando_drake": provenance(),
             "scenario": self.scenario,
             "controller": self.controller,
@@ -107,27 +124,21 @@ class RunResult:
             "joint_names": self.joint_names,
             "tracking_error": self.tracking_error,
             "task_space": self.task_space,
-            "steps": [
-                {
-                    "target": step.target,
-                    "reached": step.reached,
-                    "final_error": step.final_error,
-                    "largest_error_after_settling": step.largest_error_after_settling,
-                    "settling_time": step.settling_time,
-                    "start": step.start,
-                }
-                for step in self.steps
-            ],
+            "steps": [step_summary(step) for step in self.steps],
             "vision": self.vision,
             "base": self.base,
             "navigation": self.navigation,
+            **({"robots": self.robots} if self.robots is not None else {}),
         }
 
     def headline(self) -> str:
         """One line naming what ran and how fast, e.g. ``position.yaml with the
         trajectory controller: 15.00 s simulated in 2.10 s (7.14x real time)``."""
         name = Path(self.scenario).name if self.scenario else "the scenario"
-        if self.controller == "task":
+        if self.robots:  # several robots: what drove each
+            driven = (f"{n} {r['driven_controller'] or 'undriven'}" for n, r in self.robots.items())
+            what = f"{name} with {len(self.robots)} robots ({', '.join(driven)})"
+        elif self.controller == "task":
             what = f"{name} with a task-space motion"
         elif self.controller == "learned_ik":
             what = f"{name} with target poses through the learned IK"
@@ -155,7 +166,7 @@ class RunResult:
             what = f"{name} with a sinusoid on the position controller"
         else:
             what = f"{name} with the {self.controller} controller"
-        if self.driven:
+        if self.driven and not self.robots:
             what += f" ({self.driven})"
         return (
             f"{what}: {self.sim_time:.2f} s simulated in {self.wall_time:.2f} s "
@@ -178,7 +189,11 @@ def write_scenario(scenario: Scenario, path: Path) -> None:
 
 def controller_mode(scenario: Scenario) -> str:
     """position | trajectory | sinusoid | task | learned_ik | jog | twist | navigation |
-    twist_jog | none: what drives the robot."""
+    twist_jog | none: what drives the robot; those of several robots joined by ", " (each
+    once)."""
+    if scenario.robots:
+        views = [robot_view(scenario, i) for i in range(len(scenario.robots))]
+        return ", ".join(dict.fromkeys(controller_mode(view) for view in views))
     if scenario.sequencer is None:
         if scenario.task is not None:
             return "task"
@@ -507,10 +522,10 @@ def run(
         host=host,
     )
     if log_dir is not None:  # what ran: the scenario after every override, gains derived
-        actuators = effective_actuators(scenario.actuators, world.hardware)
-        write_scenario(dataclasses.replace(scenario, actuators=actuators), log_dir / SCENARIO_FILE)
-    # The step table (or the sinusoid's tracking error) from the logger's rows.
-    table = _table_of(world)
+        write_scenario(_effective(scenario, world), log_dir / SCENARIO_FILE)
+    # The step tables (or the sinusoid's tracking errors) from the loggers' rows.
+    tables = [_table_of(part.topics, part.logger) for part in world.robots]
+    table = tables[0]
     tracker = _task_tracker_of(world)
     simulator = Simulator(world.diagram)
     ApplySimulatorConfig(scenario.simulator_config, simulator)
@@ -535,6 +550,16 @@ def run(
         # The logs and the summary are written whole, whatever signal comes.
         world.close(simulator.get_context())  # the logger's last rows reach the table too
         result = _result(scenario, world, simulator, table, tracker, log_dir, scenario_name)
+        if scenario.robots:
+            result.robot_steps = {
+                part.name: t.results(sim_time)
+                for part, t in zip(world.robots, tables, strict=True)
+                if isinstance(t, StepTable)
+            }
+            result.robots = {
+                part.name: robot_summary(part, t, result.robot_steps.get(part.name, []))
+                for part, t in zip(world.robots, tables, strict=True)
+            }
         result.scenario, result.sim_time, result.wall_time = scenario_name, sim_time, wall_time
         result.realtime_factor = sim_time / wall_time if wall_time > 0 else math.inf
         result.interrupted = interrupted
@@ -545,7 +570,8 @@ def run(
     # A Ctrl-C that came while they were written stops the plots and the replay.
     signals.raise_pending(f"the logs are complete in {log_dir}" if log_dir else "")
     if log_dir is not None and plots:
-        write_plots(log_dir)
+        for folder in {log_dir / part.folder for part in world.robots}:
+            write_plots(folder)
     if log_dir is not None and result.navigation is not None:
         rows = world.base_log.array() if world.base_log is not None else np.zeros((0, 1))
         write_navigation_outputs(log_dir, world.topics.navigation, result.navigation, rows)
@@ -700,17 +726,49 @@ def _task_tracker_of(world):
     return tracker
 
 
-def _table_of(world) -> StepTable | TrackingError | None:
-    """A listener on the world's joint-state logger that computes the step table (or
-    the sinusoid's tracking error) of its sequencer; None without either."""
-    if world.sequencer is None or world.logger is None:
+def _effective(scenario: Scenario, world) -> Scenario:
+    """The scenario with each robot's gains the robot's own rules gave written out."""
+    if not scenario.robots:
+        actuators = effective_actuators(scenario.actuators, world.hardware)
+        return dataclasses.replace(scenario, actuators=actuators)
+    robots = [
+        dataclasses.replace(
+            entry, actuators=effective_actuators(entry.actuators, part.topics.stack.hardware)
+        )
+        for entry, part in zip(scenario.robots, world.robots, strict=True)
+    ]
+    return dataclasses.replace(scenario, robots=robots)
+
+
+def robot_summary(part, table, steps: list[StepResult]) -> dict[str, Any]:
+    """A robot's section of summary.json in a world of several: its namespace, joints,
+    driven controller, step table (or sinusoid's tracking error), the largest final error
+    of its steps [rad] and its base's summary."""
+    topics = part.topics
+    return {
+        "namespace": part.namespace,
+        "model_instance": topics.robot.name,
+        "joint_names": topics.stack.hardware.joint_names,
+        "driven_controller": topics.sequencer_target or topics.twist_target,
+        "steps": [step_summary(step) for step in steps],
+        "max_final_error": max((step.final_error for step in steps), default=None),
+        "tracking_error": table.largest if isinstance(table, TrackingError) else None,
+        "base": topics.base_log.summary() if topics.base_log is not None else None,
+    }
+
+
+def _table_of(topics, logger) -> StepTable | TrackingError | None:
+    """A listener on a robot's joint-state ``logger`` that computes the step table (or
+    the sinusoid's tracking error) of its sequencer (``topics``: the robot's); None
+    without either."""
+    if topics.sequencer is None or logger is None:
         return None
-    logged = list(world.logger.joint_names)
-    joints = world.controller_joints[world.sequencer_target]
+    logged = list(logger.joint_names)
+    joints = topics.stack.controller_joints[topics.sequencer_target]
     if not set(joints) <= set(logged):
         return None
     columns = [logged.index(name) for name in joints]
-    config = world.sequencer.config
+    config = topics.sequencer.config
     if isinstance(config, Sinusoid):
         table = TrackingError(
             wave_of(config, joints), after=config.start_delay + TRACKING_SKIP, columns=columns
@@ -723,5 +781,5 @@ def _table_of(world) -> StepTable | TrackingError | None:
             start_delay=config.start_delay,
             columns=columns,
         )
-    world.logger.add_listener(table.add)
+    logger.add_listener(table.add)
     return table

@@ -87,12 +87,71 @@ class SimulationConfig:
     )
 
 
+# A robot's name in robots: (its model instance's name scope, its default namespace).
+_ROBOT_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+# A namespace: /name, /name/inner, ...
+_NAMESPACE = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+")
+
+
+@dc.dataclass
+class RobotEntry:
+    """One robot of a world of several (the scenario's ``robots:`` list): its
+    description, where it stands or is mounted, and its own control stack."""
+
+    # Its name: the scope of its model instance (robots of one description load side
+    # by side) and of its parts' names; a letter or _, then letters, digits, _.
+    name: str = ""
+    # Its namespace: its ports and topics (/left/joint_states) and its folder of the
+    # output (<output>/left/joint_states.csv); "" = /<name>.
+    namespace: str = ""
+    # The description and its base pose: base_xyz/base_rpy in the world, or in the
+    # parent link's frame when mounted (parent).
+    robot: RobotConfig = dc.field(default_factory=RobotConfig)
+    # The description's `prefix` xacro argument (the names of its links and joints begin
+    # with it; the controller YAML then names the prefixed joints); "" = none given.
+    prefix: str = ""
+    # "OTHER::link": its base welded to the link `link` of the robot named OTHER (listed
+    # before it), at robot.base_xyz/base_rpy in that link's frame; "" = in the world.
+    parent: str = ""
+    # Its hardware interface's actuators (as the top-level actuators:).
+    actuators: ActuatorConfig = dc.field(default_factory=ActuatorConfig)
+    # Its controller manager and controller YAML (as the top-level controllers:).
+    controllers: ControllersConfig = dc.field(default_factory=ControllersConfig)
+    # What commands its controllers (as the top-level sequencer:); absent = nothing.
+    sequencer: PositionTargets | JointTrajectoryTargets | Sinusoid | None = None
+    # Velocity commands to its drive, a mobile base's (as the top-level twist:).
+    twist: TwistSequence | None = None
+
+    def check(self) -> None:
+        if not _ROBOT_NAME.fullmatch(self.name):
+            raise Refusal(
+                "name", f"={self.name!r}: give a name (a letter or _, then letters, digits, _)"
+            )
+        if self.namespace and not _NAMESPACE.fullmatch(self.namespace):
+            raise Refusal("namespace", f"={self.namespace!r} is not a namespace like /left")
+        if self.parent and len(self.parent.split("::")) != 2:
+            raise Refusal("parent", f"={self.parent!r}: give OTHER_ROBOT::link")
+
+    @property
+    def space(self) -> str:
+        """Its namespace, ``/<name>`` when none is given."""
+        return self.namespace or f"/{self.name}"
+
+
+# The top-level keys of the one robot, which robots: replaces.
+ROBOT_KEYS = ("robot", "actuators", "controllers", "sequencer", "twist")
+
+
 @dc.dataclass
 class Scenario:
     """Everything the world builder needs."""
 
     # The robot description and its pose.
     robot: RobotConfig = dc.field(default_factory=RobotConfig)
+    # Several robots in one world, each with its description, pose or mount, namespace
+    # and control stack (docs/multi_robot.md); instead of robot, actuators, controllers,
+    # sequencer and twist. Empty = the one robot of those keys.
+    robots: list[RobotEntry] = dc.field(default_factory=list)
     # Drake's plant settings (time step [s], contact approximation). The
     # approximation must support PD actuators: anything but tamsi. Without
     # sampled output ports the plant's step is a discrete update; with them it
@@ -179,6 +238,7 @@ class Scenario:
         rate above the plant's, a sequence that never ends. (Each field's own rules
         are beside it; those that need the robot and the controller YAML are
         :func:`~armando_drake.simulation.validation.check_against_world`.)"""
+        self._check_robots()
         names = set()
         for index, obj in enumerate(self.objects):
             if obj.name in names:
@@ -208,12 +268,64 @@ class Scenario:
                     "simulation.duration (or --duration) to run that long",
                 )
 
+    def _check_robots(self) -> None:
+        """robots: without the one robot's keys; distinct names and namespaces; each mount
+        on a robot listed before."""
+        if not self.robots:
+            return
+        given = [key for key in ROBOT_KEYS if getattr(self, key) != getattr(Scenario(), key)]
+        if given:
+            raise Refusal(
+                given[0], ": a key of the one robot, beside robots: (give it in each robot's entry)"
+            )
+        names, spaces = [], []
+        for index, entry in enumerate(self.robots):
+            if entry.name in names:
+                raise Refusal(f"robots.{index}.name", f"={entry.name!r} is listed twice")
+            if entry.space in spaces:
+                raise Refusal(
+                    f"robots.{index}.namespace", f"={entry.space!r} is another robot's too"
+                )
+            other = entry.parent.split("::")[0]
+            if entry.parent and other not in names:
+                raise Refusal(
+                    f"robots.{index}.parent",
+                    f"={entry.parent!r}: no robot {other!r} is listed before "
+                    f"{entry.name!r} (listed: {', '.join(names) or 'none'})",
+                )
+            names.append(entry.name)
+            spaces.append(entry.space)
+
+
+def robot_view(scenario: Scenario, index: int) -> Scenario:
+    """The scenario as the one robot ``robots[index]`` sees it: its robot, actuators,
+    controllers, sequencer and twist in the top-level keys; its messages name
+    ``robots.<index>``."""
+    entry = scenario.robots[index]
+    robot = entry.robot
+    if entry.prefix:
+        robot = dc.replace(robot, xacro_args={**robot.xacro_args, "prefix": entry.prefix})
+    view = dc.replace(
+        scenario,
+        robots=[],
+        robot=robot,
+        actuators=entry.actuators,
+        controllers=entry.controllers,
+        sequencer=entry.sequencer,
+        twist=entry.twist,
+    )
+    origin = sources_of(scenario).of("robots")  # the file, or the --set that gave them
+    view.__dict__["_sources"] = ScenarioSources(file=f"{origin}: robots.{index} ({entry.name})")
+    return view
+
 
 def default_duration(scenario: Scenario) -> float:
     """[s] one pass of the command sequence; the task's motion and 0.5 s of holding
     without one; the learned IK's targets, a period each, without either; the twist
     sequence and 1 s of stopping; the navigation's start delay and 30 s a goal (four for
-    an exploration); 2 s without any."""
+    an exploration); 2 s without any; the longest of the robots' in a world of several."""
+    if scenario.robots:
+        return max(default_duration(robot_view(scenario, i)) for i in range(len(scenario.robots)))
     if scenario.sequencer is None:
         if scenario.task is not None:
             return scenario.task.duration + 0.5
@@ -361,7 +473,10 @@ def _check_lists(data, schema, prefix: str = "") -> None:
 
 def _one_or_many(data) -> None:
     """The fields that take one value or a list, as lists: ``controllers.config: a.yaml``
-    is ``[a.yaml]``, ``""`` (or null) none."""
+    is ``[a.yaml]``, ``""`` (or null) none (in each of ``robots:`` too)."""
+    robots = data.get("robots") if isinstance(data, dict) else None
+    for entry in robots if isinstance(robots, list) else []:
+        _one_or_many(entry)
     controllers = data.get("controllers") if isinstance(data, dict) else None
     if isinstance(controllers, dict) and "config" in controllers:
         value = controllers["config"]
@@ -488,7 +603,9 @@ def load_scenario(
             source = str(path)
             _refuse_duplicate_keys(read_yaml_file(path, what="the scenario"), source)
             data = yaml_load(filename=str(path))
-            if isinstance(data, dict) and isinstance(data.get("controllers"), dict):
+            if isinstance(data, dict) and (
+                isinstance(data.get("controllers"), dict) or isinstance(data.get("robots"), list)
+            ):
                 _one_or_many(data)
                 scenario = yaml_load_typed(data=yaml_dump(data), defaults=scenario)
             else:
@@ -528,9 +645,8 @@ def _anchored(value: str, scenario_file: Path) -> str:
 def _anchor_file_paths(scenario: Scenario, scenario_file: Path) -> None:
     """The relative file paths of a scenario file (its controller YAML files, the learned
     IK network), see :func:`_anchored`."""
-    scenario.controllers.config = [
-        _anchored(value, scenario_file) for value in scenario.controllers.config
-    ]
+    for controllers in [scenario.controllers] + [r.controllers for r in scenario.robots]:
+        controllers.config = [_anchored(value, scenario_file) for value in controllers.config]
     if scenario.learned_ik is not None:
         scenario.learned_ik.network = _anchored(scenario.learned_ik.network, scenario_file)
 

@@ -30,6 +30,9 @@ class World:
     replay_sampler: Any = None  # ReplaySampler of the plant's state, with Meshcat on
     ros2_bridge: Any = None  # the Ros2Bridge, with ros2.enabled or ros2.foxglove
     closers: list = field(default_factory=list)  # called by close()
+    # Each robot's parts (simulation.robots.RobotParts: name, namespace, topics, logger),
+    # the first one's are those above; one for a scenario without robots:.
+    robots: list = field(default_factory=list)
 
     # The control stack's parts, by their old names.
     stack: ControlStack = field(init=False)
@@ -77,21 +80,35 @@ class World:
     def status(self, context: Context, controller: str):
         return self.diagram.GetOutputPort(f"{controller}.status").Eval(context)
 
-    def joint_positions(self, context: Context) -> np.ndarray:
-        """Measured positions of the hardware joints [rad], hardware order."""
+    def joint_positions(self, context: Context, robot: str = "") -> np.ndarray:
+        """Measured positions of the hardware joints [rad], hardware order; of the robot
+        named ``robot`` in a world of several (default: the first)."""
+        stack = self.robot_topics(robot).stack if robot else self.stack
         x = self.plant.GetPositionsAndVelocities(
-            self.plant.GetMyContextFromRoot(context), self.robot.model_instance
+            self.plant.GetMyContextFromRoot(context), stack.robot.model_instance
         )
-        return x[self.hardware.position_index]
+        return x[stack.hardware.position_index]
+
+    def robot_topics(self, name: str) -> WorldTopics:
+        """The control stack and publishers of the robot named ``name`` (robots:)."""
+        for part in self.robots:
+            if part.name == name:
+                return part.topics
+        raise KeyError(f"no robot {name!r} (robots: {', '.join(p.name for p in self.robots)})")
 
     def close(self, context: Context | None = None) -> None:
         """Ends the run: with the root ``context``, first writes the joint states the
         logger has recorded since its last flush (and the sequencer's commands since
         its last batch); then closes every file and server."""
-        if context is not None and self.logger is not None and self.closers:
-            self.logger.flush(self.logger.GetMyContextFromRoot(context))
-        if context is not None and self.sequencer is not None and self.closers:
-            self.sequencer.flush(context)
+        parts = self.robots or [None]
+        loggers = [self.logger] if not self.robots else [part.logger for part in parts]
+        sequencers = [self.sequencer] if not self.robots else [p.topics.sequencer for p in parts]
+        for logger in loggers:
+            if context is not None and logger is not None and self.closers:
+                logger.flush(logger.GetMyContextFromRoot(context))
+        for sequencer in sequencers:
+            if context is not None and sequencer is not None and self.closers:
+                sequencer.flush(context)
         for closer in self.closers:
             closer()
         self.closers.clear()

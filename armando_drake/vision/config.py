@@ -50,6 +50,11 @@ class ArucoDetectorConfig:
     dictionary: str = "DICT_ARUCO_ORIGINAL"  # OpenCV's predefined dictionary (DICT_*)
     marker_id: int = param(201, unit="-")  # the id of the marker whose pose is estimated
     side_length: float = param(0.1, unit="m")  # [m] side of the marker's black square
+    # [m] with a navigation: the robot is sent this far in front of the marker, facing
+    # it, once it has seen it `approach_after` times (vision/marker_goal.py); 0 = not
+    # (the marker's pose on the map is still estimated).
+    approach_distance: float = param(0.0, unit="m", ge=0)
+    approach_after: int = param(10, unit="-", ge=1)  # detections before the goal is sent
 
 
 @dataclass

@@ -45,6 +45,7 @@ from armando_drake.tools.errors import ScenarioError
 from armando_drake.tools.extras import require_extra
 from armando_drake.vision.blobs import LevelBlobDetector
 from armando_drake.vision.config import VisionConfig
+from armando_drake.vision.marker_goal import AddMarkerGoal
 
 _log = logging.getLogger("armando_drake.vision")
 
@@ -468,6 +469,7 @@ class AddedDetectors:
     blob_camera: str = ""
     aruco_camera: str = ""
     commands: Any = None  # VectorLogSink of the desired state, with a look-at controller
+    marker_goal: Any = None  # the MarkerGoal, with an aruco detector and a navigation
     command_joints: list = dataclasses.field(default_factory=list)  # its joints' names
     # The controllers the marker's pose drives (the look-at controllers), by YAML name.
     driven: list = dataclasses.field(default_factory=list)
@@ -557,6 +559,7 @@ def AddDetectors(
     image_view: ImageViewServer | None = None,
     where: str = "",
     console: bool = True,
+    navigation: Any = None,
 ) -> AddedDetectors:
     """The scenario's detectors (``config``) on ``cameras`` (by name, as
     :func:`~armando_drake.sensors.cameras.AddCameras` returns them); exports
@@ -564,7 +567,8 @@ def AddDetectors(
     ``<camera>.annotated_image``, and feeds ``cam_T_marker`` to every active controller
     of ``stack`` that reads :class:`MarkerPose`; the annotated images join the live view
     ``image_view``. Without ``console`` the blob keypoints are not printed whatever
-    ``print_keypoints`` says.
+    ``print_keypoints`` says. With a ``navigation``, the ArUco marker is put on its map
+    and the robot sent in front of it (:mod:`armando_drake.vision.marker_goal`).
     Errors: :class:`ScenarioError` naming ``where``; without OpenCV,
     :class:`~armando_drake.tools.extras.MissingExtraError` naming the extra."""
     for key in ("blob", "aruco"):
@@ -578,6 +582,19 @@ def AddDetectors(
             _add_blob(builder, config, stack, cameras, added, where, console)
         if config.aruco is not None:
             _add_aruco(builder, config.aruco, stack, cameras, added, where)
+            if navigation is not None:
+                added.marker_goal = AddMarkerGoal(
+                    builder,
+                    added.aruco,
+                    navigation=navigation,
+                    plant=stack.plant,
+                    link_body=stack.plant.GetBodyByName(
+                        cameras[added.aruco_camera].info.link, stack.robot.model_instance
+                    ),
+                    rate=cameras[added.aruco_camera].info.frame_rate,
+                    offset=2 * FRAME_DELAY,
+                    config=config.aruco,
+                )
     except DetectorError as error:
         raise ScenarioError(str(error)) from None
     for name, port in added.annotated.items():

@@ -86,16 +86,15 @@ def test_the_courses_amcl_parameters_load_and_those_not_applied_are_named(fra2mo
     assert "amcl.ros__parameters.min_particles: KLD sampling is not applied" in caplog.text
 
 
-def test_amcl_localizes_fra2mo_from_half_a_metre_and_0_3_rad_off():
-    # The truth is the spawn pose (0, 0, 0): the estimate starts 0.5 m and 0.3 rad off.
-    scenario = merge_overrides(
-        load_scenario("fra2mo_goals"),
-        [*QUIET, "navigation: {localization: amcl, initial_pose: [0.3, 0.4, 0.3]}"],
-    )
+def test_amcl_localizes_fra2mo_on_the_saved_map_from_half_a_metre_and_0_3_rad_off():
+    # diagrams/fra2mo_amcl.yaml: the truth is the spawn pose (0, 0, 0), the estimate starts
+    # 0.5 m and 0.3 rad off; the map is the saved one; 10 s of driving from start_delay.
+    scenario = merge_overrides(load_scenario("fra2mo_amcl"), QUIET)
+    assert scenario.navigation.map.endswith("maps/arena.yaml")
     world = MakeWorld(scenario, quiet=True)
     simulator = Simulator(world.diagram)
     simulator.Initialize()
-    simulator.AdvanceTo(10.0)
+    simulator.AdvanceTo(scenario.navigation.start_delay + 10.01)
     amcl = world.topics.navigation.amcl
     context = amcl.GetMyContextFromRoot(simulator.get_context())
     map_to_odom = amcl.GetOutputPort("map_to_odom").Eval(context)
@@ -107,3 +106,15 @@ def test_amcl_localizes_fra2mo_from_half_a_metre_and_0_3_rad_off():
     assert math.hypot(truth[0], truth[1]) > 1.0  # it drove toward its first goal
     assert math.hypot(pose[0] - truth[0], pose[1] - truth[1]) < 0.1
     assert abs(math.remainder(pose[2] - truth[2], 2 * math.pi)) < 0.05
+    # The summary's localization errors: the wrong start, then within 0.1 m / 0.05 rad
+    # from 5 s on.
+    navigator = world.topics.navigation.navigator
+    errors = navigator.summary(navigator.GetMyContextFromRoot(simulator.get_context()))[
+        "localization"
+    ]
+    samples = errors["errors"]
+    assert samples[0]["time"] == 1.0 and len(samples) == 11  # each second from start_delay
+    assert samples[0]["position"] > 0.3 and samples[0]["yaw"] > 0.25  # AMCL at work at rest
+    assert errors["final_position_error"] < 0.1 and errors["final_yaw_error"] < 0.05
+    assert errors["max_position_error_settled"] < 0.1
+    assert errors["max_yaw_error_settled"] < 0.05

@@ -11,13 +11,16 @@ from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
+from armando_drake.description.camera_sensors import CameraSensorInfo
 from armando_drake.description.lidar_sensors import LidarError, parse_lidar
 from armando_drake.description.loader import expand_description, load_robot
 from armando_drake.description.packages import find_packages
 from armando_drake.description.urdf import parse_sensor_blocks
 from armando_drake.sensors import lidar  # noqa: F401  (registers the lidar types)
+from armando_drake.sensors.camera import AddCameraSensors
 from armando_drake.sensors.objects import AddSceneObjects, Box, SceneObject
 from armando_drake.sensors.registry import AddSensors
+from armando_drake.tools.xdisplay import DisplayError, ensure_display
 from tests.conftest import SHARED, skip_or_fail
 
 FRA2MO = SHARED / "upstream" / "rl_fra2mo_description"
@@ -60,11 +63,13 @@ WALL_X = 2.0  # [m] the wall's face, in front of the lidar (the post at x = 0)
 WALL_HALF_WIDTH = 5.0  # [m]
 
 
-def _scanner(tmp_path, noise: str = "", base_xyz=(0.0, 0.0, 0.0), yaw: float = 0.0):
+def _scanner(
+    tmp_path, noise: str = "", base_xyz=(0.0, 0.0, 0.0), yaw: float = 0.0, gl_camera=False
+):
     path = tmp_path / "scanner.urdf"
     path.write_text(SCANNER_URDF.replace("NOISE", noise))
     builder = DiagramBuilder()
-    plant, _ = AddMultibodyPlantSceneGraph(builder, 0.001)
+    plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.001)
     robot = load_robot(plant, path, X_WB=RigidTransform(RollPitchYaw(0, 0, yaw), base_xyz))
     wall = SceneObject(
         name="wall",
@@ -73,6 +78,11 @@ def _scanner(tmp_path, noise: str = "", base_xyz=(0.0, 0.0, 0.0), yaw: float = 0
     )
     AddSceneObjects(plant, [wall])
     plant.Finalize()
+    if gl_camera:  # a camera on Drake's OpenGL engine first, as a scenario's cameras are
+        camera = CameraSensorInfo(name="cam", sensor_name="cam", type="camera", link="laser")
+        AddCameraSensors(
+            builder, plant, scene_graph, robot.model_instance, [camera], renderer="gl", export=True
+        )
     added = AddSensors(builder, robot.sensors, plant=plant, robot=robot)
     assert list(added) == ["front_lidar"]
     diagram = builder.Build()
@@ -109,6 +119,29 @@ def test_wall_scan_matches_the_ray_cast(tmp_path):
     # Within the range resolution (1 cm); interpolated inverse depth is exact on a plane.
     assert error.max() < 1e-3, f"worst beam {np.argmax(error)}: {error.max():.4f} m"
     assert np.all(np.isposinf(scan.ranges[~hit])), "beyond range_max and behind: inf"
+
+
+def test_beside_a_camera_on_drakes_opengl_engine(tmp_path):
+    """A world whose camera renders with RenderEngineGl (GLX): the lidar renders there
+    too, its scan as exact as alone, and frames of both keep coming (a VTK EGL context
+    beside the GLX one failed to be made current, then the process died of an X error)."""
+    try:
+        ensure_display()
+    except DisplayError as error:
+        skip_or_fail(f"Drake's OpenGL renderer needs an X display or Xvfb: {error}")
+    diagram, port = _scanner(tmp_path, gl_camera=True)
+    context = diagram.CreateDefaultContext()
+    simulator = Simulator(diagram, context)
+    for k in range(5):
+        simulator.AdvanceTo(0.1 * k)
+        image = diagram.GetOutputPort("cam.color_image").Eval(context)
+        scan = port.Eval(context).message
+        assert image.width() > 0 and np.asarray(image.data).any()
+        truth = _truth(scan.angles())
+        hit = np.isfinite(truth)
+        assert 120 < hit.sum() < 140
+        assert np.abs(scan.ranges[hit] - truth[hit]).max() < 1e-3
+        assert np.all(np.isposinf(scan.ranges[~hit]))
 
 
 def test_turned_and_moved_scanner(tmp_path):

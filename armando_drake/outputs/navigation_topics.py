@@ -1,0 +1,180 @@
+"""A navigation's topics: what Nav2's servers and the course's launch files publish.
+
+==================== ================================= =======================================
+topic                type                              from
+==================== ================================= =======================================
+``/map``             ``nav_msgs/msg/OccupancyGrid``    the navigation's map, once (latched, as
+                                                       map_server)
+``/plan``            ``nav_msgs/msg/Path``             each new global plan (planner server)
+``/tf_static``       ``tf2_msgs/msg/TFMessage``        ``map -> <goal name>`` for every goal,
+                                                       as static_transform_publisher
+``/tf``              ``tf2_msgs/msg/TFMessage``        ``map -> odom``: AMCL's estimate, or
+                                                       the identity (ground truth)
+``/tf``              ``tf2_msgs/msg/TFMessage``        ``map -> aruco_frame``: the ArUco
+                                                       marker on the map (vision.aruco)
+==================== ================================= =======================================
+
+:class:`NavigationTopics` reads the navigator's state at the controller manager's rate and
+hands each new message to ``send(topic, type_name, message, stamp)``: the MCAP recorder's
+``write`` or the live bridge's publish. ``map -> odom`` goes with each new odometry stamp.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.systems.framework import LeafSystem
+
+from armando_drake.messages.definitions import header, pose_stamped_message, transform_stamped
+from armando_drake.messages.types import Odometry, PublicationValue
+from armando_drake.navigation.navigator import NavState
+
+Send = Callable[[str, str, dict, float], None]
+MAP_FRAME = "map"
+MARKER_FRAME = "aruco_frame"
+TF_MESSAGE = "tf2_msgs/msg/TFMessage"
+
+
+def planar(x: float, y: float, yaw: float) -> RigidTransform:
+    return RigidTransform(RotationMatrix.MakeZRotation(yaw), [x, y, 0.0])
+
+
+def occupancy_grid_message(grid, stamp: float, frame_id: str = MAP_FRAME) -> dict:
+    """nav_msgs/OccupancyGrid of an :class:`~armando_drake.navigation.maps.OccupancyMap`
+    (row-major from the cell at ``origin``, as map_server publishes it)."""
+    origin = pose_stamped_message(stamp, frame_id, planar(*grid.origin))["pose"]
+    return {
+        "header": header(stamp, frame_id),
+        "info": {
+            "map_load_time": header(stamp)["stamp"],
+            "resolution": float(grid.resolution),
+            "width": grid.width,
+            "height": grid.height,
+            "origin": origin,
+        },
+        "data": np.asarray(grid.data, dtype=np.int8).ravel().tolist(),
+    }
+
+
+def path_message(path: np.ndarray, goal_yaw: float, stamp: float, frame_id: str = MAP_FRAME):
+    """nav_msgs/Path of a plan ((n, 2) points): each pose heading to the next, the last
+    the goal's heading."""
+    path = np.asarray(path, dtype=float)
+    steps = np.diff(path, axis=0)
+    yaws = [*np.arctan2(steps[:, 1], steps[:, 0]), goal_yaw]
+    return {
+        "header": header(stamp, frame_id),
+        "poses": [
+            pose_stamped_message(stamp, frame_id, planar(x, y, yaw))
+            for (x, y), yaw in zip(path, yaws, strict=True)
+        ],
+    }
+
+
+def goal_frames(goals, stamp: float, frame_id: str = MAP_FRAME) -> dict:
+    """tf2_msgs/TFMessage ``map -> <goal name>`` of each goal."""
+    return {
+        "transforms": [
+            transform_stamped(stamp, frame_id, goal.name, planar(goal.x, goal.y, goal.yaw))
+            for goal in goals
+        ]
+    }
+
+
+class NavigationTopics(LeafSystem):
+    """Sends a navigation's /map, /plan, goal frames and map -> odom.
+
+    Ports:
+      - input ``nav_state`` (the Navigator's :class:`NavState`);
+      - input ``odom`` (the drive's Odometry): map -> odom at each new stamp;
+      - input ``map_to_odom`` (x, y, yaw; AMCL's), unconnected: the identity;
+      - input ``marker_in_map`` (Publication of MarkerPose): ``map -> aruco_frame``.
+    """
+
+    def __init__(self, grid, *, send: Send, rate: float):
+        super().__init__()
+        if not (math.isfinite(rate) and rate > 0):
+            raise ValueError(f"rate={rate!r} must be positive [Hz]")
+        self._grid = grid
+        self._send = send
+        self._nav = self.DeclareAbstractInputPort("nav_state", AbstractValue.Make(NavState()))
+        self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
+        self._map_to_odom = self.DeclareVectorInputPort("map_to_odom", 3)
+        self._marker = self.DeclareAbstractInputPort("marker_in_map", PublicationValue())
+        self._markers = 0
+        self._planned_at = None
+        self._goals: tuple = ()
+        self._last_odom: float | None = None
+        self.DeclareInitializationPublishEvent(self._PublishMap)
+        self.DeclarePeriodicPublishEvent(1.0 / rate, 0.0, self._Publish)
+
+    def _PublishMap(self, context, event=None) -> None:
+        stamp = context.get_time()
+        message = occupancy_grid_message(self._grid, stamp)
+        self._send("/map", "nav_msgs/msg/OccupancyGrid", message, stamp)
+        self._PublishGoals(context)
+
+    def _PublishGoals(self, context) -> None:
+        nav = self._nav.Eval(context)
+        if nav.goals and nav.goals != self._goals:
+            new = [goal for goal in nav.goals if goal not in self._goals]
+            self._goals = nav.goals
+            stamp = context.get_time()
+            self._send("/tf_static", TF_MESSAGE, goal_frames(new, stamp), stamp)
+
+    def _Publish(self, context) -> None:
+        self._PublishGoals(context)
+        nav = self._nav.Eval(context)
+        if nav.path is not None and nav.planned_at != self._planned_at:
+            self._planned_at = nav.planned_at
+            goal = nav.goals[nav.goal]
+            message = path_message(nav.path, goal.yaw, nav.planned_at)
+            self._send("/plan", "nav_msgs/msg/Path", message, nav.planned_at)
+        if self._marker.HasValue(context):
+            marker = self._marker.Eval(context)
+            if marker.count > self._markers:
+                self._markers = marker.count
+                frame = transform_stamped(
+                    marker.stamp, MAP_FRAME, MARKER_FRAME, marker.message.pose
+                )
+                self._send("/tf", TF_MESSAGE, {"transforms": [frame]}, marker.stamp)
+        if not self._odom.HasValue(context):
+            return
+        odom = self._odom.Eval(context)
+        if odom.stamp > 0 and odom.stamp != self._last_odom:
+            self._last_odom = odom.stamp
+            estimate = (
+                self._map_to_odom.Eval(context)
+                if self._map_to_odom.HasValue(context)
+                else (0.0, 0.0, 0.0)
+            )
+            X = planar(*estimate)
+            tf = {"transforms": [transform_stamped(odom.stamp, MAP_FRAME, odom.frame_id, X)]}
+            self._send("/tf", TF_MESSAGE, tf, odom.stamp)
+
+
+def AddNavigationTopics(builder, topics, send: Send, *, name: str) -> NavigationTopics | None:
+    """A :class:`NavigationTopics` on ``topics``' navigation (None without one)."""
+    navigation = topics.navigation
+    if navigation is None:
+        return None
+    system = builder.AddNamedSystem(
+        name, NavigationTopics(navigation.grid, send=send, rate=topics.update_rate)
+    )
+    navigator = navigation.navigator
+    builder.Connect(navigator.GetOutputPort("nav_state"), system.GetInputPort("nav_state"))
+    odom = topics.stack.manager.GetOutputPort(f"{navigation.drive}.odom")
+    builder.Connect(odom, system.GetInputPort("odom"))
+    if navigation.amcl is not None:
+        builder.Connect(
+            navigation.amcl.GetOutputPort("map_to_odom"), system.GetInputPort("map_to_odom")
+        )
+    marker_goal = getattr(topics.detectors, "marker_goal", None)
+    if marker_goal is not None:
+        port = marker_goal.GetOutputPort("marker_in_map")
+        builder.Connect(port, system.GetInputPort("marker_in_map"))
+    return system

@@ -1,0 +1,93 @@
+"""BasicNavigator (nav2_simple_commander's interface) driving fra2mo: one shared script."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from armando_drake.outputs.base import COLUMNS
+from armando_drake.simulation.commander import BasicNavigator, TaskResult
+from armando_drake.simulation.scenario import load_scenario, merge_overrides
+
+QUIET = ["logging: {console_rate: 0}", "visualization: {enable_meshcat_creation: false}"]
+POSE = (0.7, -0.6, -1.0)
+WAYPOINTS = [(0.2, -0.3, 3.1416), (-0.4, 0.3, 1.5708)]
+FAR = (-1.7, 0.5, 3.1416)
+
+
+def _drive(navigator: BasicNavigator, limit: float) -> list:
+    feedback = []
+    end = navigator.time + limit
+    while not navigator.isTaskComplete() and navigator.time < end:
+        feedback.append(navigator.getFeedback())
+    return feedback
+
+
+@pytest.fixture(scope="module")
+def script():
+    navigator = BasicNavigator(merge_overrides(load_scenario("fra2mo_goals"), QUIET))
+    navigator.waitUntilNav2Active()
+    out = {"idle": navigator.getResult()}
+    assert navigator.goToPose(POSE)
+    out["pose_feedback"] = _drive(navigator, 20.0)
+    out["pose_result"] = navigator.getResult()
+    assert navigator.followWaypoints(WAYPOINTS)
+    out["waypoint_feedback"] = _drive(navigator, 30.0)
+    out["waypoints_result"] = navigator.getResult()
+    out["missed"] = navigator.missed_waypoints
+    assert navigator.goToPose(FAR)
+    navigator.spin(3.0)
+    out["moving"] = navigator.world.base_log.array()[-1].copy()
+    navigator.cancelTask()
+    out["cancel_complete"] = navigator.isTaskComplete()
+    navigator.spin(1.0)
+    out["stopped"] = navigator.world.base_log.array()[-1].copy()
+    out["cancel_result"] = navigator.getResult()
+    out["in_obstacle"] = navigator.goToPose((1.6, 0.0, 0.0))  # crate_1
+    out["rejected"] = navigator.rejected
+    out["summary"] = navigator.summary()
+    navigator.close()
+    return out
+
+
+def test_go_to_pose_reaches_it_within_the_goal_tolerances(script):
+    assert script["idle"] == TaskResult.UNKNOWN
+    assert script["pose_result"] == TaskResult.SUCCEEDED
+    result = script["summary"]["goals"][0]
+    assert result["name"] == "goal" and result["goal"] == pytest.approx(list(POSE))
+    assert result["position_error"] <= script["summary"]["xy_goal_tolerance"]
+    assert result["yaw_error"] <= script["summary"]["yaw_goal_tolerance"]
+    feedback = [f for f in script["pose_feedback"] if f is not None]
+    distances = [f.distance_remaining for f in feedback]
+    assert distances[0] == pytest.approx(math.hypot(0.7, 0.6), abs=0.15)  # from (0, 0)
+    assert distances[-1] < 0.15
+    times = [f.navigation_time for f in feedback]
+    assert np.all(np.diff(times) > 0) and times[-1] == pytest.approx(result["time"], abs=0.2)
+
+
+def test_follow_waypoints_visits_each(script):
+    assert script["waypoints_result"] == TaskResult.SUCCEEDED and script["missed"] == []
+    goals = script["summary"]["goals"]
+    assert [g["name"] for g in goals[1:3]] == ["waypoint_0", "waypoint_1"]
+    for result, pose in zip(goals[1:3], WAYPOINTS, strict=True):
+        assert result["reached"] and result["goal"] == pytest.approx(list(pose))
+        assert result["position_error"] <= script["summary"]["xy_goal_tolerance"]
+    waypoints = {f.current_waypoint for f in script["waypoint_feedback"] if f is not None}
+    assert waypoints == {0, 1}
+
+
+def test_cancel_stops_the_base_and_reports_canceled(script):
+    linear, angular = COLUMNS.index("linear"), COLUMNS.index("angular")
+    assert abs(script["moving"][linear]) > 0.05 or abs(script["moving"][angular]) > 0.1
+    assert script["cancel_complete"]
+    assert script["cancel_result"] == TaskResult.CANCELED
+    assert abs(script["stopped"][linear]) < 0.01 and abs(script["stopped"][angular]) < 0.02
+    assert script["summary"]["goals"][3]["reason"] == "canceled"
+
+
+def test_a_goal_in_an_obstacle_is_rejected(script):
+    assert script["in_obstacle"] is False
+    assert "goal 'goal' (1.6, 0) is in an obstacle" in script["rejected"]
+    assert len(script["summary"]["goals"]) == 4  # not sent
