@@ -253,7 +253,7 @@ class Explorer(Navigator):
 
     def _goal_reached(self, nav: NavState, pose, speed):
         """A frontier is reached within the goal checker's xy tolerance, at any heading."""
-        goal = self._goal(nav)
+        goal = nav.explore.goal
         return math.hypot(pose[0] - goal.x, pose[1] - goal.y) <= (
             self.controller.xy_goal_tolerance
         ), nav
