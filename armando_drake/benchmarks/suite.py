@@ -307,11 +307,12 @@ def bench_task(report: Report, duration: float, ticks: int) -> None:
     )
 
 
-def bench_mobile(report: Report, duration: float, navigation: float) -> None:
+def bench_mobile(report: Report, duration: float, navigation: float, exploration: float) -> None:
     """fra2mo (diagrams/fra2mo.yaml): a floating base on its wheels in contact with the
     floor (2 ms steps) in its arena, its DiffDrive plugin at 100 Hz, its lidar (640 beams,
     360 deg) at 10 Hz, a cmd_vel sequence, the base log; then driving to the goals of
-    diagrams/fra2mo_goals.yaml for ``navigation`` seconds."""
+    diagrams/fra2mo_goals.yaml for ``navigation`` seconds; exploring the arena for
+    ``exploration`` seconds (:func:`bench_exploration`)."""
     rtf = [pipeline_rtf("fra2mo", duration) for _ in range(report.repeat)]
     report.add(Row("mobile", f"fra2mo driving a cmd_vel sequence, {duration:g} s", RTF, rtf)).check(
         ">=", 2.0
@@ -325,6 +326,26 @@ def bench_mobile(report: Report, duration: float, navigation: float) -> None:
         "loggers and base.csv on, not paced; the wheels' and caster's contact with the floor "
         "is most of the cost, the lidar's ring of four 1-pixel-high depth renders about 5 ms "
         "a scan."
+    )
+    bench_exploration(report, exploration)
+
+
+def bench_exploration(report: Report, duration: float) -> None:
+    """fra2mo mapping its arena by exploration (diagrams/fra2mo_explore.yaml: the SlamMapper
+    matching each scan, the Explorer's frontiers and plans on the map being built) for
+    ``duration`` seconds: the whole arena is explored in about 33 s."""
+    results = [run_scenario("fra2mo_explore", duration) for _ in range(report.repeat)]
+    what = f"fra2mo exploring its arena (SLAM + frontiers), {duration:g} s"
+    report.add(Row("mobile", what, RTF, [r.realtime_factor for r in results])).check(">=", 1.0)
+    wall = [r.wall_time for r in results]
+    report.add(Row("mobile", "fra2mo's exploration: wall time", "s", wall))
+    mapping = (results[-1].navigation or {}).get("mapping") or {}
+    report.notes.append(
+        "Exploration: diagrams/fra2mo_explore.yaml, not paced; at the end "
+        f"{'done' if mapping.get('done') else 'not done'} at {mapping.get('done_at')} s, "
+        f"{mapping.get('frontiers_left')} frontiers left, map precision "
+        f"{mapping.get('precision', 0):.3f}, recall {mapping.get('recall', 0):.3f}, coverage "
+        f"{mapping.get('coverage', 0):.3f}."
     )
 
 
@@ -1383,11 +1404,12 @@ class Settings:
     mobile_seconds: float = 11.14  # [s] simulated of fra2mo's sequence (all of it)
     learned_ik_poses: int = 2000  # poses the learned IK answers, one at a time
     navigation_seconds: float = 34.0  # [s] simulated of fra2mo's goals (all four)
+    exploration_seconds: float = 34.0  # [s] simulated of fra2mo exploring its arena (all of it)
 
     @staticmethod
     def of(quick: bool) -> Settings:
         if quick:
-            return Settings(1.0, 1, 1.0, 5, 0.5, 20.0, 0.5, 100, 1.0, 100, 2.0)
+            return Settings(1.0, 1, 1.0, 5, 0.5, 20.0, 0.5, 100, 1.0, 100, 2.0, 2.0)
         return Settings(10.0, 5, TARGET_PERIOD, 60, 5.0, 3600.0)
 
 
@@ -1415,7 +1437,10 @@ def run_suite(
         "vision": lambda: bench_vision(report, settings.camera_seconds),
         "lidar": lambda: bench_lidar(report, settings.camera_frames),
         "mobile": lambda: bench_mobile(
-            report, settings.mobile_seconds, settings.navigation_seconds
+            report,
+            settings.mobile_seconds,
+            settings.navigation_seconds,
+            settings.exploration_seconds,
         ),
         "learned_ik": lambda: bench_learned_ik(report, settings.learned_ik_poses),
     }

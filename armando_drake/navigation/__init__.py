@@ -10,7 +10,12 @@
 - :mod:`.follower`: the controller server's parameters, Regulated Pure Pursuit.
 - :mod:`.amcl`: AMCL's particle filter (localization on the odometry and the lidar).
 - :mod:`.config`, :mod:`.navigator`: the scenario's ``navigation:`` section and the Drake
-  system that drives to its goals (:func:`~.navigator.AddNavigation`).
+  system that drives to its goals.
+- :mod:`.slam`: slam_toolbox's mapping (an occupancy grid from the scans and the odometry,
+  scan matching correcting the drift, map -> odom).
+- :mod:`.explore`: explore_lite's frontiers, the navigator driving to them.
+- :mod:`.building`: :func:`~.building.AddNavigation`, the navigation of a scenario added to a
+  diagram (to goals, or exploring).
 
 The maps, costmaps, planner and follower are pure computation on numpy arrays (SciPy
 imported where used: the ``navigation`` extra).

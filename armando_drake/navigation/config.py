@@ -20,7 +20,7 @@ import math
 
 from armando_drake.tools.schema import Refusal, param
 
-LOCALIZATIONS = ("ground_truth", "amcl")
+LOCALIZATIONS = ("ground_truth", "amcl", "slam")
 
 
 @dc.dataclass
@@ -66,11 +66,26 @@ class NavigationConfig:
     start_delay: float = param(1.0, unit="s", ge=0)
     # The drive controller that gets cmd_vel, by name; "" = the first active one.
     controller: str = ""
+    # Exploration (explore_lite): drive to the frontiers of the map being built by SLAM
+    # (localization: slam) until none is left; then no goals are given.
+    explore: bool = False
+    # slam_toolbox's parameter file (localization: slam).
+    slam_params_file: str = ""
+    # explore_lite's parameter file (explore: true).
+    explore_params_file: str = ""
 
     def check(self) -> None:
         """Named goals, each once; an order of known names; a parameter file."""
         if not self.params_file:
             raise Refusal("params_file", ": a Nav2 parameter file is needed")
+        if self.explore != (self.localization == "slam"):
+            raise Refusal("explore", ": exploration and localization: slam go together")
+        if self.explore:
+            if self.goals:
+                raise Refusal("goals", ": an exploration chooses its own goals; give none")
+            for key in ("slam_params_file", "explore_params_file"):
+                if not getattr(self, key):
+                    raise Refusal(key, ": a parameter file is needed to explore")
         names = set()
         for k, goal in enumerate(self.goals):
             if not goal.name:

@@ -113,6 +113,7 @@ class NavState:
     # ground truth, each second.
     localization: tuple = ()
     estimate: tuple = ()  # the localization's (x, y, yaw) at the last update
+    explore: Any = None  # the exploration's own state (navigation/explore.py)
 
     def __deepcopy__(self, memo):
         return self
@@ -217,14 +218,7 @@ class Navigator(LeafSystem):
             error = math.hypot(pose[0] - truth[0], pose[1] - truth[1])
             sample = (now, error, abs(wrap(pose[2] - truth[2])))
             nav = dc.replace(nav, localization=(*nav.localization, sample))
-        nav, task = self._requested(context, nav)
-        if task is not None:
-            nav = self._new_task(nav, task, pose, now)
-        if nav.goal < 0:
-            nav = self._start(nav, 0, pose, now)
-        linear = angular = 0.0
-        if 0 <= nav.goal < len(nav.goals):
-            nav, linear, angular = self._step(nav, pose, speed, now)
+        nav, linear, angular = self._advance(context, nav, pose, speed, now)
         state.get_mutable_abstract_state(self._nav).set_value(nav)
         message = TwistStamped(
             stamp=now,
@@ -234,6 +228,21 @@ class Navigator(LeafSystem):
         publication = context.get_abstract_state(self._topic).get_value()
         state.get_mutable_abstract_state(self._topic).set_value(publication.publish(message, now))
         state.get_mutable_discrete_state(self._command).set_value([linear, angular])
+
+    def _advance(self, context, nav: NavState, pose, speed, now: float):
+        """One cycle on the goals (a task requested taken first): (state, v, w)."""
+        nav, task = self._requested(context, nav)
+        if task is not None:
+            nav = self._new_task(nav, task, pose, now)
+        if nav.goal < 0:
+            nav = self._start(nav, 0, pose, now)
+        if 0 <= nav.goal < len(nav.goals):
+            return self._step(nav, pose, speed, now)
+        return nav, 0.0, 0.0
+
+    def _costmap(self, nav: NavState) -> Costmap:
+        """The costmap the current goal is planned and followed on."""
+        return self.costmap
 
     # -- tasks
 
@@ -303,11 +312,11 @@ class Navigator(LeafSystem):
     def _plan(self, nav: NavState, pose, now: float) -> NavState:
         goal = nav.goals[nav.goal]
         try:
-            path = plan(self.costmap, pose[:2], (goal.x, goal.y), self.planner)
+            path = plan(self._costmap(nav), pose[:2], (goal.x, goal.y), self.planner)
         except PlanningError as error:
             _log.warning("goal %r: no plan: %s", goal.name, error)
             return nav if nav.path is not None else dc.replace(nav, planned_at=now)
-        if np.hypot(path[-1, 0] - goal.x, path[-1, 1] - goal.y) <= self.costmap.resolution:
+        if np.hypot(path[-1, 0] - goal.x, path[-1, 1] - goal.y) <= self._costmap(nav).resolution:
             path = np.vstack([path[:-1], [goal.x, goal.y]])  # the goal's own pose ends it
         if len(path) == 1:
             path = np.vstack([path, path])
@@ -388,7 +397,7 @@ class Navigator(LeafSystem):
         local = to_robot(nav.path[index:], pose)
         command = rpp_command(
             c,
-            self.costmap,
+            self._costmap(nav),
             local,
             pose,
             speed,
@@ -530,7 +539,9 @@ class Navigation:
     costmap: Costmap
     amcl: AmclLocalizer | None = None  # with localization: amcl (its scan is connected by
     # ConnectLocalization, once the sensors are added)
-    lidar: str = ""  # the lidar AMCL reads
+    lidar: str = ""  # the lidar AMCL (or the mapper) reads
+    mapper: Any = None  # with exploration: the SlamMapper (navigation/slam.py)
+    truth: OccupancyMap | None = None  # with exploration: the world's map, to compare
 
 
 def navigation_map(config: NavigationConfig, plant, scene_graph, robot, where: str = ""):
@@ -660,6 +671,8 @@ def _add_amcl(builder, config, stack, navigation: Navigation, params_file, axle,
 def ConnectLocalization(builder, navigation: Navigation | None, sensors: dict) -> None:
     """Connects AMCL to its lidar's scan once the sensors are added (nothing to do for the
     ground truth or without a navigation)."""
-    if navigation is None or navigation.amcl is None:
+    if navigation is None:
         return
-    builder.Connect(sensors[navigation.lidar]["scan"], navigation.amcl.GetInputPort("scan"))
+    for reader in (navigation.amcl, navigation.mapper):
+        if reader is not None:
+            builder.Connect(sensors[navigation.lidar]["scan"], reader.GetInputPort("scan"))

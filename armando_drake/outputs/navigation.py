@@ -19,7 +19,9 @@ from typing import Any
 
 import numpy as np
 
+from armando_drake.navigation.costmap import make_costmap
 from armando_drake.navigation.maps import save_map
+from armando_drake.navigation.slam import map_accuracy
 from armando_drake.outputs.base import COLUMNS
 
 NAVIGATION_PNG = "navigation.png"
@@ -37,6 +39,8 @@ def navigation_summary(world, context) -> dict[str, Any] | None:
     contacts = (base or {}).get("contacts") or {}
     summary["collisions"] = contacts.get("episodes", 0)
     summary["collision_bodies"] = contacts.get("bodies", [])
+    if navigation.mapper is not None:
+        summary["mapping"] = mapping_summary(world, navigation, context)
     marker_goal = getattr(world.topics.detectors, "marker_goal", None)
     if marker_goal is not None:
         summary["aruco"] = marker_goal.summary(marker_goal.GetMyContextFromRoot(context))
@@ -46,6 +50,29 @@ def navigation_summary(world, context) -> dict[str, Any] | None:
         "origin": list(navigation.grid.origin),
         "size": [navigation.grid.width, navigation.grid.height],
     }
+    return summary
+
+
+def mapping_summary(world, navigation, context) -> dict[str, Any]:
+    """summary.json's ``navigation.mapping``: the map built (which becomes the navigation's
+    map, saved and drawn) against the world's, the exploration, the drift corrected."""
+    mapper, explorer = navigation.mapper, navigation.navigator
+    mapper_context = mapper.GetMyContextFromRoot(context)
+    explorer_context = explorer.GetMyContextFromRoot(context)
+    navigation.grid = mapper.current_map(mapper_context)
+    navigation.costmap = make_costmap(navigation.grid, explorer.costmap_params)
+    start = mapper.start
+    summary = map_accuracy(navigation.grid, navigation.truth, start[:2], explorer.inscribed)
+    summary.update(explorer.exploration(explorer_context))
+    summary["scans_used"] = mapper.scans_used(mapper_context)
+    plant = world.plant
+    body = plant.get_body(next(iter(plant.GetFloatingBaseBodies())))
+    X = plant.EvalBodyPoseInWorld(plant.GetMyContextFromRoot(context), body)
+    truth = (*X.translation()[:2], X.rotation().ToRollPitchYaw().yaw_angle())
+    odometry, corrected = mapper.poses(mapper_context)
+    for name, pose in (("odometry", odometry), ("slam", corrected)):
+        summary[f"{name}_position_error"] = math.hypot(pose[0] - truth[0], pose[1] - truth[1])
+        summary[f"{name}_yaw_error"] = abs(math.remainder(pose[2] - truth[2], 2 * math.pi))
     return summary
 
 
@@ -97,8 +124,16 @@ def write_navigation_outputs(folder: Path, navigation, summary: dict, rows: np.n
             width=0.02,
         )
         axis.annotate(str(k + 1), (goal.x, goal.y), ha="center", va="center", fontsize=7)
-    axis.set_title(f"Navigation: {summary['reached']}/{len(summary['goals'])} goals reached, "
-                   f"{summary['collisions']} collisions")  # fmt: skip
+    mapping = summary.get("mapping")
+    if mapping:
+        axis.set_title(
+            f"Exploration: {mapping['explored_area']:.1f} m² mapped, "
+            f"{summary['collisions']} collisions\nmap precision {mapping['precision']:.3f}, "
+            f"recall {mapping['recall']:.3f}, coverage {mapping['coverage']:.3f}"
+        )
+    else:
+        axis.set_title(f"Navigation: {summary['reached']}/{len(summary['goals'])} goals "
+                       f"reached, {summary['collisions']} collisions")  # fmt: skip
     axis.set_xlabel("x [m]")
     axis.set_ylabel("y [m]")
     axis.set_aspect("equal")

@@ -35,7 +35,7 @@ from pydrake.systems.framework import DiagramBuilder
 
 from armando_drake.control.stack import ExportFreeControllerPorts
 from armando_drake.description.worlds import AddWorld
-from armando_drake.navigation.navigator import AddNavigation, ConnectLocalization
+from armando_drake.navigation.building import AddNavigation, ConnectLocalization
 from armando_drake.outputs.recording import AddRosbagRecorder
 from armando_drake.outputs.replay import AddVisualization
 from armando_drake.outputs.scan_view import AddScanViews

@@ -67,6 +67,7 @@ MIN_REALTIME_RATE = 1e-3
 # --duration given): one pass of a sequence longer than this is surely a typo.
 MAX_DEFAULT_DURATION = 3600.0
 NAVIGATION_TIME_PER_GOAL = 30.0  # [s] a navigation's default duration per goal
+EXPLORATION_GOALS = 4  # an exploration's default duration: as many goals' times
 # [s] the longest run accepted at all (about 11.6 simulated days): longer, the
 # run would not end in any useful time, as fast as it may go.
 MAX_DURATION = 1e6
@@ -321,8 +322,8 @@ def robot_view(scenario: Scenario, index: int) -> Scenario:
 def default_duration(scenario: Scenario) -> float:
     """[s] one pass of the command sequence; the task's motion and 0.5 s of holding
     without one; the learned IK's targets, a period each, without either; the twist
-    sequence and 1 s of stopping; the navigation's start delay and 30 s a goal; 2 s
-    without any; the longest of the robots' in a world of several."""
+    sequence and 1 s of stopping; the navigation's start delay and 30 s a goal (four for
+    an exploration); 2 s without any; the longest of the robots' in a world of several."""
     if scenario.robots:
         return max(default_duration(robot_view(scenario, i)) for i in range(len(scenario.robots)))
     if scenario.sequencer is None:
@@ -332,9 +333,10 @@ def default_duration(scenario: Scenario) -> float:
             learned = scenario.learned_ik
             return learned.start_delay + max(1, len(learned.targets)) * learned.period
         if scenario.navigation is not None:  # a bound: give simulation.duration
-            return scenario.navigation.start_delay + NAVIGATION_TIME_PER_GOAL * len(
-                scenario.navigation.goals
+            goals = (
+                len(scenario.navigation.goals) or EXPLORATION_GOALS * scenario.navigation.explore
             )
+            return scenario.navigation.start_delay + NAVIGATION_TIME_PER_GOAL * goals
         return 2.0 if scenario.twist is None else scenario.twist.one_pass() + 1.0
     return one_pass(scenario.sequencer)
 
