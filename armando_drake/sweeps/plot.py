@@ -20,7 +20,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from armando_drake.sweeps.errors import SweepError
-from armando_drake.sweeps.table import METRICS, ResultsTable
+from armando_drake.sweeps.table import METRICS, NAVIGATION_METRICS, ResultsTable
 
 FIGURE_SIZE = (8.0, 6.0)  # [inch]
 DPI = 100  # [pixel/inch]
@@ -46,7 +46,8 @@ def _finite(value) -> bool:
 
 
 def _metric_label(metric: str) -> str:
-    return f"{metric}: {METRICS[metric]}" if metric in METRICS else metric
+    described = {**METRICS, **NAVIGATION_METRICS}
+    return f"{metric}: {described[metric]}" if metric in described else metric
 
 
 def _cells(table: ResultsTable, axes: Sequence[str], metric: str):
