@@ -29,7 +29,7 @@ Examples:
   python -m armando_drake.sweep --grid 'actuators.kp=geomspace(1,64,7)' --ray auto --output out/k
   python -m armando_drake.sweep --grid 'actuators.kp=[4,8]' --dry-run
   python -m armando_drake.sweep --scenario fra2mo_goals \\
-      --grid 'nav.controller_server.FollowPath.desired_linear_vel=[0.3,0.5]' --metric nav_time --plot
+      --grid 'nav.controller_server.FollowPath.desired_linear_vel=[0.3,0.5]' --metric nav_time
   python -m armando_drake.sweep @diagrams/sweeps/nav2_configurations.args
 
 A key nav.NODE.PLUGIN.PARAMETER is a parameter of the navigation's Nav2 YAML
