@@ -36,6 +36,7 @@ from pydrake.systems.framework import DiagramBuilder
 from armando_drake.control.stack import ExportFreeControllerPorts
 from armando_drake.description.worlds import AddWorld
 from armando_drake.navigation.building import AddNavigation, ConnectLocalization
+from armando_drake.outputs.navigation_view import AddNavigationView
 from armando_drake.outputs.recording import AddRosbagRecorder
 from armando_drake.outputs.replay import AddVisualization
 from armando_drake.outputs.scan_view import AddScanViews
@@ -250,4 +251,5 @@ def _add_outputs(builder, scenario: Scenario, parts, scene_graph, meshcat, recor
             ground=scenario.ground and not scenario.world_file,
         )
         AddScanViews(builder, topics, meshcat)  # the lidars' scans as points
+        AddNavigationView(builder, topics, meshcat)  # map, costmap, plan and goals
     return replay_sampler, bridge

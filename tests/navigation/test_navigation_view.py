@@ -1,0 +1,78 @@
+"""The navigation drawn live in Meshcat (outputs/navigation_view.py): the map's occupied
+cells, the costmap's inflated ones, the plan the navigator follows and the goals."""
+
+from __future__ import annotations
+
+import msgpack
+import numpy as np
+import pytest
+from pydrake.geometry import Meshcat
+from pydrake.systems.analysis import Simulator
+
+from armando_drake.outputs.navigation_view import NAV_PATH, PLAN_HEIGHT, cell_centres
+from armando_drake.simulation.builder import MakeWorld
+from armando_drake.simulation.scenario import load_scenario
+
+
+@pytest.fixture(scope="module")
+def drawn():
+    meshcat = Meshcat()
+    scenario = load_scenario("fra2mo_goals", "logging: {console_rate: 0}")
+    world = MakeWorld(scenario, meshcat=meshcat, quiet=True)
+    simulator = Simulator(world.diagram)
+    simulator.AdvanceTo(3.0)  # the first goal planned (after the start delay) and driven to
+    view = world.diagram.GetSubsystemByName("navigation_view")
+    navigator = world.diagram.GetSubsystemByName(world.topics.navigation.navigator.get_name())
+    nav = navigator.GetOutputPort("nav_state").Eval(
+        navigator.GetMyContextFromRoot(simulator.get_context())
+    )
+    yield meshcat, view, world, nav
+    world.close(simulator.get_context())
+
+
+def _positions(meshcat: Meshcat, path: str) -> np.ndarray:
+    """The (n, 3) vertices of the Meshcat object at ``path`` (a line or a point cloud)."""
+    packed = msgpack.unpackb(meshcat._GetPackedObject(path), raw=False, strict_map_key=False)
+    array = packed["object"]["geometries"][0]["data"]["attributes"]["position"]["array"]
+    return np.frombuffer(array.data, dtype=np.float32).reshape(-1, 3)
+
+
+def test_the_plan_drawn_is_the_navigators(drawn):
+    meshcat, view, _, nav = drawn
+    assert nav.path is not None and len(nav.path) > 10
+    line = _positions(meshcat, f"{NAV_PATH}/plan")
+    assert view.plan_points == len(nav.path) == len(line)
+    assert np.abs(line[:, :2] - nav.path).max() < 1e-6
+    assert np.allclose(line[:, 2], PLAN_HEIGHT)
+
+
+def test_the_map_and_the_costmap_are_drawn_cell_by_cell(drawn):
+    meshcat, view, world, _ = drawn
+    grid = world.topics.navigation.grid
+    occupied = np.asarray(grid.data) >= 65
+    points = _positions(meshcat, f"{NAV_PATH}/map")
+    assert view.map_cells == occupied.sum() == len(points) > 100
+    expected = cell_centres(occupied, grid.resolution, grid.origin).T
+    assert np.abs(np.sort(points[:, 0]) - np.sort(expected[:, 0])).max() < 1e-5
+    costs = np.asarray(world.topics.navigation.costmap.costs)
+    inflated = ((costs > 0) & (costs < 254)).sum()
+    assert view.costmap_cells == inflated == len(_positions(meshcat, f"{NAV_PATH}/costmap"))
+
+
+def test_every_goal_is_drawn_where_it_is(drawn):
+    meshcat, view, _, nav = drawn
+    assert view.goals_drawn == [goal.name for goal in nav.goals] and len(nav.goals) == 4
+    for goal in nav.goals:
+        assert meshcat.HasPath(f"{NAV_PATH}/goals/{goal.name}/position")
+        heading = _positions(meshcat, f"{NAV_PATH}/goals/{goal.name}/heading")
+        direction = heading[1, :2] - heading[0, :2]
+        assert np.arctan2(direction[1], direction[0]) == pytest.approx(
+            np.arctan2(np.sin(goal.yaw), np.cos(goal.yaw)), abs=1e-5
+        )
+
+
+def test_cell_centres_follow_a_turned_origin():
+    mask = np.zeros((2, 3), bool)
+    mask[1, 2] = True  # row 1, column 2: local (2.5, 1.5) cells
+    xy = cell_centres(mask, 0.1, (1.0, 2.0, np.pi / 2))
+    assert xy[:, 0] == pytest.approx([1.0 - 0.15, 2.0 + 0.25])
