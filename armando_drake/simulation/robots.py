@@ -143,7 +143,10 @@ def AddRobotBodies(plant, scene_graph, scenario: Scenario) -> list[RobotParts]:
         part.robot = AddRobot(plant, view.robot, weld=False, model_name=part.name or None)
         # The controller YAML before the base is placed: a drive controller frees the base.
         part.controller_config = LoadControllerConfig(
-            view.controllers, part.robot, arguments=view.robot.xacro_args
+            view.controllers,
+            part.robot,
+            arguments=view.robot.xacro_args,
+            prefix=scenario.robots[part.index].prefix if scenario.robots else "",
         )
         part.mobile = AddMobileBase(
             plant,
