@@ -1,0 +1,108 @@
+"""In a world of several robots, each section names the robot it acts on and each robot
+has its own sensors: a task-space motion on the second of two Armandos moves only that
+one; two fra2mos each scan with their own lidar on /<namespace>/scan and broadcast their
+odometry as <namespace>/odom -> <namespace>/base_footprint on /tf; a scenario camera on
+the second Armando's link renders from there."""
+
+import numpy as np
+import pytest
+from pydrake.systems.analysis import Simulator
+
+from armando_drake.simulation.builder import MakeWorld
+from armando_drake.simulation.scenario import load_scenario
+from armando_drake.tools.errors import ConfigError
+
+PLANT = """plant_config:
+  time_step: 0.001
+  discrete_contact_approximation: lagged
+  use_sampled_output_ports: false
+logging: {console_rate: 0}
+simulator_config: {target_realtime_rate: 0}
+"""
+
+ARMANDO = """  - name: {name}
+    robot:
+      description: ""
+      xacro_args: {{use_camera: "false"}}
+      base_xyz: [{x}, 0.0, 0.0313]
+      base_rpy: [0.0, 0.0, {yaw}]
+    actuators: {{gravity_feedforward: true}}
+    controllers:
+      activate: [joint_state_broadcaster, {controller}]
+"""
+
+OFFSET = np.array([0.03, 0.05, 0.04])  # [m] the task's
+START = [0.3, 0.4, 0.9, 0.7]  # [rad] the right arm's start (the task's start_positions)
+RIGHT_YAW = 3.1416  # [rad]
+
+
+def _two_armandos(tmp_path, extra: str):
+    """Two Armandos (left at x = -0.25 m holding its position controller, right at 0.25 m
+    turned half a turn, on its trajectory controller) and ``extra`` keys."""
+    robots = ARMANDO.format(name="left", x=-0.25, yaw=0.0, controller="position_controller")
+    robots += ARMANDO.format(
+        name="right", x=0.25, yaw=RIGHT_YAW, controller="trajectory_controller"
+    )
+    path = tmp_path / "two.yaml"
+    path.write_text(f"robots:\n{robots}{extra}{PLANT}")
+    return load_scenario(path)
+
+
+def _tool(world, context, name: str) -> np.ndarray:
+    """The position [m] of robot ``name``'s crawer_base in the world."""
+    plant = world.topics.plant
+    part = next(p for p in world.robots if p.name == name)
+    frame = plant.GetFrameByName("crawer_base", part.robot.model_instance)
+    plant_context = plant.GetMyContextFromRoot(context)
+    return frame.CalcPoseInWorld(plant_context).translation()
+
+
+@pytest.fixture(scope="module")
+def task_on_right(tmp_path_factory):
+    """2 s of a 1.5 s linear task-space motion of the right arm: (its tool point and both
+    arms' joints at 0 and at the end)."""
+    task = (
+        "task:\n  robot: right\n  path: linear\n  offset: [0.03, 0.05, 0.04]\n"
+        "  duration: 1.5\n  acceleration_time: 0.4\n  end_effector: crawer_base\n"
+        f"  start_positions: {START}\n"
+        "simulation: {duration: 2.0}\n"
+    )
+    world = MakeWorld(_two_armandos(tmp_path_factory.mktemp("task"), task), quiet=True)
+    simulator = Simulator(world.diagram)
+    simulator.Initialize()
+    context = simulator.get_context()
+    before = {
+        n: (_tool(world, context, n), world.joint_positions(context, n)) for n in ("left", "right")
+    }
+    simulator.AdvanceTo(2.0)
+    after = {
+        n: (_tool(world, context, n), world.joint_positions(context, n)) for n in ("left", "right")
+    }
+    yield world, before, after
+    world.close(context)
+
+
+def test_a_task_on_the_second_robot_moves_it_along_its_path(task_on_right):
+    """The right arm starts at the task's start positions and its tool point ends 1 mm
+    within the offset (the task's frame is the world's, as the arm model's base)."""
+    world, before, after = task_on_right
+    assert np.allclose(before["right"][1], START, atol=1e-9)
+    moved = after["right"][0] - before["right"][0]
+    assert np.linalg.norm(moved - OFFSET) < 1e-3, moved
+    assert world.robots[1].topics.task is not None and world.robots[0].topics.task is None
+
+
+def test_a_task_on_the_second_robot_leaves_the_first_alone(task_on_right):
+    """The left arm holds its zero start (no task start positions) within 1 mrad."""
+    _, before, after = task_on_right
+    assert np.allclose(before["left"][1], 0.0, atol=1e-9)
+    assert np.abs(after["left"][1]).max() < 1e-3, after["left"][1]
+    assert np.linalg.norm(after["left"][0] - before["left"][0]) < 1e-3
+
+
+def test_a_section_naming_no_robot_is_one_line(tmp_path):
+    with pytest.raises(ConfigError) as error:
+        MakeWorld(_two_armandos(tmp_path, "task: {robot: middle}\n"), quiet=True)
+    message = str(error.value)
+    assert "\n" not in message, message
+    assert "task.robot='middle': no such robot (listed: left, right)" in message, message
