@@ -106,3 +106,80 @@ def test_a_section_naming_no_robot_is_one_line(tmp_path):
     message = str(error.value)
     assert "\n" not in message, message
     assert "task.robot='middle': no such robot (listed: left, right)" in message, message
+
+
+FRA2MO = """  - name: {name}
+    robot:
+      description: package://fra2mo_description/urdf/fra2mo.urdf.xacro
+      base_xyz: [0.0, {y}, 0.1]
+      base: auto
+    controllers:
+      activate: [joint_state_broadcaster]
+"""
+WALL = 1.0  # [m] the wall's face ahead of both (x), each lidar 1.0 m from it at the start
+
+
+@pytest.fixture(scope="module")
+def two_fra2mos(tmp_path_factory):
+    """1 s recorded of two fra2mos side by side facing a wall, b driving 0.2 m/s towards
+    it from 0.2 s: the bag's messages per topic."""
+    from rosbags.highlevel import AnyReader
+
+    folder = tmp_path_factory.mktemp("fra2mos")
+    robots = FRA2MO.format(name="a", y=-0.5) + FRA2MO.format(name="b", y=0.5)
+    robots += "    twist: {start_delay: 0.2, steps: [{linear: 0.2, angular: 0.0, duration: 1.0}]}\n"
+    wall = "objects:\n  - {name: wall, shape: !Box {size: [0.1, 3.0, 1.0]}, "
+    wall += f"xyz: [{WALL + 0.05}, 0.0, 0.5]}}\n"
+    path = folder / "fra2mos.yaml"
+    path.write_text(f"robots:\n{robots}{wall}{PLANT}")
+    bag = folder / "fra2mos.mcap"
+    world = MakeWorld(load_scenario(path), quiet=True, record=bag)
+    simulator = Simulator(world.diagram)
+    simulator.AdvanceTo(1.0)
+    world.close(simulator.get_context())
+    topics: dict[str, list] = {}
+    with AnyReader([bag]) as reader:
+        for connection, _, raw in reader.messages():
+            message = reader.deserialize(raw, connection.msgtype)
+            topics.setdefault(connection.topic, []).append(message)
+    return topics
+
+
+def _stamp(message) -> float:
+    return message.header.stamp.sec + 1e-9 * message.header.stamp.nanosec
+
+
+def test_each_fra2mo_scans_with_its_own_lidar(two_fra2mos):
+    """/a/scan and /b/scan at 10 Hz, each in its own frame; a's range straight ahead stays
+    1 m, b's shrinks by what b drove (its odometry nearest the scan's stamp) within 1 cm."""
+    bag = two_fra2mos
+    assert "/scan" not in bag
+    for name in ("a", "b"):
+        scans = bag[f"/{name}/scan"]
+        assert len(scans) == 10 and scans[0].header.frame_id == f"{name}/laser_frame"
+    first = bag["/a/scan"][0]
+    ahead = int(np.argmin(np.abs(first.angle_min + first.angle_increment * np.arange(640))))
+    assert all(abs(scan.ranges[ahead] - WALL) < 0.005 for scan in bag["/a/scan"])
+    odom = bag["/b/odom"]
+    for scan in bag["/b/scan"]:
+        at = min(odom, key=lambda message: abs(_stamp(message) - _stamp(scan)))
+        driven = at.pose.pose.position.x
+        assert abs(scan.ranges[ahead] - (WALL - driven)) < 0.01, (scan.ranges[ahead], driven)
+    assert bag["/b/scan"][-1].ranges[ahead] < WALL - 0.1
+
+
+def test_each_fra2mos_odometry_frames_are_under_its_namespace(two_fra2mos):
+    """/tf holds a/odom -> a/base_footprint and b/odom -> b/base_footprint (b's at b's
+    /b/odom pose); each /<name>/odom message names the same frames."""
+    bag = two_fra2mos
+    pairs = {}
+    for message in bag["/tf"]:
+        for transform in message.transforms:
+            pairs[(transform.header.frame_id, transform.child_frame_id)] = transform
+    assert {("a/odom", "a/base_footprint"), ("b/odom", "b/base_footprint")} <= set(pairs)
+    assert not any(frame == "odom" for frame, _ in pairs)
+    last = bag["/b/odom"][-1]
+    assert (last.header.frame_id, last.child_frame_id) == ("b/odom", "b/base_footprint")
+    moved = pairs[("b/odom", "b/base_footprint")].transform.translation.x
+    assert moved == pytest.approx(last.pose.pose.position.x, abs=1e-9) and moved > 0.1
+    assert abs(pairs[("a/odom", "a/base_footprint")].transform.translation.x) < 1e-3
