@@ -199,6 +199,7 @@ def _add_sensing(builder, scenario: Scenario, parts, scene_graph, meshcat, where
         host=host,
         where=f"{source}: " if source else "",
         source=sources_of(scenario).of("cameras"),
+        robots={part.name: part.robot for part in parts if part.name},
     )
     for part in parts:  # each robot's own sensors (a lidar)
         AddRobotSensors(builder, topics.plant, part)

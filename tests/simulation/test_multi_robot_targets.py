@@ -183,3 +183,42 @@ def test_each_fra2mos_odometry_frames_are_under_its_namespace(two_fra2mos):
     moved = pairs[("b/odom", "b/base_footprint")].transform.translation.x
     assert moved == pytest.approx(last.pose.pose.position.x, abs=1e-9) and moved > 0.1
     assert abs(pairs[("a/odom", "a/base_footprint")].transform.translation.x) < 1e-3
+
+
+def test_a_camera_on_the_second_robots_link_renders_from_there(tmp_path):
+    """Two scenario cameras of one pose, 0.12 m along +y of a base_link looking that way:
+    on right::base_link (turned half a turn: it looks along the world's -y) it sees the
+    wall whose face is at y = -1 m, 0.88 m away; on the bare base_link (the first
+    robot's, left) it looks along +y at nothing. Each sensor is on its robot's body."""
+    camera = "{{name: {name}, link: '{link}', xyz: [0.0, 0.12, 0.05], rpy: [0.0, 0.0, 1.5708], "
+    camera += "width: 32, height: 24, far: 5.0, type: rgbd_camera}}"
+    extra = "cameras:\n"
+    extra += f"  - {camera.format(name='on_right', link='right::base_link')}\n"
+    extra += f"  - {camera.format(name='on_left', link='base_link')}\n"
+    extra += "objects:\n  - {name: wall, shape: !Box {size: [3.0, 0.1, 1.0]}, "
+    extra += "xyz: [0.0, -1.05, 0.5]}\nsimulation: {duration: 0.1}\n"
+    world = MakeWorld(_two_armandos(tmp_path, extra), quiet=True)
+    context = world.diagram.CreateDefaultContext()
+    depth = {
+        name: world.diagram.GetOutputPort(f"{name}.depth_image").Eval(context).data[..., 0]
+        for name in ("on_right", "on_left")
+    }
+    centre = depth["on_right"][12, 16]
+    assert abs(centre - 0.88) < 0.005, centre
+    ahead = depth["on_left"][12, 16]  # the ground only in its lower rows
+    assert not np.isfinite(ahead) or ahead >= 5.0, ahead
+    plant = world.topics.plant
+    for name, part in (("on_right", world.robots[1]), ("on_left", world.robots[0])):
+        body = plant.GetBodyByName("base_link", part.robot.model_instance)
+        sensor = world.topics.cameras[name].sensor
+        assert sensor.default_parent_frame_id() == plant.GetBodyFrameIdOrThrow(body.index())
+    world.close(context)
+
+
+def test_a_camera_on_an_unknown_robot_is_one_line(tmp_path):
+    extra = "cameras: [{name: c, link: 'middle::base_link'}]\n"
+    with pytest.raises(ConfigError) as error:
+        MakeWorld(_two_armandos(tmp_path, extra), quiet=True)
+    message = str(error.value)
+    assert "\n" not in message, message
+    assert "link 'middle::base_link': no robot 'middle' (robots: left, right)" in message, message
