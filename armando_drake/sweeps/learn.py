@@ -268,6 +268,12 @@ def _parser():
         help=f"held-out poses Drake's IK solves for the table ({defaults.drake_poses})",
     )  # fmt: skip
     ik.add_argument("--quiet", action="store_true", help="no progress lines")
+    _node_parser(kinds, defaults)
+    return parser
+
+
+def _node_parser(kinds, defaults: TrainSettings) -> None:
+    """The ik-node command's options."""
     node = kinds.add_parser(
         "ik-node",
         help="a network as a DDS node: target_pose in, ik_solution out",
@@ -287,7 +293,6 @@ def _parser():
     node.add_argument(
         "--duration", type=float, default=0.0, metavar="S", help="seconds to run (0: Ctrl-C)"
     )
-    return parser
 
 
 def _run_node(args) -> int:
