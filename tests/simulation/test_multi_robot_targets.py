@@ -222,3 +222,23 @@ def test_a_camera_on_an_unknown_robot_is_one_line(tmp_path):
     message = str(error.value)
     assert "\n" not in message, message
     assert "link 'middle::base_link': no robot 'middle' (robots: left, right)" in message, message
+
+
+def test_each_robots_description_camera_is_added(tmp_path):
+    """Two Armandos with their camera stands (use_camera) and camera: {enabled: true}: the
+    first's camera keeps its name, the second's is right_<camera> on /right/<topic>, each
+    on its own robot's link."""
+    scenario = _two_armandos(tmp_path, "camera: {enabled: true, depth: false}\n")
+    for entry in scenario.robots:
+        entry.robot.xacro_args["use_camera"] = "true"
+    world = MakeWorld(scenario, quiet=True)
+    cameras = world.topics.cameras
+    assert len(cameras) == 2, list(cameras)
+    first, second = cameras.values()
+    assert second.info.name == f"right_{first.info.name}"
+    assert second.info.topic == f"/right/{(first.info.topic or first.info.name).strip('/')}"
+    plant = world.topics.plant
+    for camera, part in ((first, world.robots[0]), (second, world.robots[1])):
+        body = plant.GetBodyByName(camera.info.link, part.robot.model_instance)
+        assert camera.sensor.default_parent_frame_id() == plant.GetBodyFrameIdOrThrow(body.index())
+    world.close(world.diagram.CreateDefaultContext())
