@@ -242,3 +242,31 @@ def test_each_robots_description_camera_is_added(tmp_path):
         body = plant.GetBodyByName(camera.info.link, part.robot.model_instance)
         assert camera.sensor.default_parent_frame_id() == plant.GetBodyFrameIdOrThrow(body.index())
     world.close(world.diagram.CreateDefaultContext())
+
+
+# [m, rad] the right arm's crawer_base in the world at j = [0.4, 0.5, 0.8, 0.3]
+RIGHT_TARGET = [0.162058286, 0.200449878, 0.243495052, 1.6, 0.0, -2.741585307]
+
+
+def test_the_learned_ik_on_the_second_robot_reaches_its_world_target(tmp_path):
+    """learned_ik: {robot: right}: the right arm's gripper reaches the world target within
+    1 mm in 2 s (the network's answer in the right arm's base frame); the left arm is
+    not commanded."""
+    pytest.importorskip("onnxruntime")
+    extra = (
+        "learned_ik:\n  robot: right\n  network: models/learned_ik/armando_ik_network.onnx\n"
+        f"  targets: [{RIGHT_TARGET}]\n  period: 2.0\nsimulation: {{duration: 2.0}}\n"
+    )
+    robots = ARMANDO.format(name="left", x=-0.25, yaw=0.0, controller="position_controller")
+    robots += ARMANDO.format(name="right", x=0.25, yaw=RIGHT_YAW, controller="position_controller")
+    path = tmp_path / "learned.yaml"
+    path.write_text(f"robots:\n{robots}{extra}{PLANT}")
+    world = MakeWorld(load_scenario(path), quiet=True)
+    simulator = Simulator(world.diagram)
+    simulator.AdvanceTo(2.0)
+    context = simulator.get_context()
+    error = np.linalg.norm(_tool(world, context, "right") - RIGHT_TARGET[:3])
+    assert error < 1e-3, error
+    assert np.abs(world.joint_positions(context, "left")).max() < 1e-3
+    assert world.robots[1].topics.learned_ik is not None
+    world.close(context)
