@@ -8,9 +8,11 @@ exist only in the built site, so they cannot go stale:
   ``armando_drake/simulation/scenario.py`` (type, default, unit and range from
   ``tools.schema.param``, meaning from the comment above the field);
 - ``reference/controller-parameters.md``: every controller type's parameters
-  (``armando_drake.control.params_doc``).
+  (``armando_drake.control.params_doc``);
+- ``reference/navigation-parameters.md``: the Nav2 parameters of the implemented plugins,
+  honoured or not (``armando_drake.navigation.reference``).
 
-``python docs/hooks.py DIR`` writes the three pages into DIR, to read them without a build.
+``python docs/hooks.py DIR`` writes the four pages into DIR, to read them without a build.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
 from armando_drake.control import params_doc  # noqa: E402
+from armando_drake.navigation import reference as navigation_reference  # noqa: E402
 from armando_drake.simulation.scenario import Scenario  # noqa: E402
 from armando_drake.tools.schema import field_rules, range_text  # noqa: E402
 
@@ -300,10 +303,30 @@ def controller_parameters_page() -> str:
     )
 
 
+def navigation_parameters_page() -> str:
+    return "\n".join(
+        [
+            "# Navigation parameters",
+            "",
+            "Generated at each build of these pages from the tables the Nav2 YAML loaders use",
+            "(`armando_drake/navigation/reference.py`; `python -m",
+            "armando_drake.navigation.reference` prints the same tables). For each implemented",
+            "node and plugin, every parameter the loaders know: *honoured* (applied as Nav2",
+            "does), *accepted, no effect here* (read without a warning: frames, topics, rates",
+            "of a ROS node) or *warned: not applied* (a warning names it, with why). A key in",
+            "none of these is warned about as not used. How the navigation works:",
+            "[Navigation](../navigation.md).",
+            "",
+            navigation_reference.render(),
+        ]
+    )
+
+
 PAGES = {
     "reference/cli.md": cli_page,
     "reference/scenario-keys.md": scenario_keys_page,
     "reference/controller-parameters.md": controller_parameters_page,
+    "reference/navigation-parameters.md": navigation_parameters_page,
 }
 
 

@@ -153,5 +153,41 @@ def test_site_builds_without_a_warning(tmp_path):
     assert "sequencer !Sinusoid: frequency" in keys
     parameters = (site / "reference" / "controller-parameters" / "index.html").read_text()
     assert "constraints.goal_time" in parameters
+    navigation = (site / "reference" / "navigation-parameters" / "index.html").read_text()
+    assert "inflation_radius" in navigation and "warned: not applied" in navigation
     pages = list(site.rglob("index.html"))
     assert len(pages) >= 25, len(pages)
+
+
+def test_navigation_parameters_page_lists_the_course_keys(fra2mo_package):
+    """Every key the course's navigation.yaml gives the implemented nodes and plugins is in
+    the generated page, in its node's or plugin's table."""
+    import yaml
+
+    sys.path.insert(0, str(REPO / "docs"))
+    try:
+        hooks = importlib.import_module("hooks")
+    finally:
+        sys.path.remove(str(REPO / "docs"))
+    page = hooks.navigation_parameters_page()
+    tables = {}
+    for block in page.split("\n## ")[1:]:
+        title = block.splitlines()[0]
+        tables[title.split(" ")[0]] = set(re.findall(r"^\| `([^`]+)` \|", block, re.M))
+    doc = yaml.safe_load((fra2mo_package / "config" / "navigation.yaml").read_text())
+    ros = {node: doc[node]["ros__parameters"] for node in ("amcl", "controller_server")}
+    ros["planner_server"] = doc["planner_server"]["ros__parameters"]
+    ros["global_costmap"] = doc["global_costmap"]["global_costmap"]["ros__parameters"]
+    expected = []  # (table, key)
+    for node, params in ros.items():
+        layers = params.get("plugins", [])
+        plugins = {"FollowPath", "goal_checker", "progress_checker", "GridBased"}
+        for key, value in params.items():
+            if key in ("static_layer", "inflation_layer", *plugins) and isinstance(value, dict):
+                expected += [(key, inner) for inner in value]
+            elif key not in layers:  # the obstacle layer: not implemented
+                expected.append((node, key))
+    missing = [(table, key) for table, key in expected if key not in tables[table]]
+    assert missing == [] and len(expected) > 80
+    assert "| `desired_linear_vel` | honoured |" in page
+    assert "| `min_particles` | warned: not applied | KLD sampling" in page

@@ -233,12 +233,15 @@ def test_a_package_data_pattern_removed_fails_the_check(tmp_path):
     source = tmp_path / "source"
     shutil.copytree(REPO, source, ignore=_not_source)
     pyproject = source / "pyproject.toml"
-    pattern = '"armando_drake.diagrams" = ["*.yaml"]\n'
+    pattern = '"armando_drake.diagrams" = ["*.yaml", "sweeps/*.args"]\n'
     assert pattern in pyproject.read_text()
     pyproject.write_text(pyproject.read_text().replace(pattern, ""))
     _build(source, tmp_path / "dist", "--wheel")
     (wheel,) = (tmp_path / "dist").glob("armando_drake-*.whl")
-    scenarios = [f"armando_drake/diagrams/{p.name}" for p in _files_under(REPO / "diagrams")]
+    scenarios = [
+        f"armando_drake/diagrams/{p.relative_to(REPO / 'diagrams').as_posix()}"
+        for p in _files_under(REPO / "diagrams")
+    ]
     assert "armando_drake/diagrams/position.yaml" in scenarios
     assert missing_from_wheel(wheel) == sorted(scenarios)
 

@@ -43,7 +43,9 @@ same machine load:
     arena of walls, crates and pillars, its DiffDrive plugin driven by a cmd_vel
     sequence, its lidar scanning at 10 Hz, the base log on), target >= 2; and of
     ``diagrams/fra2mo_goals.yaml`` (four navigation goals: NavFn and Regulated Pure
-    Pursuit at 20 Hz), target >= 1.
+    Pursuit at 20 Hz), target >= 1; and of ``diagrams/fra2mo_amcl.yaml`` (the same goals
+    localized by AMCL on the saved map: the lidar at 10 Hz, the costmap, the particle
+    count of the Nav2 YAML, the controller at its rate), target >= 1.
 12. learned IK: milliseconds per pose of the learned inverse kinematics network
     (``models/learned_ik/armando_ik_network.onnx`` in ONNX Runtime), alone (budget
     0.2 ms) and with 3 Gauss-Newton steps, and of Drake's InverseKinematics.
@@ -311,7 +313,8 @@ def bench_mobile(report: Report, duration: float, navigation: float, exploration
     """fra2mo (diagrams/fra2mo.yaml): a floating base on its wheels in contact with the
     floor (2 ms steps) in its arena, its DiffDrive plugin at 100 Hz, its lidar (640 beams,
     360 deg) at 10 Hz, a cmd_vel sequence, the base log; then driving to the goals of
-    diagrams/fra2mo_goals.yaml for ``navigation`` seconds; exploring the arena for
+    diagrams/fra2mo_goals.yaml for ``navigation`` seconds, then localized by AMCL
+    (:func:`bench_amcl`); exploring the arena for
     ``exploration`` seconds (:func:`bench_exploration`)."""
     rtf = [pipeline_rtf("fra2mo", duration) for _ in range(report.repeat)]
     report.add(Row("mobile", f"fra2mo driving a cmd_vel sequence, {duration:g} s", RTF, rtf)).check(
@@ -320,6 +323,7 @@ def bench_mobile(report: Report, duration: float, navigation: float, exploration
     rtf = [pipeline_rtf("fra2mo_goals", navigation) for _ in range(report.repeat)]
     what = f"fra2mo navigating to four goals, {navigation:g} s"
     report.add(Row("mobile", what, RTF, rtf)).check(">=", 1.0)
+    bench_amcl(report, navigation)
     report.notes.append(
         "Mobile: diagrams/fra2mo.yaml (straight, turn, straight in the arena of "
         "models/fra2mo_description/worlds/arena.sdf, the lidar at 10 Hz) with the CSV "
@@ -328,6 +332,23 @@ def bench_mobile(report: Report, duration: float, navigation: float, exploration
         "a scan."
     )
     bench_exploration(report, exploration)
+
+
+def bench_amcl(report: Report, duration: float) -> None:
+    """fra2mo to the four goals localized by AMCL on the saved map (diagrams/fra2mo_amcl.yaml:
+    the lidar at 10 Hz, the costmap, the particle count of the Nav2 YAML's amcl section, the
+    controller at its controller_frequency) for ``duration`` seconds."""
+    results = [run_scenario("fra2mo_amcl", duration) for _ in range(report.repeat)]
+    what = f"fra2mo_goals with AMCL (lidar 10 Hz, costmap, YAML particles), {duration:g} s"
+    report.add(Row("mobile", what, RTF, [r.realtime_factor for r in results])).check(">=", 1.0)
+    navigation = results[-1].navigation or {}
+    localization = navigation.get("localization") or {}
+    settled = localization.get("max_position_error_settled")
+    report.notes.append(
+        "AMCL: diagrams/fra2mo_amcl.yaml, not paced; "
+        f"{navigation.get('reached')} goals reached, AMCL's largest position error once settled "
+        + (f"{settled:.3f} m." if settled is not None else "not measured (too short a run).")
+    )
 
 
 def bench_exploration(report: Report, duration: float) -> None:

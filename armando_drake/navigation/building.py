@@ -25,6 +25,7 @@ from armando_drake.navigation.navigator import (
     navigation_map,
     resolve_file,
 )
+from armando_drake.navigation.overrides import overridden_file
 from armando_drake.navigation.planner import planner_parameters
 from armando_drake.navigation.slam import SlamMapper, canvas, slam_parameters
 from armando_drake.navigation.world_map import LIDAR_TYPES
@@ -43,6 +44,8 @@ def AddNavigation(builder, config, stack, *, where: str = "") -> Navigation:
 
 def _read(reader, key: str, config, where: str):
     path = resolve_file(getattr(config, key), f"navigation.{key}", where)
+    if key == "params_file":
+        path = overridden_file(path, config.params_overrides, where)
     try:
         return reader(path)
     except ConfigError as error:

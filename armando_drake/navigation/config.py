@@ -43,6 +43,10 @@ class NavigationConfig:
     # The Nav2 parameter file (planner_server, controller_server, global_costmap): a
     # path, or package://pkg/...
     params_file: str = ""
+    # Parameters of the Nav2 file replaced (or added) for this run, by their dotted
+    # path without the ros__parameters level:
+    # {controller_server.FollowPath.desired_linear_vel: 0.3} (navigation/overrides.py).
+    params_overrides: dict[str, float] = dc.field(default_factory=dict)
     # A map_server map YAML; "" = the world's collision geometry cut at the lidar's
     # height (navigation/world_map.py).
     map: str = ""

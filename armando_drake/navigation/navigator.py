@@ -55,6 +55,7 @@ from armando_drake.navigation.follower import (
     wrap,
 )
 from armando_drake.navigation.maps import OccupancyMap, load_map
+from armando_drake.navigation.overrides import overridden_file
 from armando_drake.navigation.planner import (
     PlannerParameters,
     PlanningError,
@@ -572,6 +573,7 @@ def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") 
             f"(active: {', '.join(stack.controllers) or 'none'})"
         )
     params_file = resolve_file(config.params_file, "navigation.params_file", where)
+    params_file = overridden_file(params_file, config.params_overrides, where)
     try:
         costmap_params = costmap_parameters(params_file)
         planner = planner_parameters(params_file)

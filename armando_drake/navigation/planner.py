@@ -17,6 +17,7 @@ blocked or unreachable is replaced by the reachable cell nearest to it within
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,6 +36,12 @@ COST_NEUTRAL = 50
 COST_FACTOR = 0.8
 COST_OBS = 254
 NAVFN = "nav2_navfn_planner/NavfnPlanner"
+# The NavFn plugin's keys read here (any other is warned about), and planner_server's own
+# keys accepted without effect (expected_planner_frequency is the controller's to read).
+PLANNER_KEYS = ("plugin", "tolerance", "use_astar", "allow_unknown")
+PLANNER_SERVER_KNOWN = {"use_sim_time", "planner_plugins", "expected_planner_frequency"}
+
+_log = logging.getLogger("armando_drake.navigation")
 
 
 class PlanningError(UserInputError):
@@ -68,6 +75,9 @@ def planner_parameters(path: str | Path, name: str = "GridBased") -> PlannerPara
     params.tolerance = float(tolerance)
     params.use_astar = bool(node.get("use_astar", params.use_astar))
     params.allow_unknown = bool(node.get("allow_unknown", params.allow_unknown))
+    for key in node:
+        if key not in PLANNER_KEYS:
+            _log.warning("%s.%s: not used here", where, key)
     return params
 
 

@@ -16,7 +16,11 @@ so the first 100 samples of a 200-sample sweep are the 100 of a 100-sample one).
 A key path names a field of the scenario YAML, segments separated by dots
 (``actuators.kp``). A segment may carry a YAML type tag for a tagged union
 field, ``name!Tag``: ``sequencer!PositionTargets.period=[2, 3]`` becomes
-``--set 'sequencer: !PositionTargets {period: 2}'``. A variant's overrides are
+``--set 'sequencer: !PositionTargets {period: 2}'``. A key path
+``nav.NODE.PLUGIN.PARAMETER`` names a parameter of the navigation's Nav2 YAML
+(``nav.controller_server.FollowPath.desired_linear_vel=[0.3, 0.5]``): the run gets it as
+``navigation: {params_overrides: {controller_server.FollowPath.desired_linear_vel: 0.3}}``
+(navigation/overrides.py). A variant's overrides are
 one ``--set`` YAML string per top-level key, all its axes merged:
 ``actuators.kp=4`` and ``actuators.kd=0.1`` make ``actuators: {kp: 4, kd: 0.1}``.
 """
@@ -63,6 +67,8 @@ class KeyPath:
 
     @staticmethod
     def parse(text: str, option: str = "--grid") -> KeyPath:
+        if text.strip().startswith(NAV_PREFIX):
+            return _nav_key(text, option)
         segments = []
         for part in text.strip().split("."):
             match = _SEGMENT.match(part)
@@ -73,6 +79,22 @@ class KeyPath:
                 )
             segments.append((match[1], match[2]))
         return KeyPath(text.strip(), tuple(segments))
+
+
+NAV_PREFIX = "nav."  # nav.KEY: a Nav2 parameter, navigation.params_overrides's KEY
+
+
+def _nav_key(text: str, option: str) -> KeyPath:
+    """``nav.controller_server.FollowPath.desired_linear_vel``: the Nav2 parameter's
+    dotted path as one key of ``navigation.params_overrides``."""
+    parameter = text.strip()[len(NAV_PREFIX) :]
+    if not all(re.match(r"^[A-Za-z_][A-Za-z0-9_]*$", part) for part in parameter.split(".")):
+        raise SweepError(
+            f"{option} {text!r}: {parameter!r} is not a Nav2 parameter path "
+            "(node.plugin.parameter, ros__parameters left out)"
+        )
+    segments = (("navigation", None), ("params_overrides", None), (parameter, None))
+    return KeyPath(text.strip(), segments)
 
 
 @dataclass(frozen=True)

@@ -16,14 +16,16 @@ from __future__ import annotations
 
 import math
 import statistics
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 
 from armando_drake.sweeps.errors import SweepError
-from armando_drake.sweeps.table import METRICS, ResultsTable
+from armando_drake.sweeps.table import METRICS, NAVIGATION_METRICS, ResultsTable
 
 FIGURE_SIZE = (8.0, 6.0)  # [inch]
 DPI = 100  # [pixel/inch]
+LONG_LABEL = 30  # [characters] longer axis values are numbered on the axis, listed below
 MAX_GRID_VALUES = 40  # more distinct values on an axis than this: drawn as random samples
 
 
@@ -46,7 +48,8 @@ def _finite(value) -> bool:
 
 
 def _metric_label(metric: str) -> str:
-    return f"{metric}: {METRICS[metric]}" if metric in METRICS else metric
+    described = {**METRICS, **NAVIGATION_METRICS}
+    return f"{metric}: {described[metric]}" if metric in described else metric
 
 
 def _cells(table: ResultsTable, axes: Sequence[str], metric: str):
@@ -95,7 +98,8 @@ def plot_sweep(
         _scatter(figure, ax, cells, metric)
     else:
         _line(ax, cells, levels[0], metric)
-    ax.set_xlabel(axes[0])
+    if not ax.get_xlabel():
+        ax.set_xlabel(axes[0])
     if len(axes) == 2:
         ax.set_ylabel(axes[1])
     else:
@@ -174,5 +178,11 @@ def _line(ax, cells, xs, metric) -> None:
         ax.plot(bad, [0.02] * len(bad), "x", color="red", transform=edge, label="failed or n/a")
         ax.legend(loc="best", fontsize=8)
     if not numeric:
-        ax.set_xticks(positions, [_label(x) for x in xs])
+        labels = [_label(x) for x in xs]
+        if max(len(label) for label in labels) > LONG_LABEL:  # numbered, listed below
+            notes = [f"[{k}] {label}" for k, label in enumerate(labels)]
+            text = "\n".join(textwrap.fill(note, 120, subsequent_indent="    ") for note in notes)
+            ax.set_xlabel(text, fontsize=7, loc="left")
+            labels = [f"[{k}]" for k in range(len(labels))]
+        ax.set_xticks(positions, labels)
     ax.grid(True, alpha=0.3)

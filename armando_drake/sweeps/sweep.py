@@ -28,6 +28,12 @@ Examples:
   python -m armando_drake.sweep --grid 'actuators.kp=[2,4,8,16]' --output out/gains --resume
   python -m armando_drake.sweep --grid 'actuators.kp=geomspace(1,64,7)' --ray auto --output out/k
   python -m armando_drake.sweep --grid 'actuators.kp=[4,8]' --dry-run
+  python -m armando_drake.sweep --scenario fra2mo_goals \\
+      --grid 'nav.controller_server.FollowPath.desired_linear_vel=[0.3,0.5]' --metric nav_time
+  python -m armando_drake.sweep @diagrams/sweeps/nav2_configurations.args
+
+A key nav.NODE.PLUGIN.PARAMETER is a parameter of the navigation's Nav2 YAML
+(navigation.params_overrides). @FILE reads arguments from FILE, one a line.
 """
 
 from __future__ import annotations
@@ -47,7 +53,7 @@ from armando_drake.sweeps.axes import Variant, make_variants, parse_grid, parse_
 from armando_drake.sweeps.engines import make_engine
 from armando_drake.sweeps.errors import SweepError, reported
 from armando_drake.sweeps.plot import plot_sweep
-from armando_drake.sweeps.table import METRICS, ResultsTable, row
+from armando_drake.sweeps.table import METRICS, NAVIGATION_METRICS, ResultsTable, row
 from armando_drake.sweeps.variant import INTERRUPTED, OK, VariantResult, VariantTask, run_variant
 from armando_drake.tools.cli import command_parser
 
@@ -364,6 +370,8 @@ def _add_figure_options(parser: argparse.ArgumentParser) -> None:
         default="settle_time",
         help="the column to draw: "
         + ", ".join(f"{name} ({what})" for name, what in METRICS.items())
+        + "; with a navigation: "
+        + ", ".join(NAVIGATION_METRICS)
         + ", or any column of the table such as summary.tracking_error (default: settle_time)",
     )
     plot.add_argument(
@@ -376,6 +384,7 @@ def _add_figure_options(parser: argparse.ArgumentParser) -> None:
 def _parser() -> argparse.ArgumentParser:
     """The sweep's command line."""
     parser = command_parser("armando_drake.sweep", __doc__)
+    parser.fromfile_prefix_chars = "@"  # @FILE: the arguments of a sweep file, one a line
     _add_scenario_options(parser)
     _add_axis_options(parser)
     _add_run_options(parser)

@@ -12,6 +12,10 @@ Columns, in this order:
 - the metrics of :func:`metrics`: ``max_error`` [rad] (largest final error of
   any step), ``final_error`` [rad] (of the last step), ``settle_time`` [s]
   (longest time to settle of any step; empty if some step never settled);
+- with a navigation (the summary's ``navigation`` section), the metrics of
+  :data:`NAVIGATION_METRICS` (:func:`navigation_metrics`): ``nav_reached``,
+  ``nav_time``, ``nav_path_length``, ``nav_position_error``, ``nav_yaw_error``,
+  ``nav_collisions``;
 - ``summary.<path>``: every number of the run's ``summary.json``, flattened
   with dots (``summary.sim_time``, ``summary.steps.1.final_error``,
   ``summary.steps.1.reached.0``); booleans too, strings not.
@@ -36,6 +40,15 @@ METRICS = {
     "max_error": "largest final error of any step [rad]",
     "final_error": "final error of the last step [rad]",
     "settle_time": "longest time to settle within 0.01 rad of any step [s]",
+}
+
+NAVIGATION_METRICS = {
+    "nav_reached": "goals reached",
+    "nav_time": "total time of the reached goals, each from its start to its end [s]",
+    "nav_path_length": "length driven over all goals [m]",
+    "nav_position_error": "mean final position error over the goals [m]",
+    "nav_yaw_error": "mean final yaw error over the goals [rad]",
+    "nav_collisions": "episodes of contact between the robot and the world",
 }
 
 
@@ -69,6 +82,28 @@ def metrics(summary: Mapping[str, Any] | None) -> dict[str, float | None]:
     }
 
 
+def navigation_metrics(summary: Mapping[str, Any] | None) -> dict[str, float | None]:
+    """The metrics of :data:`NAVIGATION_METRICS` from a run's summary ({} without navigation)."""
+    navigation = (summary or {}).get("navigation")
+    if not isinstance(navigation, Mapping):
+        return {}
+    goals = navigation.get("goals") or []
+
+    def mean(key: str) -> float | None:
+        values = [g[key] for g in goals if g.get(key) is not None]
+        return sum(values) / len(values) if values else None
+
+    times = [g["time"] for g in goals if g.get("reached") and g.get("time") is not None]
+    return {
+        "nav_reached": navigation.get("reached"),
+        "nav_time": sum(times) if times else None,
+        "nav_path_length": sum(g.get("path_length") or 0.0 for g in goals),
+        "nav_position_error": mean("position_error"),
+        "nav_yaw_error": mean("yaw_error"),
+        "nav_collisions": navigation.get("collisions"),
+    }
+
+
 def row(values: Mapping[str, Any], result: VariantResult) -> dict[str, Any]:
     """One row of the table: the variant's values, its result, metrics and summary numbers."""
     record = {"variant": result.index}
@@ -81,6 +116,7 @@ def row(values: Mapping[str, Any], result: VariantResult) -> dict[str, Any]:
         host=result.host,
     )
     record.update(metrics(result.summary))
+    record.update(navigation_metrics(result.summary))
     if result.summary is not None:
         record.update(flatten(result.summary, "summary"))
     return record

@@ -120,3 +120,24 @@ def test_mobile_robot(monkeypatch):
     )
     assert scan and int(scan[1]) >= 40 and int(scan[2]) > 300
     assert 0.1 <= float(scan[3]) < 2.0
+
+
+def test_navigation(monkeypatch):
+    text, pictures = run_notebook("10_navigation", monkeypatch, timeout=240)
+    assert pictures == 3  # the navigation figure, map and costmap, the sweep's figure
+    assert re.search(r"^goal \(0.7, -0.6, -1.0\): SUCCEEDED at t = \S+ s$", text, re.M)
+    error = re.search(
+        r"^goal: reached True, position error (\S+) m, yaw error (\S+) rad",
+        text,
+        re.M,
+    )
+    assert error and float(error[1]) <= 0.1 and float(error[2]) <= 0.2
+    assert "goals reached: 1/1, collisions: 0" in text
+    cells = re.search(
+        r"^occupied cells: (\d+), lethal or inscribed costmap cells: (\d+)$", text, re.M
+    )
+    assert cells and int(cells[2]) > int(cells[1]) > 100  # inflated by the robot's radius
+    rows = re.findall(r"^([01]) +(\d) +(\S+) +(\S+) +(\S+) +(\S+) +(\d+)  (0\.[46])$", text, re.M)
+    assert [(r[0], r[7]) for r in rows] == [("0", "0.4"), ("1", "0.6")]
+    assert all(r[1] == "1" and r[6] == "0" for r in rows)  # the first goal, no collision
+    assert float(rows[1][2]) < float(rows[0][2])  # faster

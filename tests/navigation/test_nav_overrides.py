@@ -1,0 +1,40 @@
+"""navigation.params_overrides: Nav2 parameters replaced by dotted path, typed as the file's."""
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from armando_drake.navigation.follower import controller_parameters
+from armando_drake.navigation.overrides import apply_overrides, overridden_file
+from armando_drake.tools.errors import ConfigError
+
+NAV2 = Path(__file__).parents[2] / "models/fra2mo_description/config/navigation.yaml"
+
+
+def test_overrides_reach_the_readers_with_the_files_types():
+    overrides = {
+        "controller_server.FollowPath.desired_linear_vel": 0.25,
+        "controller_server.FollowPath.use_collision_detection": 0,
+        "amcl.max_particles": 200.0,
+    }
+    merged = overridden_file(NAV2, overrides)
+    assert merged != NAV2
+    doc = yaml.safe_load(merged.read_text())
+    amcl = doc["amcl"]["ros__parameters"]
+    assert amcl["max_particles"] == 200 and type(amcl["max_particles"]) is int
+    follow = doc["controller_server"]["ros__parameters"]["FollowPath"]
+    assert follow["use_collision_detection"] is False
+    assert controller_parameters(merged).rpp.desired_linear_vel == 0.25
+    assert controller_parameters(NAV2).rpp.desired_linear_vel == 0.4  # the file is untouched
+    assert overridden_file(NAV2, {}) == NAV2
+
+
+def test_a_wrong_path_or_type_is_refused_by_name():
+    doc = yaml.safe_load(NAV2.read_text())
+    with pytest.raises(ConfigError, match=r"controller_server.FolowPath.*no 'controller_server"):
+        apply_overrides(doc, {"controller_server.FolowPath.lookahead_dist": 0.5})
+    with pytest.raises(ConfigError, match=r"amcl.max_particles=2.5: an integer is needed"):
+        apply_overrides(doc, {"amcl.max_particles": 2.5})
+    with pytest.raises(ConfigError, match=r"use_interpolation=2.0: .*true/false"):
+        apply_overrides(doc, {"controller_server.FollowPath.use_interpolation": 2.0})
