@@ -591,12 +591,19 @@ def load_controller_config(
     *,
     strict: bool = True,
     arguments: dict[str, str] | None = None,
+    prefix: str = "",
+    joint_names: Sequence[str] = (),
 ) -> ControllerManagerConfig:
     """The controller manager configuration in the parameter file(s) ``paths`` (several
     as ``--param-file`` takes them: in order, later values winning). ``arguments``:
     the launch arguments ``$(var name)`` stands for (else the defaults the launch files
     of the file's package declare). ``strict``: see
-    :func:`parse_controller_documents`."""
+    :func:`parse_controller_documents`.
+
+    ``prefix``: the description's joints (``joint_names``) carry it (its ``prefix``
+    xacro argument): a joint the files name without it, as a launch file substitutes
+    the prefix into them, is read as the prefixed one (one info line); a joint that
+    matches neither stays, for :func:`validate_joints` to refuse."""
     files = [paths] if isinstance(paths, (str, os.PathLike)) else list(paths)
     if not files:
         raise ControllerConfigError("no controller file given")
@@ -606,7 +613,36 @@ def load_controller_config(
             documents.append((str(Path(path)), read_param_file(path, arguments)))
         except ParamFileError as error:
             raise ControllerConfigError(str(error)) from None
+    config = parse_controller_documents(documents, strict=strict)
+    if not prefix:
+        return config
+    known = set(joint_names)
+    named = {joint for controller in config.controllers.values() for joint in controller.joints}
+    renamed = {
+        joint: prefix + joint for joint in named if joint not in known and prefix + joint in known
+    }
+    if not renamed:
+        return config
+    _logger.info(
+        "%s names the description's joints without their prefix %r: read as %s",
+        config.source,
+        prefix,
+        ", ".join(renamed[joint] for joint in sorted(renamed)),
+    )
+    documents = [(source, _renamed(data, renamed)) for source, data in documents]
     return parse_controller_documents(documents, strict=strict)
+
+
+def _renamed(data: Any, names: dict[str, str]) -> Any:
+    """``data`` (a parameter file's YAML) with each string and mapping key of ``names``
+    replaced by its value (a joint named in a list, or as a key of its gains)."""
+    if isinstance(data, dict):
+        return {names.get(key, key): _renamed(value, names) for key, value in data.items()}
+    if isinstance(data, list):
+        return [_renamed(value, names) for value in data]
+    if isinstance(data, str):
+        return names.get(data, data)
+    return data
 
 
 def validate_joints(

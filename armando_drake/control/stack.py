@@ -233,18 +233,27 @@ class ControlStack:
 
 
 def LoadControllerConfig(
-    config: ControllersConfig, robot: LoadedRobot, *, arguments: dict[str, str] | None = None
+    config: ControllersConfig,
+    robot: LoadedRobot,
+    *,
+    arguments: dict[str, str] | None = None,
+    prefix: str = "",
 ) -> ControllerManagerConfig:
     """The controller parameter files of ``config``, of the description's
     ``<gazebo><plugin>`` ``<parameters>``, of the description package
     (:func:`package_controller_files`), or a default on the joints the hardware
     interface will actuate. ``arguments``: the launch arguments of ``$(var name)``
     (``config.arguments`` win). Read leniently: a controller whose parameters cannot
-    be used fails only when activated."""
+    be used fails only when activated. ``prefix``: the description's ``prefix`` xacro
+    argument; a file naming its joints without it is read with it
+    (:func:`~armando_drake.control.config.load_controller_config`)."""
     arguments = {**(arguments or {}), **config.arguments}
+    joint_names = [joint.name for joint in robot.joints]
 
     def load(files):
-        return load_controller_config(files, strict=False, arguments=arguments)
+        return load_controller_config(
+            files, strict=False, arguments=arguments, prefix=prefix, joint_names=joint_names
+        )
 
     if config.config:
         return load([Path(path).expanduser() for path in config.config])

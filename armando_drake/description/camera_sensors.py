@@ -69,6 +69,8 @@ class CameraSensorInfo:
     rpy: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # [rad] sensor in link
     noise: CameraNoise | None = None  # colour noise, None = noise-free
     source: str = ""  # the file the block came from (for messages)
+    # In a world of several robots, the robot whose link it is on ("" = the one given).
+    robot: str = ""
 
     @property
     def frame_rate(self) -> float:

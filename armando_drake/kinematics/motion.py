@@ -62,6 +62,9 @@ class TaskSpaceMotion:
     # order; empty = the description's initial positions. The path starts at the
     # end effector's pose there.
     start_positions: list[float] = param([], unit="rad or m")
+    # In a world of several robots (robots:), the name of the one it acts on; "" = the
+    # first listed.
+    robot: str = ""
 
 
 def make_time_law(motion: TaskSpaceMotion) -> TimeLaw:

@@ -46,6 +46,9 @@ class MobileTopicNames:
     tf: str = "/tf"
     cmd_vel: str = ""
     scans: tuple[tuple[str, str], ...] = ()  # (sensor name, topic)
+    # Before each frame id (odom, base_footprint, the lidar's link): "<namespace>/" for a
+    # robot of several, as its links are named on /tf; "" = the frames as they are.
+    frames: str = ""
 
 
 class MobileTopics(LeafSystem):
@@ -83,6 +86,16 @@ class MobileTopics(LeafSystem):
         self._counts[key] = publication.count
         return publication
 
+    def _framed(self, message: dict) -> dict:
+        """``message`` with its header's frame id (and child frame id) after
+        ``names.frames``."""
+        before = self.names.frames
+        if before:
+            message["header"]["frame_id"] = before + message["header"]["frame_id"]
+            if "child_frame_id" in message:
+                message["child_frame_id"] = before + message["child_frame_id"]
+        return message
+
     def _Publish(self, context) -> None:
         names = self.names
         if self._odom.HasValue(context):
@@ -90,10 +103,10 @@ class MobileTopics(LeafSystem):
             if odom.stamp > 0 and odom.stamp != self._last_odom:
                 self._last_odom = odom.stamp
                 if names.odom:
-                    message = odometry_message(odom)
+                    message = self._framed(odometry_message(odom))
                     self._send(names.odom, "nav_msgs/msg/Odometry", message, odom.stamp)
                 if names.tf:
-                    tf = {"transforms": [odometry_transform(odom)]}
+                    tf = {"transforms": [self._framed(odometry_transform(odom))]}
                     self._send(names.tf, "tf2_msgs/msg/TFMessage", tf, odom.stamp)
         twist = self._new("cmd_vel", self._cmd_vel, context) if names.cmd_vel else None
         if twist is not None:
@@ -102,13 +115,14 @@ class MobileTopics(LeafSystem):
         for topic, port in self._scans:
             scan = self._new(topic, port, context)
             if scan is not None:
-                message = laser_scan_message(scan.message)
+                message = self._framed(laser_scan_message(scan.message))
                 self._send(topic, "sensor_msgs/msg/LaserScan", message, scan.message.stamp)
 
 
 def mobile_topic_names(topics: WorldTopics, *, cmd_vel: bool = True) -> MobileTopicNames:
     """The topics of ``topics``' base and lidars (``cmd_vel``: the twist sequence's too),
-    under the robot's namespace in a world of several (``/tf`` is shared)."""
+    under the robot's namespace in a world of several (``/tf`` is shared; the frames are
+    then ``<namespace>/odom``, ``<namespace>/base_footprint``, ...)."""
     scans = tuple(
         (name, topics.topic(ports["scan"].get_system().info.topic))
         for name, ports in topics.sensors.items()
@@ -118,7 +132,14 @@ def mobile_topic_names(topics: WorldTopics, *, cmd_vel: bool = True) -> MobileTo
     twist = ""
     if cmd_vel and topics.twist is not None:
         twist = topics.topic(topics.stack.entry(topics.twist_target).ros_topic or "/cmd_vel")
-    return MobileTopicNames(odom=odom, tf="/tf" if odom else "", cmd_vel=twist, scans=scans)
+    space = topics.stack.namespace.strip("/")
+    return MobileTopicNames(
+        odom=odom,
+        tf="/tf" if odom else "",
+        cmd_vel=twist,
+        scans=scans,
+        frames=f"{space}/" if space else "",
+    )
 
 
 def AddMobileTopics(

@@ -271,6 +271,19 @@ def _check_sensor(
         )
 
 
+def _instance_of(info: CameraSensorInfo, default, instances: dict):
+    """The model instance of the robot the camera ``info`` is on."""
+    if not info.robot:
+        return default
+    if info.robot not in instances:
+        raise CameraError(
+            f"{sensor_origin(info.source, info.sensor_name)}: link "
+            f"'{info.robot}::{info.link}': no robot {info.robot!r} (robots: "
+            f"{', '.join(instances) or 'none'})"
+        )
+    return instances[info.robot]
+
+
 def _apply_camera(
     builder: DiagramBuilder,
     plant: MultibodyPlant,
@@ -333,6 +346,7 @@ def AddCameraSensors(
     export: bool = False,
     noise_seed: int = 0,
     background: tuple[float, float, float] | None = None,
+    instances: dict[str, ModelInstanceIndex] | None = None,
 ) -> dict[str, AddedCamera]:
     """Adds one Drake RGB-D camera per sensor block, attached to its link.
 
@@ -345,15 +359,18 @@ def AddCameraSensors(
     read; Gaussian colour noise, if the
     block has some, is added by a :class:`CameraColorNoise` at the same rate.
     With ``export`` the diagram exports ``<camera>.color_image`` and
-    ``<camera>.depth_image``. Call after ``plant.Finalize()``.
+    ``<camera>.depth_image``. ``instances``: the model instance of each robot of a world
+    of several, by name: a camera whose ``robot`` names one is on that robot's link
+    (else on ``model_instance``'s). Call after ``plant.Finalize()``.
     """
     if not hold and any(info.noise is not None and info.noise.stddev > 0 for info in sensors):
         _logger.warning("hold=False: camera noise is applied at the camera rate anyway")
-    model_name = plant.GetModelInstanceName(model_instance)
     no_lcm = DrakeLcm("memq://null")  # ApplyCameraConfig's opt-out of LCM publishing
     added: dict[str, AddedCamera] = {}
     for info in sensors:
-        _check_sensor(plant, model_instance, info, added)
+        instance = _instance_of(info, model_instance, instances or {})
+        model_name = plant.GetModelInstanceName(instance)
+        _check_sensor(plant, instance, info, added)
         config = camera_config(
             info,
             f"{model_name}::{info.link}",

@@ -3,6 +3,7 @@ Drake ``RgbdSensor``s, their live view and their frame saver."""
 
 from __future__ import annotations
 
+import dataclasses as dc
 import logging
 from collections.abc import Sequence
 
@@ -28,6 +29,13 @@ _log = logging.getLogger("armando_drake.world")
 ENGINES = {"gl": "RenderEngineGl", "vtk": "RenderEngineVtk"}
 
 
+def _of_robot(name: str, info):
+    """The description camera ``info`` of the robot ``name`` (not the first of several):
+    named ``<name>_<camera>``, on ``/<name>/<topic>``."""
+    topic = f"/{name}/{(info.topic or info.name).strip('/')}"
+    return dc.replace(info, robot=name, name=f"{name}_{info.name}", topic=topic)
+
+
 def AddCameras(
     builder: DiagramBuilder,
     settings: CameraSettings,
@@ -40,15 +48,23 @@ def AddCameras(
     host: str = "127.0.0.1",
     where: str = "",
     source: str = "",
+    robots: dict[str, LoadedRobot] | None = None,
 ) -> tuple[dict[str, AddedCamera], ImageViewServer | None]:
     """RgbdSensors from the description's camera blocks (when ``settings.enabled``:
     the scenario's ``camera:`` section) and ``extra`` (the scenario's ``cameras:``,
     each with a ``sensor_info(origin)``, added either way), a live view on ``host``
     (with ``settings.live_view`` or a watched ``meshcat``) and a frame saver. Returns
     (the cameras by name, the live view's server or None). ``where``/``source``: the
-    origins named in errors."""
+    origins named in errors. ``robots``: every robot of a world of several, by name
+    (``robot`` the first): the others' description cameras too, each
+    ``<robot>_<camera>`` on ``/<robot>/<topic>``, and a scenario camera on
+    ``ROBOT::link``."""
+    robots = robots or {}
     sensors = list(robot.cameras) if settings.enabled else []
-    if settings.enabled and not robot.cameras and not extra:
+    for name, other in robots.items():
+        if other is not robot and settings.enabled:
+            sensors += [_of_robot(name, info) for info in other.cameras]
+    if settings.enabled and not sensors and not extra:
         _log.warning("camera enabled, but %s describes no camera sensor", robot.source)
         return {}, None
     if not settings.enabled and not extra:
@@ -65,6 +81,7 @@ def AddCameras(
             renderer=renderer,
             enable_depth=settings.depth,
             export=True,
+            instances={name: other.model_instance for name, other in robots.items()},
         )
     except CameraError as error:  # a scenario camera's error names its origin already
         text = str(error)

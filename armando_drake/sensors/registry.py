@@ -106,9 +106,12 @@ def AddSensors(
     *,
     plant: MultibodyPlant,
     robot: LoadedRobot,
+    namespace: str = "",
 ) -> dict[str, dict[str, OutputPort]]:
     """The systems of each sensor block whose type is registered (cameras excepted);
-    each output exported as ``<name>.<output>``. Returns the outputs by sensor name."""
+    each output exported as ``<name>.<output>`` (``<namespace>/<name>.<output>`` for a
+    robot of several). Returns the outputs by sensor name."""
+    space = f"{namespace.strip('/')}/" if namespace.strip("/") else ""
     known = sensor_types()
     added: dict[str, dict[str, OutputPort]] = {}
     ignored = []
@@ -122,7 +125,7 @@ def AddSensors(
             raise ScenarioError(f"{block.where()}: sensor name {block.name!r} is used twice")
         outputs = _TYPES[block.type].add(builder, block, plant=plant, robot=robot)
         for output, port in outputs.items():
-            builder.ExportOutput(port, f"{block.name}.{output}")
+            builder.ExportOutput(port, f"{space}{block.name}.{output}")
         added[block.name] = dict(outputs)
         _log.info("sensor %s (%s) on %s", block.name, block.type, block.link)
     if ignored:

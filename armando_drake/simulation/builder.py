@@ -40,18 +40,19 @@ from armando_drake.outputs.navigation_view import AddNavigationView
 from armando_drake.outputs.recording import AddRosbagRecorder
 from armando_drake.outputs.replay import AddVisualization
 from armando_drake.outputs.scan_view import AddScanViews
-from armando_drake.outputs.topics import WorldTopics
 from armando_drake.perception.systems import AddPerception
 from armando_drake.ros2.bridge import AddRos2Bridge
 from armando_drake.sensors import lidar  # noqa: F401  (registers the lidar sensor types)
 from armando_drake.sensors.cameras import AddCameras
 from armando_drake.sensors.objects import AddFloor, AddGround, AddSceneObjects, SceneObjectError
-from armando_drake.sensors.registry import AddSensors
 from armando_drake.simulation.robots import (
     AddRobotBodies,
     AddRobotDrivers,
+    AddRobotSensors,
     AddRobotStacks,
     ConnectRobot,
+    RobotParts,
+    robot_scope,
 )
 from armando_drake.simulation.scenario import Scenario, ScenarioError, sources_of
 from armando_drake.simulation.validation import check_scenario
@@ -94,12 +95,14 @@ def MakeWorld(
     plant, scene_graph, parts = _add_physics(builder, scenario, where)
     # Each robot's hardware interface and controller manager of its controller YAML.
     AddRobotStacks(builder, plant, scene_graph, parts)
-    topics = parts[0].topics  # the first robot's: the task, jog, cameras, bridge use it
-    # What drives the controllers: the command sequencers, the task, the live jog.
+    topics = parts[0].topics  # the first robot's: the cameras, vision, perception use it
+    # What drives the controllers: the command sequencers, the task, the live jog (each on
+    # the robot it names).
     for part in parts:
         folder = part.output_dir(output_dir if write_commands else None)
         AddRobotDrivers(builder, part, folder / "commands.csv" if folder else None, closers)
-    _add_drivers(builder, scenario, topics, meshcat, closers, parts[0].view.robot)
+        with robot_scope(builder, part):
+            _add_drivers(builder, scenario, part, meshcat, closers)
     # The commands to the plant (desired state, efforts, gravity feed-forward) and the
     # joint-state and base loggers.
     for part in parts:
@@ -108,7 +111,7 @@ def MakeWorld(
     # What watches them: the cameras, the detectors, perception.
     clusters_dir = output_dir if write_commands else None
     places = (source, clusters_dir, host)
-    image_view = _add_sensing(builder, scenario, topics, scene_graph, meshcat, places)
+    image_view = _add_sensing(builder, scenario, parts, scene_graph, meshcat, places)
     closers += [image_view.close] if image_view is not None else []
     if topics.perception is not None and topics.perception.log is not None:
         closers.append(topics.perception.log.close)
@@ -162,31 +165,30 @@ def _add_physics(builder: DiagramBuilder, scenario: Scenario, where: str):
     return plant, scene_graph, parts
 
 
-def _add_drivers(builder, scenario: Scenario, topics: WorldTopics, meshcat, closers, robot):
-    """The scenario's navigation, task, learned IK and live jogs (the arm's, the base's),
-    on the controllers of ``topics.stack`` (the first robot's, ``robot`` its section)."""
-    stack, where = topics.stack, partial(_origin, scenario)
-    if scenario.navigation is not None:
-        nav = AddNavigation(builder, scenario.navigation, stack, where=where("navigation"))
+def _add_drivers(builder, scenario: Scenario, part: RobotParts, meshcat, closers):
+    """The scenario's navigation, task, learned IK and live jogs (the arm's, the base's)
+    that act on the robot ``part``, on its controllers (``part.view`` holds those)."""
+    view, topics = part.view, part.topics
+    stack, where, robot = topics.stack, partial(_origin, scenario), part.view.robot
+    if view.navigation is not None:
+        nav = AddNavigation(builder, view.navigation, stack, where=where("navigation"))
         topics.navigation, topics.twist, topics.twist_target = nav, nav.navigator, nav.drive
-    if scenario.task is not None:
-        topics.task = AddTask(builder, scenario.task, stack, meshcat=meshcat, where=where("task"))
-    if scenario.learned_ik is not None:
+    if view.task is not None:
+        topics.task = AddTask(builder, view.task, stack, meshcat=meshcat, where=where("task"))
+    if view.learned_ik is not None:
         base = RigidTransform(RollPitchYaw(robot.base_rpy), robot.base_xyz)
         topics.learned_ik = AddLearnedIk(
-            builder,
-            scenario.learned_ik,
-            stack,
-            base_pose=base,
-            where=_origin(scenario, "learned_ik"),
+            builder, view.learned_ik, stack, base_pose=base, where=where("learned_ik")
         )
-    AddTeleop(builder, scenario, topics, meshcat=meshcat, where=where, closers=closers)
+    AddTeleop(builder, view, topics, meshcat=meshcat, where=where, closers=closers)
 
 
-def _add_sensing(builder, scenario: Scenario, topics: WorldTopics, scene_graph, meshcat, where):
-    """The cameras (their live view, returned, or None), the detectors and perception;
-    ``where``: (the scenario file, the folder of ``clusters.json``, the view's host)."""
+def _add_sensing(builder, scenario: Scenario, parts, scene_graph, meshcat, where):
+    """The cameras (their live view, returned, or None), each robot's sensors, the
+    detectors and perception; ``where``: (the scenario file, the folder of
+    ``clusters.json``, the view's host)."""
     source, output_dir, host = where
+    topics = parts[0].topics
     topics.cameras, image_view = AddCameras(
         builder,
         scenario.camera,
@@ -198,10 +200,10 @@ def _add_sensing(builder, scenario: Scenario, topics: WorldTopics, scene_graph, 
         host=host,
         where=f"{source}: " if source else "",
         source=sources_of(scenario).of("cameras"),
+        robots={part.name: part.robot for part in parts if part.name},
     )
-    topics.sensors = AddSensors(
-        builder, topics.robot.sensors, plant=topics.plant, robot=topics.robot
-    )
+    for part in parts:  # each robot's own sensors (a lidar)
+        AddRobotSensors(builder, topics.plant, part)
     ConnectLocalization(builder, topics.navigation, topics.sensors)  # AMCL reads a lidar
     if scenario.vision is not None:
         topics.detectors = AddDetectors(

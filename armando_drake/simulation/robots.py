@@ -42,6 +42,7 @@ from armando_drake.description.loader import AddRobot
 from armando_drake.outputs.base import BASE_CSV, AddBaseLogger
 from armando_drake.outputs.logger import AddJointStateLogger, CommandsCsv
 from armando_drake.outputs.topics import WorldTopics
+from armando_drake.sensors.registry import AddSensors
 from armando_drake.simulation.scenario import (
     Scenario,
     ScenarioError,
@@ -107,7 +108,7 @@ def _origin(view: Scenario, key: str) -> str:
 
 
 @contextlib.contextmanager
-def _scope(builder, part: RobotParts):
+def robot_scope(builder, part: RobotParts):
     """The systems added inside get the robot's namespace before their names."""
     before = len(builder.GetSystems())
     yield
@@ -143,7 +144,10 @@ def AddRobotBodies(plant, scene_graph, scenario: Scenario) -> list[RobotParts]:
         part.robot = AddRobot(plant, view.robot, weld=False, model_name=part.name or None)
         # The controller YAML before the base is placed: a drive controller frees the base.
         part.controller_config = LoadControllerConfig(
-            view.controllers, part.robot, arguments=view.robot.xacro_args
+            view.controllers,
+            part.robot,
+            arguments=view.robot.xacro_args,
+            prefix=scenario.robots[part.index].prefix if scenario.robots else "",
         )
         part.mobile = AddMobileBase(
             plant,
@@ -204,7 +208,7 @@ def AddRobotStacks(builder, plant, scene_graph, parts: list[RobotParts]) -> None
             scene_graph.collision_filter_manager().Apply(
                 CollisionFilterDeclaration().ExcludeBetween(*geometries)
             )
-        with _scope(builder, part):
+        with robot_scope(builder, part):
             stack = AddControllerManager(
                 builder,
                 dc.replace(
@@ -228,7 +232,7 @@ def AddRobotDrivers(builder, part: RobotParts, commands_csv: Path | None, closer
     """The robot's command sequencer (its commands in ``commands_csv``) and twist
     sequence, on its controllers."""
     view, topics = part.view, part.topics
-    with _scope(builder, part):
+    with robot_scope(builder, part):
         if view.sequencer is not None:
 
             def commands_log(joints):  # commands.csv, for the joints the sequencer drives
@@ -254,7 +258,7 @@ def ConnectRobot(builder, part: RobotParts, output_dir, closers: list, *, quiet:
     its joint-state logger (``joint_states.csv`` in ``output_dir``) and its base's logger
     (``base.csv``)."""
     view, topics = part.view, part.topics
-    with _scope(builder, part):
+    with robot_scope(builder, part):
         sequencer = topics.sequencer
         stack = topics.stack
         tick = sequencer.GetOutputPort("tick_command") if stack.stream_controller else None
@@ -274,3 +278,14 @@ def ConnectRobot(builder, part: RobotParts, output_dir, closers: list, *, quiet:
         log = topics.base_log
         if log is not None and output_dir is not None:
             closers.append(lambda: log.write(Path(output_dir) / BASE_CSV))
+
+
+def AddRobotSensors(builder, plant, part: RobotParts) -> None:
+    """The sensors of the robot's description (a lidar; cameras are
+    :func:`~armando_drake.sensors.cameras.AddCameras`'), on its links, their outputs
+    ``<namespace>/<sensor>.<output>``; sets ``part.topics.sensors``."""
+    robot = part.robot
+    with robot_scope(builder, part):
+        part.topics.sensors = AddSensors(
+            builder, robot.sensors, plant=plant, robot=robot, namespace=part.namespace
+        )

@@ -749,7 +749,11 @@ def robot_summary(part, table, steps: list[StepResult]) -> dict[str, Any]:
         "namespace": part.namespace,
         "model_instance": topics.robot.name,
         "joint_names": topics.stack.hardware.joint_names,
-        "driven_controller": topics.sequencer_target or topics.twist_target,
+        "driven_controller": topics.sequencer_target
+        or topics.twist_target
+        or (topics.task.controller if topics.task else "")
+        or (topics.jog.controller if topics.jog else "")
+        or (topics.learned_ik.controller if topics.learned_ik else ""),
         "steps": [step_summary(step) for step in steps],
         "max_final_error": max((step.final_error for step in steps), default=None),
         "tracking_error": table.largest if isinstance(table, TrackingError) else None,

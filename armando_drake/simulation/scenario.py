@@ -295,6 +295,26 @@ class Scenario:
                 )
             names.append(entry.name)
             spaces.append(entry.space)
+        for key in ROBOT_SECTIONS:
+            section = getattr(self, key)
+            target = getattr(section, "robot", "")
+            if target and target not in names:
+                raise Refusal(
+                    f"{key}.robot", f"={target!r}: no such robot (listed: {', '.join(names)})"
+                )
+
+
+# The sections of a scenario that act on one robot of robots:, its `robot` field naming
+# it (the first by default; the navigation, the base jog, the vision and perception
+# act on the first).
+ROBOT_SECTIONS = ("task", "learned_ik", "jog", "navigation", "twist_jog", "vision", "perception")
+
+
+def _acts_on(section, name: str, index: int) -> bool:
+    """Whether a section of ``ROBOT_SECTIONS`` acts on the robot ``name`` (of robots:,
+    at ``index``)."""
+    target = getattr(section, "robot", "")
+    return target == name if target else index == 0
 
 
 def robot_view(scenario: Scenario, index: int) -> Scenario:
@@ -303,6 +323,12 @@ def robot_view(scenario: Scenario, index: int) -> Scenario:
     ``robots.<index>``."""
     entry = scenario.robots[index]
     robot = entry.robot
+    # The sections that act on one robot, in its view only (the first's by default).
+    sections = {
+        key: section if _acts_on(section, entry.name, index) else None
+        for key in ROBOT_SECTIONS
+        if (section := getattr(scenario, key)) is not None
+    }
     if entry.prefix:
         robot = dc.replace(robot, xacro_args={**robot.xacro_args, "prefix": entry.prefix})
     view = dc.replace(
@@ -313,6 +339,7 @@ def robot_view(scenario: Scenario, index: int) -> Scenario:
         controllers=entry.controllers,
         sequencer=entry.sequencer,
         twist=entry.twist,
+        **sections,
     )
     origin = sources_of(scenario).of("robots")  # the file, or the --set that gave them
     view.__dict__["_sources"] = ScenarioSources(file=f"{origin}: robots.{index} ({entry.name})")

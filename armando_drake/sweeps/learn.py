@@ -17,12 +17,15 @@ armando_drake.dataset ik`` (``--data``), or on one it makes first (``--samples``
 
 The network runs in a diagram as armando_drake.learning.network.IkNetwork (see
 diagrams/learned_ik.yaml and docs/learned-ik.md). BLAS runs on one thread.
+``python -m armando_drake.learn ik-node`` runs a network as a DDS node: each pose on
+target_pose answered on ik_solution (armando_drake/ros2/ik_node.py).
 
 Examples:
   python -m armando_drake.learn ik --samples 40000 --output out/learned_ik
   python -m armando_drake.learn ik --data out/ik.parquet --output out/learned_ik
   python -m armando_drake.learn ik --robot models/iiwa_description --samples 40000 \\
       --hidden 128,128 --output out/iiwa_ik
+  python -m armando_drake.learn ik-node --network out/learned_ik/ik_network.onnx
 """
 
 from __future__ import annotations
@@ -56,6 +59,7 @@ from armando_drake.learning.training import (
     train,
     varying_features,
 )
+from armando_drake.ros2.ik_node import LearnedIkNode
 from armando_drake.sweeps.dataset import RobotSpec, make_ik_dataset
 from armando_drake.sweeps.engines import make_engine
 from armando_drake.sweeps.errors import SweepError, reported
@@ -264,11 +268,62 @@ def _parser():
         help=f"held-out poses Drake's IK solves for the table ({defaults.drake_poses})",
     )  # fmt: skip
     ik.add_argument("--quiet", action="store_true", help="no progress lines")
+    _node_parser(kinds, defaults)
     return parser
+
+
+def _node_parser(kinds, defaults: TrainSettings) -> None:
+    """The ik-node command's options."""
+    node = kinds.add_parser(
+        "ik-node",
+        help="a network as a DDS node: target_pose in, ik_solution out",
+        description="Answers each geometry_msgs/Pose on target_pose (the end effector in "
+        "the robot's base frame) with the joints on ik_solution (sensor_msgs/JointState).",
+    )
+    node.add_argument(
+        "--network", default=str(MODELS_DIR / "learned_ik" / "armando_ik_network.onnx"),
+        metavar="FILE.onnx", help="the network (default: Armando's shipped one)",
+    )  # fmt: skip
+    node.add_argument("--domain-id", type=int, default=0, metavar="N", help="DDS domain (0)")
+    node.add_argument("--namespace", default="", metavar="/NS", help="the topics' namespace")
+    node.add_argument(
+        "--refine-steps", type=int, default=defaults.refine_steps, metavar="N",
+        help=f"Gauss-Newton steps after the network ({defaults.refine_steps})",
+    )  # fmt: skip
+    node.add_argument(
+        "--duration", type=float, default=0.0, metavar="S", help="seconds to run (0: Ctrl-C)"
+    )
+
+
+def _run_node(args) -> int:
+    """The ik-node command: the node until Ctrl-C or ``--duration``."""
+    node = LearnedIkNode(
+        args.network,
+        domain_id=args.domain_id,
+        namespace=args.namespace,
+        refine_steps=args.refine_steps,
+    )
+    print(
+        f"learned IK node: {node.node.resolve('target_pose')} -> "
+        f"{node.node.resolve('ik_solution')}; Ctrl-C ends it"
+    )
+    end = time.monotonic() + args.duration if args.duration > 0 else float("inf")
+    try:
+        while time.monotonic() < end:
+            time.sleep(0.1)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        node.close()
+    print(f"answered {node.solved} poses")
+    return 0
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    if args.kind == "ik-node":
+        with user_errors():
+            return _run_node(args)
     with user_errors(), reported():
         check_extras()
         from threadpoolctl import threadpool_limits

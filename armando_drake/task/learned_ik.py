@@ -53,6 +53,9 @@ class LearnedIkConfig:
     refine_steps: int = param(3, unit="-", ge=0, le=50)
     # [Hz] how often the network answers the current target.
     rate: float = param(10.0, unit="Hz", gt=0)
+    # In a world of several robots (robots:), the name of the one it acts on; "" = the
+    # first listed.
+    robot: str = ""
 
     def check(self) -> None:
         if not self.network:

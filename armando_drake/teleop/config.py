@@ -118,6 +118,9 @@ class JogConfig:
     # How long a note (a clamped command, a jog stopped at a limit) stays in the
     # viewer's controls [s of simulated time].
     note_time: float = param(5.0, unit="s", gt=0)
+    # In a world of several robots (robots:), the name of the one it acts on; "" = the
+    # first listed.
+    robot: str = ""
 
 
 @dc.dataclass

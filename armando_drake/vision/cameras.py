@@ -33,7 +33,8 @@ class ScenarioCamera:
 
     # The camera's name: the diagram's ports <name>.color_image / .depth_image.
     name: str = ""
-    # The robot link it is attached to.
+    # The robot link it is attached to; in a world of several robots, ROBOT::link is a
+    # link of the robot named ROBOT (a bare link is the first robot's).
     link: str = ""
     # [m] position of the sensor frame in the link frame.
     xyz: list[float] = param([0.0, 0.0, 0.0], unit="m", length=3, coordinate=True)
@@ -67,11 +68,13 @@ class ScenarioCamera:
         within = f"{origin}: cameras" if origin else "cameras"
         where = f"{within}: {self.name or '(unnamed)'!r}"
         check_config(self, origin=lambda _key: where, error=CameraError)
+        robot, _, link = self.link.rpartition("::")
         return CameraSensorInfo(
             name=self.name,
             sensor_name=self.name,
             type=self.type,
-            link=self.link,
+            link=link,
+            robot=robot,
             horizontal_fov=self.horizontal_fov,
             width=self.width,
             height=self.height,
