@@ -46,7 +46,7 @@ class NavigationConfig:
     # Parameters of the Nav2 file replaced (or added) for this run, by their dotted
     # path without the ros__parameters level:
     # {controller_server.FollowPath.desired_linear_vel: 0.3} (navigation/overrides.py).
-    params_overrides: dict[str, float] = dc.field(default_factory=dict)
+    params_overrides: dict[str, float] = param(default_factory=dict, unit="the parameter's own")
     # A map_server map YAML; "" = the world's collision geometry cut at the lidar's
     # height (navigation/world_map.py).
     map: str = ""
