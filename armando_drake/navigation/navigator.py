@@ -43,8 +43,14 @@ from armando_drake.navigation.config import NavigationConfig, NavigationGoal
 from armando_drake.navigation.costmap import (
     INSCRIBED_INFLATED_OBSTACLE,
     Costmap,
+    CostmapParameters,
+    clear_footprint,
     costmap_parameters,
+    empty_obstacles,
+    has_costmap,
+    layered_costmap,
     make_costmap,
+    observe,
 )
 from armando_drake.navigation.follower import (
     ControllerParameters,
@@ -87,6 +93,21 @@ class GoalResult:
 
 
 @dc.dataclass(frozen=True)
+class Layers:
+    """The costmaps updated from the lidar's scans: the global one (its obstacle layer,
+    if its plugins list one) and the local one (``local_costmap``, if the file has it),
+    with the laser's planar pose on the base (x, y, yaw) and its height [m]."""
+
+    global_params: CostmapParameters
+    local_params: CostmapParameters | None
+    laser: tuple[float, float, float]
+    height: float
+
+    def all(self) -> tuple:
+        return (self.global_params, self.local_params)
+
+
+@dc.dataclass(frozen=True)
 class NavState:
     """The navigator's state; never mutated (a new one at each update)."""
 
@@ -114,6 +135,11 @@ class NavState:
     localization: tuple = ()
     estimate: tuple = ()  # the localization's (x, y, yaw) at the last update
     explore: Any = None  # the exploration's own state (navigation/explore.py)
+    # With an obstacle layer: per costmap (global, local) its layer's grid and the
+    # layered costmap, and when they were last updated.
+    obstacles: tuple = ()
+    costmaps: tuple = ()
+    observed_at: tuple = ()
 
     def __deepcopy__(self, memo):
         return self
@@ -159,8 +185,10 @@ class Navigator(LeafSystem):
         start_delay: float = 0.0,
         grid: OccupancyMap | None = None,
         amcl_axle: float | None = None,
+        layers: Layers | None = None,
     ):
         super().__init__()
+        self.layers = layers
         self.goals = list(goals)
         self.costmap = costmap
         self.grid = grid
@@ -175,6 +203,8 @@ class Navigator(LeafSystem):
             self._map_to_odom = self.DeclareVectorInputPort("map_to_odom", 3)
         self._nav = self.DeclareAbstractState(AbstractValue.Make(NavState(goals=tuple(goals))))
         self._goal_pose = self.DeclareAbstractInputPort("goal_pose", PublicationValue())
+        if layers is not None:
+            self._scan = self.DeclareAbstractInputPort("scan", PublicationValue())
         self._topic = self.DeclareAbstractState(PublicationValue())
         self._command = self.DeclareDiscreteState(BasicVector(np.zeros(2)))
         self.DeclareStateOutputPort("cmd_vel", self._topic)
@@ -212,6 +242,8 @@ class Navigator(LeafSystem):
             step = math.hypot(truth[0] - nav.last_pose[0], truth[1] - nav.last_pose[1])
             nav = dc.replace(nav, driven=nav.driven + step)
         nav = dc.replace(nav, last_pose=truth, estimate=tuple(pose))
+        if self.layers is not None and self._scan.HasValue(context):
+            nav = self._observe(nav, self._scan.Eval(context).message, pose, now)
         if self._axle is not None and (
             not nav.localization or now - nav.localization[-1][0] >= 1.0 - 1e-9
         ):
@@ -241,8 +273,41 @@ class Navigator(LeafSystem):
         return nav, 0.0, 0.0
 
     def _costmap(self, nav: NavState) -> Costmap:
-        """The costmap the current goal is planned and followed on."""
-        return self.costmap
+        """The costmap the current goal is planned on (the global one)."""
+        return nav.costmaps[0] if nav.costmaps and nav.costmaps[0] is not None else self.costmap
+
+    def _local(self, nav: NavState) -> Costmap:
+        """The costmap the controller checks its motion on (the local one, if any)."""
+        if len(nav.costmaps) > 1 and nav.costmaps[1] is not None:
+            return nav.costmaps[1]
+        return self._costmap(nav)
+
+    def _observe(self, nav: NavState, scan, pose, now: float) -> NavState:
+        """The costmaps' obstacle layers after ``scan`` (each at its update_frequency)."""
+        if scan is None or self.grid is None:
+            return nav
+        layers = self.layers
+        laser = compose(pose, layers.laser)
+        shape = self.grid.data.shape
+        obstacles = list(nav.obstacles or (None, None))
+        costmaps = list(nav.costmaps or (None, None))
+        observed = list(nav.observed_at or (-math.inf, -math.inf))
+        for k, params in enumerate(layers.all()):
+            if params is None or now - observed[k] < 1.0 / params.update_frequency - 1e-9:
+                continue
+            layer = params.obstacle_layer
+            grid = obstacles[k] if obstacles[k] is not None else empty_obstacles(shape, params)
+            if layer is not None and layer.enabled:
+                for source in layer.sources:
+                    grid = observe(grid, self.costmap, laser, layers.height, scan, source)
+                if layer.footprint_clearing_enabled:
+                    grid = clear_footprint(grid, self.costmap, pose, params.inscribed_radius)
+            obstacles[k] = grid
+            costmaps[k] = layered_costmap(self.grid, params, grid, robot=pose[:2])
+            observed[k] = now
+        return dc.replace(
+            nav, obstacles=tuple(obstacles), costmaps=tuple(costmaps), observed_at=tuple(observed)
+        )
 
     # -- tasks
 
@@ -397,7 +462,7 @@ class Navigator(LeafSystem):
         local = to_robot(nav.path[index:], pose)
         command = rpp_command(
             c,
-            self._costmap(nav),
+            self._local(nav),
             local,
             pose,
             speed,
@@ -584,6 +649,7 @@ def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") 
     check_goals(goals, costmap, where)
     hardware = stack.hardware
     axle = _axle_offset(stack, takers[0]) if config.localization == "amcl" else None
+    layers = _layers(stack, costmap_params, params_file, where)
     navigator = builder.AddSystem(
         Navigator(
             goals,
@@ -596,6 +662,7 @@ def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") 
             start_delay=config.start_delay,
             grid=grid,
             amcl_axle=axle,
+            layers=layers,
         )
     )
     navigator.set_name("navigator")
@@ -604,9 +671,44 @@ def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") 
     builder.Connect(navigator.GetOutputPort("cmd_vel"), stack.command_input(takers[0]))
     builder.ExportOutput(navigator.GetOutputPort("command"), "navigation_command")
     navigation = Navigation(navigator=navigator, drive=takers[0], grid=grid, costmap=costmap)
+    if layers is not None:
+        navigation.lidar = _lidars(stack, "the costmap's obstacle layer", where)[0].name
     if axle is not None:
         navigation.amcl = _add_amcl(builder, config, stack, navigation, params_file, axle, where)
     return navigation
+
+
+def _lidars(stack, what: str, where: str) -> list:
+    lidars = [b for b in stack.robot.sensors if b.type in LIDAR_TYPES]
+    if not lidars:
+        raise ScenarioError(f"{where}navigation: {what} needs a lidar on the robot")
+    return lidars
+
+
+def _layers(stack, global_params, params_file: Path, where: str) -> Layers | None:
+    """The costmaps fed by the lidar's scans: the global one if it has an obstacle layer,
+    the file's local_costmap if it has one; None if neither."""
+    try:
+        local = (
+            costmap_parameters(params_file, "local_costmap")
+            if has_costmap(params_file, "local_costmap")
+            else None
+        )
+    except ConfigError as error:
+        raise ConfigError(f"{where}navigation.params_file: {error}") from None
+    if global_params.obstacle_layer is None:
+        global_params = None
+    if global_params is None and local is None:
+        return None
+    lidar = _lidars(stack, "the costmap's obstacle layer", where)[0]
+    plant, robot = stack.plant, stack.robot
+    context = plant.CreateDefaultContext()
+    body = plant.get_body(next(iter(plant.GetFloatingBaseBodies())))
+    link = plant.GetBodyByName(lidar.link, robot.model_instance).body_frame()
+    X_BS = plant.CalcRelativeTransform(context, body.body_frame(), link) @ lidar.X_LS
+    laser = (*X_BS.translation()[:2], X_BS.rotation().ToRollPitchYaw().yaw_angle())
+    height = lidar_height(plant, stack.scene_graph, robot)
+    return Layers(global_params, local, tuple(float(v) for v in laser), height)
 
 
 def _axle_offset(stack, drive: str) -> float:
@@ -673,6 +775,7 @@ def ConnectLocalization(builder, navigation: Navigation | None, sensors: dict) -
     ground truth or without a navigation)."""
     if navigation is None:
         return
-    for reader in (navigation.amcl, navigation.mapper):
+    navigator = navigation.navigator if navigation.navigator.layers is not None else None
+    for reader in (navigation.amcl, navigation.mapper, navigator):
         if reader is not None:
             builder.Connect(sensors[navigation.lidar]["scan"], reader.GetInputPort("scan"))
