@@ -200,9 +200,10 @@ class CostmapParameters:
     def inscribed_radius(self) -> float:
         """The inscribed radius: the robot's radius (a circular footprint)."""
         if self.footprint:
+            ring = self.footprint[1:] + self.footprint[:1]
             return min(
                 abs(a[0] * b[1] - a[1] * b[0]) / max(math.dist(a, b), 1e-9)
-                for a, b in zip(self.footprint, self.footprint[1:] + self.footprint[:1])
+                for a, b in zip(self.footprint, ring, strict=True)
             )
         return self.robot_radius
 
