@@ -39,6 +39,13 @@ from armando_drake.navigation.amcl import (
     body_odometry,
     compose,
 )
+from armando_drake.navigation.behaviors import (
+    CLEAR,
+    BehaviorParameters,
+    Recovery,
+    behavior_parameters,
+    recovery_command,
+)
 from armando_drake.navigation.config import NavigationConfig, NavigationGoal
 from armando_drake.navigation.costmap import (
     INSCRIBED_INFLATED_OBSTACLE,
@@ -90,6 +97,16 @@ class GoalResult:
     yaw_error: float  # [rad]
     path_length: float  # [m] driven
     plan_length: float  # [m] the first plan's
+    recoveries: tuple = ()  # (behaviour, start [s], end [s]) of each recovery run
+    blocked_replans: int = 0  # replans made while the current plan crossed an obstacle
+    first_plan: Any = None  # the first plan (n, 2), or None
+
+    @property
+    def status(self) -> str:
+        """NavigateToPose's result: succeeded, canceled or aborted."""
+        if self.reached:
+            return "succeeded"
+        return "canceled" if self.reason == "canceled" else "aborted"
 
 
 @dc.dataclass(frozen=True)
@@ -140,6 +157,13 @@ class NavState:
     obstacles: tuple = ()
     costmaps: tuple = ()
     observed_at: tuple = ()
+    # The recovery running (behaviors.Recovery) or None; the retries of the current goal
+    # and its recoveries so far ((behaviour, start, end), ...).
+    recovery: Any = None
+    retries: int = 0
+    recoveries: tuple = ()
+    blocked_replans: int = 0
+    first_plan: Any = None
 
     def __deepcopy__(self, memo):
         return self
@@ -186,9 +210,11 @@ class Navigator(LeafSystem):
         grid: OccupancyMap | None = None,
         amcl_axle: float | None = None,
         layers: Layers | None = None,
+        behaviors: BehaviorParameters | None = None,
     ):
         super().__init__()
         self.layers = layers
+        self.behaviors = behaviors
         self.goals = list(goals)
         self.costmap = costmap
         self.grid = grid
@@ -367,6 +393,11 @@ class Navigator(LeafSystem):
             driven=0.0,
             plan_length=0.0,
             planned_at=-math.inf,
+            recovery=None,
+            retries=0,
+            recoveries=(),
+            blocked_replans=0,
+            first_plan=None,
         )
         if index < len(nav.goals):
             goal = nav.goals[index]
@@ -376,17 +407,36 @@ class Navigator(LeafSystem):
 
     def _plan(self, nav: NavState, pose, now: float) -> NavState:
         goal = nav.goals[nav.goal]
+        if nav.path is not None and self._blocked(nav):
+            nav = dc.replace(nav, blocked_replans=nav.blocked_replans + 1)
         try:
             path = plan(self._costmap(nav), pose[:2], (goal.x, goal.y), self.planner)
         except PlanningError as error:
             _log.warning("goal %r: no plan: %s", goal.name, error)
+            if self.behaviors is not None:  # the tree's ComputePathToPose fails
+                return dc.replace(nav, path=None, planned_at=now)
             return nav if nav.path is not None else dc.replace(nav, planned_at=now)
         if np.hypot(path[-1, 0] - goal.x, path[-1, 1] - goal.y) <= self._costmap(nav).resolution:
             path = np.vstack([path[:-1], [goal.x, goal.y]])  # the goal's own pose ends it
         if len(path) == 1:
             path = np.vstack([path, path])
         length = nav.plan_length or path_length(path)
-        return dc.replace(nav, path=path, path_index=0, planned_at=now, plan_length=length)
+        first = path if nav.first_plan is None else nav.first_plan
+        return dc.replace(
+            nav, path=path, path_index=0, planned_at=now, plan_length=length, first_plan=first
+        )
+
+    def _blocked(self, nav: NavState) -> bool:
+        """Whether the rest of the current plan crosses an obstacle of the costmap (a lethal
+        cell, or one within the robot's inscribed radius of it)."""
+        costmap = self._costmap(nav)
+        rest = nav.path[nav.path_index :]
+        cols = np.floor((rest[:, 0] - costmap.origin[0]) / costmap.resolution).astype(int)
+        rows = np.floor((rest[:, 1] - costmap.origin[1]) / costmap.resolution).astype(int)
+        inside = (rows >= 0) & (rows < costmap.costs.shape[0])
+        inside &= (cols >= 0) & (cols < costmap.costs.shape[1])
+        costs = costmap.costs[rows[inside], cols[inside]]
+        return bool(((costs >= INSCRIBED_INFLATED_OBSTACLE) & (costs <= 254)).any())
 
     def _finish(self, nav: NavState, pose, now: float, reason: str, then=True) -> NavState:
         """The goal's result, measured on the ground truth; the next goal sent from
@@ -405,6 +455,9 @@ class Navigator(LeafSystem):
             position_error=error,
             yaw_error=yaw_error,
             path_length=nav.driven,
+            recoveries=nav.recoveries,
+            blocked_replans=nav.blocked_replans,
+            first_plan=nav.first_plan,
             plan_length=nav.plan_length,
         )
         log = _log.info if result.reached else _log.warning
@@ -450,13 +503,15 @@ class Navigator(LeafSystem):
         """One cycle of the controller server on the current goal: (state, v, w)."""
         c = self.controller
         goal = nav.goals[nav.goal]
+        if nav.recovery is not None:
+            return self._recover(nav, pose, now)
         replan = c.expected_planner_frequency > 0 and (
             now - nav.planned_at >= 1.0 / c.expected_planner_frequency - 1e-9
         )
         if nav.path is None or (replan and not nav.xy_reached):
             nav = self._plan(nav, pose, now)
         if nav.path is None:
-            return self._finish(nav, pose, now, "no plan"), 0.0, 0.0
+            return self._fail(nav, pose, now, "no plan")
         index = prune(nav.path, nav.path_index, pose, c.rpp.max_robot_pose_search_dist)
         nav = dc.replace(nav, path_index=index)
         local = to_robot(nav.path[index:], pose)
@@ -478,13 +533,67 @@ class Navigator(LeafSystem):
             since = nav.failing_since if not math.isnan(nav.failing_since) else now
             nav = dc.replace(nav, failing_since=since)
             if c.failure_tolerance >= 0 and now - since > c.failure_tolerance:
-                return self._finish(nav, pose, now, "collision ahead"), 0.0, 0.0
+                return self._fail(nav, pose, now, "collision ahead")
             return nav, 0.0, 0.0
         nav = dc.replace(nav, failing_since=math.nan)
         progressing, nav = self._progress(nav, pose, now)
         if not progressing:
-            return self._finish(nav, pose, now, "no progress"), 0.0, 0.0
+            return self._fail(nav, pose, now, "no progress")
         return nav, command.linear, command.angular
+
+    # -- recoveries
+
+    def _fail(self, nav: NavState, pose, now: float, reason: str):
+        """A failure of the goal: the next recovery and a retry, or the goal aborted."""
+        b = self.behaviors
+        if b is None or nav.retries >= b.number_of_retries:
+            return self._finish(nav, pose, now, reason), 0.0, 0.0
+        kinds = b.round_robin()
+        kind = kinds[nav.retries % len(kinds)]
+        _log.warning(
+            "goal %r: %s at %.2f s; recovery %d/%d: %s",
+            nav.goals[nav.goal].name,
+            reason,
+            now,
+            nav.retries + 1,
+            b.number_of_retries,
+            kind.rpartition("::")[2],
+        )
+        nav = dc.replace(nav, recovery=Recovery(kind, now, tuple(pose)), retries=nav.retries + 1)
+        if kind == CLEAR:  # ClearEntireCostmap: the obstacle layers start again
+            nav = dc.replace(nav, obstacles=(), costmaps=(), observed_at=())
+        return self._recover(nav, pose, now)
+
+    def _recover(self, nav: NavState, pose, now: float):
+        """One cycle of the running recovery; when it ends, a new plan and the checkers
+        reset (the retry)."""
+        recovery = nav.recovery
+        v, w, done = recovery_command(
+            self.behaviors, recovery, pose, now, lambda d: self._blocked_behind(nav, pose, d)
+        )
+        if not done:
+            return nav, v, w
+        record = (recovery.kind.rpartition("::")[2], recovery.started, now)
+        nav = dc.replace(
+            nav,
+            recovery=None,
+            recoveries=(*nav.recoveries, record),
+            path=None,
+            planned_at=-math.inf,
+            baseline=(*pose, now),
+            failing_since=math.nan,
+        )
+        return nav, 0.0, 0.0
+
+    def _blocked_behind(self, nav: NavState, pose, distance: float) -> bool:
+        costmap = self._local(nav)
+        for d in np.arange(0.0, distance + 1e-9, 0.5 * costmap.resolution):
+            x = pose[0] - (d + self._inscribed) * math.cos(pose[2])
+            y = pose[1] - (d + self._inscribed) * math.sin(pose[2])
+            row, col = costmap.world_to_cell(x, y)
+            if costmap.contains(row, col) and costmap.costs[row, col] == 254:
+                return True
+        return False
 
     # -- results
 
@@ -509,6 +618,8 @@ class Navigator(LeafSystem):
                     yaw_error=abs(wrap(pose[2] - goal.yaw)),
                     path_length=nav.driven if current else 0.0,
                     plan_length=nav.plan_length if current else 0.0,
+                    recoveries=nav.recoveries if current else (),
+                    blocked_replans=nav.blocked_replans if current else 0,
                 )
             )
         return results
@@ -523,7 +634,12 @@ class Navigator(LeafSystem):
                     "name": r.name,
                     "goal": [g.x, g.y, g.yaw],
                     "reached": r.reached,
+                    "status": r.status,
                     "reason": r.reason,
+                    "blocked_replans": r.blocked_replans,
+                    "recoveries": [
+                        {"behavior": k, "start": t0, "end": t1} for k, t0, t1 in r.recoveries
+                    ],
                     "position_error": r.position_error,
                     "yaw_error": r.yaw_error,
                     "time": r.end - r.start if r.reached else None,
@@ -641,6 +757,7 @@ def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") 
         costmap_params = costmap_parameters(params_file)
         planner = planner_parameters(params_file)
         controller = controller_parameters(params_file)
+        behaviors = behavior_parameters(params_file)
     except ConfigError as error:
         raise ConfigError(f"{where}navigation.params_file: {error}") from None
     grid = navigation_map(config, stack.plant, stack.scene_graph, stack.robot, where)
@@ -663,6 +780,7 @@ def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") 
             grid=grid,
             amcl_axle=axle,
             layers=layers,
+            behaviors=behaviors,
         )
     )
     navigator.set_name("navigator")
