@@ -103,10 +103,11 @@ class GoalResult:
 
     @property
     def status(self) -> str:
-        """NavigateToPose's result: succeeded, canceled or aborted."""
+        """NavigateToPose's result: succeeded, canceled or aborted; or unfinished (the
+        run ended first, or the goal is not sent yet)."""
         if self.reached:
             return "succeeded"
-        return "canceled" if self.reason == "canceled" else "aborted"
+        return {"canceled": "canceled", "not reached": "unfinished"}.get(self.reason, "aborted")
 
 
 @dc.dataclass(frozen=True)
@@ -157,6 +158,7 @@ class NavState:
     obstacles: tuple = ()
     costmaps: tuple = ()
     observed_at: tuple = ()
+    poses: tuple = ()  # the localization's last (time, (x, y, yaw)): a scan's at its stamp
     # The recovery running (behaviors.Recovery) or None; the retries of the current goal
     # and its recoveries so far ((behaviour, start, end), ...).
     recovery: Any = None
@@ -268,8 +270,10 @@ class Navigator(LeafSystem):
             step = math.hypot(truth[0] - nav.last_pose[0], truth[1] - nav.last_pose[1])
             nav = dc.replace(nav, driven=nav.driven + step)
         nav = dc.replace(nav, last_pose=truth, estimate=tuple(pose))
-        if self.layers is not None and self._scan.HasValue(context):
-            nav = self._observe(nav, self._scan.Eval(context).message, pose, now)
+        if self.layers is not None:
+            nav = dc.replace(nav, poses=(*nav.poses[-5:], (now, tuple(pose))))
+            if self._scan.HasValue(context):
+                nav = self._observe(nav, self._scan.Eval(context).message, now)
         if self._axle is not None and (
             not nav.localization or now - nav.localization[-1][0] >= 1.0 - 1e-9
         ):
@@ -308,10 +312,12 @@ class Navigator(LeafSystem):
             return nav.costmaps[1]
         return self._costmap(nav)
 
-    def _observe(self, nav: NavState, scan, pose, now: float) -> NavState:
-        """The costmaps' obstacle layers after ``scan`` (each at its update_frequency)."""
+    def _observe(self, nav: NavState, scan, now: float) -> NavState:
+        """The costmaps' obstacle layers after ``scan`` (each at its update_frequency),
+        seen from the pose at the scan's stamp (as the transform at the stamp in Nav2)."""
         if scan is None or self.grid is None:
             return nav
+        pose = min(nav.poses, key=lambda item: abs(item[0] - scan.stamp))[1]
         layers = self.layers
         laser = compose(pose, layers.laser)
         shape = self.grid.data.shape
