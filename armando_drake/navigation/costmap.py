@@ -277,7 +277,11 @@ def _layer(params: CostmapParameters, name: str, layer, where: str, ignored: lis
                 name,
                 kind,
             )
-        params.obstacle_layer = _obstacle_layer(name, layer, enabled, where, ignored)
+        obstacles = _obstacle_layer(name, layer, enabled, where, ignored)
+        if params.obstacle_layer is None or not params.obstacle_layer.enabled:
+            params.obstacle_layer = obstacles
+        elif obstacles.enabled:  # two obstacle layers (obstacle + voxel): their sources
+            params.obstacle_layer.sources += obstacles.sources
 
 
 def _source(name: str, node, layer: dict, where: str, ignored: list[str]) -> ObservationSource:
