@@ -773,6 +773,14 @@ def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") 
     hardware = stack.hardware
     axle = _axle_offset(stack, takers[0]) if config.localization == "amcl" else None
     layers = _layers(stack, costmap_params, params_file, where)
+    if layers is not None and layers.local_params is not None:
+        if not math.isclose(layers.local_params.resolution, grid.resolution):
+            _log.warning(
+                "%s: local_costmap resolution %g: the local costmap runs on the map's grid (%g)",
+                params_file,
+                layers.local_params.resolution,
+                grid.resolution,
+            )
     navigator = builder.AddSystem(
         Navigator(
             goals,

@@ -74,6 +74,10 @@ def test_turtlebot3_burger_loads_with_dwb_substituted(caplog):
          "global", "-0.55", "inflation_radius must be >= 0, not -0.55"),
         ("planner_server.ros__parameters.GridBased.tolerance", "planner", "-0.5",
          "tolerance must be a number >= 0, not -0.5"),
+        ("controller_server.ros__parameters.goal_checker.xy_goal_tolerance", "controller",
+         "-0.1", "goal_checker.xy_goal_tolerance must be >= 0, not -0.1"),
+        ("global_costmap.global_costmap.ros__parameters.static_layer.plugin", "global",
+         "nav2_costmap_2d::StaticLayr", "unknown costmap layer 'nav2_costmap_2d::StaticLayr'"),
     ],
 )  # fmt: skip
 def test_typos_and_bad_values_name_the_file_and_key(tmp_path, path, section, text, message):
