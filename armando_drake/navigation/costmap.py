@@ -14,9 +14,17 @@ inscribed (the robot's centre there means a collision), 254 lethal, 255 unknown.
   the inflated one (an unknown cell only becomes >= 253). Distances are quantized to
   1/100 cell, as upstream's lookup table.
 
+- Obstacle layer (``ObstacleLayer``, ``data_type: LaserScan`` sources): each scan clears
+  the cells along its beams (``clearing``: from ``raytrace_min_range`` to the hit, or to
+  ``raytrace_max_range``) and then marks the hit cells lethal (``marking``: ranges within
+  ``obstacle_min_range``..``obstacle_max_range``, the scan's height within
+  ``min_obstacle_height``..``max_obstacle_height``); the layer is combined into the master
+  grid by its maximum (``updateWithMax``: an unknown cell of the layer leaves the master's),
+  then inflated. ``VoxelLayer`` runs as this obstacle layer (a planar lidar, 2-D).
+
 The costmap takes the map's size and resolution (a non-rolling global costmap resizes to
-the static map, whatever its ``resolution`` parameter). The obstacle layer needs a live scan:
-it is accepted in the plugin list but not applied yet.
+the static map, whatever its ``resolution`` parameter). A local costmap (``rolling_window:
+true``) is a ``width`` x ``height`` window centred on the robot, on the same grid.
 """
 
 from __future__ import annotations
@@ -44,6 +52,7 @@ INFLATION_LAYER = "nav2_costmap_2d::InflationLayer"
 OBSTACLE_LAYER = "nav2_costmap_2d::ObstacleLayer"
 VOXEL_LAYER = "nav2_costmap_2d::VoxelLayer"
 LAYER_TYPES = (STATIC_LAYER, INFLATION_LAYER, OBSTACLE_LAYER, VOXEL_LAYER)
+# Nav2's plugin names also accept '/' for '::' (pluginlib's legacy spelling).
 
 _log = logging.getLogger("armando_drake.navigation")
 
@@ -57,6 +66,11 @@ _READ = {
     "lethal_cost_threshold",
     "trinary_costmap",
     "unknown_cost_value",
+    "rolling_window",
+    "width",
+    "height",
+    "update_frequency",
+    "footprint",
 }
 _KNOWN = {
     "use_sim_time",
@@ -64,11 +78,7 @@ _KNOWN = {
     "publish_frequency",
     "global_frame",
     "robot_base_frame",
-    "width",
-    "height",
-    "rolling_window",
     "always_send_full_costmap",
-    "footprint",
     "footprint_padding",
     "origin_x",
     "origin_y",
@@ -97,6 +107,69 @@ _STATIC_KEYS = {
     "restore_cleared_footprint",
 }
 
+_OBSTACLE_KEYS = {
+    "plugin",
+    "enabled",
+    "observation_sources",
+    "max_obstacle_height",
+    "min_obstacle_height",
+    "footprint_clearing_enabled",
+    "combination_method",
+    # the VoxelLayer's own (its z voxels: a planar scan fills one)
+    "publish_voxel_map",
+    "origin_z",
+    "z_resolution",
+    "z_voxels",
+    "mark_threshold",
+    "unknown_threshold",
+}
+_SOURCE_KEYS = {
+    "topic",
+    "data_type",
+    "marking",
+    "clearing",
+    "max_obstacle_height",
+    "min_obstacle_height",
+    "obstacle_max_range",
+    "obstacle_min_range",
+    "raytrace_max_range",
+    "raytrace_min_range",
+    "inf_is_valid",
+    "expected_update_rate",
+    "observation_persistence",
+    "sensor_frame",
+    "clear_after_reading",
+}
+
+
+@dataclass
+class ObservationSource:
+    """One of an obstacle layer's ``observation_sources`` (defaults: Nav2's)."""
+
+    name: str = "scan"
+    topic: str = "scan"
+    data_type: str = "LaserScan"
+    marking: bool = True
+    clearing: bool = False
+    min_obstacle_height: float = 0.0
+    max_obstacle_height: float = 2.0
+    obstacle_min_range: float = 0.0
+    obstacle_max_range: float = 2.5
+    raytrace_min_range: float = 0.0
+    raytrace_max_range: float = 3.0
+    inf_is_valid: bool = False
+
+
+@dataclass
+class ObstacleParameters:
+    """An obstacle layer (``nav2_costmap_2d::ObstacleLayer``)."""
+
+    name: str = "obstacle_layer"
+    enabled: bool = True
+    sources: list[ObservationSource] = field(default_factory=list)
+    footprint_clearing_enabled: bool = True
+    combination_method: int = 1  # 0 overwrite, 1 maximum
+
 
 @dataclass
 class CostmapParameters:
@@ -114,12 +187,24 @@ class CostmapParameters:
     inflate_unknown: bool = False
     inflate_around_unknown: bool = False
     plugins: list[str] = field(default_factory=list)
+    obstacle_layer: ObstacleParameters | None = None
+    rolling_window: bool = False
+    width: float = 5.0  # [m] a rolling window's
+    height: float = 5.0
+    update_frequency: float = 5.0  # [Hz]
+    footprint: list = field(default_factory=list)  # [[x, y], ...]; [] = robot_radius
     ignored: list[str] = field(default_factory=list)
     """Keys read from the file that this package does not use (each one warned about)."""
 
     @property
     def inscribed_radius(self) -> float:
         """The inscribed radius: the robot's radius (a circular footprint)."""
+        if self.footprint:
+            ring = self.footprint[1:] + self.footprint[:1]
+            return min(
+                abs(a[0] * b[1] - a[1] * b[0]) / max(math.dist(a, b), 1e-9)
+                for a, b in zip(self.footprint, ring, strict=True)
+            )
         return self.robot_radius
 
 
@@ -161,7 +246,7 @@ def _number(value, where: str, *, positive: bool = False) -> float:
 def _layer(params: CostmapParameters, name: str, layer, where: str, ignored: list[str]) -> None:
     if not isinstance(layer, dict) or "plugin" not in layer:
         raise ConfigError(f"{where}.{name}.plugin: the layer '{name}' has no plugin type")
-    kind = layer["plugin"]
+    kind = str(layer["plugin"]).replace("/", "::")
     if kind not in LAYER_TYPES:
         raise ConfigError(
             f"{where}.{name}.plugin: unknown costmap layer {kind!r} "
@@ -184,7 +269,72 @@ def _layer(params: CostmapParameters, name: str, layer, where: str, ignored: lis
             setattr(params, key, bool(layer.get(key, getattr(params, key))))
         ignored += [f"{where}.{name}.{k}" for k in layer if k not in _INFLATION_KEYS]
     else:
-        _log.warning("%s.%s: %s needs a live scan; not applied yet", where, name, kind)
+        if kind == VOXEL_LAYER:
+            _log.warning(
+                "%s.%s: %s is not implemented here; the obstacle layer runs instead "
+                "(a planar scan, 2-D)",
+                where,
+                name,
+                kind,
+            )
+        obstacles = _obstacle_layer(name, layer, enabled, where, ignored)
+        if params.obstacle_layer is None or not params.obstacle_layer.enabled:
+            params.obstacle_layer = obstacles
+        elif obstacles.enabled:  # two obstacle layers (obstacle + voxel): their sources
+            params.obstacle_layer.sources += obstacles.sources
+
+
+def _source(name: str, node, layer: dict, where: str, ignored: list[str]) -> ObservationSource:
+    if not isinstance(node, dict):
+        raise ConfigError(f"{where}.{name}: the observation source '{name}' has no parameters")
+    source = ObservationSource(name=name, topic=str(node.get("topic", "")) or name)
+    source.data_type = str(node.get("data_type", "PointCloud2"))
+    if source.data_type not in ("LaserScan", "PointCloud2"):
+        raise ConfigError(
+            f"{where}.{name}.data_type: {source.data_type!r} is not LaserScan or PointCloud2"
+        )
+    for key in ("marking", "clearing", "inf_is_valid"):
+        setattr(source, key, bool(node.get(key, getattr(source, key))))
+    for key in (
+        "min_obstacle_height",
+        "max_obstacle_height",
+        "obstacle_min_range",
+        "obstacle_max_range",
+        "raytrace_min_range",
+        "raytrace_max_range",
+    ):
+        value = node.get(key, layer.get(key, getattr(source, key)))
+        value = _number(value, f"{where}.{name}.{key}")
+        if value < 0 and key != "min_obstacle_height":
+            raise ConfigError(f"{where}.{name}.{key} must be >= 0, not {value}")
+        setattr(source, key, value)
+    ignored += [f"{where}.{name}.{k}" for k in node if k not in _SOURCE_KEYS]
+    return source
+
+
+def _obstacle_layer(name: str, layer: dict, enabled: bool, where, ignored) -> ObstacleParameters:
+    here = f"{where}.{name}"
+    names = layer.get("observation_sources", "")
+    if not isinstance(names, str):
+        raise ConfigError(f"{here}.observation_sources must be a string of names, not {names!r}")
+    params = ObstacleParameters(name=name, enabled=enabled)
+    params.footprint_clearing_enabled = bool(layer.get("footprint_clearing_enabled", True))
+    params.combination_method = int(layer.get("combination_method", 1))
+    for source in names.split():
+        params.sources.append(_source(source, layer.get(source), layer, here, ignored))
+    known = _OBSTACLE_KEYS | set(names.split())
+    ignored += [f"{here}.{k}" for k in layer if k not in known]
+    return params
+
+
+def has_costmap(path: str | Path, costmap: str) -> bool:
+    """Whether a Nav2 YAML has the costmap ``<costmap>/<costmap>/ros__parameters``."""
+    try:
+        doc = yaml.safe_load(Path(path).read_text())
+    except (OSError, yaml.YAMLError):
+        return False
+    node = doc.get(costmap) if isinstance(doc, dict) else None
+    return isinstance(node, dict) and isinstance(node.get(costmap), dict)
 
 
 def costmap_parameters(path: str | Path, costmap: str = "global_costmap") -> CostmapParameters:
@@ -205,6 +355,11 @@ def costmap_parameters(path: str | Path, costmap: str = "global_costmap") -> Cos
     for key in ("resolution", "robot_radius"):
         if key in ros:
             setattr(params, key, _number(ros[key], f"{where}.{key}", positive=True))
+    params.rolling_window = bool(ros.get("rolling_window", False))
+    for key in ("width", "height", "update_frequency"):
+        if key in ros:
+            setattr(params, key, _number(ros[key], f"{where}.{key}", positive=True))
+    params.footprint = _footprint(ros.get("footprint", "[]"), f"{where}.footprint")
     for key in ("track_unknown_space", "trinary_costmap"):
         setattr(params, key, bool(ros.get(key, getattr(params, key))))
     if "lethal_cost_threshold" in ros:
@@ -222,6 +377,20 @@ def costmap_parameters(path: str | Path, costmap: str = "global_costmap") -> Cos
         _log.warning("%s: not used by the costmap here", key)
     params.ignored = ignored
     return params
+
+
+def _footprint(value, where: str) -> list:
+    """A footprint polygon, as Nav2 takes it: a string "[[x, y], ...]" (or a list)."""
+    if isinstance(value, str):
+        try:
+            value = yaml.safe_load(value)
+        except yaml.YAMLError:
+            raise ConfigError(f"{where}: {value!r} is not [[x, y], ...]") from None
+    if not value:
+        return []
+    if not isinstance(value, list) or len(value) < 3 or any(len(p) != 2 for p in value):
+        raise ConfigError(f"{where}: {value!r} is not a polygon [[x, y], ...] of 3 points or more")
+    return [(float(p[0]), float(p[1])) for p in value]
 
 
 def static_layer(grid: OccupancyMap, params: CostmapParameters) -> np.ndarray:
@@ -284,5 +453,104 @@ def make_costmap(grid: OccupancyMap, params: CostmapParameters) -> Costmap:
         if params.static_layer
         else np.zeros(grid.data.shape, dtype=np.uint8)
     )
+    costs = inflate(costs, grid.resolution, params)
+    return Costmap(costs=costs, resolution=grid.resolution, origin=grid.origin)
+
+
+# ---------------------------------------------------------------------------- obstacle layer
+
+
+def empty_obstacles(shape, params: CostmapParameters) -> np.ndarray:
+    """An obstacle layer with no observation yet (unknown when tracking unknown space)."""
+    fill = NO_INFORMATION if params.track_unknown_space else FREE_SPACE
+    return np.full(shape, fill, dtype=np.uint8)
+
+
+def observe(
+    layer: np.ndarray,
+    costmap: Costmap,
+    laser: tuple[float, float, float],
+    height: float,
+    scan,
+    source: ObservationSource,
+) -> np.ndarray:
+    """The obstacle layer after one LaserScan of ``source`` from the laser's world pose
+    (x, y, yaw) at ``height`` [m]: clearing along the beams, then marking their ends (a new
+    array)."""
+    out = layer.copy()
+    ranges = np.asarray(scan.ranges, dtype=float)
+    if ranges.size == 0:
+        return out
+    angles = laser[2] + scan.angle_min + scan.angle_increment * np.arange(ranges.size)
+    c, s = np.cos(angles), np.sin(angles)
+    res = costmap.resolution
+    rows_n, cols_n = out.shape
+    if source.clearing:
+        reach = np.where(np.isposinf(ranges) & source.inf_is_valid, scan.range_max, ranges)
+        reach = np.where(np.isfinite(reach), reach, np.nan)
+        reach = np.minimum(reach, source.raytrace_max_range)
+        ok = np.isfinite(reach) & (reach > source.raytrace_min_range)
+        steps = np.arange(source.raytrace_min_range, source.raytrace_max_range, 0.5 * res)
+        # each beam sampled every half cell up to one cell short of its end
+        d = steps[None, :] * np.ones((ok.sum(), 1))
+        keep = d < (reach[ok] - res)[:, None]
+        px = laser[0] + d * c[ok][:, None]
+        py = laser[1] + d * s[ok][:, None]
+        cols = np.floor((px[keep] - costmap.origin[0]) / res).astype(int)
+        rows = np.floor((py[keep] - costmap.origin[1]) / res).astype(int)
+        inside = (rows >= 0) & (rows < rows_n) & (cols >= 0) & (cols < cols_n)
+        out[rows[inside], cols[inside]] = FREE_SPACE
+    if source.marking and source.min_obstacle_height <= height <= source.max_obstacle_height:
+        hit = np.isfinite(ranges) & (ranges >= source.obstacle_min_range)
+        hit &= ranges <= source.obstacle_max_range
+        hit &= (ranges >= scan.range_min) & (ranges <= scan.range_max)
+        px = laser[0] + ranges[hit] * c[hit]
+        py = laser[1] + ranges[hit] * s[hit]
+        cols = np.floor((px - costmap.origin[0]) / res).astype(int)
+        rows = np.floor((py - costmap.origin[1]) / res).astype(int)
+        inside = (rows >= 0) & (rows < rows_n) & (cols >= 0) & (cols < cols_n)
+        out[rows[inside], cols[inside]] = LETHAL_OBSTACLE
+    return out
+
+
+def clear_footprint(layer: np.ndarray, costmap: Costmap, pose, radius: float) -> np.ndarray:
+    """The cells under the robot (a disc of ``radius``) freed (``footprint_clearing``)."""
+    rows, cols = np.indices(layer.shape)
+    centres = costmap.cell_to_world(rows, cols)
+    under = np.hypot(centres[..., 0] - pose[0], centres[..., 1] - pose[1]) <= radius
+    out = layer.copy()
+    out[under] = FREE_SPACE
+    return out
+
+
+def layered_costmap(
+    grid: OccupancyMap,
+    params: CostmapParameters,
+    obstacles: np.ndarray | None,
+    robot: tuple[float, float] | None = None,
+) -> Costmap:
+    """The master grid: the static layer, the obstacle layer by its maximum (as
+    ``updateWithMax``; ``combination_method: 0`` overwrites), then the inflation layer; a
+    rolling window keeps only the ``width`` x ``height`` around ``robot``."""
+    costs = (
+        static_layer(grid, params)
+        if params.static_layer
+        else empty_obstacles(grid.data.shape, params)
+    )
+    layer = params.obstacle_layer
+    if obstacles is not None and layer is not None and layer.enabled:
+        seen = obstacles != NO_INFORMATION
+        if layer.combination_method == 0:
+            costs[seen] = obstacles[seen]
+        else:
+            take = seen & ((costs == NO_INFORMATION) | (costs < obstacles))
+            costs[take] = obstacles[take]
+    if params.rolling_window and robot is not None:
+        rows, cols = np.indices(costs.shape)
+        centres = Costmap(costs, grid.resolution, grid.origin).cell_to_world(rows, cols)
+        outside = (np.abs(centres[..., 0] - robot[0]) > params.width / 2) | (
+            np.abs(centres[..., 1] - robot[1]) > params.height / 2
+        )
+        costs[outside] = FREE_SPACE
     costs = inflate(costs, grid.resolution, params)
     return Costmap(costs=costs, resolution=grid.resolution, origin=grid.origin)

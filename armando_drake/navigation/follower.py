@@ -168,6 +168,35 @@ def _plugin(ros: dict, names_key: str, name_key: str, default: str, where: str):
     return names[0], node
 
 
+# Controllers Nav2 ships that are not implemented here: Regulated Pure Pursuit follows
+# instead, with their parameters of the same meaning (RPP's name: theirs).
+SUBSTITUTED = {
+    "dwb_core::DWBLocalPlanner": {
+        "desired_linear_vel": "max_vel_x",
+        "rotate_to_heading_angular_vel": "max_vel_theta",
+        "max_angular_accel": "acc_lim_theta",
+    },
+    "nav2_mppi_controller::MPPIController": {
+        "desired_linear_vel": "vx_max",
+        "rotate_to_heading_angular_vel": "wz_max",
+        "max_angular_accel": "az_max",
+    },
+}
+
+
+def _substitute(kind: str, follow: dict, where: str) -> dict:
+    """RPP's parameters of a substituted controller's (one warning naming both)."""
+    mapped = {rpp: follow[theirs] for rpp, theirs in SUBSTITUTED[kind].items() if theirs in follow}
+    _log.warning(
+        "%s.plugin: %s is not implemented here; Regulated Pure Pursuit follows instead (%s)",
+        where,
+        kind,
+        ", ".join(f"{k}={v} from {SUBSTITUTED[kind][k]}" for k, v in mapped.items())
+        or "its defaults",
+    )
+    return {"plugin": RPP, **mapped}
+
+
 def controller_parameters(path: str | Path) -> ControllerParameters:
     """controller_server's parameters of a Nav2 YAML (and planner_server's
     ``expected_planner_frequency``); keys not applied are warned about by name."""
@@ -217,8 +246,14 @@ def controller_parameters(path: str | Path) -> ControllerParameters:
     ignored += [f"{where}.{name}.{k}" for k in progress if k not in keys]
     known.add(name)
     name, follow = _plugin(ros, "controller_plugins", "controller_plugin", "FollowPath", where)
-    if follow["plugin"] != RPP:
-        raise ConfigError(f"{where}.{name}.plugin is {follow['plugin']!r}; only {RPP} is known")
+    kind = str(follow["plugin"]).replace("/", "::")
+    if kind in SUBSTITUTED:
+        follow = _substitute(kind, follow, f"{where}.{name}")
+    elif kind != RPP:
+        raise ConfigError(
+            f"{where}.{name}.plugin: unknown controller {follow['plugin']!r} "
+            f"(known: {RPP}; {', '.join(SUBSTITUTED)} run as it)"
+        )
     fields = {f.name for f in dc.fields(RppParameters)}
     for key in follow:
         if key in fields:

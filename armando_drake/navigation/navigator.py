@@ -39,12 +39,25 @@ from armando_drake.navigation.amcl import (
     body_odometry,
     compose,
 )
+from armando_drake.navigation.behaviors import (
+    CLEAR,
+    BehaviorParameters,
+    Recovery,
+    behavior_parameters,
+    recovery_command,
+)
 from armando_drake.navigation.config import NavigationConfig, NavigationGoal
 from armando_drake.navigation.costmap import (
     INSCRIBED_INFLATED_OBSTACLE,
     Costmap,
+    CostmapParameters,
+    clear_footprint,
     costmap_parameters,
+    empty_obstacles,
+    has_costmap,
+    layered_costmap,
     make_costmap,
+    observe,
 )
 from armando_drake.navigation.follower import (
     ControllerParameters,
@@ -85,6 +98,32 @@ class GoalResult:
     yaw_error: float  # [rad]
     path_length: float  # [m] driven
     plan_length: float  # [m] the first plan's
+    recoveries: tuple = ()  # (behaviour, start [s], end [s]) of each recovery run
+    blocked_replans: int = 0  # replans made while the current plan crossed an obstacle
+    first_plan: Any = None  # the first plan (n, 2), or None
+
+    @property
+    def status(self) -> str:
+        """NavigateToPose's result: succeeded, canceled or aborted; or unfinished (the
+        run ended first, or the goal is not sent yet)."""
+        if self.reached:
+            return "succeeded"
+        return {"canceled": "canceled", "not reached": "unfinished"}.get(self.reason, "aborted")
+
+
+@dc.dataclass(frozen=True)
+class Layers:
+    """The costmaps updated from the lidar's scans: the global one (its obstacle layer,
+    if its plugins list one) and the local one (``local_costmap``, if the file has it),
+    with the laser's planar pose on the base (x, y, yaw) and its height [m]."""
+
+    global_params: CostmapParameters
+    local_params: CostmapParameters | None
+    laser: tuple[float, float, float]
+    height: float
+
+    def all(self) -> tuple:
+        return (self.global_params, self.local_params)
 
 
 @dc.dataclass(frozen=True)
@@ -115,6 +154,19 @@ class NavState:
     localization: tuple = ()
     estimate: tuple = ()  # the localization's (x, y, yaw) at the last update
     explore: Any = None  # the exploration's own state (navigation/explore.py)
+    # With an obstacle layer: per costmap (global, local) its layer's grid and the
+    # layered costmap, and when they were last updated.
+    obstacles: tuple = ()
+    costmaps: tuple = ()
+    observed_at: tuple = ()
+    poses: tuple = ()  # the localization's last (time, (x, y, yaw)): a scan's at its stamp
+    # The recovery running (behaviors.Recovery) or None; the retries of the current goal
+    # and its recoveries so far ((behaviour, start, end), ...).
+    recovery: Any = None
+    retries: int = 0
+    recoveries: tuple = ()
+    blocked_replans: int = 0
+    first_plan: Any = None
 
     def __deepcopy__(self, memo):
         return self
@@ -160,8 +212,12 @@ class Navigator(LeafSystem):
         start_delay: float = 0.0,
         grid: OccupancyMap | None = None,
         amcl_axle: float | None = None,
+        layers: Layers | None = None,
+        behaviors: BehaviorParameters | None = None,
     ):
         super().__init__()
+        self.layers = layers
+        self.behaviors = behaviors
         self.goals = list(goals)
         self.costmap = costmap
         self.grid = grid
@@ -176,6 +232,8 @@ class Navigator(LeafSystem):
             self._map_to_odom = self.DeclareVectorInputPort("map_to_odom", 3)
         self._nav = self.DeclareAbstractState(AbstractValue.Make(NavState(goals=tuple(goals))))
         self._goal_pose = self.DeclareAbstractInputPort("goal_pose", PublicationValue())
+        if layers is not None:
+            self._scan = self.DeclareAbstractInputPort("scan", PublicationValue())
         self._topic = self.DeclareAbstractState(PublicationValue())
         self._command = self.DeclareDiscreteState(BasicVector(np.zeros(2)))
         self.DeclareStateOutputPort("cmd_vel", self._topic)
@@ -213,6 +271,10 @@ class Navigator(LeafSystem):
             step = math.hypot(truth[0] - nav.last_pose[0], truth[1] - nav.last_pose[1])
             nav = dc.replace(nav, driven=nav.driven + step)
         nav = dc.replace(nav, last_pose=truth, estimate=tuple(pose))
+        if self.layers is not None:
+            nav = dc.replace(nav, poses=(*nav.poses[-5:], (now, tuple(pose))))
+            if self._scan.HasValue(context):
+                nav = self._observe(nav, self._scan.Eval(context).message, now)
         if self._axle is not None and (
             not nav.localization or now - nav.localization[-1][0] >= 1.0 - 1e-9
         ):
@@ -242,8 +304,43 @@ class Navigator(LeafSystem):
         return nav, 0.0, 0.0
 
     def _costmap(self, nav: NavState) -> Costmap:
-        """The costmap the current goal is planned and followed on."""
-        return self.costmap
+        """The costmap the current goal is planned on (the global one)."""
+        return nav.costmaps[0] if nav.costmaps and nav.costmaps[0] is not None else self.costmap
+
+    def _local(self, nav: NavState) -> Costmap:
+        """The costmap the controller checks its motion on (the local one, if any)."""
+        if len(nav.costmaps) > 1 and nav.costmaps[1] is not None:
+            return nav.costmaps[1]
+        return self._costmap(nav)
+
+    def _observe(self, nav: NavState, scan, now: float) -> NavState:
+        """The costmaps' obstacle layers after ``scan`` (each at its update_frequency),
+        seen from the pose at the scan's stamp (as the transform at the stamp in Nav2)."""
+        if scan is None or self.grid is None:
+            return nav
+        pose = min(nav.poses, key=lambda item: abs(item[0] - scan.stamp))[1]
+        layers = self.layers
+        laser = compose(pose, layers.laser)
+        shape = self.grid.data.shape
+        obstacles = list(nav.obstacles or (None, None))
+        costmaps = list(nav.costmaps or (None, None))
+        observed = list(nav.observed_at or (-math.inf, -math.inf))
+        for k, params in enumerate(layers.all()):
+            if params is None or now - observed[k] < 1.0 / params.update_frequency - 1e-9:
+                continue
+            layer = params.obstacle_layer
+            grid = obstacles[k] if obstacles[k] is not None else empty_obstacles(shape, params)
+            if layer is not None and layer.enabled:
+                for source in layer.sources:
+                    grid = observe(grid, self.costmap, laser, layers.height, scan, source)
+                if layer.footprint_clearing_enabled:
+                    grid = clear_footprint(grid, self.costmap, pose, params.inscribed_radius)
+            obstacles[k] = grid
+            costmaps[k] = layered_costmap(self.grid, params, grid, robot=pose[:2])
+            observed[k] = now
+        return dc.replace(
+            nav, obstacles=tuple(obstacles), costmaps=tuple(costmaps), observed_at=tuple(observed)
+        )
 
     # -- tasks
 
@@ -303,6 +400,11 @@ class Navigator(LeafSystem):
             driven=0.0,
             plan_length=0.0,
             planned_at=-math.inf,
+            recovery=None,
+            retries=0,
+            recoveries=(),
+            blocked_replans=0,
+            first_plan=None,
         )
         if index < len(nav.goals):
             goal = nav.goals[index]
@@ -312,17 +414,36 @@ class Navigator(LeafSystem):
 
     def _plan(self, nav: NavState, pose, now: float) -> NavState:
         goal = nav.goals[nav.goal]
+        if nav.path is not None and self._blocked(nav):
+            nav = dc.replace(nav, blocked_replans=nav.blocked_replans + 1)
         try:
             path = plan(self._costmap(nav), pose[:2], (goal.x, goal.y), self.planner)
         except PlanningError as error:
             _log.warning("goal %r: no plan: %s", goal.name, error)
+            if self.behaviors is not None:  # the tree's ComputePathToPose fails
+                return dc.replace(nav, path=None, planned_at=now)
             return nav if nav.path is not None else dc.replace(nav, planned_at=now)
         if np.hypot(path[-1, 0] - goal.x, path[-1, 1] - goal.y) <= self._costmap(nav).resolution:
             path = np.vstack([path[:-1], [goal.x, goal.y]])  # the goal's own pose ends it
         if len(path) == 1:
             path = np.vstack([path, path])
         length = nav.plan_length or path_length(path)
-        return dc.replace(nav, path=path, path_index=0, planned_at=now, plan_length=length)
+        first = path if nav.first_plan is None else nav.first_plan
+        return dc.replace(
+            nav, path=path, path_index=0, planned_at=now, plan_length=length, first_plan=first
+        )
+
+    def _blocked(self, nav: NavState) -> bool:
+        """Whether the rest of the current plan crosses an obstacle of the costmap (a lethal
+        cell, or one within the robot's inscribed radius of it)."""
+        costmap = self._costmap(nav)
+        rest = nav.path[nav.path_index :]
+        cols = np.floor((rest[:, 0] - costmap.origin[0]) / costmap.resolution).astype(int)
+        rows = np.floor((rest[:, 1] - costmap.origin[1]) / costmap.resolution).astype(int)
+        inside = (rows >= 0) & (rows < costmap.costs.shape[0])
+        inside &= (cols >= 0) & (cols < costmap.costs.shape[1])
+        costs = costmap.costs[rows[inside], cols[inside]]
+        return bool(((costs >= INSCRIBED_INFLATED_OBSTACLE) & (costs <= 254)).any())
 
     def _finish(self, nav: NavState, pose, now: float, reason: str, then=True) -> NavState:
         """The goal's result, measured on the ground truth; the next goal sent from
@@ -341,6 +462,9 @@ class Navigator(LeafSystem):
             position_error=error,
             yaw_error=yaw_error,
             path_length=nav.driven,
+            recoveries=nav.recoveries,
+            blocked_replans=nav.blocked_replans,
+            first_plan=nav.first_plan,
             plan_length=nav.plan_length,
         )
         log = _log.info if result.reached else _log.warning
@@ -386,19 +510,21 @@ class Navigator(LeafSystem):
         """One cycle of the controller server on the current goal: (state, v, w)."""
         c = self.controller
         goal = nav.goals[nav.goal]
+        if nav.recovery is not None:
+            return self._recover(nav, pose, now)
         replan = c.expected_planner_frequency > 0 and (
             now - nav.planned_at >= 1.0 / c.expected_planner_frequency - 1e-9
         )
         if nav.path is None or (replan and not nav.xy_reached):
             nav = self._plan(nav, pose, now)
         if nav.path is None:
-            return self._finish(nav, pose, now, "no plan"), 0.0, 0.0
+            return self._fail(nav, pose, now, "no plan")
         index = prune(nav.path, nav.path_index, pose, c.rpp.max_robot_pose_search_dist)
         nav = dc.replace(nav, path_index=index)
         local = to_robot(nav.path[index:], pose)
         command = rpp_command(
             c,
-            self._costmap(nav),
+            self._local(nav),
             local,
             pose,
             speed,
@@ -414,13 +540,67 @@ class Navigator(LeafSystem):
             since = nav.failing_since if not math.isnan(nav.failing_since) else now
             nav = dc.replace(nav, failing_since=since)
             if c.failure_tolerance >= 0 and now - since > c.failure_tolerance:
-                return self._finish(nav, pose, now, "collision ahead"), 0.0, 0.0
+                return self._fail(nav, pose, now, "collision ahead")
             return nav, 0.0, 0.0
         nav = dc.replace(nav, failing_since=math.nan)
         progressing, nav = self._progress(nav, pose, now)
         if not progressing:
-            return self._finish(nav, pose, now, "no progress"), 0.0, 0.0
+            return self._fail(nav, pose, now, "no progress")
         return nav, command.linear, command.angular
+
+    # -- recoveries
+
+    def _fail(self, nav: NavState, pose, now: float, reason: str):
+        """A failure of the goal: the next recovery and a retry, or the goal aborted."""
+        b = self.behaviors
+        if b is None or nav.retries >= b.number_of_retries:
+            return self._finish(nav, pose, now, reason), 0.0, 0.0
+        kinds = b.round_robin()
+        kind = kinds[nav.retries % len(kinds)]
+        _log.warning(
+            "goal %r: %s at %.2f s; recovery %d/%d: %s",
+            nav.goals[nav.goal].name,
+            reason,
+            now,
+            nav.retries + 1,
+            b.number_of_retries,
+            kind.rpartition("::")[2],
+        )
+        nav = dc.replace(nav, recovery=Recovery(kind, now, tuple(pose)), retries=nav.retries + 1)
+        if kind == CLEAR:  # ClearEntireCostmap: the obstacle layers start again
+            nav = dc.replace(nav, obstacles=(), costmaps=(), observed_at=())
+        return self._recover(nav, pose, now)
+
+    def _recover(self, nav: NavState, pose, now: float):
+        """One cycle of the running recovery; when it ends, a new plan and the checkers
+        reset (the retry)."""
+        recovery = nav.recovery
+        v, w, done = recovery_command(
+            self.behaviors, recovery, pose, now, lambda d: self._blocked_behind(nav, pose, d)
+        )
+        if not done:
+            return nav, v, w
+        record = (recovery.kind.rpartition("::")[2], recovery.started, now)
+        nav = dc.replace(
+            nav,
+            recovery=None,
+            recoveries=(*nav.recoveries, record),
+            path=None,
+            planned_at=-math.inf,
+            baseline=(*pose, now),
+            failing_since=math.nan,
+        )
+        return nav, 0.0, 0.0
+
+    def _blocked_behind(self, nav: NavState, pose, distance: float) -> bool:
+        costmap = self._local(nav)
+        for d in np.arange(0.0, distance + 1e-9, 0.5 * costmap.resolution):
+            x = pose[0] - (d + self._inscribed) * math.cos(pose[2])
+            y = pose[1] - (d + self._inscribed) * math.sin(pose[2])
+            row, col = costmap.world_to_cell(x, y)
+            if costmap.contains(row, col) and costmap.costs[row, col] == 254:
+                return True
+        return False
 
     # -- results
 
@@ -445,6 +625,8 @@ class Navigator(LeafSystem):
                     yaw_error=abs(wrap(pose[2] - goal.yaw)),
                     path_length=nav.driven if current else 0.0,
                     plan_length=nav.plan_length if current else 0.0,
+                    recoveries=nav.recoveries if current else (),
+                    blocked_replans=nav.blocked_replans if current else 0,
                 )
             )
         return results
@@ -459,7 +641,12 @@ class Navigator(LeafSystem):
                     "name": r.name,
                     "goal": [g.x, g.y, g.yaw],
                     "reached": r.reached,
+                    "status": r.status,
                     "reason": r.reason,
+                    "blocked_replans": r.blocked_replans,
+                    "recoveries": [
+                        {"behavior": k, "start": t0, "end": t1} for k, t0, t1 in r.recoveries
+                    ],
                     "position_error": r.position_error,
                     "yaw_error": r.yaw_error,
                     "time": r.end - r.start if r.reached else None,
@@ -578,6 +765,7 @@ def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") 
         costmap_params = costmap_parameters(params_file)
         planner = planner_parameters(params_file)
         controller = controller_parameters(params_file)
+        behaviors = behavior_parameters(params_file)
     except ConfigError as error:
         raise ConfigError(f"{where}navigation.params_file: {error}") from None
     grid = navigation_map(config, stack.plant, stack.scene_graph, stack.robot, where)
@@ -586,6 +774,15 @@ def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") 
     check_goals(goals, costmap, where)
     hardware = stack.hardware
     axle = _axle_offset(stack, takers[0]) if config.localization == "amcl" else None
+    layers = _layers(stack, costmap_params, params_file, where)
+    if layers is not None and layers.local_params is not None:
+        if not math.isclose(layers.local_params.resolution, grid.resolution):
+            _log.warning(
+                "%s: local_costmap resolution %g: the local costmap runs on the map's grid (%g)",
+                params_file,
+                layers.local_params.resolution,
+                grid.resolution,
+            )
     navigator = builder.AddSystem(
         Navigator(
             goals,
@@ -598,6 +795,8 @@ def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") 
             start_delay=config.start_delay,
             grid=grid,
             amcl_axle=axle,
+            layers=layers,
+            behaviors=behaviors,
         )
     )
     navigator.set_name("navigator")
@@ -606,9 +805,44 @@ def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") 
     builder.Connect(navigator.GetOutputPort("cmd_vel"), stack.command_input(takers[0]))
     builder.ExportOutput(navigator.GetOutputPort("command"), "navigation_command")
     navigation = Navigation(navigator=navigator, drive=takers[0], grid=grid, costmap=costmap)
+    if layers is not None:
+        navigation.lidar = _lidars(stack, "the costmap's obstacle layer", where)[0].name
     if axle is not None:
         navigation.amcl = _add_amcl(builder, config, stack, navigation, params_file, axle, where)
     return navigation
+
+
+def _lidars(stack, what: str, where: str) -> list:
+    lidars = [b for b in stack.robot.sensors if b.type in LIDAR_TYPES]
+    if not lidars:
+        raise ScenarioError(f"{where}navigation: {what} needs a lidar on the robot")
+    return lidars
+
+
+def _layers(stack, global_params, params_file: Path, where: str) -> Layers | None:
+    """The costmaps fed by the lidar's scans: the global one if it has an obstacle layer,
+    the file's local_costmap if it has one; None if neither."""
+    try:
+        local = (
+            costmap_parameters(params_file, "local_costmap")
+            if has_costmap(params_file, "local_costmap")
+            else None
+        )
+    except ConfigError as error:
+        raise ConfigError(f"{where}navigation.params_file: {error}") from None
+    if global_params.obstacle_layer is None:
+        global_params = None
+    if global_params is None and local is None:
+        return None
+    lidar = _lidars(stack, "the costmap's obstacle layer", where)[0]
+    plant, robot = stack.plant, stack.robot
+    context = plant.CreateDefaultContext()
+    body = plant.get_body(next(iter(plant.GetFloatingBaseBodies())))
+    link = plant.GetBodyByName(lidar.link, robot.model_instance).body_frame()
+    X_BS = plant.CalcRelativeTransform(context, body.body_frame(), link) @ lidar.X_LS
+    laser = (*X_BS.translation()[:2], X_BS.rotation().ToRollPitchYaw().yaw_angle())
+    height = lidar_height(plant, stack.scene_graph, robot)
+    return Layers(global_params, local, tuple(float(v) for v in laser), height)
 
 
 def _axle_offset(stack, drive: str) -> float:
@@ -675,6 +909,7 @@ def ConnectLocalization(builder, navigation: Navigation | None, sensors: dict) -
     ground truth or without a navigation)."""
     if navigation is None:
         return
-    for reader in (navigation.amcl, navigation.mapper):
+    navigator = navigation.navigator if navigation.navigator.layers is not None else None
+    for reader in (navigation.amcl, navigation.mapper, navigator):
         if reader is not None:
             builder.Connect(sensors[navigation.lidar]["scan"], reader.GetInputPort("scan"))

@@ -32,6 +32,8 @@ from armando_drake.navigation.costmap import (
 )
 from armando_drake.tools.errors import ConfigError, UserInputError
 
+_log = logging.getLogger("armando_drake.navigation")
+
 COST_NEUTRAL = 50
 COST_FACTOR = 0.8
 COST_OBS = 254
@@ -41,7 +43,15 @@ NAVFN = "nav2_navfn_planner/NavfnPlanner"
 PLANNER_KEYS = ("plugin", "tolerance", "use_astar", "allow_unknown")
 PLANNER_SERVER_KNOWN = {"use_sim_time", "planner_plugins", "expected_planner_frequency"}
 
-_log = logging.getLogger("armando_drake.navigation")
+
+# Planners Nav2 ships that are not implemented here: NavFn plans instead (their
+# ``tolerance`` and ``allow_unknown`` read, as NavFn's).
+SUBSTITUTED = (
+    "nav2_smac_planner::SmacPlanner2D",
+    "nav2_smac_planner::SmacPlannerHybrid",
+    "nav2_smac_planner::SmacPlannerLattice",
+    "nav2_theta_star_planner::ThetaStarPlanner",
+)
 
 
 class PlanningError(UserInputError):
@@ -66,8 +76,14 @@ def planner_parameters(path: str | Path, name: str = "GridBased") -> PlannerPara
         node = doc["planner_server"]["ros__parameters"][name]
     except (KeyError, TypeError):
         raise ConfigError(f"{where}: missing") from None
-    if node.get("plugin") != NAVFN:
-        raise ConfigError(f"{where}.plugin is {node.get('plugin')!r}; only {NAVFN} is known")
+    kind = str(node.get("plugin", "")).replace("/", "::")
+    if kind in SUBSTITUTED:
+        _log.warning("%s.plugin: %s is not implemented here; NavFn plans instead", where, kind)
+    elif kind != NAVFN.replace("/", "::"):
+        raise ConfigError(
+            f"{where}.plugin: unknown planner {node.get('plugin')!r} "
+            f"(known: {NAVFN}; {', '.join(SUBSTITUTED)} run as NavFn)"
+        )
     params = PlannerParameters()
     tolerance = node.get("tolerance", params.tolerance)
     if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)) or tolerance < 0:

@@ -83,7 +83,8 @@ def test_course_navigation_yaml_parses(fra2mo_package, caplog):
     assert params.robot_radius == 0.2 and params.resolution == 0.05
     assert params.inflation_radius == 0.75 and params.cost_scaling_factor == 2.0
     assert params.track_unknown_space and params.static_layer and params.inflation_layer
-    assert "ObstacleLayer needs a live scan" in caplog.text
+    scan = params.obstacle_layer.sources[0]  # the course's lidar topic
+    assert (scan.topic, scan.data_type, scan.obstacle_max_range) == ("/lidar", "LaserScan", 2.5)
     local = costmap_parameters(path, "local_costmap")
     assert (local.inflation_radius, local.cost_scaling_factor) == (0.09, 1.0)
     assert planner_parameters(path) == PlannerParameters(0.2, False, True)
