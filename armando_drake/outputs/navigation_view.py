@@ -7,7 +7,8 @@ Meshcat path                         what
 ``/drake/navigation/map``            the map's occupied cells (dark grey points); with
                                      exploration, the map being built, redrawn each second
 ``/drake/navigation/costmap``        the global costmap's inflated cells, coloured by cost
-                                     from light blue (low) to magenta (inscribed)
+                                     from light blue (low) to magenta (inscribed); with
+                                     an obstacle layer, as the scans update it, each second
 ``/drake/navigation/plan``           the current global plan (a green line)
 ``/drake/navigation/goals/<name>``   each goal: a sphere, and a short line for its heading
 ==================================== ==================================================
@@ -86,6 +87,8 @@ class NavigationView(LeafSystem):
         self._planned_at = None
         self._goals: tuple = ()
         self._map_drawn_at = -math.inf
+        self._costmap = None  # the costmap drawn last
+        self._costmap_drawn_at = -math.inf
         self.plan_points = 0  # the points of the plan drawn last
         self.map_cells = 0  # the occupied cells drawn last
         self.costmap_cells = 0  # the inflated cells drawn
@@ -105,8 +108,9 @@ class NavigationView(LeafSystem):
         )
         self.map_cells = xy.shape[1]
 
-    def _DrawCostmap(self) -> None:
-        costmap = self._navigation.costmap
+    def _DrawCostmap(self, costmap=None) -> None:
+        costmap = costmap if costmap is not None else self._navigation.costmap
+        self._costmap = costmap
         costs = np.asarray(costmap.costs)
         inflated = (costs > 0) & (costs < 254)
         xy = cell_centres(inflated, costmap.resolution, costmap.origin)
@@ -121,6 +125,11 @@ class NavigationView(LeafSystem):
         if mapper is not None and now - self._map_drawn_at >= MAP_PERIOD:
             self._map_drawn_at = now
             self._DrawMap(mapper.current_map(mapper.GetMyContextFromRoot(context)))
+        # With an obstacle layer, the global costmap the scans update (redrawn each second).
+        live = nav.costmaps[0] if nav.costmaps else None
+        if live is not None and live is not self._costmap and now - self._costmap_drawn_at >= 1:
+            self._costmap_drawn_at = now
+            self._DrawCostmap(live)
         if nav.goals != self._goals:
             self._goals = nav.goals
             for goal in nav.goals:

@@ -76,3 +76,25 @@ def test_cell_centres_follow_a_turned_origin():
     mask[1, 2] = True  # row 1, column 2: local (2.5, 1.5) cells
     xy = cell_centres(mask, 0.1, (1.0, 2.0, np.pi / 2))
     assert xy[:, 0] == pytest.approx([1.0 - 0.15, 2.0 + 0.25])
+
+
+def test_the_costmap_drawn_follows_the_obstacle_layer():
+    """fra2mo_obstacles: a crate the map lacks, once the lidar sees it, is drawn inflated in
+    the costmap (cells around it that the static costmap left free)."""
+    meshcat = Meshcat()
+    scenario = load_scenario("fra2mo_obstacles", "logging: {console_rate: 0}")
+    world = MakeWorld(scenario, meshcat=meshcat, quiet=True)
+    view = world.diagram.GetSubsystemByName("navigation_view")
+    simulator = Simulator(world.diagram)
+    simulator.AdvanceTo(0.5)
+    before = _positions(meshcat, f"{NAV_PATH}/costmap")
+    simulator.AdvanceTo(6.0)
+    after = _positions(meshcat, f"{NAV_PATH}/costmap")
+    world.close(simulator.get_context())
+    crate = np.array([-0.6, -0.1])  # the crate's centre (diagrams/fra2mo_obstacles.yaml)
+
+    def near(points):
+        return int((np.linalg.norm(points[:, :2] - crate, axis=1) < 0.5).sum())
+
+    assert near(after) > near(before) + 20  # the pillar to the south-west inflates some
+    assert view.costmap_cells == len(after)
