@@ -157,9 +157,15 @@ class RunResult:
         elif self.controller == "twist":
             what = f"{name} with a cmd_vel sequence"
         elif self.controller == "navigation":
-            reached = self.navigation["reached"] if self.navigation else 0
-            goals = len(self.navigation["goals"]) if self.navigation else 0
-            what = f"{name} navigating to goals, {reached}/{goals} reached"
+            nav = self.navigation or {}
+            mapping = nav.get("mapping")
+            if mapping:  # the goals are frontiers: the exploration's own outcome
+                left = mapping.get("frontiers_left")
+                state = "done" if mapping.get("done") else "not done"
+                what = f"{name} exploring, {state}, {left} frontiers left"
+            else:
+                reached, goals = nav.get("reached", 0), len(nav.get("goals", []))
+                what = f"{name} navigating to goals, {reached}/{goals} reached"
         elif self.controller == "none":
             what = f"{name} with no controller driving the arm"
         elif self.controller == "sinusoid":

@@ -38,3 +38,23 @@ def test_a_wrong_path_or_type_is_refused_by_name():
         apply_overrides(doc, {"amcl.max_particles": 2.5})
     with pytest.raises(ConfigError, match=r"use_interpolation=2.0: .*true/false"):
         apply_overrides(doc, {"controller_server.FollowPath.use_interpolation": 2.0})
+
+
+@pytest.mark.parametrize(
+    "navigation, expected",
+    [
+        ({"reached": 3, "goals": [{}] * 4}, "navigating to goals, 3/4 reached"),
+        (
+            {"reached": 0, "goals": [{}] * 4, "mapping": {"done": True, "frontiers_left": 0}},
+            "exploring, done, 0 frontiers left",
+        ),
+    ],
+)
+def test_the_run_headline_says_what_the_navigation_did(navigation, expected):
+    from armando_drake.simulation.run import RunResult
+
+    result = RunResult(
+        scenario="s.yaml", controller="navigation", sim_time=1.0, wall_time=1.0,
+        realtime_factor=1.0, interrupted=False, joint_names=[], navigation=navigation,
+    )  # fmt: skip
+    assert expected in result.headline()
