@@ -5,7 +5,8 @@ plan and the goals.
 Meshcat path                         what
 ==================================== ==================================================
 ``/drake/navigation/map``            the map's occupied cells (dark grey points); with
-                                     exploration, the map being built, redrawn each second
+                                     exploration, the mapper's published map (``/map``),
+                                     redrawn when a new one is published
 ``/drake/navigation/costmap``        the global costmap's inflated cells, coloured by cost
                                      from light blue (low) to magenta (inscribed); with
                                      an obstacle layer, as the scans update it, each second
@@ -40,7 +41,6 @@ COSTMAP_HEIGHT = 0.005  # [m]
 PLAN_HEIGHT = 0.02  # [m]
 GOAL_RADIUS = 0.06  # [m]
 RATE = 4.0  # [Hz] the view's redraws
-MAP_PERIOD = 1.0  # [s] between redraws of a map being built
 LETHAL = 253  # nav2_costmap_2d's inscribed cost; 254 lethal, 255 unknown
 
 
@@ -75,7 +75,12 @@ class NavigationView(LeafSystem):
     """Draws a navigation in Meshcat (see the module docstring).
 
     Ports:
-      - input ``nav_state`` (the Navigator's :class:`NavState`).
+      - input ``nav_state`` (the Navigator's :class:`NavState`);
+      - input ``map`` (an OccupancyMap), with a mapper: the map it publishes.
+
+    The view reads only its own input ports: it is handed its own context, never the
+    root one (the diagram's Simulator, the replay's publish events and a notebook's
+    ``ForcedPublish`` all hand it that).
     """
 
     def __init__(self, meshcat: Meshcat, navigation, *, point_size: float):
@@ -84,9 +89,13 @@ class NavigationView(LeafSystem):
         self._navigation = navigation
         self._point_size = point_size
         self._nav = self.DeclareAbstractInputPort("nav_state", AbstractValue.Make(NavState()))
+        self._map = None
+        if navigation.mapper is not None:
+            blank = navigation.mapper.blank
+            self._map = self.DeclareAbstractInputPort("map", AbstractValue.Make(blank))
         self._planned_at = None
         self._goals: tuple = ()
-        self._map_drawn_at = -math.inf
+        self._map_drawn = None  # the published map drawn last
         self._costmap = None  # the costmap drawn last
         self._costmap_drawn_at = -math.inf
         self.plan_points = 0  # the points of the plan drawn last
@@ -120,11 +129,12 @@ class NavigationView(LeafSystem):
 
     def _Draw(self, context) -> None:
         nav = self._nav.Eval(context)
-        mapper = self._navigation.mapper
         now = context.get_time()
-        if mapper is not None and now - self._map_drawn_at >= MAP_PERIOD:
-            self._map_drawn_at = now
-            self._DrawMap(mapper.current_map(mapper.GetMyContextFromRoot(context)))
+        if self._map is not None:
+            published = self._map.Eval(context)
+            if published is not self._map_drawn:
+                self._map_drawn = published
+                self._DrawMap(published)
         # With an obstacle layer, the global costmap the scans update (redrawn each second).
         live = nav.costmaps[0] if nav.costmaps else None
         if live is not None and live is not self._costmap and now - self._costmap_drawn_at >= 1:
@@ -163,4 +173,6 @@ def AddNavigationView(builder, topics: WorldTopics, meshcat: Meshcat) -> Navigat
         NavigationView(meshcat, navigation, point_size=navigation.grid.resolution),
     )
     builder.Connect(navigation.navigator.GetOutputPort("nav_state"), view.GetInputPort("nav_state"))
+    if navigation.mapper is not None:
+        builder.Connect(navigation.mapper.GetOutputPort("map"), view.GetInputPort("map"))
     return view

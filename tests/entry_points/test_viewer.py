@@ -1,6 +1,7 @@
 """The world's viewer as a user meets it: framed on the robot, waiting for a browser,
 still serving the run after it, printed once; the replay bounded; the progress bar."""
 
+import base64
 import io
 import re
 import subprocess
@@ -303,3 +304,24 @@ def test_a_live_page_gets_only_the_poses_that_moved():
         assert streamer.messages == moved  # at rest again
     finally:
         run.close()
+
+
+@pytest.mark.parametrize(
+    "viewer",
+    [["--exit-when-done", "--no-wait"], ["--no-meshcat"]],
+    ids=["live-meshcat", "replay-only"],
+)
+def test_the_mapping_command_runs_with_a_viewer_and_its_outputs(viewer, tmp_path):
+    """The README's Mapping command with Meshcat live (or only the replay's own Meshcat) and
+    --output: the exploration runs, its map and replay are written."""
+    out = tmp_path / "explore"
+    args = ["--scenario", "fra2mo_explore", *viewer, "--duration", "4", "--realtime-rate", "0"]
+    result = world(*args, "--output", str(out), timeout=300)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert "Traceback" not in result.stderr
+    assert "fra2mo_explore.yaml exploring" in result.stdout
+    for name in ("map.yaml", "summary.json", "replay.html", "navigation.png"):
+        assert (out / name).stat().st_size > 0, name
+    replay = (out / "replay.html").read_text()
+    blobs = re.findall(r"[A-Za-z0-9+/]{200,}={0,2}", replay)  # Meshcat's messages, in base64
+    assert any(b"/drake/navigation/map" in base64.b64decode(blob) for blob in blobs)

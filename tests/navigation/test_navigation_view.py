@@ -98,3 +98,29 @@ def test_the_costmap_drawn_follows_the_obstacle_layer():
 
     assert near(after) > near(before) + 20  # the pillar to the south-west inflates some
     assert view.costmap_cells == len(after)
+
+
+def test_the_map_being_built_is_drawn_as_the_mapper_publishes_it():
+    """fra2mo_explore: the view draws the mapper's published map (its ``map`` output), more
+    of it as the exploration goes, cell for cell; the view reads only its own ports, so a
+    Simulator's initialization and periodic events run (they hand it its own context)."""
+    meshcat = Meshcat()
+    scenario = load_scenario("fra2mo_explore", "logging: {console_rate: 0}")
+    world = MakeWorld(scenario, meshcat=meshcat, quiet=True)
+    view = world.diagram.GetSubsystemByName("navigation_view")
+    mapper = world.topics.navigation.mapper
+    simulator = Simulator(world.diagram)
+    counts = []
+    for t in (1.5, 4.5):
+        simulator.AdvanceTo(t)
+        published = mapper.GetOutputPort("map").Eval(
+            mapper.GetMyContextFromRoot(simulator.get_context())
+        )
+        occupied = np.asarray(published.data) >= 65
+        points = _positions(meshcat, f"{NAV_PATH}/map")
+        expected = cell_centres(occupied, published.resolution, published.origin).T
+        assert view.map_cells == occupied.sum() == len(points)
+        assert np.abs(np.sort(points[:, 1]) - np.sort(expected[:, 1])).max() < 1e-5
+        counts.append(len(points))
+    world.close(simulator.get_context())
+    assert counts[0] > 20 and counts[1] > counts[0] + 20  # the walls seen as it explores
