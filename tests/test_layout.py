@@ -1,15 +1,9 @@
 """The package's architecture, measured from its source (no module is imported).
 
-Layers, bottom to top; a module may import from its own layer's packages and from
-the layers below, never from a layer above::
-
-    0  tools, messages, the package root        generic helpers, message layouts
-    1  description, kinematics, learning        robot files; task-space math; learned IK
-    2  control, sensors, navigation             ros2_control; cameras, objects; Nav2 maps
-    3  vision, perception, task, teleop         what reads sensors or drives control
-    4  ros2, outputs                            live ROS 2; logs, bags, plots, views
-    5  simulation                               the scenario and the one builder
-    6  entry modules, sweeps, benchmarks        command lines over the builder
+Layers, bottom to top; a module may import from its own layer's packages and from the
+layers below, never from a layer above. The layer map is the one
+``docs/design/architecture.md`` shows (its ``layer N  pkg/ pkg/ ...`` block): it is read from
+there, so the page and this test cannot disagree, and every package must be on it.
 
 ``python tests/test_layout.py`` prints the figures; the tests assert them.
 """
@@ -24,26 +18,21 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "armando_drake"
 
-LAYERS = {
-    "tools": 0,
-    "messages": 0,
-    "": 0,  # armando_drake/__init__.py
-    "description": 1,
-    "kinematics": 1,
-    "learning": 1,
-    "control": 2,
-    "sensors": 2,
-    "navigation": 2,
-    "vision": 3,
-    "perception": 3,
-    "task": 3,
-    "teleop": 3,
-    "ros2": 4,
-    "outputs": 4,
-    "simulation": 5,
-    "sweeps": 6,
-    "benchmarks": 6,
-}
+ARCHITECTURE = PACKAGE.parent / "docs" / "design" / "architecture.md"
+
+
+def documented_layers() -> dict[str, int]:
+    """The layer of each package, as the layer map of ``docs/design/architecture.md`` gives
+    it (``layer 2  control/ sensors/ navigation/  ...``); ``""`` is the package's root."""
+    text = ARCHITECTURE.read_text(encoding="utf-8")
+    layers = {"": 0}  # armando_drake/__init__.py
+    for number, rest in re.findall(r"^layer (\d+)\s+(.*)$", text, re.M):
+        for name in re.findall(r"(?<![\w/<>])([a-z][a-z0-9_]*)/", rest):
+            layers[name] = int(number)
+    return layers
+
+
+LAYERS = documented_layers()
 ENTRY_LAYER = 6  # armando_drake/<name>.py: python -m armando_drake.<name>
 
 # A ros2_control / ros_control controller type string: "<package>/<Type>".
@@ -226,8 +215,17 @@ def test_the_measures_see_what_they_measure(tmp_path):
     assert not TYPE_STRING.search("/position_controller/commands")
     assert layer_of("armando_drake.control.manager") < layer_of("armando_drake.simulation.builder")
     assert layer_of("armando_drake.world") == ENTRY_LAYER
-    packages = {p.name for p in PACKAGE.iterdir() if (p / "__init__.py").is_file()}
-    assert packages - {"models", "diagrams"} <= set(LAYERS), "give each package a layer"
+
+
+def packages() -> set[str]:
+    """The subpackages of armando_drake (folders holding Python modules)."""
+    return {p.name for p in PACKAGE.iterdir() if p.is_dir() and any(p.rglob("*.py"))}
+
+
+def test_the_documented_layer_map_lists_every_package_and_only_those():
+    assert packages() - set(LAYERS) == set(), f"give each package a layer in {ARCHITECTURE}"
+    assert set(LAYERS) - {""} - packages() == set(), f"{ARCHITECTURE} lists no such package"
+    assert LAYERS["tools"] == 0 and LAYERS["simulation"] == 5 and LAYERS["benchmarks"] == 6
 
 
 if __name__ == "__main__":
