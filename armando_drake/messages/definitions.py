@@ -1,12 +1,13 @@
 """The ROS 2 messages the project speaks, in one place.
 
-``DEFINITIONS`` holds the ``.msg`` text of every ROS 2 message type that the
-MCAP recorder (:mod:`armando_drake.outputs.recording`), the DDS bridge and the
-Foxglove server (:mod:`armando_drake.ros2.bridge`) write or read, copied from
-the ROS 2 Jazzy ``.msg`` files without comments and constants (these types
-have not changed since Humble). Everything else is derived from it: the
-``ros2msg`` schemas of MCAP and Foxglove (:func:`message_definition`) and the
-DDS types of Cyclone DDS (:mod:`armando_drake.ros2.idl`).
+Their definitions come from the ``rosbags`` type store of ROS 2 Humble
+(:func:`typestore`; these messages have not changed since, but for a constant
+Jazzy added to ``visualization_msgs/Marker``): the ``ros2msg`` schemas of MCAP and
+Foxglove (:func:`message_definition`), the field lists (:func:`fields`) and from
+them the DDS types of Cyclone DDS (:mod:`armando_drake.ros2.idl`). The few types
+the store lacks (:data:`EXTRA_DEFINITIONS`: ros2_control's ``control_msgs`` of
+Jazzy, Universal Robots' ``cartesian_control_msgs``) are written here once as
+``.msg`` text and registered into that store.
 
 Messages cross this module as plain dictionaries, field by field as in the
 ``.msg`` files (nested messages are dictionaries, arrays are lists, ``uint8[]``
@@ -20,6 +21,8 @@ from __future__ import annotations
 import functools
 from collections.abc import Mapping, Sequence
 from typing import Any
+
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from armando_drake.messages.scans import LaserScan
 from armando_drake.messages.types import (
@@ -35,120 +38,96 @@ from armando_drake.messages.types import (
     TwistStamped,
 )
 
-# The ROS 2 message definitions, without comments or constants, by type name (pkg/Type).
-DEFINITIONS = {
-    "builtin_interfaces/Time": "int32 sec\nuint32 nanosec\n",
-    "builtin_interfaces/Duration": "int32 sec\nuint32 nanosec\n",
-    "std_msgs/Header": "builtin_interfaces/Time stamp\nstring frame_id\n",
-    "std_msgs/String": "string data\n",
-    "std_msgs/MultiArrayDimension": "string label\nuint32 size\nuint32 stride\n",
-    "std_msgs/MultiArrayLayout": "std_msgs/MultiArrayDimension[] dim\nuint32 data_offset\n",
-    "std_msgs/Float64MultiArray": "std_msgs/MultiArrayLayout layout\nfloat64[] data\n",
-    "rosgraph_msgs/Clock": "builtin_interfaces/Time clock\n",
-    "control_msgs/SpeedScalingFactor": "float64 factor\n",
-    "control_msgs/MultiDOFCommand": "string[] dof_names\nfloat64[] values\nfloat64[] values_dot\n",
-    "sensor_msgs/JointState": (
-        "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\n"
-        "float64[] effort\n"
+# The ROS 2 distribution whose message definitions the project writes and reads.
+STORE = Stores.ROS2_HUMBLE
+
+# The message types the store lacks, as .msg text without comments (pkg/msg/Type).
+EXTRA_DEFINITIONS = {
+    # ros2_control's control_msgs of Jazzy (the speed scaling and the PID references).
+    "control_msgs/msg/SpeedScalingFactor": "float64 factor\n",
+    "control_msgs/msg/MultiDOFCommand": (
+        "string[] dof_names\nfloat64[] values\nfloat64[] values_dot\n"
     ),
-    "trajectory_msgs/JointTrajectoryPoint": (
-        "float64[] positions\nfloat64[] velocities\nfloat64[] accelerations\n"
-        "float64[] effort\nbuiltin_interfaces/Duration time_from_start\n"
-    ),
-    "trajectory_msgs/JointTrajectory": (
-        "std_msgs/Header header\nstring[] joint_names\n"
-        "trajectory_msgs/JointTrajectoryPoint[] points\n"
-    ),
-    "geometry_msgs/Vector3": "float64 x\nfloat64 y\nfloat64 z\n",
-    "geometry_msgs/Twist": "geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n",
-    "geometry_msgs/Accel": "geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n",
     # Universal Robots' cartesian_control_msgs (not in ROS 2's core messages).
-    "cartesian_control_msgs/CartesianPosture": (
+    "cartesian_control_msgs/msg/CartesianPosture": (
         "string[] posture_joint_names\nfloat64[] posture_joint_values\n"
     ),
-    "cartesian_control_msgs/CartesianTrajectoryPoint": (
+    "cartesian_control_msgs/msg/CartesianTrajectoryPoint": (
         "builtin_interfaces/Duration time_from_start\ngeometry_msgs/Pose pose\n"
         "geometry_msgs/Twist twist\ngeometry_msgs/Accel acceleration\n"
         "geometry_msgs/Accel jerk\ncartesian_control_msgs/CartesianPosture posture\n"
     ),
-    "cartesian_control_msgs/CartesianTrajectory": (
+    "cartesian_control_msgs/msg/CartesianTrajectory": (
         "std_msgs/Header header\ncartesian_control_msgs/CartesianTrajectoryPoint[] points\n"
         "string controlled_frame\n"
     ),
-    "geometry_msgs/Quaternion": "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n",
-    "geometry_msgs/Transform": (
-        "geometry_msgs/Vector3 translation\ngeometry_msgs/Quaternion rotation\n"
-    ),
-    "geometry_msgs/TransformStamped": (
-        "std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/Transform transform\n"
-    ),
-    "tf2_msgs/TFMessage": "geometry_msgs/TransformStamped[] transforms\n",
-    "sensor_msgs/Image": (
-        "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\n"
-        "uint8 is_bigendian\nuint32 step\nuint8[] data\n"
-    ),
-    "sensor_msgs/RegionOfInterest": (
-        "uint32 x_offset\nuint32 y_offset\nuint32 height\nuint32 width\nbool do_rectify\n"
-    ),
-    "sensor_msgs/CameraInfo": (
-        "std_msgs/Header header\nuint32 height\nuint32 width\nstring distortion_model\n"
-        "float64[] d\nfloat64[9] k\nfloat64[9] r\nfloat64[12] p\nuint32 binning_x\n"
-        "uint32 binning_y\nsensor_msgs/RegionOfInterest roi\n"
-    ),
-    # Point clouds and cluster markers (perception), with constants, as `ros2 bag record`
-    # writes them.
-    "sensor_msgs/PointField": (
-        "uint8 INT8=1\nuint8 UINT8=2\nuint8 INT16=3\nuint8 UINT16=4\nuint8 INT32=5\n"
-        "uint8 UINT32=6\nuint8 FLOAT32=7\nuint8 FLOAT64=8\nstring name\nuint32 offset\n"
-        "uint8 datatype\nuint32 count\n"
-    ),
-    "sensor_msgs/PointCloud2": (
-        "std_msgs/Header header\nuint32 height\nuint32 width\nsensor_msgs/PointField[] fields\n"
-        "bool is_bigendian\nuint32 point_step\nuint32 row_step\nuint8[] data\nbool is_dense\n"
-    ),
-    "geometry_msgs/Point": "float64 x\nfloat64 y\nfloat64 z\n",
-    "geometry_msgs/Pose": "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n",
-    "std_msgs/ColorRGBA": "float32 r\nfloat32 g\nfloat32 b\nfloat32 a\n",
-    "sensor_msgs/CompressedImage": "std_msgs/Header header\nstring format\nuint8[] data\n",
-    "visualization_msgs/UVCoordinate": "float32 u\nfloat32 v\n",
-    "visualization_msgs/MeshFile": "string filename\nuint8[] data\n",
-    "visualization_msgs/Marker": (
-        "int32 ARROW=0\nint32 CUBE=1\nint32 SPHERE=2\nint32 CYLINDER=3\nint32 LINE_STRIP=4\n"
-        "int32 LINE_LIST=5\nint32 CUBE_LIST=6\nint32 SPHERE_LIST=7\nint32 POINTS=8\n"
-        "int32 TEXT_VIEW_FACING=9\nint32 MESH_RESOURCE=10\nint32 TRIANGLE_LIST=11\nint32 ADD=0\n"
-        "int32 MODIFY=0\nint32 DELETE=2\nint32 DELETEALL=3\nstd_msgs/Header header\nstring ns\n"
-        "int32 id\nint32 type\nint32 action\ngeometry_msgs/Pose pose\n"
-        "geometry_msgs/Vector3 scale\nstd_msgs/ColorRGBA color\n"
-        "builtin_interfaces/Duration lifetime\nbool frame_locked\ngeometry_msgs/Point[] points\n"
-        "std_msgs/ColorRGBA[] colors\nstring texture_resource\n"
-        "sensor_msgs/CompressedImage texture\nvisualization_msgs/UVCoordinate[] uv_coordinates\n"
-        "string text\nstring mesh_resource\nvisualization_msgs/MeshFile mesh_file\n"
-        "bool mesh_use_embedded_materials\n"
-    ),
-    "visualization_msgs/MarkerArray": "visualization_msgs/Marker[] markers\n",
-    # The ArUco detector's marker pose, /aruco_single/pose as aruco_ros.
-    "geometry_msgs/PoseStamped": "std_msgs/Header header\ngeometry_msgs/Pose pose\n",
-    "geometry_msgs/TwistStamped": "std_msgs/Header header\ngeometry_msgs/Twist twist\n",
-    "geometry_msgs/PoseWithCovariance": "geometry_msgs/Pose pose\nfloat64[36] covariance\n",
-    "geometry_msgs/TwistWithCovariance": "geometry_msgs/Twist twist\nfloat64[36] covariance\n",
-    "nav_msgs/Odometry": (
-        "std_msgs/Header header\nstring child_frame_id\n"
-        "geometry_msgs/PoseWithCovariance pose\ngeometry_msgs/TwistWithCovariance twist\n"
-    ),
-    # The navigation's plan and map (nav2's planner server, map_server).
-    "nav_msgs/Path": "std_msgs/Header header\ngeometry_msgs/PoseStamped[] poses\n",
-    "nav_msgs/MapMetaData": (
-        "builtin_interfaces/Time map_load_time\nfloat32 resolution\nuint32 width\n"
-        "uint32 height\ngeometry_msgs/Pose origin\n"
-    ),
-    "nav_msgs/OccupancyGrid": ("std_msgs/Header header\nnav_msgs/MapMetaData info\nint8[] data\n"),
-    "sensor_msgs/LaserScan": (
-        "std_msgs/Header header\nfloat32 angle_min\nfloat32 angle_max\n"
-        "float32 angle_increment\nfloat32 time_increment\nfloat32 scan_time\n"
-        "float32 range_min\nfloat32 range_max\nfloat32[] ranges\nfloat32[] intensities\n"
-    ),
 }
-_SEPARATOR = "=" * 80 + "\n"
+
+
+# The message types the project writes or reads, with the ones they contain.
+MESSAGE_TYPES = (
+    "builtin_interfaces/msg/Time",
+    "builtin_interfaces/msg/Duration",
+    "std_msgs/msg/Header",
+    "std_msgs/msg/String",
+    "std_msgs/msg/MultiArrayDimension",
+    "std_msgs/msg/MultiArrayLayout",
+    "std_msgs/msg/Float64MultiArray",
+    "rosgraph_msgs/msg/Clock",
+    "control_msgs/msg/SpeedScalingFactor",
+    "control_msgs/msg/MultiDOFCommand",
+    "sensor_msgs/msg/JointState",
+    "trajectory_msgs/msg/JointTrajectoryPoint",
+    "trajectory_msgs/msg/JointTrajectory",
+    "geometry_msgs/msg/Vector3",
+    "geometry_msgs/msg/Twist",
+    "geometry_msgs/msg/Accel",
+    "cartesian_control_msgs/msg/CartesianPosture",
+    "cartesian_control_msgs/msg/CartesianTrajectoryPoint",
+    "cartesian_control_msgs/msg/CartesianTrajectory",
+    "geometry_msgs/msg/Quaternion",
+    "geometry_msgs/msg/Transform",
+    "geometry_msgs/msg/TransformStamped",
+    "tf2_msgs/msg/TFMessage",
+    "sensor_msgs/msg/Image",
+    "sensor_msgs/msg/RegionOfInterest",
+    "sensor_msgs/msg/CameraInfo",
+    "sensor_msgs/msg/PointField",
+    "sensor_msgs/msg/PointCloud2",
+    "geometry_msgs/msg/Point",
+    "geometry_msgs/msg/Pose",
+    "std_msgs/msg/ColorRGBA",
+    "sensor_msgs/msg/CompressedImage",
+    "visualization_msgs/msg/UVCoordinate",
+    "visualization_msgs/msg/MeshFile",
+    "visualization_msgs/msg/Marker",
+    "visualization_msgs/msg/MarkerArray",
+    "geometry_msgs/msg/PoseStamped",
+    "geometry_msgs/msg/TwistStamped",
+    "geometry_msgs/msg/PoseWithCovariance",
+    "geometry_msgs/msg/TwistWithCovariance",
+    "nav_msgs/msg/Odometry",
+    "nav_msgs/msg/Path",
+    "nav_msgs/msg/MapMetaData",
+    "nav_msgs/msg/OccupancyGrid",
+    "sensor_msgs/msg/LaserScan",
+)
+
+
+@functools.cache
+def typestore():
+    """The ``rosbags`` type store of :data:`STORE`, with :data:`EXTRA_DEFINITIONS`
+    registered (made once)."""
+    store = get_typestore(STORE)
+    for type_name, text in EXTRA_DEFINITIONS.items():
+        store.register(get_types_from_msg(text, type_name))
+    return store
+
+
+def full_name(type_name: str) -> str:
+    """``pkg/msg/Type`` of ``pkg/Type`` (or of ``pkg/msg/Type``)."""
+    package, _, name = type_name.partition("/")
+    return type_name if name.startswith("msg/") else f"{package}/msg/{name}"
 
 
 def short_name(type_name: str) -> str:
@@ -158,37 +137,27 @@ def short_name(type_name: str) -> str:
 
 
 @functools.cache
-def fields(type_name: str) -> tuple[tuple[str, str], ...]:
-    """The (type, name) pairs of a message, in order; type as in the ``.msg`` file."""
-    root = short_name(type_name)
-    if root not in DEFINITIONS:
-        raise KeyError(f"{type_name!r} is not one of the ROS 2 messages of {__name__}")
-    return tuple(
-        tuple(line.split()[:2])
-        for line in DEFINITIONS[root].splitlines()
-        if "=" not in line  # a constant (uint8 INT8=1) is no field
-    )
-
-
 def message_definition(type_name: str) -> str:
     """The ``ros2msg`` schema text of ``pkg/msg/Type``: the type, then each dependency once.
 
     Dependencies follow in depth-first order of first use, each after a line
     of 80 ``=`` and ``MSG: pkg/Type``, as ``ros2 bag record`` writes them.
     """
-    root = short_name(type_name)
-    order: list[str] = []
+    name = full_name(type_name)
+    store = typestore()
+    if name not in store.fielddefs:
+        raise KeyError(f"{type_name!r} is not a ROS 2 message of the {STORE.value} type store")
+    return store.generate_msgdef(name, ros_version=2)[0]
 
-    def visit(current: str) -> None:
-        for field_type, _ in fields(current):
-            field_type = field_type.split("[")[0]
-            if "/" in field_type and field_type not in order and field_type != root:
-                order.append(field_type)
-                visit(field_type)
 
-    visit(root)
-    return DEFINITIONS[root] + "".join(
-        f"{_SEPARATOR}MSG: {dependency}\n{DEFINITIONS[dependency]}" for dependency in order
+@functools.cache
+def fields(type_name: str) -> tuple[tuple[str, str], ...]:
+    """The (type, name) pairs of a message, in order; type as in the ``.msg`` file."""
+    own = message_definition(type_name).split("=" * 80 + "\n")[0]
+    return tuple(
+        tuple(line.split()[:2])
+        for line in own.splitlines()
+        if line and "=" not in line  # a constant (uint8 INT8=1) is no field
     )
 
 

@@ -18,7 +18,6 @@ publish. Nothing at the plant's steps.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 from pydrake.common.value import AbstractValue
@@ -30,12 +29,11 @@ from armando_drake.messages.definitions import (
     odometry_transform,
     twist_message,
 )
+from armando_drake.messages.publications import Send, Topic
 from armando_drake.messages.types import Odometry, PublicationValue
 from armando_drake.outputs.topics import WorldTopics
 
 ODOM_TOPIC = "/odom"
-
-Send = Callable[[str, str, dict, float], None]
 
 
 @dataclass(frozen=True)
@@ -162,3 +160,37 @@ def AddMobileTopics(
     for sensor, _ in names.scans:
         builder.Connect(topics.sensors[sensor]["scan"], system.GetInputPort(f"{sensor}.scan"))
     return system
+
+
+@dataclass(frozen=True, eq=False)
+class MobileSource:
+    """The :class:`MobileTopics` of a robot (``topics``, a WorldTopics): a
+    :class:`~armando_drake.messages.publications.TopicSource`."""
+
+    topics: WorldTopics
+
+    def names(self) -> MobileTopicNames:
+        return mobile_topic_names(self.topics)
+
+    def table(self) -> list[Topic]:
+        """Its topics (recorded and live), their names under the robot's namespace."""
+        names, rate = self.names(), self.topics.update_rate
+        found = []
+        if names.odom:
+            found += [
+                Topic(names.odom, "nav_msgs/msg/Odometry", source=self, rate=rate,
+                      frame_id=f"{names.frames}odom"),
+                Topic(names.tf, "tf2_msgs/msg/TFMessage", source=self, rate=rate),
+            ]  # fmt: skip
+        if names.cmd_vel:
+            found.append(Topic(names.cmd_vel, "geometry_msgs/msg/Twist", source=self, rate=rate))
+        found += [
+            Topic(topic, "sensor_msgs/msg/LaserScan", source=self, rate=rate)
+            for _, topic in names.scans
+        ]
+        return found
+
+    def attach(self, builder, send: Send, consumer: str) -> MobileTopics | None:
+        space = self.topics.stack.namespace.strip("/")
+        name = f"{space}/mobile_{consumer}" if space else f"mobile_{consumer}"
+        return AddMobileTopics(builder, self.topics, send, name=name)

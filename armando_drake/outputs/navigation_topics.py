@@ -22,7 +22,8 @@ hands each new message to ``send(topic, type_name, message, stamp)``: the MCAP r
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -30,10 +31,11 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
 from armando_drake.messages.definitions import header, pose_stamped_message, transform_stamped
+from armando_drake.messages.publications import SUBSCRIBE, Send, Topic
 from armando_drake.messages.types import Odometry, PublicationValue
+from armando_drake.navigation.config import NavigationGoal
 from armando_drake.navigation.navigator import NavState
 
-Send = Callable[[str, str, dict, float], None]
 MAP_FRAME = "map"
 MARKER_FRAME = "aruco_frame"
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
@@ -178,3 +180,48 @@ def AddNavigationTopics(builder, topics, send: Send, *, name: str) -> Navigation
         port = marker_goal.GetOutputPort("marker_in_map")
         builder.Connect(port, system.GetInputPort("marker_in_map"))
     return system
+
+
+def goal_pose_of(message: Any) -> NavigationGoal:
+    """The navigation goal of a received geometry_msgs/PoseStamped (RViz's 2D goal)."""
+    pose = message["pose"]
+    p, q = pose["position"], pose["orientation"]
+    yaw = math.atan2(
+        2.0 * (q["w"] * q["z"] + q["x"] * q["y"]), 1.0 - 2.0 * (q["y"] ** 2 + q["z"] ** 2)
+    )
+    return NavigationGoal(name="goal_pose", x=float(p["x"]), y=float(p["y"]), yaw=yaw)
+
+
+@dataclass(frozen=True, eq=False)
+class NavigationSource:
+    """The :class:`NavigationTopics` of a robot's navigation (``topics``, a WorldTopics):
+    a :class:`~armando_drake.messages.publications.TopicSource`. ``recorded``: its topics
+    go to the recording too (they are not under the robot's namespace: the first robot's
+    only)."""
+
+    topics: Any
+    recorded: bool = True
+
+    def table(self) -> list[Topic]:
+        """Its topics, and the subscription of RViz's 2D goal ``/goal_pose`` (it preempts
+        the goals as NavigateToPose would)."""
+        rate, recorded = self.topics.update_rate, self.recorded
+        space = self.topics.stack.namespace.strip("/")
+        navigator = self.topics.navigation.navigator
+        return [
+            Topic("/map", "nav_msgs/msg/OccupancyGrid", source=self, frame_id=MAP_FRAME,
+                  qos="latched", recorded=recorded),
+            Topic("/tf_static", TF_MESSAGE, source=self, qos="latched", recorded=recorded),
+            Topic("/plan", "nav_msgs/msg/Path", source=self, rate=rate, frame_id=MAP_FRAME,
+                  recorded=recorded),
+            Topic("/tf", TF_MESSAGE, source=self, rate=rate, recorded=recorded),
+            Topic("/goal_pose", "geometry_msgs/msg/PoseStamped", SUBSCRIBE,
+                  port=navigator.GetInputPort("goal_pose"), receive=goal_pose_of,
+                  frame_id=MAP_FRAME, namespace=space, key="navigator.goal_pose",
+                  recorded=False),
+        ]  # fmt: skip
+
+    def attach(self, builder, send: Send, consumer: str) -> NavigationTopics | None:
+        space = self.topics.stack.namespace.strip("/")
+        name = f"{space}/navigation_{consumer}" if space else f"navigation_{consumer}"
+        return AddNavigationTopics(builder, self.topics, send, name=name)

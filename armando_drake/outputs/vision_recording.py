@@ -16,12 +16,16 @@ recorder for every camera, the scenario's included.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus, LeafSystem
 from pydrake.systems.sensors import ImageRgba8U
 
 from armando_drake.messages.definitions import image_message, pose_stamped_message
+from armando_drake.messages.publications import Send, Topic
 from armando_drake.messages.types import PublicationValue
 from armando_drake.vision.detectors import FRAME_DELAY
 
@@ -31,7 +35,7 @@ WORLD_POSE_TOPIC = "/aruco_single/pose_world"
 
 
 class VisionRecorder(LeafSystem):
-    """Writes a detector's outputs to a :class:`~armando_drake.outputs.recording.RosbagRecorder`.
+    """Sends a detector's outputs through ``send`` (the recorder's write).
 
     .. pydrake_system::
 
@@ -45,9 +49,9 @@ class VisionRecorder(LeafSystem):
     written only when a new one was published (``count`` grew).
     """
 
-    def __init__(self, *, recorder, frame_rate: float, camera: str):
+    def __init__(self, *, send: Send, frame_rate: float, camera: str):
         super().__init__()
-        self._recorder, self._camera = recorder, camera
+        self._send, self._camera = send, camera
         self._image = self.DeclareAbstractInputPort(
             "annotated_image", AbstractValue.Make(ImageRgba8U())
         )
@@ -62,7 +66,7 @@ class VisionRecorder(LeafSystem):
         stamp = context.get_time()
         if self._image.HasValue(context):
             rgb = np.ascontiguousarray(self._image.Eval(context).data[:, :, :3])
-            self._recorder.write(
+            self._send(
                 ANNOTATED_TOPIC,
                 "sensor_msgs/msg/Image",
                 image_message(stamp, self._camera, rgb),
@@ -75,7 +79,7 @@ class VisionRecorder(LeafSystem):
             if publication.count > self._written[topic]:
                 self._written[topic] = publication.count
                 pose = publication.message
-                self._recorder.write(
+                self._send(
                     topic,
                     "geometry_msgs/msg/PoseStamped",
                     pose_stamped_message(pose.stamp, pose.frame_id, pose.pose),
@@ -84,30 +88,56 @@ class VisionRecorder(LeafSystem):
         return EventStatus.Succeeded()
 
 
-def AddVisionRecorder(builder, topics, recorder) -> list[VisionRecorder]:
-    """A :class:`VisionRecorder` per detector of ``topics.detectors`` (a
-    :class:`~armando_drake.outputs.topics.WorldTopics`), writing to ``recorder``."""
-    detectors = topics.detectors
-    added = []
-    for detector, camera in (
-        (detectors.blob, detectors.blob_camera),
-        (detectors.aruco, detectors.aruco_camera),
-    ):
-        if detector is None:
-            continue
-        system = builder.AddNamedSystem(
-            f"vision_recorder_{camera}",
-            VisionRecorder(
-                recorder=recorder,
-                frame_rate=topics.cameras[camera].info.frame_rate,
-                camera=camera,
-            ),
-        )
-        builder.Connect(
-            detector.GetOutputPort("annotated_image"), system.GetInputPort("annotated_image")
-        )
-        if detector is detectors.aruco:
-            for port in ("cam_T_marker", "marker_in_world"):
-                builder.Connect(detector.GetOutputPort(port), system.GetInputPort(port))
-        added.append(system)
-    return added
+@dataclass(frozen=True, eq=False)
+class VisionSource:
+    """The :class:`VisionRecorder` of each detector of ``detectors`` (AddedDetectors) on
+    ``cameras`` (AddedCamera by name): a
+    :class:`~armando_drake.messages.publications.TopicSource`."""
+
+    detectors: Any
+    cameras: dict
+
+    def _detectors(self) -> list[tuple[Any, str]]:
+        detectors = self.detectors
+        return [
+            (detector, camera)
+            for detector, camera in (
+                (detectors.blob, detectors.blob_camera),
+                (detectors.aruco, detectors.aruco_camera),
+            )
+            if detector is not None
+        ]
+
+    def table(self) -> list[Topic]:
+        """Its topics (recorded, not live): each detector's annotated image, the ArUco
+        detector's poses."""
+        found = []
+        for detector, camera in self._detectors():
+            rate = self.cameras[camera].info.frame_rate
+            found.append(Topic(ANNOTATED_TOPIC, "sensor_msgs/msg/Image", source=self,
+                               rate=rate, frame_id=camera, live=False))  # fmt: skip
+            if detector is self.detectors.aruco:
+                found += [
+                    Topic(topic, "geometry_msgs/msg/PoseStamped", source=self, rate=rate,
+                          live=False)
+                    for topic in (POSE_TOPIC, WORLD_POSE_TOPIC)
+                ]  # fmt: skip
+        return found
+
+    def attach(self, builder, send: Send, consumer: str) -> list[VisionRecorder]:
+        added = []
+        for detector, camera in self._detectors():
+            system = builder.AddNamedSystem(
+                f"vision_{consumer}_{camera}",
+                VisionRecorder(
+                    send=send, frame_rate=self.cameras[camera].info.frame_rate, camera=camera
+                ),
+            )
+            builder.Connect(
+                detector.GetOutputPort("annotated_image"), system.GetInputPort("annotated_image")
+            )
+            if detector is self.detectors.aruco:
+                for port in ("cam_T_marker", "marker_in_world"):
+                    builder.Connect(detector.GetOutputPort(port), system.GetInputPort(port))
+            added.append(system)
+        return added

@@ -42,6 +42,13 @@ subscribed (``geometry_msgs/msg/Twist`` for a Gazebo plugin, ``TwistStamped`` on
 "sinks": a :class:`~armando_drake.ros2.dds.DdsNode` (``--ros2``) and a
 :class:`FoxgloveServer` (``--foxglove``), each optional.
 
+Which topics go: every ``live`` topic of the world's publication table
+(:mod:`armando_drake.outputs.publications`), and every subscription of it whose input
+nothing else drives; a topic added to the table is on DDS and in Foxglove with no edit
+here. Each robot's :class:`Ros2Bridge` adds what robot_state_publisher and Gazebo's clock
+bridge give (``/tf`` and ``/tf_static`` of its links, ``robot_description``, ``/clock``)
+and feeds its subscriptions to its controllers.
+
 Per-step Python is what a world pays most for, so the bridge does nothing at
 the plant's step: it publishes from periodic publish events at the
 controller manager's rate (and the camera's), and hands received commands
@@ -63,91 +70,48 @@ from pathlib import Path
 from typing import Any
 from xml.etree import ElementTree
 
-import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus, LeafSystem
-from pydrake.systems.sensors import ImageRgba8U
 
 from armando_drake.messages.definitions import (
     clock_message,
-    float64_multi_array_of,
-    image_message,
-    joint_state_message,
-    joint_trajectory_of,
     message_definition,
-    multi_dof_command_of,
     resolve_topic,
-    speed_scaling_factor_of,
     string_message,
     transform_stamped,
-    twist_stamped_of,
 )
-from armando_drake.messages.types import JointState, Publication
-from armando_drake.navigation.config import NavigationGoal
-from armando_drake.outputs.mobile_topics import AddMobileTopics
-from armando_drake.outputs.navigation_topics import AddNavigationTopics
-from armando_drake.outputs.recording import camera_stream
+from armando_drake.messages.publications import SHARED_TOPICS, Publications, Topic
+from armando_drake.messages.types import Publication
+from armando_drake.outputs.publications import AttachTopics, TopicPublisher, world_publications
 from armando_drake.outputs.topics import WorldTopics
 from armando_drake.ros2.dds import DdsNode, Ros2Error, reachability
-from armando_drake.sensors.image_view import PUBLISH_OFFSET_FRACTION
 from armando_drake.tools.cli import warn_if_open
 from armando_drake.tools.errors import ScenarioError
 from armando_drake.tools.extras import require_extra
 
 _log = logging.getLogger("armando_drake.ros2")
 
-
-def goal_pose_of(message: Any) -> NavigationGoal:
-    """The navigation goal of a received geometry_msgs/PoseStamped (RViz's 2D goal)."""
-    pose = message["pose"]
-    p, q = pose["position"], pose["orientation"]
-    yaw = math.atan2(
-        2.0 * (q["w"] * q["z"] + q["x"] * q["y"]), 1.0 - 2.0 * (q["y"] ** 2 + q["z"] ** 2)
-    )
-    return NavigationGoal(name="goal_pose", x=float(p["x"]), y=float(p["y"]), yaw=yaw)
-
-
-# Command inputs of the controllers by port suffix: ROS type and conversion to ours.
-COMMAND_TYPES: dict[str, tuple[str, Callable[[dict], Any]]] = {
-    "commands": ("std_msgs/msg/Float64MultiArray", float64_multi_array_of),
-    "joint_trajectory": ("trajectory_msgs/msg/JointTrajectory", joint_trajectory_of),
-    "speed_scaling_input": ("control_msgs/msg/SpeedScalingFactor", speed_scaling_factor_of),
-    "reference": ("control_msgs/msg/MultiDOFCommand", multi_dof_command_of),
-    "cmd_vel": ("geometry_msgs/msg/TwistStamped", twist_stamped_of),
-    "goal_pose": ("geometry_msgs/msg/PoseStamped", goal_pose_of),  # the navigator's
-}
-# The topics the bridge publishes: ROS type and QoS profile.
+# The topics each robot's bridge publishes itself: ROS type and QoS profile.
 TOPICS = {
     "/clock": ("rosgraph_msgs/msg/Clock", "default"),
-    "joint_states": ("sensor_msgs/msg/JointState", "default"),
     "/tf": ("tf2_msgs/msg/TFMessage", "default"),
     "/tf_static": ("tf2_msgs/msg/TFMessage", "latched"),
     "robot_description": ("std_msgs/msg/String", "latched"),
 }
-LATCHED = ("/tf_static", "robot_description")
 
 
 @dataclass(frozen=True)
 class CommandTopic:
-    """One controller command input fed from a topic."""
+    """One subscription of the table, fed to an input of the world."""
 
-    controller: str  # the controller's name, e.g. "position_controller"
-    suffix: str  # its port suffix and topic leaf: "commands" or "joint_trajectory"
-    ros_topic: str = ""  # the topic when not <controller>/<suffix> (a drive plugin's /cmd_vel)
-    ros_type: str = ""  # the type when not COMMAND_TYPES' (a plugin's geometry_msgs/Twist)
+    topic: str  # the ROS 2 topic, relative to the robot's namespace
+    type_name: str  # pkg/msg/Type
+    port: str  # the bridge's output port, e.g. "position_controller.commands"
+    receive: Callable[[Any], Any]  # a received message -> the input's value
 
-    @property
-    def topic(self) -> str:
-        """The ROS 2 topic, relative to the namespace: ``<controller>/<suffix>``."""
-        return self.ros_topic or f"{self.controller}/{self.suffix}"
-
-    @property
-    def port(self) -> str:
-        return f"{self.controller}.{self.suffix}"
-
-    @property
-    def type_name(self) -> str:
-        return self.ros_type or COMMAND_TYPES[self.suffix][0]
+    @classmethod
+    def of(cls, topic: Topic) -> CommandTopic:
+        return cls(topic.topic, topic.type_name, topic.key, topic.receive)
 
 
 @dataclass(frozen=True)
@@ -301,37 +265,60 @@ class FoxgloveServer:
             self._server = None
 
 
+class LiveSinks:
+    """The sinks of a world's topics (DDS, Foxglove), shared by its bridges: each message
+    goes to every sink; ``/tf_static`` is one static broadcaster, each message carrying
+    every frame sent so far (as tf2's StaticTransformBroadcaster latches them)."""
+
+    def __init__(self, sinks: Sequence[Any]):
+        self.sinks = list(sinks)
+        self._static: dict[str, dict] = {}  # /tf_static's frames so far, by child
+
+    def advertise(self, topic: str, type_name: str, qos: str = "default") -> None:
+        for sink in self.sinks:
+            sink.advertise(topic, type_name, qos)
+
+    def publish(self, topic: str, type_name: str, message: dict, stamp: float) -> None:
+        if topic == "/tf_static":
+            self._static.update({t["child_frame_id"]: t for t in message["transforms"]})
+            message = {"transforms": list(self._static.values())}
+        for sink in self.sinks:
+            sink.publish(topic, type_name, message, stamp)
+
+    def set_time(self, stamp: float) -> None:
+        for sink in self.sinks:
+            if hasattr(sink, "set_time"):
+                sink.set_time(stamp)
+
+    def close(self) -> None:
+        for sink in self.sinks:
+            sink.close()
+
+
 class Ros2Bridge(LeafSystem):
-    """Publishes the world's topics and feeds received commands to its controllers.
+    """One robot on DDS and Foxglove: its links on /tf, its description, and the
+    commands received for it.
 
     .. pydrake_system::
 
         name: Ros2Bridge
         input_ports:
-        - joint_states
         - body_poses
-        - <camera>.color_image (one per camera)
         output_ports:
-        - <controller>.commands / <controller>.joint_trajectory (one per command topic)
+        - <controller>.<suffix> (one per subscribed command topic)
 
-    - ``joint_states``: the broadcaster's
-      :class:`~armando_drake.messages.types.JointState`, published on
-      ``joint_states`` at ``update_rate`` [Hz] from t = 0 (when connected);
     - ``body_poses``: the plant's body poses in the world
       (``get_body_poses_output_port``); ``/tf`` carries every moving joint of
       ``model_instance`` as parent link -> child link at ``update_rate``,
       ``/tf_static`` every fixed one once at initialization;
-    - ``<camera>.color_image``: ``<camera topic>/image_raw`` and
-      ``camera_info`` at the camera's rate, as the recorder writes them;
     - ``<controller>.<suffix>``: a
       :class:`~armando_drake.messages.types.Publication` holding the latest
-      command received on ``<controller>/<suffix>`` (abstract state, updated at
-      ``update_rate``).
+      command received on its topic (abstract state, updated at ``update_rate``).
 
-    ``/clock`` is published at ``clock_rate`` [Hz] (simulation time), and
-    ``robot_description`` (the URDF text) once at initialization. ``sinks``
-    are objects with ``advertise(topic, type_name, qos)`` and ``publish(topic,
-    type_name, message, stamp)``; ``subscriber``, if given, has
+    ``/clock`` is published at ``clock_rate`` [Hz] (simulation time) when ``clock``, and
+    ``robot_description`` (the URDF text) once at initialization. ``sinks`` (a
+    :class:`LiveSinks`) has ``advertise(topic, type_name, qos)``, ``publish(topic,
+    type_name, message, stamp)`` and ``set_time(stamp)``; ``subscriber``, if given, has
     ``subscribe(topic, type_name, callback)`` and delivers the commands.
     """
 
@@ -342,12 +329,10 @@ class Ros2Bridge(LeafSystem):
         model_instance,
         urdf: str,
         update_rate: float,
-        sinks: Sequence[Any],
+        sinks: LiveSinks,
         subscriber: Any = None,
         commands: Sequence[CommandTopic] = (),
-        cameras: Sequence[Any] = (),
         clock_rate: float = 0.0,
-        joint_states_topic: str = "joint_states",
         exclude_children: Sequence[str] = (),
         prefix: str = "",
         clock: bool = True,
@@ -361,30 +346,17 @@ class Ros2Bridge(LeafSystem):
             raise ValueError(f"ros2.clock_rate={clock_rate!r} must be positive, or 0 [Hz]")
         if commands and subscriber is None:
             raise ValueError("commands need a subscriber")
-        self._sinks = list(sinks)
+        self._sinks = sinks
         self._urdf = urdf
         self._moving, self._fixed = robot_links(plant, model_instance)
         # Links whose pose another broadcaster gives (the odometry's base frame).
         self._moving = [link for link in self._moving if link.child_frame not in exclude_children]
-        self._last_stamp: float | None = None
-        self._static: dict[str, dict] = {}  # /tf_static's frames so far, by child
         self._commands = tuple(commands)
         self._queue: queue.SimpleQueue = queue.SimpleQueue()
         self._received = [0] * len(self._commands)  # messages received per command topic
-
-        # The broadcaster's topic: joint_states, or <broadcaster>/joint_states
-        # (use_local_topics).
-        self._joint_states_topic = self.topic_name(joint_states_topic)
-        self._clock = clock
         for topic, (type_name, qos) in TOPICS.items():
-            if topic == "/clock" and not clock:
-                continue
-            topic = joint_states_topic if topic == "joint_states" else topic
-            for sink in self._sinks:
-                sink.advertise(self.topic_name(topic), type_name, qos)
-        self._joint_states = self.DeclareAbstractInputPort(
-            "joint_states", AbstractValue.Make(JointState())
-        )
+            if topic != "/clock" or clock:
+                sinks.advertise(self.topic_name(topic), type_name, qos)
         self._body_poses = self.DeclareAbstractInputPort(
             "body_poses", plant.get_body_poses_output_port().Allocate()
         )
@@ -398,14 +370,12 @@ class Ros2Bridge(LeafSystem):
         else:
             self.DeclarePeriodicPublishEvent(period, 0.0, self._PublishState)
             self.DeclarePeriodicPublishEvent(clock_period, 0.0, self._PublishClock)
-
-        self._DeclareCameras(cameras)
         self._DeclareCommands(subscriber, period)
 
     def topic_name(self, topic: str) -> str:
         """``topic`` under the robot's namespace (a robot of several); /tf, /tf_static
         and /clock are shared."""
-        if not self._prefix or topic in ("/tf", "/tf_static", "/clock"):
+        if not self._prefix or topic in SHARED_TOPICS:
             return topic
         return f"{self._prefix}/{topic.lstrip('/')}"
 
@@ -413,61 +383,37 @@ class Ros2Bridge(LeafSystem):
         """A link's tf frame: ``<namespace>/<link>`` for a robot of several."""
         return f"{self._prefix}/{frame}" if self._prefix and frame != "world" else frame
 
-    def _DeclareCameras(self, cameras) -> None:
-        """image_raw and camera_info, a thousandth of a period after each frame."""
-        self._cameras = list(cameras)
-        for camera in self._cameras:
-            base = camera.topic.strip("/")
-            for sink in self._sinks:
-                sink.advertise(f"{base}/image_raw", "sensor_msgs/msg/Image", "sensor_data")
-                sink.advertise(f"{base}/camera_info", "sensor_msgs/msg/CameraInfo", "default")
-            port = self.DeclareAbstractInputPort(
-                f"{camera.name}.color_image", AbstractValue.Make(ImageRgba8U())
-            )
-            camera_period = 1.0 / camera.rate
-            self.DeclarePeriodicPublishEvent(
-                camera_period,
-                PUBLISH_OFFSET_FRACTION * camera_period,
-                lambda context, camera=camera, port=port: self._PublishFrame(context, camera, port),
-            )
-
     def _DeclareCommands(self, subscriber, period: float) -> None:
         """Commands: DDS thread -> queue -> abstract state at the controllers' rate."""
-        if self._commands:
-            self._publications = self.DeclareAbstractState(
-                AbstractValue.Make(tuple(Publication() for _ in self._commands))
+        if not self._commands:
+            return
+        self._publications = self.DeclareAbstractState(
+            AbstractValue.Make(tuple(Publication() for _ in self._commands))
+        )
+        for k, command in enumerate(self._commands):
+            self.DeclareAbstractOutputPort(
+                command.port,
+                lambda: AbstractValue.Make(Publication()),
+                lambda context, output, k=k: output.set_value(
+                    context.get_abstract_state(self._publications).get_value()[k]
+                ),
+                {self.abstract_state_ticket(self._publications)},
             )
-            for k, command in enumerate(self._commands):
-                if command.suffix not in COMMAND_TYPES:
-                    raise ValueError(
-                        f"{command.port}: no ROS 2 message type known for {command.suffix!r} "
-                        f"(known: {', '.join(COMMAND_TYPES)})"
-                    )
-                self.DeclareAbstractOutputPort(
-                    command.port,
-                    lambda: AbstractValue.Make(Publication()),
-                    lambda context, output, k=k: output.set_value(
-                        context.get_abstract_state(self._publications).get_value()[k]
-                    ),
-                    {self.abstract_state_ticket(self._publications)},
-                )
-                convert = COMMAND_TYPES[command.suffix][1]
-                subscriber.subscribe(
-                    self.topic_name(command.topic),
-                    command.type_name,
-                    lambda message, k=k, convert=convert: self._Receive(k, convert(message)),
-                )
-            self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._Deliver)
+            subscriber.subscribe(
+                self.topic_name(command.topic),
+                command.type_name,
+                lambda message, k=k, receive=command.receive: self._Receive(k, receive(message)),
+            )
+        self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._Deliver)
 
     def close(self) -> None:
         """Closes the DDS participant and the Foxglove server."""
-        for sink in self._sinks:
-            sink.close()
+        self._sinks.close()
 
     @property
     def sinks(self) -> list[Any]:
         """Where the topics go: the DDS node and/or the Foxglove server."""
-        return list(self._sinks)
+        return list(self._sinks.sinks)
 
     @property
     def commands(self) -> tuple[CommandTopic, ...]:
@@ -502,15 +448,8 @@ class Ros2Bridge(LeafSystem):
 
     # -- publishing ---------------------------------------------------------------------------
     def publish(self, topic: str, type_name: str, message: dict, stamp: float) -> None:
-        """Sends one message to every sink (for the mobile base's topics)."""
-        self._Publish(topic, type_name, message, stamp)
-
-    def _Publish(self, topic: str, type_name: str, message: dict, stamp: float) -> None:
-        if topic == "/tf_static":  # one static broadcaster: every frame in each message
-            self._static.update({t["child_frame_id"]: t for t in message["transforms"]})
-            message = {"transforms": list(self._static.values())}
-        for sink in self._sinks:
-            sink.publish(topic, type_name, message, stamp)
+        """Sends one message to every sink."""
+        self._sinks.publish(topic, type_name, message, stamp)
 
     def _Transforms(self, context, links: Sequence[_Link], stamp: float) -> dict:
         poses = self._body_poses.Eval(context)
@@ -529,142 +468,107 @@ class Ros2Bridge(LeafSystem):
     def _PublishLatched(self, context, event=None) -> None:
         stamp = context.get_time()
         description = self.topic_name("robot_description")
-        self._Publish(description, "std_msgs/msg/String", string_message(self._urdf), stamp)
+        self.publish(description, "std_msgs/msg/String", string_message(self._urdf), stamp)
         if self._fixed:
             static = self._Transforms(context, self._fixed, stamp)
-            self._Publish("/tf_static", "tf2_msgs/msg/TFMessage", static, stamp)
+            self.publish("/tf_static", "tf2_msgs/msg/TFMessage", static, stamp)
 
     def _PublishClock(self, context) -> None:
         stamp = context.get_time()
-        self._Publish("/clock", "rosgraph_msgs/msg/Clock", clock_message(stamp), stamp)
-        for sink in self._sinks:
-            if hasattr(sink, "set_time"):
-                sink.set_time(stamp)
+        self.publish("/clock", "rosgraph_msgs/msg/Clock", clock_message(stamp), stamp)
+        self._sinks.set_time(stamp)
 
     def _PublishState(self, context) -> None:
-        stamp = context.get_time()
-        if self._joint_states.HasValue(context):
-            sample = self._joint_states.Eval(context)
-            if sample.name and sample.stamp != self._last_stamp:
-                self._last_stamp = sample.stamp
-                message = joint_state_message(sample)
-                self._Publish(
-                    self._joint_states_topic, "sensor_msgs/msg/JointState", message, stamp
-                )
         if self._moving:
+            stamp = context.get_time()
             tf = self._Transforms(context, self._moving, stamp)
-            self._Publish("/tf", "tf2_msgs/msg/TFMessage", tf, stamp)
+            self.publish("/tf", "tf2_msgs/msg/TFMessage", tf, stamp)
 
     def _PublishClockAndState(self, context) -> None:
         self._PublishClock(context)
         self._PublishState(context)
 
-    def _PublishFrame(self, context, camera, port) -> None:
-        image = port.Eval(context)
-        if image.width() != camera.width or image.height() != camera.height:
-            return  # nothing rendered yet
-        period = 1.0 / camera.rate
-        stamp = math.floor(context.get_time() / period + 1e-6) * period
-        rgb = np.ascontiguousarray(image.data[:, :, :3])
-        base = camera.topic.strip("/")
-        self._Publish(
-            f"{base}/image_raw",
-            "sensor_msgs/msg/Image",
-            image_message(stamp, camera.frame_id, rgb),
-            stamp,
-        )
-        self._Publish(
-            f"{base}/camera_info", "sensor_msgs/msg/CameraInfo", camera.camera_info(stamp), stamp
-        )
-
 
 def AddRos2Bridge(
-    builder, config, topics: WorldTopics, others: Sequence[WorldTopics] = ()
+    builder,
+    config,
+    topics: WorldTopics,
+    others: Sequence[WorldTopics] = (),
+    *,
+    table: Publications | None = None,
 ) -> Ros2Bridge | None:
-    """Adds a :class:`Ros2Bridge` for the ``ros2:`` scenario section ``config``
-    (:class:`~armando_drake.ros2.config.Ros2Config`) to a world being built, on the
-    publishers of ``topics``.
+    """Adds the world's topics on DDS and Foxglove for the ``ros2:`` scenario section
+    ``config`` (:class:`~armando_drake.ros2.config.Ros2Config`) to a world being built.
 
-    With ``config.enabled`` the topics go on DDS and the command input of
-    every active controller that nothing else drives yet (no sequencer) is
-    subscribed; with ``config.foxglove`` they are served to Foxglove. The log
-    says where the world is reachable; the bridge's ``close`` closes the participant
-    and the server. Call it before the world's free command inputs
-    are exported (the bridge drives them instead). Returns None when both are off.
+    ``table``: the world's publication table (by default made by
+    :func:`~armando_drake.outputs.publications.world_publications` from ``topics`` and
+    ``others``, the other robots of a world of several). With ``config.enabled`` its
+    ``live`` topics go on DDS and its subscriptions whose input nothing else drives yet
+    (no sequencer) are subscribed; with ``config.foxglove`` the topics are served to
+    Foxglove. The log says where the world is reachable; the bridge's ``close`` closes
+    the participant and the server. Call it before the world's free command inputs are
+    exported (the bridge drives them instead). Returns None when both are off.
 
-    ``others``: the other robots of a world of several; each robot gets a bridge on the
-    same participant and server, its topics under its namespace (``left/joint_states``,
-    ``left/position_controller/commands``, ``left/robot_description``) and its tf frames
-    named ``left/<link>``; the first robot's bridge (returned) publishes ``/clock`` and
-    the cameras.
+    Each robot gets a :class:`Ros2Bridge` (the first one's is returned, with ``/clock``)
+    on the same participant and server, its topics under its namespace
+    (``left/joint_states``, ``left/position_controller/commands``,
+    ``left/robot_description``) and its tf frames named ``left/<link>``.
     """
     if not (config.enabled or config.foxglove):
         return None
+    if table is None:
+        table = world_publications(topics, others)
     sinks, node = _sinks(config, topics)
-    bridge = _add_bridge(builder, config, topics, sinks, node, first=True)
+    live = LiveSinks(sinks)
+    for label, port in table.untyped:
+        if not builder.IsConnectedOrExported(port):
+            _log.warning("%s not subscribed: no ROS 2 type known for it", label)
+    bridge = _add_bridge(builder, config, topics, table, live, node, first=True)
     for other in others:
-        _add_bridge(builder, config, other, sinks, node, first=False)
+        _add_bridge(builder, config, other, table, live, node, first=False)
+    published = table.published(live=True)
+    for topic in published:
+        live.advertise(topic.name, topic.type_name, topic.qos)
+    system = builder.AddNamedSystem(
+        "ros2_topics", TopicPublisher(published, live.publish, name=lambda topic: topic.name)
+    )
+    AttachTopics(builder, system, published, live.publish, consumer="bridge")
     return bridge
 
 
-def _add_bridge(builder, config, topics: WorldTopics, sinks, node, *, first: bool) -> Ros2Bridge:
-    """One robot's :class:`Ros2Bridge` on ``sinks`` (``first``: with the clock and the
-    cameras)."""
-    commands = _free_commands(builder, topics, subscribe=node is not None)
-    navigator = topics.navigation.navigator if topics.navigation is not None else None
-    if (
-        navigator is not None
-        and node is not None
-        and not builder.IsConnectedOrExported(navigator.GetInputPort("goal_pose"))
-    ):  # RViz's 2D goal (unless the ArUco marker's goal is sent instead)
-        commands.append(CommandTopic("navigator", "goal_pose", ros_topic="/goal_pose"))
-    cameras = [camera_stream(name, camera) for name, camera in topics.cameras.items()]
-    cameras = cameras if first else []
+def _add_bridge(
+    builder, config, topics: WorldTopics, table: Publications, live: LiveSinks, node, *, first
+) -> Ros2Bridge:
+    """One robot's :class:`Ros2Bridge` on ``live`` (``first``: with the clock), with the
+    subscriptions of ``table`` under its namespace that nothing drives yet."""
+    prefix = topics.stack.namespace.strip("/")
+    subscribed = []  # (the bridge's view, the table's topic)
+    for topic in table.subscribed(namespace=prefix):
+        if builder.IsConnectedOrExported(topic.port):
+            _log.info("%s not subscribed: another system drives it", topic.key.replace(".", "/"))
+        elif node is not None:
+            subscribed.append((CommandTopic.of(topic), topic))
     plant = topics.plant
     odometry = topics.base_log is not None  # odom -> base on /tf, not world -> base
-    prefix = topics.stack.namespace.strip("/")
     bridge = builder.AddSystem(
         Ros2Bridge(
             plant=plant,
             model_instance=topics.robot.model_instance,
             urdf=topics.robot.urdf,
             update_rate=topics.update_rate,
-            sinks=sinks,
+            sinks=live,
             subscriber=node,
-            commands=commands,
-            cameras=cameras,
+            commands=[command for command, _ in subscribed],
             clock_rate=config.clock_rate,
-            joint_states_topic=topics.joint_states_topic,
             exclude_children=[topics.mobile.base_link] if odometry else [],
             prefix=prefix,
             clock=first,
         )
     )
-    space = f"{prefix}/" if prefix else ""
-    bridge.set_name(f"{space}ros2_bridge")
-    AddMobileTopics(builder, topics, bridge.publish, name=f"{space}mobile_bridge")
-    if navigator is not None:
-        for sink in sinks:
-            sink.advertise("/map", "nav_msgs/msg/OccupancyGrid", "latched")
-        AddNavigationTopics(builder, topics, bridge.publish, name=f"{space}navigation_bridge")
-    if topics.broadcaster is not None:
-        builder.Connect(
-            topics.broadcaster.GetOutputPort("joint_states"), bridge.GetInputPort("joint_states")
-        )
+    bridge.set_name(f"{prefix}/ros2_bridge" if prefix else "ros2_bridge")
     builder.Connect(plant.get_body_poses_output_port(), bridge.GetInputPort("body_poses"))
-    for stream in cameras:
-        builder.Connect(
-            topics.cameras[stream.name].color_image,
-            bridge.GetInputPort(f"{stream.name}.color_image"),
-        )
-    for command in commands:
-        if command.suffix == "goal_pose":
-            builder.Connect(bridge.GetOutputPort(command.port), navigator.GetInputPort("goal_pose"))
-        else:
-            builder.Connect(
-                bridge.GetOutputPort(command.port),
-                topics.controllers[command.controller].GetInputPort(command.port),
-            )
+    for command, topic in subscribed:
+        builder.Connect(bridge.GetOutputPort(command.port), topic.port)
         _log.info(
             "subscribed %s (%s)", node.resolve(bridge.topic_name(command.topic)), command.type_name
         )
@@ -712,31 +616,3 @@ def _sinks(config, topics: WorldTopics) -> tuple[list[Any], DdsNode | None]:
         _log.info("Foxglove: %s (Foxglove > Open connection > Foxglove WebSocket)", server.url)
 
     return sinks, node
-
-
-def _free_commands(builder, topics: WorldTopics, *, subscribe: bool) -> list[CommandTopic]:
-    """The command inputs no other system drives, of every active controller (logged;
-    returned to be subscribed when ``subscribe``)."""
-    commands = []
-    for name, system in topics.controllers.items():
-        for index in range(system.num_input_ports()):
-            port = system.get_input_port(index)
-            prefix, _, suffix = port.get_name().partition(".")
-            if prefix != name or not suffix:
-                continue
-            if builder.IsConnectedOrExported(port):
-                _log.info("%s/%s not subscribed: the %s drives it", name, suffix, "sequencer")
-            elif suffix not in COMMAND_TYPES:
-                _log.warning("%s/%s not subscribed: no ROS 2 type known for it", name, suffix)
-            elif subscribe:
-                commands.append(_command_topic(topics, name, suffix))
-    return commands
-
-
-def _command_topic(topics: WorldTopics, name: str, suffix: str) -> CommandTopic:
-    """The topic of a controller's command input: a drive plugin's cmd_vel is its own
-    topic (``/cmd_vel``), a geometry_msgs/Twist as Gazebo's bridge takes it."""
-    if suffix == "cmd_vel" and topics.mobile is not None and name in topics.mobile.plugins:
-        topic = topics.stack.entry(name).ros_topic or "/cmd_vel"
-        return CommandTopic(name, suffix, ros_topic=topic, ros_type="geometry_msgs/msg/Twist")
-    return CommandTopic(name, suffix)

@@ -1,9 +1,9 @@
-"""Cyclone DDS types of the ROS 2 messages, generated from their ``.msg`` text.
+"""Cyclone DDS types of the ROS 2 messages, generated from their ``.msg`` definitions.
 
-:func:`idl_type` turns a definition of :data:`armando_drake.messages.definitions.DEFINITIONS`
-into a Cyclone DDS ``IdlStruct`` named as ROS 2 names it on DDS
-(``sensor_msgs::msg::dds_::JointState_``), field for field, so its XCDR1
-serialisation is the ROS 2 CDR of the message (rmw_cyclonedds and
+:func:`idl_type` turns a message of :mod:`armando_drake.messages.definitions` (the
+``rosbags`` type store, as MCAP and Foxglove read it) into a Cyclone DDS ``IdlStruct``
+named as ROS 2 names it on DDS (``sensor_msgs::msg::dds_::JointState_``), field for
+field, so its XCDR1 serialisation is the ROS 2 CDR of the message (rmw_cyclonedds and
 rmw_fastrtps both send plain CDR, little-endian, with the 4-byte
 encapsulation header ``00 01 00 00``). :func:`to_idl` and :func:`to_dict`
 convert between those messages and the dictionaries of

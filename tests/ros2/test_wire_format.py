@@ -176,7 +176,7 @@ NOT_IN_JAZZY = {
     ],
     "cartesian_control_msgs/msg/CartesianTrajectory": ["header", "points", "controlled_frame"],
 }  # fmt: skip
-ALL_TYPES = sorted(f"{k.split('/')[0]}/msg/{k.split('/')[1]}" for k in messages.DEFINITIONS)
+ALL_TYPES = sorted(messages.MESSAGE_TYPES)
 
 
 @pytest.mark.parametrize("type_name", sorted(NOT_IN_JAZZY))
