@@ -39,8 +39,9 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from armando_drake.messages.types import Odometry, PublicationValue
-from armando_drake.navigation.follower import read_yaml, ros_parameters, set_parameter, wrap
+from armando_drake.navigation.follower import wrap
 from armando_drake.navigation.maps import OCCUPIED, OccupancyMap
+from armando_drake.navigation.nav2_params import Nav2Params, as_nav2, set_parameter
 from armando_drake.tools.errors import ConfigError
 
 DIFFERENTIAL = "nav2_amcl::DifferentialMotionModel"
@@ -95,11 +96,11 @@ _NOT_APPLIED = {
 }
 
 
-def amcl_parameters(path: str | Path) -> AmclParameters:
-    """``amcl.ros__parameters`` of a Nav2 YAML; keys not applied are warned about."""
-    path = Path(path)
-    ros = ros_parameters(read_yaml(path), "amcl", path)
-    where = f"{path}: amcl.ros__parameters"
+def amcl_parameters(source: Nav2Params | str | Path) -> AmclParameters:
+    """``amcl.ros__parameters`` of a Nav2 file; keys not applied are warned about."""
+    nav2 = as_nav2(source)
+    ros = nav2.required("amcl")
+    where = nav2.where("amcl")
     params = AmclParameters()
     model = ros.get("laser_model_type", "likelihood_field")
     if model != "likelihood_field":

@@ -38,7 +38,10 @@ import numpy as np
 import yaml
 
 from armando_drake.navigation.maps import OccupancyMap
+from armando_drake.navigation.nav2_params import Nav2Params, as_nav2, fill
+from armando_drake.navigation.registry import LAYERS
 from armando_drake.tools.errors import ConfigError
+from armando_drake.tools.schema import param
 
 FREE_SPACE = 0
 MAX_NON_OBSTACLE = 252
@@ -51,8 +54,6 @@ STATIC_LAYER = "nav2_costmap_2d::StaticLayer"
 INFLATION_LAYER = "nav2_costmap_2d::InflationLayer"
 OBSTACLE_LAYER = "nav2_costmap_2d::ObstacleLayer"
 VOXEL_LAYER = "nav2_costmap_2d::VoxelLayer"
-LAYER_TYPES = (STATIC_LAYER, INFLATION_LAYER, OBSTACLE_LAYER, VOXEL_LAYER)
-# Nav2's plugin names also accept '/' for '::' (pluginlib's legacy spelling).
 
 _log = logging.getLogger("armando_drake.navigation")
 
@@ -88,6 +89,10 @@ _KNOWN = {
     "initial_transform_timeout",
     "use_maximum",
 }
+_COSTMAP_KEYS = (
+    "resolution", "robot_radius", "rolling_window", "width", "height", "update_frequency",
+    "track_unknown_space", "trinary_costmap", "lethal_cost_threshold",
+)  # fmt: skip
 _INFLATION_KEYS = {
     "plugin",
     "enabled",
@@ -140,6 +145,14 @@ _SOURCE_KEYS = {
     "sensor_frame",
     "clear_after_reading",
 }
+_RANGES = (
+    "min_obstacle_height", "max_obstacle_height", "obstacle_min_range", "obstacle_max_range",
+    "raytrace_min_range", "raytrace_max_range",
+)  # fmt: skip
+
+
+def _m(default, doc):
+    return param(default, unit="m", ge=0, doc=doc)
 
 
 @dataclass
@@ -149,15 +162,15 @@ class ObservationSource:
     name: str = "scan"
     topic: str = "scan"
     data_type: str = "LaserScan"
-    marking: bool = True
-    clearing: bool = False
-    min_obstacle_height: float = 0.0
-    max_obstacle_height: float = 2.0
-    obstacle_min_range: float = 0.0
-    obstacle_max_range: float = 2.5
-    raytrace_min_range: float = 0.0
-    raytrace_max_range: float = 3.0
-    inf_is_valid: bool = False
+    marking: bool = param(True, doc="the scan's hits are marked lethal")
+    clearing: bool = param(False, doc="the cells along the beams are cleared")
+    min_obstacle_height: float = param(0.0, unit="m", doc="the lowest height marked")
+    max_obstacle_height: float = _m(2.0, "the highest height marked")
+    obstacle_min_range: float = _m(0.0, "nearer hits are not marked")
+    obstacle_max_range: float = _m(2.5, "farther hits are not marked")
+    raytrace_min_range: float = _m(0.0, "clearing starts this far from the sensor")
+    raytrace_max_range: float = _m(3.0, "clearing ends this far from the sensor")
+    inf_is_valid: bool = param(False, doc="an infinite range clears to the range's end")
 
 
 @dataclass
@@ -175,23 +188,37 @@ class ObstacleParameters:
 class CostmapParameters:
     """A costmap's parameters as Nav2 reads them (defaults: nav2_costmap_2d's)."""
 
-    resolution: float = 0.05
-    robot_radius: float = 0.1
-    track_unknown_space: bool = False
-    lethal_cost_threshold: int = 100
-    trinary_costmap: bool = True
+    resolution: float = param(
+        0.05, unit="m", gt=0, doc="the costmap's cell size (a static map's resolution wins)"
+    )
+    robot_radius: float = param(
+        0.1, unit="m", gt=0, doc="the circular footprint's radius: the inscribed radius"
+    )
+    track_unknown_space: bool = param(
+        False, doc="unknown cells stay NO_INFORMATION (255) instead of free"
+    )
+    lethal_cost_threshold: int = param(
+        100, unit="-", doc="occupancy at or above which a map cell is lethal"
+    )
+    trinary_costmap: bool = param(
+        True, doc="map cells are free, lethal or unknown (else scaled occupancy)"
+    )
     static_layer: bool = True
     inflation_layer: bool = True
-    inflation_radius: float = 0.55
-    cost_scaling_factor: float = 10.0
-    inflate_unknown: bool = False
-    inflate_around_unknown: bool = False
+    inflation_radius: float = _m(0.55, "how far from obstacles costs are inflated")
+    cost_scaling_factor: float = param(
+        10.0, unit="-", doc="the exponential decay of the inflated cost with distance"
+    )
+    inflate_unknown: bool = param(False, doc="unknown cells are inflated too")
+    inflate_around_unknown: bool = param(False, doc="unknown cells are inflation sources")
     plugins: list[str] = field(default_factory=list)
     obstacle_layer: ObstacleParameters | None = None
-    rolling_window: bool = False
-    width: float = 5.0  # [m] a rolling window's
-    height: float = 5.0
-    update_frequency: float = 5.0  # [Hz]
+    rolling_window: bool = param(False, doc="a window centred on the robot (local costmap)")
+    width: float = param(5.0, unit="m", gt=0, doc="a rolling window's width")
+    height: float = param(5.0, unit="m", gt=0, doc="a rolling window's height")
+    update_frequency: float = param(
+        5.0, unit="Hz", gt=0, doc="how often the obstacle layer takes a scan"
+    )
     footprint: list = field(default_factory=list)  # [[x, y], ...]; [] = robot_radius
     ignored: list[str] = field(default_factory=list)
     """Keys read from the file that this package does not use (each one warned about)."""
@@ -235,53 +262,58 @@ class Costmap:
         return 0 <= row < self.costs.shape[0] and 0 <= col < self.costs.shape[1]
 
 
-def _number(value, where: str, *, positive: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ConfigError(f"{where} must be a number, not {value!r}")
-    if positive and not value > 0:
-        raise ConfigError(f"{where} must be positive, not {value}")
-    return float(value)
+@LAYERS.register(STATIC_LAYER)
+class StaticLayer:
+    """nav2_costmap_2d's StaticLayer: the map's cells (:func:`static_layer`)."""
+
+    title, keys, declared_in, honoured = "static_layer", _STATIC_KEYS, CostmapParameters, ()
+
+    @staticmethod
+    def configure(params: CostmapParameters, name: str, layer: dict, where: str, ignored) -> None:
+        params.static_layer = bool(layer.get("enabled", True))
+        ignored += [f"{where}.{name}.{k}" for k in layer if k not in _STATIC_KEYS]
+
+
+@LAYERS.register(INFLATION_LAYER)
+class InflationLayer:
+    """nav2_costmap_2d's InflationLayer (:func:`inflate`)."""
+
+    title, keys, declared_in = "inflation_layer", _INFLATION_KEYS, CostmapParameters
+    honoured = _INFLATION_KEYS - {"plugin", "enabled"}
+
+    @staticmethod
+    def configure(params: CostmapParameters, name: str, layer: dict, where: str, ignored) -> None:
+        params.inflation_layer = bool(layer.get("enabled", True))
+        fill(params, layer, f"{where}.{name}", _INFLATION_KEYS - {"plugin", "enabled"})
+        ignored += [f"{where}.{name}.{k}" for k in layer if k not in _INFLATION_KEYS]
+
+
+@LAYERS.register(OBSTACLE_LAYER, instead="the obstacle layer runs instead (a planar scan, 2-D)")
+class ObstacleLayer:
+    """nav2_costmap_2d's ObstacleLayer on LaserScan sources (:func:`observe`)."""
+
+    title, keys, declared_in = "obstacle_layer", _OBSTACLE_KEYS | _SOURCE_KEYS, ObservationSource
+    honoured = {*_RANGES, "marking", "clearing", "inf_is_valid", "observation_sources", "topic",
+                "data_type",
+                "footprint_clearing_enabled", "combination_method"}  # fmt: skip
+
+    @staticmethod
+    def configure(params: CostmapParameters, name: str, layer: dict, where: str, ignored) -> None:
+        obstacles = _obstacle_layer(name, layer, bool(layer.get("enabled", True)), where, ignored)
+        if params.obstacle_layer is None or not params.obstacle_layer.enabled:
+            params.obstacle_layer = obstacles
+        elif obstacles.enabled:  # two obstacle layers (obstacle + voxel): their sources
+            params.obstacle_layer.sources += obstacles.sources
+
+
+LAYERS.substitute(VOXEL_LAYER, OBSTACLE_LAYER)  # a planar lidar fills one voxel
 
 
 def _layer(params: CostmapParameters, name: str, layer, where: str, ignored: list[str]) -> None:
     if not isinstance(layer, dict) or "plugin" not in layer:
         raise ConfigError(f"{where}.{name}.plugin: the layer '{name}' has no plugin type")
-    kind = str(layer["plugin"]).replace("/", "::")
-    if kind not in LAYER_TYPES:
-        raise ConfigError(
-            f"{where}.{name}.plugin: unknown costmap layer {kind!r} "
-            f"(known: {', '.join(LAYER_TYPES)})"
-        )
-    enabled = bool(layer.get("enabled", True))
-    if kind == STATIC_LAYER:
-        params.static_layer = enabled
-        ignored += [f"{where}.{name}.{k}" for k in layer if k not in _STATIC_KEYS]
-    elif kind == INFLATION_LAYER:
-        params.inflation_layer = enabled
-        for key in ("inflation_radius", "cost_scaling_factor"):
-            if key in layer:
-                setattr(params, key, _number(layer[key], f"{where}.{name}.{key}"))
-        if params.inflation_radius < 0:
-            raise ConfigError(
-                f"{where}.{name}.inflation_radius must be >= 0, not {params.inflation_radius}"
-            )
-        for key in ("inflate_unknown", "inflate_around_unknown"):
-            setattr(params, key, bool(layer.get(key, getattr(params, key))))
-        ignored += [f"{where}.{name}.{k}" for k in layer if k not in _INFLATION_KEYS]
-    else:
-        if kind == VOXEL_LAYER:
-            _log.warning(
-                "%s.%s: %s is not implemented here; the obstacle layer runs instead "
-                "(a planar scan, 2-D)",
-                where,
-                name,
-                kind,
-            )
-        obstacles = _obstacle_layer(name, layer, enabled, where, ignored)
-        if params.obstacle_layer is None or not params.obstacle_layer.enabled:
-            params.obstacle_layer = obstacles
-        elif obstacles.enabled:  # two obstacle layers (obstacle + voxel): their sources
-            params.obstacle_layer.sources += obstacles.sources
+    plugin, _ = LAYERS.load(layer, f"{where}.{name}")
+    plugin.cls.configure(params, name, layer, where, ignored)
 
 
 def _source(name: str, node, layer: dict, where: str, ignored: list[str]) -> ObservationSource:
@@ -295,19 +327,8 @@ def _source(name: str, node, layer: dict, where: str, ignored: list[str]) -> Obs
         )
     for key in ("marking", "clearing", "inf_is_valid"):
         setattr(source, key, bool(node.get(key, getattr(source, key))))
-    for key in (
-        "min_obstacle_height",
-        "max_obstacle_height",
-        "obstacle_min_range",
-        "obstacle_max_range",
-        "raytrace_min_range",
-        "raytrace_max_range",
-    ):
-        value = node.get(key, layer.get(key, getattr(source, key)))
-        value = _number(value, f"{where}.{name}.{key}")
-        if value < 0 and key != "min_obstacle_height":
-            raise ConfigError(f"{where}.{name}.{key} must be >= 0, not {value}")
-        setattr(source, key, value)
+    given = {k: node[k] if k in node else layer[k] for k in _RANGES if k in node or k in layer}
+    fill(source, given, f"{where}.{name}", _RANGES)
     ignored += [f"{where}.{name}.{k}" for k in node if k not in _SOURCE_KEYS]
     return source
 
@@ -327,43 +348,24 @@ def _obstacle_layer(name: str, layer: dict, enabled: bool, where, ignored) -> Ob
     return params
 
 
-def has_costmap(path: str | Path, costmap: str) -> bool:
-    """Whether a Nav2 YAML has the costmap ``<costmap>/<costmap>/ros__parameters``."""
-    try:
-        doc = yaml.safe_load(Path(path).read_text())
-    except (OSError, yaml.YAMLError):
-        return False
-    node = doc.get(costmap) if isinstance(doc, dict) else None
-    return isinstance(node, dict) and isinstance(node.get(costmap), dict)
+def has_costmap(source: Nav2Params | str | Path, costmap: str) -> bool:
+    """Whether a Nav2 file has the costmap ``<costmap>/<costmap>/ros__parameters``."""
+    return as_nav2(source).node(costmap, costmap) is not None
 
 
-def costmap_parameters(path: str | Path, costmap: str = "global_costmap") -> CostmapParameters:
-    """The parameters of ``<costmap>/<costmap>/ros__parameters`` in a Nav2 YAML; keys not
+def costmap_parameters(
+    source: Nav2Params | str | Path, costmap: str = "global_costmap"
+) -> CostmapParameters:
+    """The parameters of ``<costmap>/<costmap>/ros__parameters`` in a Nav2 file; keys not
     used here are warned about (and listed in ``ignored``)."""
-    path = Path(path)
-    try:
-        doc = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as error:
-        raise ConfigError(f"{path}: cannot be read ({' '.join(str(error).split())})") from None
-    where = f"{path}: {costmap}.{costmap}.ros__parameters"
-    node = doc.get(costmap, {}) if isinstance(doc, dict) else {}
-    node = node.get(costmap, {}) if isinstance(node, dict) else {}
-    ros = node.get("ros__parameters") if isinstance(node, dict) else None
-    if not isinstance(ros, dict):
+    nav2 = as_nav2(source)
+    where = nav2.where(costmap, costmap)
+    ros = nav2.node(costmap, costmap)
+    if ros is None:
         raise ConfigError(f"{where}: missing (no costmap '{costmap}' in the file)")
     params = CostmapParameters()
-    for key in ("resolution", "robot_radius"):
-        if key in ros:
-            setattr(params, key, _number(ros[key], f"{where}.{key}", positive=True))
-    params.rolling_window = bool(ros.get("rolling_window", False))
-    for key in ("width", "height", "update_frequency"):
-        if key in ros:
-            setattr(params, key, _number(ros[key], f"{where}.{key}", positive=True))
+    fill(params, ros, where, _COSTMAP_KEYS)
     params.footprint = _footprint(ros.get("footprint", "[]"), f"{where}.footprint")
-    for key in ("track_unknown_space", "trinary_costmap"):
-        setattr(params, key, bool(ros.get(key, getattr(params, key))))
-    if "lethal_cost_threshold" in ros:
-        params.lethal_cost_threshold = int(_number(ros["lethal_cost_threshold"], where))
     plugins = ros.get("plugins", ["static_layer", "obstacle_layer", "inflation_layer"])
     if not isinstance(plugins, list) or not all(isinstance(p, str) for p in plugins):
         raise ConfigError(f"{where}.plugins must be a list of layer names, not {plugins!r}")
@@ -554,3 +556,26 @@ def layered_costmap(
         costs[outside] = FREE_SPACE
     costs = inflate(costs, grid.resolution, params)
     return Costmap(costs=costs, resolution=grid.resolution, origin=grid.origin)
+
+
+def path_blocked(costmap: Costmap, path: np.ndarray) -> bool:
+    """Whether ``path`` (n, 2) crosses an obstacle of the costmap (a lethal cell, or one
+    within the robot's inscribed radius of it)."""
+    cols = np.floor((path[:, 0] - costmap.origin[0]) / costmap.resolution).astype(int)
+    rows = np.floor((path[:, 1] - costmap.origin[1]) / costmap.resolution).astype(int)
+    inside = (rows >= 0) & (rows < costmap.costs.shape[0])
+    inside &= (cols >= 0) & (cols < costmap.costs.shape[1])
+    costs = costmap.costs[rows[inside], cols[inside]]
+    return bool(((costs >= INSCRIBED_INFLATED_OBSTACLE) & (costs <= LETHAL_OBSTACLE)).any())
+
+
+def blocked_behind(costmap: Costmap, pose, distance: float, inscribed: float) -> bool:
+    """Whether backing up ``distance`` [m] from ``pose`` (x, y, yaw) puts the robot's back
+    (``inscribed`` [m] behind its centre) on a lethal cell."""
+    for d in np.arange(0.0, distance + 1e-9, 0.5 * costmap.resolution):
+        x = pose[0] - (d + inscribed) * math.cos(pose[2])
+        y = pose[1] - (d + inscribed) * math.sin(pose[2])
+        row, col = costmap.world_to_cell(x, y)
+        if costmap.contains(row, col) and costmap.costs[row, col] == LETHAL_OBSTACLE:
+            return True
+    return False
