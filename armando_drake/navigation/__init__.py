@@ -5,7 +5,8 @@
 - :mod:`.nav2_params`: a Nav2 parameter file read once, the scenario's overrides
   (:mod:`.overrides`) applied to the parsed parameters.
 - :mod:`.registry`: Nav2's plugins by name (planners, controllers, costmap layers,
-  behaviours), and the substitutions (a plugin Nav2 ships that runs as an implemented one).
+  behaviours, smoothers), and the substitutions (a plugin Nav2 ships that runs as an
+  implemented one).
 - :mod:`.costmap`: nav2_costmap_2d's static, inflation and obstacle layers (plugins), with
   the parameters of a Nav2 YAML (``global_costmap``/``local_costmap``); :mod:`.layers`:
   the costmaps the lidar's scans update.
@@ -15,7 +16,8 @@
   lidar's height).
 - :mod:`.follower`: the controller server's parameters, Regulated Pure Pursuit (the
   controller plugin), the goal and progress checkers.
-- :mod:`.behaviors`: the behaviour server's recoveries (Spin, BackUp, Wait plugins).
+- :mod:`.behaviors`: the behaviour server's recoveries (Spin, BackUp, Wait plugins);
+  :mod:`.smoother`: the smoother server's slot.
 - :mod:`.amcl`: AMCL's particle filter (localization on the odometry and the lidar).
 - :mod:`.config`, :mod:`.navigator`, :mod:`.results`: the scenario's ``navigation:``
   section, the Drake system that drives to its goals, and their results.

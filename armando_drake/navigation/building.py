@@ -6,7 +6,8 @@ and makes from it the servers' parts, each plugin by its Nav2 name (:mod:`.regis
 the planner server's planner (:func:`~.planner.planner_plugin`), the controller server's
 controller and checkers (:func:`~.follower.controller_parameters`), the global costmap's
 layers and the local costmap's (:func:`~.costmap.costmap_parameters`), the behaviour
-server's behaviours (:func:`~.behaviors.behavior_parameters`) and, with
+server's behaviours (:func:`~.behaviors.behavior_parameters`), the smoother server's
+slot (:mod:`.smoother`) and, with
 ``localization: amcl``, AMCL's parameters. Then the map (the given map_server map, or
 the world's true occupancy at the lidar's height: :mod:`.world_map`) and its costmap; a
 goal in an obstacle is refused (its name in the one-line error).
@@ -44,6 +45,7 @@ from armando_drake.navigation.nav2_params import Nav2Params, read_nav2
 from armando_drake.navigation.navigator import Navigator, check_goals
 from armando_drake.navigation.planner import planner_plugin
 from armando_drake.navigation.slam import SlamMapper, canvas, slam_parameters
+from armando_drake.navigation.smoother import smoother_plugins
 from armando_drake.navigation.world_map import LIDAR_TYPES, lidar_height, world_map
 from armando_drake.tools.errors import ConfigError, ScenarioError
 from armando_drake.tools.extras import require_extra
@@ -122,6 +124,7 @@ class _Servers:
     planner: Any  # the planner plugin
     controller: Any  # ControllerParameters
     behaviors: Any  # BehaviorParameters or None
+    smoothers: dict  # the smoother server's registered plugins (none run by the default tree)
 
     @classmethod
     def read(cls, config: NavigationConfig, where: str) -> _Servers:
@@ -139,6 +142,7 @@ class _Servers:
                 planner_plugin(nav2),
                 controller_parameters(nav2),
                 behavior_parameters(nav2),
+                smoother_plugins(nav2),
             )
 
         return _read(servers, nav2, "params_file", where)

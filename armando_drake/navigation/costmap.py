@@ -1,30 +1,18 @@
-"""Costmaps as nav2_costmap_2d builds them: the static layer and the inflation layer.
+"""Costmaps as nav2_costmap_2d builds them: a costmap's parameters and its layers composed.
 
-Costs are nav2_costmap_2d's (``cost_values.hpp``): 0 free, 1..252 inflated, 253
-inscribed (the robot's centre there means a collision), 254 lethal, 255 unknown.
-
-- Static layer (``StaticLayer::interpretValue``): an occupancy of -1 is unknown (255), or
-  free with ``track_unknown_space: false``; occupancy >= ``lethal_cost_threshold`` (100)
-  lethal; any other cell free (``trinary_costmap: true``) or ``254 * value / 100``.
-- Inflation layer (``InflationLayer::computeCost``): with ``d`` the Euclidean distance from
-  a cell's centre to the nearest lethal cell's (a distance transform, as upstream's own),
-  the cost is 254 at ``d = 0``, 253 for ``d <= inscribed_radius``, else
-  ``int(252 * exp(-cost_scaling_factor * (d - inscribed_radius)))``, for cells with
-  ``d <= ceil(inflation_radius / resolution)`` cells; a cell keeps the larger of its cost and
-  the inflated one (an unknown cell only becomes >= 253). Distances are quantized to
-  1/100 cell, as upstream's lookup table.
-
-- Obstacle layer (``ObstacleLayer``, ``data_type: LaserScan`` sources): each scan clears
-  the cells along its beams (``clearing``: from ``raytrace_min_range`` to the hit, or to
-  ``raytrace_max_range``) and then marks the hit cells lethal (``marking``: ranges within
-  ``obstacle_min_range``..``obstacle_max_range``, the scan's height within
-  ``min_obstacle_height``..``max_obstacle_height``); the layer is combined into the master
-  grid by its maximum (``updateWithMax``: an unknown cell of the layer leaves the master's),
-  then inflated. ``VoxelLayer`` runs as this obstacle layer (a planar lidar, 2-D).
+Costs are nav2_costmap_2d's (:mod:`.cost_values`): 0 free, 1..252 inflated, 253 inscribed
+(the robot's centre there means a collision), 254 lethal, 255 unknown. The layers are
+plugins registered by their Nav2 names (:data:`~.registry.LAYERS`), each in its module:
+:mod:`.static_layer`, :mod:`.inflation_layer`, :mod:`.obstacle_layer` (``VoxelLayer``
+runs as it). :func:`costmap_parameters` reads a costmap of a Nav2 file, each layer of its
+``plugins`` configured by its registered plugin.
 
 The costmap takes the map's size and resolution (a non-rolling global costmap resizes to
 the static map, whatever its ``resolution`` parameter). A local costmap (``rolling_window:
 true``) is a ``width`` x ``height`` window centred on the robot, on the same grid.
+:func:`make_costmap` is the static layer then the inflation layer; :func:`layered_costmap`
+the static layer, the obstacle layer by its maximum (``updateWithMax``;
+``combination_method: 0`` overwrites), the rolling window, then the inflation layer.
 """
 
 from __future__ import annotations
@@ -37,23 +25,20 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from armando_drake.navigation.cost_values import (
+    FREE_SPACE,
+    INSCRIBED_INFLATED_OBSTACLE,
+    LETHAL_OBSTACLE,
+    NO_INFORMATION,
+)
+from armando_drake.navigation.inflation_layer import inflate
 from armando_drake.navigation.maps import OccupancyMap
 from armando_drake.navigation.nav2_params import Nav2Params, as_nav2, fill
+from armando_drake.navigation.obstacle_layer import ObstacleParameters, empty_obstacles
 from armando_drake.navigation.registry import LAYERS
+from armando_drake.navigation.static_layer import static_layer
 from armando_drake.tools.errors import ConfigError
 from armando_drake.tools.schema import param
-
-FREE_SPACE = 0
-MAX_NON_OBSTACLE = 252
-INSCRIBED_INFLATED_OBSTACLE = 253
-LETHAL_OBSTACLE = 254
-NO_INFORMATION = 255
-COST_LUT_PRECISION = 100
-
-STATIC_LAYER = "nav2_costmap_2d::StaticLayer"
-INFLATION_LAYER = "nav2_costmap_2d::InflationLayer"
-OBSTACLE_LAYER = "nav2_costmap_2d::ObstacleLayer"
-VOXEL_LAYER = "nav2_costmap_2d::VoxelLayer"
 
 _log = logging.getLogger("armando_drake.navigation")
 
@@ -93,95 +78,10 @@ _COSTMAP_KEYS = (
     "resolution", "robot_radius", "rolling_window", "width", "height", "update_frequency",
     "track_unknown_space", "trinary_costmap", "lethal_cost_threshold",
 )  # fmt: skip
-_INFLATION_KEYS = {
-    "plugin",
-    "enabled",
-    "inflation_radius",
-    "cost_scaling_factor",
-    "inflate_unknown",
-    "inflate_around_unknown",
-}
-_STATIC_KEYS = {
-    "plugin",
-    "enabled",
-    "map_subscribe_transient_local",
-    "subscribe_to_updates",
-    "map_topic",
-    "transform_tolerance",
-    "footprint_clearing_enabled",
-    "restore_cleared_footprint",
-}
-
-_OBSTACLE_KEYS = {
-    "plugin",
-    "enabled",
-    "observation_sources",
-    "max_obstacle_height",
-    "min_obstacle_height",
-    "footprint_clearing_enabled",
-    "combination_method",
-    # the VoxelLayer's own (its z voxels: a planar scan fills one)
-    "publish_voxel_map",
-    "origin_z",
-    "z_resolution",
-    "z_voxels",
-    "mark_threshold",
-    "unknown_threshold",
-}
-_SOURCE_KEYS = {
-    "topic",
-    "data_type",
-    "marking",
-    "clearing",
-    "max_obstacle_height",
-    "min_obstacle_height",
-    "obstacle_max_range",
-    "obstacle_min_range",
-    "raytrace_max_range",
-    "raytrace_min_range",
-    "inf_is_valid",
-    "expected_update_rate",
-    "observation_persistence",
-    "sensor_frame",
-    "clear_after_reading",
-}
-_RANGES = (
-    "min_obstacle_height", "max_obstacle_height", "obstacle_min_range", "obstacle_max_range",
-    "raytrace_min_range", "raytrace_max_range",
-)  # fmt: skip
 
 
 def _m(default, doc):
     return param(default, unit="m", ge=0, doc=doc)
-
-
-@dataclass
-class ObservationSource:
-    """One of an obstacle layer's ``observation_sources`` (defaults: Nav2's)."""
-
-    name: str = "scan"
-    topic: str = "scan"
-    data_type: str = "LaserScan"
-    marking: bool = param(True, doc="the scan's hits are marked lethal")
-    clearing: bool = param(False, doc="the cells along the beams are cleared")
-    min_obstacle_height: float = param(0.0, unit="m", doc="the lowest height marked")
-    max_obstacle_height: float = _m(2.0, "the highest height marked")
-    obstacle_min_range: float = _m(0.0, "nearer hits are not marked")
-    obstacle_max_range: float = _m(2.5, "farther hits are not marked")
-    raytrace_min_range: float = _m(0.0, "clearing starts this far from the sensor")
-    raytrace_max_range: float = _m(3.0, "clearing ends this far from the sensor")
-    inf_is_valid: bool = param(False, doc="an infinite range clears to the range's end")
-
-
-@dataclass
-class ObstacleParameters:
-    """An obstacle layer (``nav2_costmap_2d::ObstacleLayer``)."""
-
-    name: str = "obstacle_layer"
-    enabled: bool = True
-    sources: list[ObservationSource] = field(default_factory=list)
-    footprint_clearing_enabled: bool = True
-    combination_method: int = 1  # 0 overwrite, 1 maximum
 
 
 @dataclass
@@ -262,90 +162,11 @@ class Costmap:
         return 0 <= row < self.costs.shape[0] and 0 <= col < self.costs.shape[1]
 
 
-@LAYERS.register(STATIC_LAYER)
-class StaticLayer:
-    """nav2_costmap_2d's StaticLayer: the map's cells (:func:`static_layer`)."""
-
-    title, keys, declared_in, honoured = "static_layer", _STATIC_KEYS, CostmapParameters, ()
-
-    @staticmethod
-    def configure(params: CostmapParameters, name: str, layer: dict, where: str, ignored) -> None:
-        params.static_layer = bool(layer.get("enabled", True))
-        ignored += [f"{where}.{name}.{k}" for k in layer if k not in _STATIC_KEYS]
-
-
-@LAYERS.register(INFLATION_LAYER)
-class InflationLayer:
-    """nav2_costmap_2d's InflationLayer (:func:`inflate`)."""
-
-    title, keys, declared_in = "inflation_layer", _INFLATION_KEYS, CostmapParameters
-    honoured = _INFLATION_KEYS - {"plugin", "enabled"}
-
-    @staticmethod
-    def configure(params: CostmapParameters, name: str, layer: dict, where: str, ignored) -> None:
-        params.inflation_layer = bool(layer.get("enabled", True))
-        fill(params, layer, f"{where}.{name}", _INFLATION_KEYS - {"plugin", "enabled"})
-        ignored += [f"{where}.{name}.{k}" for k in layer if k not in _INFLATION_KEYS]
-
-
-@LAYERS.register(OBSTACLE_LAYER, instead="the obstacle layer runs instead (a planar scan, 2-D)")
-class ObstacleLayer:
-    """nav2_costmap_2d's ObstacleLayer on LaserScan sources (:func:`observe`)."""
-
-    title, keys, declared_in = "obstacle_layer", _OBSTACLE_KEYS | _SOURCE_KEYS, ObservationSource
-    honoured = {*_RANGES, "marking", "clearing", "inf_is_valid", "observation_sources", "topic",
-                "data_type",
-                "footprint_clearing_enabled", "combination_method"}  # fmt: skip
-
-    @staticmethod
-    def configure(params: CostmapParameters, name: str, layer: dict, where: str, ignored) -> None:
-        obstacles = _obstacle_layer(name, layer, bool(layer.get("enabled", True)), where, ignored)
-        if params.obstacle_layer is None or not params.obstacle_layer.enabled:
-            params.obstacle_layer = obstacles
-        elif obstacles.enabled:  # two obstacle layers (obstacle + voxel): their sources
-            params.obstacle_layer.sources += obstacles.sources
-
-
-LAYERS.substitute(VOXEL_LAYER, OBSTACLE_LAYER)  # a planar lidar fills one voxel
-
-
 def _layer(params: CostmapParameters, name: str, layer, where: str, ignored: list[str]) -> None:
     if not isinstance(layer, dict) or "plugin" not in layer:
         raise ConfigError(f"{where}.{name}.plugin: the layer '{name}' has no plugin type")
     plugin, _ = LAYERS.load(layer, f"{where}.{name}")
     plugin.cls.configure(params, name, layer, where, ignored)
-
-
-def _source(name: str, node, layer: dict, where: str, ignored: list[str]) -> ObservationSource:
-    if not isinstance(node, dict):
-        raise ConfigError(f"{where}.{name}: the observation source '{name}' has no parameters")
-    source = ObservationSource(name=name, topic=str(node.get("topic", "")) or name)
-    source.data_type = str(node.get("data_type", "PointCloud2"))
-    if source.data_type not in ("LaserScan", "PointCloud2"):
-        raise ConfigError(
-            f"{where}.{name}.data_type: {source.data_type!r} is not LaserScan or PointCloud2"
-        )
-    for key in ("marking", "clearing", "inf_is_valid"):
-        setattr(source, key, bool(node.get(key, getattr(source, key))))
-    given = {k: node[k] if k in node else layer[k] for k in _RANGES if k in node or k in layer}
-    fill(source, given, f"{where}.{name}", _RANGES)
-    ignored += [f"{where}.{name}.{k}" for k in node if k not in _SOURCE_KEYS]
-    return source
-
-
-def _obstacle_layer(name: str, layer: dict, enabled: bool, where, ignored) -> ObstacleParameters:
-    here = f"{where}.{name}"
-    names = layer.get("observation_sources", "")
-    if not isinstance(names, str):
-        raise ConfigError(f"{here}.observation_sources must be a string of names, not {names!r}")
-    params = ObstacleParameters(name=name, enabled=enabled)
-    params.footprint_clearing_enabled = bool(layer.get("footprint_clearing_enabled", True))
-    params.combination_method = int(layer.get("combination_method", 1))
-    for source in names.split():
-        params.sources.append(_source(source, layer.get(source), layer, here, ignored))
-    known = _OBSTACLE_KEYS | set(names.split())
-    ignored += [f"{here}.{k}" for k in layer if k not in known]
-    return params
 
 
 def has_costmap(source: Nav2Params | str | Path, costmap: str) -> bool:
@@ -395,59 +216,6 @@ def _footprint(value, where: str) -> list:
     return [(float(p[0]), float(p[1])) for p in value]
 
 
-def static_layer(grid: OccupancyMap, params: CostmapParameters) -> np.ndarray:
-    """StaticLayer's costs of an occupancy grid (uint8, the grid's shape)."""
-    data = grid.data.astype(np.int16)
-    unknown = data < 0
-    costs = np.zeros(data.shape, dtype=np.uint8)
-    if not params.trinary_costmap:
-        scaled = np.clip(data, 0, None) / params.lethal_cost_threshold * LETHAL_OBSTACLE
-        costs[:] = np.clip(scaled, 0, LETHAL_OBSTACLE).astype(np.uint8)
-    costs[data >= params.lethal_cost_threshold] = LETHAL_OBSTACLE
-    costs[unknown] = NO_INFORMATION if params.track_unknown_space else FREE_SPACE
-    return costs
-
-
-def inflation_cost(
-    distance_cells, resolution: float, inscribed_radius: float, cost_scaling_factor: float
-) -> np.ndarray:
-    """InflationLayer::computeCost at distances in cells (array in, uint8 array out)."""
-    d = np.asarray(distance_cells, dtype=float) * resolution
-    factor = np.exp(-cost_scaling_factor * (d - inscribed_radius))
-    costs = (MAX_NON_OBSTACLE * factor).astype(np.int64)  # static_cast truncates
-    costs = np.where(d <= inscribed_radius, INSCRIBED_INFLATED_OBSTACLE, costs)
-    costs = np.where(np.asarray(distance_cells) == 0, LETHAL_OBSTACLE, costs)
-    return costs.astype(np.uint8)
-
-
-def inflate(costs: np.ndarray, resolution: float, params: CostmapParameters) -> np.ndarray:
-    """The inflation layer over ``costs`` (a new array)."""
-    cell_radius = max(0, math.ceil(params.inflation_radius / resolution))
-    if not params.inflation_layer or cell_radius == 0:
-        return costs.copy()
-    sources = costs == LETHAL_OBSTACLE
-    if params.inflate_around_unknown:
-        sources |= costs == NO_INFORMATION
-    if not sources.any():
-        return costs.copy()
-    from scipy import ndimage  # the navigation extra: imported where used
-
-    distance = ndimage.distance_transform_edt(~sources)
-    quantized = np.floor(distance * COST_LUT_PRECISION + 0.5) / COST_LUT_PRECISION
-    inflated = inflation_cost(
-        quantized, resolution, params.inscribed_radius, params.cost_scaling_factor
-    )
-    inside = distance <= cell_radius
-    out = costs.copy()
-    unknown = costs == NO_INFORMATION
-    threshold = FREE_SPACE + 1 if params.inflate_unknown else INSCRIBED_INFLATED_OBSTACLE
-    take_unknown = inside & unknown & (inflated >= threshold)
-    keep_max = inside & ~take_unknown
-    out[keep_max] = np.maximum(costs[keep_max], inflated[keep_max])
-    out[take_unknown] = inflated[take_unknown]
-    return out
-
-
 def make_costmap(grid: OccupancyMap, params: CostmapParameters) -> Costmap:
     """The costmap of a map: its static layer, then its inflation layer."""
     costs = (
@@ -457,72 +225,6 @@ def make_costmap(grid: OccupancyMap, params: CostmapParameters) -> Costmap:
     )
     costs = inflate(costs, grid.resolution, params)
     return Costmap(costs=costs, resolution=grid.resolution, origin=grid.origin)
-
-
-# ---------------------------------------------------------------------------- obstacle layer
-
-
-def empty_obstacles(shape, params: CostmapParameters) -> np.ndarray:
-    """An obstacle layer with no observation yet (unknown when tracking unknown space)."""
-    fill = NO_INFORMATION if params.track_unknown_space else FREE_SPACE
-    return np.full(shape, fill, dtype=np.uint8)
-
-
-def observe(
-    layer: np.ndarray,
-    costmap: Costmap,
-    laser: tuple[float, float, float],
-    height: float,
-    scan,
-    source: ObservationSource,
-) -> np.ndarray:
-    """The obstacle layer after one LaserScan of ``source`` from the laser's world pose
-    (x, y, yaw) at ``height`` [m]: clearing along the beams, then marking their ends (a new
-    array)."""
-    out = layer.copy()
-    ranges = np.asarray(scan.ranges, dtype=float)
-    if ranges.size == 0:
-        return out
-    angles = laser[2] + scan.angle_min + scan.angle_increment * np.arange(ranges.size)
-    c, s = np.cos(angles), np.sin(angles)
-    res = costmap.resolution
-    rows_n, cols_n = out.shape
-    if source.clearing:
-        reach = np.where(np.isposinf(ranges) & source.inf_is_valid, scan.range_max, ranges)
-        reach = np.where(np.isfinite(reach), reach, np.nan)
-        reach = np.minimum(reach, source.raytrace_max_range)
-        ok = np.isfinite(reach) & (reach > source.raytrace_min_range)
-        steps = np.arange(source.raytrace_min_range, source.raytrace_max_range, 0.5 * res)
-        # each beam sampled every half cell up to one cell short of its end
-        d = steps[None, :] * np.ones((ok.sum(), 1))
-        keep = d < (reach[ok] - res)[:, None]
-        px = laser[0] + d * c[ok][:, None]
-        py = laser[1] + d * s[ok][:, None]
-        cols = np.floor((px[keep] - costmap.origin[0]) / res).astype(int)
-        rows = np.floor((py[keep] - costmap.origin[1]) / res).astype(int)
-        inside = (rows >= 0) & (rows < rows_n) & (cols >= 0) & (cols < cols_n)
-        out[rows[inside], cols[inside]] = FREE_SPACE
-    if source.marking and source.min_obstacle_height <= height <= source.max_obstacle_height:
-        hit = np.isfinite(ranges) & (ranges >= source.obstacle_min_range)
-        hit &= ranges <= source.obstacle_max_range
-        hit &= (ranges >= scan.range_min) & (ranges <= scan.range_max)
-        px = laser[0] + ranges[hit] * c[hit]
-        py = laser[1] + ranges[hit] * s[hit]
-        cols = np.floor((px - costmap.origin[0]) / res).astype(int)
-        rows = np.floor((py - costmap.origin[1]) / res).astype(int)
-        inside = (rows >= 0) & (rows < rows_n) & (cols >= 0) & (cols < cols_n)
-        out[rows[inside], cols[inside]] = LETHAL_OBSTACLE
-    return out
-
-
-def clear_footprint(layer: np.ndarray, costmap: Costmap, pose, radius: float) -> np.ndarray:
-    """The cells under the robot (a disc of ``radius``) freed (``footprint_clearing``)."""
-    rows, cols = np.indices(layer.shape)
-    centres = costmap.cell_to_world(rows, cols)
-    under = np.hypot(centres[..., 0] - pose[0], centres[..., 1] - pose[1]) <= radius
-    out = layer.copy()
-    out[under] = FREE_SPACE
-    return out
 
 
 def layered_costmap(

@@ -38,11 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
-from armando_drake.navigation.costmap import (
-    INSCRIBED_INFLATED_OBSTACLE,
-    NO_INFORMATION,
-    Costmap,
-)
+from armando_drake.navigation.cost_values import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
+from armando_drake.navigation.costmap import Costmap
 from armando_drake.navigation.nav2_params import Nav2Params, as_nav2, fill
 from armando_drake.navigation.registry import CONTROLLERS
 from armando_drake.tools.errors import ConfigError

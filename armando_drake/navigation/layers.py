@@ -15,15 +15,9 @@ import dataclasses as dc
 import math
 
 from armando_drake.navigation.amcl import compose
-from armando_drake.navigation.costmap import (
-    Costmap,
-    CostmapParameters,
-    clear_footprint,
-    empty_obstacles,
-    layered_costmap,
-    observe,
-)
+from armando_drake.navigation.costmap import Costmap, CostmapParameters, layered_costmap
 from armando_drake.navigation.maps import OccupancyMap
+from armando_drake.navigation.obstacle_layer import clear_footprint, empty_obstacles, observe
 
 
 @dc.dataclass(frozen=True)

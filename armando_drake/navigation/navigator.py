@@ -37,12 +37,8 @@ from armando_drake.navigation.behaviors import (
     recovery_command,
 )
 from armando_drake.navigation.config import NavigationGoal
-from armando_drake.navigation.costmap import (
-    INSCRIBED_INFLATED_OBSTACLE,
-    Costmap,
-    blocked_behind,
-    path_blocked,
-)
+from armando_drake.navigation.cost_values import INSCRIBED_INFLATED_OBSTACLE
+from armando_drake.navigation.costmap import Costmap, blocked_behind, path_blocked
 from armando_drake.navigation.follower import (
     ControllerParameters,
     goal_reached,

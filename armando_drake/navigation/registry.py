@@ -1,4 +1,4 @@
-"""Nav2's plugins by name: planners, controllers, costmap layers, behaviours.
+"""Nav2's plugins by name: planners, controllers, costmap layers, behaviours, smoothers.
 
 Nav2's servers load their plugins by the names their YAML gives (``plugin:
 "nav2_navfn_planner/NavfnPlanner"``; pluginlib). Here each implemented plugin is a class
@@ -135,3 +135,4 @@ PLANNERS = Registry("planner")
 CONTROLLERS = Registry("controller")
 LAYERS = Registry("costmap layer")
 BEHAVIORS = Registry("behaviour")
+SMOOTHERS = Registry("smoother")  # the smoother server's slot (navigation/smoother.py)

@@ -15,7 +15,8 @@ from pydrake.systems.analysis import Simulator
 
 from armando_drake.navigation import reference
 from armando_drake.navigation.planner import planner_plugin
-from armando_drake.navigation.registry import PLANNERS
+from armando_drake.navigation.registry import PLANNERS, SMOOTHERS
+from armando_drake.navigation.smoother import smoother_plugins
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import load_scenario, merge_overrides
 from armando_drake.tools.errors import ConfigError
@@ -119,3 +120,39 @@ def test_fra2mo_drives_to_a_goal_on_the_new_planner(registered, tmp_path, caplog
     direction = (first[-1] - first[0]) / np.linalg.norm(first[-1] - first[0])
     offsets = (first - first[0]) @ np.array([-direction[1], direction[0]])
     assert np.abs(offsets).max() < 1e-9
+
+
+@dc.dataclass
+class KeepParameters:
+    """The test smoother's parameters."""
+
+    passes: int = param(1, unit="-", ge=0, doc="how many passes")
+
+
+class Keep:
+    """A smoother that keeps the plan as it is."""
+
+    Parameters = KeepParameters
+
+    def __init__(self, params: KeepParameters):
+        self.params = params
+
+
+def test_the_smoother_servers_slot_loads_registered_smoothers_only(tmp_path):
+    fixture = Path(__file__).parent / "fixtures" / "nav2_params.yaml"
+    assert smoother_plugins(fixture) == {}  # nav2_smoother::SimpleSmoother: not run here
+    SMOOTHERS.register("test_smoothers::Keep")(Keep)
+    try:
+        path = tmp_path / "nav.yaml"
+        path.write_text(
+            "smoother_server:\n  ros__parameters:\n    smoother_plugins: [keep, simple]\n"
+            "    keep: {plugin: test_smoothers/Keep, passes: 3}\n"
+            "    simple: {plugin: nav2_smoother::SimpleSmoother}\n"
+        )
+        smoothers = smoother_plugins(path)
+        assert list(smoothers) == ["keep"] and smoothers["keep"].params.passes == 3
+        path.write_text(path.read_text().replace("passes: 3", "passes: -1"))
+        with pytest.raises(ConfigError, match=r"smoother_server.ros__parameters.keep.passes=-1"):
+            smoother_plugins(path)
+    finally:
+        SMOOTHERS.unregister("test_smoothers::Keep")
