@@ -39,9 +39,11 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from armando_drake.messages.types import Odometry, PublicationValue
-from armando_drake.navigation.follower import read_yaml, ros_parameters, set_parameter, wrap
+from armando_drake.navigation.follower import wrap
 from armando_drake.navigation.maps import OCCUPIED, OccupancyMap
+from armando_drake.navigation.nav2_params import Nav2Params, as_nav2, fill
 from armando_drake.tools.errors import ConfigError
+from armando_drake.tools.schema import field_rules, param
 
 DIFFERENTIAL = "nav2_amcl::DifferentialMotionModel"
 INITIAL_STD = (0.5, 0.5, math.pi / 12)  # nav2_amcl's initial covariance, as deviations
@@ -49,26 +51,36 @@ INITIAL_STD = (0.5, 0.5, math.pi / 12)  # nav2_amcl's initial covariance, as dev
 _log = logging.getLogger("armando_drake.navigation")
 
 
+def _noise(doc: str):
+    return param(0.2, unit="-", ge=0, doc=doc)
+
+
 @dc.dataclass
 class AmclParameters:
     """nav2_amcl's parameters (defaults: upstream's)."""
 
-    alpha1: float = 0.2
-    alpha2: float = 0.2
-    alpha3: float = 0.2
-    alpha4: float = 0.2
-    laser_likelihood_max_dist: float = 2.0
-    laser_max_range: float = 100.0
-    laser_min_range: float = -1.0
-    max_beams: float = 60
-    max_particles: float = 2000
-    sigma_hit: float = 0.2
-    z_hit: float = 0.5
-    z_rand: float = 0.5
-    update_min_a: float = 0.2
-    update_min_d: float = 0.25
-    resample_interval: float = 1
-    set_initial_pose: bool = False
+    alpha1: float = _noise("rotation noise from rotation (odometry model)")
+    alpha2: float = _noise("rotation noise from translation")
+    alpha3: float = _noise("translation noise from translation")
+    alpha4: float = _noise("translation noise from rotation")
+    laser_likelihood_max_dist: float = param(
+        2.0, unit="m", ge=0, doc="the likelihood field's distance cap"
+    )
+    laser_max_range: float = param(100.0, unit="m", ge=0, doc="longer ranges are dropped")
+    laser_min_range: float = param(
+        -1.0, unit="m", doc="shorter ranges are dropped (-1: the scan's own)"
+    )
+    max_beams: float = param(60.0, unit="-", ge=2, doc="beams of each scan used")
+    max_particles: float = param(
+        2000.0, unit="-", ge=1, doc="the particle count (fixed: no KLD sampling)"
+    )
+    sigma_hit: float = param(0.2, unit="m", ge=0, doc="the hit model's deviation")
+    z_hit: float = param(0.5, unit="-", ge=0, doc="weight of the hit model")
+    z_rand: float = param(0.5, unit="-", ge=0, doc="weight of the random model")
+    update_min_a: float = param(0.2, unit="rad", ge=0, doc="turn before a filter update")
+    update_min_d: float = param(0.25, unit="m", ge=0, doc="travel before a filter update")
+    resample_interval: float = param(1.0, unit="-", ge=0, doc="filter updates between resamplings")
+    set_initial_pose: bool = param(False, doc="start from initial_pose")
     initial_pose: tuple | None = None  # (x, y, yaw)
     ignored: list[str] = dc.field(default_factory=list)
 
@@ -95,11 +107,11 @@ _NOT_APPLIED = {
 }
 
 
-def amcl_parameters(path: str | Path) -> AmclParameters:
-    """``amcl.ros__parameters`` of a Nav2 YAML; keys not applied are warned about."""
-    path = Path(path)
-    ros = ros_parameters(read_yaml(path), "amcl", path)
-    where = f"{path}: amcl.ros__parameters"
+def amcl_parameters(source: Nav2Params | str | Path) -> AmclParameters:
+    """``amcl.ros__parameters`` of a Nav2 file; keys not applied are warned about."""
+    nav2 = as_nav2(source)
+    ros = nav2.required("amcl")
+    where = nav2.where("amcl")
     params = AmclParameters()
     model = ros.get("laser_model_type", "likelihood_field")
     if model != "likelihood_field":
@@ -107,20 +119,17 @@ def amcl_parameters(path: str | Path) -> AmclParameters:
     motion = ros.get("robot_model_type", DIFFERENTIAL)
     if motion != DIFFERENTIAL:
         raise ConfigError(f"{where}.robot_model_type {motion!r}: only {DIFFERENTIAL} is known")
-    fields = {f.name for f in dc.fields(AmclParameters)} - {"initial_pose", "ignored"}
     ignored = []
-    for key in ros:
-        if key in fields:
-            set_parameter(params, ros, key, where, ge=None if key == "laser_min_range" else 0.0)
-        elif key == "initial_pose":
+    for key in fill(
+        params, ros, where, set(field_rules(AmclParameters)) - {"initial_pose", "ignored"}
+    ):
+        if key == "initial_pose":
             pose = ros[key] if isinstance(ros[key], dict) else {}
             params.initial_pose = tuple(float(pose.get(k, 0.0)) for k in ("x", "y", "yaw"))
         elif key not in _KNOWN:
             ignored.append(key)
             why = _NOT_APPLIED.get(key, "not used here")
             _log.warning("%s.%s: %s", where, key, why)
-    if params.max_particles < 1 or params.max_beams < 2:
-        raise ConfigError(f"{where}: max_particles >= 1 and max_beams >= 2 are needed")
     params.ignored = [f"{where}.{k}" for k in ignored]
     return params
 

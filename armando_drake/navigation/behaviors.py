@@ -24,15 +24,14 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import yaml
-
+from armando_drake.navigation.nav2_params import Nav2Params, as_nav2, fill
+from armando_drake.navigation.registry import BEHAVIORS
 from armando_drake.tools.errors import ConfigError
+from armando_drake.tools.schema import param
 
 _log = logging.getLogger("armando_drake.navigation")
 
 SPIN, BACKUP, WAIT = "nav2_behaviors::Spin", "nav2_behaviors::BackUp", "nav2_behaviors::Wait"
-NOT_RUN = ("nav2_behaviors::DriveOnHeading", "nav2_behaviors::AssistedTeleop")
-BEHAVIOR_TYPES = (SPIN, BACKUP, WAIT, *NOT_RUN)
 CLEAR = "clear_costmaps"  # the tree's ClearEntireCostmap of both costmaps (no plugin)
 
 # The default tree's arguments and retries.
@@ -57,15 +56,7 @@ _KNOWN = {
     "transform_timeout",
     "enable_stamped_cmd_vel",
 }
-_READ = {
-    "behavior_plugins",
-    "recovery_plugins",
-    "cycle_frequency",
-    "max_rotational_vel",
-    "min_rotational_vel",
-    "rotational_acc_lim",
-    "simulate_ahead_time",
-}
+_LISTS = ("behavior_plugins", "recovery_plugins")
 
 
 @dataclass
@@ -73,11 +64,17 @@ class BehaviorParameters:
     """behavior_server's parameters (defaults: Nav2's)."""
 
     plugins: dict[str, str] = field(default_factory=dict)  # name -> type
-    cycle_frequency: float = 10.0
-    max_rotational_vel: float = 1.0
-    min_rotational_vel: float = 0.4
-    rotational_acc_lim: float = 3.2
-    simulate_ahead_time: float = 2.0
+    cycle_frequency: float = param(
+        10.0, unit="Hz", ge=0, doc="the behaviours' rate (they run at the navigator's here)"
+    )
+    max_rotational_vel: float = param(1.0, unit="rad/s", ge=0, doc="Spin's fastest turn rate")
+    min_rotational_vel: float = param(0.4, unit="rad/s", ge=0, doc="Spin's slowest turn rate")
+    rotational_acc_lim: float = param(
+        3.2, unit="rad/s^2", ge=0, doc="Spin's angular acceleration limit"
+    )
+    simulate_ahead_time: float = param(
+        2.0, unit="s", ge=0, doc="BackUp's collision check ahead of the motion"
+    )
     number_of_retries: int = NUMBER_OF_RETRIES
 
     def round_robin(self) -> list[str]:
@@ -87,18 +84,22 @@ class BehaviorParameters:
         return [CLEAR] + [k for k in (SPIN, WAIT, BACKUP) if k in kinds]
 
 
-def behavior_parameters(path: str | Path) -> BehaviorParameters | None:
-    """``behavior_server`` of a Nav2 YAML (None without one)."""
-    path = Path(path)
-    try:
-        doc = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as error:
-        raise ConfigError(f"{path}: cannot be read ({' '.join(str(error).split())})") from None
-    node = doc.get("behavior_server") if isinstance(doc, dict) else None
-    ros = node.get("ros__parameters") if isinstance(node, dict) else None
-    if not isinstance(ros, dict):
+_READ = (
+    "cycle_frequency",
+    "max_rotational_vel",
+    "min_rotational_vel",
+    "rotational_acc_lim",
+    "simulate_ahead_time",
+)
+
+
+def behavior_parameters(source: Nav2Params | str | Path) -> BehaviorParameters | None:
+    """``behavior_server`` of a Nav2 file (None without one)."""
+    nav2 = as_nav2(source)
+    ros = nav2.node("behavior_server")
+    if ros is None:
         return None
-    where = f"{path}: behavior_server.ros__parameters"
+    where = nav2.where("behavior_server")
     params = BehaviorParameters()
     key = "behavior_plugins" if "behavior_plugins" in ros else "recovery_plugins"
     names = ros.get(key, ["spin", "backup", "drive_on_heading", "assisted_teleop", "wait"])
@@ -108,21 +109,10 @@ def behavior_parameters(path: str | Path) -> BehaviorParameters | None:
         spec = ros.get(name)
         if not isinstance(spec, dict) or "plugin" not in spec:
             raise ConfigError(f"{where}.{name}.plugin: the behaviour '{name}' has no plugin type")
-        kind = str(spec["plugin"]).replace("/", "::")
-        if kind not in BEHAVIOR_TYPES:
-            raise ConfigError(
-                f"{where}.{name}.plugin: unknown behaviour {spec['plugin']!r} "
-                f"(known: {', '.join(BEHAVIOR_TYPES)})"
-            )
-        params.plugins[name] = kind
-    for key in sorted(_READ - {"behavior_plugins", "recovery_plugins"}):
-        if key in ros:
-            value = ros[key]
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or value < 0:
-                raise ConfigError(f"{where}.{key} must be a number >= 0, not {value!r}")
-            setattr(params, key, float(value))
-    for key in ros:
-        if key not in _READ | _KNOWN and key not in names:
+        params.plugins[name] = BEHAVIORS.load(spec, f"{where}.{name}")[0].name
+    unused = fill(params, ros, where, _READ)
+    for key in unused:
+        if key not in _KNOWN and key not in _LISTS and key not in names:
             _log.warning("%s.%s: not used by the behaviours here", where, key)
     return params
 
@@ -142,11 +132,27 @@ def recovery_command(
     """(v, w, done) of a running recovery; ``blocked_behind(distance)`` tells whether
     backing up ``distance`` [m] from ``pose`` would enter an obstacle."""
     elapsed = now - recovery.started
-    if elapsed > TIME_ALLOWANCE:
+    if elapsed > TIME_ALLOWANCE or recovery.kind == CLEAR:  # clearing: done at once
         return 0.0, 0.0, True
-    if recovery.kind == WAIT:
+    behavior = BEHAVIORS.lookup(recovery.kind, "behavior_server").cls
+    return behavior.command(params, recovery, pose, elapsed, blocked_behind)
+
+
+@BEHAVIORS.register(WAIT)
+class Wait:
+    """nav2_behaviors' Wait: still for the tree's ``WAIT_DURATION``."""
+
+    @staticmethod
+    def command(params, recovery, pose, elapsed, blocked_behind):
         return 0.0, 0.0, elapsed >= WAIT_DURATION
-    if recovery.kind == SPIN:
+
+
+@BEHAVIORS.register(SPIN)
+class Spin:
+    """nav2_behaviors' Spin: ``SPIN_DIST`` in place, within the rotational limits."""
+
+    @staticmethod
+    def command(params, recovery, pose, elapsed, blocked_behind):
         turned = abs(math.remainder(pose[2] - recovery.pose[2], 2 * math.pi))
         # The turn is measured modulo 2 pi: SPIN_DIST < pi, so it is the turn so far.
         remaining = SPIN_DIST - turned
@@ -155,7 +161,15 @@ def recovery_command(
         w = math.sqrt(2 * params.rotational_acc_lim * remaining)
         w = min(max(w, params.min_rotational_vel), params.max_rotational_vel)
         return 0.0, w, False
-    if recovery.kind == BACKUP:
+
+
+@BEHAVIORS.register(BACKUP)
+class BackUp:
+    """nav2_behaviors' BackUp: ``BACKUP_DIST`` backwards at ``BACKUP_SPEED``, stopped by an
+    obstacle within ``simulate_ahead_time`` of the motion."""
+
+    @staticmethod
+    def command(params, recovery, pose, elapsed, blocked_behind):
         moved = math.hypot(pose[0] - recovery.pose[0], pose[1] - recovery.pose[1])
         if moved >= BACKUP_DIST:
             return 0.0, 0.0, True
@@ -164,4 +178,13 @@ def recovery_command(
             _log.warning("BackUp: an obstacle behind; the behaviour ends")
             return 0.0, 0.0, True
         return -BACKUP_SPEED, 0.0, False
-    return 0.0, 0.0, True  # clearing: done at once
+
+
+@BEHAVIORS.register("nav2_behaviors::DriveOnHeading")
+@BEHAVIORS.register("nav2_behaviors::AssistedTeleop")
+class NotRun:
+    """Behaviours the default tree does not call: accepted, never run."""
+
+    @staticmethod
+    def command(params, recovery, pose, elapsed, blocked_behind):
+        return 0.0, 0.0, True

@@ -1,128 +1,341 @@
-"""The scenario's navigation added to a diagram: goals (:mod:`.navigator`), or mapping by
-exploration (:mod:`.slam` + :mod:`.explore`).
+"""The scenario's navigation added to a diagram, composed as Nav2 composes its servers.
 
-:func:`AddNavigation` builds the navigator of the ``navigation:`` section; with
+:func:`AddNavigation` reads the Nav2 file of the ``navigation:`` section once
+(:func:`~.nav2_params.read_nav2`, ``params_overrides`` applied to the parsed parameters)
+and makes from it the servers' parts, each plugin by its Nav2 name (:mod:`.registry`):
+the planner server's planner (:func:`~.planner.planner_plugin`), the controller server's
+controller and checkers (:func:`~.follower.controller_parameters`), the global costmap's
+layers and the local costmap's (:func:`~.costmap.costmap_parameters`), the behaviour
+server's behaviours (:func:`~.behaviors.behavior_parameters`), the smoother server's
+slot (:mod:`.smoother`) and, with
+``localization: amcl``, AMCL's parameters. Then the map (the given map_server map, or
+the world's true occupancy at the lidar's height: :mod:`.world_map`) and its costmap; a
+goal in an obstacle is refused (its name in the one-line error).
+
+To goals, it adds a :class:`~.navigator.Navigator` publishing cmd_vel to the drive
+controller (with AMCL, an :class:`~.amcl.AmclLocalizer` feeding its map -> odom). With
 ``explore: true`` (and ``localization: slam``) it adds a :class:`~.slam.SlamMapper` on the
 drive's odometry and the lidar's scans, and an :class:`~.explore.Explorer` planning on
-the map the mapper publishes (NavFn with ``allow_unknown``), its pose map -> odom and
-the odometry. The world's true occupancy is kept (``Navigation.truth``) to measure the
-map built against it.
+the map the mapper publishes (the planner with ``allow_unknown``), its pose map -> odom
+and the odometry; the world's true occupancy is kept (``Navigation.truth``) to measure
+the map built against it.
 """
 
 from __future__ import annotations
 
 import dataclasses as dc
+import logging
+import math
+from pathlib import Path
+from typing import Any
 
+import numpy as np
+
+from armando_drake.description.packages import find_packages
 from armando_drake.messages.types import TwistStamped
-from armando_drake.navigation import navigator as goals_navigator
-from armando_drake.navigation.costmap import costmap_parameters
+from armando_drake.navigation.amcl import AmclLocalizer, ParticleFilter, amcl_parameters
+from armando_drake.navigation.behaviors import behavior_parameters
+from armando_drake.navigation.config import NavigationConfig
+from armando_drake.navigation.costmap import Costmap, costmap_parameters, make_costmap
 from armando_drake.navigation.explore import Explorer, explore_parameters
 from armando_drake.navigation.follower import controller_parameters
-from armando_drake.navigation.navigator import (
-    ConnectLocalization,
-    Navigation,
-    _axle_offset,
-    navigation_map,
-    resolve_file,
-)
-from armando_drake.navigation.overrides import overridden_file
-from armando_drake.navigation.planner import planner_parameters
+from armando_drake.navigation.layers import Layers
+from armando_drake.navigation.maps import OccupancyMap, load_map
+from armando_drake.navigation.nav2_params import Nav2Params, read_nav2
+from armando_drake.navigation.navigator import Navigator, check_goals
+from armando_drake.navigation.planner import planner_plugin
 from armando_drake.navigation.slam import SlamMapper, canvas, slam_parameters
-from armando_drake.navigation.world_map import LIDAR_TYPES
+from armando_drake.navigation.smoother import smoother_plugins
+from armando_drake.navigation.world_map import LIDAR_TYPES, lidar_height, world_map
 from armando_drake.tools.errors import ConfigError, ScenarioError
 from armando_drake.tools.extras import require_extra
 
-__all__ = ["AddNavigation", "ConnectLocalization"]
+__all__ = ["AddNavigation", "ConnectLocalization", "Navigation"]
+
+_log = logging.getLogger("armando_drake.navigation")
 
 
-def AddNavigation(builder, config, stack, *, where: str = "") -> Navigation:
-    """The navigation of ``config``: to its goals, or exploring (``explore: true``)."""
-    if not config.explore:
-        return goals_navigator.AddNavigation(builder, config, stack, where=where)
-    return AddExploration(builder, config, stack, where=where)
+@dc.dataclass(frozen=True)
+class Navigation:
+    """What :func:`AddNavigation` built (never changed after)."""
+
+    navigator: Navigator
+    drive: str
+    grid: OccupancyMap
+    costmap: Costmap
+    amcl: AmclLocalizer | None = None  # with localization: amcl (its scan is connected by
+    # ConnectLocalization, once the sensors are added)
+    lidar: str = ""  # the lidar AMCL, the mapper or the obstacle layers read
+    mapper: Any = None  # with exploration: the SlamMapper (navigation/slam.py)
+    truth: OccupancyMap | None = None  # with exploration: the world's map, to compare
+
+    def final_map(self, context) -> tuple[OccupancyMap, Costmap]:
+        """The map the navigation has at ``context`` (the diagram's) and its costmap: the
+        map being built when exploring, else the one it was given."""
+        if self.mapper is None:
+            return self.grid, self.costmap
+        grid = self.mapper.current_map(self.mapper.GetMyContextFromRoot(context))
+        return grid, make_costmap(grid, self.navigator.costmap_params)
 
 
-def _read(reader, key: str, config, where: str):
-    path = resolve_file(getattr(config, key), f"navigation.{key}", where)
-    if key == "params_file":
-        path = overridden_file(path, config.params_overrides, where)
+def resolve_file(name: str, key: str, where: str) -> Path:
+    """A path or ``package://pkg/rest`` to an existing file."""
+    path = Path(name).expanduser()
+    if name.startswith("package://"):
+        package, _, rest = name[len("package://") :].partition("/")
+        search = find_packages()
+        if package not in search.packages:
+            raise ScenarioError(f"{where}{key}={name!r}: unknown package {package!r}")
+        path = search.packages[package] / rest
+    if not path.is_file():
+        raise ScenarioError(f"{where}{key}={name!r}: no such file")
+    return path
+
+
+def navigation_map(config: NavigationConfig, plant, scene_graph, robot, where: str = ""):
+    """The map of ``config``: its map_server map, or the world's at the lidar's height."""
+    if config.map:
+        return load_map(resolve_file(config.map, "navigation.map", where))
+    height = config.scan_height or lidar_height(plant, scene_graph, robot)
+    return world_map(
+        plant,
+        scene_graph,
+        height=height,
+        resolution=config.map_resolution,
+        exclude=[robot.model_instance],
+    )
+
+
+def _read(reader, source, key: str, where: str):
+    """``reader(source)``, its error prefixed with the scenario's key."""
     try:
-        return reader(path)
+        return reader(source)
     except ConfigError as error:
         raise ConfigError(f"{where}navigation.{key}: {error}") from None
 
 
-def _poses(stack, lidar):
+@dc.dataclass
+class _Servers:
+    """The Nav2 file's servers and costmaps, each read once from the parsed file."""
+
+    nav2: Nav2Params
+    costmap: Any  # the global costmap's CostmapParameters
+    local: Any  # the local costmap's, or None
+    planner: Any  # the planner plugin
+    controller: Any  # ControllerParameters
+    behaviors: Any  # BehaviorParameters or None
+    smoothers: dict  # the smoother server's registered plugins (none run by the default tree)
+
+    @classmethod
+    def read(cls, config: NavigationConfig, where: str) -> _Servers:
+        path = resolve_file(config.params_file, "navigation.params_file", where)
+        nav2 = read_nav2(path, config.params_overrides, where)
+
+        def servers(nav2: Nav2Params) -> _Servers:
+            local = None
+            if nav2.node("local_costmap", "local_costmap") is not None:
+                local = costmap_parameters(nav2, "local_costmap")
+            return cls(
+                nav2,
+                costmap_parameters(nav2),
+                local,
+                planner_plugin(nav2),
+                controller_parameters(nav2),
+                behavior_parameters(nav2),
+                smoother_plugins(nav2),
+            )
+
+        return _read(servers, nav2, "params_file", where)
+
+
+def _drive(config: NavigationConfig, stack, where: str) -> str:
+    """The drive controller that takes cmd_vel (the first active one, or the named one)."""
+    takers = stack.taking(TwistStamped)
+    if config.controller:
+        takers = [name for name in takers if name == config.controller]
+    if not takers or not stack.hardware.base_position_index:
+        raise ScenarioError(
+            f"{where}navigation needs a floating base with an active drive "
+            f"(active: {', '.join(stack.controllers) or 'none'})"
+        )
+    return takers[0]
+
+
+def _lidar(stack, what: str, where: str):
+    lidars = [b for b in stack.robot.sensors if b.type in LIDAR_TYPES]
+    if not lidars:
+        raise ScenarioError(f"{where}navigation{what} needs a lidar on the robot")
+    return lidars[0]
+
+
+def _planar(X) -> tuple[float, float, float]:
+    return (
+        float(X.translation()[0]),
+        float(X.translation()[1]),
+        float(X.rotation().ToRollPitchYaw().yaw_angle()),
+    )
+
+
+def _poses(stack, lidar) -> tuple[tuple, tuple]:
     """The lidar's (x, y, yaw) in the floating base's frame, and the base's spawn pose."""
     plant, robot = stack.plant, stack.robot
     context = plant.CreateDefaultContext()
     body = plant.get_body(next(iter(plant.GetFloatingBaseBodies())))
     link = plant.GetBodyByName(lidar.link, robot.model_instance).body_frame()
     X_BS = plant.CalcRelativeTransform(context, body.body_frame(), link) @ lidar.X_LS
-    X_WB = plant.EvalBodyPoseInWorld(context, body)
-
-    def planar(X):
-        return (X.translation()[0], X.translation()[1], X.rotation().ToRollPitchYaw().yaw_angle())
-
-    return planar(X_BS), planar(X_WB)
+    return _planar(X_BS), _planar(plant.EvalBodyPoseInWorld(context, body))
 
 
-def AddExploration(builder, config, stack, *, where: str = "") -> Navigation:
-    """A SlamMapper and an Explorer on ``stack``'s robot (see the module docstring)."""
+def _axle_offset(stack, drive: str) -> float:
+    """[m] the drive's wheel axle midpoint ahead of the floating base's origin."""
+    plant, robot = stack.plant, stack.robot
+    logic = next(c.logic for c in stack.manager.controllers if c.name == drive)
+    body = plant.get_body(next(iter(plant.GetFloatingBaseBodies())))
+    context = plant.CreateDefaultContext()
+    points = [
+        plant.CalcRelativeTransform(
+            context,
+            body.body_frame(),
+            plant.GetJointByName(name, robot.model_instance).frame_on_child(),
+        ).translation()
+        for name in logic.joint_names
+    ]
+    return float(np.mean(points, axis=0)[0])
+
+
+def _layers(stack, servers: _Servers, grid: OccupancyMap, where: str) -> Layers | None:
+    """The costmaps fed by the lidar's scans: the global one if it has an obstacle layer,
+    the file's local_costmap if it has one; None if neither."""
+    global_params = servers.costmap if servers.costmap.obstacle_layer is not None else None
+    local = servers.local
+    if global_params is None and local is None:
+        return None
+    if local is not None and not math.isclose(local.resolution, grid.resolution):
+        _log.warning(
+            "%s: local_costmap resolution %g: the local costmap runs on the map's grid (%g)",
+            servers.nav2.path,
+            local.resolution,
+            grid.resolution,
+        )
+    laser, _ = _poses(stack, _lidar(stack, ": the costmap's obstacle layer", where))
+    height = lidar_height(stack.plant, stack.scene_graph, stack.robot)
+    return Layers(global_params, local, laser, height)
+
+
+def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") -> Navigation:
+    """The navigation of ``config`` on the floating base of ``stack``'s robot: to its
+    goals, or exploring (``explore: true``); publishes cmd_vel to the first active drive
+    (or ``config.controller``) and exports ``navigation_command``."""
     require_extra("navigation", f"{where}navigation")
-    takers = stack.taking(TwistStamped)
-    if config.controller:
-        takers = [name for name in takers if name == config.controller]
-    if not takers or not stack.hardware.base_position_index:
-        raise ScenarioError(f"{where}navigation needs a floating base with an active drive")
-    lidars = [b for b in stack.robot.sensors if b.type in LIDAR_TYPES]
-    if not lidars:
-        raise ScenarioError(f"{where}navigation.explore needs a lidar on the robot")
-    costmap_params = _read(costmap_parameters, "params_file", config, where)
-    planner = dc.replace(
-        _read(planner_parameters, "params_file", config, where), allow_unknown=True
+    drive = _drive(config, stack, where)
+    servers = _Servers.read(config, where)
+    hardware = stack.hardware
+    system = dict(
+        state_size=hardware.num_model_states,
+        base_rows=(hardware.base_position_index, hardware.base_velocity_index),
+        inscribed_radius=servers.costmap.inscribed_radius,
+        start_delay=config.start_delay,
     )
-    controller = _read(controller_parameters, "params_file", config, where)
-    slam = _read(slam_parameters, "slam_params_file", config, where)
-    explore = _read(explore_parameters, "explore_params_file", config, where)
+    if config.explore:
+        return _explorer(builder, config, stack, servers, drive, system, where)
+    return _navigator(builder, config, stack, servers, drive, system, where)
+
+
+def _connect(builder, stack, navigator, drive: str) -> None:
+    """The navigator on the robot's state, its cmd_vel to the drive."""
+    state = stack.plant.get_state_output_port(stack.robot.model_instance)
+    builder.Connect(state, navigator.GetInputPort("state"))
+    builder.Connect(navigator.GetOutputPort("cmd_vel"), stack.command_input(drive))
+    builder.ExportOutput(navigator.GetOutputPort("command"), "navigation_command")
+
+
+def _navigator(builder, config, stack, servers: _Servers, drive, system, where) -> Navigation:
+    """A Navigator to the scenario's goals (with AMCL: its localizer)."""
+    grid = navigation_map(config, stack.plant, stack.scene_graph, stack.robot, where)
+    costmap = make_costmap(grid, servers.costmap)
+    goals = config.visits()
+    check_goals(goals, costmap, where)
+    amcl = config.localization == "amcl"
+    axle = _axle_offset(stack, drive) if amcl else None
+    layers = _layers(stack, servers, grid, where)
+    navigator = builder.AddSystem(
+        Navigator(goals, costmap, servers.controller, servers.planner, grid=grid,
+                  amcl_axle=axle, layers=layers, behaviors=servers.behaviors, **system)
+    )  # fmt: skip
+    navigator.set_name("navigator")
+    _connect(builder, stack, navigator, drive)
+    lidar = _lidar(stack, ": the costmap's obstacle layer", where).name if layers else ""
+    localizer = None
+    if amcl:
+        lidar = _lidar(stack, ".localization=amcl", where)
+        localizer = _add_amcl(builder, config, stack, servers, grid, drive, lidar, axle, where)
+        builder.Connect(
+            localizer.GetOutputPort("map_to_odom"), navigator.GetInputPort("map_to_odom")
+        )
+        builder.Connect(
+            stack.manager.GetOutputPort(f"{drive}.odom"), navigator.GetInputPort("odom")
+        )
+        lidar = lidar.name
+    return Navigation(navigator, drive, grid, costmap, amcl=localizer, lidar=lidar)
+
+
+def _add_amcl(builder, config, stack, servers: _Servers, grid, drive, lidar, axle, where):
+    """The AmclLocalizer on the drive's odometry (and, later, the lidar's scan)."""
+    params = _read(amcl_parameters, servers.nav2, "params_file", where)
+    laser, spawn = _poses(stack, lidar)
+    initial = config.initial_pose or (params.initial_pose if params.set_initial_pose else None)
+    pf = ParticleFilter(params, grid, laser)
+    rate = 2.0 * max(lidar.update_rate, 1.0)  # twice the scans: odometry at each
+    amcl = builder.AddSystem(AmclLocalizer(pf, initial or spawn, axle=axle, rate=rate))
+    amcl.set_name("amcl")
+    builder.Connect(stack.manager.GetOutputPort(f"{drive}.odom"), amcl.GetInputPort("odom"))
+    builder.ExportOutput(amcl.GetOutputPort("estimate"), "amcl_estimate")
+    return amcl
+
+
+def _explorer(builder, config, stack, servers: _Servers, drive, system, where) -> Navigation:
+    """A SlamMapper and an Explorer on ``stack``'s robot (see the module docstring)."""
+    lidar = _lidar(stack, ".explore", where)
+    slam_file = resolve_file(config.slam_params_file, "navigation.slam_params_file", where)
+    slam = _read(slam_parameters, slam_file, "slam_params_file", where)
+    explore_file = resolve_file(config.explore_params_file, "navigation.explore_params_file", where)
+    explore = _read(explore_parameters, explore_file, "explore_params_file", where)
+    planner = servers.planner
+    if hasattr(planner.params, "allow_unknown"):  # the map being built is mostly unknown
+        planner = type(planner)(dc.replace(planner.params, allow_unknown=True))
     truth = navigation_map(config, stack.plant, stack.scene_graph, stack.robot, where)
     blank = canvas(truth, slam.resolution)
-    laser, spawn = _poses(stack, lidars[0])
-    axle = _axle_offset(stack, takers[0])
-    hardware = stack.hardware
+    laser, spawn = _poses(stack, lidar)
+    axle = _axle_offset(stack, drive)
     explorer = builder.AddSystem(
-        Explorer(
-            explore,
-            costmap_params,
-            blank,
-            controller,
-            planner,
-            state_size=hardware.num_model_states,
-            base_rows=(hardware.base_position_index, hardware.base_velocity_index),
-            inscribed_radius=costmap_params.inscribed_radius,
-            start_delay=config.start_delay,
-            grid=blank,
-            amcl_axle=axle,
-        )  # fmt: skip
-    )
+        Explorer(explore, servers.costmap, blank, servers.controller, planner, grid=blank,
+                 amcl_axle=axle, **system)
+    )  # fmt: skip
     explorer.set_name("explorer")
-    rate = 2.0 * max(lidars[0].update_rate, 1.0)  # twice the scans: odometry at each
-    footprint = 0.5 * costmap_params.robot_radius
+    rate = 2.0 * max(lidar.update_rate, 1.0)  # twice the scans: odometry at each
+    footprint = 0.5 * servers.costmap.robot_radius
     mapper = builder.AddSystem(
         SlamMapper(slam, blank, laser, axle=axle, rate=rate, footprint=footprint, start=spawn)
     )
     mapper.set_name("slam")
-    plant, instance = stack.plant, stack.robot.model_instance
-    builder.Connect(plant.get_state_output_port(instance), explorer.GetInputPort("state"))
-    builder.Connect(explorer.GetOutputPort("cmd_vel"), stack.command_input(takers[0]))
-    builder.ExportOutput(explorer.GetOutputPort("command"), "navigation_command")
-    odom = stack.manager.GetOutputPort(f"{takers[0]}.odom")
+    _connect(builder, stack, explorer, drive)
+    odom = stack.manager.GetOutputPort(f"{drive}.odom")
     builder.Connect(odom, mapper.GetInputPort("odom"))
     builder.Connect(odom, explorer.GetInputPort("odom"))
     builder.Connect(mapper.GetOutputPort("map_to_odom"), explorer.GetInputPort("map_to_odom"))
     builder.Connect(mapper.GetOutputPort("map"), explorer.GetInputPort("map"))
     builder.ExportOutput(mapper.GetOutputPort("estimate"), "slam_estimate")
     return Navigation(
-        navigator=explorer, drive=takers[0], grid=blank, costmap=explorer.costmap,
-        lidar=lidars[0].name, mapper=mapper, truth=truth,
-    )  # fmt: skip
+        explorer, drive, blank, explorer.costmap, lidar=lidar.name, mapper=mapper, truth=truth
+    )
+
+
+def ConnectLocalization(builder, navigation: Navigation | None, sensors: dict) -> None:
+    """Connects the lidar's scan to AMCL, the mapper and the obstacle layers once the
+    sensors are added (nothing to do for the ground truth or without a navigation)."""
+    if navigation is None:
+        return
+    navigator = navigation.navigator if navigation.navigator.layers is not None else None
+    for reader in (navigation.amcl, navigation.mapper, navigator):
+        if reader is not None:
+            builder.Connect(sensors[navigation.lidar]["scan"], reader.GetInputPort("scan"))

@@ -41,9 +41,10 @@ from armando_drake.navigation.costmap import (
     CostmapParameters,
     make_costmap,
 )
-from armando_drake.navigation.follower import read_yaml, set_parameter
 from armando_drake.navigation.maps import FREE, UNKNOWN, OccupancyMap
-from armando_drake.navigation.navigator import GoalResult, Navigator, NavState
+from armando_drake.navigation.nav2_params import read_yaml, set_parameter
+from armando_drake.navigation.navigator import Navigator, NavState
+from armando_drake.navigation.results import GoalResult
 from armando_drake.tools.errors import ConfigError
 
 NODES = ("explore_node", "explore")

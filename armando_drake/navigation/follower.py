@@ -37,14 +37,13 @@ import math
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from armando_drake.navigation.costmap import (
-    INSCRIBED_INFLATED_OBSTACLE,
-    NO_INFORMATION,
-    Costmap,
-)
+from armando_drake.navigation.cost_values import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
+from armando_drake.navigation.costmap import Costmap
+from armando_drake.navigation.nav2_params import Nav2Params, as_nav2, fill
+from armando_drake.navigation.registry import CONTROLLERS
 from armando_drake.tools.errors import ConfigError
+from armando_drake.tools.schema import param
 
 RPP = "nav2_regulated_pure_pursuit_controller::RegulatedPurePursuitController"
 GOAL_CHECKERS = ("nav2_controller::SimpleGoalChecker", "nav2_controller::StoppedGoalChecker")
@@ -56,58 +55,109 @@ PROGRESS_CHECKERS = (
 _log = logging.getLogger("armando_drake.navigation")
 
 
+def _m(default, doc, **rule):
+    return param(default, unit="m", ge=0, doc=doc, **rule)
+
+
+def _on(default, doc):
+    return param(default, doc=doc)
+
+
 @dc.dataclass
 class RppParameters:
     """RegulatedPurePursuitController's parameters (defaults: upstream's)."""
 
-    desired_linear_vel: float = 0.5
-    lookahead_dist: float = 0.6
-    min_lookahead_dist: float = 0.3
-    max_lookahead_dist: float = 0.9
-    lookahead_time: float = 1.5
-    rotate_to_heading_angular_vel: float = 1.8
-    use_velocity_scaled_lookahead_dist: bool = False
-    min_approach_linear_velocity: float = 0.05
-    approach_velocity_scaling_dist: float = 0.6
-    use_collision_detection: bool = True
-    max_allowed_time_to_collision_up_to_carrot: float = 1.0
-    use_regulated_linear_velocity_scaling: bool = True
-    use_cost_regulated_linear_velocity_scaling: bool = True
-    cost_scaling_dist: float = 0.6
-    cost_scaling_gain: float = 1.0
-    inflation_cost_scaling_factor: float = 3.0
-    regulated_linear_scaling_min_radius: float = 0.9
-    regulated_linear_scaling_min_speed: float = 0.25
-    use_fixed_curvature_lookahead: bool = False
-    curvature_lookahead_dist: float = 0.6
-    use_rotate_to_heading: bool = True
-    rotate_to_heading_min_angle: float = 0.785
-    max_angular_accel: float = 3.2
-    allow_reversing: bool = False
-    max_robot_pose_search_dist: float = 10.0
-    use_interpolation: bool = True
-    stateful: bool = True
+    desired_linear_vel: float = param(0.5, unit="m/s", ge=0, doc="the cruise speed")
+    lookahead_dist: float = _m(0.6, "the carrot's distance on the plan (fixed look-ahead)")
+    min_lookahead_dist: float = _m(0.3, "the velocity-scaled look-ahead's lower bound")
+    max_lookahead_dist: float = _m(0.9, "the velocity-scaled look-ahead's upper bound")
+    lookahead_time: float = param(
+        1.5, unit="s", ge=0, doc="speed x this = the velocity-scaled look-ahead"
+    )
+    rotate_to_heading_angular_vel: float = param(
+        1.8, unit="rad/s", ge=0, doc="the turn rate when rotating in place"
+    )
+    use_velocity_scaled_lookahead_dist: bool = _on(False, "the look-ahead grows with the speed")
+    min_approach_linear_velocity: float = param(
+        0.05, unit="m/s", ge=0, doc="the slowest speed near the goal"
+    )
+    approach_velocity_scaling_dist: float = _m(0.6, "from this far from the goal the speed drops")
+    use_collision_detection: bool = _on(
+        True, "stop when the arc to the carrot collides in the costmap"
+    )
+    max_allowed_time_to_collision_up_to_carrot: float = param(
+        1.0, unit="s", ge=0, doc="of motion checked for collisions"
+    )
+    use_regulated_linear_velocity_scaling: bool = _on(True, "slower on tight curves")
+    use_cost_regulated_linear_velocity_scaling: bool = _on(
+        True, "slower near obstacles (costmap cost)"
+    )
+    cost_scaling_dist: float = _m(0.6, "the obstacle distance from which cost regulation slows")
+    cost_scaling_gain: float = param(1.0, unit="-", ge=0, doc="the cost regulation's gain")
+    inflation_cost_scaling_factor: float = param(
+        3.0, unit="-", ge=0, doc="the inflation layer's factor, to recover distances"
+    )
+    regulated_linear_scaling_min_radius: float = _m(0.9, "curvature radius below which it slows")
+    regulated_linear_scaling_min_speed: float = param(
+        0.25, unit="m/s", ge=0, doc="the regulated speed's floor"
+    )
+    use_fixed_curvature_lookahead: bool = _on(False, "the curvature taken at a fixed distance")
+    curvature_lookahead_dist: float = _m(0.6, "that distance")
+    use_rotate_to_heading: bool = _on(
+        True, "rotate in place toward the path and the goal's heading"
+    )
+    rotate_to_heading_min_angle: float = param(
+        0.785, unit="rad", ge=0, doc="heading error above which it rotates in place"
+    )
+    max_angular_accel: float = param(
+        3.2, unit="rad/s^2", ge=0, doc="the in-place rotation's acceleration limit"
+    )
+    allow_reversing: bool = _on(False, "drive backwards when the carrot is behind")
+    max_robot_pose_search_dist: float = _m(10.0, "how far along the plan the robot is searched")
+    use_interpolation: bool = _on(True, "the carrot interpolated between plan poses")
+    stateful: bool = _on(True, "the rotation to the goal's heading, once begun, goes on")
 
 
 @dc.dataclass
 class ControllerParameters:
-    """controller_server's parameters and its plugins'."""
+    """controller_server's parameters and its plugins': the server's, the goal
+    checker's, the progress checker's; ``rpp`` the controller plugin's (``plugin`` its
+    registered name)."""
 
-    controller_frequency: float = 20.0
-    min_x_velocity_threshold: float = 0.0001
-    min_theta_velocity_threshold: float = 0.0001
-    failure_tolerance: float = 0.0
-    xy_goal_tolerance: float = 0.25
-    yaw_goal_tolerance: float = 0.25
-    goal_stateful: bool = True
+    controller_frequency: float = param(
+        20.0, unit="Hz", gt=0, doc="the rate of the controller (a discrete update)"
+    )
+    min_x_velocity_threshold: float = param(
+        0.0001, unit="m/s", ge=0, doc="smaller odometry speeds count as 0"
+    )
+    min_theta_velocity_threshold: float = param(
+        0.0001, unit="rad/s", ge=0, doc="smaller odometry turn rates count as 0"
+    )
+    failure_tolerance: float = param(
+        0.0, unit="s", ge=-1, doc="how long the controller may fail before the goal aborts"
+    )
+    xy_goal_tolerance: float = _m(0.25, "the goal's position tolerance")
+    yaw_goal_tolerance: float = param(0.25, unit="rad", ge=0, doc="the goal's heading tolerance")
+    goal_stateful: bool = _on(True, "the position, once within tolerance, stays reached")
     stopped_goal_checker: bool = False
-    trans_stopped_velocity: float = 0.25
-    rot_stopped_velocity: float = 0.25
-    required_movement_radius: float = 0.5
-    required_movement_angle: float = math.inf  # only with PoseProgressChecker
-    movement_time_allowance: float = 10.0
-    expected_planner_frequency: float = 1.0
+    trans_stopped_velocity: float = param(
+        0.25, unit="m/s", ge=0, doc="StoppedGoalChecker: below it the robot has stopped"
+    )
+    rot_stopped_velocity: float = param(
+        0.25, unit="rad/s", ge=0, doc="StoppedGoalChecker: below it the robot has stopped"
+    )
+    required_movement_radius: float = _m(0.5, "the progress checker's distance to cover")
+    required_movement_angle: float = param(
+        math.inf, unit="rad", ge=0, doc="PoseProgressChecker: a turn that counts as progress"
+    )  # only with PoseProgressChecker
+    movement_time_allowance: float = param(
+        10.0, unit="s", ge=0, doc="... within this time, else the goal aborts"
+    )
+    expected_planner_frequency: float = param(
+        1.0, unit="Hz", ge=0, doc="how often the global plan is recomputed"
+    )
     rpp: RppParameters = dc.field(default_factory=RppParameters)
+    plugin: str = RPP
     ignored: list[str] = dc.field(default_factory=list)
 
 
@@ -118,38 +168,13 @@ _SERVER_KNOWN = {
     "progress_checker_plugins", "progress_checker_plugin", "min_y_velocity_threshold",
 }  # fmt: skip
 _NOT_APPLIED = {"transform_tolerance", "interpolate_curvature_after_goal"}
-
-
-def read_yaml(path: Path) -> dict:
-    try:
-        doc = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as error:
-        raise ConfigError(f"{path}: cannot be read ({' '.join(str(error).split())})") from None
-    return doc if isinstance(doc, dict) else {}
-
-
-def ros_parameters(doc: dict, node: str, path: Path) -> dict:
-    ros = (doc.get(node) or {}).get("ros__parameters") if isinstance(doc.get(node), dict) else None
-    if not isinstance(ros, dict):
-        raise ConfigError(f"{path}: {node}.ros__parameters: missing (no {node} in the file)")
-    return ros
-
-
-def set_parameter(target, node: dict, key: str, where: str, *, ge: float | None = 0.0) -> None:
-    """``target.key = node[key]`` when given, of the default's type (a number >= ``ge``)."""
-    if key not in node:
-        return
-    value, default = node[key], getattr(target, key)
-    if isinstance(default, bool):
-        if not isinstance(value, bool):
-            raise ConfigError(f"{where}.{key} must be true or false, not {value!r}")
-        setattr(target, key, value)
-        return
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ConfigError(f"{where}.{key} must be a number, not {value!r}")
-    if ge is not None and value < ge:
-        raise ConfigError(f"{where}.{key} must be >= {ge:g}, not {value}")
-    setattr(target, key, float(value))
+SERVER_KEYS = (
+    "controller_frequency", "min_x_velocity_threshold", "min_theta_velocity_threshold",
+    "failure_tolerance",
+)  # fmt: skip
+GOAL_KEYS = ("xy_goal_tolerance", "yaw_goal_tolerance")
+STOPPED_KEYS = ("trans_stopped_velocity", "rot_stopped_velocity")
+PROGRESS_KEYS = ("required_movement_radius", "movement_time_allowance")
 
 
 def _plugin(ros: dict, names_key: str, name_key: str, default: str, where: str):
@@ -168,66 +193,17 @@ def _plugin(ros: dict, names_key: str, name_key: str, default: str, where: str):
     return names[0], node
 
 
-# Controllers Nav2 ships that are not implemented here: Regulated Pure Pursuit follows
-# instead, with their parameters of the same meaning (RPP's name: theirs).
-SUBSTITUTED = {
-    "dwb_core::DWBLocalPlanner": {
-        "desired_linear_vel": "max_vel_x",
-        "rotate_to_heading_angular_vel": "max_vel_theta",
-        "max_angular_accel": "acc_lim_theta",
-    },
-    "nav2_mppi_controller::MPPIController": {
-        "desired_linear_vel": "vx_max",
-        "rotate_to_heading_angular_vel": "wz_max",
-        "max_angular_accel": "az_max",
-    },
-}
-
-
-def _substitute(kind: str, follow: dict, where: str) -> dict:
-    """RPP's parameters of a substituted controller's (one warning naming both)."""
-    mapped = {rpp: follow[theirs] for rpp, theirs in SUBSTITUTED[kind].items() if theirs in follow}
-    _log.warning(
-        "%s.plugin: %s is not implemented here; Regulated Pure Pursuit follows instead (%s)",
-        where,
-        kind,
-        ", ".join(f"{k}={v} from {SUBSTITUTED[kind][k]}" for k, v in mapped.items())
-        or "its defaults",
-    )
-    return {"plugin": RPP, **mapped}
-
-
-def controller_parameters(path: str | Path) -> ControllerParameters:
-    """controller_server's parameters of a Nav2 YAML (and planner_server's
-    ``expected_planner_frequency``); keys not applied are warned about by name."""
-    path = Path(path)
-    doc = read_yaml(path)
-    ros = ros_parameters(doc, "controller_server", path)
-    where = f"{path}: controller_server.ros__parameters"
-    params = ControllerParameters()
-    ignored: list[str] = []
-    for key in (
-        "min_x_velocity_threshold",
-        "min_theta_velocity_threshold",
-    ):
-        set_parameter(params, ros, key, where)
-    set_parameter(params, ros, "failure_tolerance", where, ge=-1.0)
-    set_parameter(params, ros, "controller_frequency", where)
-    if params.controller_frequency <= 0:
-        raise ConfigError(f"{where}.controller_frequency must be positive")
+def _checkers(params: ControllerParameters, ros: dict, where: str) -> tuple[set, list]:
+    """The goal checker's and the progress checker's parameters: (their names, the keys
+    not used)."""
     name, goal = _plugin(ros, "goal_checker_plugins", "goal_checker_plugin", "goal_checker", where)
     if goal["plugin"] not in GOAL_CHECKERS:
         raise ConfigError(f"{where}.{name}.plugin {goal['plugin']!r}: known: {GOAL_CHECKERS}")
     params.stopped_goal_checker = goal["plugin"] == GOAL_CHECKERS[1]
-    keys = {"plugin", "xy_goal_tolerance", "yaw_goal_tolerance", "stateful"}
-    if params.stopped_goal_checker:
-        keys |= {"trans_stopped_velocity", "rot_stopped_velocity"}
-        for key in ("trans_stopped_velocity", "rot_stopped_velocity"):
-            set_parameter(params, goal, key, f"{where}.{name}")
-    for key in ("xy_goal_tolerance", "yaw_goal_tolerance"):
-        set_parameter(params, goal, key, f"{where}.{name}")
+    keys = GOAL_KEYS + (STOPPED_KEYS if params.stopped_goal_checker else ())
+    unused = fill(params, goal, f"{where}.{name}", keys)
     params.goal_stateful = bool(goal.get("stateful", params.goal_stateful))
-    ignored += [f"{where}.{name}.{k}" for k in goal if k not in keys]
+    ignored = [f"{where}.{name}.{k}" for k in unused if k not in ("plugin", "stateful")]
     known = {name}
     name, progress = _plugin(
         ros, "progress_checker_plugins", "progress_checker_plugin", "progress_checker", where
@@ -236,40 +212,40 @@ def controller_parameters(path: str | Path) -> ControllerParameters:
         raise ConfigError(
             f"{where}.{name}.plugin {progress['plugin']!r}: known: {PROGRESS_CHECKERS}"
         )
-    keys = {"plugin", "required_movement_radius", "movement_time_allowance"}
-    for key in keys - {"plugin"}:
-        set_parameter(params, progress, key, f"{where}.{name}")
+    keys = PROGRESS_KEYS
     if progress["plugin"] == PROGRESS_CHECKERS[1]:
         params.required_movement_angle = 0.5
-        keys.add("required_movement_angle")
-        set_parameter(params, progress, "required_movement_angle", f"{where}.{name}")
-    ignored += [f"{where}.{name}.{k}" for k in progress if k not in keys]
+        keys += ("required_movement_angle",)
+    unused = fill(params, progress, f"{where}.{name}", keys)
+    ignored += [f"{where}.{name}.{k}" for k in unused if k != "plugin"]
     known.add(name)
+    return known, ignored
+
+
+def controller_parameters(source: Nav2Params | str | Path) -> ControllerParameters:
+    """controller_server's parameters of a Nav2 file (and planner_server's
+    ``expected_planner_frequency``); keys not applied are warned about by name."""
+    nav2 = as_nav2(source)
+    ros = nav2.required("controller_server")
+    where = nav2.where("controller_server")
+    params = ControllerParameters()
+    fill(params, ros, where, SERVER_KEYS)
+    known, ignored = _checkers(params, ros, where)
     name, follow = _plugin(ros, "controller_plugins", "controller_plugin", "FollowPath", where)
-    kind = str(follow["plugin"]).replace("/", "::")
-    if kind in SUBSTITUTED:
-        follow = _substitute(kind, follow, f"{where}.{name}")
-    elif kind != RPP:
-        raise ConfigError(
-            f"{where}.{name}.plugin: unknown controller {follow['plugin']!r} "
-            f"(known: {RPP}; {', '.join(SUBSTITUTED)} run as it)"
-        )
-    fields = {f.name for f in dc.fields(RppParameters)}
-    for key in follow:
-        if key in fields:
-            set_parameter(params.rpp, follow, key, f"{where}.{name}")
-        elif key != "plugin":
-            ignored.append(f"{where}.{name}.{key}")
+    plugin, follow = CONTROLLERS.load(follow, f"{where}.{name}")
+    params.plugin = plugin.runs_as or plugin.name
+    params.rpp = plugin.cls.Parameters()
+    unused = fill(params.rpp, follow, f"{where}.{name}")
+    ignored += [f"{where}.{name}.{key}" for key in unused if key != "plugin"]
     known.add(name)
     ignored += [
         f"{where}.{k}"
         for k in ros
         if k not in known | _SERVER_KNOWN and not hasattr(params, k) and k not in ("plugin",)
     ]
-    planner = doc.get("planner_server", {})
-    planner = planner.get("ros__parameters", {}) if isinstance(planner, dict) else {}
-    if isinstance(planner, dict):
-        set_parameter(params, planner, "expected_planner_frequency", f"{path}: planner_server")
+    planner = nav2.node("planner_server")
+    if planner is not None:
+        fill(params, planner, nav2.where("planner_server"), ["expected_planner_frequency"])
     for key in ignored:
         why = "not applied here" if key.rsplit(".", 1)[-1] in _NOT_APPLIED else "not used here"
         _log.warning("%s: %s", key, why)
@@ -448,3 +424,64 @@ def rpp_command(
     if p.use_collision_detection and _collision_ahead(costmap, pose, v, w, carrot_dist, p):
         return Command(0.0, 0.0, collision=True)
     return Command(v, w)
+
+
+@CONTROLLERS.register(RPP, instead="Regulated Pure Pursuit follows instead")
+class RegulatedPurePursuit:
+    """nav2_regulated_pure_pursuit_controller: :func:`rpp_command` on its parameters."""
+
+    Parameters = RppParameters
+    command = staticmethod(rpp_command)
+
+
+# Controllers Nav2 ships that are not implemented here: Regulated Pure Pursuit follows
+# instead, with their parameters of the same meaning (RPP's name: theirs).
+CONTROLLERS.substitute(
+    "dwb_core::DWBLocalPlanner",
+    RPP,
+    {
+        "desired_linear_vel": "max_vel_x",
+        "rotate_to_heading_angular_vel": "max_vel_theta",
+        "max_angular_accel": "acc_lim_theta",
+    },
+)
+CONTROLLERS.substitute(
+    "nav2_mppi_controller::MPPIController",
+    RPP,
+    {
+        "desired_linear_vel": "vx_max",
+        "rotate_to_heading_angular_vel": "wz_max",
+        "max_angular_accel": "az_max",
+    },
+)
+
+
+# ---------------------------------------------------------------------------- the checkers
+
+
+def goal_reached(c: ControllerParameters, goal, pose, speed, xy_reached: bool):
+    """SimpleGoalChecker (StoppedGoalChecker: and stopped) of ``goal`` at ``pose`` moving
+    at ``speed``: (reached, the stateful checker's position latch)."""
+    if not (c.goal_stateful and xy_reached):
+        if math.hypot(pose[0] - goal.x, pose[1] - goal.y) > c.xy_goal_tolerance:
+            return False, xy_reached
+        if c.goal_stateful:
+            xy_reached = True
+    if abs(wrap(pose[2] - goal.yaw)) > c.yaw_goal_tolerance:
+        return False, xy_reached
+    if c.stopped_goal_checker and (
+        abs(speed[0]) > c.trans_stopped_velocity or abs(speed[1]) > c.rot_stopped_velocity
+    ):
+        return False, xy_reached
+    return True, xy_reached
+
+
+def progress(c: ControllerParameters, baseline: tuple, pose, now: float):
+    """SimpleProgressChecker / PoseProgressChecker from ``baseline`` (x, y, yaw, time):
+    (progressing, the new baseline)."""
+    x, y, yaw, since = baseline
+    moved = math.hypot(pose[0] - x, pose[1] - y) > c.required_movement_radius
+    turned = abs(wrap(pose[2] - yaw)) > c.required_movement_angle
+    if moved or turned:
+        return True, (*pose, now)
+    return now - since <= c.movement_time_allowance, baseline

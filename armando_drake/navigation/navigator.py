@@ -1,16 +1,15 @@
 """Navigation to goals as a Drake system: NavigateToPose's plan, follow, check, in order.
 
-:func:`AddNavigation` reads the scenario's ``navigation:`` section and its Nav2 YAML,
-makes the map (the given map_server map, or the world's true occupancy at the lidar's
-height: :mod:`.world_map`) and the global costmap (:mod:`.costmap`), refuses a goal in
-an obstacle (its name in the one-line error), and adds a :class:`Navigator` that
-publishes cmd_vel to the drive controller.
+:func:`~.building.AddNavigation` composes it from the Nav2 file's servers: the planner
+plugin, the controller server's parameters and controller plugin, the costmaps (the
+static one on the map; with obstacle layers, those the scans update: :mod:`.layers`) and
+the behaviour server's recoveries.
 
 :class:`Navigator` is one discrete update at ``controller_frequency``, as Nav2's
 controller server's loop: the pose from the localization (the ground truth: the
-plant's state), NavFn's plan on a new goal and at ``expected_planner_frequency`` (the
-default behaviour tree replans at 1 Hz), Regulated Pure Pursuit on it
-(:mod:`.follower`), the goal checker (``xy_goal_tolerance`` then, stateful, the
+plant's state), the planner's plan (NavFn) on a new goal and at ``expected_planner_frequency`` (the
+default behaviour tree replans at 1 Hz), the controller plugin on it (Regulated Pure
+Pursuit: :mod:`.follower`), the goal checker (``xy_goal_tolerance`` then, stateful, the
 ``yaw_goal_tolerance``) and the progress checker (``required_movement_radius`` within
 ``movement_time_allowance``, else the goal is aborted); the goals in the chosen order.
 Between updates nothing runs in Python. Its state is an immutable :class:`NavState`
@@ -22,7 +21,6 @@ from __future__ import annotations
 import dataclasses as dc
 import logging
 import math
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -30,100 +28,32 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from armando_drake.control.manager import planar_base
-from armando_drake.description.packages import find_packages
 from armando_drake.messages.types import Odometry, PublicationValue, Twist, TwistStamped
-from armando_drake.navigation.amcl import (
-    AmclLocalizer,
-    ParticleFilter,
-    amcl_parameters,
-    body_odometry,
-    compose,
-)
+from armando_drake.navigation.amcl import body_odometry, compose
 from armando_drake.navigation.behaviors import (
     CLEAR,
     BehaviorParameters,
     Recovery,
-    behavior_parameters,
     recovery_command,
 )
-from armando_drake.navigation.config import NavigationConfig, NavigationGoal
-from armando_drake.navigation.costmap import (
-    INSCRIBED_INFLATED_OBSTACLE,
-    Costmap,
-    CostmapParameters,
-    clear_footprint,
-    costmap_parameters,
-    empty_obstacles,
-    has_costmap,
-    layered_costmap,
-    make_costmap,
-    observe,
-)
+from armando_drake.navigation.config import NavigationGoal
+from armando_drake.navigation.cost_values import INSCRIBED_INFLATED_OBSTACLE
+from armando_drake.navigation.costmap import Costmap, blocked_behind, path_blocked
 from armando_drake.navigation.follower import (
     ControllerParameters,
-    controller_parameters,
+    goal_reached,
+    progress,
     prune,
-    rpp_command,
     to_robot,
     wrap,
 )
-from armando_drake.navigation.maps import OccupancyMap, load_map
-from armando_drake.navigation.overrides import overridden_file
-from armando_drake.navigation.planner import (
-    PlannerParameters,
-    PlanningError,
-    path_length,
-    plan,
-    planner_parameters,
-)
-from armando_drake.navigation.world_map import LIDAR_TYPES, lidar_height, world_map
-from armando_drake.tools.errors import ConfigError, ScenarioError
-from armando_drake.tools.extras import require_extra
+from armando_drake.navigation.layers import Layers, observe_layers
+from armando_drake.navigation.maps import OccupancyMap
+from armando_drake.navigation.planner import PlanningError, path_length
+from armando_drake.navigation.registry import CONTROLLERS
+from armando_drake.navigation.results import GoalResult, goal_results, navigation_summary
 
 _log = logging.getLogger("armando_drake.navigation")
-
-
-@dc.dataclass(frozen=True)
-class GoalResult:
-    """How a goal went."""
-
-    name: str
-    reached: bool
-    reason: str  # "reached", "no progress", "collision ahead", "no plan", "not reached",
-    # "canceled" (a new task preempted it, or a cancel)
-    start: float  # [s] when the goal was sent
-    end: float  # [s] when it was reached or given up (nan: still running)
-    pose: tuple[float, float, float]  # (x, y, yaw) then
-    position_error: float  # [m]
-    yaw_error: float  # [rad]
-    path_length: float  # [m] driven
-    plan_length: float  # [m] the first plan's
-    recoveries: tuple = ()  # (behaviour, start [s], end [s]) of each recovery run
-    blocked_replans: int = 0  # replans made while the current plan crossed an obstacle
-    first_plan: Any = None  # the first plan (n, 2), or None
-
-    @property
-    def status(self) -> str:
-        """NavigateToPose's result: succeeded, canceled or aborted; or unfinished (the
-        run ended first, or the goal is not sent yet)."""
-        if self.reached:
-            return "succeeded"
-        return {"canceled": "canceled", "not reached": "unfinished"}.get(self.reason, "aborted")
-
-
-@dc.dataclass(frozen=True)
-class Layers:
-    """The costmaps updated from the lidar's scans: the global one (its obstacle layer,
-    if its plugins list one) and the local one (``local_costmap``, if the file has it),
-    with the laser's planar pose on the base (x, y, yaw) and its height [m]."""
-
-    global_params: CostmapParameters
-    local_params: CostmapParameters | None
-    laser: tuple[float, float, float]
-    height: float
-
-    def all(self) -> tuple:
-        return (self.global_params, self.local_params)
 
 
 @dc.dataclass(frozen=True)
@@ -204,7 +134,7 @@ class Navigator(LeafSystem):
         goals: list[NavigationGoal],
         costmap: Costmap,
         controller: ControllerParameters,
-        planner: PlannerParameters,
+        planner,
         *,
         state_size: int,
         base_rows: tuple[list[int], list[int]],
@@ -222,7 +152,8 @@ class Navigator(LeafSystem):
         self.costmap = costmap
         self.grid = grid
         self.controller = controller
-        self.planner = planner
+        self.planner = planner  # the planner plugin (planner.plan(costmap, start, goal))
+        self._follow = CONTROLLERS.lookup(controller.plugin, "controller_server").cls
         self._inscribed = inscribed_radius
         self._q_rows, self._v_rows = base_rows
         self._state = self.DeclareVectorInputPort("state", state_size)
@@ -314,33 +245,10 @@ class Navigator(LeafSystem):
         return self._costmap(nav)
 
     def _observe(self, nav: NavState, scan, now: float) -> NavState:
-        """The costmaps' obstacle layers after ``scan`` (each at its update_frequency),
-        seen from the pose at the scan's stamp (as the transform at the stamp in Nav2)."""
+        """The costmaps' obstacle layers after ``scan`` (:mod:`.layers`)."""
         if scan is None or self.grid is None:
             return nav
-        pose = min(nav.poses, key=lambda item: abs(item[0] - scan.stamp))[1]
-        layers = self.layers
-        laser = compose(pose, layers.laser)
-        shape = self.grid.data.shape
-        obstacles = list(nav.obstacles or (None, None))
-        costmaps = list(nav.costmaps or (None, None))
-        observed = list(nav.observed_at or (-math.inf, -math.inf))
-        for k, params in enumerate(layers.all()):
-            if params is None or now - observed[k] < 1.0 / params.update_frequency - 1e-9:
-                continue
-            layer = params.obstacle_layer
-            grid = obstacles[k] if obstacles[k] is not None else empty_obstacles(shape, params)
-            if layer is not None and layer.enabled:
-                for source in layer.sources:
-                    grid = observe(grid, self.costmap, laser, layers.height, scan, source)
-                if layer.footprint_clearing_enabled:
-                    grid = clear_footprint(grid, self.costmap, pose, params.inscribed_radius)
-            obstacles[k] = grid
-            costmaps[k] = layered_costmap(self.grid, params, grid, robot=pose[:2])
-            observed[k] = now
-        return dc.replace(
-            nav, obstacles=tuple(obstacles), costmaps=tuple(costmaps), observed_at=tuple(observed)
-        )
+        return observe_layers(nav, self.layers, self.grid, self.costmap, scan, now)
 
     # -- tasks
 
@@ -417,7 +325,7 @@ class Navigator(LeafSystem):
         if nav.path is not None and self._blocked(nav):
             nav = dc.replace(nav, blocked_replans=nav.blocked_replans + 1)
         try:
-            path = plan(self._costmap(nav), pose[:2], (goal.x, goal.y), self.planner)
+            path = self.planner.plan(self._costmap(nav), pose[:2], (goal.x, goal.y))
         except PlanningError as error:
             _log.warning("goal %r: no plan: %s", goal.name, error)
             if self.behaviors is not None:  # the tree's ComputePathToPose fails
@@ -434,16 +342,8 @@ class Navigator(LeafSystem):
         )
 
     def _blocked(self, nav: NavState) -> bool:
-        """Whether the rest of the current plan crosses an obstacle of the costmap (a lethal
-        cell, or one within the robot's inscribed radius of it)."""
-        costmap = self._costmap(nav)
-        rest = nav.path[nav.path_index :]
-        cols = np.floor((rest[:, 0] - costmap.origin[0]) / costmap.resolution).astype(int)
-        rows = np.floor((rest[:, 1] - costmap.origin[1]) / costmap.resolution).astype(int)
-        inside = (rows >= 0) & (rows < costmap.costs.shape[0])
-        inside &= (cols >= 0) & (cols < costmap.costs.shape[1])
-        costs = costmap.costs[rows[inside], cols[inside]]
-        return bool(((costs >= INSCRIBED_INFLATED_OBSTACLE) & (costs <= 254)).any())
+        """Whether the rest of the current plan crosses an obstacle of the costmap."""
+        return path_blocked(self._costmap(nav), nav.path[nav.path_index :])
 
     def _finish(self, nav: NavState, pose, now: float, reason: str, then=True) -> NavState:
         """The goal's result, measured on the ground truth; the next goal sent from
@@ -480,31 +380,15 @@ class Navigator(LeafSystem):
         return self._start(nav, nav.goal + 1, pose, now) if then else nav
 
     def _goal_reached(self, nav: NavState, pose, speed) -> tuple[bool, NavState]:
-        """SimpleGoalChecker (StoppedGoalChecker: and stopped)."""
-        c = self.controller
+        """The goal checker (:func:`~.follower.goal_reached`)."""
         goal = nav.goals[nav.goal]
-        if not (c.goal_stateful and nav.xy_reached):
-            if math.hypot(pose[0] - goal.x, pose[1] - goal.y) > c.xy_goal_tolerance:
-                return False, nav
-            if c.goal_stateful:
-                nav = dc.replace(nav, xy_reached=True)
-        if abs(wrap(pose[2] - goal.yaw)) > c.yaw_goal_tolerance:
-            return False, nav
-        if c.stopped_goal_checker and (
-            abs(speed[0]) > c.trans_stopped_velocity or abs(speed[1]) > c.rot_stopped_velocity
-        ):
-            return False, nav
-        return True, nav
+        reached, latch = goal_reached(self.controller, goal, pose, speed, nav.xy_reached)
+        return reached, nav if latch == nav.xy_reached else dc.replace(nav, xy_reached=latch)
 
     def _progress(self, nav: NavState, pose, now: float) -> tuple[bool, NavState]:
-        """SimpleProgressChecker / PoseProgressChecker."""
-        c = self.controller
-        x, y, yaw, since = nav.baseline
-        moved = math.hypot(pose[0] - x, pose[1] - y) > c.required_movement_radius
-        turned = abs(wrap(pose[2] - yaw)) > c.required_movement_angle
-        if moved or turned:
-            return True, dc.replace(nav, baseline=(*pose, now))
-        return now - since <= c.movement_time_allowance, nav
+        """The progress checker (:func:`~.follower.progress`)."""
+        progressing, baseline = progress(self.controller, nav.baseline, pose, now)
+        return progressing, dc.replace(nav, baseline=baseline)
 
     def _step(self, nav: NavState, pose, speed, now: float):
         """One cycle of the controller server on the current goal: (state, v, w)."""
@@ -522,7 +406,7 @@ class Navigator(LeafSystem):
         index = prune(nav.path, nav.path_index, pose, c.rpp.max_robot_pose_search_dist)
         nav = dc.replace(nav, path_index=index)
         local = to_robot(nav.path[index:], pose)
-        command = rpp_command(
+        command = self._follow.command(
             c,
             self._local(nav),
             local,
@@ -576,7 +460,11 @@ class Navigator(LeafSystem):
         reset (the retry)."""
         recovery = nav.recovery
         v, w, done = recovery_command(
-            self.behaviors, recovery, pose, now, lambda d: self._blocked_behind(nav, pose, d)
+            self.behaviors,
+            recovery,
+            pose,
+            now,
+            lambda d: blocked_behind(self._local(nav), pose, d, self._inscribed),
         )
         if not done:
             return nav, v, w
@@ -592,111 +480,16 @@ class Navigator(LeafSystem):
         )
         return nav, 0.0, 0.0
 
-    def _blocked_behind(self, nav: NavState, pose, distance: float) -> bool:
-        costmap = self._local(nav)
-        for d in np.arange(0.0, distance + 1e-9, 0.5 * costmap.resolution):
-            x = pose[0] - (d + self._inscribed) * math.cos(pose[2])
-            y = pose[1] - (d + self._inscribed) * math.sin(pose[2])
-            row, col = costmap.world_to_cell(x, y)
-            if costmap.contains(row, col) and costmap.costs[row, col] == 254:
-                return True
-        return False
-
     # -- results
 
     def results(self, context) -> list[GoalResult]:
         """Every goal's result at ``context``'s time (those not finished: not reached)."""
-        nav = context.get_abstract_state(self._nav).get_value()
-        results = list(nav.results)
-        now = context.get_time()
-        pose = nav.last_pose or (math.nan,) * 3
-        for index in range(len(results), len(nav.goals)):
-            goal = nav.goals[index]
-            current = index == nav.goal
-            results.append(
-                GoalResult(
-                    name=goal.name,
-                    reached=False,
-                    reason="not reached",
-                    start=nav.started if current else math.nan,
-                    end=now if current else math.nan,
-                    pose=tuple(pose),
-                    position_error=math.hypot(pose[0] - goal.x, pose[1] - goal.y),
-                    yaw_error=abs(wrap(pose[2] - goal.yaw)),
-                    path_length=nav.driven if current else 0.0,
-                    plan_length=nav.plan_length if current else 0.0,
-                    recoveries=nav.recoveries if current else (),
-                    blocked_replans=nav.blocked_replans if current else 0,
-                )
-            )
-        return results
+        return goal_results(self.nav_state(context), context.get_time())
 
     def summary(self, context) -> dict[str, Any]:
         """``summary.json``'s ``navigation`` section (collisions are added by the run)."""
-        results = self.results(context)
-        c = self.controller
-        summary = {
-            "goals": [
-                {
-                    "name": r.name,
-                    "goal": [g.x, g.y, g.yaw],
-                    "reached": r.reached,
-                    "status": r.status,
-                    "reason": r.reason,
-                    "blocked_replans": r.blocked_replans,
-                    "recoveries": [
-                        {"behavior": k, "start": t0, "end": t1} for k, t0, t1 in r.recoveries
-                    ],
-                    "position_error": r.position_error,
-                    "yaw_error": r.yaw_error,
-                    "time": r.end - r.start if r.reached else None,
-                    "reached_at": r.end if r.reached else None,
-                    "path_length": r.path_length,
-                    "plan_length": r.plan_length,
-                    "pose": list(r.pose),
-                }
-                for r, g in zip(results, self.nav_state(context).goals, strict=True)
-            ],
-            "reached": sum(r.reached for r in results),
-            "xy_goal_tolerance": c.xy_goal_tolerance,
-            "yaw_goal_tolerance": c.yaw_goal_tolerance,
-        }
-        if self._axle is not None:
-            summary["localization"] = localization_summary(self.nav_state(context))
-        return summary
-
-
-def localization_summary(nav: NavState, settle: float = 5.0) -> dict[str, Any]:
-    """AMCL's errors against the ground truth: each second's, the last, and the largest
-    from ``settle`` [s] after the navigation started on."""
-    samples = nav.localization
-    after = [s for s in samples if samples and s[0] >= samples[0][0] + settle]
-    return {
-        "method": "amcl",
-        "errors": [{"time": t, "position": e, "yaw": y} for t, e, y in samples],
-        "final_position_error": samples[-1][1] if samples else None,
-        "final_yaw_error": samples[-1][2] if samples else None,
-        "settle_time": settle,
-        "max_position_error_settled": max((s[1] for s in after), default=None),
-        "max_yaw_error_settled": max((s[2] for s in after), default=None),
-    }
-
-
-# ---------------------------------------------------------------------------- building
-
-
-def resolve_file(name: str, key: str, where: str, near: Path | None = None) -> Path:
-    """A path or ``package://pkg/rest`` to an existing file."""
-    path = Path(name).expanduser()
-    if name.startswith("package://"):
-        package, _, rest = name[len("package://") :].partition("/")
-        search = find_packages()
-        if package not in search.packages:
-            raise ScenarioError(f"{where}{key}={name!r}: unknown package {package!r}")
-        path = search.packages[package] / rest
-    if not path.is_file():
-        raise ScenarioError(f"{where}{key}={name!r}: no such file")
-    return path
+        nav, now = self.nav_state(context), context.get_time()
+        return navigation_summary(nav, now, self.controller, self._axle is not None)
 
 
 def check_goals(goals: list[NavigationGoal], costmap: Costmap, where: str = "") -> None:
@@ -715,201 +508,3 @@ def check_goals(goals: list[NavigationGoal], costmap: Costmap, where: str = "") 
                 f"{where}navigation goal {goal.name!r} ({goal.x:g}, {goal.y:g}) is in "
                 f"{what}: cost {cost} on the map"
             )
-
-
-@dc.dataclass
-class Navigation:
-    """What :func:`AddNavigation` built."""
-
-    navigator: Navigator
-    drive: str
-    grid: OccupancyMap
-    costmap: Costmap
-    amcl: AmclLocalizer | None = None  # with localization: amcl (its scan is connected by
-    # ConnectLocalization, once the sensors are added)
-    lidar: str = ""  # the lidar AMCL (or the mapper) reads
-    mapper: Any = None  # with exploration: the SlamMapper (navigation/slam.py)
-    truth: OccupancyMap | None = None  # with exploration: the world's map, to compare
-
-
-def navigation_map(config: NavigationConfig, plant, scene_graph, robot, where: str = ""):
-    """The map of ``config``: its map_server map, or the world's at the lidar's height."""
-    if config.map:
-        return load_map(resolve_file(config.map, "navigation.map", where))
-    height = config.scan_height or lidar_height(plant, scene_graph, robot)
-    return world_map(
-        plant,
-        scene_graph,
-        height=height,
-        resolution=config.map_resolution,
-        exclude=[robot.model_instance],
-    )
-
-
-def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") -> Navigation:
-    """The :class:`Navigator` of ``config`` on the floating base of ``stack``'s robot,
-    publishing cmd_vel to the first active drive (or ``config.controller``); exports
-    ``navigation_command``."""
-    require_extra("navigation", f"{where}navigation")
-    takers = stack.taking(TwistStamped)
-    if config.controller:
-        takers = [name for name in takers if name == config.controller]
-    if not takers or not stack.hardware.base_position_index:
-        raise ScenarioError(
-            f"{where}navigation needs a floating base with an active drive "
-            f"(active: {', '.join(stack.controllers) or 'none'})"
-        )
-    params_file = resolve_file(config.params_file, "navigation.params_file", where)
-    params_file = overridden_file(params_file, config.params_overrides, where)
-    try:
-        costmap_params = costmap_parameters(params_file)
-        planner = planner_parameters(params_file)
-        controller = controller_parameters(params_file)
-        behaviors = behavior_parameters(params_file)
-    except ConfigError as error:
-        raise ConfigError(f"{where}navigation.params_file: {error}") from None
-    grid = navigation_map(config, stack.plant, stack.scene_graph, stack.robot, where)
-    costmap = make_costmap(grid, costmap_params)
-    goals = config.visits()
-    check_goals(goals, costmap, where)
-    hardware = stack.hardware
-    axle = _axle_offset(stack, takers[0]) if config.localization == "amcl" else None
-    layers = _layers(stack, costmap_params, params_file, where)
-    if layers is not None and layers.local_params is not None:
-        if not math.isclose(layers.local_params.resolution, grid.resolution):
-            _log.warning(
-                "%s: local_costmap resolution %g: the local costmap runs on the map's grid (%g)",
-                params_file,
-                layers.local_params.resolution,
-                grid.resolution,
-            )
-    navigator = builder.AddSystem(
-        Navigator(
-            goals,
-            costmap,
-            controller,
-            planner,
-            state_size=hardware.num_model_states,
-            base_rows=(hardware.base_position_index, hardware.base_velocity_index),
-            inscribed_radius=costmap_params.inscribed_radius,
-            start_delay=config.start_delay,
-            grid=grid,
-            amcl_axle=axle,
-            layers=layers,
-            behaviors=behaviors,
-        )
-    )
-    navigator.set_name("navigator")
-    plant, instance = stack.plant, stack.robot.model_instance
-    builder.Connect(plant.get_state_output_port(instance), navigator.GetInputPort("state"))
-    builder.Connect(navigator.GetOutputPort("cmd_vel"), stack.command_input(takers[0]))
-    builder.ExportOutput(navigator.GetOutputPort("command"), "navigation_command")
-    navigation = Navigation(navigator=navigator, drive=takers[0], grid=grid, costmap=costmap)
-    if layers is not None:
-        navigation.lidar = _lidars(stack, "the costmap's obstacle layer", where)[0].name
-    if axle is not None:
-        navigation.amcl = _add_amcl(builder, config, stack, navigation, params_file, axle, where)
-    return navigation
-
-
-def _lidars(stack, what: str, where: str) -> list:
-    lidars = [b for b in stack.robot.sensors if b.type in LIDAR_TYPES]
-    if not lidars:
-        raise ScenarioError(f"{where}navigation: {what} needs a lidar on the robot")
-    return lidars
-
-
-def _layers(stack, global_params, params_file: Path, where: str) -> Layers | None:
-    """The costmaps fed by the lidar's scans: the global one if it has an obstacle layer,
-    the file's local_costmap if it has one; None if neither."""
-    try:
-        local = (
-            costmap_parameters(params_file, "local_costmap")
-            if has_costmap(params_file, "local_costmap")
-            else None
-        )
-    except ConfigError as error:
-        raise ConfigError(f"{where}navigation.params_file: {error}") from None
-    if global_params.obstacle_layer is None:
-        global_params = None
-    if global_params is None and local is None:
-        return None
-    lidar = _lidars(stack, "the costmap's obstacle layer", where)[0]
-    plant, robot = stack.plant, stack.robot
-    context = plant.CreateDefaultContext()
-    body = plant.get_body(next(iter(plant.GetFloatingBaseBodies())))
-    link = plant.GetBodyByName(lidar.link, robot.model_instance).body_frame()
-    X_BS = plant.CalcRelativeTransform(context, body.body_frame(), link) @ lidar.X_LS
-    laser = (*X_BS.translation()[:2], X_BS.rotation().ToRollPitchYaw().yaw_angle())
-    height = lidar_height(plant, stack.scene_graph, robot)
-    return Layers(global_params, local, tuple(float(v) for v in laser), height)
-
-
-def _axle_offset(stack, drive: str) -> float:
-    """[m] the drive's wheel axle midpoint ahead of the floating base's origin."""
-    plant, robot = stack.plant, stack.robot
-    logic = next(c.logic for c in stack.manager.controllers if c.name == drive)
-    body = plant.get_body(next(iter(plant.GetFloatingBaseBodies())))
-    context = plant.CreateDefaultContext()
-    points = [
-        plant.CalcRelativeTransform(
-            context,
-            body.body_frame(),
-            plant.GetJointByName(name, robot.model_instance).frame_on_child(),
-        ).translation()
-        for name in logic.joint_names
-    ]
-    return float(np.mean(points, axis=0)[0])
-
-
-def _add_amcl(builder, config, stack, navigation: Navigation, params_file, axle, where):
-    """The AmclLocalizer on the drive's odometry (and, later, the lidar's scan) feeding
-    the navigator's map -> odom."""
-    plant, robot = stack.plant, stack.robot
-    lidars = [b for b in robot.sensors if b.type in LIDAR_TYPES]
-    if not lidars:
-        raise ScenarioError(f"{where}navigation.localization=amcl needs a lidar on the robot")
-    try:
-        params = amcl_parameters(params_file)
-    except ConfigError as error:
-        raise ConfigError(f"{where}navigation.params_file: {error}") from None
-    context = plant.CreateDefaultContext()
-    body = plant.get_body(next(iter(plant.GetFloatingBaseBodies())))
-    link = plant.GetBodyByName(lidars[0].link, robot.model_instance).body_frame()
-    X_BS = plant.CalcRelativeTransform(context, body.body_frame(), link) @ lidars[0].X_LS
-    laser = (
-        X_BS.translation()[0],
-        X_BS.translation()[1],
-        X_BS.rotation().ToRollPitchYaw().yaw_angle(),
-    )
-    X_WB = plant.EvalBodyPoseInWorld(context, body)
-    spawn = (
-        X_WB.translation()[0],
-        X_WB.translation()[1],
-        X_WB.rotation().ToRollPitchYaw().yaw_angle(),
-    )
-    initial = config.initial_pose or (params.initial_pose if params.set_initial_pose else None)
-    pf = ParticleFilter(params, navigation.grid, laser)
-    rate = 2.0 * max(lidars[0].update_rate, 1.0)  # twice the scans: odometry at each
-    amcl = builder.AddSystem(AmclLocalizer(pf, initial or spawn, axle=axle, rate=rate))
-    amcl.set_name("amcl")
-    odom = stack.manager.GetOutputPort(f"{navigation.drive}.odom")
-    builder.Connect(odom, amcl.GetInputPort("odom"))
-    builder.Connect(odom, navigation.navigator.GetInputPort("odom"))
-    builder.Connect(
-        amcl.GetOutputPort("map_to_odom"), navigation.navigator.GetInputPort("map_to_odom")
-    )
-    builder.ExportOutput(amcl.GetOutputPort("estimate"), "amcl_estimate")
-    navigation.lidar = lidars[0].name
-    return amcl
-
-
-def ConnectLocalization(builder, navigation: Navigation | None, sensors: dict) -> None:
-    """Connects AMCL to its lidar's scan once the sensors are added (nothing to do for the
-    ground truth or without a navigation)."""
-    if navigation is None:
-        return
-    navigator = navigation.navigator if navigation.navigator.layers is not None else None
-    for reader in (navigation.amcl, navigation.mapper, navigator):
-        if reader is not None:
-            builder.Connect(sensors[navigation.lidar]["scan"], reader.GetInputPort("scan"))

@@ -13,35 +13,21 @@ the ``ros__parameters`` level left out (``controller_server.FollowPath.lookahead
 is ``controller_server: ros__parameters: FollowPath: lookahead_dist``). The value takes
 the type of the one it replaces (an integer for ``max_particles``, true/false for
 ``use_collision_detection`` from 1/0). The parent of every key must be in the file; a
-parameter it does not give is added. :func:`overridden_file` writes the merged YAML
-beside the run (a temporary file) and returns its path, so the readers of the costmap,
-planner, controller and AMCL read it as they read the file itself; the sweep varies
-these keys as ``nav.<key>`` (docs/navigation.md).
+parameter it does not give is added. :func:`~.nav2_params.read_nav2` applies them to the
+file's parsed mapping, which the planner server, the controller server, the costmaps and
+AMCL then read (the file itself is read once and never rewritten); the sweep varies these
+keys as ``nav.<key>`` (docs/navigation.md).
 """
 
 from __future__ import annotations
 
-import atexit
 import math
-import shutil
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
-
-import yaml
 
 from armando_drake.tools.errors import ConfigError
 
 ROS = "ros__parameters"
-_folders: list[str] = []
-
-
-def _remove_folders() -> None:
-    for folder in _folders:
-        shutil.rmtree(folder, ignore_errors=True)
-
-
-atexit.register(_remove_folders)
 
 
 def _typed(value: float, old, key: str, where: str):
@@ -56,8 +42,12 @@ def _typed(value: float, old, key: str, where: str):
     return float(value)
 
 
-def apply_overrides(doc: dict, overrides: Mapping[str, float], where: str = "") -> dict:
-    """``doc`` (a Nav2 YAML's mapping) with every dotted key of ``overrides`` set, in place."""
+def apply_overrides(
+    doc: dict, overrides: Mapping[str, float], where: str = "", path: Path | None = None
+) -> dict:
+    """``doc`` (a Nav2 YAML's mapping, read from ``path``) with every dotted key of
+    ``overrides`` set, in place."""
+    file = str(path) if path is not None else "the Nav2 file"
     for key, value in overrides.items():
         segments = key.split(".")
         node = doc
@@ -67,7 +57,7 @@ def apply_overrides(doc: dict, overrides: Mapping[str, float], where: str = "") 
             if not isinstance(node, dict) or not isinstance(node.get(segment), dict):
                 known = ", ".join(k for k in (node if isinstance(node, dict) else {}) if k != ROS)
                 raise ConfigError(
-                    f"{where}{key}: no {'.'.join(segments[: depth + 1])!r} in the Nav2 file"
+                    f"{where}{key}: no {'.'.join(segments[: depth + 1])!r} in {file}"
                     + (f" (there: {known})" if known else "")
                 )
             node = node[segment]
@@ -76,19 +66,3 @@ def apply_overrides(doc: dict, overrides: Mapping[str, float], where: str = "") 
             node = node[ROS]
         node[last] = _typed(value, node.get(last), key, where)
     return doc
-
-
-def overridden_file(path: Path, overrides: Mapping[str, float], where: str = "") -> Path:
-    """``path`` itself without overrides, else a temporary copy with them applied."""
-    if not overrides:
-        return path
-    try:
-        doc = yaml.safe_load(path.read_text()) or {}
-    except (OSError, yaml.YAMLError) as error:
-        raise ConfigError(f"{path}: cannot be read ({' '.join(str(error).split())})") from None
-    apply_overrides(doc, overrides, f"{where}navigation.params_overrides.")
-    folder = tempfile.mkdtemp(prefix="nav2_params_")
-    _folders.append(folder)
-    merged = Path(folder) / path.name
-    merged.write_text(yaml.safe_dump(doc, sort_keys=False))
-    return merged

@@ -23,14 +23,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from armando_drake.navigation.costmap import (
-    INSCRIBED_INFLATED_OBSTACLE,
-    NO_INFORMATION,
-    Costmap,
-)
+from armando_drake.navigation.cost_values import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
+from armando_drake.navigation.costmap import Costmap
+from armando_drake.navigation.nav2_params import Nav2Params, as_nav2, fill
+from armando_drake.navigation.registry import PLANNERS
 from armando_drake.tools.errors import ConfigError, UserInputError
+from armando_drake.tools.schema import param
 
 _log = logging.getLogger("armando_drake.navigation")
 
@@ -38,20 +37,9 @@ COST_NEUTRAL = 50
 COST_FACTOR = 0.8
 COST_OBS = 254
 NAVFN = "nav2_navfn_planner/NavfnPlanner"
-# The NavFn plugin's keys read here (any other is warned about), and planner_server's own
-# keys accepted without effect (expected_planner_frequency is the controller's to read).
-PLANNER_KEYS = ("plugin", "tolerance", "use_astar", "allow_unknown")
+# planner_server's own keys accepted without effect (expected_planner_frequency is the
+# controller's to read).
 PLANNER_SERVER_KNOWN = {"use_sim_time", "planner_plugins", "expected_planner_frequency"}
-
-
-# Planners Nav2 ships that are not implemented here: NavFn plans instead (their
-# ``tolerance`` and ``allow_unknown`` read, as NavFn's).
-SUBSTITUTED = (
-    "nav2_smac_planner::SmacPlanner2D",
-    "nav2_smac_planner::SmacPlannerHybrid",
-    "nav2_smac_planner::SmacPlannerLattice",
-    "nav2_theta_star_planner::ThetaStarPlanner",
-)
 
 
 class PlanningError(UserInputError):
@@ -62,39 +50,57 @@ class PlanningError(UserInputError):
 class PlannerParameters:
     """NavfnPlanner's parameters (defaults: upstream's)."""
 
-    tolerance: float = 0.5
-    use_astar: bool = False
-    allow_unknown: bool = True
+    tolerance: float = param(
+        0.5, unit="m", ge=0, doc="a blocked goal is replaced by the nearest free cell within it"
+    )
+    use_astar: bool = param(False, doc="A* instead of Dijkstra (the same plan cost)")
+    allow_unknown: bool = param(True, doc="the plan may cross unknown cells")
 
 
-def planner_parameters(path: str | Path, name: str = "GridBased") -> PlannerParameters:
-    """The ``planner_server`` plugin ``name``'s parameters of a Nav2 YAML."""
-    path = Path(path)
-    doc = yaml.safe_load(path.read_text())
-    where = f"{path}: planner_server.ros__parameters.{name}"
-    try:
-        node = doc["planner_server"]["ros__parameters"][name]
-    except (KeyError, TypeError):
-        raise ConfigError(f"{where}: missing") from None
-    kind = str(node.get("plugin", "")).replace("/", "::")
-    if kind in SUBSTITUTED:
-        _log.warning("%s.plugin: %s is not implemented here; NavFn plans instead", where, kind)
-    elif kind != NAVFN.replace("/", "::"):
-        raise ConfigError(
-            f"{where}.plugin: unknown planner {node.get('plugin')!r} "
-            f"(known: {NAVFN}; {', '.join(SUBSTITUTED)} run as NavFn)"
-        )
-    params = PlannerParameters()
-    tolerance = node.get("tolerance", params.tolerance)
-    if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)) or tolerance < 0:
-        raise ConfigError(f"{where}.tolerance must be a number >= 0, not {tolerance!r}")
-    params.tolerance = float(tolerance)
-    params.use_astar = bool(node.get("use_astar", params.use_astar))
-    params.allow_unknown = bool(node.get("allow_unknown", params.allow_unknown))
-    for key in node:
-        if key not in PLANNER_KEYS:
+@PLANNERS.register(NAVFN, instead="NavFn plans instead")
+class NavfnPlanner:
+    """nav2_navfn_planner's NavfnPlanner: :func:`plan` with its parameters."""
+
+    Parameters = PlannerParameters
+
+    def __init__(self, params: PlannerParameters):
+        self.params = params
+
+    def plan(self, costmap: Costmap, start, goal) -> np.ndarray:
+        """The path (n, 2) from ``start`` (x, y) to ``goal`` (x, y)."""
+        return plan(costmap, start, goal, self.params)
+
+
+# Planners Nav2 ships that are not implemented here: NavFn plans instead (their
+# ``tolerance`` and ``allow_unknown`` read, as NavFn's).
+for _name in (
+    "nav2_smac_planner::SmacPlanner2D",
+    "nav2_smac_planner::SmacPlannerHybrid",
+    "nav2_smac_planner::SmacPlannerLattice",
+    "nav2_theta_star_planner::ThetaStarPlanner",
+):
+    PLANNERS.substitute(_name, NAVFN)
+
+
+def planner_plugin(source: Nav2Params | str | Path, name: str = "GridBased"):
+    """The ``planner_server`` plugin ``name`` of a Nav2 file: its registered class made
+    with its parameters (keys it does not read warned about)."""
+    nav2 = as_nav2(source)
+    where = f"{nav2.where('planner_server')}.{name}"
+    node = (nav2.node("planner_server") or {}).get(name)
+    if not isinstance(node, dict):
+        raise ConfigError(f"{where}: missing")
+    plugin, node = PLANNERS.load(node, where)
+    params = plugin.cls.Parameters()
+    for key in fill(params, node, where):
+        if key != "plugin":
             _log.warning("%s.%s: not used here", where, key)
-    return params
+    return plugin.cls(params)
+
+
+def planner_parameters(source: Nav2Params | str | Path, name: str = "GridBased"):
+    """The ``planner_server`` plugin ``name``'s parameters of a Nav2 file."""
+    return planner_plugin(source, name).params
 
 
 def navfn_costs(costs: np.ndarray, allow_unknown: bool) -> np.ndarray:

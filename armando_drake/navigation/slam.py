@@ -47,8 +47,9 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 
 from armando_drake.messages.types import Odometry, PublicationValue
 from armando_drake.navigation.amcl import ODOM_HISTORY, body_odometry, compose, inverse
-from armando_drake.navigation.follower import read_yaml, set_parameter, wrap
+from armando_drake.navigation.follower import wrap
 from armando_drake.navigation.maps import FREE, OCCUPIED, UNKNOWN, OccupancyMap
+from armando_drake.navigation.nav2_params import read_yaml, set_parameter
 from armando_drake.tools.errors import ConfigError
 
 NODES = ("slam_toolbox", "slam")  # the node's name in the YAML: upstream's, the course's

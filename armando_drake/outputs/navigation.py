@@ -19,7 +19,6 @@ from typing import Any
 
 import numpy as np
 
-from armando_drake.navigation.costmap import make_costmap
 from armando_drake.navigation.maps import save_map
 from armando_drake.navigation.slam import map_accuracy
 from armando_drake.outputs.base import COLUMNS
@@ -39,30 +38,30 @@ def navigation_summary(world, context) -> dict[str, Any] | None:
     contacts = (base or {}).get("contacts") or {}
     summary["collisions"] = contacts.get("episodes", 0)
     summary["collision_bodies"] = contacts.get("bodies", [])
+    grid, _ = navigation.final_map(context)
     if navigation.mapper is not None:
-        summary["mapping"] = mapping_summary(world, navigation, context)
+        summary["mapping"] = mapping_summary(world, navigation, grid, context)
     marker_goal = getattr(world.topics.detectors, "marker_goal", None)
     if marker_goal is not None:
         summary["aruco"] = marker_goal.summary(marker_goal.GetMyContextFromRoot(context))
     summary["map"] = {
-        "source": navigation.grid.source,
-        "resolution": navigation.grid.resolution,
-        "origin": list(navigation.grid.origin),
-        "size": [navigation.grid.width, navigation.grid.height],
+        "source": grid.source,
+        "resolution": grid.resolution,
+        "origin": list(grid.origin),
+        "size": [grid.width, grid.height],
     }
     return summary
 
 
-def mapping_summary(world, navigation, context) -> dict[str, Any]:
-    """summary.json's ``navigation.mapping``: the map built (which becomes the navigation's
-    map, saved and drawn) against the world's, the exploration, the drift corrected."""
+def mapping_summary(world, navigation, built, context) -> dict[str, Any]:
+    """summary.json's ``navigation.mapping``: the map ``built`` (which becomes the
+    navigation's map, saved and drawn) against the world's, the exploration, the drift
+    corrected."""
     mapper, explorer = navigation.mapper, navigation.navigator
     mapper_context = mapper.GetMyContextFromRoot(context)
     explorer_context = explorer.GetMyContextFromRoot(context)
-    navigation.grid = mapper.current_map(mapper_context)
-    navigation.costmap = make_costmap(navigation.grid, explorer.costmap_params)
     start = mapper.start
-    summary = map_accuracy(navigation.grid, navigation.truth, start[:2], explorer.inscribed)
+    summary = map_accuracy(built, navigation.truth, start[:2], explorer.inscribed)
     summary.update(explorer.exploration(explorer_context))
     summary["scans_used"] = mapper.scans_used(mapper_context)
     plant = world.plant
@@ -76,21 +75,24 @@ def mapping_summary(world, navigation, context) -> dict[str, Any]:
     return summary
 
 
-def write_navigation_outputs(folder: Path, navigation, summary: dict, rows: np.ndarray):
-    """``map.yaml``/``map.pgm`` and ``navigation.png`` in ``folder``; ``rows``: the base
-    logger's (:data:`~armando_drake.outputs.base.COLUMNS`). Returns the files written."""
+def write_navigation_outputs(folder: Path, world, summary: dict, context):
+    """``map.yaml``/``map.pgm`` and ``navigation.png`` in ``folder``: the map ``world``'s
+    navigation has at ``context`` (the diagram's; the map built when exploring) and the
+    base logger's path (:data:`~armando_drake.outputs.base.COLUMNS`). Returns the files
+    written."""
     from matplotlib.figure import Figure
 
     folder = Path(folder)
-    written = [save_map(navigation.grid, folder / MAP_NAME)]
-    grid = navigation.grid
+    rows = world.base_log.array() if world.base_log is not None else np.zeros((0, 1))
+    grid, costmap = world.topics.navigation.final_map(context)
+    written = [save_map(grid, folder / MAP_NAME)]
     fig = Figure(figsize=(7.0, 7.0), dpi=110)
     axis = fig.subplots()
     x0, y0, _ = grid.origin
     w, h = grid.size_m
     shade = np.where(grid.data >= 65, 0.15, np.where(grid.data < 0, 0.6, 1.0))
     axis.imshow(shade, cmap="gray", vmin=0, vmax=1, origin="lower", extent=(x0, x0 + w, y0, y0 + h))
-    costs = navigation.costmap.costs.astype(float)
+    costs = costmap.costs.astype(float)
     inflated = np.ma.masked_where((costs == 0) | (costs >= 254), costs)
     axis.imshow(inflated, cmap="Blues", alpha=0.35, origin="lower", extent=(x0, x0 + w, y0, y0 + h))
     if len(rows):

@@ -579,8 +579,7 @@ def run(
         for folder in {log_dir / part.folder for part in world.robots}:
             write_plots(folder)
     if log_dir is not None and result.navigation is not None:
-        rows = world.base_log.array() if world.base_log is not None else np.zeros((0, 1))
-        write_navigation_outputs(log_dir, world.topics.navigation, result.navigation, rows)
+        write_navigation_outputs(log_dir, world, result.navigation, simulator.get_context())
     if replay and replay_meshcat is not None and world.replay_sampler is not None:
         _publish_replay(replay_meshcat, world, simulator, log_dir)
     return result

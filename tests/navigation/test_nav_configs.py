@@ -40,7 +40,8 @@ def test_nav2s_default_parameters_load_with_mppi_and_the_voxel_layer_substituted
     assert text.count("nav2_mppi_controller::MPPIController is not implemented here") == 1
     assert "Regulated Pure Pursuit follows instead (desired_linear_vel=0.5 from vx_max" in text
     assert (
-        "local_costmap.local_costmap.ros__parameters.voxel_layer: nav2_costmap_2d::VoxelLayer"
+        "local_costmap.local_costmap.ros__parameters.voxel_layer.plugin: "
+        "nav2_costmap_2d::VoxelLayer is not implemented here; the obstacle layer runs instead"
         in text
     )
     assert controller.rpp.desired_linear_vel == 0.5
@@ -74,11 +75,11 @@ def test_turtlebot3_burger_loads_with_dwb_substituted(caplog):
         ("controller_server.ros__parameters.FollowPath.plugin", "controller",
          "dwb_core::DWBLocalPlaner", "unknown controller 'dwb_core::DWBLocalPlaner'"),
         ("global_costmap.global_costmap.ros__parameters.inflation_layer.inflation_radius",
-         "global", "-0.55", "inflation_radius must be >= 0, not -0.55"),
+         "global", "-0.55", "inflation_layer.inflation_radius=-0.55 must be zero or positive"),
         ("planner_server.ros__parameters.GridBased.tolerance", "planner", "-0.5",
-         "tolerance must be a number >= 0, not -0.5"),
+         "GridBased.tolerance=-0.5 must be zero or positive"),
         ("controller_server.ros__parameters.goal_checker.xy_goal_tolerance", "controller",
-         "-0.1", "goal_checker.xy_goal_tolerance must be >= 0, not -0.1"),
+         "-0.1", "goal_checker.xy_goal_tolerance=-0.1 must be zero or positive"),
         ("global_costmap.global_costmap.ros__parameters.static_layer.plugin", "global",
          "nav2_costmap_2d::StaticLayr", "unknown costmap layer 'nav2_costmap_2d::StaticLayr'"),
     ],

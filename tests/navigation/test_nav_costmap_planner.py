@@ -68,7 +68,9 @@ def test_unknown_space_and_negative_radius(tmp_path):
         "      plugins: [inflation_layer]\n      inflation_layer:\n"
         "        plugin: nav2_costmap_2d::InflationLayer\n        inflation_radius: -0.5\n"
     )
-    with pytest.raises(ConfigError, match=r"inflation_layer.inflation_radius must be >= 0"):
+    with pytest.raises(
+        ConfigError, match=r"inflation_layer.inflation_radius=-0.5 must be zero or positive"
+    ):
         costmap_parameters(path)
     path.write_text(path.read_text().replace("nav2_costmap_2d::InflationLayer", "my::Layer"))
     with pytest.raises(ConfigError) as error:

@@ -50,8 +50,9 @@ def explored(tmp_path_factory):
             break
     summary = navigation_summary(world, simulator.get_context())
     folder = tmp_path_factory.mktemp("explored")
-    save_map(navigation.grid, folder / "map")
-    return world, summary, folder
+    built, _ = navigation.final_map(simulator.get_context())
+    save_map(built, folder / "map")
+    return (world, simulator), summary, folder
 
 
 def test_the_arena_is_explored_until_no_frontier_is_left_without_collision(explored):
@@ -64,7 +65,7 @@ def test_the_arena_is_explored_until_no_frontier_is_left_without_collision(explo
 
 
 def test_the_saved_map_matches_the_worlds_occupancy(explored):
-    world, _, folder = explored
+    (world, _), _, folder = explored
     saved = load_map(folder / "map.yaml")
     assert saved.resolution == 0.05
     truth = world.topics.navigation.truth
@@ -191,8 +192,8 @@ def test_exploration_needs_slam_and_no_goals():
 def test_the_summary_has_the_mapping_section_and_the_figure_is_written(explored, tmp_path):
     from armando_drake.outputs.navigation import write_navigation_outputs
 
-    world, summary, _ = explored
-    write_navigation_outputs(tmp_path, world.topics.navigation, summary, world.base_log.array())
+    (world, simulator), summary, _ = explored
+    write_navigation_outputs(tmp_path, world, summary, simulator.get_context())
     assert (tmp_path / "map.pgm").is_file() and (tmp_path / "navigation.png").stat().st_size
     assert summary["mapping"]["scans_used"] > 100
     # Each frontier goal in the summary: replaced on the way, the last one explored.

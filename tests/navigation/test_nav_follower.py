@@ -137,5 +137,5 @@ def test_unknown_keys_are_warned_by_name_and_bad_values_refused(tmp_path, caplog
     assert params.xy_goal_tolerance == 0.05
     assert "FollowPath.made_up_gain: not used here" in caplog.text
     path.write_text(path.read_text().replace("0.3\n", "fast\n"))
-    with pytest.raises(ConfigError, match="FollowPath.desired_linear_vel must be a number"):
+    with pytest.raises(ConfigError, match="FollowPath.desired_linear_vel='fast' must be a number"):
         controller_parameters(path)

@@ -13,15 +13,9 @@ from pydrake.systems.analysis import Simulator
 
 from armando_drake.messages.scans import LaserScan
 from armando_drake.navigation.behaviors import behavior_parameters
-from armando_drake.navigation.costmap import (
-    FREE_SPACE,
-    LETHAL_OBSTACLE,
-    NO_INFORMATION,
-    Costmap,
-    ObservationSource,
-    costmap_parameters,
-    observe,
-)
+from armando_drake.navigation.cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
+from armando_drake.navigation.costmap import Costmap, costmap_parameters
+from armando_drake.navigation.obstacle_layer import ObservationSource, observe
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import load_scenario, merge_overrides
 from armando_drake.tools.errors import ConfigError

@@ -6,7 +6,8 @@ import pytest
 import yaml
 
 from armando_drake.navigation.follower import controller_parameters
-from armando_drake.navigation.overrides import apply_overrides, overridden_file
+from armando_drake.navigation.nav2_params import read_nav2
+from armando_drake.navigation.overrides import apply_overrides
 from armando_drake.tools.errors import ConfigError
 
 NAV2 = Path(__file__).parents[2] / "models/fra2mo_description/config/navigation.yaml"
@@ -18,22 +19,26 @@ def test_overrides_reach_the_readers_with_the_files_types():
         "controller_server.FollowPath.use_collision_detection": 0,
         "amcl.max_particles": 200.0,
     }
-    merged = overridden_file(NAV2, overrides)
-    assert merged != NAV2
-    doc = yaml.safe_load(merged.read_text())
+    before = NAV2.read_text()
+    merged = read_nav2(NAV2, overrides)
+    assert merged.path == NAV2  # the parsed file, overridden: no other file
+    doc = merged.doc
     amcl = doc["amcl"]["ros__parameters"]
     assert amcl["max_particles"] == 200 and type(amcl["max_particles"]) is int
     follow = doc["controller_server"]["ros__parameters"]["FollowPath"]
     assert follow["use_collision_detection"] is False
     assert controller_parameters(merged).rpp.desired_linear_vel == 0.25
     assert controller_parameters(NAV2).rpp.desired_linear_vel == 0.4  # the file is untouched
-    assert overridden_file(NAV2, {}) == NAV2
+    assert NAV2.read_text() == before
+    assert read_nav2(NAV2, {}).doc == yaml.safe_load(before)
 
 
 def test_a_wrong_path_or_type_is_refused_by_name():
     doc = yaml.safe_load(NAV2.read_text())
     with pytest.raises(ConfigError, match=r"controller_server.FolowPath.*no 'controller_server"):
         apply_overrides(doc, {"controller_server.FolowPath.lookahead_dist": 0.5})
+    with pytest.raises(ConfigError, match=r"FolowPath.*in .*navigation.yaml \(there:"):
+        read_nav2(NAV2, {"controller_server.FolowPath.lookahead_dist": 0.5})
     with pytest.raises(ConfigError, match=r"amcl.max_particles=2.5: an integer is needed"):
         apply_overrides(doc, {"amcl.max_particles": 2.5})
     with pytest.raises(ConfigError, match=r"use_interpolation=2.0: .*true/false"):
