@@ -564,18 +564,7 @@ def run(
         # The logs and the summary are written whole, whatever signal comes.
         world.close(simulator.get_context())  # the logger's last rows reach the table too
         result = _result(scenario, world, simulator, table, tracker, log_dir, scenario_name)
-        # A section per robot with a namespace (none for the one robot of the top-level keys).
-        named = {name: robot for name, robot in world.robots.items() if robot.namespace}
-        result.robot_steps = {
-            name: tables[name].results(sim_time)
-            for name in named
-            if isinstance(tables[name], StepTable)
-        }
-        sections = {
-            name: robot_summary(robot, tables[name], result.robot_steps.get(name, []))
-            for name, robot in named.items()
-        }
-        result.robots = sections or None
+        _add_robot_sections(result, world, tables, sim_time)
         result.scenario, result.sim_time, result.wall_time = scenario_name, sim_time, wall_time
         result.realtime_factor = sim_time / wall_time if wall_time > 0 else math.inf
         result.interrupted = interrupted
@@ -758,6 +747,22 @@ def _effective(scenario: Scenario, world) -> Scenario:
         else:
             robots[name] = dataclasses.replace(entry, **ran)
     return dataclasses.replace(scenario, robots=robots, **top_level)
+
+
+def _add_robot_sections(result: RunResult, world, tables: dict, sim_time: float) -> None:
+    """``result.robots`` and ``result.robot_steps``: a section per robot with a namespace
+    (none for the one robot of the top-level keys, whose run is the top-level fields)."""
+    named = {name: robot for name, robot in world.robots.items() if robot.namespace}
+    result.robot_steps = {
+        name: tables[name].results(sim_time)
+        for name in named
+        if isinstance(tables[name], StepTable)
+    }
+    sections = {
+        name: robot_summary(robot, tables[name], result.robot_steps.get(name, []))
+        for name, robot in named.items()
+    }
+    result.robots = sections or None
 
 
 def robot_summary(part, table, steps: list[StepResult]) -> dict[str, Any]:

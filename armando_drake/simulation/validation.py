@@ -120,19 +120,7 @@ def check_against_world(
             step,
             ticks,
         )
-    for joint, gains in robot.entry.actuators.gains.items():
-        if joint not in joints:
-            raise _fail(
-                robot,
-                f"actuators.gains.{joint}",
-                f": no actuated joint {joint!r} (actuated: {', '.join(joints) or 'none'})",
-            )
-        if joints[joint] == "position" and gains[0] <= 0:
-            raise _fail(
-                robot,
-                f"actuators.gains.{joint}",
-                f"={gains!r}: kp of position joint {joint!r} must be positive",
-            )
+    _check_gains(robot, joints)
     console = scenario.logging.console_rate
     if console > update_rate:
         raise _fail(
@@ -149,6 +137,24 @@ def check_against_world(
             f"={save_rate!r} Hz is above the plant's rate {plant_rate:g} Hz",
         )
     _check_sequencer(robot, sequencer, update_rate, where)
+
+
+def _check_gains(robot: ScenarioRobot, joints: dict[str, str]) -> None:
+    """Each of the robot's per-joint gains names an actuated joint; a position joint's kp
+    is positive."""
+    for joint, gains in robot.entry.actuators.gains.items():
+        if joint not in joints:
+            raise _fail(
+                robot,
+                f"actuators.gains.{joint}",
+                f": no actuated joint {joint!r} (actuated: {', '.join(joints) or 'none'})",
+            )
+        if joints[joint] == "position" and gains[0] <= 0:
+            raise _fail(
+                robot,
+                f"actuators.gains.{joint}",
+                f"={gains!r}: kp of position joint {joint!r} must be positive",
+            )
 
 
 def _check_sequencer(robot: ScenarioRobot, config, update_rate: int, where: str) -> None:
