@@ -285,9 +285,8 @@ class Scenario:
                     f"robots.{name}", ": give a name (a letter or _, then letters, digits, _)"
                 )
             if entry.space(name) in spaces:
-                raise Refusal(
-                    f"robots.{name}.namespace", f"={entry.space(name)!r} is another robot's too"
-                )
+                given = entry.namespace or entry.space(name)
+                raise Refusal(f"robots.{name}.namespace", f"={given!r} is another robot's too")
             other = entry.parent.split("::")[0]
             if entry.parent and other not in names:
                 raise Refusal(
