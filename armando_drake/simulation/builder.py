@@ -46,12 +46,14 @@ from armando_drake.sensors import lidar  # noqa: F401  (registers the lidar sens
 from armando_drake.sensors.cameras import AddCameras
 from armando_drake.sensors.objects import AddFloor, AddGround, AddSceneObjects, SceneObjectError
 from armando_drake.simulation.robots import (
+    AddedRobot,
     AddRobotBodies,
     AddRobotDrivers,
     AddRobotSensors,
     AddRobotStacks,
     ConnectRobot,
-    RobotParts,
+    RobotStack,
+    output_folder,
     robot_scope,
 )
 from armando_drake.simulation.scenario import Scenario, ScenarioError, sources_of
@@ -87,55 +89,60 @@ def MakeWorld(
     """
     where = f"{source}: " if source else ""
     closers = []
-    # Every value of the scenario checked before Drake sees it.
-    check_scenario(scenario, source)
+    # Every value of the scenario checked before Drake sees it; its robots as a map.
+    scenario = check_scenario(scenario, source)
     builder = DiagramBuilder()
     # The physics, each robot at its spawn pose (welded, mounted or free), the ground and
     # the objects.
-    plant, scene_graph, parts = _add_physics(builder, scenario, where)
+    plant, scene_graph, bodies = _add_physics(builder, scenario, where)
     # Each robot's hardware interface and controller manager of its controller YAML.
-    AddRobotStacks(builder, plant, scene_graph, parts)
-    topics = parts[0].topics  # the first robot's: the cameras, vision, perception use it
+    stacks = AddRobotStacks(builder, plant, scene_graph, scenario, bodies)
     # What drives the controllers: the command sequencers, the task, the live jog (each on
     # the robot it names).
-    for part in parts:
-        folder = part.output_dir(output_dir if write_commands else None)
-        AddRobotDrivers(builder, part, folder / "commands.csv" if folder else None, closers)
-        with robot_scope(builder, part):
-            _add_drivers(builder, scenario, part, meshcat, closers)
+    for stack in stacks.values():
+        folder = output_folder(output_dir if write_commands else None, stack.body.spec.folder)
+        AddRobotDrivers(builder, stack, folder / "commands.csv" if folder else None, closers)
+        with robot_scope(builder, stack.body.spec.folder):
+            _add_drivers(builder, scenario, stack, meshcat, closers)
     # The commands to the plant (desired state, efforts, gravity feed-forward) and the
     # joint-state and base loggers.
-    for part in parts:
-        ConnectRobot(builder, part, part.output_dir(output_dir), closers, quiet=quiet)
-    gravity_feedforward, logger = parts[0].gravity_feedforward, parts[0].logger
+    robots = {
+        name: ConnectRobot(
+            builder,
+            scenario,
+            stack,
+            output_folder(output_dir, stack.body.spec.folder),
+            closers,
+            quiet=quiet,
+        )
+        for name, stack in stacks.items()
+    }
     # What watches them: the cameras, the detectors, perception.
     clusters_dir = output_dir if write_commands else None
     places = (source, clusters_dir, host)
-    image_view = _add_sensing(builder, scenario, parts, scene_graph, meshcat, places)
+    image_view = _add_sensing(builder, scenario, robots, scene_graph, meshcat, places)
     closers += [image_view.close] if image_view is not None else []
+    topics = _reporting(robots).topics
     if topics.perception is not None and topics.perception.log is not None:
         closers.append(topics.perception.log.close)
     # The ROS 2 bag recorder, the live DDS / Foxglove bridge, Meshcat.
     replay_sampler, bridge = _add_outputs(
-        builder, scenario, parts, scene_graph, meshcat, record, closers
+        builder, scenario, robots, scene_graph, meshcat, record, closers
     )
     # Export what no system drives (command inputs, statuses), for notebooks and tests.
-    for part in parts:
-        ExportFreeControllerPorts(builder, part.topics.stack)
+    for robot in robots.values():
+        ExportFreeControllerPorts(builder, robot.topics.stack)
     diagram = builder.Build()
     diagram.set_name("armando_world")
     return World(
         diagram=diagram,
         scene_graph=scene_graph,
-        topics=topics,
+        robots=robots,
         meshcat=meshcat,
-        gravity_feedforward=gravity_feedforward,
-        logger=logger,
         image_view=image_view,
         replay_sampler=replay_sampler,
         ros2_bridge=bridge,
         closers=closers,
-        robots=parts,
     )
 
 
@@ -144,51 +151,60 @@ def _origin(scenario: Scenario, key: str) -> str:
     return f"{sources_of(scenario).of(key)}: "
 
 
+def _reporting(robots: dict[str, AddedRobot]) -> AddedRobot:
+    """The robot the scene's own publishers (cameras, detectors, perception) report with,
+    the one the vision and perception act on: the first of the map."""
+    return next(iter(robots.values()))
+
+
 def _add_physics(builder: DiagramBuilder, scenario: Scenario, where: str):
     """The plant and scene graph of ``scenario.plant_config``; each robot at its spawn
     pose (welded, mounted, or free on its wheels), the ground and the objects; (plant,
-    scene graph, the robots' RobotParts)."""
+    scene graph, the robots' bodies by name)."""
     plant, scene_graph = AddMultibodyPlant(scenario.plant_config, builder)
     ApplyMultibodyPlantConfig(scenario.plant_config, plant)
-    parts = AddRobotBodies(plant, scene_graph, scenario)
+    bodies = AddRobotBodies(plant, scene_graph, scenario)
     if scenario.world_file:
         where = _origin(scenario, "world_file")
         paths = scenario.world_resource_paths
         AddWorld(plant, scenario.world_file, resource_paths=paths, where=where)
     elif scenario.ground:
-        floating = any(part.mobile.floating for part in parts)
+        floating = any(body.mobile.floating for body in bodies.values())
         (AddFloor if floating else AddGround)(plant, scene_graph)
     try:
         AddSceneObjects(plant, scenario.objects)
     except SceneObjectError as error:
         raise ScenarioError(f"{where}objects: {error}") from None
-    return plant, scene_graph, parts
+    return plant, scene_graph, bodies
 
 
-def _add_drivers(builder, scenario: Scenario, part: RobotParts, meshcat, closers):
+def _add_drivers(builder, scenario: Scenario, robot: RobotStack, meshcat, closers):
     """The scenario's navigation, task, learned IK and live jogs (the arm's, the base's)
-    that act on the robot ``part``, on its controllers (``part.view`` holds those)."""
-    view, topics = part.view, part.topics
-    stack, where, robot = topics.stack, partial(_origin, scenario), part.view.robot
-    if view.navigation is not None:
-        nav = AddNavigation(builder, view.navigation, stack, where=where("navigation"))
+    that act on ``robot``, on its controllers."""
+    spec, topics = robot.body.spec, robot.topics
+    stack, where, config = topics.stack, partial(_origin, scenario), spec.entry.robot
+    navigation, task = spec.section("navigation"), spec.section("task")
+    learned_ik = spec.section("learned_ik")
+    if navigation is not None:
+        nav = AddNavigation(builder, navigation, stack, where=where("navigation"))
         topics.navigation, topics.twist, topics.twist_target = nav, nav.navigator, nav.drive
-    if view.task is not None:
-        topics.task = AddTask(builder, view.task, stack, meshcat=meshcat, where=where("task"))
-    if view.learned_ik is not None:
-        base = RigidTransform(RollPitchYaw(robot.base_rpy), robot.base_xyz)
+    if task is not None:
+        topics.task = AddTask(builder, task, stack, meshcat=meshcat, where=where("task"))
+    if learned_ik is not None:
+        base = RigidTransform(RollPitchYaw(config.base_rpy), config.base_xyz)
         topics.learned_ik = AddLearnedIk(
-            builder, view.learned_ik, stack, base_pose=base, where=where("learned_ik")
+            builder, learned_ik, stack, base_pose=base, where=where("learned_ik")
         )
-    AddTeleop(builder, view, topics, meshcat=meshcat, where=where, closers=closers)
+    jogs = (spec.section("jog"), spec.section("twist_jog"))
+    AddTeleop(builder, *jogs, topics, meshcat=meshcat, where=where, closers=closers)
 
 
-def _add_sensing(builder, scenario: Scenario, parts, scene_graph, meshcat, where):
+def _add_sensing(builder, scenario: Scenario, robots, scene_graph, meshcat, where):
     """The cameras (their live view, returned, or None), each robot's sensors, the
     detectors and perception; ``where``: (the scenario file, the folder of
     ``clusters.json``, the view's host)."""
     source, output_dir, host = where
-    topics = parts[0].topics
+    topics = _reporting(robots).topics
     topics.cameras, image_view = AddCameras(
         builder,
         scenario.camera,
@@ -200,11 +216,11 @@ def _add_sensing(builder, scenario: Scenario, parts, scene_graph, meshcat, where
         host=host,
         where=f"{source}: " if source else "",
         source=sources_of(scenario).of("cameras"),
-        robots={part.name: part.robot for part in parts if part.name},
+        robots={robot.name: robot.robot for robot in robots.values() if robot.namespace},
     )
-    for part in parts:  # each robot's own sensors (a lidar)
-        AddRobotSensors(builder, topics.plant, part)
-    ConnectLocalization(builder, topics.navigation, topics.sensors)  # AMCL reads a lidar
+    for robot in robots.values():  # each robot's own sensors (a lidar); AMCL reads one
+        AddRobotSensors(builder, topics.plant, robot)
+        ConnectLocalization(builder, robot.topics.navigation, robot.topics.sensors)
     if scenario.vision is not None:
         topics.detectors = AddDetectors(
             builder,
@@ -229,12 +245,11 @@ def _add_sensing(builder, scenario: Scenario, parts, scene_graph, meshcat, where
     return image_view
 
 
-def _add_outputs(builder, scenario: Scenario, parts, scene_graph, meshcat, record, closers):
-    """The ROS 2 bag recorder (``record``), the live bridge (the first robot's topics) and
-    Meshcat's visualization (every robot's); (its replay sampler or None, the bridge or
-    None)."""
-    topics, others = parts[0].topics, [part.topics for part in parts[1:]]
-    instances = [part.robot.model_instance for part in parts]
+def _add_outputs(builder, scenario: Scenario, robots, scene_graph, meshcat, record, closers):
+    """The ROS 2 bag recorder (``record``), the live bridge and Meshcat's visualization,
+    of every robot's topics; (its replay sampler or None, the bridge or None)."""
+    topics, *others = [robot.topics for robot in robots.values()]
+    instances = [robot.robot.model_instance for robot in robots.values()]
     if record is not None:
         closers.append(AddRosbagRecorder(builder, record, topics, others).close)
     bridge = AddRos2Bridge(builder, scenario.ros2, topics, others)

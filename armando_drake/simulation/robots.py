@@ -1,19 +1,22 @@
 """The robots of a world: each one's description, hardware, controllers and drivers.
 
-A scenario holds one robot (its top-level ``robot:``, ``actuators:``, ``controllers:``,
-``sequencer:``, ``twist:``) or several (``robots:``, each entry with those keys). The
-world builder (:func:`~armando_drake.simulation.builder.MakeWorld`) assembles each the
-same way, in phases, as one plant holds them all: every robot's description goes into the
-plant (:func:`AddRobotBodies`: standing in the world, free on its wheels or mounted on
-another's link), the plant is finalized once between the hardware interfaces' two halves
-(:func:`AddRobotStacks`, which also starts each robot's controller manager), then each
-robot's sequencer and twist sequence (:func:`AddRobotDrivers`) and its wiring to the
-plant and its logs (:func:`ConnectRobot`).
+A scenario's robots are a map, ``robots: {name: entry}`` (the one robot of its
+top-level ``robot:``, ``actuators:``, ``controllers:``, ``sequencer:``, ``twist:`` is
+its only entry, :func:`~armando_drake.simulation.scenario.expand_robots`). The world
+builder (:func:`~armando_drake.simulation.builder.MakeWorld`) assembles each the same
+way, in phases, as one plant holds them all; each phase returns a typed handle per
+robot that the next one takes: every robot's description goes into the plant
+(:func:`AddRobotBodies`, a :class:`RobotBody`: standing in the world, free on its
+wheels or mounted on another's link), the plant is finalized once between the hardware
+interfaces' two halves (:func:`AddRobotStacks`, a :class:`RobotStack` with its
+controller manager), then each robot's sequencer and twist sequence
+(:func:`AddRobotDrivers`) and its wiring to the plant and its logs
+(:func:`ConnectRobot`, the :class:`AddedRobot` the world keeps).
 
-A robot of ``robots:`` has a namespace (``/left``): its diagram ports are
-``left/joint_states``, ``left/<controller>.<topic>``, ..., its systems' names begin with
-``left/``, its logs go to ``<output>/left/``. The only robot of a scenario without
-``robots:`` keeps the plain names.
+A robot with a namespace (``/left``) has its diagram ports ``left/joint_states``,
+``left/<controller>.<topic>``, ..., its systems' names beginning with ``left/``, its logs
+in ``<output>/left/``. The robot in the root namespace (the one of the top-level keys)
+keeps the plain names.
 """
 
 from __future__ import annotations
@@ -26,19 +29,20 @@ from typing import Any
 from pydrake.geometry import CollisionFilterDeclaration
 
 from armando_drake.control.hardware import command_interfaces
-from armando_drake.control.mobile import AddMobileBase
+from armando_drake.control.mobile import AddMobileBase, MobileBase
 from armando_drake.control.sequencer import AddSequencer
 from armando_drake.control.stack import (
     AddControllerManager,
     BeginHardware,
     ConnectControlStack,
+    ControllerChoice,
     FinishHardware,
     LoadControllerConfig,
     choose_controllers,
     controller_update_rate,
 )
 from armando_drake.control.twist import AddTwistSequence
-from armando_drake.description.loader import AddRobot
+from armando_drake.description.loader import AddRobot, LoadedRobot
 from armando_drake.outputs.base import BASE_CSV, AddBaseLogger
 from armando_drake.outputs.logger import AddJointStateLogger, CommandsCsv
 from armando_drake.outputs.topics import WorldTopics
@@ -46,194 +50,198 @@ from armando_drake.sensors.registry import AddSensors
 from armando_drake.simulation.scenario import (
     Scenario,
     ScenarioError,
-    robot_view,
-    sources_of,
+    ScenarioRobot,
+    scenario_robots,
     start_positions,
 )
 from armando_drake.simulation.validation import check_against_world
 
 
-@dc.dataclass
-class RobotParts:
-    """One robot of the world being built, and its parts as the phases add them."""
-
-    name: str  # its name in robots: ("" for a scenario's only robot)
-    namespace: str  # "/left" ("" for a scenario's only robot)
-    view: Scenario  # the scenario as this robot sees it (robot_view)
-    index: int = 0  # its place in robots:
-    mount: str = ""  # "OTHER::link" it is welded to ("": the world)
-    robot: Any = None  # LoadedRobot
-    controller_config: Any = None  # its controller YAML
-    mobile: Any = None  # its MobileBase
-    parent: Any = None  # the robot it is mounted on (RobotParts), if any
-    pending: Any = None  # its hardware interface before the plant is final
-    choice: Any = None  # the controllers chosen (ControllerChoice)
-    update_rate: int = 0  # [Hz] its controller manager's
-    topics: WorldTopics | None = None  # its control stack and publishers
-    logger: Any = None  # its JointStateLogger, if a broadcaster is active
-    gravity_feedforward: Any = None  # the gravity feed-forward's output, if any
-
-    @property
-    def folder(self) -> str:
-        """Its output subfolder ("" for the only robot)."""
-        return self.namespace.strip("/")
-
-    def output_dir(self, output_dir) -> Path | None:
-        """Its folder of ``output_dir`` (made), where its logs go; None without one."""
-        if output_dir is None:
-            return None
-        folder = Path(output_dir) / self.folder
-        folder.mkdir(parents=True, exist_ok=True)
-        return folder
-
-
-def robot_parts(scenario: Scenario) -> list[RobotParts]:
-    """The robots of ``scenario``: its ``robots:``, else the one of its top-level keys."""
-    if not scenario.robots:
-        return [RobotParts(name="", namespace="", view=scenario)]
-    return [
-        RobotParts(
-            name=entry.name,
-            namespace=entry.space,
-            view=robot_view(scenario, i),
-            index=i,
-            mount=entry.parent,
-        )
-        for i, entry in enumerate(scenario.robots)
-    ]
-
-
-def _origin(view: Scenario, key: str) -> str:
-    return f"{sources_of(view).of(key)}: "
+def output_folder(output_dir, folder: str) -> Path | None:
+    """The robot's ``folder`` of ``output_dir`` (made), where its logs go; None without
+    one."""
+    if output_dir is None:
+        return None
+    path = Path(output_dir) / folder
+    path.mkdir(parents=True, exist_ok=True)
+    return path
 
 
 @contextlib.contextmanager
-def robot_scope(builder, part: RobotParts):
-    """The systems added inside get the robot's namespace before their names."""
+def robot_scope(builder, folder: str):
+    """The systems added inside get the robot's namespace ``folder`` ("left") before their
+    names ("" in the root namespace: as they are)."""
     before = len(builder.GetSystems())
     yield
-    if part.folder:
+    if folder:
         for system in builder.GetSystems()[before:]:
-            system.set_name(f"{part.folder}/{system.get_name()}")
+            system.set_name(f"{folder}/{system.get_name()}")
 
 
-def _parent_frame(plant, parts: list[RobotParts], part: RobotParts):
-    """The frame of the link ``part`` is mounted on, or None (its base is in the world)."""
-    parent = part.mount
-    if not parent:
-        return None
-    other, link = parent.split("::")
-    part.parent = next(p for p in parts if p.name == other)
-    instance = part.parent.robot.model_instance
+@dc.dataclass(frozen=True)
+class RobotBody:
+    """A robot in the plant (:func:`AddRobotBodies`): its scenario entry, description,
+    controller YAML and base."""
+
+    spec: ScenarioRobot  # its entry, sections and origins
+    robot: LoadedRobot
+    controller_config: Any  # its controller YAML (ControllerManagerConfig)
+    mobile: MobileBase  # how its base is held, its drives
+    parent: RobotBody | None = None  # the robot it is mounted on, if any
+
+
+@dc.dataclass(frozen=True)
+class RobotStack:
+    """A robot with its hardware interface and controller manager (:func:`AddRobotStacks`)."""
+
+    body: RobotBody
+    choice: ControllerChoice  # the controllers activated, the sequencer that drives them
+    update_rate: int  # [Hz] its controller manager's
+    # Its control stack and publishers, which the drivers and sensors add to.
+    topics: WorldTopics
+
+
+@dc.dataclass(frozen=True)
+class AddedRobot:
+    """A robot of the built world (:func:`ConnectRobot`): its name, namespace, publishers,
+    loggers and what ran of its scenario entry."""
+
+    name: str  # its name in the robots map
+    namespace: str  # "/left" ("" in the root namespace)
+    robot: LoadedRobot
+    topics: WorldTopics  # its control stack and publishers
+    logger: Any = None  # its JointStateLogger, if a broadcaster is active
+    gravity_feedforward: Any = None  # the gravity feed-forward's output, if any
+    choice: ControllerChoice | None = None  # the controllers activated, its sequencer
+    top_level: bool = False  # whether it is the one robot of the scenario's top-level keys
+
+    @property
+    def folder(self) -> str:
+        """Its output subfolder ("" in the root namespace)."""
+        return self.namespace.strip("/")
+
+
+def _parent_frame(plant, bodies: dict[str, RobotBody], spec: ScenarioRobot):
+    """(the robot ``spec`` is mounted on, the frame of its link), or (None, None)."""
+    if not spec.entry.parent:
+        return None, None
+    other, link = spec.entry.parent.split("::")
+    parent = bodies[other]
+    instance = parent.robot.model_instance
     if not plant.HasFrameNamed(link, instance):
         links = sorted(plant.get_body(i).name() for i in plant.GetBodyIndices(instance))
-        file = sources_of(part.view).file.rsplit(": robots.", 1)[0]
+        file = spec.sources.file.rsplit(": robots.", 1)[0]
         raise ScenarioError(
-            f"{file}: robots.{part.index}.parent={parent!r}: robot "
+            f"{file}: robots.{spec.name}.parent={spec.entry.parent!r}: robot "
             f"{other!r} has no link {link!r} (links: {', '.join(links)})"
         )
-    return plant.GetFrameByName(link, instance)
+    return parent, plant.GetFrameByName(link, instance)
 
 
-def AddRobotBodies(plant, scene_graph, scenario: Scenario) -> list[RobotParts]:
+def AddRobotBodies(plant, scene_graph, scenario: Scenario) -> dict[str, RobotBody]:
     """Each robot's description in ``plant`` (its own model instance), its controller
     YAML read, its base welded in the world or to its parent's link, or free."""
-    parts = robot_parts(scenario)
-    for part in parts:
-        view = part.view
-        part.robot = AddRobot(plant, view.robot, weld=False, model_name=part.name or None)
+    bodies: dict[str, RobotBody] = {}
+    for name, spec in scenario_robots(scenario).items():
+        robot_config, controllers = spec.robot, spec.entry.controllers
+        robot = AddRobot(plant, robot_config, weld=False, model_name=spec.model_name)
         # The controller YAML before the base is placed: a drive controller frees the base.
-        part.controller_config = LoadControllerConfig(
-            view.controllers,
-            part.robot,
-            arguments=view.robot.xacro_args,
-            prefix=scenario.robots[part.index].prefix if scenario.robots else "",
+        config = LoadControllerConfig(
+            controllers, robot, arguments=robot_config.xacro_args, prefix=spec.entry.prefix
         )
-        part.mobile = AddMobileBase(
+        parent, frame = _parent_frame(plant, bodies, spec)
+        mobile = AddMobileBase(
             plant,
             scene_graph,
-            part.robot,
-            view.robot,
-            part.controller_config,
-            activate=view.controllers.activate,
-            where=_origin(view, "robot.base"),
-            parent=_parent_frame(plant, parts, part),
+            robot,
+            robot_config,
+            config,
+            activate=controllers.activate,
+            where=spec.where("robot.base"),
+            parent=frame,
         )
-    return parts
+        bodies[name] = RobotBody(spec, robot, config, mobile, parent)
+    return bodies
 
 
-def _begin(plant, part: RobotParts) -> None:
-    """The controllers chosen, the rates checked, the hardware's actuators added."""
-    view, config, mobile = part.view, part.controller_config, part.mobile
+def _begin(plant, scenario: Scenario, body: RobotBody):
+    """(the controllers chosen, the update rate, the hardware's pending half): the rates
+    checked, the hardware's actuators added."""
+    spec, config = body.spec, body.controller_config
+    entry = spec.entry
     # The scenario's default controllers stand for the file's own (one line each).
-    part.choice = choose_controllers(view.controllers.activate, config, view.sequencer)
-    view.controllers.activate, view.sequencer = part.choice.activate, part.choice.sequencer
-    part.update_rate = controller_update_rate(
-        config, view.controllers, _origin(view, "controllers.update_rate")
+    choice = choose_controllers(entry.controllers.activate, config, entry.sequencer)
+    update_rate = controller_update_rate(
+        config, entry.controllers, spec.where("controllers.update_rate")
     )
     # Rates, gains and periods checked against the robot and the controller YAML.
     check_against_world(
-        view,
-        update_rate=part.update_rate,
+        scenario,
+        spec,
+        sequencer=choice.sequencer,
+        update_rate=update_rate,
         update_rate_source=config.source,
-        joints=command_interfaces(part.robot, warn=False)[2],
+        joints=command_interfaces(body.robot, warn=False)[2],
     )
-    actuators = dc.replace(view.actuators, gains={**mobile.gains, **view.actuators.gains})
-    part.pending = BeginHardware(plant, part.robot, actuators, config)
+    gains = {**body.mobile.gains, **entry.actuators.gains}
+    pending = BeginHardware(plant, body.robot, dc.replace(entry.actuators, gains=gains), config)
+    return choice, update_rate, pending
 
 
-def AddRobotStacks(builder, plant, scene_graph, parts: list[RobotParts]) -> None:
+def AddRobotStacks(
+    builder, plant, scene_graph, scenario: Scenario, bodies: dict[str, RobotBody]
+) -> dict[str, RobotStack]:
     """Each robot's hardware interface (the plant finalized once, in between) and its
     controller manager running the activated controllers (and a mobile base's drive
-    plugins) of its controller YAML; sets each ``part.topics``."""
-    for part in parts:
-        _begin(plant, part)
+    plugins) of its controller YAML."""
+    begun = {name: _begin(plant, scenario, body) for name, body in bodies.items()}
     plant.Finalize()
-    for part in parts:
-        view = part.view
+    stacks = {}
+    for name, body in bodies.items():
+        spec, (choice, update_rate, pending) = body.spec, begun[name]
         hardware = FinishHardware(
             plant,
             scene_graph,
-            part.pending,
-            self_collision=view.robot.self_collision,
-            start_positions=start_positions(view),
+            pending,
+            self_collision=spec.entry.robot.self_collision,
+            start_positions=start_positions(spec),
         )
-        if part.parent is not None:  # a mounted robot does not collide with its carrier
+        if body.parent is not None:  # a mounted robot does not collide with its carrier
             geometries = [
                 plant.CollectRegisteredGeometries(
-                    [plant.get_body(i) for i in plant.GetBodyIndices(p.robot.model_instance)]
+                    [plant.get_body(i) for i in plant.GetBodyIndices(b.robot.model_instance)]
                 )
-                for p in (part, part.parent)
+                for b in (body, body.parent)
             ]
             scene_graph.collision_filter_manager().Apply(
                 CollisionFilterDeclaration().ExcludeBetween(*geometries)
             )
-        with robot_scope(builder, part):
+        controllers = spec.entry.controllers
+        with robot_scope(builder, spec.folder):
             stack = AddControllerManager(
                 builder,
-                dc.replace(
-                    view.controllers, activate=part.mobile.activation(view.controllers.activate)
-                ),
+                dc.replace(controllers, activate=body.mobile.activation(choice.activate)),
                 plant=plant,
-                robot=part.robot,
+                robot=body.robot,
                 hardware=hardware,
-                controller_config=part.controller_config,
-                update_rate=part.update_rate,
-                sequencer=view.sequencer,
-                where=_origin(view, "controllers"),
+                controller_config=body.controller_config,
+                update_rate=update_rate,
+                sequencer=choice.sequencer,
+                where=spec.where("controllers"),
                 scene_graph=scene_graph,
-                hold=part.choice.hold,
-                namespace=part.namespace,
+                hold=choice.hold,
+                namespace=spec.namespace,
             )
-        part.topics = WorldTopics(stack=stack, mobile=part.mobile)
+        stacks[name] = RobotStack(body, choice, update_rate, WorldTopics(stack, mobile=body.mobile))
+    return stacks
 
 
-def AddRobotDrivers(builder, part: RobotParts, commands_csv: Path | None, closers: list) -> None:
+def AddRobotDrivers(builder, robot: RobotStack, commands_csv: Path | None, closers: list) -> None:
     """The robot's command sequencer (its commands in ``commands_csv``) and twist
-    sequence, on its controllers."""
-    view, topics = part.view, part.topics
-    with robot_scope(builder, part):
-        if view.sequencer is not None:
+    sequence, on its controllers (in ``robot.topics``)."""
+    spec, topics, sequencer = robot.body.spec, robot.topics, robot.choice.sequencer
+    with robot_scope(builder, spec.folder):
+        if sequencer is not None:
 
             def commands_log(joints):  # commands.csv, for the joints the sequencer drives
                 log = CommandsCsv(commands_csv, joints)
@@ -242,50 +250,60 @@ def AddRobotDrivers(builder, part: RobotParts, commands_csv: Path | None, closer
 
             topics.sequencer, topics.sequencer_target = AddSequencer(
                 builder,
-                view.sequencer,
+                sequencer,
                 topics.stack,
                 commands_log=commands_log if commands_csv is not None else None,
-                where=_origin(view, "sequencer"),
+                where=spec.where("sequencer"),
             )
-        if view.twist is not None:
+        if spec.entry.twist is not None:
             topics.twist, topics.twist_target = AddTwistSequence(
-                builder, view.twist, topics.stack, where=_origin(view, "twist")
+                builder, spec.entry.twist, topics.stack, where=spec.where("twist")
             )
 
 
-def ConnectRobot(builder, part: RobotParts, output_dir, closers: list, *, quiet: bool) -> None:
+def ConnectRobot(
+    builder, scenario: Scenario, robot: RobotStack, output_dir, closers: list, *, quiet: bool
+) -> AddedRobot:
     """The robot's commands to the plant (desired state, efforts, gravity feed-forward),
     its joint-state logger (``joint_states.csv`` in ``output_dir``) and its base's logger
-    (``base.csv``)."""
-    view, topics = part.view, part.topics
-    with robot_scope(builder, part):
-        sequencer = topics.sequencer
+    (``base.csv``); the robot as the built world keeps it."""
+    spec, topics = robot.body.spec, robot.topics
+    with robot_scope(builder, spec.folder):
         stack = topics.stack
-        tick = sequencer.GetOutputPort("tick_command") if stack.stream_controller else None
-        part.gravity_feedforward = ConnectControlStack(
+        tick = topics.sequencer.GetOutputPort("tick_command") if stack.stream_controller else None
+        gravity_feedforward = ConnectControlStack(
             builder,
             stack,
-            gravity_feedforward=view.actuators.gravity_feedforward,
+            gravity_feedforward=spec.entry.actuators.gravity_feedforward,
             tick_command=tick,
         )
-        part.logger = AddJointStateLogger(
-            builder, view.logging, stack, output_dir=output_dir, quiet=quiet
+        logger = AddJointStateLogger(
+            builder, scenario.logging, stack, output_dir=output_dir, quiet=quiet
         )
-        if part.logger is not None:
-            closers.append(part.logger.close)
+        if logger is not None:
+            closers.append(logger.close)
         command = topics.twist.GetOutputPort("command") if topics.twist is not None else None
         topics.base_log = AddBaseLogger(builder, stack, topics.mobile, command=command)
         log = topics.base_log
         if log is not None and output_dir is not None:
             closers.append(lambda: log.write(Path(output_dir) / BASE_CSV))
+    return AddedRobot(
+        name=spec.name,
+        namespace=spec.namespace,
+        robot=robot.body.robot,
+        topics=topics,
+        logger=logger,
+        gravity_feedforward=gravity_feedforward,
+        choice=robot.choice,
+        top_level=spec.top_level,
+    )
 
 
-def AddRobotSensors(builder, plant, part: RobotParts) -> None:
+def AddRobotSensors(builder, plant, robot: AddedRobot) -> None:
     """The sensors of the robot's description (a lidar; cameras are
     :func:`~armando_drake.sensors.cameras.AddCameras`'), on its links, their outputs
-    ``<namespace>/<sensor>.<output>``; sets ``part.topics.sensors``."""
-    robot = part.robot
-    with robot_scope(builder, part):
-        part.topics.sensors = AddSensors(
-            builder, robot.sensors, plant=plant, robot=robot, namespace=part.namespace
+    ``<namespace>/<sensor>.<output>``; sets ``robot.topics.sensors``."""
+    with robot_scope(builder, robot.folder):
+        robot.topics.sensors = AddSensors(
+            builder, robot.robot.sensors, plant=plant, robot=robot.robot, namespace=robot.namespace
         )

@@ -39,7 +39,13 @@ from armando_drake.outputs.replay import REPLAY_FILE, RecordingMeshcat, publish_
 from armando_drake.outputs.task_space import TASK_SPACE_CSV, TaskSpaceTracker, write_task_space_csv
 from armando_drake.outputs.view import wait_for_browser as wait
 from armando_drake.simulation.builder import MakeWorld
-from armando_drake.simulation.scenario import Scenario, default_duration, robot_view
+from armando_drake.simulation.scenario import (
+    Scenario,
+    ScenarioRobot,
+    default_duration,
+    dump_scenario,
+    scenario_robots,
+)
 from armando_drake.tools.cli import STOP_SIGNALS, meshcat_urls
 from armando_drake.tools.files import writing
 from armando_drake.tools.version import provenance
@@ -184,12 +190,10 @@ class RunResult:
 def write_scenario(scenario: Scenario, path: Path) -> None:
     """Writes ``scenario`` as YAML that :func:`~armando_drake.simulation.scenario.load_scenario`
     reads back to an equal scenario."""
-    from pydrake.common.yaml import yaml_dump_typed
-
     with writing(path):
         path.write_text(
             "# The effective scenario of this run: the file with every override applied.\n"
-            + yaml_dump_typed(scenario)
+            + dump_scenario(scenario)
         )
 
 
@@ -197,22 +201,26 @@ def controller_mode(scenario: Scenario) -> str:
     """position | trajectory | sinusoid | task | learned_ik | jog | twist | navigation |
     twist_jog | none: what drives the robot; those of several robots joined by ", " (each
     once)."""
-    if scenario.robots:
-        views = [robot_view(scenario, i) for i in range(len(scenario.robots))]
-        return ", ".join(dict.fromkeys(controller_mode(view) for view in views))
-    if scenario.sequencer is None:
-        if scenario.task is not None:
-            return "task"
-        if scenario.learned_ik is not None:
-            return "learned_ik"
-        if scenario.twist is not None:
-            return "twist"
-        if scenario.navigation is not None:
-            return "navigation"
-        if scenario.twist_jog is not None and scenario.jog is None:
-            return "twist_jog"
-        return "none" if scenario.jog is None else "jog"
-    return mode_of(scenario.sequencer)
+    robots = scenario_robots(scenario).values()
+    return ", ".join(dict.fromkeys(robot_mode(robot) for robot in robots))
+
+
+def robot_mode(robot: ScenarioRobot) -> str:
+    """What drives one robot (see :func:`controller_mode`)."""
+    if robot.entry.sequencer is not None:
+        return mode_of(robot.entry.sequencer)
+    if robot.section("task") is not None:
+        return "task"
+    if robot.section("learned_ik") is not None:
+        return "learned_ik"
+    if robot.entry.twist is not None:
+        return "twist"
+    if robot.section("navigation") is not None:
+        return "navigation"
+    jog = robot.section("jog")
+    if robot.section("twist_jog") is not None and jog is None:
+        return "twist_jog"
+    return "none" if jog is None else "jog"
 
 
 @dataclass
@@ -530,8 +538,8 @@ def run(
     if log_dir is not None:  # what ran: the scenario after every override, gains derived
         write_scenario(_effective(scenario, world), log_dir / SCENARIO_FILE)
     # The step tables (or the sinusoid's tracking errors) from the loggers' rows.
-    tables = [_table_of(part.topics, part.logger) for part in world.robots]
-    table = tables[0]
+    tables = {name: _table_of(r.topics, r.logger) for name, r in world.robots.items()}
+    table = tables[world.first.name]
     tracker = _task_tracker_of(world)
     simulator = Simulator(world.diagram)
     ApplySimulatorConfig(scenario.simulator_config, simulator)
@@ -556,16 +564,7 @@ def run(
         # The logs and the summary are written whole, whatever signal comes.
         world.close(simulator.get_context())  # the logger's last rows reach the table too
         result = _result(scenario, world, simulator, table, tracker, log_dir, scenario_name)
-        if scenario.robots:
-            result.robot_steps = {
-                part.name: t.results(sim_time)
-                for part, t in zip(world.robots, tables, strict=True)
-                if isinstance(t, StepTable)
-            }
-            result.robots = {
-                part.name: robot_summary(part, t, result.robot_steps.get(part.name, []))
-                for part, t in zip(world.robots, tables, strict=True)
-            }
+        _add_robot_sections(result, world, tables, sim_time)
         result.scenario, result.sim_time, result.wall_time = scenario_name, sim_time, wall_time
         result.realtime_factor = sim_time / wall_time if wall_time > 0 else math.inf
         result.interrupted = interrupted
@@ -576,7 +575,7 @@ def run(
     # A Ctrl-C that came while they were written stops the plots and the replay.
     signals.raise_pending(f"the logs are complete in {log_dir}" if log_dir else "")
     if log_dir is not None and plots:
-        for folder in {log_dir / part.folder for part in world.robots}:
+        for folder in {log_dir / robot.folder for robot in world.robots.values()}:
             write_plots(folder)
     if log_dir is not None and result.navigation is not None:
         write_navigation_outputs(log_dir, world, result.navigation, simulator.get_context())
@@ -732,17 +731,37 @@ def _task_tracker_of(world):
 
 
 def _effective(scenario: Scenario, world) -> Scenario:
-    """The scenario with each robot's gains the robot's own rules gave written out."""
-    if not scenario.robots:
-        actuators = effective_actuators(scenario.actuators, world.hardware)
-        return dataclasses.replace(scenario, actuators=actuators)
-    robots = [
-        dataclasses.replace(
-            entry, actuators=effective_actuators(entry.actuators, part.topics.stack.hardware)
-        )
-        for entry, part in zip(scenario.robots, world.robots, strict=True)
-    ]
-    return dataclasses.replace(scenario, robots=robots)
+    """The scenario as it ran, in the form it was given: each robot's gains that the
+    robot's own rules gave written out, and the controllers its controller file chose
+    activated."""
+    top_level, robots = {}, dict(scenario.robots)
+    for name, robot in world.robots.items():
+        entry = robots[name] if not robot.top_level else scenario
+        ran = {
+            "actuators": effective_actuators(entry.actuators, robot.topics.stack.hardware),
+            "controllers": dataclasses.replace(entry.controllers, activate=robot.choice.activate),
+        }
+        if robot.top_level:
+            top_level = ran
+        else:
+            robots[name] = dataclasses.replace(entry, **ran)
+    return dataclasses.replace(scenario, robots=robots, **top_level)
+
+
+def _add_robot_sections(result: RunResult, world, tables: dict, sim_time: float) -> None:
+    """``result.robots`` and ``result.robot_steps``: a section per robot with a namespace
+    (none for the one robot of the top-level keys, whose run is the top-level fields)."""
+    named = {name: robot for name, robot in world.robots.items() if robot.namespace}
+    result.robot_steps = {
+        name: tables[name].results(sim_time)
+        for name in named
+        if isinstance(tables[name], StepTable)
+    }
+    sections = {
+        name: robot_summary(robot, tables[name], result.robot_steps.get(name, []))
+        for name, robot in named.items()
+    }
+    result.robots = sections or None
 
 
 def robot_summary(part, table, steps: list[StepResult]) -> dict[str, Any]:

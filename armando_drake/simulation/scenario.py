@@ -24,12 +24,14 @@ came from (:class:`ScenarioSources`).
 import dataclasses as dc
 import os
 import re
+import textwrap
 import types
 import typing
 from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
-from pydrake.common.yaml import yaml_dump, yaml_load, yaml_load_typed
+from pydrake.common.yaml import yaml_dump, yaml_dump_typed, yaml_load, yaml_load_typed
 from pydrake.multibody.plant import MultibodyPlantConfig
 from pydrake.systems.analysis import SimulatorConfig
 from pydrake.visualization import VisualizationConfig
@@ -95,14 +97,13 @@ _NAMESPACE = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+")
 
 @dc.dataclass
 class RobotEntry:
-    """One robot of a world of several (the scenario's ``robots:`` list): its
-    description, where it stands or is mounted, and its own control stack."""
+    """One robot of a world (an entry of the scenario's ``robots:`` map, by its name):
+    its description, where it stands or is mounted, and its own control stack."""
 
-    # Its name: the scope of its model instance (robots of one description load side
-    # by side) and of its parts' names; a letter or _, then letters, digits, _.
-    name: str = ""
     # Its namespace: its ports and topics (/left/joint_states) and its folder of the
-    # output (<output>/left/joint_states.csv); "" = /<name>.
+    # output (<output>/left/joint_states.csv); "" = /<name>; "/" = the root namespace:
+    # plain names (joint_states, the output folder itself) and the description's own
+    # model instance name, as the one robot of the top-level keys has.
     namespace: str = ""
     # The description and its base pose: base_xyz/base_rpy in the world, or in the
     # parent link's frame when mounted (parent).
@@ -123,23 +124,21 @@ class RobotEntry:
     twist: TwistSequence | None = None
 
     def check(self) -> None:
-        if not _ROBOT_NAME.fullmatch(self.name):
-            raise Refusal(
-                "name", f"={self.name!r}: give a name (a letter or _, then letters, digits, _)"
-            )
-        if self.namespace and not _NAMESPACE.fullmatch(self.namespace):
+        if self.namespace not in ("", "/") and not _NAMESPACE.fullmatch(self.namespace):
             raise Refusal("namespace", f"={self.namespace!r} is not a namespace like /left")
         if self.parent and len(self.parent.split("::")) != 2:
             raise Refusal("parent", f"={self.parent!r}: give OTHER_ROBOT::link")
 
-    @property
-    def space(self) -> str:
-        """Its namespace, ``/<name>`` when none is given."""
-        return self.namespace or f"/{self.name}"
+    def space(self, name: str) -> str:
+        """Its namespace as robot ``name``: ``/<name>`` when none is given, "" for the
+        root namespace."""
+        return "" if self.namespace == "/" else self.namespace or f"/{name}"
 
 
 # The top-level keys of the one robot, which robots: replaces.
 ROBOT_KEYS = ("robot", "actuators", "controllers", "sequencer", "twist")
+# The name of the one robot of the top-level keys in the robots map they expand into.
+ONE_ROBOT = "robot"
 
 
 @dc.dataclass
@@ -148,10 +147,12 @@ class Scenario:
 
     # The robot description and its pose.
     robot: RobotConfig = dc.field(default_factory=RobotConfig)
-    # Several robots in one world, each with its description, pose or mount, namespace
-    # and control stack (docs/multi_robot.md); instead of robot, actuators, controllers,
-    # sequencer and twist. Empty = the one robot of those keys.
-    robots: list[RobotEntry] = dc.field(default_factory=list)
+    # Several robots in one world, by name (a letter or _, then letters, digits, _), each
+    # with its description, pose or mount, namespace and control stack
+    # (docs/multi_robot.md); instead of robot, actuators, controllers, sequencer and
+    # twist. A list of entries with a `name:` each is read as this map. Empty = the one
+    # robot of those keys (expand_robots makes it the map's only entry).
+    robots: dict[str, RobotEntry] = dc.field(default_factory=dict)
     # Drake's plant settings (time step [s], contact approximation). The
     # approximation must support PD actuators: anything but tamsi. Without
     # sampled output ports the plant's step is a discrete update; with them it
@@ -269,36 +270,36 @@ class Scenario:
                 )
 
     def _check_robots(self) -> None:
-        """robots: without the one robot's keys; distinct names and namespaces; each mount
-        on a robot listed before."""
-        if not self.robots:
-            return
+        """robots: without the one robot's keys; names that are names, distinct
+        namespaces; each mount on a robot listed before; each section's robot listed."""
+        robots = self.robots
         given = [key for key in ROBOT_KEYS if getattr(self, key) != getattr(Scenario(), key)]
-        if given:
+        if robots and given:
             raise Refusal(
                 given[0], ": a key of the one robot, beside robots: (give it in each robot's entry)"
             )
         names, spaces = [], []
-        for index, entry in enumerate(self.robots):
-            if entry.name in names:
-                raise Refusal(f"robots.{index}.name", f"={entry.name!r} is listed twice")
-            if entry.space in spaces:
+        for name, entry in robots.items():
+            if not _ROBOT_NAME.fullmatch(name):
                 raise Refusal(
-                    f"robots.{index}.namespace", f"={entry.space!r} is another robot's too"
+                    f"robots.{name}", ": give a name (a letter or _, then letters, digits, _)"
                 )
+            if entry.space(name) in spaces:
+                given = entry.namespace or entry.space(name)
+                raise Refusal(f"robots.{name}.namespace", f"={given!r} is another robot's too")
             other = entry.parent.split("::")[0]
             if entry.parent and other not in names:
                 raise Refusal(
-                    f"robots.{index}.parent",
+                    f"robots.{name}.parent",
                     f"={entry.parent!r}: no robot {other!r} is listed before "
-                    f"{entry.name!r} (listed: {', '.join(names) or 'none'})",
+                    f"{name!r} (listed: {', '.join(names) or 'none'})",
                 )
-            names.append(entry.name)
-            spaces.append(entry.space)
+            names.append(name)
+            spaces.append(entry.space(name))
         for key in ROBOT_SECTIONS:
             section = getattr(self, key)
             target = getattr(section, "robot", "")
-            if target and target not in names:
+            if names and target and target not in names:
                 raise Refusal(
                     f"{key}.robot", f"={target!r}: no such robot (listed: {', '.join(names)})"
                 )
@@ -310,62 +311,123 @@ class Scenario:
 ROBOT_SECTIONS = ("task", "learned_ik", "jog", "navigation", "twist_jog", "vision", "perception")
 
 
-def _acts_on(section, name: str, index: int) -> bool:
-    """Whether a section of ``ROBOT_SECTIONS`` acts on the robot ``name`` (of robots:,
-    at ``index``)."""
-    target = getattr(section, "robot", "")
-    return target == name if target else index == 0
-
-
-def robot_view(scenario: Scenario, index: int) -> Scenario:
-    """The scenario as the one robot ``robots[index]`` sees it: its robot, actuators,
-    controllers, sequencer and twist in the top-level keys; its messages name
-    ``robots.<index>``."""
-    entry = scenario.robots[index]
-    robot = entry.robot
-    # The sections that act on one robot, in its view only (the first's by default).
-    sections = {
-        key: section if _acts_on(section, entry.name, index) else None
-        for key in ROBOT_SECTIONS
-        if (section := getattr(scenario, key)) is not None
-    }
-    if entry.prefix:
-        robot = dc.replace(robot, xacro_args={**robot.xacro_args, "prefix": entry.prefix})
-    view = dc.replace(
+def expand_robots(scenario: Scenario) -> Scenario:
+    """``scenario`` with its robots as the map ``robots: {name: entry}``: the one robot
+    of its top-level keys (robot, actuators, controllers, sequencer, twist) becomes the
+    entry :data:`ONE_ROBOT` in the root namespace (its ports, topics and output folder
+    as named without robots:), those keys back to their defaults; a scenario with
+    robots: as it is. A new scenario (``scenario`` is not changed), its sources kept
+    (:attr:`ScenarioSources.one_robot` names the expanded robot)."""
+    sources = sources_of(scenario)
+    if scenario.robots or sources.one_robot:
+        return scenario
+    entry = RobotEntry(namespace="/", **{key: getattr(scenario, key) for key in ROBOT_KEYS})
+    defaults = Scenario()
+    expanded = dc.replace(
         scenario,
-        robots=[],
-        robot=robot,
-        actuators=entry.actuators,
-        controllers=entry.controllers,
-        sequencer=entry.sequencer,
-        twist=entry.twist,
-        **sections,
+        robots={ONE_ROBOT: entry},
+        **{key: getattr(defaults, key) for key in ROBOT_KEYS},
     )
-    origin = sources_of(scenario).of("robots")  # the file, or the --set that gave them
-    view.__dict__["_sources"] = ScenarioSources(file=f"{origin}: robots.{index} ({entry.name})")
-    return view
+    expanded.__dict__["_sources"] = dc.replace(sources, one_robot=ONE_ROBOT)
+    return expanded
+
+
+@dc.dataclass(frozen=True)
+class ScenarioRobot:
+    """One robot of a scenario's robots map as the world builder reads it: its entry, the
+    sections that act on it and where its keys came from (no copy of the scenario)."""
+
+    name: str  # its name in the map
+    index: int  # its place in the map
+    entry: RobotEntry
+    # The sections of ROBOT_SECTIONS that act on it, by key (None: not on it, or absent).
+    sections: dict[str, Any]
+    # Where its keys (sequencer.period, actuators.kp, ...) came from: the scenario's
+    # own sources for the one robot of the top-level keys, else its entry of robots:.
+    sources: "ScenarioSources"
+    top_level: bool = False  # whether it is the one robot of the top-level keys
+
+    @property
+    def namespace(self) -> str:
+        """ "/left" ("" in the root namespace)."""
+        return self.entry.space(self.name)
+
+    @property
+    def folder(self) -> str:
+        """Its output subfolder ("" in the root namespace)."""
+        return self.namespace.strip("/")
+
+    @property
+    def model_name(self) -> str | None:
+        """Its model instance's name: its own, or None (the description's) in the root
+        namespace."""
+        return self.name if self.namespace else None
+
+    @property
+    def robot(self) -> RobotConfig:
+        """Its description settings, with its prefix as the ``prefix`` xacro argument."""
+        robot = self.entry.robot
+        if not self.entry.prefix:
+            return robot
+        return dc.replace(robot, xacro_args={**robot.xacro_args, "prefix": self.entry.prefix})
+
+    def section(self, key: str):
+        """Its section ``key`` of :data:`ROBOT_SECTIONS`, or None."""
+        return self.sections.get(key)
+
+    def where(self, key: str) -> str:
+        """``"<origin>: "`` of its ``key`` (``sequencer``, ``controllers.update_rate``)."""
+        return f"{self.sources.of(key)}: "
+
+
+def scenario_robots(scenario: Scenario) -> dict[str, ScenarioRobot]:
+    """The robots of ``scenario`` (expanded: :func:`expand_robots`), by name, in order,
+    each with the sections that act on it (the one naming it, else the first)."""
+    scenario = expand_robots(scenario)
+    sources = sources_of(scenario)
+    origin = sources.of("robots")  # the file, or the --set that gave them
+    robots = {}
+    for index, (name, entry) in enumerate(scenario.robots.items()):
+        sections = {}
+        for key in ROBOT_SECTIONS:
+            section = getattr(scenario, key)
+            target = getattr(section, "robot", "")
+            named = target in scenario.robots
+            sections[key] = section if (target == name if named else index == 0) else None
+        top_level = name == sources.one_robot
+        robots[name] = ScenarioRobot(
+            name=name,
+            index=index,
+            entry=entry,
+            sections=sections,
+            sources=sources if top_level else ScenarioSources(f"{origin}: robots.{index} ({name})"),
+            top_level=top_level,
+        )
+    return robots
+
+
+def robot_duration(robot: ScenarioRobot) -> float:
+    """[s] one pass of the robot's command sequence; the task's motion and 0.5 s of
+    holding without one; the learned IK's targets, a period each, without either; the
+    twist sequence and 1 s of stopping; the navigation's start delay and 30 s a goal
+    (four for an exploration); 2 s without any."""
+    entry, task = robot.entry, robot.section("task")
+    learned, navigation = robot.section("learned_ik"), robot.section("navigation")
+    if entry.sequencer is not None:
+        return one_pass(entry.sequencer)
+    if task is not None:
+        return task.duration + 0.5
+    if learned is not None:
+        return learned.start_delay + max(1, len(learned.targets)) * learned.period
+    if navigation is not None:  # a bound: give simulation.duration
+        goals = len(navigation.goals) or EXPLORATION_GOALS * navigation.explore
+        return navigation.start_delay + NAVIGATION_TIME_PER_GOAL * goals
+    return 2.0 if entry.twist is None else entry.twist.one_pass() + 1.0
 
 
 def default_duration(scenario: Scenario) -> float:
-    """[s] one pass of the command sequence; the task's motion and 0.5 s of holding
-    without one; the learned IK's targets, a period each, without either; the twist
-    sequence and 1 s of stopping; the navigation's start delay and 30 s a goal (four for
-    an exploration); 2 s without any; the longest of the robots' in a world of several."""
-    if scenario.robots:
-        return max(default_duration(robot_view(scenario, i)) for i in range(len(scenario.robots)))
-    if scenario.sequencer is None:
-        if scenario.task is not None:
-            return scenario.task.duration + 0.5
-        if scenario.learned_ik is not None:
-            learned = scenario.learned_ik
-            return learned.start_delay + max(1, len(learned.targets)) * learned.period
-        if scenario.navigation is not None:  # a bound: give simulation.duration
-            goals = (
-                len(scenario.navigation.goals) or EXPLORATION_GOALS * scenario.navigation.explore
-            )
-            return scenario.navigation.start_delay + NAVIGATION_TIME_PER_GOAL * goals
-        return 2.0 if scenario.twist is None else scenario.twist.one_pass() + 1.0
-    return one_pass(scenario.sequencer)
+    """[s] the longest of the robots' :func:`robot_duration`."""
+    return max(robot_duration(robot) for robot in scenario_robots(scenario).values())
 
 
 def resolve_scenario_path(name: str | os.PathLike) -> Path:
@@ -502,7 +564,7 @@ def _one_or_many(data) -> None:
     """The fields that take one value or a list, as lists: ``controllers.config: a.yaml``
     is ``[a.yaml]``, ``""`` (or null) none (in each of ``robots:`` too)."""
     robots = data.get("robots") if isinstance(data, dict) else None
-    for entry in robots if isinstance(robots, list) else []:
+    for entry in robots.values() if isinstance(robots, dict) else []:
         _one_or_many(entry)
     controllers = data.get("controllers") if isinstance(data, dict) else None
     if isinstance(controllers, dict) and "config" in controllers:
@@ -511,6 +573,64 @@ def _one_or_many(data) -> None:
             controllers["config"] = []
         elif isinstance(value, str):
             controllers["config"] = [value]
+
+
+def _robots_as_map(data) -> bool:
+    """A ``robots:`` list of a ``yaml_load`` mapping (entries with a ``name:`` each) as the
+    map of those entries by name, in place; whether it was a list (which then replaces
+    every robot, as a list does). Raises ValueError naming the entry for a name missing,
+    not a name, or given twice."""
+    robots = data.get("robots") if isinstance(data, dict) else None
+    if not isinstance(robots, list):
+        return False
+    by_name = {}
+    for index, entry in enumerate(robots):
+        if not isinstance(entry, dict):
+            raise ValueError(f"robots.{index}: expected a mapping, got {entry!r}")
+        entry = dict(entry)
+        name = entry.pop("name", "")
+        if not isinstance(name, str) or not _ROBOT_NAME.fullmatch(name):
+            raise ValueError(
+                f"robots.{index}.name={name!r}: give a name (a letter or _, then letters, "
+                "digits, _)"
+            )
+        if name in by_name:
+            raise ValueError(f"robots.{index}.name={name!r} is listed twice")
+        by_name[name] = entry
+    data["robots"] = by_name
+    return True
+
+
+def _in_given_order(scenario: Scenario, data, before: Iterable[str] = ()) -> Scenario:
+    """``scenario`` with its robots in the order ``before`` (the robots it had), then
+    ``data`` (the ``yaml_load`` mapping it was read from) lists them: the loader
+    passes a mapping through a dump that sorts its keys, and a robot's order matters
+    (the first is the sections' default, a mount names a robot listed before)."""
+    robots = data.get("robots") if isinstance(data, dict) else None
+    order = list(dict.fromkeys([*before, *(robots if isinstance(robots, dict) else [])]))
+    listed = {name: scenario.robots[name] for name in order if name in scenario.robots}
+    scenario.robots = {**listed, **scenario.robots}
+    return scenario
+
+
+def dump_scenario(scenario: Scenario) -> str:
+    """``scenario`` as YAML that :func:`load_scenario` reads back to an equal scenario,
+    its robots as a ``robots:`` list (a mapping's dump would sort them by name)."""
+    text = yaml_dump_typed(dc.replace(scenario, robots={}))
+    entries = "".join(
+        f"  - name: {name}\n" + textwrap.indent(yaml_dump_typed(entry), "    ")
+        for name, entry in scenario.robots.items()
+    )
+    return text.replace("robots: {}\n", f"robots:\n{entries}" if entries else "robots: []\n")
+
+
+def _keep_robot_variants(data, current: Scenario) -> None:
+    """:func:`_keep_variants` for each entry of ``robots:`` that ``current`` has too."""
+    robots = data.get("robots")
+    if isinstance(robots, dict):
+        for name, entry in robots.items():
+            if name in current.robots:
+                _keep_variants(entry, current.robots[name])
 
 
 def _merge(scenario: Scenario, text: str) -> Scenario:
@@ -522,10 +642,14 @@ def _merge(scenario: Scenario, text: str) -> Scenario:
         )
     if not isinstance(data, dict):
         raise ScenarioError(f"expected a YAML mapping, got {data!r}")
+    if _robots_as_map(data):  # a list replaces the robots
+        scenario = dc.replace(scenario, robots={})
     _one_or_many(data)
     _check_lists(data, Scenario)
     _keep_variants(data, scenario)
-    return yaml_load_typed(data=yaml_dump(data), defaults=scenario)
+    _keep_robot_variants(data, scenario)
+    merged = yaml_load_typed(data=yaml_dump(data), defaults=scenario)
+    return _in_given_order(merged, data, before=scenario.robots)
 
 
 @dc.dataclass
@@ -537,6 +661,9 @@ class ScenarioSources:
     file: str = "<defaults>"
     # Dotted key ("actuators.kp", "objects") -> its origin ("--set 'actuators: {kp: -1}'").
     keys: dict[str, str] = dc.field(default_factory=dict)
+    # The name the one robot of the top-level keys got in the robots map
+    # (expand_robots); "" before the expansion, or for a scenario with robots:.
+    one_robot: str = ""
 
     def of(self, key: str) -> str:
         """The origin of the dotted ``key``: the override that set it or a key above
@@ -631,10 +758,12 @@ def load_scenario(
             _refuse_duplicate_keys(read_yaml_file(path, what="the scenario"), source)
             data = yaml_load(filename=str(path))
             if isinstance(data, dict) and (
-                isinstance(data.get("controllers"), dict) or isinstance(data.get("robots"), list)
+                isinstance(data.get("controllers"), dict) or "robots" in data
             ):
+                _robots_as_map(data)
                 _one_or_many(data)
                 scenario = yaml_load_typed(data=yaml_dump(data), defaults=scenario)
+                scenario = _in_given_order(scenario, data)
             else:
                 scenario = yaml_load_typed(filename=str(path), defaults=scenario)
             _anchor_file_paths(scenario, path)
@@ -672,7 +801,7 @@ def _anchored(value: str, scenario_file: Path) -> str:
 def _anchor_file_paths(scenario: Scenario, scenario_file: Path) -> None:
     """The relative file paths of a scenario file (its controller YAML files, the learned
     IK network), see :func:`_anchored`."""
-    for controllers in [scenario.controllers] + [r.controllers for r in scenario.robots]:
+    for controllers in [scenario.controllers] + [r.controllers for r in scenario.robots.values()]:
         controllers.config = [_anchored(value, scenario_file) for value in controllers.config]
     if scenario.learned_ik is not None:
         scenario.learned_ik.network = _anchored(scenario.learned_ik.network, scenario_file)
@@ -709,13 +838,15 @@ def _shortened(text: str, limit: int = 200) -> str:
     return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
 
 
-def start_positions(scenario: Scenario) -> list[tuple[list[float], str, str]]:
-    """The joints' start positions the task and the jog give, with their origins."""
+def start_positions(robot: ScenarioRobot) -> list[tuple[list[float], str, str]]:
+    """The joints' start positions the task and the jog acting on ``robot`` give, with
+    their origins."""
     starts = []
-    if scenario.task is not None and scenario.task.start_positions:
+    task, jog = robot.section("task"), robot.section("jog")
+    if task is not None and task.start_positions:
         key = "task.start_positions"
-        starts.append((scenario.task.start_positions, f"{sources_of(scenario).of(key)}: ", key))
-    if scenario.jog is not None and scenario.jog.home_positions:
+        starts.append((task.start_positions, robot.where(key), key))
+    if jog is not None and jog.home_positions:
         key = "jog.home_positions"
-        starts.append((scenario.jog.home_positions, f"{sources_of(scenario).of(key)}: ", key))
+        starts.append((jog.home_positions, robot.where(key), key))
     return starts

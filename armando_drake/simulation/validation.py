@@ -29,7 +29,13 @@ from __future__ import annotations
 import logging
 
 from armando_drake.control.sequencer import Sinusoid
-from armando_drake.simulation.scenario import Scenario, ScenarioError, sources_of
+from armando_drake.simulation.scenario import (
+    Scenario,
+    ScenarioError,
+    ScenarioRobot,
+    expand_robots,
+    sources_of,
+)
 from armando_drake.tools.schema import check_config
 
 _log = logging.getLogger("armando_drake.world")
@@ -40,48 +46,59 @@ class InputError(ScenarioError):
     and the file or option it came from."""
 
 
-def _fail(scenario: Scenario, key: str, problem: str) -> InputError:
-    """The error for ``key``: ``<origin>: <key><problem>``, where ``problem`` begins with
-    ``=<value>`` (as ``kp=-1.0 must be positive``) or ``: ``."""
-    return InputError(f"{sources_of(scenario).of(key)}: {key}{problem}")
+def _fail(robot: ScenarioRobot, key: str, problem: str) -> InputError:
+    """The error for ``robot``'s ``key``: ``<origin>: <key><problem>``, where ``problem``
+    begins with ``=<value>`` (as ``kp=-1.0 must be positive``) or ``: ``."""
+    return InputError(f"{robot.sources.of(key)}: {key}{problem}")
 
 
-def check_scenario(scenario: Scenario, source: str = "") -> None:
+def check_scenario(scenario: Scenario, source: str = "") -> Scenario:
     """Raises :class:`InputError` for the first value of ``scenario`` that its schema
     refuses (not a finite number, out of its range, the wrong length, not one of its
     choices, against a rule of its section). ``source``: the scenario file's name in the
     messages (default: the file :func:`~armando_drake.simulation.scenario.load_scenario`
-    read)."""
+    read). Returns the scenario checked with its robots as a map
+    (:func:`~armando_drake.simulation.scenario.expand_robots`; ``scenario`` is not
+    changed)."""
     if source:  # the caller's name for the file wins
         sources_of(scenario).file = source
     check_config(scenario, origin=sources_of(scenario).of, error=InputError)
+    return expand_robots(scenario)
 
 
 def check_against_world(
-    scenario: Scenario, *, update_rate: int, update_rate_source: str, joints: dict[str, str]
+    scenario: Scenario,
+    robot: ScenarioRobot,
+    *,
+    sequencer,
+    update_rate: int,
+    update_rate_source: str,
+    joints: dict[str, str],
 ) -> None:
-    """The checks that need the robot and the controller YAML.
+    """The checks of one robot of ``scenario`` that need its description and controller
+    YAML.
 
-    ``update_rate`` [Hz]: the controller manager's rate (from ``update_rate_source``,
-    the controller YAML or the scenario); ``joints``: the robot's actuated joints
-    and their command interfaces.
+    ``sequencer``: the one that drives its controllers (its entry's, or the one
+    :func:`~armando_drake.control.stack.choose_controllers` chose); ``update_rate`` [Hz]:
+    the controller manager's rate (from ``update_rate_source``, the controller YAML or
+    the scenario); ``joints``: the robot's actuated joints and their command interfaces.
     """
     step = scenario.plant_config.time_step
     plant_rate = 1.0 / step
     period = 1.0 / update_rate
     where = update_rate_source
-    if scenario.controllers.update_rate:
-        where = sources_of(scenario).of("controllers.update_rate")
+    if robot.entry.controllers.update_rate:
+        where = robot.sources.of("controllers.update_rate")
     if update_rate > plant_rate * (1 + 1e-9):
-        if scenario.controllers.update_rate:  # the scenario's rate is the one too high
+        if robot.entry.controllers.update_rate:  # the scenario's rate is the one too high
             raise InputError(
                 f"{where}: controllers.update_rate={update_rate!r} Hz is above the plant's "
                 f"rate {plant_rate:g} Hz (plant_config.time_step={step!r} s, from "
-                f"{sources_of(scenario).of('plant_config.time_step')}): the controllers would "
+                f"{robot.sources.of('plant_config.time_step')}): the controllers would "
                 "run between plant steps"
             )
         raise _fail(
-            scenario,
+            robot,
             "plant_config.time_step",
             f"={step!r} s is longer than the controller period 1/{update_rate} s (update_rate "
             f"from {where}): the controllers would see one state per several ticks",
@@ -89,7 +106,7 @@ def check_against_world(
     publish = scenario.visualization.publish_period
     if publish < min(step, 1e-3) * (1 - 1e-9):  # Meshcat between plant steps: wasted work
         raise _fail(
-            scenario,
+            robot,
             "visualization.publish_period",
             f"={publish!r} s is shorter than the plant step {step!r} s",
         )
@@ -103,23 +120,11 @@ def check_against_world(
             step,
             ticks,
         )
-    for joint, gains in scenario.actuators.gains.items():
-        if joint not in joints:
-            raise _fail(
-                scenario,
-                f"actuators.gains.{joint}",
-                f": no actuated joint {joint!r} (actuated: {', '.join(joints) or 'none'})",
-            )
-        if joints[joint] == "position" and gains[0] <= 0:
-            raise _fail(
-                scenario,
-                f"actuators.gains.{joint}",
-                f"={gains!r}: kp of position joint {joint!r} must be positive",
-            )
+    _check_gains(robot, joints)
     console = scenario.logging.console_rate
     if console > update_rate:
         raise _fail(
-            scenario,
+            robot,
             "logging.console_rate",
             f"={console!r} Hz is above the controller rate {update_rate} Hz (from {where}), "
             "the rate of the joint states it prints",
@@ -127,15 +132,32 @@ def check_against_world(
     save_rate = scenario.camera.save_rate
     if save_rate > plant_rate:
         raise _fail(
-            scenario,
+            robot,
             "camera.save_rate",
             f"={save_rate!r} Hz is above the plant's rate {plant_rate:g} Hz",
         )
-    _check_sequencer(scenario, update_rate, where)
+    _check_sequencer(robot, sequencer, update_rate, where)
 
 
-def _check_sequencer(scenario: Scenario, update_rate: int, where: str) -> None:
-    config = scenario.sequencer
+def _check_gains(robot: ScenarioRobot, joints: dict[str, str]) -> None:
+    """Each of the robot's per-joint gains names an actuated joint; a position joint's kp
+    is positive."""
+    for joint, gains in robot.entry.actuators.gains.items():
+        if joint not in joints:
+            raise _fail(
+                robot,
+                f"actuators.gains.{joint}",
+                f": no actuated joint {joint!r} (actuated: {', '.join(joints) or 'none'})",
+            )
+        if joints[joint] == "position" and gains[0] <= 0:
+            raise _fail(
+                robot,
+                f"actuators.gains.{joint}",
+                f"={gains!r}: kp of position joint {joint!r} must be positive",
+            )
+
+
+def _check_sequencer(robot: ScenarioRobot, config, update_rate: int, where: str) -> None:
     if config is None:
         return
     period = 1.0 / update_rate
@@ -143,13 +165,13 @@ def _check_sequencer(scenario: Scenario, update_rate: int, where: str) -> None:
         rate = config.rate or update_rate
         if rate > update_rate:
             raise _fail(
-                scenario,
+                robot,
                 "sequencer.rate",
                 f"={rate!r} Hz is above the controller rate {update_rate} Hz (from {where})",
             )
         if config.frequency > rate / 2:
             raise _fail(
-                scenario,
+                robot,
                 "sequencer.frequency",
                 f"={config.frequency!r} Hz is above half the publication rate {rate:g} Hz: "
                 "the samples would not follow the wave",
@@ -157,7 +179,7 @@ def _check_sequencer(scenario: Scenario, update_rate: int, where: str) -> None:
         return
     if config.period < period * (1 - 1e-9):
         raise _fail(
-            scenario,
+            robot,
             "sequencer.period",
             f"={config.period!r} s is shorter than the controller period 1/{update_rate} s "
             f"(from {where}): the controllers would never see most targets",

@@ -7,9 +7,8 @@ from typing import Any
 
 import numpy as np
 from pydrake.geometry import Meshcat, SceneGraph
-from pydrake.systems.framework import Context, Diagram, OutputPort
+from pydrake.systems.framework import Context, Diagram
 
-from armando_drake.control.stack import ControlStack
 from armando_drake.messages.types import Publication
 from armando_drake.outputs.topics import WorldTopics
 
@@ -20,26 +19,30 @@ class World:
 
     diagram: Diagram
     scene_graph: SceneGraph
-    topics: WorldTopics  # the control stack and every publisher
+    # Each robot (simulation.robots.AddedRobot: name, namespace, topics, logger), by name,
+    # in the scenario's order; the one robot of a scenario without robots: is its only
+    # entry. The handles below are the first's (the scene's cameras, detectors and
+    # perception report with it).
+    robots: dict[str, Any]
     meshcat: Meshcat | None = None
-    # The gravity feed-forward torques [N m] on the actuation input (actuator order),
-    # when the scenario has it.
-    gravity_feedforward: OutputPort | None = None
-    logger: Any = None  # the JointStateLogger, with a broadcaster
     image_view: Any = None  # the live camera view's server, when served
     replay_sampler: Any = None  # ReplaySampler of the plant's state, with Meshcat on
     ros2_bridge: Any = None  # the Ros2Bridge, with ros2.enabled or ros2.foxglove
     closers: list = field(default_factory=list)  # called by close()
-    # Each robot's parts (simulation.robots.RobotParts: name, namespace, topics, logger),
-    # the first one's are those above; one for a scenario without robots:.
-    robots: list = field(default_factory=list)
 
+    @property
+    def first(self):
+        """The first robot (its AddedRobot)."""
+        return next(iter(self.robots.values()))
+
+    # The first robot's control stack and every publisher.
+    topics = property(lambda self: self.first.topics)
+    # Its gravity feed-forward torques [N m] on the actuation input (actuator order), when
+    # the scenario has it.
+    gravity_feedforward = property(lambda self: self.first.gravity_feedforward)
+    logger = property(lambda self: self.first.logger)  # its JointStateLogger, if any
     # The control stack's parts, by their old names.
-    stack: ControlStack = field(init=False)
-
-    def __post_init__(self) -> None:
-        self.stack = self.topics.stack
-
+    stack = property(lambda self: self.topics.stack)
     plant = property(lambda self: self.stack.plant)
     robot = property(lambda self: self.stack.robot)
     hardware = property(lambda self: self.stack.hardware)
@@ -90,25 +93,22 @@ class World:
         return x[stack.hardware.position_index]
 
     def robot_topics(self, name: str) -> WorldTopics:
-        """The control stack and publishers of the robot named ``name`` (robots:)."""
-        for part in self.robots:
-            if part.name == name:
-                return part.topics
-        raise KeyError(f"no robot {name!r} (robots: {', '.join(p.name for p in self.robots)})")
+        """The control stack and publishers of the robot named ``name``."""
+        if name not in self.robots:
+            raise KeyError(f"no robot {name!r} (robots: {', '.join(self.robots)})")
+        return self.robots[name].topics
 
     def close(self, context: Context | None = None) -> None:
-        """Ends the run: with the root ``context``, first writes the joint states the
-        logger has recorded since its last flush (and the sequencer's commands since
-        its last batch); then closes every file and server."""
-        parts = self.robots or [None]
-        loggers = [self.logger] if not self.robots else [part.logger for part in parts]
-        sequencers = [self.sequencer] if not self.robots else [p.topics.sequencer for p in parts]
-        for logger in loggers:
-            if context is not None and logger is not None and self.closers:
-                logger.flush(logger.GetMyContextFromRoot(context))
-        for sequencer in sequencers:
-            if context is not None and sequencer is not None and self.closers:
-                sequencer.flush(context)
+        """Ends the run: with the root ``context``, first writes the joint states each
+        robot's logger has recorded since its last flush (and its sequencer's commands
+        since its last batch); then closes every file and server."""
+        if context is not None and self.closers:
+            for robot in self.robots.values():
+                if robot.logger is not None:
+                    robot.logger.flush(robot.logger.GetMyContextFromRoot(context))
+            for robot in self.robots.values():
+                if robot.topics.sequencer is not None:
+                    robot.topics.sequencer.flush(context)
         for closer in self.closers:
             closer()
         self.closers.clear()

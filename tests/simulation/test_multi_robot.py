@@ -51,10 +51,10 @@ def test_each_armando_follows_its_own_targets(dual):
     _, summary, _, scenario = dual
     robots = summary["robots"]
     assert list(robots) == ["left", "right"]
-    for entry in scenario.robots:
-        section = robots[entry.name]
-        assert section["namespace"] == f"/{entry.name}"
-        assert section["model_instance"] == f"{entry.name}::armando"
+    for name, entry in scenario.robots.items():
+        section = robots[name]
+        assert section["namespace"] == f"/{name}"
+        assert section["model_instance"] == f"{name}::armando"
         assert [step["target"] for step in section["steps"]] == entry.sequencer.targets
         assert section["max_final_error"] <= TOLERANCE, section["max_final_error"]
         for step in section["steps"]:
@@ -68,8 +68,8 @@ def test_each_armando_logs_its_own_joint_states_to_the_end(dual):
     controller tick from 0 to the end, each ending at its own last target."""
     out, summary, _, scenario = dual
     assert not (out / "joint_states.csv").exists()
-    for entry in scenario.robots:
-        states = read_joint_states(out / entry.name / "joint_states.csv")
+    for name, entry in scenario.robots.items():
+        states = read_joint_states(out / name / "joint_states.csv")
         assert states.joint_names == ["j0", "j1", "j2", "j3"]
         assert states.times[0] == 0.0 and abs(states.times[-1] - summary["sim_time"]) < 1e-9
         assert np.all(np.diff(states.times) > 0)
@@ -77,21 +77,22 @@ def test_each_armando_logs_its_own_joint_states_to_the_end(dual):
         assert abs(rate - 100.0) < 1.0, rate  # Armando's controllers' update rate
         last = np.array(entry.sequencer.targets[-1])
         assert np.abs(states.position[-1] - last).max() <= TOLERANCE
-        assert (out / entry.name / "commands.csv").is_file()
+        assert (out / name / "commands.csv").is_file()
 
 
 def test_the_effective_scenario_of_two_robots_loads_back(dual):
     """scenario.yaml keeps the robots: list (each with the gains that ran) and loads."""
     out, _, _, _ = dual
     again = load_scenario(out / "scenario.yaml")
-    assert [entry.name for entry in again.robots] == ["left", "right"]
-    assert again.robots[0].actuators.kp == 8.0  # Armando's servos
+    assert list(again.robots) == ["left", "right"]
+    assert again.robots["left"].actuators.kp == 8.0  # Armando's servos
 
 
 def test_two_robots_have_their_own_ports_and_model_instances():
     """Two robots of one URDF: two model instances; every port under its namespace."""
     world = MakeWorld(load_scenario("dual_armando", QUIET), quiet=True)
-    names = [world.plant.GetModelInstanceName(p.robot.model_instance) for p in world.robots]
+    plant = world.plant
+    names = [plant.GetModelInstanceName(p.robot.model_instance) for p in world.robots.values()]
     assert names == ["left::armando", "right::armando"]
     outputs = {
         world.diagram.get_output_port(i).get_name() for i in range(world.diagram.num_output_ports())
@@ -160,18 +161,18 @@ def test_the_mounted_arm_rides_with_fra2mo(mounted):
         ("robots: [{name: a}, {name: a}]", "robots.1.name='a' is listed twice"),
         (
             "robots: [{name: a, namespace: /b}, {name: b}]",
-            "robots.1.namespace='/b' is another robot's too",
+            "robots.b.namespace='/b' is another robot's too",
         ),
         (
             "robots: [{name: a, parent: 'zz::base_link'}]",
-            "robots.0.parent='zz::base_link': no robot 'zz' is listed before 'a'",
+            "robots.a.parent='zz::base_link': no robot 'zz' is listed before 'a'",
         ),
         (
             "robots: [{name: a}, {name: b, parent: 'a::nolink'}]",
-            "robots.1.parent='a::nolink': robot 'a' has no link 'nolink' (links: base_link,",
+            "robots.b.parent='a::nolink': robot 'a' has no link 'nolink' (links: base_link,",
         ),
         ("robots: [{name: '1a'}]", "robots.0.name='1a': give a name"),
-        ("robots: [{name: a, actuators: {kp: -1}}]", "robots.0.actuators.kp=-1.0 must be positive"),
+        ("robots: [{name: a, actuators: {kp: -1}}]", "robots.a.actuators.kp=-1.0 must be positive"),
         (
             "robots: [{name: a, controllers: {activate: [joint_state_broadcaster, "
             "position_controller]}, sequencer: !PositionTargets {targets: [[1, 2]]}}]",
@@ -221,9 +222,9 @@ def test_the_meeting_targets_are_the_ik_of_the_shared_point():
     """The joint targets written in dual_armando_meet.yaml are the project's IK of the
     shared point for each arm, within 1e-4 rad."""
     scenario = load_scenario("dual_armando_meet")
-    for entry in scenario.robots:
+    for name, entry in scenario.robots.items():
         expected = _meeting_targets(entry.robot)
-        assert np.abs(np.array(entry.sequencer.targets) - expected).max() < 1e-4, entry.name
+        assert np.abs(np.array(entry.sequencer.targets) - expected).max() < 1e-4, name
 
 
 @pytest.fixture(scope="module")
@@ -236,7 +237,7 @@ def meeting():
     context = simulator.get_context()
     plant_context = plant.GetMyContextFromRoot(context)
     graph_context = scene_graph.GetMyContextFromRoot(context)
-    instances = {part.name: part.robot.model_instance for part in world.robots}
+    instances = {name: robot.robot.model_instance for name, robot in world.robots.items()}
     tools = {name: plant.GetFrameByName("crawer_base", i) for name, i in instances.items()}
     geometries = {
         name: {

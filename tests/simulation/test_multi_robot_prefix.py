@@ -47,8 +47,8 @@ def prefixed(tmp_path_factory):
 
 def test_prefixed_armandos_reach_their_targets_with_the_unprefixed_yaml(prefixed):
     summary, _, scenario = prefixed
-    for entry in scenario.robots:
-        section = summary["robots"][entry.name]
+    for name, entry in scenario.robots.items():
+        section = summary["robots"][name]
         assert section["joint_names"] == [f"{entry.prefix}j{i}" for i in range(4)]
         assert [step["target"] for step in section["steps"]] == entry.sequencer.targets
         assert section["max_final_error"] <= TOLERANCE, section["max_final_error"]

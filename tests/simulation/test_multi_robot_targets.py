@@ -51,7 +51,7 @@ def _two_armandos(tmp_path, extra: str):
 def _tool(world, context, name: str) -> np.ndarray:
     """The position [m] of robot ``name``'s crawer_base in the world."""
     plant = world.topics.plant
-    part = next(p for p in world.robots if p.name == name)
+    part = world.robots[name]
     frame = plant.GetFrameByName("crawer_base", part.robot.model_instance)
     plant_context = plant.GetMyContextFromRoot(context)
     return frame.CalcPoseInWorld(plant_context).translation()
@@ -89,7 +89,8 @@ def test_a_task_on_the_second_robot_moves_it_along_its_path(task_on_right):
     assert np.allclose(before["right"][1], START, atol=1e-9)
     moved = after["right"][0] - before["right"][0]
     assert np.linalg.norm(moved - OFFSET) < 1e-3, moved
-    assert world.robots[1].topics.task is not None and world.robots[0].topics.task is None
+    robots = world.robots
+    assert robots["right"].topics.task is not None and robots["left"].topics.task is None
 
 
 def test_a_task_on_the_second_robot_leaves_the_first_alone(task_on_right):
@@ -208,7 +209,7 @@ def test_a_camera_on_the_second_robots_link_renders_from_there(tmp_path):
     ahead = depth["on_left"][12, 16]  # the ground only in its lower rows
     assert not np.isfinite(ahead) or ahead >= 5.0, ahead
     plant = world.topics.plant
-    for name, part in (("on_right", world.robots[1]), ("on_left", world.robots[0])):
+    for name, part in (("on_right", world.robots["right"]), ("on_left", world.robots["left"])):
         body = plant.GetBodyByName("base_link", part.robot.model_instance)
         sensor = world.topics.cameras[name].sensor
         assert sensor.default_parent_frame_id() == plant.GetBodyFrameIdOrThrow(body.index())
@@ -229,7 +230,7 @@ def test_each_robots_description_camera_is_added(tmp_path):
     first's camera keeps its name, the second's is right_<camera> on /right/<topic>, each
     on its own robot's link."""
     scenario = _two_armandos(tmp_path, "camera: {enabled: true, depth: false}\n")
-    for entry in scenario.robots:
+    for entry in scenario.robots.values():
         entry.robot.xacro_args["use_camera"] = "true"
     world = MakeWorld(scenario, quiet=True)
     cameras = world.topics.cameras
@@ -238,7 +239,7 @@ def test_each_robots_description_camera_is_added(tmp_path):
     assert second.info.name == f"right_{first.info.name}"
     assert second.info.topic == f"/right/{(first.info.topic or first.info.name).strip('/')}"
     plant = world.topics.plant
-    for camera, part in ((first, world.robots[0]), (second, world.robots[1])):
+    for camera, part in ((first, world.robots["left"]), (second, world.robots["right"])):
         body = plant.GetBodyByName(camera.info.link, part.robot.model_instance)
         assert camera.sensor.default_parent_frame_id() == plant.GetBodyFrameIdOrThrow(body.index())
     world.close(world.diagram.CreateDefaultContext())
@@ -268,5 +269,5 @@ def test_the_learned_ik_on_the_second_robot_reaches_its_world_target(tmp_path):
     error = np.linalg.norm(_tool(world, context, "right") - RIGHT_TARGET[:3])
     assert error < 1e-3, error
     assert np.abs(world.joint_positions(context, "left")).max() < 1e-3
-    assert world.robots[1].topics.learned_ik is not None
+    assert world.robots["right"].topics.learned_ik is not None
     world.close(context)
