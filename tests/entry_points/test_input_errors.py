@@ -290,7 +290,11 @@ CONTROLLER_CASES = [
         "broadcaster-interface-not-simulated",
         controllers_yaml().rstrip(" ")
         + "        jsb:\n          ros__parameters:\n            interfaces: [torque]\n",
-        ["jsb.ros__parameters.interfaces", "'torque' is not a state interface"],
+        [
+            "jsb.ros__parameters.interfaces",
+            "interfaces.0='torque' is not one of 'position', 'velocity', 'effort': the state "
+            "interfaces of the simulated joints",
+        ],
     ),
     # A key given twice is merged as ROS merges it (tests/control/test_param_files.py).
 ]
