@@ -35,7 +35,7 @@ if str(REPO) not in sys.path:
 from armando_drake.control import params_doc  # noqa: E402
 from armando_drake.navigation import reference as navigation_reference  # noqa: E402
 from armando_drake.simulation.scenario import Scenario  # noqa: E402
-from armando_drake.tools.schema import field_rules, range_text  # noqa: E402
+from armando_drake.tools.schema import field_rules, rule_text  # noqa: E402
 
 # (module, arguments before --help, title) of every command, in the order of the page.
 COMMANDS = [
@@ -116,37 +116,6 @@ def _default(value) -> str:
     if isinstance(value, list) and value and dataclasses.is_dataclass(value[0]):
         return f"{len(value)} entries"
     return str(value)
-
-
-def _accepts(rule) -> str:
-    """What a field's Rule accepts, in words: unit, range, choices, length."""
-    if rule is None:
-        return ""
-    parts = []
-    if rule.unit and rule.unit != "-":
-        parts.append(f"[{rule.unit}]")
-    span = range_text(rule)
-    if span:
-        parts.append(span)
-    if rule.choices is not None:
-        try:
-            choices = rule.choice_list()
-        except Exception:  # a list known only at run time (e.g. the robot's joints)
-            choices = ()
-        parts.append(
-            "one of " + ", ".join(f"`{c!s}`" if c != "" else '`""`' for c in choices)
-            if choices
-            else "a name known"
-        )
-    if rule.length is not None:
-        parts.append(f"{rule.length} numbers")
-    if rule.coordinate:
-        parts.append("within 10 km of the origin")
-    if rule.over is not None:
-        parts.append(f"at most {rule.over[0]:g}")
-    if rule.under is not None:
-        parts.append(f"at least {rule.under[0]:g}")
-    return ", ".join(parts)
 
 
 def _meaning(schema, name: str) -> str:
@@ -231,7 +200,7 @@ def key_rows(schema, default, prefix: str) -> list[tuple[str, str, str, str, str
             rows += key_rows(inner, current, f"{key}{suffix}.")
             continue
         rule = rules.get(name)
-        rows.append((key, _type_name(annotation), _default(value), _accepts(rule), meaning))
+        rows.append((key, _type_name(annotation), _default(value), rule_text(rule), meaning))
     return rows
 
 
@@ -270,7 +239,7 @@ def _section_rows(name: str, annotation, value) -> list[tuple[str, str, str, str
     """The rows of one top-level scenario key."""
     rule = field_rules(Scenario).get(name)
     inner, suffix, variants = _nested(annotation)
-    row = (name + suffix, _type_name(annotation), _default(value), _accepts(rule), "")
+    row = (name + suffix, _type_name(annotation), _default(value), rule_text(rule), "")
     if variants:
         rows = [row]
         for variant in variants:

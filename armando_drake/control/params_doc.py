@@ -1,9 +1,11 @@
-"""The controller parameters, as the docs list them, generated from the dataclasses.
+"""The controller parameters, as the docs list them, generated from their declarations.
 
 Each registered ROS 2 controller type's parameters dataclass becomes one markdown
 table: the ROS parameter name (``constraints.goal_time`` where the dataclass
-keeps a flat field), its type, its default and the field's comment (unit and
-meaning); then the upstream parameters the type declares and the simulation ignores
+keeps a flat field), its type, its default, what it accepts (the rule declared with
+:func:`~armando_drake.tools.schema.param`: unit, range, choices, required, ...: the
+rule the YAML loader checks) and the field's comment (its meaning); then the
+upstream parameters the type declares and the simulation ignores
 (each ignored with a warning: it would not change the motion), and those it refuses,
 with the reason. A parameter upstream (Jazzy) does not declare is in no table: it is
 ignored with a warning, as ROS ignores it. The docs' reference page "Controller
@@ -27,6 +29,7 @@ import typing
 from pathlib import Path
 
 from armando_drake.control.controllers import lookup, registered_types
+from armando_drake.tools.schema import field_rules, rule_text
 
 BEGIN = "<!-- controller-parameters:begin (python -m armando_drake.control.params_doc) -->"
 END = "<!-- controller-parameters:end -->"
@@ -79,10 +82,13 @@ def _default(value) -> str:
     return str(value)
 
 
-def parameter_rows(schema: type, prefix: str = "") -> list[tuple[str, str, str, str]]:
-    """(ROS name, type, default, meaning) of every parameter of ``schema``."""
+def parameter_rows(schema: type, prefix: str = "") -> list[tuple[str, str, str, str, str]]:
+    """(ROS name, type, default, what it accepts, meaning) of every parameter of
+    ``schema``: what it accepts is its declaration's rule (unit, range, choices, ...:
+    :func:`~armando_drake.tools.schema.param`), the meaning the comment above it."""
     ros_names = getattr(schema, "ROS_NAMES", {})
     comments = field_comments(schema)
+    rules = field_rules(schema)
     defaults = schema()
     hints = typing.get_type_hints(schema)
     rows = []
@@ -102,7 +108,8 @@ def parameter_rows(schema: type, prefix: str = "") -> list[tuple[str, str, str, 
         default = getattr(defaults, field.name)
         if "<joint>" in name and isinstance(default, dict):
             default = 0.0  # a joint left out
-        rows.append((name, _type_name(annotation), _default(default), meaning))
+        rule = rules.get(field.name)
+        rows.append((name, _type_name(annotation), _default(default), rule_text(rule), meaning))
     return rows
 
 
@@ -124,12 +131,12 @@ def render() -> str:
     for schema, type_names in groups.items():
         lines.append(", ".join(f"`{name}`" for name in type_names) + ":")
         lines.append("")
-        lines.append("| parameter | type | default | meaning |")
-        lines.append("|---|---|---|---|")
-        for name, type_, default, meaning in parameter_rows(schema):
+        lines.append("| parameter | type | default | accepts | meaning |")
+        lines.append("|---|---|---|---|---|")
+        for name, type_, default, accepts, meaning in parameter_rows(schema):
             lines.append(
                 f"| `{_escape(name)}` | `{_escape(type_)}` | `{_escape(default)}` | "
-                f"{_escape(meaning)} |"
+                f"{_escape(accepts)} | {_escape(meaning)} |"
             )
         if ignored[schema]:
             lines.append("")

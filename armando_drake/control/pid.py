@@ -24,6 +24,8 @@ import math
 
 import numpy as np
 
+from armando_drake.tools.schema import Refusal
+
 ANTIWINDUP_STRATEGIES = ("back_calculation", "conditional_integration", "legacy", "none")
 
 # control_toolbox's default error_deadband: std::numeric_limits<double>::epsilon().
@@ -96,20 +98,15 @@ class PidGains:
         )
 
 
-def check_gains(gains, key: str, error: type) -> None:
-    """Raises ``error(key, problem)`` (a controller's ParameterError) for the gains of one
-    joint (a parameters dataclass with ``antiwindup_strategy`` and ``pid_gains()``) that
-    control_toolbox refuses."""
-    if gains.antiwindup_strategy not in ANTIWINDUP_STRATEGIES:
-        raise error(
-            f"{key}.antiwindup_strategy",
-            f"antiwindup_strategy={gains.antiwindup_strategy!r} must be one of "
-            f"{list(ANTIWINDUP_STRATEGIES)}",
-        )
+def check_gains(gains) -> None:
+    """Raises :class:`~armando_drake.tools.schema.Refusal` for the gains of one joint (a
+    parameters dataclass with ``pid_gains()``, its fields' own rules already checked)
+    that control_toolbox refuses (``i_clamp_max`` below 0, ...): a rule between fields,
+    called from the dataclass's ``check(self)``."""
     try:
         gains.pid_gains().validate()
     except ValueError as problem:
-        raise error(key, str(problem)) from None
+        raise Refusal("", f": {problem}") from None
 
 
 def _is_zero(value, tolerance=DOUBLE_EPSILON):

@@ -31,6 +31,7 @@ from armando_drake.simulation.scenario import (
     resolve_scenario_path,
     sources_of,
 )
+from armando_drake.simulation.validation import check_scenario
 from armando_drake.tools.cli import (
     UserError,
     add_host_argument,
@@ -137,7 +138,8 @@ def _add_camera_options(parser) -> None:
         "--save-rate",
         type=float,
         metavar="HZ",
-        help="rate at which --save-frames writes frames [Hz] (default: the camera's rate)",
+        help="rate at which --save-frames writes frames [Hz]; 0 = the camera's rate "
+        "(default: as the scenario says, 0)",
     )
     parser.add_argument(
         "--renderer",
@@ -265,10 +267,12 @@ def run_command(argv: list[str] | None, doc: str) -> int:
 
 
 def scenario_from_arguments(scenario, args):
-    """``scenario`` with the command line's options applied, each noted as the origin
-    of the keys it sets: ``--controller`` first, so that ``--set`` edits the sequencer
-    it chose, then ``--set``, ``--description``, ``--package-path``; ``--controller
-    none`` last (nothing drives the arm, whatever ``--set`` said of the sequencer)."""
+    """``scenario`` with the command line's options applied and checked (the scenario's
+    schema, :func:`~armando_drake.simulation.validation.check_scenario`), each option
+    noted as the origin of the keys it sets: ``--controller`` first, so that ``--set``
+    edits the sequencer it chose, then ``--set``, ``--description``, ``--package-path``;
+    ``--controller none`` last (nothing drives the arm, whatever ``--set`` said of the
+    sequencer)."""
     if args.controller not in (None, "none"):
         _apply_controller(scenario, args.controller)
         note_option(scenario, ("sequencer", "controllers.activate"), "--controller")
@@ -285,23 +289,22 @@ def scenario_from_arguments(scenario, args):
         note_option(scenario, ("controllers.config",), "--param-file")
     _apply_run_options(scenario, args)
     _apply_camera_options(scenario, args)
+    # The options' values checked by the scenario's schema, as a file's or a --set's
+    # (before Meshcat starts): the error names the option that set the key.
+    check_scenario(scenario)
     return scenario
 
 
 def _apply_run_options(scenario, args) -> None:
     """--duration, --realtime-rate, --ros2, --foxglove."""
     if args.duration is not None:
-        if not (math.isfinite(args.duration) and args.duration >= 0):
-            raise UserError(f"--duration {args.duration} must be a finite number >= 0 [s]")
-        scenario.simulation.duration = args.duration
-        if args.duration == 0:
-            scenario.simulation.duration = 1e-9
-        note_option(scenario, ("simulation.duration",), "--duration")
+        # 0 s is one pass of the sequence in the scenario; on the command line, no time.
+        scenario.simulation.duration = args.duration if args.duration != 0 else 1e-9
+        note_option(scenario, ("simulation.duration",), f"--duration {args.duration}")
     if args.realtime_rate is not None:
-        if not (math.isfinite(args.realtime_rate) and args.realtime_rate >= 0):
-            raise UserError(f"--realtime-rate {args.realtime_rate} must be a finite number >= 0")
         scenario.simulator_config.target_realtime_rate = args.realtime_rate
-        note_option(scenario, ("simulator_config.target_realtime_rate",), "--realtime-rate")
+        option = f"--realtime-rate {args.realtime_rate}"
+        note_option(scenario, ("simulator_config.target_realtime_rate",), option)
     if args.ros2 or args.foxglove is not None:
         scenario.ros2.enabled = scenario.ros2.enabled or args.ros2
         if args.foxglove is not None:
@@ -321,10 +324,8 @@ def _apply_camera_options(scenario, args) -> None:
         scenario.camera.enabled = True
         scenario.camera.save_frames = args.save_frames
     if args.save_rate is not None:
-        if not (math.isfinite(args.save_rate) and args.save_rate > 0):
-            raise UserError(f"--save-rate {args.save_rate} must be positive [Hz]")
         scenario.camera.save_rate = args.save_rate
-        note_option(scenario, ("camera.save_rate",), "--save-rate")
+        note_option(scenario, ("camera.save_rate",), f"--save-rate {args.save_rate}")
     if args.renderer is not None:
         scenario.camera.renderer = args.renderer
 

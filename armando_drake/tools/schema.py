@@ -18,18 +18,29 @@ it). Drake's own config structs (``MultibodyPlantConfig``, ``SimulatorConfig``,
 
 :func:`check_config` walks a value (dataclasses, Drake structs, lists, dicts) and raises
 one-line errors ``<origin>: <key>=<value> <problem>``, the origin being where the key's
-value came from (the scenario file, the ``--set`` that set it; ``origin(key)``). Every
-number must be finite; then each field's rule:
+value came from (the scenario file, the ``--set`` that set it; ``origin(key)``). The
+same declarations serve the scenario's sections, the ros2_control controllers'
+parameters (read from their ``ros__parameters``; the YAML loader names the file and
+the node key) and the robot description's sensor blocks. Every number must be finite
+(unless ``infinite``); then each field's rule:
 
 - ``gt``/``ge``/``lt``/``le``: the range (``must be positive``, ``must be zero or
   positive``, ``must be a whole number >= 1``, ``must be in [0, 1)``), followed by the
   unit; on a list field, the range of each item;
-- ``choices``: the value is one of them (``is not one of 'a', 'b'``); a callable gives
-  them when checked (Drake's integration schemes);
+- ``choices``: the value is one of them (``is not one of 'a', 'b'``), followed by
+  ``why`` when given; a callable gives them when checked (Drake's integration
+  schemes); on a list field, each item is one of them;
 - ``length``: the list has that many items (``must be 3 numbers``); ``item_names``
   names the items in messages (``Box x=-1.0``) instead of their index (``xyz.0``);
 - ``coordinate``: each item is a coordinate [m] at most :data:`MAX_COORDINATE` from
   the origin;
+- ``nonempty``: the list (or text) is not empty; ``unique``: no item of the list is
+  listed twice (a list of joint names);
+- ``infinite``: the number may be ``.inf`` or ``-.inf`` (a limit that is "none");
+  ``nan``: it may be ``.nan`` (ros2_controllers' "no limit");
+- ``required``: the key must be given (``True``, or the text of the error); checked
+  when the caller passes what the file gave (``given``: a ROS parameter file's
+  ``'joints' parameter is missing``);
 - ``over``/``under``: a limit beyond which the value is valid but surely a mistake,
   with the reason (``time_step=1e-09 s is below 1e-05 s: a simulated second would
   take hours``).
@@ -39,6 +50,9 @@ are code, in one place per section: the dataclass's ``check(self)`` method, whic
 checker calls once the section's own fields have passed. It raises :class:`Refusal`
 with the dotted key (relative to the section) of the field at fault and the problem,
 which begins with ``=<value>`` or ``: ``; the checker adds the origin and the label.
+
+A dict field (a per-joint map, as ros2_controllers' ``gains.<joint>``) holds one value
+per key: its rule applies to each value, as a list field's to each item.
 
 Labels: a field is named by its dotted key (``actuators.kp``, ``cameras.0.near``). A
 dataclass that is named otherwise in messages gives a ``message_prefix(self, parent,
@@ -50,7 +64,8 @@ and its own name (a list item's name is its index): a perception step is
 import copy
 import dataclasses as dc
 import math
-from collections.abc import Callable, Iterator, Sequence
+import typing
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any
 
 from pydrake.multibody.plant import MultibodyPlantConfig
@@ -95,6 +110,12 @@ class Rule:
     over: tuple[float, str] | None = None  # (limit, why a larger value is refused)
     under: tuple[float, str] | None = None  # (limit, why a smaller value is refused)
     item_names: tuple[str, ...] | None = None
+    nonempty: bool = False
+    unique: bool = False
+    infinite: bool = False
+    nan: bool = False  # NaN accepted: "none" (ros2_controllers' limits)
+    required: bool | str = False  # True, or the text of the error when missing
+    why: str = ""  # why a value outside the choices is refused (appended to the message)
     doc: str = ""
 
     def choice_list(self) -> tuple:
@@ -103,8 +124,11 @@ class Rule:
         return tuple(choices or ())
 
     def item_rule(self) -> "Rule":
-        """The rule of each item of a list field: its range, choices and coordinate rule."""
-        return dc.replace(self, length=None, item_names=None)
+        """The rule of each item of a list field (each value of a dict field): its range,
+        choices and coordinate rule."""
+        return dc.replace(
+            self, length=None, item_names=None, nonempty=False, unique=False, required=False
+        )
 
 
 def param(
@@ -122,6 +146,12 @@ def param(
     over: tuple[float, str] | None = None,
     under: tuple[float, str] | None = None,
     item_names: Sequence[str] | None = None,
+    nonempty: bool = False,
+    unique: bool = False,
+    infinite: bool = False,
+    nan: bool = False,
+    required: bool | str = False,
+    why: str = "",
     doc: str = "",
 ) -> Any:
     """A dataclass field whose metadata holds its :class:`Rule`. A list or dict
@@ -140,6 +170,12 @@ def param(
         over=over,
         under=under,
         item_names=tuple(item_names) if item_names is not None else None,
+        nonempty=nonempty,
+        unique=unique,
+        infinite=infinite,
+        nan=nan,
+        required=required,
+        why=why,
         doc=doc,
     )
     return dc.field(default=default, default_factory=default_factory, metadata={SCHEMA: rule})
@@ -261,7 +297,9 @@ def problem_of(rule: Rule | None, value: Any) -> str:
     """What is wrong with ``value`` under ``rule`` (its own rule: a list's length, a
     number's range; not its items'), as ``=<value> <problem>``; "" if nothing."""
     if is_number(value):
-        if not math.isfinite(value):
+        if math.isnan(value) and rule is not None and rule.nan:
+            return ""
+        if math.isnan(value) or (math.isinf(value) and not (rule is not None and rule.infinite)):
             return f"={value!r} is not a finite number"
         if rule is None:
             return ""
@@ -280,11 +318,74 @@ def problem_of(rule: Rule | None, value: Any) -> str:
     if rule.choices is not None and isinstance(value, (str, int, float)):
         choices = rule.choice_list()
         if value not in choices:
-            return f"={value!r} is not one of {', '.join(repr(c) for c in choices)}"
-    if rule.length is not None and isinstance(value, (list, tuple)):
-        if len(value) != rule.length:
+            why = f": {rule.why}" if rule.why else ""
+            return f"={value!r} is not one of {', '.join(repr(c) for c in choices)}{why}"
+    if rule.nonempty and isinstance(value, (list, tuple, dict, str)) and not value:
+        return f"={value!r} must not be empty"
+    if isinstance(value, (list, tuple)):
+        if rule.length is not None and len(value) != rule.length:
             return f"={list(value)!r} must be {rule.length} numbers"
+        if rule.unique:
+            repeated = [item for index, item in enumerate(value) if item in value[:index]]
+            if repeated:
+                return f"={list(value)!r} lists {repeated[0]!r} more than once"
     return ""
+
+
+def missing_text(schema: type, name: str, rule: Rule) -> str:
+    """The problem of the ``required`` field ``name`` of ``schema`` left out: the rule's
+    own text, else ``'<name>' parameter is missing`` with its choices when it has some."""
+    if isinstance(rule.required, str):
+        return rule.required
+    choices = rule.choice_list() if rule.choices is not None else ()
+    if not choices:
+        return f"'{name}' parameter is missing"
+    hint = typing.get_type_hints(schema).get(name)
+    several = "one or more of" if typing.get_origin(hint) is list else "one of"
+    return f"'{name}' parameter is missing; give {several} {', '.join(map(repr, choices))}"
+
+
+def rule_text(rule: Rule | None) -> str:
+    """What a field's Rule accepts, in words (the reference pages' column): unit, range,
+    choices, length, the other rules."""
+    if rule is None:
+        return ""
+    parts = []
+    if rule.unit and rule.unit != "-":
+        parts.append(f"[{rule.unit}]")
+    span = range_text(rule)
+    if span:
+        parts.append(span)
+    if rule.infinite:
+        parts.append("`.inf` = none")
+    if rule.nan:
+        parts.append("`.nan` = none")
+    if rule.choices is not None:
+        try:
+            choices = rule.choice_list()
+        except Exception:  # a list known only at run time (e.g. the robot's joints)
+            choices = ()
+        parts.append(
+            "one of " + ", ".join(f"`{c!s}`" if c != "" else '`""`' for c in choices)
+            if choices
+            else "a name known"
+        )
+    if rule.length is not None:
+        parts.append(f"{rule.length} numbers")
+    if rule.coordinate:
+        parts.append(f"within {MAX_COORDINATE / 1000:g} km of the origin")
+    if rule.over is not None:
+        parts.append(f"at most {rule.over[0]:g}")
+    if rule.under is not None:
+        parts.append(f"at least {rule.under[0]:g}")
+    for flag, text in (
+        (rule.required, "required"),
+        (rule.nonempty, "not empty"),
+        (rule.unique, "no item twice"),
+    ):
+        if flag:
+            parts.append(text)
+    return ", ".join(parts)
 
 
 def _split(key: str) -> tuple[str, str]:
@@ -309,30 +410,54 @@ def check_config(
     key: str = "",
     origin: Callable[[str], str] | None = None,
     error: type[Exception] = ConfigError,
+    given: Mapping[str, Any] | None = None,
 ) -> None:
     """Raises ``error`` for the first value inside ``value`` that its rules refuse (see
     the module's docstring): ``<origin(key)>: <label><problem>``, one line.
 
     ``key``: the dotted key of ``value`` itself ("" for a root section); ``origin``: where
-    a dotted key's value came from ("" or None: the message starts with the label)."""
+    a dotted key's value came from ("" or None: the message starts with the label);
+    ``given``: what the file gave, nested as ``value`` (a ``required`` field it leaves
+    out is refused, ``<label>: '<name>' parameter is missing``; None: not checked)."""
     parent, name = _split(key)
-    _visit(value, key, parent, name, None, origin or (lambda _key: ""), error)
+    _visit(value, key, parent, name, None, _Context(origin or (lambda _key: ""), error), given)
+
+
+@dc.dataclass(frozen=True)
+class _Context:
+    origin: Callable[[str], str]
+    error: type[Exception]
+
+
+def _given(given: Any, name: str) -> Mapping[str, Any] | None:
+    """What ``given`` gave under ``name`` when it is a mapping, else None."""
+    if isinstance(given, Mapping):
+        inner = given.get(name)
+        return inner if isinstance(inner, Mapping) else None
+    return None
 
 
 def _join(key: str, name: str) -> str:
     return f"{key}.{name}" if key else name
 
 
-def _visit(value, key, parent, name, rule, origin, error) -> None:
-    """Checks ``value`` (at dotted ``key``, labelled ``parent + name``) and what it holds."""
+def _visit(value, key, parent, name, rule, context, given) -> None:
+    """Checks ``value`` (at dotted ``key``, labelled ``parent + name``) and what it holds;
+    ``given``: what the file gave for it (a mapping, or None)."""
+    origin, error = context.origin, context.error
     problem = problem_of(rule, value)
     if problem:
         raise _error(error, origin, key, f"{parent}{name}{problem}")
     if dc.is_dataclass(value) and not isinstance(value, type) or is_drake_struct(value):
         prefix = message_prefix(value, parent, name)
         for field, field_rule in field_rules(type(value)).items():
+            at = _join(key, field)
+            if given is not None and field_rule is not None and field_rule.required:
+                if field not in given:
+                    text = missing_text(type(value), field, field_rule)
+                    raise _error(error, origin, at, f"{prefix}{field}: {text}")
             item = getattr(value, field)
-            _visit(item, _join(key, field), prefix, field, field_rule, origin, error)
+            _visit(item, at, prefix, field, field_rule, context, _given(given, field))
         check = getattr(value, "check", None)
         if dc.is_dataclass(value) and callable(check):
             try:
@@ -343,8 +468,10 @@ def _visit(value, key, parent, name, rule, origin, error) -> None:
                 raise _error(error, origin, at, f"{label}{refusal.problem}") from None
     elif isinstance(value, dict):
         inner = f"{parent}{name}." if name else parent
+        item_rule = rule.item_rule() if rule is not None else None
         for item_name, item in value.items():
-            _visit(item, _join(key, str(item_name)), inner, str(item_name), None, origin, error)
+            _visit(item, _join(key, str(item_name)), inner, str(item_name), item_rule, context,
+                   _given(given, item_name))  # fmt: skip
     elif isinstance(value, (list, tuple)):
         item_rule = rule.item_rule() if rule is not None else None
         names = rule.item_names if rule is not None else None
@@ -353,10 +480,15 @@ def _visit(value, key, parent, name, rule, origin, error) -> None:
                 item_parent, item_name = parent, names[index]
             else:
                 item_parent, item_name = (f"{parent}{name}." if name else parent), str(index)
-            _visit(item, _join(key, str(index)), item_parent, item_name, item_rule, origin,
-                   error)  # fmt: skip
+            _visit(item, _join(key, str(index)), item_parent, item_name, item_rule, context,
+                   None)  # fmt: skip
 
 
 def _error(error: type[Exception], origin: Callable[[str], str], key: str, text: str):
+    """``error`` with its one-line message; it carries ``key`` (the dotted key at fault)
+    and ``text`` (the message without the origin) for a caller that names the place
+    otherwise (a controller YAML's node key)."""
     where = origin(key)
-    return error(f"{where}: {text}" if where else text)
+    raised = error(f"{where}: {text}" if where else text)
+    raised.key, raised.text = key, text
+    return raised

@@ -216,51 +216,52 @@ GOOD_PARAMS = "    joints: [j0, j1]"
             GOOD_TYPE,
             "    joints: []",
             "pos.ros__parameters.joints",
-            "'joints' parameter is empty",
+            "joints=[] must not be empty",
         ),
         (
             "100",
             GOOD_TYPE,
             "    joints: [j0, j1, j0]",
             "pos.ros__parameters.joints",
-            "joint 'j0' is listed more than once",
+            "joints=['j0', 'j1', 'j0'] lists 'j0' more than once",
         ),
         (
             "100",
             "type: forward_command_controller/ForwardCommandController",
             GOOD_PARAMS,
             "pos.ros__parameters.interface_name",
-            "'interface_name' parameter is missing",
+            "'interface_name' parameter is missing; give one of 'position', 'velocity', 'effort'",
         ),
         (
             "100",
             "type: forward_command_controller/ForwardCommandController",
             GOOD_PARAMS + "\n    interface_name: ''",
             "pos.ros__parameters.interface_name",
-            "'interface_name' parameter is missing",
+            "interface_name='' is not one of 'position', 'velocity', 'effort': the interfaces "
+            "simulated",
         ),
         (
             "100",
             "type: forward_command_controller/ForwardCommandController",
             GOOD_PARAMS + "\n    interface_name: acceleration",
             "pos.ros__parameters.interface_name",
-            "interface_name='acceleration' is not supported; only 'position', 'velocity', "
-            "'effort' are simulated",
+            "interface_name='acceleration' is not one of 'position', 'velocity', 'effort': the "
+            "interfaces simulated",
         ),
         (
             "100",
             "type: joint_trajectory_controller/JointTrajectoryController",
             GOOD_PARAMS + "\n    state_interfaces: [position]",
             "pos.ros__parameters.command_interfaces",
-            "parameter is missing; give a list from "
-            "['position', 'velocity', 'acceleration', 'effort']",
+            "'command_interfaces' parameter is missing; give one or more of "
+            "'position', 'velocity', 'acceleration', 'effort'",
         ),
         (
             "100",
             "type: joint_trajectory_controller/JointTrajectoryController",
             GOOD_PARAMS + "\n    command_interfaces: [position]\n    state_interfaces: [torque]",
             "pos.ros__parameters.state_interfaces",
-            "unknown interface 'torque'; expected one of ['position', 'velocity', 'acceleration']",
+            "state_interfaces.0='torque' is not one of 'position', 'velocity', 'acceleration'",
         ),
         (
             "100",
@@ -269,7 +270,7 @@ GOOD_PARAMS = "    joints: [j0, j1]"
             + "\n    command_interfaces: [position]\n    state_interfaces: [position]"
             + "\n    interpolation_method: cubic",
             "pos.ros__parameters.interpolation_method",
-            "unknown method 'cubic'; expected one of ['splines', 'none']",
+            "interpolation_method='cubic' is not one of 'splines', 'none'",
         ),
         (
             "100",
@@ -278,7 +279,7 @@ GOOD_PARAMS = "    joints: [j0, j1]"
             + "\n    command_interfaces: [position]\n    state_interfaces: [position]"
             + "\n    constraints: {goal_time: -1}",
             "pos.ros__parameters.constraints.goal_time",
-            "goal_time=-1 must be >= 0",
+            "constraints.goal_time=-1.0 must be zero or positive [s]",
         ),
     ],
     ids=[

@@ -667,10 +667,10 @@ def multi_config(params: str):
 @pytest.mark.parametrize(
     "params, message",
     [
-        ("{interface_names: []}", "'joint' parameter is empty"),
-        ("{joint: ''}", "'joint' parameter is empty"),
-        ("{joint: joint1, interface_names: []}", "'interfaces' parameter is empty"),
-        ("{joint: joint1}", "'interfaces' parameter is empty"),
+        ("{interface_names: []}", "joint='' must not be empty"),
+        ("{joint: ''}", "joint='' must not be empty"),
+        ("{joint: joint1, interface_names: []}", r"interface_names=\[\] must not be empty"),
+        ("{joint: joint1}", r"interface_names=\[\] must not be empty"),
     ],
     ids=[
         "JointsParameterNotSet",

@@ -16,7 +16,6 @@ from armando_drake.control.controllers import (
     Controller,
     ControllerJoints,
     ControllerMemory,
-    ParameterError,
     Rejected,
     lookup,
     register,
@@ -46,6 +45,7 @@ from armando_drake.messages.types import (
 )
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import ScenarioError, load_scenario
+from armando_drake.tools.schema import param
 
 RATE = 50  # [Hz]
 
@@ -322,13 +322,9 @@ class ScaledParameters:
     """The toy's parameters."""
 
     # The joints commanded, in command order.
-    joints: list[str] = dataclasses.field(default_factory=list)
+    joints: list[str] = param([], nonempty=True, unique=True)
     # Factor applied to every commanded position [1].
-    scale: float = 1.0
-
-    def check(self, raw):
-        if not self.scale > 0:
-            raise ParameterError("scale", f"scale={self.scale!r} must be > 0")
+    scale: float = param(1.0, unit="-", gt=0)
 
 
 class ScaledPositionController(Controller):
@@ -400,7 +396,7 @@ def test_a_toy_controller_parameter_is_checked_with_its_key(tmp_path, toy_type):
     path.write_text(TOY_YAML.format(type=TOY_TYPE, scale=-2))
     with pytest.raises(ControllerConfigError) as error:
         load_controller_config(path)
-    assert str(error.value) == f"{path}: toy.ros__parameters.scale: scale=-2.0 must be > 0"
+    assert str(error.value) == f"{path}: toy.ros__parameters.scale: scale=-2.0 must be positive"
     path.write_text(TOY_YAML.format(type=TOY_TYPE, scale="fast"))
     with pytest.raises(ControllerConfigError, match=r"toy.ros__parameters.scale: .*'fast'"):
         load_controller_config(path)

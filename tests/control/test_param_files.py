@@ -221,11 +221,13 @@ def test_a_bad_controller_read_leniently_fails_only_when_activated(tmp_path, cap
             joints: [j0, j0]
         """,
     )
-    with pytest.raises(ControllerConfigError, match="joint 'j0' is listed more than once"):
+    with pytest.raises(
+        ControllerConfigError, match=r"joints=\['j0', 'j0'\] lists 'j0' more than once"
+    ):
         load_controller_config(path)
     with caplog.at_level(logging.WARNING, logger="armando_drake.control.config"):
         config = load_controller_config(path, strict=False)
-    problem = f"{path}: fast.ros__parameters.joints: joint 'j0' is listed more than once"
+    problem = f"{path}: fast.ros__parameters.joints: joints=['j0', 'j0'] lists 'j0' more than once"
     assert [r.getMessage() for r in caplog.records] == [f"{problem}; 'fast' fails if activated"]
     assert config.controllers["jsb"].supported and not config.controllers["fast"].supported
     with pytest.raises(ControllerConfigError) as error:
@@ -310,9 +312,7 @@ def test_ros1_files_loaded_in_turn(tmp_path):
     with pytest.raises(ControllerConfigError) as error:
         load_controller_config([states, arm, gains])
     # The error names the file that set the controller last.
-    assert str(error.value) == (
-        f"{gains}: arm/hand.joint: No joint given; expected a joint name, got None"
-    )
+    assert str(error.value) == (f"{gains}: arm/hand.joint: No joint given; expected a joint name")
     ros2 = write(tmp_path, "r2.yaml", "a:\n  ros__parameters:\n    type: x\n")
     with pytest.raises(ControllerConfigError, match="give files of one ROS generation"):
         load_controller_config([states, ros2])

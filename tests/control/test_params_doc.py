@@ -26,13 +26,15 @@ def test_rows_carry_ros_name_type_default_and_comment():
     assert rows["constraints.goal_time"] == (
         "float",
         "0.0",
+        "[s], zero or positive",
         "[s] after the end to reach the goal; 0 = wait forever.",
     )
-    assert rows["constraints.<joint>.trajectory"][:2] == ("float", "0.0")
-    assert rows["gains.<joint>.p"] == ("float", "0.0", "[command unit/rad] proportional gain.")
-    assert rows["interpolation_method"][1] == '"splines"'
+    assert rows["constraints.<joint>.trajectory"][:3] == ("float", "0.0", "[rad], zero or positive")
+    assert rows["gains.<joint>.p"] == ("float", "0.0", "", "[command unit/rad] proportional gain.")
+    assert rows["interpolation_method"][1:3] == ('"splines"', "one of `splines`, `none`")
+    assert "required" in rows["command_interfaces"][2]
     # Every field has its comment.
-    assert all(meaning for _, _, meaning in rows.values())
+    assert all(meaning for _, _, _, meaning in rows.values())
 
 
 def test_replace_block_needs_both_markers():

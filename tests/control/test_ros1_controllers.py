@@ -186,13 +186,13 @@ def test_gazebo_ros_control_pid_gains_are_the_position_actuator_gains(tmp_path, 
         (
             "pid:\n  type: effort_controllers/JointPositionController\n  pid: {p: 1.0}\n",
             "pid.joint",
-            "No joint given; expected a joint name, got None",
+            "No joint given; expected a joint name",
         ),
         (
             "pid:\n  type: effort_controllers/JointPositionController\n  joint: j1\n"
             "  pid: {p: .inf}\n",
             "pid.pid.p",
-            "p=inf must be finite",
+            "pid.p=inf is not a finite number",
         ),
         (
             "traj:\n  type: effort_controllers/JointTrajectoryController\n  joints: [j0, j1]\n"

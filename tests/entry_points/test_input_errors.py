@@ -290,7 +290,11 @@ CONTROLLER_CASES = [
         "broadcaster-interface-not-simulated",
         controllers_yaml().rstrip(" ")
         + "        jsb:\n          ros__parameters:\n            interfaces: [torque]\n",
-        ["jsb.ros__parameters.interfaces", "'torque' is not a state interface"],
+        [
+            "jsb.ros__parameters.interfaces",
+            "interfaces.0='torque' is not one of 'position', 'velocity', 'effort': the state "
+            "interfaces of the simulated joints",
+        ],
     ),
     # A key given twice is merged as ROS merges it (tests/control/test_param_files.py).
 ]
@@ -643,3 +647,21 @@ def test_a_joint_of_several_degrees_of_freedom_is_named_as_not_actuated(tmp_path
     assert code == 0, err
     warnings = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
     assert any("not actuated: q1 (planar)" in w and str(path) in w for w in warnings), warnings
+
+
+def test_cli_flags_are_checked_by_the_scenario_schema():
+    """A flag that sets a scenario field is checked as the field is: --save-rate 0 is
+    the schema's 0 (the camera's own rate), a negative one names the flag and the key."""
+    from armando_drake.simulation.command import scenario_from_arguments, world_parser
+    from armando_drake.simulation.scenario import load_scenario
+    from armando_drake.simulation.validation import InputError
+
+    args = world_parser("").parse_args(["--save-rate", "0", "--realtime-rate", "0"])
+    scenario = scenario_from_arguments(load_scenario(POSITION), args)
+    assert scenario.camera.save_rate == 0.0
+    args = world_parser("").parse_args(["--save-rate", "-2"])
+    with pytest.raises(InputError) as error:
+        scenario_from_arguments(load_scenario(POSITION), args)
+    assert (
+        str(error.value) == "--save-rate -2.0: camera.save_rate=-2.0 must be zero or positive [Hz]"
+    )

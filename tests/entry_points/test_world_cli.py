@@ -169,7 +169,10 @@ def test_sigint_keeps_every_row_and_writes_the_summary(tmp_path):
             "sequencer: unknown tag !Sine (choose !PositionTargets, !JointTrajectoryTargets, "
             "!Sinusoid)",
         ),
-        (["--duration", "-1"], "--duration -1.0 must be a finite number >= 0 [s]"),
+        (
+            ["--duration", "-1"],
+            "--duration -1.0: simulation.duration=-1.0 must be zero or positive [s]",
+        ),
     ],
     ids=["unknown-key", "no-file", "length", "limit", "period", "variant-key", "tag", "duration"],
 )

@@ -253,7 +253,7 @@ def test_frame_ids_with_tf_prefix(enable, prefix, expected):
     [
         (
             {"right_wheel_names": []},
-            r"base\.ros__parameters\.right_wheel_names: 'right_wheel_names' parameter is empty",
+            r"base\.ros__parameters\.right_wheel_names: right_wheel_names=\[\] must not be empty",
         ),
         (
             {"right_wheel_names": ["a", "b"]},
@@ -261,15 +261,19 @@ def test_frame_ids_with_tf_prefix(enable, prefix, expected):
         ),
         (
             {"wheel_radius": -0.035},
-            r"test\.yaml: base\.ros__parameters\.wheel_radius: wheel_radius=-0\.035 must be > 0",
+            r"test\.yaml: base\.ros__parameters\.wheel_radius: "
+            r"wheel_radius=-0\.035 must be positive \[m\]",
         ),
-        ({"wheel_separation": 0.0}, r"wheel_separation=0\.0 must be > 0"),
-        ({"linear.x.max_velocity": -1.0}, r"linear\.x\.max_velocity=-1\.0 must be >= 0"),
+        ({"wheel_separation": 0.0}, r"wheel_separation=0\.0 must be positive \[m\]"),
+        (
+            {"linear.x.max_velocity": -1.0},
+            r"linear\.x\.max_velocity=-1\.0 must be zero or positive",
+        ),
         (
             {"linear.x.max_velocity": 1.0, "linear.x.min_velocity": 2.0},
             r"linear\.x\.min_velocity=2\.0 must be <= 0",
         ),
-        ({"cmd_vel_timeout": -1.0}, r"cmd_vel_timeout=-1\.0 must be >= 0"),
+        ({"cmd_vel_timeout": -1.0}, r"cmd_vel_timeout=-1\.0 must be zero or positive \[s\]"),
     ],
 )
 def test_bad_parameters_are_one_line_errors_naming_file_key_and_value(parameters, match):

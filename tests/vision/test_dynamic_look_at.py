@@ -94,7 +94,7 @@ def test_look_at_rotation_turns_the_axis_onto_the_direction():
 @pytest.mark.parametrize(
     "parameters, message",
     [
-        ({"offset": [0.1, 0.2]}, "offset=[0.1, 0.2] must be three numbers"),
+        ({"offset": [0.1, 0.2]}, "offset=[0.1, 0.2] must be 3 numbers"),
         ({"profile": "sine"}, "profile='sine' must be one of"),
         ({"duration": -1.0}, "duration"),
     ],

@@ -9,8 +9,11 @@ here and never compare type strings. A controller class declares:
 
 - ``parameters``: its parameters dataclass, loaded from the controller's
   ``ros__parameters`` with Drake's ``yaml_load_typed`` (every field commented
-  with unit and meaning); its ``check()`` method validates ranges once, raising
-  :class:`ParameterError` with the parameter's name;
+  with its meaning) whose fields are declared with
+  :func:`~armando_drake.tools.schema.param` (unit, range, choices, ``required``, ...:
+  checked by the one checker, :func:`check_parameters`); the rules between fields in
+  its ``check(self)``, raising :class:`~armando_drake.tools.schema.Refusal`; the
+  YAML loader's error names the file, the node key and the parameter;
 - ``ignored_parameters``: upstream parameters it accepts and does not simulate;
 - ``refused_parameters``: upstream parameters it refuses, each with the reason (the
   whole error after the parameter's name);
@@ -58,7 +61,6 @@ import dataclasses
 import importlib
 import importlib.metadata
 import logging
-import math
 import pkgutil
 import typing
 from collections.abc import Callable, Sequence
@@ -70,6 +72,7 @@ from pydrake.common.yaml import yaml_load_typed
 from pydrake.systems.framework import EventStatus
 
 from armando_drake.messages.types import ControllerStatus
+from armando_drake.tools.schema import check_config
 
 if TYPE_CHECKING:  # the YAML's dataclasses import this package
     from armando_drake.control.config import ControllerManagerConfig
@@ -286,31 +289,6 @@ def default_controller_config(joints: Sequence[str], *, update_rate: int = 100) 
 # Parameters
 
 
-def joint_list(value: Any, parameter: str = "joints", *, allow_empty: bool = False) -> list[str]:
-    """A checked list of joint names: non-empty (unless allowed), unique."""
-    if value is None and allow_empty:
-        return []
-    if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
-        raise ParameterError(parameter, f"expected a list of joint names, got {value!r}")
-    if not value and not allow_empty:
-        raise ParameterError(parameter, f"'{parameter}' parameter is empty")
-    seen = set()
-    for name in value:
-        if name in seen:
-            raise ParameterError(parameter, f"joint '{name}' is listed more than once")
-        seen.add(name)
-    return list(value)
-
-
-def non_negative(value: Any, parameter: str) -> float:
-    """A finite number >= 0."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ParameterError(parameter, f"expected a number, got {value!r}")
-    if not math.isfinite(value) or value < 0:
-        raise ParameterError(parameter, f"{parameter.rsplit('.', 1)[-1]}={value!r} must be >= 0")
-    return float(value)
-
-
 def load_parameters(
     cls: type[Controller],
     raw: dict[str, Any],
@@ -323,7 +301,7 @@ def load_parameters(
     dropped and its dotted name appended to ``undeclared``, as ROS ignores it; refused
     ones are errors; ignored ones (declared, not simulated: :attr:`Controller.ignored_parameters`,
     dotted names for nested ones) are dropped and appended to ``ignored``; the rest is
-    read with ``yaml_load_typed`` and checked by the dataclass's ``check()``."""
+    read with ``yaml_load_typed`` and checked by :func:`check_parameters`."""
     notes = undeclared if undeclared is not None else []
     for name, reason in cls.refused_parameters.items():
         if name in raw:
@@ -366,9 +344,45 @@ def load_parameters(
             except Exception as single:  # as above
                 name, problem = candidate, str(single)
                 break
-        raise ParameterError(name, " ".join(problem.split())) from None
-    params.check(raw)
+        raise ParameterError(ros_name(cls.parameters, name), " ".join(problem.split())) from None
+    check_parameters(cls.parameters, params, given=raw)
     return params
+
+
+class _Refused(ValueError):
+    """What :func:`check_config` raises for a controller's parameters (its ``key`` and
+    ``text`` become the :class:`ParameterError`)."""
+
+
+def ros_name(schema: type, key: str, *, indices: bool = False) -> str:
+    """The ROS parameter name of the dotted ``key`` of a parameters dataclass
+    (``trajectory_tolerance.j1`` -> ``constraints.j1.trajectory`` through the
+    dataclass's ``ROS_NAMES``); list indices dropped unless ``indices``."""
+    parts = [part for part in key.split(".") if indices or not part.isdigit()]
+    head = getattr(schema, "ROS_NAMES", {}).get(parts[0], parts[0])
+    rest = parts[1:]
+    if "<joint>" in head and rest:
+        head, rest = head.replace("<joint>", rest[0]), rest[1:]
+    return ".".join([head, *rest])
+
+
+def check_parameters(schema: type, params: Any, *, given: dict[str, Any] | None = None) -> None:
+    """Checks ``params`` (an instance of the parameters dataclass ``schema``) against
+    the rules declared beside its fields (:func:`~armando_drake.tools.schema.param`,
+    the one checker :func:`~armando_drake.tools.schema.check_config`) and the rules
+    between fields of its ``check()``; ``given``: what the YAML gave, in the layout
+    of the dataclass (a ``required`` field it leaves out is missing). Raises
+    :class:`ParameterError` naming the ROS parameter
+    (``constraints.goal_time=-1.0 must be zero or positive [s]``)."""
+    try:
+        check_config(params, error=_Refused, given=given or {})
+    except _Refused as refused:
+        key, text = refused.key, refused.text
+        if key and text.startswith(key):
+            rest = text[len(key) :]
+            # "=<value> <problem>" after the parameter's name; a sentence alone.
+            text = rest[2:] if rest.startswith(": ") else ros_name(schema, key, indices=True) + rest
+        raise ParameterError(ros_name(schema, key) if key else "ros__parameters", text) from None
 
 
 def _copied_path(raw: dict[str, Any], parents: list[str]) -> dict[str, Any]:
@@ -422,9 +436,6 @@ _COMMON_IGNORED = frozenset({"use_sim_time", "type", "update_rate", "is_async"})
 @dataclasses.dataclass
 class NoParameters:
     """A controller without parameters."""
-
-    def check(self, raw: dict[str, Any]) -> None:
-        pass
 
 
 # --------------------------------------------------------------------------------------
@@ -797,11 +808,11 @@ __all__ = [
     "controller_type_for",
     "default_controller_config",
     "find_controller",
-    "joint_list",
     "load_entry_points",
+    "check_parameters",
     "load_parameters",
     "lookup",
-    "non_negative",
+    "ros_name",
     "register",
     "registered_types",
     "types_accepting",

@@ -19,11 +19,10 @@ from typing import Any
 
 from armando_drake.control.controllers import (
     Controller,
-    ParameterError,
-    joint_list,
     register,
 )
 from armando_drake.messages.types import JointState
+from armando_drake.tools.schema import Refusal, param
 
 _DEFAULT_MAPPING = {"position": "position", "velocity": "velocity", "effort": "effort"}
 
@@ -49,13 +48,19 @@ class JointStateBroadcasterParameters:
 
     # Joints published, in this order; empty (or interfaces empty) = every joint of the
     # hardware interface.
-    joints: list[str] = dataclasses.field(default_factory=list)
+    joints: list[str] = param([], unique=True)
     # State interfaces published (position, velocity, effort, ...); a standard one not
     # listed is NaN in JointState; empty (or joints empty) = all of them.
-    interfaces: list[str] = dataclasses.field(default_factory=list)
+    interfaces: list[str] = param(
+        [],
+        unique=True,
+        choices=tuple(_DEFAULT_MAPPING.values()),
+        why="the state interfaces of the simulated joints (upstream's activation fails on "
+        "an interface the hardware does not export)",
+    )
     # Names appended to JointState with zero position, velocity and effort (joints the
     # hardware does not have, e.g. a passive gripper finger).
-    extra_joints: list[str] = dataclasses.field(default_factory=list)
+    extra_joints: list[str] = param([], unique=True)
     # Publish on ~/joint_states (<broadcaster>/joint_states in the robot's namespace)
     # instead of joint_states.
     use_local_topics: bool = False
@@ -63,33 +68,19 @@ class JointStateBroadcasterParameters:
     # values publish the same.
     use_urdf_to_filter: bool = True
     # JointState header.frame_id; only upstream's default base_link is simulated.
-    frame_id: str = "base_link"
+    frame_id: str = param(
+        "base_link", choices=("base_link",), why="JointState carries upstream's default"
+    )
     # The state interface behind each JointState field (upstream's mapping).
     map_interface_to_joint_state: InterfaceMapping = dataclasses.field(
         default_factory=InterfaceMapping
     )
 
-    def check(self, raw: dict[str, Any]) -> None:
-        joint_list(raw.get("joints"), allow_empty=True)
-        joint_list(raw.get("extra_joints"), "extra_joints", allow_empty=True)
-        joint_list(raw.get("interfaces"), "interfaces", allow_empty=True)
-        for name in self.extra_joints:
+    def check(self) -> None:
+        """The rules between fields (the fields' own are declared beside them)."""
+        for index, name in enumerate(self.extra_joints):
             if name in self.joints:
-                raise ParameterError("extra_joints", f"'{name}' is also one of the joints")
-        for interface in self.interfaces:
-            if interface not in _DEFAULT_MAPPING.values():
-                raise ParameterError(
-                    "interfaces",
-                    f"{interface!r} is not a state interface of the simulated joints "
-                    f"({', '.join(_DEFAULT_MAPPING.values())}); upstream's activation fails on "
-                    "an interface the hardware does not export",
-                )
-        if self.frame_id != "base_link":
-            raise ParameterError(
-                "frame_id",
-                f"frame_id={self.frame_id!r} is not simulated: JointState carries upstream's "
-                "default base_link",
-            )
+                raise Refusal(f"extra_joints.{index}", f"={name!r} is also one of the joints")
         for field in _DEFAULT_MAPPING:
             given = getattr(self.map_interface_to_joint_state, field)
             # Upstream's get_map_interface_parameter: a field listed in interfaces keeps its
@@ -99,9 +90,9 @@ class JointStateBroadcasterParameters:
             # publishing its own), a name listed in interfaces is refused above.
             if given == field or field in self.interfaces or given not in _DEFAULT_MAPPING:
                 continue
-            raise ParameterError(
+            raise Refusal(
                 f"map_interface_to_joint_state.{field}",
-                f"{given!r} is not simulated: publishing the {given} interface as "
+                f"={given!r} is not simulated: publishing the {given} interface as "
                 f"JointState.{field} (in the {given} field too) mixes two interfaces in one "
                 "field",
             )

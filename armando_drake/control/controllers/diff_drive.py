@@ -53,7 +53,6 @@ from armando_drake.control.controllers import (
     Controller,
     ControllerMemory,
     ParameterError,
-    joint_list,
     register,
 )
 from armando_drake.description.drive import GZ_SIM, DrivePlugin
@@ -63,6 +62,7 @@ from armando_drake.messages.types import (
     Twist,
     TwistStamped,
 )
+from armando_drake.tools.schema import Refusal, param
 
 NAN = math.nan
 
@@ -458,21 +458,21 @@ class AxisLimitParameters:
     (NaN = none; a NaN minimum is minus the maximum)."""
 
     # [m/s or rad/s] largest velocity (>= 0).
-    max_velocity: float = NAN
+    max_velocity: float = param(NAN, ge=0, nan=True)
     # [m/s or rad/s] smallest velocity (<= 0).
-    min_velocity: float = NAN
+    min_velocity: float = param(NAN, le=0, nan=True)
     # [m/s^2 or rad/s^2] largest acceleration speeding up forward (>= 0).
-    max_acceleration: float = NAN
+    max_acceleration: float = param(NAN, ge=0, nan=True)
     # [m/s^2 or rad/s^2] largest deceleration slowing down forward (<= 0).
-    max_deceleration: float = NAN
+    max_deceleration: float = param(NAN, le=0, nan=True)
     # [m/s^2 or rad/s^2] largest acceleration speeding up in reverse (<= 0).
-    max_acceleration_reverse: float = NAN
+    max_acceleration_reverse: float = param(NAN, le=0, nan=True)
     # [m/s^2 or rad/s^2] largest deceleration slowing down in reverse (>= 0).
-    max_deceleration_reverse: float = NAN
+    max_deceleration_reverse: float = param(NAN, ge=0, nan=True)
     # [m/s^3 or rad/s^3] largest jerk (>= 0), applied while accelerating.
-    max_jerk: float = NAN
+    max_jerk: float = param(NAN, ge=0, nan=True)
     # [m/s^3 or rad/s^3] smallest jerk (<= 0).
-    min_jerk: float = NAN
+    min_jerk: float = param(NAN, le=0, nan=True)
     # Deprecated upstream (false = the velocity limits are NaN).
     has_velocity_limits: bool = True
     # Deprecated upstream (false = the acceleration limits are NaN).
@@ -480,26 +480,7 @@ class AxisLimitParameters:
     # Deprecated upstream (false = the jerk limits are NaN).
     has_jerk_limits: bool = True
     # Deprecated upstream and unused (use max_deceleration).
-    min_acceleration: float = NAN
-
-    def check(self, prefix: str) -> None:
-        signs = {
-            "max_velocity": 1,
-            "min_velocity": -1,
-            "max_acceleration": 1,
-            "max_deceleration": -1,
-            "max_acceleration_reverse": -1,
-            "max_deceleration_reverse": 1,
-            "max_jerk": 1,
-            "min_jerk": -1,
-        }
-        for name, sign in signs.items():
-            value = getattr(self, name)
-            if not math.isnan(value) and value * sign < 0:
-                bound = ">= 0" if sign > 0 else "<= 0"
-                raise ParameterError(
-                    f"{prefix}.{name}", f"{prefix}.{name}={value!r} must be {bound} (or .NAN)"
-                )
+    min_acceleration: float = param(NAN, nan=True)
 
     def limiter(self, prefix: str) -> RateLimiter:
         """The speed limiter of these limits (upstream's on_configure)."""
@@ -546,19 +527,19 @@ class DiffDriveParameters:
     """The parameters of ``diff_drive_controller/DiffDriveController`` (jazzy)."""
 
     # The left wheels' joints (each a velocity joint; the mean of their feedback is used).
-    left_wheel_names: list[str] = dataclasses.field(default_factory=list)
+    left_wheel_names: list[str] = param([], nonempty=True, unique=True)
     # The right wheels' joints (as many as on the left).
-    right_wheel_names: list[str] = dataclasses.field(default_factory=list)
+    right_wheel_names: list[str] = param([], nonempty=True, unique=True)
     # [m] distance between the left and right wheels (> 0).
-    wheel_separation: float = 0.0
+    wheel_separation: float = param(0.0, unit="m", gt=0)
     # [m] radius of a wheel (> 0).
-    wheel_radius: float = 0.0
+    wheel_radius: float = param(0.0, unit="m", gt=0)
     # [-] correction factor of wheel_separation.
-    wheel_separation_multiplier: float = 1.0
+    wheel_separation_multiplier: float = param(1.0, unit="-", gt=0)
     # [-] correction factor of the left wheels' radius.
-    left_wheel_radius_multiplier: float = 1.0
+    left_wheel_radius_multiplier: float = param(1.0, unit="-", gt=0)
     # [-] correction factor of the right wheels' radius.
-    right_wheel_radius_multiplier: float = 1.0
+    right_wheel_radius_multiplier: float = param(1.0, unit="-", gt=0)
     # Put tf_frame_prefix (or the namespace, when empty: none here) before the frame ids.
     tf_frame_prefix_enable: bool = True
     # The prefix of the odometry's frame ids.
@@ -568,9 +549,9 @@ class DiffDriveParameters:
     # The robot's base frame (the odometry's child frame).
     base_frame_id: str = "base_link"
     # [-] the odometry pose's covariance diagonal (x, y, z, roll, pitch, yaw).
-    pose_covariance_diagonal: list[float] = dataclasses.field(default_factory=lambda: [0.0] * 6)
+    pose_covariance_diagonal: list[float] = param([0.0] * 6, unit="-", length=6)
     # [-] the odometry twist's covariance diagonal.
-    twist_covariance_diagonal: list[float] = dataclasses.field(default_factory=lambda: [0.0] * 6)
+    twist_covariance_diagonal: list[float] = param([0.0] * 6, unit="-", length=6)
     # Integrate the odometry from the limited commands instead of the wheels' feedback.
     open_loop: bool = False
     # Wheel feedback from the position state interfaces (else the velocity ones).
@@ -578,58 +559,33 @@ class DiffDriveParameters:
     # Broadcast the TF odom_frame_id -> base_frame_id.
     enable_odom_tf: bool = True
     # [s] a command older than this brakes the robot; 0 = no timeout.
-    cmd_vel_timeout: float = 0.5
+    cmd_vel_timeout: float = param(0.5, unit="s", ge=0)
     # [-] number of updates of the odometry twist's rolling mean (>= 1).
-    velocity_rolling_window_size: int = 10
+    velocity_rolling_window_size: int = param(10, ge=1)
     # [Hz] rate of the odometry and TF publications (> 0).
-    publish_rate: float = 50.0
+    publish_rate: float = param(50.0, unit="Hz", gt=0)
     # The limits of the forward axis.
     linear: LinearLimits = dataclasses.field(default_factory=LinearLimits)
     # The limits of the turning axis.
     angular: AngularLimits = dataclasses.field(default_factory=AngularLimits)
 
-    def check(self, raw: dict[str, Any]) -> None:
-        for name in ("left_wheel_names", "right_wheel_names"):
-            if not raw.get(name):
-                raise ParameterError(name, f"'{name}' parameter is empty")
-            joint_list(raw[name], name)
+    def check(self) -> None:
+        """The rules between fields (the fields' own are declared beside them): as many
+        wheels on each side, none on both, speed limiters that upstream configures."""
         if len(self.left_wheel_names) != len(self.right_wheel_names):
-            raise ParameterError(
+            raise Refusal(
                 "right_wheel_names",
-                f"The number of left wheels [{len(self.left_wheel_names)}] and the number of "
+                f": The number of left wheels [{len(self.left_wheel_names)}] and the number of "
                 f"right wheels [{len(self.right_wheel_names)}] are different",
             )
         both = set(self.left_wheel_names) & set(self.right_wheel_names)
         if both:
-            raise ParameterError("right_wheel_names", f"{sorted(both)} are on both sides")
-        for name in ("wheel_separation", "wheel_radius", "publish_rate"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise ParameterError(name, f"{name}={value!r} must be > 0")
-        for name in (
-            "wheel_separation_multiplier",
-            "left_wheel_radius_multiplier",
-            "right_wheel_radius_multiplier",
-        ):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise ParameterError(name, f"{name}={value!r} must be > 0")
-        if not (math.isfinite(self.cmd_vel_timeout) and self.cmd_vel_timeout >= 0):
-            raise ParameterError(
-                "cmd_vel_timeout", f"cmd_vel_timeout={self.cmd_vel_timeout!r} must be >= 0"
-            )
-        if self.velocity_rolling_window_size < 1:
-            raise ParameterError(
-                "velocity_rolling_window_size",
-                f"velocity_rolling_window_size={self.velocity_rolling_window_size!r} must be >= 1",
-            )
-        for name in ("pose_covariance_diagonal", "twist_covariance_diagonal"):
-            if len(getattr(self, name)) != 6:
-                raise ParameterError(name, f"{name} must have 6 values")
-        self.linear.x.check("linear.x")
-        self.angular.z.check("angular.z")
-        self.linear.x.limiter("linear")
-        self.angular.z.limiter("angular")
+            raise Refusal("right_wheel_names", f": {sorted(both)} are on both sides")
+        for prefix, axis in (("linear", self.linear.x), ("angular", self.angular.z)):
+            try:
+                axis.limiter(prefix)
+            except ParameterError as error:
+                raise Refusal(prefix, f": {error.problem}") from None
 
     def frames(self) -> tuple[str, str]:
         """(odom frame, base frame) with the prefix (no namespace here)."""

@@ -31,10 +31,10 @@ from armando_drake.control.controllers import (
     ControllerMemory,
     ParameterError,
     Rejected,
-    joint_list,
     register,
 )
 from armando_drake.messages.types import Float64MultiArray
+from armando_drake.tools.schema import param
 
 
 @dataclasses.dataclass
@@ -42,12 +42,7 @@ class JointGroupParameters:
     """The parameters of the JointGroup*Controller types."""
 
     # The joints commanded, in the order of the command's values.
-    joints: list[str] = dataclasses.field(default_factory=list)
-
-    def check(self, raw: dict[str, Any]) -> None:
-        if "joints" not in raw:
-            raise ParameterError("joints", "'joints' parameter is missing")
-        joint_list(raw["joints"])
+    joints: list[str] = param([], required=True, nonempty=True, unique=True)
 
 
 @dataclasses.dataclass
@@ -55,18 +50,9 @@ class ForwardCommandParameters(JointGroupParameters):
     """The parameters of ``forward_command_controller/ForwardCommandController``."""
 
     # The command interface written: position [rad], velocity [rad/s] or effort [N m].
-    interface_name: str = ""
-
-    def check(self, raw: dict[str, Any]) -> None:
-        super().check(raw)
-        if not self.interface_name:
-            raise ParameterError("interface_name", "'interface_name' parameter is missing")
-        if self.interface_name not in COMMAND_INTERFACES:
-            raise ParameterError(
-                "interface_name",
-                f"interface_name={self.interface_name!r} is not supported; only "
-                f"{', '.join(repr(i) for i in COMMAND_INTERFACES)} are simulated",
-            )
+    interface_name: str = param(
+        "", required=True, choices=COMMAND_INTERFACES, why="the interfaces simulated"
+    )
 
 
 @register("forward_command_controller/ForwardCommandController")

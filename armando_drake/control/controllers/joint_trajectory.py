@@ -58,8 +58,6 @@ from armando_drake.control.controllers import (
     ControllerMemory,
     ParameterError,
     Rejected,
-    joint_list,
-    non_negative,
     register,
 )
 from armando_drake.control.pid import ANTIWINDUP_STRATEGIES, PidGains, check_gains, compute_command
@@ -68,6 +66,7 @@ from armando_drake.messages.types import (
     JointTrajectoryPoint,
     SpeedScalingFactor,
 )
+from armando_drake.tools.schema import Refusal, param
 
 # Upstream's "is this velocity zero" threshold: std::numeric_limits<float>::epsilon().
 _FLOAT_EPSILON = float(np.finfo(np.float32).eps)
@@ -91,23 +90,27 @@ class JointGains:
     d: float = 0.0
     # [command unit] symmetric bound of the integral term (deprecated upstream); used
     # where i_clamp_max / i_clamp_min are infinite.
-    i_clamp: float = math.inf
+    i_clamp: float = param(math.inf, infinite=True)
     # [command unit] upper bound of the integral term (>= 0).
-    i_clamp_max: float = math.inf
+    i_clamp_max: float = param(math.inf, infinite=True)
     # [command unit] lower bound of the integral term (<= 0).
-    i_clamp_min: float = -math.inf
+    i_clamp_min: float = param(-math.inf, infinite=True)
     # Feed-forward scale of the desired velocity.
     ff_velocity_scale: float = 0.0
     # [command unit] upper bound of the output.
-    u_clamp_max: float = math.inf
+    u_clamp_max: float = param(math.inf, infinite=True)
     # [command unit] lower bound of the output.
-    u_clamp_min: float = -math.inf
+    u_clamp_min: float = param(-math.inf, infinite=True)
     # legacy | none | back_calculation | conditional_integration (control_toolbox's).
-    antiwindup_strategy: str = "legacy"
+    antiwindup_strategy: str = param("legacy", choices=ANTIWINDUP_STRATEGIES)
     # [s] back_calculation's tracking time constant; 0 = sqrt(d / i), or p / i.
     tracking_time_constant: float = 0.0
     # [rad] no integration while |error| <= error_deadband.
     error_deadband: float = 0.0
+
+    def check(self) -> None:
+        """control_toolbox's rules between the gains."""
+        check_gains(self)
 
     def pid_gains(self) -> PidGains:
         """The gains of control_toolbox's PID, as upstream's ``update_pids``: i_clamp_max /
@@ -132,7 +135,7 @@ class SpeedScaling:
 
     # [-] the trajectory's time advances by this factor times the update period (>= 0;
     # 0.5 runs it at half speed); used with command_interfaces [position] only, else 1.0.
-    initial_scaling_factor: float = 1.0
+    initial_scaling_factor: float = param(1.0, unit="-", ge=0)
     # The hardware's speed-scaling state interface ("<component>/<interface>"); "" = none.
     # Activation fails unless the robot's <ros2_control> declares it; its value is not
     # simulated (the factor stays initial_scaling_factor).
@@ -164,18 +167,24 @@ class JointTrajectoryControllerParams:
     }
 
     # Controller joints, in the controller's order.
-    joints: list[str] = dataclasses.field(default_factory=list)
+    joints: list[str] = param([], required=True, nonempty=True, unique=True)
     # Joints commanded; empty or equal to joints (other command joints are not simulated).
     command_joints: list[str] = dataclasses.field(default_factory=list)
     # Command interfaces: position [, velocity [, acceleration]] (the desired state's
     # positions and velocities drive the position actuators); [position, effort] (the
     # desired effort fed forward as torque on the position actuators); [velocity] or
     # [effort]: a PID per joint on the tracking error (gains).
-    command_interfaces: list[str] = dataclasses.field(default_factory=lambda: ["position"])
+    command_interfaces: list[str] = param(
+        ["position"], required=True, nonempty=True, unique=True, choices=COMMAND_INTERFACES
+    )
     # State interfaces read: position [, velocity [, acceleration]]; the first segment
     # starts from the measured velocity only with velocity (acceleration reads 0 rad/s^2).
-    state_interfaces: list[str] = dataclasses.field(
-        default_factory=lambda: ["position", "velocity"]
+    state_interfaces: list[str] = param(
+        ["position", "velocity"],
+        required=True,
+        nonempty=True,
+        unique=True,
+        choices=STATE_INTERFACES,
     )
     # Accept goals naming only some joints (the others get their last command).
     allow_partial_joints_goal: bool = False
@@ -192,32 +201,32 @@ class JointTrajectoryControllerParams:
     set_last_command_interface_value_as_state_on_activation: bool = True
     # [Hz] upstream's action-status polling rate (>= 0.1); the status output here
     # changes at the update that decides it, so this rate moves nothing.
-    action_monitor_rate: float = 20.0
+    action_monitor_rate: float = param(20.0, unit="Hz", ge=0.1)
     # The speed scaling of the trajectory's time (upstream's speed_scaling.*).
     speed_scaling: SpeedScaling = dataclasses.field(default_factory=lambda: SpeedScaling())
     # splines (linear / cubic / quintic per segment) | none (the next point's values).
-    interpolation_method: str = "splines"
+    interpolation_method: str = param("splines", choices=INTERPOLATION_METHODS)
     # Accept a last point with non-zero velocities (commanded after the end).
     allow_nonzero_velocity_at_trajectory_end: bool = False
     # [s] after the end, hold the measured position if the goal is not reached; 0 = off,
     # and off unless greater than goal_time (as upstream).
-    cmd_timeout: float = 0.0
+    cmd_timeout: float = param(0.0, unit="s")
     # [s] after the end to reach the goal; 0 = wait forever.
-    goal_time: float = 0.0
+    goal_time: float = param(0.0, unit="s", ge=0)
     # [rad/s] allowed |desired - measured| velocity at the goal; 0 = unchecked. Upstream
     # compares velocities only with a velocity or effort command interface; so do we.
-    stopped_velocity_tolerance: float = 0.01
+    stopped_velocity_tolerance: float = param(0.01, unit="rad/s", ge=0)
     # [rad] per joint: allowed |measured - desired| while running; absent or 0 = unchecked.
-    trajectory_tolerance: dict[str, float] = dataclasses.field(default_factory=dict)
+    trajectory_tolerance: dict[str, float] = param({}, unit="rad", ge=0)
     # [rad] per joint: allowed |measured - desired| after the end; absent or 0 = unchecked.
-    goal_tolerance: dict[str, float] = dataclasses.field(default_factory=dict)
+    goal_tolerance: dict[str, float] = param({}, unit="rad", ge=0)
     # On an abort (path or goal tolerance, cmd_timeout) stop at each joint's
     # max_deceleration_on_cancel from the measured velocity instead of holding the measured
     # position; needs a velocity state interface, every joint's deceleration > 0 and a URDF
     # velocity limit > 0 (else, as upstream, it holds the position).
     decelerate_on_cancel: bool = False
     # [rad/s^2] per joint: the deceleration of decelerate_on_cancel; absent or 0 = none.
-    max_deceleration_on_cancel: dict[str, float] = dataclasses.field(default_factory=dict)
+    max_deceleration_on_cancel: dict[str, float] = param({}, unit="rad/s^2", ge=0)
     # Per joint, the PID gains of a velocity-only or effort command interface
     # (u = ff_velocity_scale v_d + control_toolbox's PID on the tracking error);
     # upstream uses none with position commands, neither do we.
@@ -228,62 +237,10 @@ class JointTrajectoryControllerParams:
         """Whether trajectories start from the last command (open loop)."""
         return self.interpolate_from_desired_state or self.open_loop_control
 
-    def check(self, raw: dict[str, Any]) -> None:
-        """Ranges and choices, each error naming its parameter."""
-        for name, allowed in (
-            ("command_interfaces", COMMAND_INTERFACES),
-            ("state_interfaces", STATE_INTERFACES),
-        ):
-            _interfaces(raw.get(name), allowed, name)
+    def check(self) -> None:
+        """Upstream's interface combination rules (the fields' own rules are declared
+        beside them)."""
         _check_combinations(self.command_interfaces, self.state_interfaces)
-        if self.interpolation_method not in INTERPOLATION_METHODS:
-            raise ParameterError(
-                "interpolation_method",
-                f"unknown method {self.interpolation_method!r}; expected one of "
-                f"{list(INTERPOLATION_METHODS)}",
-            )
-        if not self.action_monitor_rate >= 0.1:
-            raise ParameterError(
-                "action_monitor_rate",
-                f"action_monitor_rate={self.action_monitor_rate!r} must be >= 0.1 [Hz]",
-            )
-        for joint, gains in self.gains.items():
-            if not isinstance(gains, JointGains):
-                continue  # a subclass's own gains (ROS 1's effort trajectory controller)
-            for field in dataclasses.fields(JointGains):
-                value = getattr(gains, field.name)
-                if field.name in ("p", "i", "d", "ff_velocity_scale") and not math.isfinite(value):
-                    raise ParameterError(
-                        f"gains.{joint}.{field.name}", f"{field.name}={value!r} must be finite"
-                    )
-            check_gains(gains, f"gains.{joint}", ParameterError)
-        scaling = self.speed_scaling
-        if not (
-            math.isfinite(scaling.initial_scaling_factor) and scaling.initial_scaling_factor >= 0
-        ):
-            raise ParameterError(
-                "speed_scaling.initial_scaling_factor",
-                f"initial_scaling_factor={scaling.initial_scaling_factor!r} must be >= 0.0",
-            )
-        if not math.isfinite(self.cmd_timeout):
-            raise ParameterError("cmd_timeout", f"cmd_timeout={self.cmd_timeout!r} must be finite")
-
-
-def _interfaces(value: Any, allowed: tuple[str, ...], parameter: str) -> list[str]:
-    if value is None:
-        raise ParameterError(parameter, f"parameter is missing; give a list from {list(allowed)}")
-    if not isinstance(value, list) or not value:
-        raise ParameterError(
-            parameter, f"expected a non-empty list from {list(allowed)}, got {value!r}"
-        )
-    for name in value:
-        if name not in allowed:
-            raise ParameterError(
-                parameter, f"unknown interface {name!r}; expected one of {list(allowed)}"
-            )
-    if len(set(value)) != len(value):
-        raise ParameterError(parameter, f"interfaces listed more than once: {value!r}")
-    return list(value)
 
 
 def _check_combinations(command: list[str], state: list[str]) -> None:
@@ -291,43 +248,43 @@ def _check_combinations(command: list[str], state: list[str]) -> None:
     velocity, position [velocity [acceleration]], position + effort) and on_configure's
     state requirements, in upstream's order and words."""
     if "velocity" in command and len(command) > 1 and "position" not in command:
-        raise ParameterError(
+        raise Refusal(
             "command_interfaces",
-            "'velocity' command interface can be used either alone or 'position' command "
+            ": 'velocity' command interface can be used either alone or 'position' command "
             "interface has to be present",
         )
     if "acceleration" in command and not ("velocity" in command or "position" in command):
-        raise ParameterError(
+        raise Refusal(
             "command_interfaces",
-            "'acceleration' command interface can only be used if 'velocity' and 'position' "
+            ": 'acceleration' command interface can only be used if 'velocity' and 'position' "
             "command interfaces are present",
         )
     if "effort" in command and not (
         len(command) == 1 or (len(command) == 2 and "position" in command)
     ):
-        raise ParameterError(
+        raise Refusal(
             "command_interfaces",
-            "'effort' command interface has to be used alone or with a 'position' interface",
+            ": 'effort' command interface has to be used alone or with a 'position' interface",
         )
     if "position" not in state:
-        raise ParameterError("state_interfaces", f"{state!r} has no 'position' state interface")
+        raise Refusal("state_interfaces", f"={state!r} has no 'position' state interface")
     if "acceleration" in state and "velocity" not in state:
-        raise ParameterError(
+        raise Refusal(
             "state_interfaces",
-            "'acceleration' state interface cannot be used if 'position' and 'velocity' "
+            ": 'acceleration' state interface cannot be used if 'position' and 'velocity' "
             "interfaces are not present",
         )
     has_both = "velocity" in state and "position" in state
     if command == ["velocity"] and not has_both:
-        raise ParameterError(
+        raise Refusal(
             "state_interfaces",
-            "'velocity' command interface can only be used alone if 'velocity' and "
+            ": 'velocity' command interface can only be used alone if 'velocity' and "
             "'position' state interfaces are present",
         )
     if "effort" in command and not has_both:
-        raise ParameterError(
+        raise Refusal(
             "state_interfaces",
-            "'effort' command interface can only be used alone or with 'position' command "
+            ": 'effort' command interface can only be used alone or with 'position' command "
             "interface if 'velocity' and 'position' state interfaces are present",
         )
 
@@ -760,9 +717,8 @@ class JointTrajectoryController(Controller):
         """ROS's ``constraints`` and ``gains`` mappings as the flat fields of the
         parameters; what they hold for a name that is not one of the joints (Jazzy's
         ``__map_joints``) is not declared."""
-        if "joints" not in raw:
-            raise ParameterError("joints", "'joints' parameter is missing")
-        joints = joint_list(raw["joints"])
+        joints = raw.get("joints")
+        joints = joints if isinstance(joints, list) else []
         command_joints = raw.get("command_joints")
         if command_joints not in (None, [], joints):
             raise ParameterError(
@@ -781,11 +737,7 @@ class JointTrajectoryController(Controller):
         }
         for name, value in constraints.items():
             where = f"constraints.{name}"
-            if name in ("goal_time", "stopped_velocity_tolerance"):
-                raw[name] = non_negative(value, where)
-            elif name == "decelerate_on_cancel":
-                if not isinstance(value, bool):
-                    raise ParameterError(where, f"expected true or false, got {value!r}")
+            if name in ("goal_time", "stopped_velocity_tolerance", "decelerate_on_cancel"):
                 raw[name] = value
             elif name in joints:
                 if not isinstance(value, dict):
@@ -798,7 +750,7 @@ class JointTrajectoryController(Controller):
                     if key not in per_joint:
                         undeclared.append(f"{where}.{key}")
                         continue
-                    per_joint[key][name] = non_negative(number, f"{where}.{key}")
+                    per_joint[key][name] = number
             else:
                 undeclared.append(where)
         raw["trajectory_tolerance"] = trajectory_tolerance

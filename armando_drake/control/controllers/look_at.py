@@ -30,7 +30,6 @@ desired velocity; the marker lost, ``q_d`` holds.
 
 import dataclasses
 import math
-from typing import Any
 
 import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw
@@ -39,12 +38,10 @@ from pydrake.multibody.tree import JacobianWrtVariable
 from armando_drake.control.controllers import (
     Controller,
     ControllerMemory,
-    ParameterError,
-    joint_list,
-    non_negative,
     register,
 )
 from armando_drake.messages.types import MarkerPose
+from armando_drake.tools.schema import Refusal, param
 
 
 @dataclasses.dataclass
@@ -52,41 +49,31 @@ class LookAtPointParameters:
     """The parameters of the look-at-point controllers."""
 
     # The joints commanded (velocity interface), in order.
-    joints: list[str] = dataclasses.field(default_factory=list)
-    gain: float = 2.0  # [1/s] k: rate at which the task error decays
-    null_space_gain: float = 1.0  # [1/s] k0: rate towards the rest posture, in the null space
+    joints: list[str] = param([], nonempty=True, unique=True)
+    gain: float = param(2.0, unit="1/s", gt=0)  # [1/s] k: rate at which the task error decays
+    # [1/s] k0: rate towards the rest posture, in the null space
+    null_space_gain: float = param(1.0, unit="1/s", ge=0)
     # [rad] q_rest, one per joint; empty = the joints' initial positions.
-    rest_positions: list[float] = dataclasses.field(default_factory=list)
-    damping: float = 0.01  # [-] damping of the pseudo-inverse (A^T (A A^T + d^2 I)^-1)
-    timeout: float = 0.2  # [s] without a new marker pose, the joints stop
+    rest_positions: list[float] = param([], unit="rad")
+    # [-] damping of the pseudo-inverse (A^T (A A^T + d^2 I)^-1)
+    damping: float = param(0.01, unit="-", ge=0)
+    timeout: float = param(0.2, unit="s", ge=0)  # [s] without a new marker pose, the joints stop
     # The command interface of the joints: velocity (commands qdot) or position
     # (commands the integral of qdot, for position servos).
-    interface: str = "velocity"
+    interface: str = param("velocity", choices=("velocity", "position"))
     # LookAtPointController only: the desired camera pose in the marker frame
     # (OpenCV's: z out of the face): [m] position and [rad] roll pitch yaw. The default
     # is 0.5 m in front of the face, looking at it.
-    offset_xyz: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.5])
-    offset_rpy: list[float] = dataclasses.field(default_factory=lambda: [math.pi, 0.0, 0.0])
+    offset_xyz: list[float] = param([0.0, 0.0, 0.5], unit="m", length=3)
+    offset_rpy: list[float] = param([math.pi, 0.0, 0.0], unit="rad", length=3)
 
-    def check(self, raw: dict[str, Any]) -> None:
-        joint_list(raw.get("joints", self.joints))
-        for name in ("gain", "null_space_gain", "damping", "timeout"):
-            non_negative(getattr(self, name), name)
-        if self.gain <= 0:
-            raise ParameterError("gain", f"gain={self.gain!r} must be > 0")
-        if self.interface not in ("velocity", "position"):
-            raise ParameterError(
-                "interface", f"interface={self.interface!r} must be velocity or position"
-            )
+    def check(self) -> None:
+        """The rules between fields (the fields' own are declared beside them)."""
         if self.rest_positions and len(self.rest_positions) != len(self.joints):
-            raise ParameterError(
+            raise Refusal(
                 "rest_positions",
-                f"rest_positions={self.rest_positions!r} must have one value per joint "
-                f"({len(self.joints)})",
+                f"={self.rest_positions!r} must have one value per joint ({len(self.joints)})",
             )
-        for name in ("offset_xyz", "offset_rpy"):
-            if len(getattr(self, name)) != 3:
-                raise ParameterError(name, f"{name}={getattr(self, name)!r} must be 3 numbers")
 
 
 def damped_pinv(A: np.ndarray, damping: float) -> np.ndarray:

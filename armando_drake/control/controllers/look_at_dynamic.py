@@ -41,7 +41,7 @@ import numpy as np
 from pydrake.common.eigen_geometry import AngleAxis
 from pydrake.math import RigidTransform, RotationMatrix
 
-from armando_drake.control.controllers import ParameterError, register
+from armando_drake.control.controllers import register
 from armando_drake.control.controllers.look_at import damped_pinv
 from armando_drake.control.controllers.task_space import (
     JointSpaceInverseDynamicsController,
@@ -59,6 +59,7 @@ from armando_drake.kinematics.motion import TaskSpaceMotion, make_time_law
 from armando_drake.kinematics.paths import LinearPath, PathError
 from armando_drake.kinematics.time_laws import TimeLawError
 from armando_drake.messages.types import MarkerPose
+from armando_drake.tools.schema import Refusal, param
 
 
 class CameraArmModel(ArmModel):
@@ -113,26 +114,25 @@ class _LookAtPathParameters:
     """The camera's linear path (both dynamic look-at controllers)."""
 
     # The joints commanded: every moving joint of the robot, in any order.
-    joints: list[str] = dataclasses.field(default_factory=list)
+    joints: list[str] = param([], required=True, nonempty=True, unique=True)
     # [m] the camera's path: its goal minus its start (where it is at the first
     # marker pose), in the world frame.
-    offset: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    offset: list[float] = param([0.0, 0.0, 0.0], unit="m", length=3)
     duration: float = 2.5  # [s] the path's duration
     profile: str = "trapezoidal"  # its time law: trapezoidal | cubic | quintic
     acceleration_time: float = 0.6  # [s] trapezoidal: t_c, 0 < t_c <= duration / 2
 
 
-def _check_path(params, raw: dict[str, Any]) -> None:
-
-    _check(params, raw)
-    offset = np.asarray(params.offset, dtype=float)
-    if offset.shape != (3,) or not np.all(np.isfinite(offset)):
-        raise ParameterError("offset", f"offset={params.offset!r} must be three numbers [m]")
+def _check_path(params) -> None:
+    """The control law's rules and the path's time law's (rules between fields)."""
+    _check(params)
     try:
         make_time_law(_motion(params))
     except (PathError, TimeLawError) as error:
-        name = str(error).split("=", 1)[0] if "=" in str(error) else "profile"
-        raise ParameterError(name, str(error)) from None
+        name, equals, problem = str(error).partition("=")
+        if not equals:
+            raise Refusal("profile", f": {error}") from None
+        raise Refusal(name, f"={problem}") from None
 
 
 def _motion(params) -> TaskSpaceMotion:
@@ -152,8 +152,8 @@ class OperationalSpaceLookAtParameters(
     """``ros__parameters`` of the operational-space look-at controller: the law's gains
     and null space, and the camera's path."""
 
-    def check(self, raw: dict[str, Any]) -> None:
-        _check_path(self, raw)
+    def check(self) -> None:
+        _check_path(self)
 
 
 @dataclass
@@ -161,23 +161,24 @@ class JointSpaceLookAtParameters(JointSpaceInverseDynamicsParameters, _LookAtPat
     """``ros__parameters`` of the joint-space look-at controller: the law's gains, the
     camera's path and the closed-loop inverse kinematics that makes the joint reference."""
 
-    position_gain: float = 50.0  # [1/s] k_p: camera position error -> velocity (CLIK)
-    orientation_gain: float = 10.0  # [1/s] k_o: look-at error -> angular velocity (CLIK)
-    null_space_gain: float = 1.0  # [1/s] k_0: towards rest_positions, in the null space
+    # [1/s] k_p: camera position error -> velocity (CLIK)
+    position_gain: float = param(50.0, unit="1/s", ge=0)
+    # [1/s] k_o: look-at error -> angular velocity (CLIK)
+    orientation_gain: float = param(10.0, unit="1/s", ge=0)
+    # [1/s] k_0: towards rest_positions, in the null space
+    null_space_gain: float = param(1.0, unit="1/s", ge=0)
     # [rad] q_rest, one per joint; empty = the joints' positions at the path's start.
-    rest_positions: list[float] = dataclasses.field(default_factory=list)
-    damping: float = 0.01  # [-] damping of the pseudo-inverse (A^T (A A^T + d^2 I)^-1)
+    rest_positions: list[float] = param([], unit="rad")
+    # [-] damping of the pseudo-inverse (A^T (A A^T + d^2 I)^-1)
+    damping: float = param(0.01, unit="-", ge=0)
 
-    def check(self, raw: dict[str, Any]) -> None:
-        _check_path(self, raw)
-        for name in ("position_gain", "orientation_gain", "null_space_gain", "damping"):
-            value = getattr(self, name)
-            if not math.isfinite(value) or value < 0:
-                raise ParameterError(name, f"{name}={value!r} must be >= 0")
-        if self.rest_positions and len(self.rest_positions) != len(raw.get("joints", [])):
-            raise ParameterError(
+    def check(self) -> None:
+        """The path's rules, and one rest position per joint."""
+        _check_path(self)
+        if self.rest_positions and len(self.rest_positions) != len(self.joints):
+            raise Refusal(
                 "rest_positions",
-                f"rest_positions={self.rest_positions!r} must have one value per joint",
+                f"={self.rest_positions!r} must have one value per joint ({len(self.joints)})",
             )
 
 

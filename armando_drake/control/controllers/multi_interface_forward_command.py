@@ -15,7 +15,6 @@ warning.
 """
 
 import dataclasses
-from typing import Any
 
 import numpy as np
 
@@ -23,11 +22,11 @@ from armando_drake.control.controllers import (
     COMMAND_INTERFACES,
     Controller,
     ControllerMemory,
-    ParameterError,
     Rejected,
     register,
 )
 from armando_drake.messages.types import Float64MultiArray
+from armando_drake.tools.schema import param
 
 
 @dataclasses.dataclass
@@ -35,28 +34,16 @@ class MultiInterfaceForwardCommandParameters:
     """The parameters of ``MultiInterfaceForwardCommandController`` (upstream's schema)."""
 
     # The joint commanded.
-    joint: str = ""
+    joint: str = param("", nonempty=True)
     # The command interfaces written, in the order of the command's values: position
     # [rad], velocity [rad/s], effort [N m].
-    interface_names: list[str] = dataclasses.field(default_factory=list)
-
-    def check(self, raw: dict[str, Any]) -> None:
-        if not self.joint:
-            raise ParameterError("joint", "'joint' parameter is empty")
-        if not self.interface_names:
-            raise ParameterError("interface_names", "'interfaces' parameter is empty")
-        for name in self.interface_names:
-            if name not in COMMAND_INTERFACES:
-                raise ParameterError(
-                    "interface_names",
-                    f"interface {name!r} is not a command interface of joint "
-                    f"'{self.joint}'; only {', '.join(repr(i) for i in COMMAND_INTERFACES)} "
-                    "are simulated",
-                )
-        if len(set(self.interface_names)) != len(self.interface_names):
-            raise ParameterError(
-                "interface_names", f"interfaces listed more than once: {self.interface_names!r}"
-            )
+    interface_names: list[str] = param(
+        [],
+        nonempty=True,
+        unique=True,
+        choices=COMMAND_INTERFACES,
+        why="the command interfaces simulated",
+    )
 
 
 @register("forward_command_controller/MultiInterfaceForwardCommandController")

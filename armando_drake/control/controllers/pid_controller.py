@@ -21,7 +21,7 @@ them): a value left NaN keeps the previous reference.
 
 import dataclasses
 import math
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
@@ -29,14 +29,18 @@ from armando_drake.control.controllers import (
     COMMAND_INTERFACES,
     Controller,
     ControllerMemory,
-    ParameterError,
     Rejected,
-    joint_list,
     register,
 )
 from armando_drake.control.controllers.joint_trajectory import shortest_angular_distance
-from armando_drake.control.pid import PidGains, check_gains, compute_command
+from armando_drake.control.pid import (
+    ANTIWINDUP_STRATEGIES,
+    PidGains,
+    check_gains,
+    compute_command,
+)
 from armando_drake.messages.types import MultiDOFCommand
+from armando_drake.tools.schema import Refusal, param
 
 REFERENCE_INTERFACES = ("position", "velocity")  # the joints' state interfaces
 
@@ -52,17 +56,17 @@ class PidDofGains:
     # [command unit s/state unit] derivative gain.
     d: float = 0.0
     # [command unit] upper bound of the output.
-    u_clamp_max: float = math.inf
+    u_clamp_max: float = param(math.inf, infinite=True)
     # [command unit] lower bound of the output.
-    u_clamp_min: float = -math.inf
+    u_clamp_min: float = param(-math.inf, infinite=True)
     # legacy strategy only: clamp the integral itself (true), or its contribution.
     antiwindup: bool = False
     # [command unit] upper bound of the integral term (>= 0).
-    i_clamp_max: float = math.inf
+    i_clamp_max: float = param(math.inf, infinite=True)
     # [command unit] lower bound of the integral term (<= 0).
-    i_clamp_min: float = -math.inf
+    i_clamp_min: float = param(-math.inf, infinite=True)
     # legacy | none | back_calculation | conditional_integration (control_toolbox's).
-    antiwindup_strategy: str = "legacy"
+    antiwindup_strategy: str = param("legacy", choices=ANTIWINDUP_STRATEGIES)
     # [s] back_calculation's tracking time constant; 0 = sqrt(d / i), or p / i.
     tracking_time_constant: float = 0.0
     # [state unit] no integration while |error| <= error_deadband.
@@ -74,7 +78,13 @@ class PidDofGains:
     # Keep the integral term when the controller is reset (it is activated once here).
     save_i_term: bool = True
     # Publish the PID's state (not simulated: refused unless false).
-    activate_state_publisher: bool = False
+    activate_state_publisher: bool = param(
+        False, choices=(False,), why="not simulated: the PID state is not published"
+    )
+
+    def check(self) -> None:
+        """control_toolbox's rules between the gains."""
+        check_gains(self)
 
     def pid_gains(self) -> PidGains:
         return PidGains(
@@ -99,65 +109,45 @@ class PidControllerParameters:
     ROS_NAMES: ClassVar[dict[str, str]] = {"gains": "gains"}
 
     # The dofs (joints) commanded, in the order of the reference's values.
-    dof_names: list[str] = dataclasses.field(default_factory=list)
+    dof_names: list[str] = param([], nonempty=True, unique=True)
     # The dofs whose state is read; empty or equal to dof_names (chaining other names is not
     # simulated).
     reference_and_state_dof_names: list[str] = dataclasses.field(default_factory=list)
     # The command interface written: position [rad], velocity [rad/s] or effort [N m].
-    command_interface: str = ""
+    command_interface: str = param("", choices=COMMAND_INTERFACES)
     # The state (and reference) interfaces: [position], [velocity] or [position, velocity].
-    reference_and_state_interfaces: list[str] = dataclasses.field(default_factory=list)
+    reference_and_state_interfaces: list[str] = param(
+        [],
+        nonempty=True,
+        unique=True,
+        choices=REFERENCE_INTERFACES,
+        why="the state interfaces of the simulated joints",
+    )
     # Start from the state read at activation as the reference (else none until one comes).
     set_current_state_as_first_setpoint: bool = True
     # Read the state from ~/measured_state instead of the state interfaces (not simulated:
     # refused unless false).
-    use_external_measured_states: bool = False
+    use_external_measured_states: bool = param(
+        False,
+        choices=(False,),
+        why="not simulated: the state is read from the joints' state interfaces",
+    )
     # Add feedforward_gain times the reference (the second one with two interfaces).
     enable_feedforward: bool = False
     # Per dof, the PID gains.
     gains: dict[str, PidDofGains] = dataclasses.field(default_factory=dict)
 
-    def check(self, raw: dict[str, Any]) -> None:
-        joint_list(raw.get("dof_names"), "dof_names")
+    def check(self) -> None:
+        """The rules between fields (the fields' own are declared beside them)."""
         if self.reference_and_state_dof_names not in ([], self.dof_names):
-            raise ParameterError(
+            raise Refusal(
                 "reference_and_state_dof_names",
-                f"{self.reference_and_state_dof_names!r} differs from dof_names "
+                f"={self.reference_and_state_dof_names!r} differs from dof_names "
                 f"{self.dof_names}; chained controllers are not simulated",
             )
-        if self.command_interface not in COMMAND_INTERFACES:
-            raise ParameterError(
-                "command_interface",
-                f"command_interface={self.command_interface!r} must be one of "
-                f"{list(COMMAND_INTERFACES)}",
-            )
-        interfaces = self.reference_and_state_interfaces
-        if not 0 < len(interfaces) < 3 or len(set(interfaces)) != len(interfaces):
-            raise ParameterError(
-                "reference_and_state_interfaces",
-                f"{interfaces!r} must name one or two interfaces",
-            )
-        for name in interfaces:
-            if name not in REFERENCE_INTERFACES:
-                raise ParameterError(
-                    "reference_and_state_interfaces",
-                    f"{name!r} is not a state interface of the simulated joints "
-                    f"{list(REFERENCE_INTERFACES)}",
-                )
-        if self.use_external_measured_states:
-            raise ParameterError(
-                "use_external_measured_states",
-                "not simulated: the state is read from the joints' state interfaces",
-            )
-        for dof, gains in self.gains.items():
+        for dof in self.gains:
             if dof not in self.dof_names:
-                raise ParameterError(f"gains.{dof}", f"'{dof}' is not one of the dof_names")
-            if gains.activate_state_publisher:
-                raise ParameterError(
-                    f"gains.{dof}.activate_state_publisher",
-                    "not simulated: the PID state is not published",
-                )
-            check_gains(gains, f"gains.{dof}", ParameterError)
+                raise Refusal(f"gains.{dof}", f": '{dof}' is not one of the dof_names")
 
 
 @dataclasses.dataclass(frozen=True)

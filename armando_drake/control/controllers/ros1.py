@@ -40,7 +40,6 @@ import numpy as np
 from armando_drake.control.controllers import (
     Controller,
     ControllerMemory,
-    ParameterError,
     Rejected,
     register,
 )
@@ -55,8 +54,11 @@ from armando_drake.control.controllers.joint_trajectory import (
     JointTrajectoryControllerParams,
 )
 from armando_drake.messages.types import Float64, Float64MultiArray
+from armando_drake.tools.schema import Refusal, param
 
 ROS1_TOPIC = "command"  # every ROS 1 command topic: /<namespace>/<controller>/command
+NO_JOINT = "No joint given; expected a joint name"  # ROS 1's error, a joint missing
+NO_P_GAIN = "No p gain specified for pid"  # ROS 1's error, a PID's p missing
 
 
 # --------------------------------------------------------------------------------------
@@ -68,15 +70,7 @@ class JointStateControllerParameters:
     """The parameters of ``joint_state_controller/JointStateController``."""
 
     # [Hz] rate at which joint states are published; required, as in ROS 1.
-    publish_rate: float = 0.0
-
-    def check(self, raw: dict[str, Any]) -> None:
-        if "publish_rate" not in raw:
-            raise ParameterError("publish_rate", "Parameter 'publish_rate' not set")
-        if not (math.isfinite(self.publish_rate) and self.publish_rate > 0):
-            raise ParameterError(
-                "publish_rate", f"publish_rate={self.publish_rate!r} must be positive [Hz]"
-            )
+    publish_rate: float = param(0.0, unit="Hz", gt=0, required="Parameter 'publish_rate' not set")
 
 
 @register("joint_state_controller/JointStateController", ros=1)
@@ -108,16 +102,7 @@ class SingleJointParameters:
     """The parameters of ROS 1's single-joint forward-command controllers."""
 
     # The joint commanded.
-    joint: str = ""
-
-    def check(self, raw: dict[str, Any]) -> None:
-        _check_joint(raw)
-
-
-def _check_joint(raw: dict[str, Any]) -> None:
-    joint = raw.get("joint")
-    if not isinstance(joint, str) or not joint:
-        raise ParameterError("joint", f"No joint given; expected a joint name, got {joint!r}")
+    joint: str = param("", nonempty=True, required=NO_JOINT)
 
 
 def _as_array(message: Any) -> Any:
@@ -226,18 +211,13 @@ class Ros1JointTrajectoryController(JointTrajectoryController):
 # effort_controllers/JointPositionController: a PID to effort
 
 
-def _finite(value: float, parameter: str) -> None:
-    """control_toolbox takes any gain, negative ones too; a non-finite one is refused."""
-    if not math.isfinite(value):
-        raise ParameterError(parameter, f"{parameter.rsplit('.', 1)[-1]}={value!r} must be finite")
-
-
 @dataclasses.dataclass
 class PidGains:
     """control_toolbox's ``Pid`` gains, as ROS 1 reads them under ``pid:``."""
 
-    # [N m/rad] proportional gain; required.
-    p: float = 0.0
+    # [N m/rad] proportional gain; required. (control_toolbox takes any gain, negative
+    # ones too; a non-finite one is refused.)
+    p: float = param(0.0, required=NO_P_GAIN)
     # [N m/(rad s)] integral gain.
     i: float = 0.0
     # [N m s/rad] derivative gain (on the change of the error between updates).
@@ -269,17 +249,9 @@ class JointPositionPidParameters:
     """The parameters of ``effort_controllers/JointPositionController``."""
 
     # The joint controlled.
-    joint: str = ""
+    joint: str = param("", nonempty=True, required=NO_JOINT)
     # Its PID gains.
-    pid: PidGains = dataclasses.field(default_factory=PidGains)
-
-    def check(self, raw: dict[str, Any]) -> None:
-        _check_joint(raw)
-        gains = raw.get("pid")
-        if not isinstance(gains, dict) or "p" not in gains:
-            raise ParameterError("pid.p", "No p gain specified for pid")
-        for name in ("p", "i", "d"):
-            _finite(getattr(self.pid, name), f"pid.{name}")
+    pid: PidGains = param(default_factory=PidGains, required=NO_P_GAIN)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -401,21 +373,18 @@ class EffortTrajectoryParameters(JointTrajectoryControllerParams):
     # every joint needs its p.
     gains: dict[str, PidGains] = dataclasses.field(default_factory=dict)
 
-    def check(self, raw: dict[str, Any]) -> None:
-        super().check(raw)
-        given = raw.get("gains") or {}
-        if not isinstance(given, dict):
-            raise ParameterError("gains", f"expected a mapping of joints, got {given!r}")
-        for joint in given:
+    def check(self) -> None:
+        """The trajectory controller's rules, and a PID for each joint (whose p the
+        file gives: ``required``), none for another name."""
+        super().check()
+        for joint in self.gains:
             if joint not in self.joints:
-                raise ParameterError(
-                    f"gains.{joint}", f"'{joint}' is not one of the controller's joints"
+                raise Refusal(
+                    f"gains.{joint}", f": '{joint}' is not one of the controller's joints"
                 )
         for joint in self.joints:
-            if not isinstance(given.get(joint), dict) or "p" not in given[joint]:
-                raise ParameterError(f"gains.{joint}.p", "No p gain specified for pid")
-            for name in ("p", "i", "d"):
-                _finite(getattr(self.gains[joint], name), f"gains.{joint}.{name}")
+            if joint not in self.gains:
+                raise Refusal(f"gains.{joint}.p", f": {NO_P_GAIN}")
 
 
 @dataclasses.dataclass(frozen=True)

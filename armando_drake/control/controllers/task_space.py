@@ -42,9 +42,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from armando_drake.control.controllers import (
     Controller,
     ControllerMemory,
-    ParameterError,
     Rejected,
-    joint_list,
     register,
 )
 from armando_drake.kinematics.arm import ArmModel, TaskSpaceError
@@ -54,6 +52,7 @@ from armando_drake.kinematics.control_laws import (
     OperationalSpaceInverseDynamicsParams,
 )
 from armando_drake.messages.types import CartesianTrajectory, JointTrajectory
+from armando_drake.tools.schema import Refusal, param
 
 
 @dataclass
@@ -61,10 +60,10 @@ class JointSpaceInverseDynamicsParameters(JointSpaceInverseDynamicsParams):
     """``ros__parameters`` of the joint-space inverse-dynamics controller."""
 
     # The joints commanded: every moving joint of the robot, in any order.
-    joints: list[str] = dataclasses.field(default_factory=list)
+    joints: list[str] = param([], required=True, nonempty=True, unique=True)
 
-    def check(self, raw: dict[str, Any]) -> None:
-        _check(self, raw)
+    def check(self) -> None:
+        _check(self)
 
 
 @dataclass
@@ -72,20 +71,19 @@ class OperationalSpaceInverseDynamicsParameters(OperationalSpaceInverseDynamicsP
     """``ros__parameters`` of the operational-space inverse-dynamics controller."""
 
     # The joints commanded: every moving joint of the robot, in any order.
-    joints: list[str] = dataclasses.field(default_factory=list)
+    joints: list[str] = param([], required=True, nonempty=True, unique=True)
 
-    def check(self, raw: dict[str, Any]) -> None:
-        _check(self, raw)
+    def check(self) -> None:
+        _check(self)
 
 
-def _check(params, raw: dict[str, Any]) -> None:
-    if "joints" not in raw:
-        raise ParameterError("joints", "'joints' parameter is missing")
-    joint_list(raw["joints"])
+def _check(params) -> None:
+    """The control law's own rules (its ``validate()``), as the parameters' refusal."""
     try:
         params.validate()
     except TaskSpaceError as error:  # "<name>=<value> must be ..."
-        raise ParameterError(str(error).split("=", 1)[0], str(error)) from None
+        name, _, problem = str(error).partition("=")
+        raise Refusal(name, f"={problem}") from None
 
 
 @dataclass(frozen=True)
