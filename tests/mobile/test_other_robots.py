@@ -108,7 +108,7 @@ def test_classic_plugin_encoder_odometry_and_link_friction():
         (
             ["controllers: {config: NEGATIVE}"],
             r"negative\.yaml: minibot_base_controller\.ros__parameters\.wheel_radius: "
-            r"wheel_radius=-0\.05 must be > 0",
+            r"wheel_radius=-0\.05 must be positive \[m\]",
         ),
     ],
 )
