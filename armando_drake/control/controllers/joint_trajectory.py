@@ -46,7 +46,6 @@ controller (ros2_controllers' ``jazzy`` branch, commit ed360c97) does at every u
   time advances by ``factor * dt`` per update; ``t`` above is that time.
 """
 
-import bisect
 import dataclasses
 import math
 from typing import Any, ClassVar
@@ -60,16 +59,24 @@ from armando_drake.control.controllers import (
     Rejected,
     register,
 )
+from armando_drake.control.controllers._trajectory import (  # the trajectory's API, here too
+    Point,
+    SampledTrajectory,
+    TrajectorySample,  # noqa: F401
+    interpolate_between_points,  # noqa: F401
+    last_command_point,
+    message_points,
+    shortest_angular_distance,  # noqa: F401
+    stop_trajectory,
+    wraparound_joint,  # noqa: F401
+)
+from armando_drake.control.controllers._trajectory_checks import Tolerances, validate_trajectory
 from armando_drake.control.pid import ANTIWINDUP_STRATEGIES, PidGains, check_gains, compute_command
 from armando_drake.messages.types import (
     JointTrajectory,
-    JointTrajectoryPoint,
     SpeedScalingFactor,
 )
 from armando_drake.tools.schema import Refusal, param
-
-# Upstream's "is this velocity zero" threshold: std::numeric_limits<float>::epsilon().
-_FLOAT_EPSILON = float(np.finfo(np.float32).eps)
 
 COMMAND_INTERFACES = ("position", "velocity", "acceleration", "effort")
 STATE_INTERFACES = ("position", "velocity", "acceleration")
@@ -289,359 +296,95 @@ def _check_combinations(command: list[str], state: list[str]) -> None:
         )
 
 
-# --------------------------------------------------------------------------------------
-# The trajectory: upstream's trajectory.cpp, precomputed per segment
-
-
-@dataclasses.dataclass
-class _Point:
-    """One point in controller joint order; None = not given (upstream's empty vector)."""
-
-    time: float  # [s] simulation time
-    positions: np.ndarray | None  # [rad] (n)
-    velocities: np.ndarray | None  # [rad/s] (n)
-    accelerations: np.ndarray | None  # [rad/s^2] (n)
-    # [N m] (n): the feed-forward effort of the effort command interface.
-    effort: np.ndarray | None = None
-
-    def filled(self, field: str) -> np.ndarray:
-        values = getattr(self, field)
-        return np.zeros(len(self.positions)) if values is None else values
-
-
-def _segment_coefficients(a: _Point, b: _Point) -> np.ndarray:
-    """Per joint, the ascending coefficients in (t - a.time) of the position on a -> b
-    (upstream's ``interpolate_between_points``): cubic when both ends give velocities,
-    quintic when both also give accelerations, else linear. (n, 6)"""
-    T = b.time - a.time
-    p0, p1 = a.positions, b.positions
-    table = np.zeros((len(p0), 6))
-    table[:, 0] = p0
-    if a.velocities is None or b.velocities is None:
-        # Linear; also for accelerations without velocities, where upstream has no
-        # branch and commands zeros (one of our documented differences).
-        table[:, 1] = (p1 - p0) / T
-        return table
-    v0, v1 = a.velocities, b.velocities
-    table[:, 1] = v0
-    if a.accelerations is None or b.accelerations is None:
-        table[:, 2] = (3.0 * (p1 - p0) - (2.0 * v0 + v1) * T) / T**2
-        table[:, 3] = (2.0 * (p0 - p1) + (v0 + v1) * T) / T**3
-        return table
-    a0, a1 = a.accelerations, b.accelerations
-    table[:, 2] = 0.5 * a0
-    table[:, 3] = (20.0 * (p1 - p0) - (8.0 * v1 + 12.0 * v0) * T - (3.0 * a0 - a1) * T**2) / (
-        2.0 * T**3
-    )
-    c4 = 30.0 * (p0 - p1) + (14.0 * v1 + 16.0 * v0) * T + (3.0 * a0 - 2.0 * a1) * T**2
-    table[:, 4] = c4 / (2.0 * T**4)
-    table[:, 5] = (12.0 * (p1 - p0) - 6.0 * (v1 + v0) * T - (a0 - a1) * T**2) / (2.0 * T**5)
-    return table
-
-
-def interpolate_between_points(
-    time_a: float,
-    state_a: JointTrajectoryPoint,
-    time_b: float,
-    state_b: JointTrajectoryPoint,
-    sample_time: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Upstream's ``Trajectory::interpolate_between_points``: positions, velocities and
-    accelerations at ``sample_time`` on the segment a -> b (times [s]), of the degree
-    both ends allow; clamped to the segment's ends."""
-
-    def point(time, state):
-        def array(values):
-            return np.asarray(values, float) if len(values) else None
-
-        return _Point(
-            time, array(state.positions), array(state.velocities), array(state.accelerations)
+def _ros_layout(raw: dict[str, Any], undeclared: list[str]) -> dict[str, Any]:
+    """ROS's ``constraints`` and ``gains`` mappings as the flat fields of the
+    parameters; what they hold for a name that is not one of the joints (Jazzy's
+    ``__map_joints``) is not declared."""
+    joints = raw.get("joints")
+    joints = joints if isinstance(joints, list) else []
+    command_joints = raw.get("command_joints")
+    if command_joints not in (None, [], joints):
+        raise ParameterError(
+            "command_joints",
+            f"{command_joints!r} differs from joints {joints}; command joints other than "
+            "the joints (controller chains, passive joints) are not simulated",
         )
-
-    a, b = point(time_a, state_a), point(time_b, state_b)
-    tau = min(max(sample_time - time_a, 0.0), time_b - time_a)
-    if not time_a <= sample_time <= time_b:  # upstream clamps, and goes linear
-        b = dataclasses.replace(b, velocities=None, accelerations=None)
-    coefficients = _segment_coefficients(a, b)
-    powers = tau**_EXPONENTS
-    velocity = coefficients[:, 1:] @ (_DERIVATIVE * tau ** (_DERIVATIVE - 1))
-    acceleration = coefficients[:, 2:] @ (
-        _DERIVATIVE[1:] * _DERIVATIVE[:-1] * tau ** (_DERIVATIVE[:-1] - 1)
-    )
-    return coefficients @ powers, velocity, acceleration
-
-
-def _deduce_from_derivatives(a: _Point, b: _Point) -> None:
-    """Upstream's ``deduce_from_derivatives``: b's missing positions (and velocities)
-    integrated from a's, with the trapezoid rule (a's missing ones are zero)."""
-    if b.positions is not None:
-        return
-    n = len(a.positions)
-    dt = b.time - a.time
-    if a.velocities is None:
-        a.velocities = np.zeros(n)
-    if b.velocities is None:
-        if a.accelerations is None:
-            a.accelerations = np.zeros(n)
-        b.velocities = a.velocities + (a.accelerations + b.filled("accelerations")) * 0.5 * dt
-    b.positions = a.positions + (a.velocities + b.velocities) * 0.5 * dt
-
-
-def shortest_angular_distance(start, end) -> np.ndarray:
-    """[rad] ROS angles' ``shortest_angular_distance(start, end)``: ``end - start``
-    normalized into (-pi, pi] (``normalize_angle``: fmod(a + pi, 2 pi), shifted back)."""
-    angle = np.asarray(end, dtype=float) - np.asarray(start, dtype=float)
-    result = np.fmod(angle + math.pi, 2.0 * math.pi)
-    return np.where(result <= 0.0, result + math.pi, result - math.pi)
-
-
-def wraparound_joint(current, next_positions, wraparound) -> np.ndarray:
-    """Upstream's ``wraparound_joint``: ``current`` [rad] with each joint flagged in
-    ``wraparound`` moved by a multiple of 2 pi to within pi of ``next_positions`` (the first
-    point), so a continuous joint's first segment is its shortest rotation; at exactly pi
-    away (within 1e-9) the distance takes the sign of ``next - current``."""
-    current = np.array(current, dtype=float)
-    mask = np.asarray(wraparound, dtype=bool)
-    if not mask.any():
-        return current
-    target = np.asarray(next_positions, dtype=float)
-    distance = shortest_angular_distance(current, target)
-    tie = np.abs(np.abs(distance) - math.pi) < 1e-9
-    distance = np.where(tie, np.where(target > current, 1.0, -1.0) * np.abs(distance), distance)
-    return np.where(mask, target - distance, current)
-
-
-@dataclasses.dataclass(frozen=True)
-class TrajectorySample:
-    """What upstream's ``Trajectory::sample`` returns, in controller joint order."""
-
-    positions: np.ndarray  # [rad] (n)
-    velocities: np.ndarray  # [rad/s] (n)
-    accelerations: np.ndarray  # [rad/s^2] (n)
-    segment: tuple[int, int]  # indices of the points around the sample (see sample())
-    effort: np.ndarray | None = None  # [N m] (n), zero where no point gives one
-
-
-_DEGREE = 5  # highest segment degree (quintic)
-_EXPONENTS = np.arange(_DEGREE + 1)
-_DERIVATIVE = np.arange(1, _DEGREE + 1)  # d/dt of c_k t^k is k c_k t^(k-1)
-
-
-@dataclasses.dataclass(frozen=True)
-class SampledTrajectory:
-    """An accepted trajectory as upstream's ``Trajectory::sample`` sees it, with each
-    segment's coefficients computed once. Never mutated.
-
-    The segments are one coefficient table sampled with one matrix product (no
-    pybind call: inside a simulation each costs tens of microseconds, so Drake's
-    ``PiecewisePolynomial.value`` here cost more than the rest of the tick).
-    """
-
-    breaks: tuple[float, ...]  # [s] segment start times, then the last point's time
-    # Per segment, ascending coefficients in (t - break) of [q; v] (2n rows): (s, 2n, 6).
-    # For interpolation_method none each segment is constant (column 0).
-    coefficients: np.ndarray
-    end_time: float  # [s] time of the last point
-    # [rad, rad/s, rad/s^2] what upstream commands after the last point: its positions,
-    # velocities and accelerations (zero where not given), as [q; v; a] (3n).
-    final: np.ndarray
-    # [rad/s^2] per segment the constant accelerations of interpolation_method none (s, n).
-    held_accelerations: np.ndarray | None = None
-    # [s] time of the state before the trajectory (the update that first sampled it).
-    before_time: float = -math.inf
-    # Whether the first segment runs from the state before the trajectory to the first
-    # point (the first point was still to come when the trajectory was first sampled).
-    from_before: bool = False
-    # [N m] per segment, the effort at its start and its slope [N m/s] (s, n, 2): linear
-    # between points, an effort not given read as zero (upstream's has_effort after
-    # deduce_from_derivatives fills empty efforts with zeros); None: zero throughout.
-    effort_coefficients: np.ndarray | None = None
-    # [N m] (n) the effort after the last point: its effort, zero where not given.
-    final_effort: np.ndarray | None = None
-
-    def __deepcopy__(self, memo):
-        return self
-
-    @property
-    def n(self) -> int:
-        return len(self.final) // 3
-
-    def ended(self, time: float) -> bool:
-        """Whether ``time`` is at or past the last point (upstream: "whole animation has
-        played out", the end segment iterator at ``end()``)."""
-        return time >= self.end_time
-
-    def state(self, time: float) -> np.ndarray:
-        """[q; v] (2n) at ``time`` [s]: the segment's polynomial, or the last point."""
-        if time >= self.end_time:
-            return self.final[: 2 * self.n]
-        k = max(bisect.bisect_right(self.breaks, time) - 1, 0)
-        return self.coefficients[k] @ (max(time - self.breaks[k], 0.0) ** _EXPONENTS)
-
-    def acceleration(self, time: float) -> np.ndarray:
-        """[rad/s^2] (n) at ``time`` [s]."""
-        n = self.n
-        if time >= self.end_time:
-            return self.final[2 * n :]
-        k = max(bisect.bisect_right(self.breaks, time) - 1, 0)
-        if self.held_accelerations is not None:
-            return self.held_accelerations[k]
-        tau = max(time - self.breaks[k], 0.0)
-        return self.coefficients[k, n:, 1:] @ (_DERIVATIVE * tau ** (_DERIVATIVE - 1))
-
-    def effort(self, time: float) -> np.ndarray:
-        """[N m] (n) the feed-forward effort at ``time`` [s]."""
-        if time >= self.end_time:
-            return np.zeros(self.n) if self.final_effort is None else self.final_effort
-        if self.effort_coefficients is None:
-            return np.zeros(self.n)
-        k = max(bisect.bisect_right(self.breaks, time) - 1, 0)
-        tau = min(max(time - self.breaks[k], 0.0), self.breaks[k + 1] - self.breaks[k])
-        start, slope = self.effort_coefficients[k, :, 0], self.effort_coefficients[k, :, 1]
-        return start + slope * tau
-
-    def sample(self, time: float) -> "TrajectorySample | None":
-        """Upstream's ``Trajectory::sample`` at ``time`` [s]: None before the state
-        before the trajectory, else the positions, velocities, accelerations and the
-        segment's point indices (upstream's start and end iterators: (0, 0) before the
-        first point, (i, i + 1) from point i to i + 1, (last, count) after the end)."""
-        if time < self.before_time:
-            return None
-        n = self.n
-        x = self.state(time)
-        count = len(self.breaks) - (1 if self.from_before else 0)
-        if self.ended(time):
-            segment = (count - 1, count)
+    constraints = raw.pop("constraints", None) or {}
+    if not isinstance(constraints, dict):
+        raise ParameterError("constraints", f"expected a mapping, got {constraints!r}")
+    trajectory_tolerance, goal_tolerance, deceleration = {}, {}, {}
+    per_joint = {
+        "trajectory": trajectory_tolerance,
+        "goal": goal_tolerance,
+        "max_deceleration_on_cancel": deceleration,
+    }
+    for name, value in constraints.items():
+        where = f"constraints.{name}"
+        if name in ("goal_time", "stopped_velocity_tolerance", "decelerate_on_cancel"):
+            raw[name] = value
+        elif name in joints:
+            if not isinstance(value, dict):
+                raise ParameterError(
+                    where,
+                    f"expected 'trajectory', 'goal' and 'max_deceleration_on_cancel', "
+                    f"got {value!r}",
+                )
+            for key, number in value.items():
+                if key not in per_joint:
+                    undeclared.append(f"{where}.{key}")
+                    continue
+                per_joint[key][name] = number
         else:
-            k = max(bisect.bisect_right(self.breaks, time) - 1, 0)
-            k -= 1 if self.from_before else 0
-            segment = (0, 0) if k < 0 else (k, k + 1)
-        return TrajectorySample(
-            x[:n].copy(),
-            x[n:].copy(),
-            self.acceleration(time),
-            segment,
-            np.array(self.effort(time), dtype=float),
-        )
+            undeclared.append(where)
+    raw["trajectory_tolerance"] = trajectory_tolerance
+    raw["goal_tolerance"] = goal_tolerance
+    raw["max_deceleration_on_cancel"] = deceleration
+    gains = raw.get("gains")
+    if gains is not None:
+        if not isinstance(gains, dict):
+            raise ParameterError("gains", f"expected a mapping of joints, got {gains!r}")
+        for joint, values in list(gains.items()):
+            if joint not in joints:
+                undeclared.append(f"gains.{joint}")
+                del gains[joint]
+            elif not isinstance(values, dict):
+                raise ParameterError(f"gains.{joint}", f"expected a mapping, got {values!r}")
+    return raw
 
-    @staticmethod
-    def from_message(
-        message: JointTrajectory,
-        *,
-        time: float,
-        positions,
-        velocities=None,
-        accelerations=None,
-        effort=None,
-        interpolation_method: str = "splines",
-        wraparound=None,
-    ) -> "SampledTrajectory":
-        """Upstream's ``Trajectory(current_time, current_point, msg)`` first sampled at
-        ``time`` [s] (the start, when the message's stamp is 0): ``message`` (its joints in
-        the controller's order) from the state before it, ``positions`` [rad] and, when
-        given, ``velocities`` [rad/s], ``accelerations`` [rad/s^2] and ``effort`` [N m];
-        ``wraparound`` flags the continuous joints (upstream's ``joints_angle_wraparound``)."""
-        start = message.stamp if message.stamp != 0.0 else time
 
-        def array(values):
-            return None if values is None or len(values) == 0 else np.asarray(values, float)
-
-        points = [
-            _Point(
-                start + point.time_from_start,
-                array(point.positions),
-                array(point.velocities),
-                array(point.accelerations),
-                array(point.effort),
-            )
-            for point in message.points
-        ]
-        before = _Point(
-            time, array(positions), array(velocities), array(accelerations), array(effort)
+def _deceleration_on_cancel(controller, params, joints) -> np.ndarray | None:
+    """[rad/s^2] upstream's should_decelerate_on_cancel_ and max_decel_ of ``controller``
+    (its parameters ``params``, its ``joints``): upstream's on_configure check of
+    decelerate_on_cancel, every joint needs a max_deceleration_on_cancel > 0 and a URDF
+    velocity limit > 0, and the controller a velocity state interface; else it logs why
+    and holds the position on an abort (None)."""
+    if not params.decelerate_on_cancel:
+        return None
+    deceleration = np.array(
+        [params.max_deceleration_on_cancel.get(name, 0.0) for name in controller.joint_names]
+    )
+    for name, decel, limit in zip(
+        controller.joint_names, deceleration, joints.velocity, strict=True
+    ):
+        if decel <= 0.0:
+            problem = f"invalid max_deceleration_on_cancel [{decel:.1f}]"
+        elif not 0.0 < limit < math.inf:
+            problem = f"has invalid joint velocity defined in URDF [{limit:.1f}]"
+        else:
+            continue
+        controller.log_warning(
+            controller.name,
+            f"Joint [{name}] {problem}. Falling back to hold position on cancel.",
         )
-        return SampledTrajectory.build(
-            before, points, interpolate=interpolation_method == "splines", wraparound=wraparound
+        return None
+    if "velocity" not in params.state_interfaces:
+        controller.log_warning(
+            controller.name,
+            "Decelerate on cancel is enabled but hardware does not support velocity state "
+            "interface. Falling back to hold position on cancel.",
         )
-
-    @staticmethod
-    def hold(
-        positions: np.ndarray,
-        velocities: np.ndarray | None = None,
-        effort: np.ndarray | None = None,
-    ) -> "SampledTrajectory":
-        """Upstream's hold trajectory: one point at ``positions`` (zero velocities and
-        efforts unless given, zero accelerations), commanded from its start on."""
-        n = len(positions)
-        velocities = np.zeros(n) if velocities is None else velocities
-        final = np.concatenate([positions, velocities, np.zeros(n)])
-        table = np.zeros((0, 2 * n, _DEGREE + 1))
-        return SampledTrajectory((), table, -math.inf, final, final_effort=effort)
-
-    @staticmethod
-    def build(
-        before: _Point, points: list[_Point], *, interpolate: bool, wraparound=None
-    ) -> "SampledTrajectory":
-        """The trajectory through ``points`` (controller order, absolute times) that
-        starts from ``before``, the state before the trajectory at the update that
-        first samples it; the joints flagged in ``wraparound`` (continuous) start from
-        the representation of ``before``'s position nearest the first point's
-        (``wraparound_joint``). ``points`` are not changed."""
-        points = [dataclasses.replace(point) for point in points]
-        before = dataclasses.replace(before)
-        first = points[0]
-        # set_point_before_trajectory_msg: the first segment gets the trajectory's degree.
-        if before.velocities is None and first.velocities is not None:
-            before.velocities = np.zeros(len(before.positions))
-        if before.accelerations is None and first.accelerations is not None:
-            before.accelerations = np.zeros(len(before.positions))
-        if wraparound is not None and first.positions is not None:
-            before.positions = wraparound_joint(before.positions, first.positions, wraparound)
-        knots = [before, *points] if first.time > before.time else points
-        for a, b in zip(knots[:-1], knots[1:], strict=True):
-            _deduce_from_derivatives(a, b)
-        if knots[0].positions is None:  # the first point is already due: nothing to integrate
-            knots[0].positions = before.positions.copy()
-        last = knots[-1]
-        n = len(last.positions)
-        final = np.concatenate(
-            [last.positions, last.filled("velocities"), last.filled("accelerations")]
-        )
-        breaks = tuple(float(knot.time) for knot in knots)
-        table = np.zeros((len(knots) - 1, 2 * n, _DEGREE + 1))
-        held = None if interpolate else np.zeros((len(knots) - 1, n))
-        efforts = None
-        if any(knot.effort is not None for knot in knots):
-            efforts = np.zeros((len(knots) - 1, n, 2))
-        for k, (a, b) in enumerate(zip(knots[:-1], knots[1:], strict=True)):
-            if not interpolate:
-                # interpolation_method none: the next point's values until it is reached;
-                # before the first point, the state before the trajectory.
-                shown = a if a is before else b
-                table[k, :n, 0] = shown.positions
-                table[k, n:, 0] = shown.filled("velocities")
-                held[k] = shown.filled("accelerations")
-                if efforts is not None:
-                    efforts[k, :, 0] = shown.filled("effort")
-                continue
-            coefficients = _segment_coefficients(a, b)
-            table[k, :n] = coefficients
-            table[k, n:, :_DEGREE] = coefficients[:, 1:] * _DERIVATIVE
-            if efforts is not None:
-                # Linear, from zero where an end gives none (deduce_from_derivatives).
-                efforts[k, :, 0] = a.filled("effort")
-                efforts[k, :, 1] = (b.filled("effort") - a.filled("effort")) / (b.time - a.time)
-        final_effort = None if last.effort is None else last.effort.copy()
-        return SampledTrajectory(
-            breaks,
-            table,
-            breaks[-1],
-            final,
-            held,
-            before.time,
-            knots[0] is before,
-            efforts,
-            final_effort,
-        )
+        return None
+    return deceleration
 
 
 def _pid_arrays(gains: list[JointGains]) -> dict[str, Any]:
@@ -715,58 +458,8 @@ class JointTrajectoryController(Controller):
     @classmethod
     def ros_layout(cls, raw: dict[str, Any], *, undeclared: list[str]) -> dict[str, Any]:
         """ROS's ``constraints`` and ``gains`` mappings as the flat fields of the
-        parameters; what they hold for a name that is not one of the joints (Jazzy's
-        ``__map_joints``) is not declared."""
-        joints = raw.get("joints")
-        joints = joints if isinstance(joints, list) else []
-        command_joints = raw.get("command_joints")
-        if command_joints not in (None, [], joints):
-            raise ParameterError(
-                "command_joints",
-                f"{command_joints!r} differs from joints {joints}; command joints other than "
-                "the joints (controller chains, passive joints) are not simulated",
-            )
-        constraints = raw.pop("constraints", None) or {}
-        if not isinstance(constraints, dict):
-            raise ParameterError("constraints", f"expected a mapping, got {constraints!r}")
-        trajectory_tolerance, goal_tolerance, deceleration = {}, {}, {}
-        per_joint = {
-            "trajectory": trajectory_tolerance,
-            "goal": goal_tolerance,
-            "max_deceleration_on_cancel": deceleration,
-        }
-        for name, value in constraints.items():
-            where = f"constraints.{name}"
-            if name in ("goal_time", "stopped_velocity_tolerance", "decelerate_on_cancel"):
-                raw[name] = value
-            elif name in joints:
-                if not isinstance(value, dict):
-                    raise ParameterError(
-                        where,
-                        f"expected 'trajectory', 'goal' and 'max_deceleration_on_cancel', "
-                        f"got {value!r}",
-                    )
-                for key, number in value.items():
-                    if key not in per_joint:
-                        undeclared.append(f"{where}.{key}")
-                        continue
-                    per_joint[key][name] = number
-            else:
-                undeclared.append(where)
-        raw["trajectory_tolerance"] = trajectory_tolerance
-        raw["goal_tolerance"] = goal_tolerance
-        raw["max_deceleration_on_cancel"] = deceleration
-        gains = raw.get("gains")
-        if gains is not None:
-            if not isinstance(gains, dict):
-                raise ParameterError("gains", f"expected a mapping of joints, got {gains!r}")
-            for joint, values in list(gains.items()):
-                if joint not in joints:
-                    undeclared.append(f"gains.{joint}")
-                    del gains[joint]
-                elif not isinstance(values, dict):
-                    raise ParameterError(f"gains.{joint}", f"expected a mapping, got {values!r}")
-        return raw
+        parameters (:func:`_ros_layout`)."""
+        return _ros_layout(raw, undeclared)
 
     def __init__(self, *, name, joints, params=None):
         super().__init__(name=name, joints=joints, params=params)
@@ -780,31 +473,22 @@ class JointTrajectoryController(Controller):
             )
         self._params = params
         self._interpolate = params.interpolation_method == "splines"
-        self._path_tolerance = np.array(
-            [params.trajectory_tolerance.get(name, 0.0) for name in names]
-        )
-        self._goal_tolerance = np.array([params.goal_tolerance.get(name, 0.0) for name in names])
-        # [rad] the tolerances as bounds to compare with (inf where unchecked).
-        self._path_limit = np.where(self._path_tolerance > 0, self._path_tolerance, np.inf)
         # Upstream's joints_angle_wraparound_: the continuous joints (from the robot
         # description), whose position errors are wrapped into (-pi, pi] and whose
         # trajectories start from the nearest representation of the state before.
         self._wraparound = joints.wraparound
         self._wraps = bool(self._wraparound.any())
-        self._goal_limit = np.where(self._goal_tolerance > 0, self._goal_tolerance, np.inf)
-        # Upstream's velocity error exists only with a velocity state interface and a
-        # velocity or effort command interface; else stopped_velocity_tolerance is moot.
         commands, states = params.command_interfaces, params.state_interfaces
-        self._velocity_error = "velocity" in states and (
-            "velocity" in commands or "effort" in commands
-        )
         self._measured_velocity = "velocity" in states
         # Upstream's has_effort_command_interface_: points may give efforts, fed forward.
         self._has_effort = "effort" in commands
         self._measured_acceleration = "acceleration" in states
         # [s] cmd_timeout, 0 when off (upstream: only when greater than goal_time).
-        self._cmd_timeout = params.cmd_timeout if params.cmd_timeout > params.goal_time else 0.0
-        if params.cmd_timeout > 0 and not self._cmd_timeout:
+        cmd_timeout = params.cmd_timeout if params.cmd_timeout > params.goal_time else 0.0
+        self._cmd_timeout = cmd_timeout  # upstream's get_cmd_timeout()
+        # The path and goal tolerances, the timeout, the position error.
+        self._tolerances = Tolerances(params, names, self._wraparound, cmd_timeout)
+        if params.cmd_timeout > 0 and not cmd_timeout:
             self.log_warning(
                 name,
                 f"Command timeout must be higher than goal_time tolerance "
@@ -827,7 +511,7 @@ class JointTrajectoryController(Controller):
             )
         # [rad/s^2] upstream's should_decelerate_on_cancel_ and max_decel_: per joint the
         # deceleration of the stop after an abort, or None to hold the measured position.
-        self._deceleration = self._Deceleration(params, joints)
+        self._deceleration = _deceleration_on_cancel(self, params, joints)
         # [rad, rad/s] bounds of [q_d; v_d]: the position limits, velocities unbounded.
         self._state_lower = np.concatenate([self.lower, np.full(self.n, -np.inf)])
         self._state_upper = np.concatenate([self.upper, np.full(self.n, np.inf)])
@@ -840,65 +524,6 @@ class JointTrajectoryController(Controller):
         # or effort; velocity alone with open_loop_control writes the desired velocity).
         if (commands == ["velocity"] and not params.open_loop_control) or commands == ["effort"]:
             self._pid = _pid_arrays([params.gains.get(joint, JointGains()) for joint in names])
-
-    def _Deceleration(self, params, joints) -> np.ndarray | None:
-        """Upstream's on_configure check of decelerate_on_cancel: every joint needs a
-        max_deceleration_on_cancel > 0 and a URDF velocity limit > 0, and the controller a
-        velocity state interface; else it logs why and holds the position on an abort."""
-        if not params.decelerate_on_cancel:
-            return None
-        deceleration = np.array(
-            [params.max_deceleration_on_cancel.get(name, 0.0) for name in self.joint_names]
-        )
-        for name, decel, limit in zip(self.joint_names, deceleration, joints.velocity, strict=True):
-            if decel <= 0.0:
-                problem = f"invalid max_deceleration_on_cancel [{decel:.1f}]"
-            elif not 0.0 < limit < math.inf:
-                problem = f"has invalid joint velocity defined in URDF [{limit:.1f}]"
-            else:
-                continue
-            self.log_warning(
-                self.name,
-                f"Joint [{name}] {problem}. Falling back to hold position on cancel.",
-            )
-            return None
-        if "velocity" not in params.state_interfaces:
-            self.log_warning(
-                self.name,
-                "Decelerate on cancel is enabled but hardware does not support velocity state "
-                "interface. Falling back to hold position on cancel.",
-            )
-            return None
-        return deceleration
-
-    def _StopTrajectory(self, now: float, q: np.ndarray, v: np.ndarray) -> "SampledTrajectory":
-        """Upstream's ``decelerate_to_hold_position``: from the measured ``q``, ``v`` a
-        ramp at constant deceleration to ``q + sign(v) v^2 / (2 a)``, one point per update
-        period, starting at the next update (``now`` + dt)."""
-        dt = self.update_period
-        a = self._deceleration
-        direction = np.where(v >= 0.0, 1.0, -1.0)
-        stop_time = np.abs(v) / a
-        hold = q + direction * v * v / (2.0 * a)
-        count = int(math.ceil(float(stop_time.max()) / dt)) + 1 if dt > 0 else 1
-        start = now + dt
-        points = []
-        for k in range(count):
-            t = k * dt
-            moving = (t < stop_time) & (np.abs(v) > _FLOAT_EPSILON)
-            velocity = v - direction * a * t
-            velocity = np.where(velocity * direction < 0.0, 0.0, velocity)
-            position = q + v * t - 0.5 * direction * a * t * t
-            points.append(
-                _Point(
-                    start + t,
-                    np.where(moving, position, hold),
-                    np.where(moving, velocity, 0.0),
-                    np.where(moving, -direction * a, 0.0),
-                )
-            )
-        before = _Point(start, points[0].positions, points[0].velocities, None)
-        return SampledTrajectory.build(before, points, interpolate=True)
 
     @classmethod
     def command_interface(cls, params) -> str:
@@ -965,7 +590,7 @@ class JointTrajectoryController(Controller):
         rejected = None
         if message is not None:
             try:
-                self._Validate(message, now)
+                validate_trajectory(message, now, self.joint_names, self._params, self._has_effort)
             except Rejected as rejection:
                 rejected, message = str(rejection), None
         if message is not None or memory.clock is None or not memory.busy:
@@ -1038,7 +663,7 @@ class JointTrajectoryController(Controller):
         else:  # a hold (final from the start) or decelerate_on_cancel's stop
             reference = tracked.trajectory.state(now)
         gains = self._pid
-        error, error_dot = self._Error(reference[:n], q), reference[n:] - v
+        error, error_dot = self._tolerances.error(reference[:n], q), reference[n:] - v
         pid_output, integral = np.zeros(n), state.integral.copy()
         for joints, pid in gains["pids"]:
             pid_output[joints], integral[joints] = compute_command(
@@ -1060,105 +685,7 @@ class JointTrajectoryController(Controller):
         desired = np.concatenate([tracked.desired[:n], np.clip(command, -limit, limit)])
         return dataclasses.replace(tracked, desired=desired, internal=internal, running=True)
 
-    def _Validate(self, message, now: float) -> list[int]:
-        """Controller index of each message joint; raises Rejected in upstream's order."""
-        if not isinstance(message, JointTrajectory):
-            raise Rejected(f"expected a JointTrajectory message, got {type(message).__name__}")
-        names = list(message.joint_names)
-        points = message.points
-        if not self._params.allow_partial_joints_goal and len(names) != self.n:
-            raise Rejected("Joints on incoming trajectory don't match the controller joints.")
-        if not names:
-            raise Rejected("Empty joint names on incoming trajectory.")
-        if not points:
-            raise Rejected("Empty trajectory received.")
-        for i, name in enumerate(names):
-            if name not in self.joint_names:
-                raise Rejected(f"Incoming joint {name} doesn't match the controller's joints.")
-            if name in names[:i]:
-                raise Rejected(f"Incoming joint {name} appears more than once.")
-        if not self._params.allow_nonzero_velocity_at_trajectory_end:
-            for name, velocity in zip(names, points[-1].velocities, strict=False):
-                if abs(velocity) > _FLOAT_EPSILON:
-                    raise Rejected(
-                        f"Velocity of last trajectory point of joint {name} is not zero: "
-                        f"{velocity:.15f}"
-                    )
-        if not math.isfinite(message.stamp):
-            raise Rejected(f"Non-finite header stamp received: {message.stamp}")
-        if message.stamp != 0.0:
-            end = message.stamp + points[-1].time_from_start
-            if end < now:
-                raise Rejected(
-                    f"Received trajectory with non-zero start time ({message.stamp:f}) "
-                    f"that ends in the past ({end:f})"
-                )
-        integrate = self._params.allow_integration_in_goal_trajectories
-        for i, point in enumerate(points):
-            time = point.time_from_start
-            if not math.isfinite(time):
-                raise Rejected(f"Non-finite time_from_start at point #{i}: {time}")
-            if time < 0.0:
-                raise Rejected(f"Time from start of point #{i} is negative: {time:f}")
-            if i > 0 and time <= points[i - 1].time_from_start:
-                raise Rejected(
-                    f"Time between points {i - 1} and {i} is not strictly increasing, "
-                    f"it is {points[i - 1].time_from_start:f} and {time:f} respectively"
-                )
-            if integrate and not (point.positions or point.velocities or point.accelerations):
-                raise Rejected(f"Point #{i} has no positions, velocities or accelerations.")
-            for field in ("positions", "velocities", "accelerations"):
-                values = getattr(point, field)
-                optional = field != "positions" or integrate
-                if optional and len(values) == 0:
-                    continue
-                if len(values) != len(names):
-                    raise Rejected(
-                        f"Mismatch between joint_names size ({len(names)}) and {field} "
-                        f"({len(values)}) at point #{i}."
-                    )
-            if not self._has_effort and len(point.effort) != 0:
-                raise Rejected(
-                    "Trajectories with effort fields are only supported for controllers using "
-                    "the 'effort' command interface."
-                )
-            if len(point.effort) not in (0, len(names)):
-                raise Rejected(
-                    f"Mismatch between joint_names size ({len(names)}) and effort "
-                    f"({len(point.effort)}) at point #{i}."
-                )
-            for field in ("positions", "velocities", "accelerations", "effort"):
-                if not np.all(np.isfinite(np.asarray(getattr(point, field), dtype=float))):
-                    raise Rejected(f"Non-finite value in {field} at point #{i}.")
-        return [self.joint_names.index(name) for name in names]
-
-    def _Points(self, message, indices, now, desired) -> list[_Point]:
-        """The message's points in controller order (``fill_partial_goal``: a joint it
-        leaves out gets its last command, zero velocity and acceleration)."""
-        n = self.n
-        start = message.stamp if message.stamp != 0.0 else now
-        command = desired[:n]
-        zeros = np.zeros(n)
-
-        def full(values, fill):
-            if len(values) == 0:
-                return None
-            result = fill.copy()
-            result[indices] = values
-            return result
-
-        return [
-            _Point(
-                time=start + point.time_from_start,
-                positions=full(point.positions, command),
-                velocities=full(point.velocities, zeros),
-                accelerations=full(point.accelerations, zeros),
-                effort=full(point.effort, zeros),
-            )
-            for point in message.points
-        ]
-
-    def _Before(self, now, memory, q, v) -> _Point:
+    def _Before(self, now, memory, q, v) -> Point:
         """The state before the trajectory: measured, or the last command (open loop)."""
         n = self.n
         # With the effort command interface upstream's state has an effort: the effort
@@ -1169,30 +696,11 @@ class JointTrajectoryController(Controller):
         if self._has_effort:
             effort = np.zeros(n) if memory.effort is None else memory.effort.copy()
         if self._params.from_desired_state:
-            trajectory = memory.trajectory
-            if trajectory is not None and memory.status.state == "executing":
-                x = trajectory.state(now)
-                last = trajectory.effort(now).copy() if self._has_effort else None
-                return _Point(now, x[:n].copy(), x[n:].copy(), trajectory.acceleration(now), last)
-            if trajectory is not None:  # holding: the hold point
-                final = trajectory.final
-                last = trajectory.effort(now).copy() if self._has_effort else None
-                return _Point(now, final[:n].copy(), final[n : 2 * n].copy(), final[2 * n :], last)
-            return _Point(
-                now, memory.desired[:n].copy(), memory.desired[n:].copy(), np.zeros(n), effort
-            )
+            return last_command_point(now, memory, n, self._has_effort, effort)
         velocities = v.copy() if self._measured_velocity else None
         # No acceleration is measured: an acceleration state interface reads zero.
         accelerations = np.zeros(n) if self._measured_acceleration else None
-        return _Point(now, q.copy(), velocities, accelerations, effort)
-
-    def _Error(self, desired: np.ndarray, q: np.ndarray) -> np.ndarray:
-        """[rad] upstream's compute_error_for_joint position error ``desired - q``, the
-        shortest angular distance for continuous joints."""
-        error = desired - q
-        if self._wraps:
-            error = np.where(self._wraparound, shortest_angular_distance(q, desired), error)
-        return error
+        return Point(now, q.copy(), velocities, accelerations, effort)
 
     def _Command(self, x: np.ndarray) -> np.ndarray:
         """[q_d; v_d] written to the hardware: positions clamped into the joint limits; a
@@ -1211,6 +719,7 @@ class JointTrajectoryController(Controller):
             return memory  # nothing new and nothing running: the commands hold
         ahead = now + self.update_period
         trajectory = memory.trajectory
+        tolerances = self._tolerances
         if message is None and memory.status.state == "executing":
             # The common tick: the command at t + dt, the path check against the sample
             # at t (the previous tick's command, kept unclamped), nothing else.
@@ -1218,7 +727,7 @@ class JointTrajectoryController(Controller):
             if not trajectory.ended(ahead):
                 x_d = reference[1] if abs(reference[0] - now) < 1e-9 else trajectory.state(now)
                 q, _ = measure(memory.desired)
-                if not (np.abs(self._Error(x_d[: self.n], q)) > self._path_limit).any():
+                if not (np.abs(tolerances.error(x_d[: self.n], q)) > tolerances.path_limit).any():
                     x_next = trajectory.state(ahead)
                     return ControllerMemory(
                         self._Command(x_next), memory.status, trajectory, reference=(ahead, x_next)
@@ -1228,36 +737,9 @@ class JointTrajectoryController(Controller):
         q, v = measure(desired)
         first_sample = False
         if message is not None:
-            try:
-                indices = self._Validate(message, now)
-            except Rejected as rejection:
-                status = self.reject(status, str(rejection))
-                message = None
-            else:
-                points = self._Points(message, indices, now, desired)
-                before = self._Before(now, memory, q, v)
-                trajectory = SampledTrajectory.build(
-                    before,
-                    points,
-                    interpolate=self._interpolate,
-                    wraparound=self._wraparound if self._wraps else None,
-                )
-                first_sample = True
-                detail = {"start_time": trajectory.breaks[0], "end_time": trajectory.end_time}
-                outside = [
-                    f"point positions of joint '{name}' leave its limits [{lo!r}, {hi!r}]; "
-                    f"the desired position is clamped"
-                    for j, (name, lo, hi) in enumerate(
-                        zip(self.joint_names, self.lower.tolist(), self.upper.tolist(), strict=True)
-                    )
-                    if any(
-                        p.positions is not None and not lo <= p.positions[j] <= hi for p in points
-                    )
-                ]
-                if outside:
-                    detail["warning"] = "; ".join(outside)
-                    self.log_warning(self.name, detail["warning"])
-                status = self.accept(status, "executing", detail)
+            trajectory, status, first_sample = self._Accept(now, message, memory, q, v)
+            if not first_sample:
+                message = None  # rejected
         if status.state != "executing":
             if memory.running and trajectory is not None:
                 # An abort's hold (or decelerate_on_cancel's stop), from the update after it.
@@ -1275,49 +757,19 @@ class JointTrajectoryController(Controller):
         )
         ended = trajectory.ended(ahead)
         x_next = trajectory.state(ahead)
-        error = np.abs(self._Error(x_now[:n], q))
+        error = np.abs(tolerances.error(x_now[:n], q))
         outcome = None
-        if (not ended or first_sample) and (error > self._path_limit).any():
-            j = int(np.argmax(error > self._path_limit))
-            outcome = (
-                f"path tolerance violated: joint '{self.joint_names[j]}' is "
-                f"{error[j]:.6g} rad from its desired position {x_now[j]:.6g} (trajectory "
-                f"tolerance {self._path_tolerance[j]:g})"
-            )
-        elif ended:
-            late = now - trajectory.end_time
-            far = error > self._goal_limit
-            velocity_error = np.abs(x_now[n:] - v) if self._velocity_error else np.zeros(n)
-            tolerance = self._params.stopped_velocity_tolerance
-            moving = (tolerance > 0) & (velocity_error > tolerance)
-            if not far.any() and not moving.any():
+        if not ended or first_sample:
+            outcome = tolerances.path_violation(error, x_now)
+        if outcome is None and ended:
+            succeeded, outcome = tolerances.goal_outcome(now - trajectory.end_time, error, x_now, v)
+            if succeeded:
                 status = dataclasses.replace(status, state="succeeded", detail=dict(status.detail))
                 # set_success_trajectory_point: the last point, its effort included.
                 hold = SampledTrajectory.hold(
                     trajectory.final[:n], trajectory.final[n : 2 * n], trajectory.final_effort
                 )
                 return ControllerMemory(self._Command(x_next), status, hold)
-            goal_time = self._params.goal_time
-            if goal_time > 0 and late > goal_time:
-                if far.any():
-                    j = int(np.argmax(far))
-                    problem = (
-                        f"joint '{self.joint_names[j]}' is {error[j]:.6g} rad from its desired "
-                        f"position {x_now[j]:.6g} (goal tolerance {self._goal_tolerance[j]:g})"
-                    )
-                else:
-                    j = int(np.argmax(moving))
-                    problem = (
-                        f"joint '{self.joint_names[j]}' moves at {v[j]:.6g} rad/s, "
-                        f"{velocity_error[j]:.6g} rad/s from its desired velocity "
-                        f"(stopped_velocity_tolerance {tolerance:g})"
-                    )
-                outcome = f"goal tolerance violated: {problem} {late:.6g} s after the end"
-            elif self._cmd_timeout > 0 and late > self._cmd_timeout:
-                outcome = (
-                    f"Aborted due to command timeout: the goal is not reached {late:.6g} s "
-                    f"after the end (cmd_timeout {self._cmd_timeout:g})"
-                )
         if outcome is not None:
             # Upstream writes nothing at this update and holds the measured position
             # from the next one on.
@@ -1328,8 +780,42 @@ class JointTrajectoryController(Controller):
             stop = (
                 SampledTrajectory.hold(q.copy())
                 if self._deceleration is None
-                else self._StopTrajectory(now, q, v)
+                else stop_trajectory(now, q, v, self._deceleration, self.update_period)
             )
             return ControllerMemory(desired, status, stop, running=True)
         command = self._Command(x_next)
         return ControllerMemory(command, status, trajectory, reference=(ahead, x_next))
+
+    def _Accept(self, now, message, memory, q, v):
+        """A message received at ``now``: (the trajectory, the status, whether accepted):
+        validated, its points in the controller's order from the state before it (the
+        measured ``q``, ``v`` or the last command), a warning where they leave the
+        joint limits; rejected, the running trajectory and the rejection."""
+        status = memory.status
+        try:
+            indices = validate_trajectory(
+                message, now, self.joint_names, self._params, self._has_effort
+            )
+        except Rejected as rejection:
+            return memory.trajectory, self.reject(status, str(rejection)), False
+        points = message_points(message, indices, now, memory.desired, self.n)
+        before = self._Before(now, memory, q, v)
+        trajectory = SampledTrajectory.build(
+            before,
+            points,
+            interpolate=self._interpolate,
+            wraparound=self._wraparound if self._wraps else None,
+        )
+        detail = {"start_time": trajectory.breaks[0], "end_time": trajectory.end_time}
+        outside = [
+            f"point positions of joint '{name}' leave its limits [{lo!r}, {hi!r}]; "
+            f"the desired position is clamped"
+            for j, (name, lo, hi) in enumerate(
+                zip(self.joint_names, self.lower.tolist(), self.upper.tolist(), strict=True)
+            )
+            if any(p.positions is not None and not lo <= p.positions[j] <= hi for p in points)
+        ]
+        if outside:
+            detail["warning"] = "; ".join(outside)
+            self.log_warning(self.name, detail["warning"])
+        return trajectory, self.accept(status, "executing", detail), True
