@@ -28,6 +28,7 @@ from armando_drake.simulation.scenario import (
     apply_scenario_arguments,
     load_scenario,
     note_option,
+    only_robot,
     resolve_scenario_path,
     sources_of,
 )
@@ -190,7 +191,8 @@ def _add_ros2_options(parser) -> None:
 
 
 def _apply_controller(scenario, mode: str) -> None:
-    """Points the scenario at the controller a --controller choice names.
+    """Points the scenario's only robot at the controller a --controller choice names
+    (an error naming the option for a scenario of several robots).
 
     position / trajectory keep the scenario's targets, period, cyclic and
     start delay (the seed targets when it has none); sinusoid keeps a
@@ -200,6 +202,7 @@ def _apply_controller(scenario, mode: str) -> None:
 
     # The YAML's joint state broadcaster, whatever its name (ROS 1: JointStateController).
     broadcasters = [f"type:{controller_type_for('broadcaster')}"]
+    scenario = only_robot(scenario, "--controller")  # its entry, which has the same keys
     if mode == "none":
         scenario.controllers.activate = broadcasters
         scenario.sequencer = None
@@ -285,7 +288,7 @@ def scenario_from_arguments(scenario, args):
         _apply_controller(scenario, "none")
         note_option(scenario, ("sequencer", "controllers.activate"), "--controller none")
     if args.param_file:
-        scenario.controllers.config = list(args.param_file)
+        only_robot(scenario, "--param-file").controllers.config = list(args.param_file)
         note_option(scenario, ("controllers.config",), "--param-file")
     _apply_run_options(scenario, args)
     _apply_camera_options(scenario, args)
