@@ -331,8 +331,8 @@ def expand_robots(scenario: Scenario) -> Scenario:
     keys back to their defaults; a scenario with robots: as it is (its top-level keys, if
     any, refused by :meth:`Scenario.check`). A new scenario (``scenario`` is not changed),
     its sources kept (:attr:`ScenarioSources.one_robot` names the expanded robot)."""
-    sources = sources_of(scenario)
-    if scenario.robots or sources.one_robot:
+    robots, sources = scenario.robots, sources_of(scenario)
+    if robots or sources.one_robot:  # a map already
         return scenario
     entry = RobotEntry(namespace="/", **{key: getattr(scenario, key) for key in ROBOT_KEYS})
     defaults = Scenario()
@@ -630,8 +630,9 @@ def dump_scenario(scenario: Scenario) -> str:
     its robots as a ``robots:`` list (a mapping's dump would sort them by name), or the
     one robot of the top-level keys as those keys (the form it was given in)."""
     one = scenario.__dict__.get("_sources", ScenarioSources()).one_robot
-    if one and list(scenario.robots) == [one]:
-        entry = scenario.robots[one]
+    entry = scenario.robots.get(one)
+    plain = RobotEntry(namespace="/", **{key: getattr(entry, key, None) for key in ROBOT_KEYS})
+    if one and list(scenario.robots) == [one] and entry == plain:  # only the keys' fields
         scenario = dc.replace(scenario, robots={}, **{k: getattr(entry, k) for k in ROBOT_KEYS})
     text = yaml_dump_typed(dc.replace(scenario, robots={}))
     entries = "".join(

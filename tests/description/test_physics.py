@@ -57,7 +57,7 @@ def run_seed(tmp_path, urdf, *sets: str):
     actuators = scenario.robots[ONE_ROBOT].actuators
     assert actuators.kp is None and actuators.kd is None
     result = run(scenario, output_dir=tmp_path / "out", quiet=True, replay=False, plots=False)
-    ran = load_scenario(tmp_path / "out" / "scenario.yaml")
+    ran = load_scenario(tmp_path / "out" / "scenario.yaml").robots[ONE_ROBOT]  # as it ran
     return result, ran
 
 
