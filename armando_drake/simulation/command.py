@@ -202,28 +202,28 @@ def _apply_controller(scenario, mode: str) -> None:
 
     # The YAML's joint state broadcaster, whatever its name (ROS 1: JointStateController).
     broadcasters = [f"type:{controller_type_for('broadcaster')}"]
-    scenario = only_robot(scenario, "--controller")  # its entry, which has the same keys
+    entry = only_robot(scenario, "--controller")
     if mode == "none":
-        scenario.controllers.activate = broadcasters
-        scenario.sequencer = None
+        entry.controllers.activate = broadcasters
+        entry.sequencer = None
         return
-    current = scenario.sequencer
+    current = entry.sequencer
     if mode == "sinusoid":
-        scenario.sequencer = current if isinstance(current, Sinusoid) else Sinusoid()
+        entry.sequencer = current if isinstance(current, Sinusoid) else Sinusoid()
     else:
         kind = PositionTargets if mode == "position" else JointTrajectoryTargets
         if isinstance(current, (PositionTargets, JointTrajectoryTargets)):
-            scenario.sequencer = kind(
+            entry.sequencer = kind(
                 targets=current.targets,
                 period=current.period,
                 cyclic=current.cyclic,
                 start_delay=current.start_delay,
             )
         else:
-            scenario.sequencer = kind()
+            entry.sequencer = kind()
     # The first controller of the type of the sequencer's kind in the controller YAML.
-    wanted = controller_type_for(CONTROLLER_KIND[type(scenario.sequencer)])
-    scenario.controllers.activate = broadcasters + [f"type:{wanted}"]
+    wanted = controller_type_for(CONTROLLER_KIND[type(entry.sequencer)])
+    entry.controllers.activate = broadcasters + [f"type:{wanted}"]
 
 
 def run_command(argv: list[str] | None, doc: str) -> int:
