@@ -245,8 +245,7 @@ class Scenario:
             if obj.name in names:
                 raise Refusal(f"objects.{index}", f": object {obj.name!r} is listed twice")
             names.add(obj.name)
-        twists = [entry.twist for entry in self.robots.values()] + [self.twist]
-        if self.navigation is not None and any(twist is not None for twist in twists):
+        if self.navigation is not None and _driven(self, self.navigation).twist is not None:
             raise Refusal("navigation", ": both it and twist would publish cmd_vel; keep one")
         pacing = self.simulator_config.target_realtime_rate
         if 0 < pacing < MIN_REALTIME_RATE:
@@ -310,11 +309,17 @@ class Scenario:
                 )
 
 
+def _driven(scenario: Scenario, section) -> RobotEntry:
+    """The entry of the robot a section of :data:`ROBOT_SECTIONS` acts on: the one it
+    names, else the first."""
+    named = scenario.robots.get(getattr(section, "robot", ""))
+    return named or next(iter(scenario.robots.values()), RobotEntry())
+
+
 def _has_sequencer(scenario: Scenario) -> bool:
-    """Whether the one robot of the top-level keys (before or after
-    :func:`expand_robots`) has a sequencer."""
+    """Whether the one robot of the top-level keys has a sequencer."""
     one = scenario.robots.get(scenario.__dict__.get("_sources", ScenarioSources()).one_robot)
-    return (one or scenario).sequencer is not None
+    return one is not None and one.sequencer is not None
 
 
 # The sections of a scenario that act on one robot of robots:, its `robot` field naming
@@ -654,20 +659,18 @@ def _keep_robot_variants(data, current: Scenario) -> None:
 def _into_one_robot(data: dict, scenario: Scenario) -> None:
     """The one-robot keys of an override (``actuators: {kp: 4}``) moved, in place, into
     the entry of ``scenario``'s one robot of the top-level keys (:func:`expand_robots`),
-    which they set; left as given for a scenario of several robots (which refuses
-    them)."""
+    which they set; left as given beside other robots (which refuse them)."""
     one = scenario.__dict__.get("_sources", ScenarioSources()).one_robot
-    given = {key: data.pop(key) for key in ROBOT_KEYS if key in data}
-    robots = data.get("robots")
-    if (
-        not (one and one in scenario.robots and given)
-        or robots is not None
-        and (not isinstance(robots, dict) or one not in robots and robots)
-    ):
-        data.update(given)
+    given = {key: data[key] for key in ROBOT_KEYS if key in data}
+    robots = data.get("robots", {})
+    if not (given and one in scenario.robots and isinstance(robots, dict)):
         return
-    entry = (robots or {}).get(one)
-    data["robots"] = {**(robots or {}), one: {**(entry or {}), **given}}
+    entry = robots.get(one, {})
+    if set(robots) - {one} or not isinstance(entry, dict):
+        return
+    for key in given:
+        del data[key]
+    data["robots"] = {**robots, one: {**entry, **given}}
 
 
 def _merge(scenario: Scenario, text: str) -> Scenario:

@@ -183,3 +183,9 @@ def test_building_a_world_leaves_the_scenario_as_it_was(name):
     assert dump_scenario(scenario) == before
     assert list(world.robots) == list(scenario_robots(scenario))
     world.close()
+
+
+def test_a_navigation_beside_the_twist_of_its_robot_is_refused():
+    """navigation: and the twist: of the robot it drives would both publish its cmd_vel."""
+    with pytest.raises(ScenarioError, match="navigation: both it and twist would publish"):
+        check_scenario(load_scenario("fra2mo", "navigation: {params_file: nav2.yaml}"))
