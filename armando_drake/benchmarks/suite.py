@@ -96,7 +96,7 @@ from armando_drake.sensors.lidar import LIDAR_RENDERER, LidarScanner
 from armando_drake.sensors.objects import AddGround, AddSceneObjects, Box, Cylinder, SceneObject
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.run import run
-from armando_drake.simulation.scenario import load_scenario, merge_overrides
+from armando_drake.simulation.scenario import ONE_ROBOT, load_scenario, merge_overrides
 from armando_drake.sweeps.axes import make_variants, parse_grid
 from armando_drake.sweeps.engines import LocalPool, RayEngine
 from armando_drake.sweeps.errors import SweepError
@@ -423,7 +423,9 @@ def add_bare_plant(builder, scenario_name: str, time_step: float | None = None):
     ApplyMultibodyPlantConfig(config, plant)
     robot = load_robot(plant)
     AddGround(plant, scene_graph)
-    actuators = scenario.actuators  # the built-in Armando: its servos' gains unless given
+    actuators = scenario.robots[
+        ONE_ROBOT
+    ].actuators  # the built-in Armando: its servos' gains unless given
     kp = actuators.kp if actuators.kp is not None else ARMANDO_GAINS[0]
     kd = actuators.kd if actuators.kd is not None else ARMANDO_GAINS[1]
     hardware = AddHardwareInterface(plant, robot, kp=kp, kd=kd)
@@ -722,7 +724,7 @@ def bench_mujoco(report: Report, period: float) -> None:
     scenario = load_scenario("position", NO_CONSOLE)
     world = MakeWorld(scenario, quiet=True)
     world.close()
-    actuators = scenario.actuators
+    actuators = scenario.robots[ONE_ROBOT].actuators
 
     def mujoco_at(time_step: float) -> tuple[float, list[float]]:
         model = mujoco_model(

@@ -14,6 +14,7 @@ import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 
 from armando_drake.tools.errors import UserInputError
+from armando_drake.tools.schema import Refusal, check_config, param
 
 _logger = logging.getLogger("armando_drake.sensors.camera")
 
@@ -52,25 +53,35 @@ class CameraNoise:
 
 @dataclass
 class CameraSensorInfo:
-    """One camera sensor block of the description."""
+    """One camera sensor block of the description, its rules declared beside its fields
+    (checked by :func:`~armando_drake.tools.schema.check_config`, named in messages by
+    their tags: :data:`SENSOR_TAGS`)."""
 
     name: str  # camera name: the <topic> (slashes -> "_") if given, else the sensor name
     sensor_name: str  # the <sensor name="..."> attribute
     type: str  # Gazebo sensor type: camera | depth | depth_camera | rgbd_camera | rgbd
     link: str  # the <gazebo reference="..."> link the camera is attached to
     topic: str = ""  # the <topic> as written ("" if none)
-    horizontal_fov: float = DEFAULT_HORIZONTAL_FOV  # [rad] in (0, pi)
-    width: int = DEFAULT_WIDTH  # [px]
-    height: int = DEFAULT_HEIGHT  # [px]
-    near: float = DEFAULT_NEAR  # [m] near clipping plane (and depth range start)
-    far: float = DEFAULT_FAR  # [m] far clipping plane (and depth range end)
-    update_rate: float = 0.0  # [Hz] as written; 0 = SDFormat's "every step"
+    # [rad] the horizontal field of view
+    horizontal_fov: float = param(DEFAULT_HORIZONTAL_FOV, unit="rad", gt=0, lt=math.pi)
+    width: int = param(DEFAULT_WIDTH, unit="px", gt=0)  # [px]
+    height: int = param(DEFAULT_HEIGHT, unit="px", gt=0)  # [px]
+    # [m] near clipping plane (and depth range start)
+    near: float = param(DEFAULT_NEAR, unit="m", gt=0)
+    far: float = param(DEFAULT_FAR, unit="m")  # [m] far clipping plane (and depth range end)
+    # [Hz] as written; 0 = SDFormat's "every step"
+    update_rate: float = param(0.0, unit="Hz", ge=0)
     xyz: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # [m] sensor in link
     rpy: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # [rad] sensor in link
     noise: CameraNoise | None = None  # colour noise, None = noise-free
     source: str = ""  # the file the block came from (for messages)
     # In a world of several robots, the robot whose link it is on ("" = the one given).
     robot: str = ""
+
+    def check(self) -> None:
+        """A far plane beyond the near one."""
+        if not self.far > self.near:
+            raise Refusal("far", f"={self.far!r} must be greater than near={self.near!r}")
 
     @property
     def frame_rate(self) -> float:
@@ -178,22 +189,8 @@ def _parse_sensor(sensor: ET.Element, link: str, source: str) -> CameraSensorInf
     near = _number(camera, "clip/near", DEFAULT_NEAR, float, where)
     far = _number(camera, "clip/far", DEFAULT_FAR, float, where)
     rate = _number(sensor, "update_rate", 0.0, float, where)
-    if width <= 0:
-        raise CameraError(f"{where}: <image><width>={width!r} must be positive")
-    if height <= 0:
-        raise CameraError(f"{where}: <image><height>={height!r} must be positive")
-    if not 0.0 < fov < math.pi:
-        raise CameraError(f"{where}: <horizontal_fov>={fov!r} must be in (0, pi) radians")
-    if not (near > 0.0 and math.isfinite(near)):
-        raise CameraError(f"{where}: <clip><near>={near!r} must be positive")
-    if not (far > near and math.isfinite(far)):
-        raise CameraError(
-            f"{where}: <clip><far>={far!r} must be finite and greater than near={near!r}"
-        )
-    if not (rate >= 0.0 and math.isfinite(rate)):
-        raise CameraError(f"{where}: <update_rate>={rate!r} must be >= 0 (0 = every step)")
     xyz, rpy = _parse_pose(sensor, where)
-    return CameraSensorInfo(
+    info = CameraSensorInfo(
         name=_camera_name(topic, sensor_name),
         sensor_name=sensor_name,
         type=sensor.get("type", ""),
@@ -210,6 +207,29 @@ def _parse_sensor(sensor: ET.Element, link: str, source: str) -> CameraSensorInf
         noise=_parse_noise(camera, sensor, where),
         source=str(source),
     )
+    _check_sensor(info, where)
+    return info
+
+
+# The description's tag of each field of CameraSensorInfo that has a rule, for messages.
+SENSOR_TAGS = {
+    "width": "<image><width>",
+    "height": "<image><height>",
+    "horizontal_fov": "<horizontal_fov>",
+    "near": "<clip><near>",
+    "far": "<clip><far>",
+    "update_rate": "<update_rate>",
+}
+
+
+def _check_sensor(info: CameraSensorInfo, where: str) -> None:
+    """:class:`CameraError` ``<where>: <tag>=<value> <problem>`` for the first value of
+    ``info`` that its declared rules refuse."""
+    try:
+        check_config(info, error=CameraError)
+    except CameraError as error:
+        tag = SENSOR_TAGS.get(error.key, error.key)
+        raise CameraError(f"{where}: {tag}{error.text.removeprefix(error.key)}") from None
 
 
 def parse_camera_sensors(root: ET.Element, source: str = "") -> list[CameraSensorInfo]:

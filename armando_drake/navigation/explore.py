@@ -42,10 +42,11 @@ from armando_drake.navigation.costmap import (
     make_costmap,
 )
 from armando_drake.navigation.maps import FREE, UNKNOWN, OccupancyMap
-from armando_drake.navigation.nav2_params import read_yaml, set_parameter
+from armando_drake.navigation.nav2_params import fill, read_yaml
 from armando_drake.navigation.navigator import Navigator, NavState
 from armando_drake.navigation.results import GoalResult
 from armando_drake.tools.errors import ConfigError
+from armando_drake.tools.schema import param
 
 NODES = ("explore_node", "explore")
 BLACKLIST_CELLS = 5  # upstream's blacklist radius, in cells
@@ -58,13 +59,20 @@ _log = logging.getLogger("armando_drake.navigation")
 
 @dc.dataclass
 class ExploreParameters:
-    """explore_lite's parameters (defaults: upstream's)."""
+    """explore_lite's parameters (defaults: upstream's), each declared with its unit,
+    range and meaning (checked by the schema's rules: :func:`.nav2_params.fill`)."""
 
-    planner_frequency: float = 1.0
-    progress_timeout: float = 30.0
-    potential_scale: float = 1e-3
-    gain_scale: float = 1.0
-    min_frontier_size: float = 0.5
+    planner_frequency: float = param(
+        1.0, unit="Hz", gt=0, doc="how often the frontiers are recomputed"
+    )
+    progress_timeout: float = param(
+        30.0, unit="s", ge=0, doc="without progress, the frontier is blacklisted"
+    )
+    potential_scale: float = param(
+        1e-3, unit="-", ge=0, doc="weight of a frontier's distance in its cost"
+    )
+    gain_scale: float = param(1.0, unit="-", ge=0, doc="weight of a frontier's size in its cost")
+    min_frontier_size: float = param(0.5, unit="m", ge=0, doc="smaller frontiers are ignored")
     ignored: list[str] = dc.field(default_factory=list)
 
 
@@ -84,17 +92,13 @@ def explore_parameters(path: str | Path) -> ExploreParameters:
         raise ConfigError(f"{path}: explore_node.ros__parameters: missing (no explore_node)")
     where = f"{path}: {node}.ros__parameters"
     params = ExploreParameters()
-    fields = {f.name for f in dc.fields(ExploreParameters)} - {"ignored"}
+    keys = [f.name for f in dc.fields(ExploreParameters) if f.name != "ignored"]
     ignored = []
-    for key in ros:
-        if key in fields:
-            set_parameter(params, ros, key, where)
-        elif key not in _KNOWN:
+    for key in fill(params, ros, where, keys):
+        if key not in _KNOWN:
             ignored.append(key)
             why = "unused by explore_lite too" if key == "orientation_scale" else "not used here"
             _log.warning("%s.%s: %s", where, key, why)
-    if not params.planner_frequency > 0:
-        raise ConfigError(f"{where}.planner_frequency must be > 0, not {params.planner_frequency}")
     params.ignored = [f"{where}.{k}" for k in ignored]
     return params
 

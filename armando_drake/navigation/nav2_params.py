@@ -15,7 +15,6 @@ rules (the schema's, the file and key named).
 from __future__ import annotations
 
 import dataclasses as dc
-import math
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -78,23 +77,6 @@ def read_nav2(path: str | Path, overrides: Mapping[str, float] | None = None, wh
 def as_nav2(source: Nav2Params | str | Path) -> Nav2Params:
     """``source`` itself, or the file it names read (no overrides)."""
     return source if isinstance(source, Nav2Params) else read_nav2(source)
-
-
-def set_parameter(target, node: dict, key: str, where: str, *, ge: float | None = 0.0) -> None:
-    """``target.key = node[key]`` when given, of the default's type (a number >= ``ge``)."""
-    if key not in node:
-        return
-    value, default = node[key], getattr(target, key)
-    if isinstance(default, bool):
-        if not isinstance(value, bool):
-            raise ConfigError(f"{where}.{key} must be true or false, not {value!r}")
-        setattr(target, key, value)
-        return
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ConfigError(f"{where}.{key} must be a number, not {value!r}")
-    if ge is not None and value < ge:
-        raise ConfigError(f"{where}.{key} must be >= {ge:g}, not {value}")
-    setattr(target, key, float(value))
 
 
 def fill(params, node: Mapping, where: str, keys=None) -> list[str]:

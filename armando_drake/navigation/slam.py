@@ -49,8 +49,9 @@ from armando_drake.messages.types import Odometry, PublicationValue
 from armando_drake.navigation.amcl import ODOM_HISTORY, body_odometry, compose, inverse
 from armando_drake.navigation.follower import wrap
 from armando_drake.navigation.maps import FREE, OCCUPIED, UNKNOWN, OccupancyMap
-from armando_drake.navigation.nav2_params import read_yaml, set_parameter
+from armando_drake.navigation.nav2_params import fill, read_yaml
 from armando_drake.tools.errors import ConfigError
+from armando_drake.tools.schema import param
 
 NODES = ("slam_toolbox", "slam")  # the node's name in the YAML: upstream's, the course's
 L_FREE, L_OCCUPIED, L_CLAMP = -0.7, 0.9, 4.0
@@ -63,28 +64,45 @@ _log = logging.getLogger("armando_drake.navigation")
 
 @dc.dataclass
 class SlamParameters:
-    """slam_toolbox's parameters applied here (defaults: upstream's)."""
+    """slam_toolbox's parameters applied here (defaults: upstream's), each declared with
+    its unit, range and meaning (checked by the schema's rules: :func:`.nav2_params.fill`)."""
 
-    mode: str = "mapping"
-    resolution: float = 0.05
-    max_laser_range: float = 20.0
-    map_update_interval: float = 5.0
-    transform_publish_period: float = 0.02
-    throttle_scans: float = 1
-    minimum_time_interval: float = 0.5
-    minimum_travel_distance: float = 0.5
-    minimum_travel_heading: float = 0.5
-    use_scan_matching: bool = True
-    correlation_search_space_dimension: float = 0.5
-    correlation_search_space_resolution: float = 0.01
-    correlation_search_space_smear_deviation: float = 0.1
-    distance_variance_penalty: float = 0.5
-    angle_variance_penalty: float = 1.0
-    coarse_search_angle_offset: float = 0.349
-    coarse_angle_resolution: float = 0.0349
-    fine_search_angle_offset: float = 0.00349
-    minimum_angle_penalty: float = 0.9
-    minimum_distance_penalty: float = 0.5
+    mode: str = param(
+        "mapping", choices=("mapping",), why="only mapping is known", doc="mapping only"
+    )
+    resolution: float = param(0.05, unit="m", gt=0, doc="the map's cell size")
+    max_laser_range: float = param(20.0, unit="m", gt=0, doc="ranges used for the map")
+    map_update_interval: float = param(5.0, unit="s", gt=0, doc="between published maps")
+    transform_publish_period: float = param(
+        0.02, unit="s", ge=0, doc="between map -> odom transforms"
+    )
+    throttle_scans: float = param(1, unit="-", gt=0, doc="every n-th scan is used")
+    minimum_time_interval: float = param(0.5, unit="s", ge=0, doc="between scans used")
+    minimum_travel_distance: float = param(0.5, unit="m", ge=0, doc="travel between scans used")
+    minimum_travel_heading: float = param(0.5, unit="rad", ge=0, doc="turn between scans used")
+    use_scan_matching: bool = param(True, doc="correct the odometry by correlative scan matching")
+    correlation_search_space_dimension: float = param(
+        0.5, unit="m", gt=0, doc="the matcher's search window"
+    )
+    correlation_search_space_resolution: float = param(
+        0.01, unit="m", gt=0, doc="the search window's step"
+    )
+    correlation_search_space_smear_deviation: float = param(
+        0.1, unit="m", gt=0, doc="the response's smearing"
+    )
+    distance_variance_penalty: float = param(
+        0.5, unit="-", gt=0, doc="penalty of a match far from the odometry"
+    )
+    angle_variance_penalty: float = param(
+        1.0, unit="-", gt=0, doc="penalty of a match turned from the odometry"
+    )
+    coarse_search_angle_offset: float = param(
+        0.349, unit="rad", ge=0, doc="the coarse angular window"
+    )
+    coarse_angle_resolution: float = param(0.0349, unit="rad", gt=0, doc="the coarse window's step")
+    fine_search_angle_offset: float = param(0.00349, unit="rad", gt=0, doc="the fine angular step")
+    minimum_angle_penalty: float = param(0.9, unit="-", ge=0, doc="the angle penalty's floor")
+    minimum_distance_penalty: float = param(0.5, unit="-", ge=0, doc="the distance penalty's floor")
     ignored: list[str] = dc.field(default_factory=list)
 
 
@@ -108,12 +126,11 @@ _PREFIXES = {
     "scan_buffer_": "matched against the whole map, not a scan buffer",
     "link_": "matched against the whole map, not a scan buffer",
 }
-_POSITIVE = {
-    "resolution", "max_laser_range", "map_update_interval", "throttle_scans",
-    "correlation_search_space_dimension", "correlation_search_space_resolution",
-    "correlation_search_space_smear_deviation", "coarse_angle_resolution",
-    "fine_search_angle_offset", "distance_variance_penalty", "angle_variance_penalty",
-}  # fmt: skip
+
+
+def _fields(cls) -> list[str]:
+    """The parameters of a parameter dataclass (its fields but ``ignored``)."""
+    return [f.name for f in dc.fields(cls) if f.name != "ignored"]
 
 
 def slam_parameters(path: str | Path) -> SlamParameters:
@@ -127,17 +144,9 @@ def slam_parameters(path: str | Path) -> SlamParameters:
         raise ConfigError(f"{path}: slam_toolbox.ros__parameters: missing (no slam_toolbox node)")
     where = f"{path}: {node}.ros__parameters"
     params = SlamParameters()
-    mode = ros.get("mode", "mapping")
-    if mode != "mapping":
-        raise ConfigError(f"{where}.mode {mode!r}: only mapping is known")
-    fields = {f.name for f in dc.fields(SlamParameters)} - {"mode", "ignored"}
     ignored = []
-    for key in ros:
-        if key in fields:
-            set_parameter(params, ros, key, where)
-            if key in _POSITIVE and not getattr(params, key) > 0:
-                raise ConfigError(f"{where}.{key} must be > 0, not {ros[key]!r}")
-        elif key not in _KNOWN and key != "mode":
+    for key in fill(params, ros, where, _fields(SlamParameters)):
+        if key not in _KNOWN:
             ignored.append(key)
             prefix = next((p for p in _PREFIXES if key.startswith(p)), None)
             why = _NOT_APPLIED.get(key) or (_PREFIXES[prefix] if prefix else "not used here")

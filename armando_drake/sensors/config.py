@@ -2,6 +2,7 @@
 
 import dataclasses as dc
 
+from armando_drake.description.camera_sensors import RENDERERS
 from armando_drake.tools.schema import param
 
 # No `from __future__ import annotations` here: yaml_load_typed reads the dataclass
@@ -26,4 +27,4 @@ class CameraSettings:
     save_rate: float = param(0.0, unit="Hz", ge=0)
     # Renderer: "gl" (Drake's OpenGL engine, on DISPLAY or a private Xvfb), "vtk"
     # (VTK through EGL, no display needed) or "auto" (gl when possible, else vtk).
-    renderer: str = param("auto", choices=("auto", "gl", "vtk"))
+    renderer: str = param("auto", choices=RENDERERS)

@@ -28,6 +28,7 @@ from armando_drake.simulation.scenario import (
     apply_scenario_arguments,
     load_scenario,
     note_option,
+    only_robot,
     resolve_scenario_path,
     sources_of,
 )
@@ -190,7 +191,8 @@ def _add_ros2_options(parser) -> None:
 
 
 def _apply_controller(scenario, mode: str) -> None:
-    """Points the scenario at the controller a --controller choice names.
+    """Points the scenario's only robot at the controller a --controller choice names
+    (an error naming the option for a scenario of several robots).
 
     position / trajectory keep the scenario's targets, period, cyclic and
     start delay (the seed targets when it has none); sinusoid keeps a
@@ -200,27 +202,28 @@ def _apply_controller(scenario, mode: str) -> None:
 
     # The YAML's joint state broadcaster, whatever its name (ROS 1: JointStateController).
     broadcasters = [f"type:{controller_type_for('broadcaster')}"]
+    entry = only_robot(scenario, "--controller")
     if mode == "none":
-        scenario.controllers.activate = broadcasters
-        scenario.sequencer = None
+        entry.controllers.activate = broadcasters
+        entry.sequencer = None
         return
-    current = scenario.sequencer
+    current = entry.sequencer
     if mode == "sinusoid":
-        scenario.sequencer = current if isinstance(current, Sinusoid) else Sinusoid()
+        entry.sequencer = current if isinstance(current, Sinusoid) else Sinusoid()
     else:
         kind = PositionTargets if mode == "position" else JointTrajectoryTargets
         if isinstance(current, (PositionTargets, JointTrajectoryTargets)):
-            scenario.sequencer = kind(
+            entry.sequencer = kind(
                 targets=current.targets,
                 period=current.period,
                 cyclic=current.cyclic,
                 start_delay=current.start_delay,
             )
         else:
-            scenario.sequencer = kind()
+            entry.sequencer = kind()
     # The first controller of the type of the sequencer's kind in the controller YAML.
-    wanted = controller_type_for(CONTROLLER_KIND[type(scenario.sequencer)])
-    scenario.controllers.activate = broadcasters + [f"type:{wanted}"]
+    wanted = controller_type_for(CONTROLLER_KIND[type(entry.sequencer)])
+    entry.controllers.activate = broadcasters + [f"type:{wanted}"]
 
 
 def run_command(argv: list[str] | None, doc: str) -> int:
@@ -285,7 +288,7 @@ def scenario_from_arguments(scenario, args):
         _apply_controller(scenario, "none")
         note_option(scenario, ("sequencer", "controllers.activate"), "--controller none")
     if args.param_file:
-        scenario.controllers.config = list(args.param_file)
+        only_robot(scenario, "--param-file").controllers.config = list(args.param_file)
         note_option(scenario, ("controllers.config",), "--param-file")
     _apply_run_options(scenario, args)
     _apply_camera_options(scenario, args)

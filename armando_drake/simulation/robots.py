@@ -113,7 +113,6 @@ class AddedRobot:
     logger: Any = None  # its JointStateLogger, if a broadcaster is active
     gravity_feedforward: Any = None  # the gravity feed-forward's output, if any
     choice: ControllerChoice | None = None  # the controllers activated, its sequencer
-    top_level: bool = False  # whether it is the one robot of the scenario's top-level keys
 
     @property
     def folder(self) -> str:
@@ -295,7 +294,6 @@ def ConnectRobot(
         logger=logger,
         gravity_feedforward=gravity_feedforward,
         choice=robot.choice,
-        top_level=spec.top_level,
     )
 
 

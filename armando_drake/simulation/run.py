@@ -45,6 +45,7 @@ from armando_drake.simulation.scenario import (
     default_duration,
     dump_scenario,
     scenario_robots,
+    sources_of,
 )
 from armando_drake.tools.cli import STOP_SIGNALS, meshcat_urls
 from armando_drake.tools.files import writing
@@ -733,19 +734,18 @@ def _task_tracker_of(world):
 def _effective(scenario: Scenario, world) -> Scenario:
     """The scenario as it ran, in the form it was given: each robot's gains that the
     robot's own rules gave written out, and the controllers its controller file chose
-    activated."""
-    top_level, robots = {}, dict(scenario.robots)
+    activated (the one robot of the top-level keys dumped as those keys)."""
+    robots = dict(scenario.robots)
     for name, robot in world.robots.items():
-        entry = robots[name] if not robot.top_level else scenario
-        ran = {
-            "actuators": effective_actuators(entry.actuators, robot.topics.stack.hardware),
-            "controllers": dataclasses.replace(entry.controllers, activate=robot.choice.activate),
-        }
-        if robot.top_level:
-            top_level = ran
-        else:
-            robots[name] = dataclasses.replace(entry, **ran)
-    return dataclasses.replace(scenario, robots=robots, **top_level)
+        entry = robots[name]
+        robots[name] = dataclasses.replace(
+            entry,
+            actuators=effective_actuators(entry.actuators, robot.topics.stack.hardware),
+            controllers=dataclasses.replace(entry.controllers, activate=robot.choice.activate),
+        )
+    effective = dataclasses.replace(scenario, robots=robots)
+    effective.__dict__["_sources"] = sources_of(scenario)
+    return effective
 
 
 def _add_robot_sections(result: RunResult, world, tables: dict, sim_time: float) -> None:

@@ -245,7 +245,7 @@ class Scenario:
             if obj.name in names:
                 raise Refusal(f"objects.{index}", f": object {obj.name!r} is listed twice")
             names.add(obj.name)
-        if self.navigation is not None and self.twist is not None:
+        if self.navigation is not None and _driven(self, self.navigation).twist is not None:
             raise Refusal("navigation", ": both it and twist would publish cmd_vel; keep one")
         pacing = self.simulator_config.target_realtime_rate
         if 0 < pacing < MIN_REALTIME_RATE:
@@ -264,16 +264,20 @@ class Scenario:
             duration = default_duration(self)
             if duration > MAX_DEFAULT_DURATION:
                 raise Refusal(
-                    "task" if self.sequencer is None else "sequencer",
+                    "sequencer" if _has_sequencer(self) else "task",
                     f": one pass lasts {duration:.4g} s, over {MAX_DEFAULT_DURATION:g} s; give "
                     "simulation.duration (or --duration) to run that long",
                 )
 
     def _check_robots(self) -> None:
-        """robots: without the one robot's keys; names that are names, distinct
-        namespaces; each mount on a robot listed before; each section's robot listed."""
+        """robots: without the one robot's keys (nor other robots beside the one robot of
+        those keys); names that are names, distinct namespaces; each mount on a robot
+        listed before; each section's robot listed."""
         robots = self.robots
         given = [key for key in ROBOT_KEYS if getattr(self, key) != getattr(Scenario(), key)]
+        one = self.__dict__.get("_sources", ScenarioSources()).one_robot
+        if one and list(robots) != [one]:
+            given = given or [ROBOT_KEYS[0]]
         if robots and given:
             raise Refusal(
                 given[0], ": a key of the one robot, beside robots: (give it in each robot's entry)"
@@ -305,6 +309,19 @@ class Scenario:
                 )
 
 
+def _driven(scenario: Scenario, section) -> RobotEntry:
+    """The entry of the robot a section of :data:`ROBOT_SECTIONS` acts on: the one it
+    names, else the first."""
+    named = scenario.robots.get(getattr(section, "robot", ""))
+    return named or next(iter(scenario.robots.values()), RobotEntry())
+
+
+def _has_sequencer(scenario: Scenario) -> bool:
+    """Whether the one robot of the top-level keys has a sequencer."""
+    one = scenario.robots.get(scenario.__dict__.get("_sources", ScenarioSources()).one_robot)
+    return one is not None and one.sequencer is not None
+
+
 # The sections of a scenario that act on one robot of robots:, its `robot` field naming
 # it (the first by default; the navigation, the base jog, the vision and perception
 # act on the first).
@@ -312,14 +329,15 @@ ROBOT_SECTIONS = ("task", "learned_ik", "jog", "navigation", "twist_jog", "visio
 
 
 def expand_robots(scenario: Scenario) -> Scenario:
-    """``scenario`` with its robots as the map ``robots: {name: entry}``: the one robot
-    of its top-level keys (robot, actuators, controllers, sequencer, twist) becomes the
-    entry :data:`ONE_ROBOT` in the root namespace (its ports, topics and output folder
-    as named without robots:), those keys back to their defaults; a scenario with
-    robots: as it is. A new scenario (``scenario`` is not changed), its sources kept
-    (:attr:`ScenarioSources.one_robot` names the expanded robot)."""
-    sources = sources_of(scenario)
-    if scenario.robots or sources.one_robot:
+    """``scenario`` with its robots as the map ``robots: {name: entry}``, as
+    :func:`load_scenario` returns it: the one robot of its top-level keys (robot,
+    actuators, controllers, sequencer, twist) becomes the entry :data:`ONE_ROBOT` in the
+    root namespace (its ports, topics and output folder as named without robots:), those
+    keys back to their defaults; a scenario with robots: as it is (its top-level keys, if
+    any, refused by :meth:`Scenario.check`). A new scenario (``scenario`` is not changed),
+    its sources kept (:attr:`ScenarioSources.one_robot` names the expanded robot)."""
+    robots, sources = scenario.robots, sources_of(scenario)
+    if robots or sources.one_robot:  # a map already
         return scenario
     entry = RobotEntry(namespace="/", **{key: getattr(scenario, key) for key in ROBOT_KEYS})
     defaults = Scenario()
@@ -381,9 +399,8 @@ class ScenarioRobot:
 
 
 def scenario_robots(scenario: Scenario) -> dict[str, ScenarioRobot]:
-    """The robots of ``scenario`` (expanded: :func:`expand_robots`), by name, in order,
-    each with the sections that act on it (the one naming it, else the first)."""
-    scenario = expand_robots(scenario)
+    """The robots of ``scenario``'s robots map, by name, in order, each with the sections
+    that act on it (the one naming it, else the first)."""
     sources = sources_of(scenario)
     origin = sources.of("robots")  # the file, or the --set that gave them
     robots = {}
@@ -615,7 +632,13 @@ def _in_given_order(scenario: Scenario, data, before: Iterable[str] = ()) -> Sce
 
 def dump_scenario(scenario: Scenario) -> str:
     """``scenario`` as YAML that :func:`load_scenario` reads back to an equal scenario,
-    its robots as a ``robots:`` list (a mapping's dump would sort them by name)."""
+    its robots as a ``robots:`` list (a mapping's dump would sort them by name), or the
+    one robot of the top-level keys as those keys (the form it was given in)."""
+    one = scenario.__dict__.get("_sources", ScenarioSources()).one_robot
+    entry = scenario.robots.get(one)
+    plain = RobotEntry(namespace="/", **{key: getattr(entry, key, None) for key in ROBOT_KEYS})
+    if one and list(scenario.robots) == [one] and entry == plain:  # only the keys' fields
+        scenario = dc.replace(scenario, robots={}, **{k: getattr(entry, k) for k in ROBOT_KEYS})
     text = yaml_dump_typed(dc.replace(scenario, robots={}))
     entries = "".join(
         f"  - name: {name}\n" + textwrap.indent(yaml_dump_typed(entry), "    ")
@@ -633,6 +656,23 @@ def _keep_robot_variants(data, current: Scenario) -> None:
                 _keep_variants(entry, current.robots[name])
 
 
+def _into_one_robot(data: dict, scenario: Scenario) -> None:
+    """The one-robot keys of an override (``actuators: {kp: 4}``) moved, in place, into
+    the entry of ``scenario``'s one robot of the top-level keys (:func:`expand_robots`),
+    which they set; left as given beside other robots (which refuse them)."""
+    one = scenario.__dict__.get("_sources", ScenarioSources()).one_robot
+    given = {key: data[key] for key in ROBOT_KEYS if key in data}
+    robots = data.get("robots", {})
+    if not (given and one in scenario.robots and isinstance(robots, dict)):
+        return
+    entry = robots.get(one, {})
+    if set(robots) - {one} or not isinstance(entry, dict):
+        return
+    for key in given:
+        del data[key]
+    data["robots"] = {**robots, one: {**entry, **given}}
+
+
 def _merge(scenario: Scenario, text: str) -> Scenario:
     """``scenario`` with the YAML ``text`` merged over it (see :func:`_keep_variants`)."""
     data = yaml_load(data=text)
@@ -642,14 +682,19 @@ def _merge(scenario: Scenario, text: str) -> Scenario:
         )
     if not isinstance(data, dict):
         raise ScenarioError(f"expected a YAML mapping, got {data!r}")
+    sources = scenario.__dict__.get("_sources")
     if _robots_as_map(data):  # a list replaces the robots
         scenario = dc.replace(scenario, robots={})
+    _into_one_robot(data, scenario)
     _one_or_many(data)
     _check_lists(data, Scenario)
     _keep_variants(data, scenario)
     _keep_robot_variants(data, scenario)
     merged = yaml_load_typed(data=yaml_dump(data), defaults=scenario)
-    return _in_given_order(merged, data, before=scenario.robots)
+    merged = _in_given_order(merged, data, before=scenario.robots)
+    if sources is not None:
+        merged.__dict__["_sources"] = sources
+    return merged
 
 
 @dc.dataclass
@@ -724,8 +769,10 @@ def merge_overrides(scenario: Scenario, overrides, label: str = "--set") -> Scen
             keys = _leaf_keys(yaml_load(data=override))
         except Exception as error:  # yaml_load_typed raises RuntimeError, KeyError, ...
             raise ScenarioError(f"{label} {override!r}: {_one_line(error, scenario)}") from None
-        for key in keys:
-            sources.note(key, f"{label} {override!r}")
+        one = f"robots.{sources.one_robot}." if sources.one_robot else ""
+        for key in keys:  # the one robot's keys also as its file names them
+            for noted in dict.fromkeys([key, key.removeprefix(one) if one else key]):
+                sources.note(noted, f"{label} {override!r}")
     scenario.__dict__["_sources"] = sources
     return scenario
 
@@ -748,7 +795,10 @@ def _refuse_duplicate_keys(text: str, where: str) -> None:
 def load_scenario(
     filename: str | os.PathLike | None = None, overrides: str | None = None
 ) -> Scenario:
-    """Reads a scenario file (a path or a name in ``diagrams/``) and an override string."""
+    """Reads a scenario file (a path or a name in ``diagrams/``) and an override string;
+    the scenario with its robots as a map (:func:`expand_robots`): the one robot of the
+    top-level keys is the entry :data:`ONE_ROBOT`, and later overrides of those keys
+    (:func:`merge_overrides`) set that entry."""
     scenario = Scenario()
     source = "<defaults>"
     try:
@@ -769,6 +819,7 @@ def load_scenario(
             _anchor_file_paths(scenario, path)
         if overrides:
             scenario = merge_overrides(scenario, overrides, label="override")
+        scenario = expand_robots(scenario)
     except (ScenarioError, FileInputError):
         raise
     except OSError as error:
@@ -821,16 +872,27 @@ def apply_scenario_arguments(scenario, args):
 
     scenario = merge_overrides(scenario, args.set)
     if args.description is not None:
-        scenario.robot.description = args.description
+        only_robot(scenario, "--description").robot.description = args.description
         note_option(scenario, ("robot.description",), "--description")
-    scenario.robot.package_paths += args.package_path
+    for entry in scenario.robots.values():  # a search path: every robot's
+        entry.robot.package_paths += args.package_path
     if getattr(args, "xacro_arg", None):
-        scenario.robot.xacro_args = {
-            **scenario.robot.xacro_args,
-            **parse_xacro_args(args.xacro_arg),
-        }
+        robot = only_robot(scenario, "--xacro-arg").robot
+        robot.xacro_args = {**robot.xacro_args, **parse_xacro_args(args.xacro_arg)}
         note_option(scenario, ("robot.xacro_args",), "--xacro-arg")
     return scenario
+
+
+def only_robot(scenario: Scenario, option: str) -> RobotEntry:
+    """The entry of ``scenario``'s only robot, which the command-line ``option`` sets;
+    a :class:`ScenarioError` naming the option for a scenario of several robots."""
+    if len(scenario.robots) != 1:
+        names = ", ".join(scenario.robots) or "none"
+        raise ScenarioError(
+            f"{option}: the scenario has {len(scenario.robots)} robots ({names}) and the "
+            "option sets the only one; give it to one robot with --set 'robots: {NAME: ...}'"
+        )
+    return next(iter(scenario.robots.values()))
 
 
 def _shortened(text: str, limit: int = 200) -> str:

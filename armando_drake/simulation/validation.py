@@ -33,7 +33,6 @@ from armando_drake.simulation.scenario import (
     Scenario,
     ScenarioError,
     ScenarioRobot,
-    expand_robots,
     sources_of,
 )
 from armando_drake.tools.schema import check_config
@@ -57,13 +56,14 @@ def check_scenario(scenario: Scenario, source: str = "") -> Scenario:
     refuses (not a finite number, out of its range, the wrong length, not one of its
     choices, against a rule of its section). ``source``: the scenario file's name in the
     messages (default: the file :func:`~armando_drake.simulation.scenario.load_scenario`
-    read). Returns the scenario checked with its robots as a map
-    (:func:`~armando_drake.simulation.scenario.expand_robots`; ``scenario`` is not
-    changed)."""
+    read); the one robot of the top-level keys is named by those keys, as the file
+    names it. Returns ``scenario``."""
+    sources = sources_of(scenario)
     if source:  # the caller's name for the file wins
-        sources_of(scenario).file = source
-    check_config(scenario, origin=sources_of(scenario).of, error=InputError)
-    return expand_robots(scenario)
+        sources.file = source
+    strip = f"robots.{sources.one_robot}." if sources.one_robot else ""
+    check_config(scenario, origin=sources.of, error=InputError, strip=strip)
+    return scenario
 
 
 def check_against_world(

@@ -411,6 +411,7 @@ def check_config(
     origin: Callable[[str], str] | None = None,
     error: type[Exception] = ConfigError,
     given: Mapping[str, Any] | None = None,
+    strip: str = "",
 ) -> None:
     """Raises ``error`` for the first value inside ``value`` that its rules refuse (see
     the module's docstring): ``<origin(key)>: <label><problem>``, one line.
@@ -418,15 +419,24 @@ def check_config(
     ``key``: the dotted key of ``value`` itself ("" for a root section); ``origin``: where
     a dotted key's value came from ("" or None: the message starts with the label);
     ``given``: what the file gave, nested as ``value`` (a ``required`` field it leaves
-    out is refused, ``<label>: '<name>' parameter is missing``; None: not checked)."""
+    out is refused, ``<label>: '<name>' parameter is missing``; None: not checked);
+    ``strip``: a dotted prefix (``"robots.robot."``) left out of the keys and labels of
+    what is below it, which the file names without it."""
     parent, name = _split(key)
-    _visit(value, key, parent, name, None, _Context(origin or (lambda _key: ""), error), given)
+    context = _Context(origin or (lambda _key: ""), error, strip)
+    _visit(value, key, parent, name, None, context, given)
 
 
 @dc.dataclass(frozen=True)
 class _Context:
     origin: Callable[[str], str]
     error: type[Exception]
+    strip: str = ""
+
+    def fail(self, key: str, text: str):
+        """The error for ``key`` with the message ``text``, both without ``strip``."""
+        return _error(self.error, self.origin, key.removeprefix(self.strip),
+                      text.removeprefix(self.strip))  # fmt: skip
 
 
 def _given(given: Any, name: str) -> Mapping[str, Any] | None:
@@ -444,10 +454,9 @@ def _join(key: str, name: str) -> str:
 def _visit(value, key, parent, name, rule, context, given) -> None:
     """Checks ``value`` (at dotted ``key``, labelled ``parent + name``) and what it holds;
     ``given``: what the file gave for it (a mapping, or None)."""
-    origin, error = context.origin, context.error
     problem = problem_of(rule, value)
     if problem:
-        raise _error(error, origin, key, f"{parent}{name}{problem}")
+        raise context.fail(key, f"{parent}{name}{problem}")
     if dc.is_dataclass(value) and not isinstance(value, type) or is_drake_struct(value):
         prefix = message_prefix(value, parent, name)
         for field, field_rule in field_rules(type(value)).items():
@@ -455,7 +464,7 @@ def _visit(value, key, parent, name, rule, context, given) -> None:
             if given is not None and field_rule is not None and field_rule.required:
                 if field not in given:
                     text = missing_text(type(value), field, field_rule)
-                    raise _error(error, origin, at, f"{prefix}{field}: {text}")
+                    raise context.fail(at, f"{prefix}{field}: {text}")
             item = getattr(value, field)
             _visit(item, at, prefix, field, field_rule, context, _given(given, field))
         check = getattr(value, "check", None)
@@ -465,7 +474,7 @@ def _visit(value, key, parent, name, rule, context, given) -> None:
             except Refusal as refusal:
                 at = _join(key, refusal.key) if refusal.key else key
                 label = f"{prefix}{refusal.key}" if refusal.key else f"{parent}{name}"
-                raise _error(error, origin, at, f"{label}{refusal.problem}") from None
+                raise context.fail(at, f"{label}{refusal.problem}") from None
     elif isinstance(value, dict):
         inner = f"{parent}{name}." if name else parent
         item_rule = rule.item_rule() if rule is not None else None

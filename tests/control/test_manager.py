@@ -44,7 +44,7 @@ from armando_drake.messages.types import (
     Publication,
 )
 from armando_drake.simulation.builder import MakeWorld
-from armando_drake.simulation.scenario import ScenarioError, load_scenario
+from armando_drake.simulation.scenario import ONE_ROBOT, ScenarioError, load_scenario
 from armando_drake.tools.schema import param
 
 RATE = 50  # [Hz]
@@ -442,7 +442,7 @@ def test_scenario_overrides_the_update_rate_of_the_yaml():
 @pytest.mark.parametrize("rate", [-5, 2.5])
 def test_a_bad_update_rate_override_is_named(rate):
     scenario = load_scenario("position", "logging: {console_rate: 0}")
-    scenario.controllers.update_rate = rate
+    scenario.robots[ONE_ROBOT].controllers.update_rate = rate
     with pytest.raises(ScenarioError) as error:
         MakeWorld(scenario, quiet=True, source="position.yaml")
     assert str(error.value) == (

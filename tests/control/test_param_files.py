@@ -319,13 +319,16 @@ def test_ros1_files_loaded_in_turn(tmp_path):
 
 
 def test_the_scenario_takes_one_file_or_a_list(tmp_path):
-    assert load_scenario("position").controllers.config == []
+    def config(scenario):  # of its one robot
+        return scenario.robots["robot"].controllers.config
+
+    assert config(load_scenario("position")) == []
     one = merge_overrides(load_scenario("position"), "controllers: {config: a.yaml}")
-    assert one.controllers.config == ["a.yaml"]
+    assert config(one) == ["a.yaml"]
     many = merge_overrides(load_scenario("position"), "controllers: {config: [a.yaml, b.yaml]}")
-    assert many.controllers.config == ["a.yaml", "b.yaml"]
+    assert config(many) == ["a.yaml", "b.yaml"]
     scenario = write(tmp_path, "s.yaml", "controllers:\n  config: c.yaml\n")
-    assert load_scenario(scenario).controllers.config == ["c.yaml"]
+    assert config(load_scenario(scenario)) == ["c.yaml"]
 
 
 def test_the_default_controllers_stand_for_the_files_own(tmp_path):

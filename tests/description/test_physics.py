@@ -18,7 +18,7 @@ from armando_drake.description.importer import DEFAULT_MASS
 from armando_drake.description.loader import load_robot
 from armando_drake.sensors.objects import AddGround
 from armando_drake.simulation.run import run
-from armando_drake.simulation.scenario import load_scenario
+from armando_drake.simulation.scenario import ONE_ROBOT, load_scenario
 
 QUIET = "logging: {console_rate: 0}\nsimulator_config: {target_realtime_rate: 0}"
 
@@ -54,9 +54,10 @@ def run_seed(tmp_path, urdf, *sets: str):
         + ["sequencer: !PositionTargets {period: 2.0}"]
     )
     scenario = load_scenario("position", text)
-    assert scenario.actuators.kp is None and scenario.actuators.kd is None
+    actuators = scenario.robots[ONE_ROBOT].actuators
+    assert actuators.kp is None and actuators.kd is None
     result = run(scenario, output_dir=tmp_path / "out", quiet=True, replay=False, plots=False)
-    ran = load_scenario(tmp_path / "out" / "scenario.yaml")
+    ran = load_scenario(tmp_path / "out" / "scenario.yaml").robots[ONE_ROBOT]  # as it ran
     return result, ran
 
 

@@ -255,7 +255,7 @@ def test_controller_then_set_edits_the_chosen_sinusoid(tmp_path, capsys):
     assert code == 0, err
     from armando_drake.simulation.scenario import load_scenario
 
-    ran = load_scenario(tmp_path / "scenario.yaml")
+    ran = load_scenario(tmp_path / "scenario.yaml").robots["robot"]  # its one robot
     assert type(ran.sequencer).__name__ == "Sinusoid"
     assert ran.sequencer.frequency == 0.5
     assert ran.sequencer.amplitude == [0.1, 0.2, 0.3, 0.4]

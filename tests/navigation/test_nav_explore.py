@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 
+from armando_drake.navigation import reference
 from armando_drake.navigation.config import NavigationConfig
 from armando_drake.navigation.costmap import CostmapParameters, make_costmap
 from armando_drake.navigation.explore import ExploreParameters, explore_parameters, frontiers
@@ -171,11 +172,45 @@ def test_a_bad_value_is_one_line_naming_the_file_and_the_key(tmp_path):
     assert str(slam) in message and "slam_toolbox.ros__parameters.resolution" in message
     explore = tmp_path / "explore.yaml"
     explore.write_text("explore_node:\n  ros__parameters:\n    planner_frequency: fast\n")
-    with pytest.raises(ConfigError, match=r"explore_node.ros__parameters.planner_frequency must"):
+    with pytest.raises(
+        ConfigError, match=r"explore_node.ros__parameters.planner_frequency='fast' must be a"
+    ):
         explore_parameters(explore)
     slam.write_text("slam_toolbox:\n  ros__parameters:\n    mode: localization\n")
-    with pytest.raises(ConfigError, match=r"mode 'localization': only mapping"):
+    with pytest.raises(ConfigError, match=r"mode='localization' is not one of 'mapping': only"):
         slam_parameters(slam)
+
+
+@pytest.mark.parametrize(
+    ("node", "text", "message"),
+    [
+        ("slam_toolbox", "resolution: -0.05", "resolution=-0.05 must be positive [m]"),
+        ("slam_toolbox", "throttle_scans: 0", "throttle_scans=0 must be positive"),
+        ("slam_toolbox", "minimum_travel_distance: -1", "minimum_travel_distance=-1.0 must be"),
+        ("slam_toolbox", "use_scan_matching: 1", "use_scan_matching=1 must be true or false"),
+        ("explore_node", "planner_frequency: 0", "planner_frequency=0.0 must be positive [Hz]"),
+        ("explore_node", "min_frontier_size: -0.5", "min_frontier_size=-0.5 must be zero or"),
+    ],
+)
+def test_a_bad_slam_or_explore_value_is_one_error_naming_file_and_key(
+    tmp_path, node, text, message
+):
+    """slam_toolbox's and explore_lite's parameters are declared with their rules and
+    checked by the schema's checker: one line, ``<file>: <node>.ros__parameters.<key>=...``."""
+    path = tmp_path / f"{node}.yaml"
+    path.write_text(f"{node}:\n  ros__parameters:\n    {text}\n")
+    read = slam_parameters if node == "slam_toolbox" else explore_parameters
+    with pytest.raises(ConfigError) as error:
+        read(path)
+    assert str(error.value).startswith(f"{path}: {node}.ros__parameters.{message}"), error.value
+    assert "\n" not in str(error.value)
+
+
+def test_the_slam_and_explore_parameters_are_in_the_reference():
+    """The generated parameter reference lists them with their units, ranges, meanings."""
+    page = reference.render()
+    assert "| `resolution` | honoured | [m] the map's cell size (positive) |" in page
+    assert "| `planner_frequency` | honoured | [Hz] how often the frontiers" in page
 
 
 def test_exploration_needs_slam_and_no_goals():

@@ -303,17 +303,18 @@ def test_other_sensor_types_are_ignored_and_noise_is_read():
 
 
 BAD = [
-    (dict(WIDTH=0), "<image><width>=0 must be positive"),
-    (dict(HEIGHT=-5), "<image><height>=-5 must be positive"),
+    (dict(WIDTH=0), "<image><width>=0 must be positive [px]"),
+    (dict(HEIGHT=-5), "<image><height>=-5 must be positive [px]"),
     (dict(WIDTH="32.5"), "<image/width>='32.5' is not a whole number"),
     (dict(WIDTH="wide"), "<image/width>='wide' is not a number"),
-    (dict(FOV=0), "<horizontal_fov>=0.0 must be in (0, pi)"),
-    (dict(FOV=3.2), "<horizontal_fov>=3.2 must be in (0, pi)"),
-    (dict(NEAR=0), "<clip><near>=0.0 must be positive"),
-    (dict(NEAR=2, FAR=2), "<clip><far>=2.0 must be finite and greater than near=2.0"),
-    (dict(NEAR=0.5, FAR=0.2), "<clip><far>=0.2 must be finite and greater than near=0.5"),
-    (dict(RATE=-1), "<update_rate>=-1.0 must be >= 0"),
+    (dict(FOV=0), "<horizontal_fov>=0.0 must be in (0, 3.14159) [rad]"),
+    (dict(FOV=3.2), "<horizontal_fov>=3.2 must be in (0, 3.14159) [rad]"),
+    (dict(NEAR=0), "<clip><near>=0.0 must be positive [m]"),
+    (dict(NEAR=2, FAR=2), "<clip><far>=2.0 must be greater than near=2.0"),
+    (dict(NEAR=0.5, FAR=0.2), "<clip><far>=0.2 must be greater than near=0.5"),
+    (dict(RATE=-1), "<update_rate>=-1.0 must be zero or positive [Hz]"),
     (dict(POSE="0 0 1"), "<pose>='0 0 1' is not 6 numbers"),
+    (dict(FAR="inf"), "<clip><far>=inf is not a finite number"),
 ]
 
 

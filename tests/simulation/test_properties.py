@@ -17,6 +17,7 @@ derandomized and small; ``pytest --hypothesis-profile long`` draws many more.
 """
 
 import csv
+import dataclasses as dc
 import json
 import math
 import os
@@ -31,6 +32,8 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from armando_drake.simulation.scenario import (
+    ONE_ROBOT,
+    ROBOT_KEYS,
     Scenario,
     ScenarioError,
     load_scenario,
@@ -106,12 +109,18 @@ def _keys(scenario: Scenario) -> dict[str, object]:
     }
 
 
-BASE_KEYS = _keys(load_scenario("position"))
+def _as_file(scenario: Scenario) -> Scenario:
+    """``scenario`` with its one robot's keys at the top level, as its file gives them."""
+    entry = scenario.robots[ONE_ROBOT]
+    return dc.replace(scenario, robots={}, **{key: getattr(entry, key) for key in ROBOT_KEYS})
+
+
+BASE_KEYS = _keys(_as_file(load_scenario("position")))
 # Names with a fixed set of choices (declared beside their fields): key -> the choices.
 CHOICES = {
     key: rule.choice_list()
     for key in BASE_KEYS
-    if (rule := rule_at(load_scenario("position"), key)) is not None
+    if (rule := rule_at(_as_file(load_scenario("position")), key)) is not None
     and rule.choices is not None
     and not callable(rule.choices)
 }
@@ -182,9 +191,13 @@ def overrides(draw, keys=tuple(BASE_KEYS), allow_unknown=True) -> str:
 
 
 def value_at(scenario, key: str):
+    """The value at the dotted ``key`` as the file names it (the one robot's keys are its
+    entry's in the robots map)."""
     value = scenario
+    if key.split(".")[0] in ROBOT_KEYS:
+        value = scenario.robots[ONE_ROBOT]
     for part in key.split("."):
-        value = getattr(value, part)
+        value = value[part] if isinstance(value, dict) else getattr(value, part)
     return value
 
 

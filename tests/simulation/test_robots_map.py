@@ -9,6 +9,7 @@ import pytest
 from pydrake.common.yaml import yaml_dump_typed
 
 from armando_drake.simulation.builder import MakeWorld
+from armando_drake.simulation.command import scenario_from_arguments, world_parser
 from armando_drake.simulation.scenario import (
     ONE_ROBOT,
     RobotEntry,
@@ -19,7 +20,8 @@ from armando_drake.simulation.scenario import (
     scenario_robots,
     sources_of,
 )
-from armando_drake.tools.errors import ConfigError
+from armando_drake.simulation.validation import check_scenario
+from armando_drake.tools.errors import ConfigError, ScenarioError
 
 QUIET = "logging: {console_rate: 0}\nsimulator_config: {target_realtime_rate: 0}"
 
@@ -48,14 +50,57 @@ def test_the_one_robots_keys_a_map_and_a_list_expand_to_the_same_map(tmp_path):
     keys = _load(tmp_path, "keys", ONE_ROBOT_KEYS)
     as_map = _load(tmp_path, "map", f"robots:\n  {ONE_ROBOT}:\n{ENTRY}")
     as_list = _load(tmp_path, "list", f"robots:\n  - name: {ONE_ROBOT}\n{ENTRY}")
-    expanded = expand_robots(keys).robots
+    # The loader expands them: right after load, the one robot is the map's only entry.
+    expanded = keys.robots
     assert list(expanded) == [ONE_ROBOT] and expanded[ONE_ROBOT].namespace == "/"
-    assert expanded == expand_robots(as_map).robots == expand_robots(as_list).robots
+    assert expanded == as_map.robots == as_list.robots
     assert expanded[ONE_ROBOT].sequencer.targets == [[0.1, 0.2, 0.3, 0.4]]
-    # The expansion is a new scenario, the one-robot keys back to their defaults there.
-    assert keys.robots == {} and keys.sequencer is not None
-    assert expand_robots(keys).sequencer is None
-    assert expand_robots(expand_robots(keys)).robots == expanded  # once is enough
+    # The one-robot keys are back to their defaults there.
+    assert keys.sequencer is None and keys.actuators == RobotEntry().actuators
+    assert expand_robots(keys).robots == expanded  # once is enough
+    # A scenario's dump keeps the form it was given in, and loads back equal.
+    assert dump_scenario(keys).startswith("robot:\n") and "name: robot" not in dump_scenario(keys)
+    again = tmp_path / "again.yaml"
+    again.write_text(dump_scenario(keys))
+    assert load_scenario(again).robots == expanded
+
+
+def test_an_override_of_the_one_robots_keys_lands_in_its_entry():
+    """--set 'actuators: {kp: 4}' on a scenario of the top-level keys sets the entry of
+    its one robot (the map is all the code below the loader reads); its origin is the
+    --set, under the key the file names."""
+    scenario = merge_overrides(
+        load_scenario("position"), ["actuators: {kp: 4.0}", "sequencer: {period: 5}"]
+    )
+    entry = scenario.robots[ONE_ROBOT]
+    assert (entry.actuators.kp, entry.sequencer.period) == (4.0, 5.0)
+    assert scenario.actuators.kp is None and scenario.sequencer is None
+    assert sources_of(scenario).of("actuators.kp").startswith("--set")
+
+
+def test_a_command_line_option_lands_in_the_robots_map():
+    """--controller, --param-file and --description set the entry of the only robot;
+    on a scenario of several robots they are an error naming the option."""
+    args = world_parser("").parse_args(
+        ["--controller", "trajectory", "--param-file", "a.yaml", "--description", "b.urdf"]
+    )
+    scenario = scenario_from_arguments(load_scenario("position", QUIET), args)
+    entry = scenario.robots[ONE_ROBOT]
+    assert type(entry.sequencer).__name__ == "JointTrajectoryTargets"
+    assert entry.controllers.config == ["a.yaml"] and entry.robot.description == "b.urdf"
+    assert scenario.sequencer is None and scenario.controllers.config == []
+    for option in (["--controller", "position"], ["--param-file", "a.yaml"]):
+        with pytest.raises(ScenarioError, match=f"^{option[0]}: the scenario has 2 robots"):
+            scenario_from_arguments(
+                load_scenario("dual_armando"), world_parser("").parse_args(option)
+            )
+
+
+def test_the_one_robots_values_are_refused_under_the_files_keys():
+    """A bad value of the one robot is named by its top-level key, not robots.robot..."""
+    with pytest.raises(ScenarioError) as error:
+        check_scenario(load_scenario("position", "actuators: {kp: -1.0}"))
+    assert "override 'actuators: {kp: -1.0}': actuators.kp=-1.0" in str(error.value)
 
 
 def test_the_one_robot_keeps_plain_names_and_its_keys_origins():
@@ -138,3 +183,9 @@ def test_building_a_world_leaves_the_scenario_as_it_was(name):
     assert dump_scenario(scenario) == before
     assert list(world.robots) == list(scenario_robots(scenario))
     world.close()
+
+
+def test_a_navigation_beside_the_twist_of_its_robot_is_refused():
+    """navigation: and the twist: of the robot it drives would both publish its cmd_vel."""
+    with pytest.raises(ScenarioError, match="navigation: both it and twist would publish"):
+        check_scenario(load_scenario("fra2mo", "navigation: {params_file: nav2.yaml}"))

@@ -13,7 +13,12 @@ from armando_drake.control.sequencer import (
     Sinusoid,
 )
 from armando_drake.sensors.objects import Box, Cylinder, Sphere
-from armando_drake.simulation.scenario import ScenarioError, load_scenario, merge_overrides
+from armando_drake.simulation.scenario import (
+    ONE_ROBOT,
+    ScenarioError,
+    load_scenario,
+    merge_overrides,
+)
 
 SEED = [list(target) for target in SEED_TARGETS]
 
@@ -29,7 +34,7 @@ SEED = [list(target) for target in SEED_TARGETS]
     ],
 )
 def test_each_scenario_file_loads_its_sequencer_variant(name, kind):
-    sequencer = load_scenario(name).sequencer
+    sequencer = load_scenario(name).robots[ONE_ROBOT].sequencer
     assert type(sequencer) is kind
     if kind in (PositionTargets, JointTrajectoryTargets):
         assert sequencer.targets == SEED and sequencer.period == 3.0
@@ -41,29 +46,29 @@ def test_the_seed_is_written_once():
         text = path.read_text()
         assert "1.2, -1.0, 1.2, 0.6" not in text, path
         assert "1.5707963267948966" not in text and "3.14159" not in text, path
-    wave = load_scenario("sinusoid").sequencer
+    wave = load_scenario("sinusoid").robots[ONE_ROBOT].sequencer
     assert (wave.amplitude, wave.frequency, wave.offset) == ([], 0.05, [])
     assert wave.phase == [0.0, 0.0, math.pi, 0.0]
 
 
 def test_a_tagged_override_chooses_a_variant_from_its_defaults():
     scenario = load_scenario("position", "sequencer: !Sinusoid {frequency: 0.1}")
-    assert scenario.sequencer == Sinusoid(frequency=0.1)
+    assert scenario.robots[ONE_ROBOT].sequencer == Sinusoid(frequency=0.1)
     scenario = load_scenario("sinusoid", "sequencer: !JointTrajectoryTargets {period: 2}")
-    assert scenario.sequencer == JointTrajectoryTargets(period=2.0)
+    assert scenario.robots[ONE_ROBOT].sequencer == JointTrajectoryTargets(period=2.0)
 
 
 def test_an_untagged_override_merges_into_the_variant_there():
     scenario = load_scenario("trajectory", "sequencer: {period: 0.5, cyclic: true}")
-    assert scenario.sequencer == JointTrajectoryTargets(period=0.5, cyclic=True)
+    assert scenario.robots[ONE_ROBOT].sequencer == JointTrajectoryTargets(period=0.5, cyclic=True)
     scenario = merge_overrides(load_scenario("sinusoid"), ["sequencer: {frequency: 0.2}"])
-    assert scenario.sequencer == Sinusoid(frequency=0.2)
+    assert scenario.robots[ONE_ROBOT].sequencer == Sinusoid(frequency=0.2)
     # Overrides apply in turn; null removes the sequencer.
     scenario = merge_overrides(
         load_scenario("position"), ["sequencer: {period: 5}", "sequencer: {cyclic: true}"]
     )
-    assert scenario.sequencer == PositionTargets(period=5.0, cyclic=True)
-    assert load_scenario("position", "sequencer: null").sequencer is None
+    assert scenario.robots[ONE_ROBOT].sequencer == PositionTargets(period=5.0, cyclic=True)
+    assert load_scenario("position", "sequencer: null").robots[ONE_ROBOT].sequencer is None
 
 
 def test_object_shapes_load_by_tag_with_the_common_fields():
@@ -180,19 +185,23 @@ def test_a_scenario_names_its_controller_yaml_relative_to_itself_from_any_folder
     else from the scenario's folder, else (for diagrams/) from the project's root."""
     monkeypatch.chdir(tmp_path)
     bundled = load_scenario("task_js")
-    (config,) = bundled.controllers.config
+    (config,) = bundled.robots[ONE_ROBOT].controllers.config
     assert Path(config).is_file() and Path(config).name == "iiwa_controllers.yaml", config
 
     own = tmp_path / "mine"
     (own / "config").mkdir(parents=True)
     (own / "config" / "c.yaml").write_text("controller_manager: {}\n")
     (own / "s.yaml").write_text("controllers: {config: config/c.yaml}\n")
-    assert load_scenario(own / "s.yaml").controllers.config == [str(own / "config" / "c.yaml")]
+    assert load_scenario(own / "s.yaml").robots[ONE_ROBOT].controllers.config == [
+        str(own / "config" / "c.yaml")
+    ]
     (tmp_path / "config").mkdir()
     (tmp_path / "config" / "c.yaml").write_text("controller_manager: {}\n")
-    assert load_scenario(own / "s.yaml").controllers.config == ["config/c.yaml"]  # cwd first
+    assert load_scenario(own / "s.yaml").robots[ONE_ROBOT].controllers.config == [
+        "config/c.yaml"
+    ]  # cwd first
     (own / "s.yaml").write_text("controllers: {config: [missing.yaml, config/c.yaml]}\n")
-    assert load_scenario(own / "s.yaml").controllers.config == [
+    assert load_scenario(own / "s.yaml").robots[ONE_ROBOT].controllers.config == [
         "missing.yaml",
         "config/c.yaml",
     ]  # named as given
