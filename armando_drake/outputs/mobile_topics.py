@@ -18,7 +18,8 @@ publish. Nothing at the plant's steps.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem
@@ -31,7 +32,6 @@ from armando_drake.messages.definitions import (
 )
 from armando_drake.messages.publications import Send, Topic
 from armando_drake.messages.types import Odometry, PublicationValue
-from armando_drake.outputs.topics import WorldTopics
 
 ODOM_TOPIC = "/odom"
 
@@ -117,64 +117,50 @@ class MobileTopics(LeafSystem):
                 self._send(topic, "sensor_msgs/msg/LaserScan", message, scan.message.stamp)
 
 
-def mobile_topic_names(topics: WorldTopics, *, cmd_vel: bool = True) -> MobileTopicNames:
-    """The topics of ``topics``' base and lidars (``cmd_vel``: the twist sequence's too),
-    under the robot's namespace in a world of several (``/tf`` is shared; the frames are
-    then ``<namespace>/odom``, ``<namespace>/base_footprint``, ...)."""
-    scans = tuple(
-        (name, topics.topic(ports["scan"].get_system().info.topic))
-        for name, ports in topics.sensors.items()
-        if "scan" in ports
-    )
-    odom = topics.topic(ODOM_TOPIC) if topics.base_log is not None else ""
-    twist = ""
-    if cmd_vel and topics.twist is not None:
-        twist = topics.topic(topics.stack.entry(topics.twist_target).ros_topic or "/cmd_vel")
-    space = topics.stack.namespace.strip("/")
-    return MobileTopicNames(
-        odom=odom,
-        tf="/tf" if odom else "",
-        cmd_vel=twist,
-        scans=scans,
-        frames=f"{space}/" if space else "",
-    )
-
-
-def AddMobileTopics(
-    builder, topics: WorldTopics, send: Send, *, cmd_vel: bool = True, name: str = "mobile_topics"
-) -> MobileTopics | None:
-    """A :class:`MobileTopics` on the base's odometry (a floating base with a drive), the
-    twist sequence's cmd_vel (with ``cmd_vel``) and every lidar of ``topics``; None when
-    there is none of them."""
-    names = mobile_topic_names(topics, cmd_vel=cmd_vel)
-    if not (names.odom or names.cmd_vel or names.scans):
-        return None
-    system = builder.AddNamedSystem(name, MobileTopics(names, send=send, rate=topics.update_rate))
-    if names.odom:
-        drive = topics.base_log.drive
-        builder.Connect(
-            topics.stack.manager.GetOutputPort(f"{drive}.odom"), system.GetInputPort("odom")
-        )
-    if names.cmd_vel:
-        builder.Connect(topics.twist.GetOutputPort("cmd_vel"), system.GetInputPort("cmd_vel"))
-    for sensor, _ in names.scans:
-        builder.Connect(topics.sensors[sensor]["scan"], system.GetInputPort(f"{sensor}.scan"))
-    return system
-
-
 @dataclass(frozen=True, eq=False)
 class MobileSource:
-    """The :class:`MobileTopics` of a robot (``topics``, a WorldTopics): a
-    :class:`~armando_drake.messages.publications.TopicSource`."""
+    """The :class:`MobileTopics` of a robot: its base's odometry (``base_log``, the
+    BaseLogger of a floating base with a drive), the twist sequence publishing cmd_vel
+    (``twist``, on the drive ``twist_target``) and its lidars (``sensors``, the outputs of
+    its description's other sensors by name), on the controllers of ``stack`` (a
+    ControlStack): a :class:`~armando_drake.messages.publications.TopicSource`."""
 
-    topics: WorldTopics
+    stack: Any
+    sensors: dict = field(default_factory=dict)
+    base_log: Any = None
+    twist: Any = None
+    twist_target: str = ""
 
-    def names(self) -> MobileTopicNames:
-        return mobile_topic_names(self.topics)
+    def topic(self, name: str) -> str:
+        """The absolute ROS topic of ``name`` for this robot: under its namespace in a
+        world of several (``/left/odom``), else ``/<name>``."""
+        return f"{self.stack.namespace.rstrip('/')}/{name.lstrip('/')}"
+
+    def names(self, *, cmd_vel: bool = True) -> MobileTopicNames:
+        """The topics of the base and lidars (``cmd_vel``: the twist sequence's too), under
+        the robot's namespace in a world of several (``/tf`` is shared; the frames are
+        then ``<namespace>/odom``, ``<namespace>/base_footprint``, ...)."""
+        scans = tuple(
+            (name, self.topic(ports["scan"].get_system().info.topic))
+            for name, ports in self.sensors.items()
+            if "scan" in ports
+        )
+        odom = self.topic(ODOM_TOPIC) if self.base_log is not None else ""
+        twist = ""
+        if cmd_vel and self.twist is not None:
+            twist = self.topic(self.stack.entry(self.twist_target).ros_topic or "/cmd_vel")
+        space = self.stack.namespace.strip("/")
+        return MobileTopicNames(
+            odom=odom,
+            tf="/tf" if odom else "",
+            cmd_vel=twist,
+            scans=scans,
+            frames=f"{space}/" if space else "",
+        )
 
     def table(self) -> list[Topic]:
         """Its topics (recorded and live), their names under the robot's namespace."""
-        names, rate = self.names(), self.topics.update_rate
+        names, rate = self.names(), self.stack.update_rate
         found = []
         if names.odom:
             found += [
@@ -191,6 +177,27 @@ class MobileSource:
         return found
 
     def attach(self, builder, send: Send, consumer: str) -> MobileTopics | None:
-        space = self.topics.stack.namespace.strip("/")
+        space = self.stack.namespace.strip("/")
         name = f"{space}/mobile_{consumer}" if space else f"mobile_{consumer}"
-        return AddMobileTopics(builder, self.topics, send, name=name)
+        return AddMobileTopics(builder, self, send, name=name)
+
+
+def AddMobileTopics(
+    builder, source: MobileSource, send: Send, *, cmd_vel: bool = True, name: str = "mobile_topics"
+) -> MobileTopics | None:
+    """A :class:`MobileTopics` on the base's odometry (a floating base with a drive), the
+    twist sequence's cmd_vel (with ``cmd_vel``) and every lidar of ``source``; None when
+    there is none of them."""
+    names = source.names(cmd_vel=cmd_vel)
+    if not (names.odom or names.cmd_vel or names.scans):
+        return None
+    stack = source.stack
+    system = builder.AddNamedSystem(name, MobileTopics(names, send=send, rate=stack.update_rate))
+    if names.odom:
+        drive = source.base_log.drive
+        builder.Connect(stack.manager.GetOutputPort(f"{drive}.odom"), system.GetInputPort("odom"))
+    if names.cmd_vel:
+        builder.Connect(source.twist.GetOutputPort("cmd_vel"), system.GetInputPort("cmd_vel"))
+    for sensor, _ in names.scans:
+        builder.Connect(source.sensors[sensor]["scan"], system.GetInputPort(f"{sensor}.scan"))
+    return system

@@ -15,7 +15,6 @@ from pydrake.perception import PointCloud
 from pydrake.systems.framework import LeafSystem
 
 from armando_drake.messages.types import PublicationValue
-from armando_drake.outputs.topics import WorldTopics
 from armando_drake.sensors.image_view import PUBLISH_OFFSET_FRACTION
 
 SCAN_PATH = "/drake/lidar"
@@ -57,14 +56,16 @@ class ScanView(LeafSystem):
         self.drawn += 1
 
 
-def AddScanViews(builder, topics: WorldTopics, meshcat: Meshcat) -> list[ScanView]:
-    """A :class:`ScanView` for every lidar of ``topics``."""
-    plant, views = topics.plant, []
-    for name, ports in topics.sensors.items():
+def AddScanViews(builder, plant, model_instance, sensors: dict, meshcat: Meshcat) -> list[ScanView]:
+    """A :class:`ScanView` for every lidar of ``sensors`` (the outputs of a robot's other
+    sensors by name, :func:`~armando_drake.sensors.registry.AddSensors`), on the links of
+    the robot ``model_instance`` of ``plant``."""
+    views = []
+    for name, ports in sensors.items():
         if "scan" not in ports:
             continue
         info = ports["scan"].get_system().info
-        body = plant.GetBodyByName(info.link, topics.robot.model_instance)
+        body = plant.GetBodyByName(info.link, model_instance)
         view = builder.AddNamedSystem(
             f"scan_view_{name}",
             ScanView(

@@ -43,7 +43,7 @@ def test_camera_tracks_its_linear_path_within_2_mm_while_pointing_within_0_05_ra
         p_WM = true_marker_position(scenario)
         start = pointing_error(world, context, "flange_camera", p_WM)
         assert start >= 0.2, start  # [rad] the marker well off the optical axis at first
-        params = world.controller_config.controllers[controller].params
+        params = world.robot().stack.config.controllers[controller].params
         time_law = make_time_law(
             TaskSpaceMotion(
                 offset=params.offset,
@@ -69,7 +69,9 @@ def test_camera_tracks_its_linear_path_within_2_mm_while_pointing_within_0_05_ra
         assert max(path_errors) <= 0.002, max(path_errors)
         # Pointing within 0.05 rad once the first 0.5 s have turned the camera, to the end.
         assert pointing[pointing[:, 0] >= 0.5, 1].max() <= 0.05, pointing[pointing[:, 0] >= 0.5]
-        assert world.detectors.aruco.detections == world.detectors.aruco.frames == 90
+        assert (
+            world.robot().detectors.aruco.detections == world.robot().detectors.aruco.frames == 90
+        )
         # The controller's own figure (every tick) is at least what 10 ms samples saw.
         assert max(path_errors) - 1e-9 <= detail["max_path_error"] <= 0.002
         assert world.status(context, controller).state == "executing"

@@ -70,7 +70,7 @@ def test_iiwa_looks_at_the_marker_within_5_seconds(monkeypatch, controller, mark
     simulator.AdvanceTo(5.0)
     final = pointing_error(world, context, "flange_camera", p_WM)
     assert final < 0.02, (start, final)
-    assert world.detectors.aruco.detections >= 140  # found in (nearly) every frame
+    assert world.robot().detectors.aruco.detections >= 140  # found in (nearly) every frame
     assert world.status(context, controller).state == "executing"
     world.close()
 
