@@ -241,7 +241,7 @@ def _add_sensing(builder, scenario, stacks, drivers, scene_graph, meshcat, where
     )
     sensors = {}
     for name, robot in stacks.items():  # each robot's own sensors (a lidar); AMCL reads one
-        sensors[name] = AddRobotSensors(builder, stack.plant, robot)
+        sensors[name] = AddRobotSensors(builder, stack.plant, robot, publications)
         ConnectLocalization(builder, drivers[name].navigation, sensors[name])
     detectors = perception = None
     if scenario.vision is not None:
@@ -302,6 +302,6 @@ def _add_outputs(builder, scenario: Scenario, robots, table, scene_graph, meshca
             ground=scenario.ground and not scenario.world_file,
         )
         # The lidars' scans as points; map, costmap, plan and goals.
-        AddScanViews(builder, plant, first.robot.model_instance, first.sensors, meshcat)
+        AddScanViews(builder, table, plant, meshcat)
         AddNavigationView(builder, first.navigation, meshcat)
     return replay_sampler, bridge

@@ -385,15 +385,16 @@ def ConnectRobot(
     return RobotWiring(logger, gravity_feedforward, log)
 
 
-def AddRobotSensors(builder, plant, robot: RobotStack) -> dict:
+def AddRobotSensors(builder, plant, robot: RobotStack, publications: PublicationRegistry) -> dict:
     """The sensors of the robot's description (a lidar; cameras are
     :func:`~armando_drake.sensors.cameras.AddCameras`'), on its links, their outputs
-    ``<namespace>/<sensor>.<output>``, by sensor name."""
+    ``<namespace>/<sensor>.<output>``, by sensor name; their topics registered in
+    ``publications``."""
     spec = robot.body.spec
     with robot_scope(builder, spec.folder):
         return AddSensors(
             builder, robot.body.robot.sensors, plant=plant, robot=robot.body.robot,
-            namespace=spec.namespace,
+            namespace=spec.namespace, publications=publications,
         )  # fmt: skip
 
 
@@ -436,7 +437,7 @@ def FinishRobots(
 ) -> dict[str, AddedRobot]:
     """Each robot as the world keeps it, made once of what its build added (``scene``,
     the scene's cameras, detectors and perception, on the first), its base's topics
-    (odometry, /tf, cmd_vel, scans) and its navigation's (recorded for the first only)
+    (odometry, /tf, cmd_vel) and its navigation's (recorded for the first only)
     registered in ``publications``; by name."""
     robots = {}
     for index, (name, stack) in enumerate(stacks.items()):
@@ -444,9 +445,7 @@ def FinishRobots(
             stack, drivers[name], wiring[name], sensors[name], **(scene if index == 0 else {})
         )
         publications.add(
-            *MobileSource(
-                robot.stack, robot.sensors, robot.base_log, robot.twist, robot.twist_target
-            ).table()
+            *MobileSource(robot.stack, robot.base_log, robot.twist, robot.twist_target).table()
         )
         if robot.navigation is not None:
             navigation = NavigationSource(

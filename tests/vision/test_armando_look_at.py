@@ -34,10 +34,10 @@ def test_armando_looks_at_the_disc_within_0_05_rad(disc, pan):
         p_WD = true_disc_position(scenario)
         plant_context = world.plant.GetMyContextFromRoot(context)
         q0 = world.plant.GetPositions(plant_context, world.robot().robot.model_instance).copy()
-        start = pointing_error(world, context, "wrist_camera", p_WD)
+        start = pointing_error(world.robot(), context, "wrist_camera", p_WD)
         assert start >= 0.25, start  # [rad] the disc well off the optical axis
         simulator.AdvanceTo(3.0)
-        final = pointing_error(world, context, "wrist_camera", p_WD)
+        final = pointing_error(world.robot(), context, "wrist_camera", p_WD)
         assert final < 0.05, (start, final)
         q = world.plant.GetPositions(plant_context, world.robot().robot.model_instance)
         # It panned (j0) towards the disc's side; the detector found the disc on every frame.

@@ -41,7 +41,7 @@ def test_camera_tracks_its_linear_path_within_2_mm_while_pointing_within_0_05_ra
         simulator = Simulator(world.diagram)
         context = simulator.get_context()
         p_WM = true_marker_position(scenario)
-        start = pointing_error(world, context, "flange_camera", p_WM)
+        start = pointing_error(world.robot(), context, "flange_camera", p_WM)
         assert start >= 0.2, start  # [rad] the marker well off the optical axis at first
         params = world.robot().stack.config.controllers[controller].params
         time_law = make_time_law(
@@ -59,9 +59,9 @@ def test_camera_tracks_its_linear_path_within_2_mm_while_pointing_within_0_05_ra
             path = LinearPath(start=detail["path_start"], goal=detail["path_goal"])
             s = time_law(np.array([min(t - detail["path_start_time"], time_law.duration)]))
             p_d = path(s.s, s.s_dot, s.s_ddot).position[0]
-            p_C = camera_pose(world, context, "flange_camera").translation()
+            p_C = camera_pose(world.robot(), context, "flange_camera").translation()
             path_errors.append(np.linalg.norm(p_C - p_d))
-            pointing.append((t, pointing_error(world, context, "flange_camera", p_WM)))
+            pointing.append((t, pointing_error(world.robot(), context, "flange_camera", p_WM)))
         pointing = np.array(pointing)
         # The path starts where the camera was when the marker was first seen (1 ms).
         assert detail["path_start_time"] <= 0.002
