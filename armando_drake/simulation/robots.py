@@ -9,9 +9,12 @@ robot that the next one takes: every robot's description goes into the plant
 (:func:`AddRobotBodies`, a :class:`RobotBody`: standing in the world, free on its
 wheels or mounted on another's link), the plant is finalized once between the hardware
 interfaces' two halves (:func:`AddRobotStacks`, a :class:`RobotStack` with its
-controller manager), then each robot's sequencer and twist sequence
-(:func:`AddRobotDrivers`) and its wiring to the plant and its logs
-(:func:`ConnectRobot`, the :class:`AddedRobot` the world keeps).
+controller manager, its joint states and command inputs registered in the world's
+publication table), then each robot's sequencer and twist sequence
+(:func:`AddRobotDrivers`, a :class:`RobotDrivers` the builder adds the navigation, task
+and jogs to), its wiring to the plant and its logs (:func:`ConnectRobot`, a
+:class:`RobotWiring`) and its sensors; at the end, the frozen :class:`AddedRobot` the world
+keeps is made once of them (:func:`FinishRobots`).
 
 A robot with a namespace (``/left``) has its diagram ports ``left/joint_states``,
 ``left/<controller>.<topic>``, ..., its systems' names beginning with ``left/``, its logs
