@@ -275,7 +275,7 @@ def task_controller_cost(ticks: int) -> float:
 
     simulator = Simulator(world.diagram)
     simulator.AdvanceTo(1.0)  # mid-motion: a reference is being followed
-    manager = world.controller_manager
+    manager = world.robot().stack.manager
     logic = manager.controllers[0].logic
     context = manager.GetMyContextFromRoot(simulator.get_context())
     memory = context.get_abstract_state(0).get_value().memories[0]
@@ -491,8 +491,8 @@ def recorded_plant_inputs(name: str, duration: float) -> PlantInputs:
     simulator = Simulator(world.diagram)
     context = simulator.get_mutable_context()
     port = world.diagram.GetOutputPort("desired_state")
-    feedforward = world.gravity_feedforward
-    period = 1.0 / world.update_rate
+    feedforward = world.robot().gravity_feedforward
+    period = 1.0 / world.robot().stack.update_rate
     times, samples, torques = [], [], []
     for k in range(int(round(duration / period)) + 1):
         simulator.AdvanceTo(k * period + period / 2)
@@ -728,14 +728,14 @@ def bench_mujoco(report: Report, period: float) -> None:
 
     def mujoco_at(time_step: float) -> tuple[float, list[float]]:
         model = mujoco_model(
-            world.robot.urdf,
-            world.hardware,
-            kp=world.hardware.joints[0].kp,
-            kd=world.hardware.joints[0].kd,
+            world.robot().robot.urdf,
+            world.robot().stack.hardware,
+            kp=world.robot().stack.hardware.joints[0].kp,
+            kd=world.robot().stack.hardware.joints[0].kd,
             time_step=time_step,
             gravcomp=actuators.gravity_feedforward,
         )
-        return mujoco_job(model, world.hardware, period)
+        return mujoco_job(model, world.robot().stack.hardware, period)
 
     with _quiet_mujoco():
         drake_step, drake_errors = _largest_step(lambda h: drake_job(h, period))
@@ -807,9 +807,9 @@ def camera_fps(frames: int, *, depth: bool, renderer: str = "auto") -> tuple[flo
     )
     world = MakeWorld(scenario, quiet=True)
     try:
-        if not world.cameras:
+        if not world.robot().cameras:
             raise RuntimeError("the built-in description has no camera")
-        name, camera = next(iter(world.cameras.items()))
+        name, camera = next(iter(world.robot().cameras.items()))
         context = world.diagram.CreateDefaultContext()
         sensor_context = camera.sensor.GetMyContextFromRoot(context)
         ports = [camera.sensor.GetOutputPort("color_image")]
@@ -1044,7 +1044,7 @@ def perception_fps(frames: int) -> tuple[float, float, dict[str, float], str]:
 
     world = MakeWorld(load_scenario("perception", NO_CONSOLE), quiet=True)
     try:
-        added = world.perception
+        added = world.robot().perception
         simulator = Simulator(world.diagram)
         simulator.AdvanceTo(0.05)
         context = simulator.get_context()
@@ -1161,7 +1161,7 @@ def vision_world_rtf(duration: float, override: str) -> tuple[float, float, floa
         start, cpu_start = time.perf_counter(), time.process_time()
         simulator.AdvanceTo(duration)
         wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
-        detectors = world.detectors
+        detectors = world.robot().detectors
         detector = None if detectors is None else (detectors.blob or detectors.aruco)
         per_frame = detector.seconds / max(1, detector.frames) if detector else 0.0
         return duration / wall, duration / cpu, per_frame, detector.frames if detector else 0

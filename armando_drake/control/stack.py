@@ -70,8 +70,10 @@ from armando_drake.control.sequencer import (
     Sinusoid,
     stream_controller,
 )
+from armando_drake.control.topics import RegisterControllerTopics
 from armando_drake.description.loader import LoadedRobot, is_builtin_armando
 from armando_drake.description.packages import installed_view, package_of
+from armando_drake.messages.publications import PublicationRegistry
 from armando_drake.messages.types import Float64MultiArray, JointTrajectory
 from armando_drake.tools.errors import ScenarioError
 from armando_drake.tools.schema import Refusal, param
@@ -710,13 +712,18 @@ def AddControllerManager(
     scene_graph: SceneGraph | None = None,
     hold: bool = False,
     namespace: str = "",
+    publications: PublicationRegistry | None = None,
+    drive_plugins: Sequence[str] = (),
 ) -> ControlStack:
     """Loads and activates ``config.activate`` (a broadcaster and command controllers,
     each joint claimed once) in one :class:`ControllerManager`, wired to the plant
     through the hardware interface. ``sequencer``: the scenario's sequencer section; a
     sinusoid's controller takes it as a C++ stream when it can. ``hold``: with no
     command controller, the hardware holds the joints at their start positions.
-    ``namespace``: the robot's, in a world of several (its ports' names begin with it)."""
+    ``namespace``: the robot's, in a world of several (its ports' names begin with it).
+    ``publications``: where its joint states and its controllers' command inputs are
+    registered (:func:`~armando_drake.control.topics.RegisterControllerTopics`, with the
+    base's ``drive_plugins``)."""
     stack = ControlStack(
         plant=plant,
         robot=robot,
@@ -752,6 +759,8 @@ def AddControllerManager(
         builder.ExportOutput(manager.GetOutputPort("joint_states"), stack.port_name("joint_states"))
     for controller in managed:
         stack.controllers[controller.name] = manager
+    if publications is not None:
+        RegisterControllerTopics(publications, stack, drive_plugins)
     return stack
 
 

@@ -12,11 +12,14 @@ store, :mod:`armando_drake.messages.definitions`) and where its messages come fr
 - a topic subscribed: the input port its messages drive and ``receive``, the function
   that turns a received message into that port's value.
 
-The MCAP recorder (:mod:`armando_drake.outputs.recording`), the DDS bridge and Foxglove
-(:mod:`armando_drake.ros2.bridge`) are loops over a :class:`Publications` table: a topic
-added to it is recorded (``recorded``), sent on DDS and to Foxglove (``live``) and, when
-subscribed, fed from DDS, with no edit of theirs. This module imports no Drake system:
-the ports are whatever the systems that fill the table give.
+The table is filled while the world is built: the builder hands one
+:class:`PublicationRegistry` to each ``AddX`` that publishes or subscribes, which registers
+its rows next to the system it adds. The MCAP recorder
+(:mod:`armando_drake.outputs.recording`), the DDS bridge and Foxglove
+(:mod:`armando_drake.ros2.bridge`) are loops over the finished :class:`Publications`
+table: a topic added to it is recorded (``recorded``), sent on DDS and to Foxglove
+(``live``) and, when subscribed, fed from DDS, with no edit of theirs. This module
+imports no Drake system: the ports are whatever the systems that fill the table give.
 """
 
 from __future__ import annotations
@@ -119,6 +122,34 @@ class Publications:
             for topic in self.topics
             if topic.direction == SUBSCRIBE and namespace in (None, topic.namespace)
         ]
+
+
+class PublicationRegistry:
+    """The table of a world being built: each ``AddX`` registers the topics of the systems
+    it adds (:meth:`add`), in build order; :meth:`table` is the finished table."""
+
+    def __init__(self) -> None:
+        self._topics: list[Topic] = []
+        self._untyped: list[tuple[str, Any]] = []
+
+    def add(self, *topics: Topic) -> None:
+        """Registers ``topics`` (published or subscribed)."""
+        self._topics.extend(topics)
+
+    def add_untyped(self, label: str, port: Any) -> None:
+        """Registers a command input no ROS 2 type is known for (``<controller>/<suffix>``)."""
+        self._untyped.append((label, port))
+
+    def table(self) -> Publications:
+        """The table of every topic registered so far."""
+        return Publications(tuple(self._topics), tuple(self._untyped))
+
+
+def register(publications: PublicationRegistry | None, *topics: Topic) -> None:
+    """Registers ``topics`` in ``publications`` (None: a system added outside a world's
+    build, which publishes nothing)."""
+    if publications is not None:
+        publications.add(*topics)
 
 
 def published(convert: Callable[[Any], dict]) -> Read:

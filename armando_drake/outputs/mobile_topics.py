@@ -6,32 +6,31 @@ topic                type                              from
 ``/odom``            ``nav_msgs/msg/Odometry``         the drive's wheel odometry
 ``/tf``              ``tf2_msgs/msg/TFMessage``        odom -> base_footprint, of the odometry
 ``/cmd_vel``         ``geometry_msgs/msg/Twist``       the twist sequence (the drive's topic)
-``/scan``            ``sensor_msgs/msg/LaserScan``     each lidar, on its ``<topic>``
 ==================== ================================= =====================================
 
 :class:`MobileTopics` reads them at the controller manager's rate and hands each new
-message (a new odometry stamp, a new publication of a scan or a twist) to ``send(topic,
+message (a new odometry stamp, a new publication of a twist) to ``send(topic,
 type_name, message, stamp)``: the MCAP recorder's ``write`` or the live bridge's
-publish. Nothing at the plant's steps.
+publish. Nothing at the plant's steps. (A lidar's ``/scan`` is its own row of the table,
+registered by the sensor: :mod:`armando_drake.sensors.lidar`.)
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem
 
 from armando_drake.messages.definitions import (
-    laser_scan_message,
     odometry_message,
     odometry_transform,
     twist_message,
 )
 from armando_drake.messages.publications import Send, Topic
 from armando_drake.messages.types import Odometry, PublicationValue
-from armando_drake.outputs.topics import WorldTopics
 
 ODOM_TOPIC = "/odom"
 
@@ -43,19 +42,17 @@ class MobileTopicNames:
     odom: str = ODOM_TOPIC
     tf: str = "/tf"
     cmd_vel: str = ""
-    scans: tuple[tuple[str, str], ...] = ()  # (sensor name, topic)
-    # Before each frame id (odom, base_footprint, the lidar's link): "<namespace>/" for a
+    # Before each frame id (odom, base_footprint): "<namespace>/" for a
     # robot of several, as its links are named on /tf; "" = the frames as they are.
     frames: str = ""
 
 
 class MobileTopics(LeafSystem):
-    """Sends a mobile base's odometry, its /tf, its cmd_vel and its lidars' scans.
+    """Sends a mobile base's odometry, its /tf and its cmd_vel.
 
     Ports:
       - input ``odom`` (Odometry): sent on ``odom`` and ``tf`` at each new stamp;
-      - input ``cmd_vel`` (Publication of TwistStamped, optional): each new one as a Twist;
-      - input ``<sensor>.scan`` (Publication of LaserScan): each new scan.
+      - input ``cmd_vel`` (Publication of TwistStamped, optional): each new one as a Twist.
     """
 
     def __init__(self, names: MobileTopicNames, *, send: Send, rate: float):
@@ -66,10 +63,6 @@ class MobileTopics(LeafSystem):
         self._send = send
         self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
         self._cmd_vel = self.DeclareAbstractInputPort("cmd_vel", PublicationValue())
-        self._scans = [
-            (topic, self.DeclareAbstractInputPort(f"{name}.scan", PublicationValue()))
-            for name, topic in names.scans
-        ]
         self._last_odom: float | None = None
         self._counts: dict[str, int] = {}
         self.DeclarePeriodicPublishEvent(1.0 / rate, 0.0, self._Publish)
@@ -110,71 +103,44 @@ class MobileTopics(LeafSystem):
         if twist is not None:
             message = twist_message(twist.message)
             self._send(names.cmd_vel, "geometry_msgs/msg/Twist", message, twist.stamp)
-        for topic, port in self._scans:
-            scan = self._new(topic, port, context)
-            if scan is not None:
-                message = self._framed(laser_scan_message(scan.message))
-                self._send(topic, "sensor_msgs/msg/LaserScan", message, scan.message.stamp)
-
-
-def mobile_topic_names(topics: WorldTopics, *, cmd_vel: bool = True) -> MobileTopicNames:
-    """The topics of ``topics``' base and lidars (``cmd_vel``: the twist sequence's too),
-    under the robot's namespace in a world of several (``/tf`` is shared; the frames are
-    then ``<namespace>/odom``, ``<namespace>/base_footprint``, ...)."""
-    scans = tuple(
-        (name, topics.topic(ports["scan"].get_system().info.topic))
-        for name, ports in topics.sensors.items()
-        if "scan" in ports
-    )
-    odom = topics.topic(ODOM_TOPIC) if topics.base_log is not None else ""
-    twist = ""
-    if cmd_vel and topics.twist is not None:
-        twist = topics.topic(topics.stack.entry(topics.twist_target).ros_topic or "/cmd_vel")
-    space = topics.stack.namespace.strip("/")
-    return MobileTopicNames(
-        odom=odom,
-        tf="/tf" if odom else "",
-        cmd_vel=twist,
-        scans=scans,
-        frames=f"{space}/" if space else "",
-    )
-
-
-def AddMobileTopics(
-    builder, topics: WorldTopics, send: Send, *, cmd_vel: bool = True, name: str = "mobile_topics"
-) -> MobileTopics | None:
-    """A :class:`MobileTopics` on the base's odometry (a floating base with a drive), the
-    twist sequence's cmd_vel (with ``cmd_vel``) and every lidar of ``topics``; None when
-    there is none of them."""
-    names = mobile_topic_names(topics, cmd_vel=cmd_vel)
-    if not (names.odom or names.cmd_vel or names.scans):
-        return None
-    system = builder.AddNamedSystem(name, MobileTopics(names, send=send, rate=topics.update_rate))
-    if names.odom:
-        drive = topics.base_log.drive
-        builder.Connect(
-            topics.stack.manager.GetOutputPort(f"{drive}.odom"), system.GetInputPort("odom")
-        )
-    if names.cmd_vel:
-        builder.Connect(topics.twist.GetOutputPort("cmd_vel"), system.GetInputPort("cmd_vel"))
-    for sensor, _ in names.scans:
-        builder.Connect(topics.sensors[sensor]["scan"], system.GetInputPort(f"{sensor}.scan"))
-    return system
 
 
 @dataclass(frozen=True, eq=False)
 class MobileSource:
-    """The :class:`MobileTopics` of a robot (``topics``, a WorldTopics): a
-    :class:`~armando_drake.messages.publications.TopicSource`."""
+    """The :class:`MobileTopics` of a robot: its base's odometry (``base_log``, the
+    BaseLogger of a floating base with a drive) and the twist sequence publishing cmd_vel
+    (``twist``, on the drive ``twist_target``), on the controllers of ``stack`` (a
+    ControlStack): a :class:`~armando_drake.messages.publications.TopicSource`."""
 
-    topics: WorldTopics
+    stack: Any
+    base_log: Any = None
+    twist: Any = None
+    twist_target: str = ""
 
-    def names(self) -> MobileTopicNames:
-        return mobile_topic_names(self.topics)
+    def topic(self, name: str) -> str:
+        """The absolute ROS topic of ``name`` for this robot: under its namespace in a
+        world of several (``/left/odom``), else ``/<name>``."""
+        return f"{self.stack.namespace.rstrip('/')}/{name.lstrip('/')}"
+
+    def names(self, *, cmd_vel: bool = True) -> MobileTopicNames:
+        """The topics of the base (``cmd_vel``: the twist sequence's too), under the
+        robot's namespace in a world of several (``/tf`` is shared; the frames are then
+        ``<namespace>/odom``, ``<namespace>/base_footprint``, ...)."""
+        odom = self.topic(ODOM_TOPIC) if self.base_log is not None else ""
+        twist = ""
+        if cmd_vel and self.twist is not None:
+            twist = self.topic(self.stack.entry(self.twist_target).ros_topic or "/cmd_vel")
+        space = self.stack.namespace.strip("/")
+        return MobileTopicNames(
+            odom=odom,
+            tf="/tf" if odom else "",
+            cmd_vel=twist,
+            frames=f"{space}/" if space else "",
+        )
 
     def table(self) -> list[Topic]:
         """Its topics (recorded and live), their names under the robot's namespace."""
-        names, rate = self.names(), self.topics.update_rate
+        names, rate = self.names(), self.stack.update_rate
         found = []
         if names.odom:
             found += [
@@ -184,13 +150,28 @@ class MobileSource:
             ]  # fmt: skip
         if names.cmd_vel:
             found.append(Topic(names.cmd_vel, "geometry_msgs/msg/Twist", source=self, rate=rate))
-        found += [
-            Topic(topic, "sensor_msgs/msg/LaserScan", source=self, rate=rate)
-            for _, topic in names.scans
-        ]
         return found
 
     def attach(self, builder, send: Send, consumer: str) -> MobileTopics | None:
-        space = self.topics.stack.namespace.strip("/")
+        space = self.stack.namespace.strip("/")
         name = f"{space}/mobile_{consumer}" if space else f"mobile_{consumer}"
-        return AddMobileTopics(builder, self.topics, send, name=name)
+        return AddMobileTopics(builder, self, send, name=name)
+
+
+def AddMobileTopics(
+    builder, source: MobileSource, send: Send, *, cmd_vel: bool = True, name: str = "mobile_topics"
+) -> MobileTopics | None:
+    """A :class:`MobileTopics` on the base's odometry (a floating base with a drive) and
+    the twist sequence's cmd_vel (with ``cmd_vel``) of ``source``; None when there is
+    neither."""
+    names = source.names(cmd_vel=cmd_vel)
+    if not (names.odom or names.cmd_vel):
+        return None
+    stack = source.stack
+    system = builder.AddNamedSystem(name, MobileTopics(names, send=send, rate=stack.update_rate))
+    if names.odom:
+        drive = source.base_log.drive
+        builder.Connect(stack.manager.GetOutputPort(f"{drive}.odom"), system.GetInputPort("odom"))
+    if names.cmd_vel:
+        builder.Connect(source.twist.GetOutputPort("cmd_vel"), system.GetInputPort("cmd_vel"))
+    return system

@@ -159,23 +159,21 @@ class NavigationTopics(LeafSystem):
             self._send("/tf", TF_MESSAGE, tf, odom.stamp)
 
 
-def AddNavigationTopics(builder, topics, send: Send, *, name: str) -> NavigationTopics | None:
-    """A :class:`NavigationTopics` on ``topics``' navigation (None without one)."""
-    navigation = topics.navigation
-    if navigation is None:
-        return None
+def AddNavigationTopics(builder, source: NavigationSource, send: Send, *, name: str):
+    """A :class:`NavigationTopics` on ``source``'s navigation."""
+    navigation, stack = source.navigation, source.stack
     system = builder.AddNamedSystem(
-        name, NavigationTopics(navigation.grid, send=send, rate=topics.update_rate)
+        name, NavigationTopics(navigation.grid, send=send, rate=stack.update_rate)
     )
     navigator = navigation.navigator
     builder.Connect(navigator.GetOutputPort("nav_state"), system.GetInputPort("nav_state"))
-    odom = topics.stack.manager.GetOutputPort(f"{navigation.drive}.odom")
+    odom = stack.manager.GetOutputPort(f"{navigation.drive}.odom")
     builder.Connect(odom, system.GetInputPort("odom"))
     if navigation.amcl is not None:
         builder.Connect(
             navigation.amcl.GetOutputPort("map_to_odom"), system.GetInputPort("map_to_odom")
         )
-    marker_goal = getattr(topics.detectors, "marker_goal", None)
+    marker_goal = getattr(source.detectors, "marker_goal", None)
     if marker_goal is not None:
         port = marker_goal.GetOutputPort("marker_in_map")
         builder.Connect(port, system.GetInputPort("marker_in_map"))
@@ -194,20 +192,23 @@ def goal_pose_of(message: Any) -> NavigationGoal:
 
 @dataclass(frozen=True, eq=False)
 class NavigationSource:
-    """The :class:`NavigationTopics` of a robot's navigation (``topics``, a WorldTopics):
-    a :class:`~armando_drake.messages.publications.TopicSource`. ``recorded``: its topics
-    go to the recording too (they are not under the robot's namespace: the first robot's
-    only)."""
+    """The :class:`NavigationTopics` of a robot's ``navigation`` (a Navigation), on the
+    controllers of ``stack`` (a ControlStack), with the marker goal of ``detectors`` (the
+    AddedDetectors, if any): a :class:`~armando_drake.messages.publications.TopicSource`.
+    ``recorded``: its topics go to the recording too (they are not under the robot's
+    namespace: the first robot's only)."""
 
-    topics: Any
+    stack: Any
+    navigation: Any
+    detectors: Any = None
     recorded: bool = True
 
     def table(self) -> list[Topic]:
         """Its topics, and the subscription of RViz's 2D goal ``/goal_pose`` (it preempts
         the goals as NavigateToPose would)."""
-        rate, recorded = self.topics.update_rate, self.recorded
-        space = self.topics.stack.namespace.strip("/")
-        navigator = self.topics.navigation.navigator
+        rate, recorded = self.stack.update_rate, self.recorded
+        space = self.stack.namespace.strip("/")
+        navigator = self.navigation.navigator
         return [
             Topic("/map", "nav_msgs/msg/OccupancyGrid", source=self, frame_id=MAP_FRAME,
                   qos="latched", recorded=recorded),
@@ -222,6 +223,6 @@ class NavigationSource:
         ]  # fmt: skip
 
     def attach(self, builder, send: Send, consumer: str) -> NavigationTopics | None:
-        space = self.topics.stack.namespace.strip("/")
+        space = self.stack.namespace.strip("/")
         name = f"{space}/navigation_{consumer}" if space else f"navigation_{consumer}"
-        return AddNavigationTopics(builder, self.topics, send, name=name)
+        return AddNavigationTopics(builder, self, send, name=name)

@@ -30,7 +30,6 @@ from pydrake.perception import BaseField, Fields, PointCloud
 from pydrake.systems.framework import LeafSystem
 
 from armando_drake.navigation.navigator import NavState
-from armando_drake.outputs.topics import WorldTopics
 
 NAV_PATH = "/drake/navigation"
 MAP_COLOUR = Rgba(0.15, 0.15, 0.15, 1.0)
@@ -162,10 +161,9 @@ class NavigationView(LeafSystem):
         self.goals_drawn.append(goal.name)
 
 
-def AddNavigationView(builder, topics: WorldTopics, meshcat: Meshcat) -> NavigationView | None:
-    """A :class:`NavigationView` of ``topics``' navigation in ``meshcat`` (None without
-    one)."""
-    navigation = topics.navigation
+def AddNavigationView(builder, navigation, meshcat: Meshcat) -> NavigationView | None:
+    """A :class:`NavigationView` of ``navigation`` (a robot's Navigation) in ``meshcat``
+    (None without one)."""
     if navigation is None:
         return None
     view = builder.AddNamedSystem(

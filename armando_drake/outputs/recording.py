@@ -49,9 +49,7 @@ from armando_drake.outputs.publications import (
     AttachTopics,
     TopicPublisher,
     recorded_name,
-    world_publications,
 )
-from armando_drake.outputs.topics import WorldTopics
 from armando_drake.tools.files import OutputFile
 from armando_drake.tools.version import provenance
 
@@ -166,24 +164,14 @@ class RosbagRecorder(TopicPublisher):
         self._counts[topic] = sequence + 1
 
 
-def AddRosbagRecorder(
-    builder,
-    path: str | os.PathLike,
-    topics: WorldTopics,
-    others: Sequence[WorldTopics] = (),
-    *,
-    table: Publications | None = None,
-) -> RosbagRecorder:
+def AddRosbagRecorder(builder, path: str | os.PathLike, table: Publications) -> RosbagRecorder:
     """Adds a :class:`RosbagRecorder` writing ``path`` to a world being built.
 
-    Records every ``recorded`` topic of ``table`` (by default the world's, made by
-    :func:`~armando_drake.outputs.publications.world_publications` from ``topics`` and
-    ``others``, the other robots of a world of several, whose topics are under their
-    namespace: ``/left/joint_states``, ``/left/position_controller/commands``); the world
-    closes the file (``close``) when it closes.
+    Records every ``recorded`` topic of ``table``, the world's publication table (the
+    topics of the robots of a world of several under their namespace:
+    ``/left/joint_states``, ``/left/position_controller/commands``); the world closes the
+    file (``close``) when it closes.
     """
-    if table is None:
-        table = world_publications(topics, others)
     recorded = table.published(recorded=True)
     recorder = builder.AddNamedSystem("rosbag_recorder", RosbagRecorder(path=path, topics=recorded))
     AttachTopics(builder, recorder, recorded, recorder.write, consumer="recorder")

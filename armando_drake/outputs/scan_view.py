@@ -1,6 +1,7 @@
 """A lidar's scan drawn in Meshcat: its hit points, redrawn at the scan rate.
 
-:class:`ScanView` reads a lidar's ``scan`` publication and, a thousandth of a period
+:func:`AddScanViews` draws every ``sensor_msgs/msg/LaserScan`` row of the world's
+publication table: a :class:`ScanView` reads the row's port and, a thousandth of a period
 after each scan, sets the Meshcat object ``/drake/lidar/<sensor>`` to the scan's points
 (those with a finite range) at the sensor's pose in the world (from the plant's body
 poses). A few hundred points ten times a second: nothing at the plant's steps.
@@ -14,13 +15,14 @@ from pydrake.math import RigidTransform
 from pydrake.perception import PointCloud
 from pydrake.systems.framework import LeafSystem
 
+from armando_drake.messages.publications import Publications
 from armando_drake.messages.types import PublicationValue
-from armando_drake.outputs.topics import WorldTopics
 from armando_drake.sensors.image_view import PUBLISH_OFFSET_FRACTION
 
 SCAN_PATH = "/drake/lidar"
 SCAN_COLOUR = Rgba(1.0, 0.1, 0.1, 1.0)
 POINT_SIZE = 0.03  # [m]
+LASER_SCAN = "sensor_msgs/msg/LaserScan"
 
 
 class ScanView(LeafSystem):
@@ -57,14 +59,19 @@ class ScanView(LeafSystem):
         self.drawn += 1
 
 
-def AddScanViews(builder, topics: WorldTopics, meshcat: Meshcat) -> list[ScanView]:
-    """A :class:`ScanView` for every lidar of ``topics``."""
-    plant, views = topics.plant, []
-    for name, ports in topics.sensors.items():
-        if "scan" not in ports:
+def AddScanViews(builder, table: Publications, plant, meshcat: Meshcat) -> list[ScanView]:
+    """A :class:`ScanView` for every published ``sensor_msgs/msg/LaserScan`` row of
+    ``table`` read from a port (a scanner with its ``info``: name, link pose, rate, and
+    its ``body_frame_id`` in ``plant``'s scene graph)."""
+    views, names = [], set()
+    for topic in table.published(recorded=True, live=True):
+        if topic.type_name != LASER_SCAN or topic.port is None:
             continue
-        info = ports["scan"].get_system().info
-        body = plant.GetBodyByName(info.link, topics.robot.model_instance)
+        scanner = topic.port.get_system()
+        info = scanner.info
+        name = info.name if info.name not in names else topic.name.strip("/").replace("/", "_")
+        names.add(name)
+        body = plant.GetBodyFromFrameId(scanner.body_frame_id)
         view = builder.AddNamedSystem(
             f"scan_view_{name}",
             ScanView(
@@ -76,7 +83,7 @@ def AddScanViews(builder, topics: WorldTopics, meshcat: Meshcat) -> list[ScanVie
                 poses=plant.get_body_poses_output_port(),
             ),
         )
-        builder.Connect(ports["scan"], view.GetInputPort("scan"))
+        builder.Connect(topic.port, view.GetInputPort("scan"))
         builder.Connect(plant.get_body_poses_output_port(), view.GetInputPort("body_poses"))
         views.append(view)
     return views

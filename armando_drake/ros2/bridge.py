@@ -82,8 +82,7 @@ from armando_drake.messages.definitions import (
 )
 from armando_drake.messages.publications import SHARED_TOPICS, Publications, Topic
 from armando_drake.messages.types import Publication
-from armando_drake.outputs.publications import AttachTopics, TopicPublisher, world_publications
-from armando_drake.outputs.topics import WorldTopics
+from armando_drake.outputs.publications import AttachTopics, TopicPublisher
 from armando_drake.ros2.dds import DdsNode, Ros2Error, reachability
 from armando_drake.tools.cli import warn_if_open
 from armando_drake.tools.errors import ScenarioError
@@ -489,25 +488,30 @@ class Ros2Bridge(LeafSystem):
         self._PublishState(context)
 
 
+@dataclass(frozen=True)
+class BridgeRobot:
+    """A robot whose ``/tf``, ``/tf_static`` and ``robot_description`` a bridge
+    publishes: its control stack (a ControlStack: plant, description, namespace, update
+    rate) and, for a base with odometry, the base link the odometry places on ``/tf``
+    (``odom -> base``, not ``world -> base``; "" otherwise)."""
+
+    stack: Any
+    odometry_link: str = ""
+
+
 def AddRos2Bridge(
-    builder,
-    config,
-    topics: WorldTopics,
-    others: Sequence[WorldTopics] = (),
-    *,
-    table: Publications | None = None,
+    builder, config, table: Publications, robots: Sequence[BridgeRobot]
 ) -> Ros2Bridge | None:
     """Adds the world's topics on DDS and Foxglove for the ``ros2:`` scenario section
     ``config`` (:class:`~armando_drake.ros2.config.Ros2Config`) to a world being built.
 
-    ``table``: the world's publication table (by default made by
-    :func:`~armando_drake.outputs.publications.world_publications` from ``topics`` and
-    ``others``, the other robots of a world of several). With ``config.enabled`` its
-    ``live`` topics go on DDS and its subscriptions whose input nothing else drives yet
-    (no sequencer) are subscribed; with ``config.foxglove`` the topics are served to
-    Foxglove. The log says where the world is reachable; the bridge's ``close`` closes
-    the participant and the server. Call it before the world's free command inputs are
-    exported (the bridge drives them instead). Returns None when both are off.
+    ``table``: the world's publication table; ``robots``: its robots, the first one's
+    bridge with ``/clock``. With ``config.enabled`` the table's ``live`` topics go on DDS
+    and its subscriptions whose input nothing else drives yet (no sequencer) are
+    subscribed; with ``config.foxglove`` the topics are served to Foxglove. The log says
+    where the world is reachable; the bridge's ``close`` closes the participant and the
+    server. Call it before the world's free command inputs are exported (the bridge
+    drives them instead). Returns None when both are off.
 
     Each robot gets a :class:`Ros2Bridge` (the first one's is returned, with ``/clock``)
     on the same participant and server, its topics under its namespace
@@ -516,14 +520,13 @@ def AddRos2Bridge(
     """
     if not (config.enabled or config.foxglove):
         return None
-    if table is None:
-        table = world_publications(topics, others)
-    sinks, node = _sinks(config, topics)
+    first, *others = robots
+    sinks, node = _sinks(config, first.stack.robot)
     live = LiveSinks(sinks)
     for label, port in table.untyped:
         if not builder.IsConnectedOrExported(port):
             _log.warning("%s not subscribed: no ROS 2 type known for it", label)
-    bridge = _add_bridge(builder, config, topics, table, live, node, first=True)
+    bridge = _add_bridge(builder, config, first, table, live, node, first=True)
     for other in others:
         _add_bridge(builder, config, other, table, live, node, first=False)
     published = table.published(live=True)
@@ -537,30 +540,30 @@ def AddRos2Bridge(
 
 
 def _add_bridge(
-    builder, config, topics: WorldTopics, table: Publications, live: LiveSinks, node, *, first
+    builder, config, robot: BridgeRobot, table: Publications, live: LiveSinks, node, *, first
 ) -> Ros2Bridge:
     """One robot's :class:`Ros2Bridge` on ``live`` (``first``: with the clock), with the
     subscriptions of ``table`` under its namespace that nothing drives yet."""
-    prefix = topics.stack.namespace.strip("/")
+    stack = robot.stack
+    prefix = stack.namespace.strip("/")
     subscribed = []  # (the bridge's view, the table's topic)
     for topic in table.subscribed(namespace=prefix):
         if builder.IsConnectedOrExported(topic.port):
             _log.info("%s not subscribed: another system drives it", topic.key.replace(".", "/"))
         elif node is not None:
             subscribed.append((CommandTopic.of(topic), topic))
-    plant = topics.plant
-    odometry = topics.base_log is not None  # odom -> base on /tf, not world -> base
+    plant = stack.plant
     bridge = builder.AddSystem(
         Ros2Bridge(
             plant=plant,
-            model_instance=topics.robot.model_instance,
-            urdf=topics.robot.urdf,
-            update_rate=topics.update_rate,
+            model_instance=stack.robot.model_instance,
+            urdf=stack.robot.urdf,
+            update_rate=stack.update_rate,
             sinks=live,
             subscriber=node,
             commands=[command for command, _ in subscribed],
             clock_rate=config.clock_rate,
-            exclude_children=[topics.mobile.base_link] if odometry else [],
+            exclude_children=[robot.odometry_link] if robot.odometry_link else [],
             prefix=prefix,
             clock=first,
         )
@@ -575,9 +578,10 @@ def _add_bridge(
     return bridge
 
 
-def _sinks(config, topics: WorldTopics) -> tuple[list[Any], DdsNode | None]:
+def _sinks(config, robot) -> tuple[list[Any], DdsNode | None]:
     """Where the topics go: the DDS node (``config.enabled``; also returned) and the
-    Foxglove server (``config.foxglove``)."""
+    Foxglove server (``config.foxglove``, serving the files of ``robot``, the first
+    robot's LoadedRobot)."""
     sinks: list[Any] = []
     node = None
     if config.enabled:
@@ -604,8 +608,8 @@ def _sinks(config, topics: WorldTopics) -> tuple[list[Any], DdsNode | None]:
                 host=config.foxglove_host,
                 port=config.foxglove_port,
                 namespace=config.namespace,
-                packages=topics.robot.packages.packages,
-                assets=referenced_files(topics.robot.urdf),
+                packages=robot.packages.packages,
+                assets=referenced_files(robot.urdf),
             )
         except Exception as error:  # a bad port, or one in use
             raise ScenarioError(

@@ -12,6 +12,7 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
 
 from armando_drake.description.loader import LoadedRobot
+from armando_drake.messages.publications import PublicationRegistry, register
 from armando_drake.sensors.camera import (
     AddCameraSensors,
     AddedCamera,
@@ -19,6 +20,7 @@ from armando_drake.sensors.camera import (
     choose_renderer,
     describe,
 )
+from armando_drake.sensors.camera_topics import camera_topics
 from armando_drake.sensors.config import CameraSettings
 from armando_drake.sensors.image_view import AddFrameSaver, AddImageView, ImageViewServer
 from armando_drake.tools.cli import warn_if_open
@@ -49,6 +51,7 @@ def AddCameras(
     where: str = "",
     source: str = "",
     robots: dict[str, LoadedRobot] | None = None,
+    publications: PublicationRegistry | None = None,
 ) -> tuple[dict[str, AddedCamera], ImageViewServer | None]:
     """RgbdSensors from the description's camera blocks (when ``settings.enabled``:
     the scenario's ``camera:`` section) and ``extra`` (the scenario's ``cameras:``,
@@ -58,7 +61,8 @@ def AddCameras(
     origins named in errors. ``robots``: every robot of a world of several, by name
     (``robot`` the first): the others' description cameras too, each
     ``<robot>_<camera>`` on ``/<robot>/<topic>``, and a scenario camera on
-    ``ROBOT::link``."""
+    ``ROBOT::link``. ``publications``: where each camera's ``image_raw`` and
+    ``camera_info`` are registered."""
     robots = robots or {}
     sensors = list(robot.cameras) if settings.enabled else []
     for name, other in robots.items():
@@ -87,8 +91,9 @@ def AddCameras(
         text = str(error)
         named = source and text.startswith(f"{source}: cameras")
         raise ScenarioError(text if named else f"{where}{text}") from None
-    for camera in cameras.values():
+    for name, camera in cameras.items():
         _log.info("camera %s, rendered by %s", describe(camera.info), ENGINES[renderer])
+        register(publications, *camera_topics(name, camera))
     # A Meshcat kept only to record a replay (recording_only) has no viewer to go with.
     watched = meshcat is not None and not getattr(meshcat, "recording_only", False)
     server = None

@@ -61,8 +61,11 @@ from armando_drake.description.camera_sensors import R_SC
 from armando_drake.description.lidar_sensors import LIDAR_SENSOR_TYPES, LidarInfo, parse_lidar
 from armando_drake.description.loader import LoadedRobot
 from armando_drake.description.urdf import SensorBlock
+from armando_drake.messages.definitions import laser_scan_message
+from armando_drake.messages.publications import Topic
 from armando_drake.messages.scans import LaserScan
 from armando_drake.messages.types import Publication, PublicationValue
+from armando_drake.sensors.image_view import PUBLISH_OFFSET_FRACTION
 from armando_drake.sensors.registry import register_sensor
 from armando_drake.tools.errors import ScenarioError
 
@@ -158,7 +161,7 @@ class LidarScanner(LeafSystem):
     def __init__(self, info: LidarInfo, *, body_frame_id, X_BS: RigidTransform):
         super().__init__()
         self.info = info
-        self._frame = body_frame_id
+        self.body_frame_id = self._frame = body_frame_id
         self._sectors = ring(info)
         self._X_BC = [X_BS @ sector.X_SC for sector in self._sectors]
         self._query = self.DeclareAbstractInputPort(
@@ -257,6 +260,35 @@ class Lidar:
         scanner = AddLidar(builder, info, plant=plant, robot=robot)
         _log.info("lidar %s on %s: %s, topic %s", info.name, info.link, info.describe(), info.topic)
         return {"scan": scanner.GetOutputPort("scan")}
+
+    @staticmethod
+    def topics(outputs: dict[str, OutputPort], *, namespace: str = "") -> list[Topic]:
+        """Its scan on ``<namespace>/<topic>`` (``/scan``), a sensor_msgs/LaserScan, its
+        frames after ``<namespace>/`` as the robot's links are named on /tf."""
+        port = outputs["scan"]
+        info = port.get_system().info
+        space = namespace.strip("/")
+        topic = f"{namespace.rstrip('/')}/{info.topic.lstrip('/')}"
+        period = 1.0 / info.update_rate
+        return [
+            Topic(topic, "sensor_msgs/msg/LaserScan", port=port, read=_scan_read(space),
+                  rate=info.update_rate, offset=PUBLISH_OFFSET_FRACTION * period)
+        ]  # fmt: skip
+
+
+def _scan_read(space: str):
+    """The ``read`` of a scan port: each new scan as a LaserScan message stamped with
+    its own stamp, its frame after ``<space>/`` (a robot of several)."""
+
+    def read(publication: Publication, time: float):
+        if publication.count <= 0:
+            return None
+        message = laser_scan_message(publication.message)
+        if space:
+            message["header"]["frame_id"] = f"{space}/{message['header']['frame_id']}"
+        return message, publication.message.stamp, publication.count
+
+    return read
 
 
 for _type in LIDAR_SENSOR_TYPES:

@@ -36,6 +36,7 @@ from pydrake.systems.framework import DiagramBuilder, OutputPort
 from armando_drake.description.camera_sensors import CAMERA_SENSOR_TYPES
 from armando_drake.description.loader import LoadedRobot
 from armando_drake.description.urdf import SensorBlock
+from armando_drake.messages.publications import PublicationRegistry, register
 from armando_drake.tools.errors import ScenarioError
 
 _log = logging.getLogger("armando_drake.world")
@@ -48,7 +49,10 @@ _entry_points_loaded = False
 
 def register_sensor(type_name: str) -> Callable[[type], type]:
     """Class decorator: registers a sensor class under the Gazebo sensor ``type_name``.
-    The class has ``add(builder, block, *, plant, robot)`` returning its outputs by name.
+    The class has ``add(builder, block, *, plant, robot)`` returning its outputs by name,
+    and may have ``topics(outputs, *, namespace)``, the rows of the publication table
+    (:class:`~armando_drake.messages.publications.Topic`) its outputs are published on:
+    they are then recorded, bridged and sent to Foxglove with no other edit.
     Registering a type twice (or a camera type) is an error."""
 
     def decorate(cls: type) -> type:
@@ -107,10 +111,12 @@ def AddSensors(
     plant: MultibodyPlant,
     robot: LoadedRobot,
     namespace: str = "",
+    publications: PublicationRegistry | None = None,
 ) -> dict[str, dict[str, OutputPort]]:
     """The systems of each sensor block whose type is registered (cameras excepted);
     each output exported as ``<name>.<output>`` (``<namespace>/<name>.<output>`` for a
-    robot of several). Returns the outputs by sensor name."""
+    robot of several); the topics of a type with ``topics(outputs, *, namespace)``
+    registered in ``publications``. Returns the outputs by sensor name."""
     space = f"{namespace.strip('/')}/" if namespace.strip("/") else ""
     known = sensor_types()
     added: dict[str, dict[str, OutputPort]] = {}
@@ -127,6 +133,9 @@ def AddSensors(
         for output, port in outputs.items():
             builder.ExportOutput(port, f"{space}{block.name}.{output}")
         added[block.name] = dict(outputs)
+        topics = getattr(_TYPES[block.type], "topics", None)
+        if topics is not None:
+            register(publications, *topics(outputs, namespace=namespace))
         _log.info("sensor %s (%s) on %s", block.name, block.type, block.link)
     if ignored:
         _log.warning(

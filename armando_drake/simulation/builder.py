@@ -25,6 +25,7 @@ Ports of the diagram, by name:
 
 from __future__ import annotations
 
+import dataclasses as dc
 import os
 from functools import partial
 
@@ -35,23 +36,27 @@ from pydrake.systems.framework import DiagramBuilder
 
 from armando_drake.control.stack import ExportFreeControllerPorts
 from armando_drake.description.worlds import AddWorld
+from armando_drake.messages.publications import PublicationRegistry
 from armando_drake.navigation.building import AddNavigation, ConnectLocalization
 from armando_drake.outputs.navigation_view import AddNavigationView
+from armando_drake.outputs.perception_recording import PerceptionSource
 from armando_drake.outputs.recording import AddRosbagRecorder
 from armando_drake.outputs.replay import AddVisualization
 from armando_drake.outputs.scan_view import AddScanViews
+from armando_drake.outputs.vision_recording import VisionSource
 from armando_drake.perception.systems import AddPerception
-from armando_drake.ros2.bridge import AddRos2Bridge
+from armando_drake.ros2.bridge import AddRos2Bridge, BridgeRobot
 from armando_drake.sensors import lidar  # noqa: F401  (registers the lidar sensor types)
 from armando_drake.sensors.cameras import AddCameras
 from armando_drake.sensors.objects import AddFloor, AddGround, AddSceneObjects, SceneObjectError
 from armando_drake.simulation.robots import (
-    AddedRobot,
     AddRobotBodies,
     AddRobotDrivers,
     AddRobotSensors,
     AddRobotStacks,
-    ConnectRobot,
+    ConnectRobots,
+    FinishRobots,
+    RegisterDriverCommands,
     RobotStack,
     output_folder,
     robot_scope,
@@ -89,6 +94,8 @@ def MakeWorld(
     """
     where = f"{source}: " if source else ""
     closers = []
+    # What the world publishes and subscribes: each subsystem registers its topics.
+    publications = PublicationRegistry()
     # Every value of the scenario checked before Drake sees it; its robots as a map.
     scenario = check_scenario(scenario, source)
     builder = DiagramBuilder()
@@ -96,48 +103,40 @@ def MakeWorld(
     # the objects.
     plant, scene_graph, bodies = _add_physics(builder, scenario, where)
     # Each robot's hardware interface and controller manager of its controller YAML.
-    stacks = AddRobotStacks(builder, plant, scene_graph, scenario, bodies)
+    stacks = AddRobotStacks(builder, plant, scene_graph, scenario, bodies, publications)
     # What drives the controllers: the command sequencers, the task, the live jog (each on
-    # the robot it names).
-    for stack in stacks.values():
-        folder = output_folder(output_dir if write_commands else None, stack.body.spec.folder)
-        AddRobotDrivers(builder, stack, folder / "commands.csv" if folder else None, closers)
-        with robot_scope(builder, stack.body.spec.folder):
-            _add_drivers(builder, scenario, stack, meshcat, closers)
+    # the robot it names), and the commands they send, recorded.
+    commands_dir = output_dir if write_commands else None
+    drivers = _add_drivers(builder, scenario, stacks, commands_dir, meshcat, publications, closers)
     # The commands to the plant (desired state, efforts, gravity feed-forward) and the
     # joint-state and base loggers.
-    robots = {
-        name: ConnectRobot(
-            builder,
-            scenario,
-            stack,
-            output_folder(output_dir, stack.body.spec.folder),
-            closers,
-            quiet=quiet,
-        )
-        for name, stack in stacks.items()
-    }
-    # What watches them: the cameras, the detectors, perception.
+    wiring = ConnectRobots(builder, scenario, stacks, drivers, output_dir, closers, quiet=quiet)
+    # What watches them: the cameras, each robot's sensors, the detectors, perception.
     clusters_dir = output_dir if write_commands else None
     places = (source, clusters_dir, host)
-    image_view = _add_sensing(builder, scenario, robots, scene_graph, meshcat, places)
+    image_view, sensors, scene = _add_sensing(
+        builder, scenario, stacks, drivers, scene_graph, meshcat, places, publications
+    )
     closers += [image_view.close] if image_view is not None else []
-    topics = _reporting(robots).topics
-    if topics.perception is not None and topics.perception.log is not None:
-        closers.append(topics.perception.log.close)
+    closers += scene.pop("closers")
+    # Each robot as the world keeps it, made once; its base's and navigation's topics.
+    robots = FinishRobots(stacks, drivers, wiring, sensors, scene, publications)
     # The ROS 2 bag recorder, the live DDS / Foxglove bridge, Meshcat.
+    table = publications.table()
     replay_sampler, bridge = _add_outputs(
-        builder, scenario, robots, scene_graph, meshcat, record, closers
+        builder, scenario, robots, table, scene_graph, meshcat, record, closers
     )
     # Export what no system drives (command inputs, statuses), for notebooks and tests.
     for robot in robots.values():
-        ExportFreeControllerPorts(builder, robot.topics.stack)
+        ExportFreeControllerPorts(builder, robot.stack)
     diagram = builder.Build()
     diagram.set_name("armando_world")
     return World(
         diagram=diagram,
+        plant=plant,
         scene_graph=scene_graph,
         robots=robots,
+        publications=table,
         meshcat=meshcat,
         image_view=image_view,
         replay_sampler=replay_sampler,
@@ -149,12 +148,6 @@ def MakeWorld(
 def _origin(scenario: Scenario, key: str) -> str:
     """``"<origin>: "``: the file, ``--set`` or option the scenario's ``key`` came from."""
     return f"{sources_of(scenario).of(key)}: "
-
-
-def _reporting(robots: dict[str, AddedRobot]) -> AddedRobot:
-    """The robot the scene's own publishers (cameras, detectors, perception) report with,
-    the one the vision and perception act on: the first of the map."""
-    return next(iter(robots.values()))
 
 
 def _add_physics(builder: DiagramBuilder, scenario: Scenario, where: str):
@@ -178,95 +171,137 @@ def _add_physics(builder: DiagramBuilder, scenario: Scenario, where: str):
     return plant, scene_graph, bodies
 
 
-def _add_drivers(builder, scenario: Scenario, robot: RobotStack, meshcat, closers):
+def _add_drivers(builder, scenario, stacks, commands_dir, meshcat, publications, closers):
+    """Each robot's drivers (:func:`_add_robot_drivers`), its sequencer's commands in
+    ``commands.csv`` of ``commands_dir`` (None: none), the commands they send
+    registered; by robot name."""
+    drivers = {}
+    for index, (name, stack) in enumerate(stacks.items()):
+        folder = output_folder(commands_dir, stack.body.spec.folder)
+        csv = folder / "commands.csv" if folder else None
+        added = AddRobotDrivers(builder, stack, csv, closers)
+        with robot_scope(builder, stack.body.spec.folder):
+            drivers[name] = _add_robot_drivers(builder, scenario, stack, added, meshcat, closers)
+        RegisterDriverCommands(publications, stack, drivers[name], first=index == 0)
+    return drivers
+
+
+def _add_robot_drivers(builder, scenario: Scenario, robot: RobotStack, drivers, meshcat, closers):
     """The scenario's navigation, task, learned IK and live jogs (the arm's, the base's)
-    that act on ``robot``, on its controllers."""
-    spec, topics = robot.body.spec, robot.topics
-    stack, where, config = topics.stack, partial(_origin, scenario), spec.entry.robot
+    that act on ``robot``, on its controllers; ``drivers`` (its sequencers) with them."""
+    spec, stack, where = robot.body.spec, robot.stack, partial(_origin, scenario)
+    config = spec.entry.robot
     navigation, task = spec.section("navigation"), spec.section("task")
     learned_ik = spec.section("learned_ik")
+    found = {}
     if navigation is not None:
         nav = AddNavigation(builder, navigation, stack, where=where("navigation"))
-        topics.navigation, topics.twist, topics.twist_target = nav, nav.navigator, nav.drive
+        found.update(navigation=nav, twist=nav.navigator, twist_target=nav.drive)
     if task is not None:
-        topics.task = AddTask(builder, task, stack, meshcat=meshcat, where=where("task"))
+        found["task"] = AddTask(builder, task, stack, meshcat=meshcat, where=where("task"))
     if learned_ik is not None:
         base = RigidTransform(RollPitchYaw(config.base_rpy), config.base_xyz)
-        topics.learned_ik = AddLearnedIk(
+        found["learned_ik"] = AddLearnedIk(
             builder, learned_ik, stack, base_pose=base, where=where("learned_ik")
         )
     jogs = (spec.section("jog"), spec.section("twist_jog"))
-    AddTeleop(builder, *jogs, topics, meshcat=meshcat, where=where, closers=closers)
+    jog, base_jog = AddTeleop(builder, *jogs, stack, meshcat=meshcat, where=where, closers=closers)
+    found["jog"] = jog
+    if base_jog is not None:
+        found.update(twist=base_jog, twist_target=base_jog.controller)
+    return dc.replace(drivers, **found)
 
 
-def _add_sensing(builder, scenario: Scenario, robots, scene_graph, meshcat, where):
+def _add_sensing(builder, scenario, stacks, drivers, scene_graph, meshcat, where, publications):
     """The cameras (their live view, returned, or None), each robot's sensors, the
-    detectors and perception; ``where``: (the scenario file, the folder of
-    ``clusters.json``, the view's host)."""
+    detectors and perception, with their topics registered in ``publications``;
+    ``where``: (the scenario file, the folder of ``clusters.json``, the view's host).
+    Returns (the live view, each robot's sensors by robot name, the scene's cameras,
+    detectors and perception by field name, with the ``closers`` of its logs)."""
     source, output_dir, host = where
-    topics = _reporting(robots).topics
-    topics.cameras, image_view = AddCameras(
+    first, *_ = stacks.values()
+    stack, first_drivers = first.stack, drivers[first.body.spec.name]
+    cameras, image_view = AddCameras(
         builder,
         scenario.camera,
-        plant=topics.plant,
+        plant=stack.plant,
         scene_graph=scene_graph,
-        robot=topics.robot,
+        robot=stack.robot,
         extra=scenario.cameras,
         meshcat=meshcat,
         host=host,
         where=f"{source}: " if source else "",
         source=sources_of(scenario).of("cameras"),
-        robots={robot.name: robot.robot for robot in robots.values() if robot.namespace},
+        robots={
+            robot.body.spec.name: robot.body.robot
+            for robot in stacks.values()
+            if robot.body.spec.namespace
+        },
+        publications=publications,
     )
-    for robot in robots.values():  # each robot's own sensors (a lidar); AMCL reads one
-        AddRobotSensors(builder, topics.plant, robot)
-        ConnectLocalization(builder, robot.topics.navigation, robot.topics.sensors)
+    sensors = {}
+    for name, robot in stacks.items():  # each robot's own sensors (a lidar); AMCL reads one
+        sensors[name] = AddRobotSensors(builder, stack.plant, robot, publications)
+        ConnectLocalization(builder, drivers[name].navigation, sensors[name])
+    detectors = perception = None
     if scenario.vision is not None:
-        topics.detectors = AddDetectors(
+        detectors = AddDetectors(
             builder,
             scenario.vision,
-            topics.stack,
-            cameras=topics.cameras,
+            stack,
+            cameras=cameras,
             image_view=image_view,
             where=_origin(scenario, "vision"),
             console=scenario.logging.console_rate > 0,  # no console output: no keypoints
-            navigation=topics.navigation,
+            navigation=first_drivers.navigation,
         )
     if scenario.perception is not None:
-        topics.perception = AddPerception(
+        perception = AddPerception(
             builder,
             scenario.perception,
-            cameras=topics.cameras,
-            robot_source=str(topics.robot.source),
+            cameras=cameras,
+            robot_source=str(stack.robot.source),
             meshcat=meshcat,
             output_dir=output_dir,
             source=source,
         )
-    return image_view
+        publications.add(*PerceptionSource(perception, cameras[perception.camera]).table())
+    if detectors is not None:
+        publications.add(*VisionSource(detectors, cameras).table())
+    closers = [perception.log.close] if perception is not None and perception.log else []
+    scene = dict(cameras=cameras, detectors=detectors, perception=perception, closers=closers)
+    return image_view, sensors, scene
 
 
-def _add_outputs(builder, scenario: Scenario, robots, scene_graph, meshcat, record, closers):
+def _add_outputs(builder, scenario: Scenario, robots, table, scene_graph, meshcat, record, closers):
     """The ROS 2 bag recorder (``record``), the live bridge and Meshcat's visualization,
-    of every robot's topics; (its replay sampler or None, the bridge or None)."""
-    topics, *others = [robot.topics for robot in robots.values()]
+    of the world's publication ``table``; (its replay sampler or None, the bridge or
+    None)."""
+    first = next(iter(robots.values()))
     instances = [robot.robot.model_instance for robot in robots.values()]
     if record is not None:
-        closers.append(AddRosbagRecorder(builder, record, topics, others).close)
-    bridge = AddRos2Bridge(builder, scenario.ros2, topics, others)
+        closers.append(AddRosbagRecorder(builder, record, table).close)
+    bridged = [
+        BridgeRobot(robot.stack, robot.mobile.base_link if robot.base_log is not None else "")
+        for robot in robots.values()
+    ]
+    bridge = AddRos2Bridge(builder, scenario.ros2, table, bridged)
     if bridge is not None:
         closers.append(bridge.close)
     # Meshcat draws the world.
     replay_sampler = None
     if meshcat is not None and scenario.visualization.enable_meshcat_creation:
+        plant = first.plant
         replay_sampler = AddVisualization(
             builder,
             scenario.visualization,
-            plant=topics.plant,
+            plant=plant,
             scene_graph=scene_graph,
             meshcat=meshcat,
             robot_instances=instances,
             ground=scenario.ground and not scenario.world_file,
         )
-        AddScanViews(builder, topics, meshcat)  # the lidars' scans as points
-        AddNavigationView(builder, topics, meshcat)  # map, costmap, plan and goals
+        # The lidars' scans as points; map, costmap, plan and goals.
+        AddScanViews(builder, table, plant, meshcat)
+        AddNavigationView(builder, first.navigation, meshcat)
     return replay_sampler, bridge

@@ -9,9 +9,12 @@ robot that the next one takes: every robot's description goes into the plant
 (:func:`AddRobotBodies`, a :class:`RobotBody`: standing in the world, free on its
 wheels or mounted on another's link), the plant is finalized once between the hardware
 interfaces' two halves (:func:`AddRobotStacks`, a :class:`RobotStack` with its
-controller manager), then each robot's sequencer and twist sequence
-(:func:`AddRobotDrivers`) and its wiring to the plant and its logs
-(:func:`ConnectRobot`, the :class:`AddedRobot` the world keeps).
+controller manager, its joint states and command inputs registered in the world's
+publication table), then each robot's sequencer and twist sequence
+(:func:`AddRobotDrivers`, a :class:`RobotDrivers` the builder adds the navigation, task
+and jogs to), its wiring to the plant and its logs (:func:`ConnectRobot`, a
+:class:`RobotWiring`) and its sensors; at the end, the frozen :class:`AddedRobot` the world
+keeps is made once of them (:func:`FinishRobots`).
 
 A robot with a namespace (``/left``) has its diagram ports ``left/joint_states``,
 ``left/<controller>.<topic>``, ..., its systems' names beginning with ``left/``, its logs
@@ -36,16 +39,20 @@ from armando_drake.control.stack import (
     BeginHardware,
     ConnectControlStack,
     ControllerChoice,
+    ControlStack,
     FinishHardware,
     LoadControllerConfig,
     choose_controllers,
     controller_update_rate,
 )
+from armando_drake.control.topics import RegisterSentCommands
 from armando_drake.control.twist import AddTwistSequence
 from armando_drake.description.loader import AddRobot, LoadedRobot
+from armando_drake.messages.publications import PublicationRegistry
 from armando_drake.outputs.base import BASE_CSV, AddBaseLogger
 from armando_drake.outputs.logger import AddJointStateLogger, CommandsCsv
-from armando_drake.outputs.topics import WorldTopics
+from armando_drake.outputs.mobile_topics import MobileSource
+from armando_drake.outputs.navigation_topics import NavigationSource
 from armando_drake.sensors.registry import AddSensors
 from armando_drake.simulation.scenario import (
     Scenario,
@@ -97,27 +104,98 @@ class RobotStack:
     body: RobotBody
     choice: ControllerChoice  # the controllers activated, the sequencer that drives them
     update_rate: int  # [Hz] its controller manager's
-    # Its control stack and publishers, which the drivers and sensors add to.
-    topics: WorldTopics
+    stack: ControlStack  # its control stack, which the drivers and sensors add to
+
+
+@dc.dataclass(frozen=True)
+class RobotDrivers:
+    """What drives a robot's controllers (:func:`AddRobotDrivers`, then the builder's
+    navigation, task, learned IK and live jogs), each None when the scenario has none."""
+
+    sequencer: Any = None  # the command sequencer
+    sequencer_target: str = ""  # the controller it drives
+    twist: Any = None  # the TwistSequencer, the Navigator or the TwistJog publishing cmd_vel
+    twist_target: str = ""  # the drive it commands
+    navigation: Any = None  # the Navigation (navigation.building)
+    task: Any = None  # the TaskReference
+    learned_ik: Any = None  # the LearnedIk
+    jog: Any = None  # the arm's MeshcatJog
+
+
+@dc.dataclass(frozen=True)
+class RobotWiring:
+    """A robot's commands to the plant and its loggers (:func:`ConnectRobot`)."""
+
+    logger: Any = None  # its JointStateLogger, if a broadcaster is active
+    gravity_feedforward: Any = None  # the gravity feed-forward's output, if any
+    base_log: Any = None  # the BaseLogger of a floating base with a drive
 
 
 @dc.dataclass(frozen=True)
 class AddedRobot:
-    """A robot of the built world (:func:`ConnectRobot`): its name, namespace, publishers,
-    loggers and what ran of its scenario entry."""
+    """A robot of the built world: its name, namespace, control stack, what drives it,
+    its sensors and loggers, made once at the end of its build (:func:`FinishRobot`).
+    The scene's own publishers (cameras, detectors, perception) are the first robot's,
+    the one they report with; the others' are empty."""
 
     name: str  # its name in the robots map
     namespace: str  # "/left" ("" in the root namespace)
     robot: LoadedRobot
-    topics: WorldTopics  # its control stack and publishers
+    stack: ControlStack  # hardware interface, controller manager, controllers
+    mobile: MobileBase  # how its base is held, its drives
+    choice: ControllerChoice  # the controllers activated, its sequencer
+    sequencer: Any = None  # the command sequencer, if any
+    sequencer_target: str = ""  # the controller it drives
+    twist: Any = None  # the TwistSequencer (or Navigator, or TwistJog) publishing cmd_vel
+    twist_target: str = ""  # the drive it commands
+    navigation: Any = None  # the Navigation, if the scenario has one
+    task: Any = None  # the TaskReference, if the scenario has a task
+    learned_ik: Any = None  # the LearnedIk, if the scenario has learned_ik
+    jog: Any = None  # the MeshcatJog, if the scenario has a jog and a Meshcat
     logger: Any = None  # its JointStateLogger, if a broadcaster is active
     gravity_feedforward: Any = None  # the gravity feed-forward's output, if any
-    choice: ControllerChoice | None = None  # the controllers activated, its sequencer
+    base_log: Any = None  # the BaseLogger of a floating base with a drive
+    # The outputs of the description's other sensors (sensors.registry), by sensor name.
+    sensors: dict = dc.field(default_factory=dict)
+    cameras: dict = dc.field(default_factory=dict)  # AddedCamera by name
+    detectors: Any = None  # AddedDetectors, if the scenario has a vision block
+    perception: Any = None  # AddedPerception, if the scenario has a perception block
 
     @property
     def folder(self) -> str:
         """Its output subfolder ("" in the root namespace)."""
         return self.namespace.strip("/")
+
+    @property
+    def plant(self):
+        """The world's MultibodyPlant, which holds it."""
+        return self.stack.plant
+
+
+def FinishRobot(
+    robot: RobotStack, drivers: RobotDrivers, wiring: RobotWiring, sensors: dict, **scene
+) -> AddedRobot:
+    """The robot as the built world keeps it, of what its build added: its stack,
+    ``drivers``, ``wiring`` and ``sensors``; ``scene``: the scene's cameras, detectors and
+    perception (the first robot's)."""
+    spec = robot.body.spec
+    return AddedRobot(
+        name=spec.name,
+        namespace=spec.namespace,
+        robot=robot.body.robot,
+        stack=robot.stack,
+        mobile=robot.body.mobile,
+        choice=robot.choice,
+        **_fields(drivers),
+        **_fields(wiring),
+        sensors=sensors,
+        **scene,
+    )
+
+
+def _fields(handle) -> dict:
+    """The fields of a dataclass ``handle``, by name (their values as they are)."""
+    return {field.name: getattr(handle, field.name) for field in dc.fields(handle)}
 
 
 def _parent_frame(plant, bodies: dict[str, RobotBody], spec: ScenarioRobot):
@@ -188,11 +266,17 @@ def _begin(plant, scenario: Scenario, body: RobotBody):
 
 
 def AddRobotStacks(
-    builder, plant, scene_graph, scenario: Scenario, bodies: dict[str, RobotBody]
+    builder,
+    plant,
+    scene_graph,
+    scenario: Scenario,
+    bodies: dict[str, RobotBody],
+    publications: PublicationRegistry,
 ) -> dict[str, RobotStack]:
     """Each robot's hardware interface (the plant finalized once, in between) and its
     controller manager running the activated controllers (and a mobile base's drive
-    plugins) of its controller YAML."""
+    plugins) of its controller YAML; its joint states and command inputs registered in
+    ``publications``."""
     begun = {name: _begin(plant, scenario, body) for name, body in bodies.items()}
     plant.Finalize()
     stacks = {}
@@ -230,15 +314,20 @@ def AddRobotStacks(
                 scene_graph=scene_graph,
                 hold=choice.hold,
                 namespace=spec.namespace,
+                publications=publications,
+                drive_plugins=body.mobile.plugins,
             )
-        stacks[name] = RobotStack(body, choice, update_rate, WorldTopics(stack, mobile=body.mobile))
+        stacks[name] = RobotStack(body, choice, update_rate, stack)
     return stacks
 
 
-def AddRobotDrivers(builder, robot: RobotStack, commands_csv: Path | None, closers: list) -> None:
+def AddRobotDrivers(
+    builder, robot: RobotStack, commands_csv: Path | None, closers: list
+) -> RobotDrivers:
     """The robot's command sequencer (its commands in ``commands_csv``) and twist
-    sequence, on its controllers (in ``robot.topics``)."""
-    spec, topics, sequencer = robot.body.spec, robot.topics, robot.choice.sequencer
+    sequence, on its controllers."""
+    spec, stack, sequencer = robot.body.spec, robot.stack, robot.choice.sequencer
+    added, target, twist, twist_target = None, "", None, ""
     with robot_scope(builder, spec.folder):
         if sequencer is not None:
 
@@ -247,29 +336,37 @@ def AddRobotDrivers(builder, robot: RobotStack, commands_csv: Path | None, close
                 closers.append(log.close)
                 return log
 
-            topics.sequencer, topics.sequencer_target = AddSequencer(
+            added, target = AddSequencer(
                 builder,
                 sequencer,
-                topics.stack,
+                stack,
                 commands_log=commands_log if commands_csv is not None else None,
                 where=spec.where("sequencer"),
             )
         if spec.entry.twist is not None:
-            topics.twist, topics.twist_target = AddTwistSequence(
-                builder, spec.entry.twist, topics.stack, where=spec.where("twist")
+            twist, twist_target = AddTwistSequence(
+                builder, spec.entry.twist, stack, where=spec.where("twist")
             )
+    return RobotDrivers(added, target, twist, twist_target)
 
 
 def ConnectRobot(
-    builder, scenario: Scenario, robot: RobotStack, output_dir, closers: list, *, quiet: bool
-) -> AddedRobot:
+    builder,
+    scenario: Scenario,
+    robot: RobotStack,
+    drivers: RobotDrivers,
+    output_dir,
+    closers: list,
+    *,
+    quiet: bool,
+) -> RobotWiring:
     """The robot's commands to the plant (desired state, efforts, gravity feed-forward),
     its joint-state logger (``joint_states.csv`` in ``output_dir``) and its base's logger
-    (``base.csv``); the robot as the built world keeps it."""
-    spec, topics = robot.body.spec, robot.topics
+    (``base.csv``)."""
+    spec, stack = robot.body.spec, robot.stack
     with robot_scope(builder, spec.folder):
-        stack = topics.stack
-        tick = topics.sequencer.GetOutputPort("tick_command") if stack.stream_controller else None
+        sequencer = drivers.sequencer
+        tick = sequencer.GetOutputPort("tick_command") if stack.stream_controller else None
         gravity_feedforward = ConnectControlStack(
             builder,
             stack,
@@ -281,27 +378,80 @@ def ConnectRobot(
         )
         if logger is not None:
             closers.append(logger.close)
-        command = topics.twist.GetOutputPort("command") if topics.twist is not None else None
-        topics.base_log = AddBaseLogger(builder, stack, topics.mobile, command=command)
-        log = topics.base_log
+        twist = drivers.twist
+        command = twist.GetOutputPort("command") if twist is not None else None
+        log = AddBaseLogger(builder, stack, robot.body.mobile, command=command)
         if log is not None and output_dir is not None:
             closers.append(lambda: log.write(Path(output_dir) / BASE_CSV))
-    return AddedRobot(
-        name=spec.name,
-        namespace=spec.namespace,
-        robot=robot.body.robot,
-        topics=topics,
-        logger=logger,
-        gravity_feedforward=gravity_feedforward,
-        choice=robot.choice,
+    return RobotWiring(logger, gravity_feedforward, log)
+
+
+def AddRobotSensors(builder, plant, robot: RobotStack, publications: PublicationRegistry) -> dict:
+    """The sensors of the robot's description (a lidar; cameras are
+    :func:`~armando_drake.sensors.cameras.AddCameras`'), on its links, their outputs
+    ``<namespace>/<sensor>.<output>``, by sensor name; their topics registered in
+    ``publications``."""
+    spec = robot.body.spec
+    with robot_scope(builder, spec.folder):
+        return AddSensors(
+            builder, robot.body.robot.sensors, plant=plant, robot=robot.body.robot,
+            namespace=spec.namespace, publications=publications,
+        )  # fmt: skip
+
+
+def ConnectRobots(
+    builder, scenario: Scenario, stacks: dict, drivers: dict, output_dir, closers, *, quiet
+) -> dict[str, RobotWiring]:
+    """:func:`ConnectRobot` of each robot (its logs in its folder of ``output_dir``), by
+    name."""
+    return {
+        name: ConnectRobot(
+            builder,
+            scenario,
+            stack,
+            drivers[name],
+            output_folder(output_dir, stack.body.spec.folder),
+            closers,
+            quiet=quiet,
+        )
+        for name, stack in stacks.items()
+    }
+
+
+def RegisterDriverCommands(
+    publications: PublicationRegistry, robot: RobotStack, drivers: RobotDrivers, *, first: bool
+) -> None:
+    """The commands the sequencer (or, on the ``first`` robot, the live jog or the task)
+    sends, registered on the topic of the controller it drives."""
+    RegisterSentCommands(
+        publications,
+        robot.stack,
+        sequencer=drivers.sequencer,
+        target=drivers.sequencer_target,
+        jog=drivers.jog if first else None,
+        task=drivers.task if first else None,
     )
 
 
-def AddRobotSensors(builder, plant, robot: AddedRobot) -> None:
-    """The sensors of the robot's description (a lidar; cameras are
-    :func:`~armando_drake.sensors.cameras.AddCameras`'), on its links, their outputs
-    ``<namespace>/<sensor>.<output>``; sets ``robot.topics.sensors``."""
-    with robot_scope(builder, robot.folder):
-        robot.topics.sensors = AddSensors(
-            builder, robot.robot.sensors, plant=plant, robot=robot.robot, namespace=robot.namespace
+def FinishRobots(
+    stacks: dict, drivers: dict, wiring: dict, sensors: dict, scene: dict, publications
+) -> dict[str, AddedRobot]:
+    """Each robot as the world keeps it, made once of what its build added (``scene``,
+    the scene's cameras, detectors and perception, on the first), its base's topics
+    (odometry, /tf, cmd_vel) and its navigation's (recorded for the first only)
+    registered in ``publications``; by name."""
+    robots = {}
+    for index, (name, stack) in enumerate(stacks.items()):
+        robot = FinishRobot(
+            stack, drivers[name], wiring[name], sensors[name], **(scene if index == 0 else {})
         )
+        publications.add(
+            *MobileSource(robot.stack, robot.base_log, robot.twist, robot.twist_target).table()
+        )
+        if robot.navigation is not None:
+            navigation = NavigationSource(
+                robot.stack, robot.navigation, robot.detectors, recorded=index == 0
+            )
+            publications.add(*navigation.table())
+        robots[name] = robot
+    return robots

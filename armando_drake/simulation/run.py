@@ -539,8 +539,8 @@ def run(
     if log_dir is not None:  # what ran: the scenario after every override, gains derived
         write_scenario(_effective(scenario, world), log_dir / SCENARIO_FILE)
     # The step tables (or the sinusoid's tracking errors) from the loggers' rows.
-    tables = {name: _table_of(r.topics, r.logger) for name, r in world.robots.items()}
-    table = tables[world.first.name]
+    tables = {name: _table_of(r, r.logger) for name, r in world.robots.items()}
+    table = tables[world.robot().name]
     tracker = _task_tracker_of(world)
     simulator = Simulator(world.diagram)
     ApplySimulatorConfig(scenario.simulator_config, simulator)
@@ -661,7 +661,7 @@ def _result(scenario, world, simulator, table, tracker, log_dir, name: str = "")
     the caller fills in names and times."""
     sim_time = simulator.get_context().get_time()
 
-    vision_driven = world.detectors.driven if world.detectors is not None else []
+    vision_driven = world.robot().detectors.driven if world.robot().detectors is not None else []
     mode = "vision" if vision_driven else controller_mode(scenario)
     dds_topics = _dds_command_topics(world)
     if mode == "none" and dds_topics:
@@ -673,11 +673,11 @@ def _result(scenario, world, simulator, table, tracker, log_dir, name: str = "")
         wall_time=0.0,
         realtime_factor=0.0,
         interrupted=False,
-        joint_names=world.hardware.joint_names,
-        driven=world.sequencer_target
-        or world.topics.twist_target
-        or (world.task.controller if world.task else "")
-        or (world.jog.controller if world.jog else "")
+        joint_names=world.robot().stack.hardware.joint_names,
+        driven=world.robot().sequencer_target
+        or world.robot().twist_target
+        or (world.robot().task.controller if world.robot().task else "")
+        or (world.robot().jog.controller if world.robot().jog else "")
         or ", ".join(vision_driven)
         or ", ".join(dds_topics),
     )
@@ -696,12 +696,12 @@ def _result(scenario, world, simulator, table, tracker, log_dir, name: str = "")
             world.meshcat.SetLine(
                 "task/end_effector_trace", errors.actual.T, 2.0, Rgba(1.0, 0.3, 0.1, 1.0)
             )
-    if world.base_log is not None:
-        result.base = world.base_log.summary()
+    if world.robot().base_log is not None:
+        result.base = world.robot().base_log.summary()
     result.navigation = navigation_summary(world, simulator.get_context())
-    if world.detectors is not None:
+    if world.robot().detectors is not None:
         result.vision = write_vision_outputs(
-            world.topics,
+            world.robot(),
             world.diagram,
             simulator.get_context(),
             scenario,
@@ -723,11 +723,11 @@ def _task_tracker_of(world):
     """A listener on the world's joint-state logger that follows the end effector of the
     scenario's task (:class:`~armando_drake.outputs.task_space.TaskSpaceTracker`);
     None without a task."""
-    if world.task is None or world.logger is None:
+    if world.robot().task is None or world.robot().logger is None:
         return None
 
-    tracker = TaskSpaceTracker(world.task, list(world.logger.joint_names))
-    world.logger.add_listener(tracker.add)
+    tracker = TaskSpaceTracker(world.robot().task, list(world.robot().logger.joint_names))
+    world.robot().logger.add_listener(tracker.add)
     return tracker
 
 
@@ -740,7 +740,7 @@ def _effective(scenario: Scenario, world) -> Scenario:
         entry = robots[name]
         robots[name] = dataclasses.replace(
             entry,
-            actuators=effective_actuators(entry.actuators, robot.topics.stack.hardware),
+            actuators=effective_actuators(entry.actuators, robot.stack.hardware),
             controllers=dataclasses.replace(entry.controllers, activate=robot.choice.activate),
         )
     effective = dataclasses.replace(scenario, robots=robots)
@@ -768,35 +768,34 @@ def robot_summary(part, table, steps: list[StepResult]) -> dict[str, Any]:
     """A robot's section of summary.json in a world of several: its namespace, joints,
     driven controller, step table (or sinusoid's tracking error), the largest final error
     of its steps [rad] and its base's summary."""
-    topics = part.topics
     return {
         "namespace": part.namespace,
-        "model_instance": topics.robot.name,
-        "joint_names": topics.stack.hardware.joint_names,
-        "driven_controller": topics.sequencer_target
-        or topics.twist_target
-        or (topics.task.controller if topics.task else "")
-        or (topics.jog.controller if topics.jog else "")
-        or (topics.learned_ik.controller if topics.learned_ik else ""),
+        "model_instance": part.robot.name,
+        "joint_names": part.stack.hardware.joint_names,
+        "driven_controller": part.sequencer_target
+        or part.twist_target
+        or (part.task.controller if part.task else "")
+        or (part.jog.controller if part.jog else "")
+        or (part.learned_ik.controller if part.learned_ik else ""),
         "steps": [step_summary(step) for step in steps],
         "max_final_error": max((step.final_error for step in steps), default=None),
         "tracking_error": table.largest if isinstance(table, TrackingError) else None,
-        "base": topics.base_log.summary() if topics.base_log is not None else None,
+        "base": part.base_log.summary() if part.base_log is not None else None,
     }
 
 
-def _table_of(topics, logger) -> StepTable | TrackingError | None:
+def _table_of(robot, logger) -> StepTable | TrackingError | None:
     """A listener on a robot's joint-state ``logger`` that computes the step table (or
-    the sinusoid's tracking error) of its sequencer (``topics``: the robot's); None
+    the sinusoid's tracking error) of its sequencer (``robot``: its AddedRobot); None
     without either."""
-    if topics.sequencer is None or logger is None:
+    if robot.sequencer is None or logger is None:
         return None
     logged = list(logger.joint_names)
-    joints = topics.stack.controller_joints[topics.sequencer_target]
+    joints = robot.stack.controller_joints[robot.sequencer_target]
     if not set(joints) <= set(logged):
         return None
     columns = [logged.index(name) for name in joints]
-    config = topics.sequencer.config
+    config = robot.sequencer.config
     if isinstance(config, Sinusoid):
         table = TrackingError(
             wave_of(config, joints), after=config.start_delay + TRACKING_SKIP, columns=columns

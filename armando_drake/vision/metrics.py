@@ -19,9 +19,9 @@ from armando_drake.sensors.objects import Cylinder
 
 
 def camera_pose(topics, context, camera: str) -> RigidTransform:
-    """X_WC: the camera's true pose in the world (``topics``: the world's publishers,
-    :class:`~armando_drake.outputs.topics.WorldTopics`, with its ``cameras``, ``plant``
-    and ``robot``; ``context``: the root context)."""
+    """X_WC: the camera's true pose in the world (``topics``: the robot the scene's
+    cameras report with, :class:`~armando_drake.simulation.robots.AddedRobot`, with its
+    ``cameras``, ``plant`` and ``robot``; ``context``: the root context)."""
     info = topics.cameras[camera].info
     plant = topics.plant
     body = plant.GetBodyByName(info.link, topics.robot.model_instance)
@@ -72,8 +72,8 @@ def vision_summary(topics, diagram, context, scenario) -> dict | None:
     the marker's estimated minus true position [m] (None where there is no marker or no
     estimate); with a dynamic look-at controller also ``max_path_error``, the camera's
     largest distance from its linear path [m]; None without detectors. ``topics``: the
-    world's publishers (:class:`~armando_drake.outputs.topics.WorldTopics`), ``diagram``
-    the world's diagram, ``context`` its root context."""
+    robot the scene reports with (:class:`~armando_drake.simulation.robots.AddedRobot`),
+    ``diagram`` the world's diagram, ``context`` its root context."""
     detectors = topics.detectors
     if detectors is None:
         return None
@@ -94,7 +94,7 @@ def vision_summary(topics, diagram, context, scenario) -> dict | None:
             camera = detectors.blob_camera
             summary["final_pointing_error"] = pointing_error(topics, context, camera, p_WD)
         return summary
-    for name in topics.controllers:
+    for name in topics.stack.controllers:
         # A dynamic look-at controller: how far the camera strayed from its linear path.
         detail = diagram.GetOutputPort(f"{name}.status").Eval(context).detail
         if "max_path_error" in detail:

@@ -40,7 +40,7 @@ def world(tmp_path):
 
 
 def test_interface_limits_merge_with_the_urdf_and_initial_values_are_clamped(world):
-    q1, q2 = world.hardware.joints
+    q1, q2 = world.robot().stack.hardware.joints
     # URDF q1 limits [-2, 2]; the interface's min -1.2 is tighter, its max 3.0 is not.
     assert (q1.lower, q1.upper) == (-1.2, 2.0)
     assert (q2.lower, q2.upper) == (-2.5, 2.5)
@@ -115,16 +115,16 @@ def test_gravity_feedforward_cancels_gravity_at_the_command():
     target = (0.3, -0.9, 1.1, 0.5)
     world.publish(context, "position_controller", Float64MultiArray(data=target))
     simulator.AdvanceTo(0.05)  # handled at the 10 ms tick
-    port = world.gravity_feedforward
+    port = world.robot().gravity_feedforward
     feedforward = port.Eval(port.get_system().GetMyContextFromRoot(context))
     # The generalized gravity forces at q = target, computed directly on the plant.
     plant_context = plant.CreateDefaultContext()
-    plant.SetPositions(plant_context, world.robot.model_instance, np.array(target))
+    plant.SetPositions(plant_context, world.robot().robot.model_instance, np.array(target))
     expected = -plant.CalcGravityGeneralizedForces(plant_context)
     np.testing.assert_allclose(feedforward, expected, atol=1e-12)
     assert np.abs(expected).max() > 0.01  # a real load, not zeros
     # It reaches the plant's actuation input (the arm's only actuation here).
-    actuation = plant.get_actuation_input_port(world.robot.model_instance)
+    actuation = plant.get_actuation_input_port(world.robot().robot.model_instance)
     np.testing.assert_allclose(
         actuation.Eval(plant.GetMyContextFromRoot(context)), expected, atol=1e-12
     )
@@ -141,7 +141,7 @@ class EffortProbe:
         self.simulator = Simulator(self.world.diagram)
         self.context = self.simulator.get_mutable_context()
         self._plant_context = plant.GetMyContextFromRoot(self.context)
-        self._applied = plant.get_net_actuation_output_port(self.world.robot.model_instance)
+        self._applied = plant.get_net_actuation_output_port(self.world.robot().robot.model_instance)
         self.h = plant.time_step()
 
     def command(self) -> None:
@@ -171,7 +171,7 @@ def test_effort_state_is_the_torque_applied_over_the_last_plant_step():
     # applied over the plant step that just ended, not a step solved ahead from the
     # current state (which costs one more contact solve whenever a command arrives).
     probe = EffortProbe()
-    steps = round(1.0 / (probe.world.update_rate * probe.h))  # plant steps per update
+    steps = round(1.0 / (probe.world.robot().stack.update_rate * probe.h))  # plant steps per update
     probe.simulator.Initialize()
     np.testing.assert_array_equal(probe.reported(), np.zeros(4))  # no step taken yet
     probe.command()

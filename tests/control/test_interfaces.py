@@ -70,12 +70,14 @@ def spinner_world(tmp_path, interface: str, extra: str = ""):
 
 def velocity_of(world, context) -> float:
     plant = world.plant
-    return plant.GetVelocities(plant.GetMyContextFromRoot(context), world.robot.model_instance)[0]
+    return plant.GetVelocities(
+        plant.GetMyContextFromRoot(context), world.robot().robot.model_instance
+    )[0]
 
 
 def test_constant_effort_gives_the_acceleration_tau_over_inertia(tmp_path):
     world = spinner_world(tmp_path, "effort")
-    assert [joint.command_interface for joint in world.hardware.joints] == ["effort"]
+    assert [joint.command_interface for joint in world.robot().stack.hardware.joints] == ["effort"]
     simulator = Simulator(world.diagram)
     context = simulator.get_mutable_context()
     torque = 0.05  # [N m], within the limit
@@ -113,10 +115,10 @@ def test_effort_is_clamped_to_the_urdf_limit(tmp_path):
 @pytest.mark.parametrize("kv", [0.05, 1.0])
 def test_velocity_command_reaches_the_commanded_speed(tmp_path, kv):
     world = spinner_world(tmp_path, "velocity", f"actuators: {{kv: {kv}}}")
-    (joint,) = world.hardware.joints
+    (joint,) = world.robot().stack.hardware.joints
     assert joint.command_interface == "velocity"
     actuator = world.plant.get_joint_actuator(
-        world.plant.GetJointActuatorIndices(world.robot.model_instance)[0]
+        world.plant.GetJointActuatorIndices(world.robot().robot.model_instance)[0]
     )
     gains = actuator.get_controller_gains()
     assert (gains.p, gains.d) == (0.0, kv)
@@ -204,14 +206,16 @@ def mini_hardware(tmp_path, extra: str):
     world = MakeWorld(scenario, quiet=True)
     plant = world.plant
     gains = []
-    for index in plant.GetJointActuatorIndices(world.robot.model_instance):
+    for index in plant.GetJointActuatorIndices(world.robot().robot.model_instance):
         actuator = plant.get_joint_actuator(index)
         if actuator.has_controller():
             gains.append((actuator.get_controller_gains().p, actuator.get_controller_gains().d))
         else:
             gains.append(None)
-    interfaces = {joint.name: joint.command_interface for joint in world.hardware.joints}
-    source = world.hardware.source
+    interfaces = {
+        joint.name: joint.command_interface for joint in world.robot().stack.hardware.joints
+    }
+    source = world.robot().stack.hardware.source
     world.close()
     return source, interfaces, gains
 
@@ -271,8 +275,8 @@ def test_mixed_effort_arm_and_position_gripper(tmp_path):
         "[joint_state_broadcaster, arm_controller, gripper_controller]}",
     )
     world = MakeWorld(scenario, quiet=True)
-    plant, instance = world.plant, world.robot.model_instance
-    assert world.hardware.interfaces() == ["effort", "position"]
+    plant, instance = world.plant, world.robot().robot.model_instance
+    assert world.robot().stack.hardware.interfaces() == ["effort", "position"]
     simulator = Simulator(world.diagram)
     context = simulator.get_mutable_context()
     # The torque that holds q1 against gravity at q1 = 0.3 (its initial value), q2 = 0.5,
@@ -294,7 +298,7 @@ def test_mixed_effort_arm_and_position_gripper(tmp_path):
     )
     assert actuation[0] == pytest.approx(hold, abs=1e-12)
     # ... the gravity feed-forward goes to the position joint only ...
-    feedforward = world.gravity_feedforward
+    feedforward = world.robot().gravity_feedforward
     torques = feedforward.Eval(feedforward.get_system().GetMyContextFromRoot(context))
     assert torques.tolist() == [0.0, pytest.approx(gravity[1], abs=1e-12)]
     # ... and the gripper joint reaches its position, while the arm joint, balanced on
@@ -321,7 +325,7 @@ def test_mixed_feedforward_uses_the_measured_position_of_the_effort_joint(tmp_pa
         "[joint_state_broadcaster, arm_controller, gripper_controller]}",
     )
     world = MakeWorld(scenario, quiet=True)
-    plant, instance = world.plant, world.robot.model_instance
+    plant, instance = world.plant, world.robot().robot.model_instance
     simulator = Simulator(world.diagram)
     context = simulator.get_mutable_context()
     target = 0.5
@@ -335,7 +339,7 @@ def test_mixed_feedforward_uses_the_measured_position_of_the_effort_joint(tmp_pa
         plant.SetPositions(static, instance, q)
         return -plant.CalcGravityGeneralizedForces(static)
 
-    port = world.gravity_feedforward
+    port = world.robot().gravity_feedforward
     torques = port.Eval(port.get_system().GetMyContextFromRoot(context))
     expected = gravity_at([q1, target])[1]
     assert torques.tolist() == [0.0, pytest.approx(expected, abs=1e-12)]

@@ -871,9 +871,9 @@ def test_scaling_factor_from_scenario():
     # scaling_factor_from_param, set from the scenario: controllers.speed_scaling overrides the
     # YAML's speed_scaling.initial_scaling_factor; the world subscribes speed_scaling_input.
     world = scenario_world("speed_scaling: {trajectory_controller: 0.5}")
-    (managed,) = world.controller_manager.controllers
+    (managed,) = world.robot().stack.manager.controllers
     assert managed.logic.initial_memory().speed_scaling == 0.5
-    assert world.controller_manager.HasInputPort("trajectory_controller.speed_scaling_input")
+    assert world.robot().stack.manager.HasInputPort("trajectory_controller.speed_scaling_input")
     world.close()
     with pytest.raises(ScenarioError, match="controllers.speed_scaling"):
         scenario_world("speed_scaling: {position_controller: 0.5}")

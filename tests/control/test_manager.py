@@ -416,8 +416,8 @@ def test_activate_by_type_finds_a_forward_command_controller_on_position(tmp_pat
         "['type:position_controllers/JointGroupPositionController']}",
     )
     world = MakeWorld(scenario, quiet=True)
-    assert list(world.controllers) == ["fwd"]
-    assert world.sequencer_target == "fwd"
+    assert list(world.robot().stack.controllers) == ["fwd"]
+    assert world.robot().sequencer_target == "fwd"
     world.close()
 
 
@@ -431,10 +431,12 @@ def test_scenario_overrides_the_update_rate_of_the_yaml():
         "logging: {console_rate: 0}\ncontrollers: {update_rate: 500}\nsimulation: {duration: 0.1}",
     )
     world = MakeWorld(scenario, quiet=True)
-    assert world.update_rate == 500
+    assert world.robot().stack.update_rate == 500
     simulator = Simulator(world.diagram)
     simulator.AdvanceTo(0.1)
-    log = world.logger.GetLog(world.logger.GetMyContextFromRoot(simulator.get_context()))
+    log = world.robot().logger.GetLog(
+        world.robot().logger.GetMyContextFromRoot(simulator.get_context())
+    )
     np.testing.assert_allclose(np.diff(log.sample_times()), 0.002, atol=1e-12)
     world.close()
 

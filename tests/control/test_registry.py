@@ -242,7 +242,7 @@ def test_the_readme_example_installed_by_entry_point_moves_the_arm(tmp_path, ins
         f"controllers: {{config: {path}, activate: [joint_state_broadcaster, 'type:{TOY_TYPE}']}}",
     )
     world = MakeWorld(scenario, quiet=True)
-    assert list(world.controllers) == ["toy"]
+    assert list(world.robot().stack.controllers) == ["toy"]
     simulator = Simulator(world.diagram)
     context = simulator.get_mutable_context()
     world.publish(context, "toy", Float64MultiArray(data=(0.8, -1.0, 1.2, 0.4)))

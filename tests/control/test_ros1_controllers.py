@@ -137,7 +137,7 @@ def test_ros1_file_maps_onto_the_ros2_controllers_and_interfaces(tmp_path, caplo
 def actuator_gains(world) -> dict[str, tuple[float, float]]:
     plant = world.plant
     result = {}
-    for index in plant.GetJointActuatorIndices(world.robot.model_instance):
+    for index in plant.GetJointActuatorIndices(world.robot().robot.model_instance):
         actuator = plant.get_joint_actuator(index)
         gains = actuator.get_controller_gains()
         result[actuator.joint().name()] = (gains.p, gains.d)
@@ -324,7 +324,10 @@ def test_effort_pid_tracks_a_step_within_a_hundredth_of_a_radian(tmp_path):
         "[joint_state_controller, spin_controller]}\n",
     )
     world = MakeWorld(scenario, quiet=True)
-    assert world.update_rate == 1000 and world.hardware.interfaces() == ["effort"]
+    assert (
+        world.robot().stack.update_rate == 1000
+        and world.robot().stack.hardware.interfaces() == ["effort"]
+    )
     simulator = Simulator(world.diagram)
     context = simulator.get_mutable_context()
     plant_context = world.plant.GetMyContextFromRoot(context)
@@ -334,7 +337,7 @@ def test_effort_pid_tracks_a_step_within_a_hundredth_of_a_radian(tmp_path):
     world.publish(context, "spin_controller", Float64(step))
     simulator.AdvanceTo(0.502)
     # The derivative kick saturates the 0.5 N m effort limit, as Gazebo's limit would.
-    net = world.plant.get_net_actuation_output_port(world.robot.model_instance)
+    net = world.plant.get_net_actuation_output_port(world.robot().robot.model_instance)
     assert net.Eval(plant_context)[0] == pytest.approx(0.5)
     errors = []
     for t in np.arange(1.5, 3.0, 0.05):  # from 1 s after the step

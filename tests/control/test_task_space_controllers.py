@@ -191,7 +191,7 @@ def test_too_fast_cartesian_trajectory_is_clamped_with_one_warning(at_repository
 
 def read_effort(world, context) -> np.ndarray:
     """[N m] the controller manager's effort command now."""
-    manager = world.controller_manager
+    manager = world.robot().stack.manager
     return manager.GetOutputPort("effort_command").Eval(manager.GetMyContextFromRoot(context))
 
 
@@ -238,7 +238,7 @@ def test_effort_controller_holds_the_iiwa_with_gravity_torques(at_repository):
     plant = world.plant
     plant_context = plant.GetMyMutableContextFromRoot(context)
     q0 = np.array([0.0, 0.4117, 0.0, -1.4609, 0.0, 1.269, 0.0])  # [rad] task_os's start
-    plant.SetPositions(plant_context, world.robot.model_instance, q0)
+    plant.SetPositions(plant_context, world.robot().robot.model_instance, q0)
     gravity = -plant.CalcGravityGeneralizedForces(plant_context)
     world.publish(context, "effort_controller", Float64MultiArray(tuple(gravity.tolist())))
     simulator.AdvanceTo(0.5)

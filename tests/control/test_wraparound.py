@@ -178,7 +178,7 @@ def test_continuous_joint_moves_the_short_way_through_pi(tmp_path, interface):
     """From 3.0 to -3.0: upstream's wrapped error and shifted start turn the joint 0.28 rad
     up through pi (to 2 pi - 3.0), not 6 rad down through 0."""
     world = spinner_from(tmp_path, interface, 3.0)
-    (joint,) = world.hardware.joints
+    (joint,) = world.robot().stack.hardware.joints
     assert joint.continuous and joint.command_interface == interface
     simulator = Simulator(world.diagram)
     context = simulator.get_mutable_context()

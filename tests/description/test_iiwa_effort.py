@@ -79,10 +79,10 @@ def iiwa_world(iiwa_package, tmp_path, activate: list[str]):
 
 def test_every_iiwa_joint_takes_torques_that_reach_the_plant_exactly(iiwa_package, tmp_path):
     world = iiwa_world(iiwa_package, tmp_path, ["joint_state_controller", "effort_group"])
-    assert world.hardware.source == "transmission"
-    assert world.hardware.joint_names == JOINTS
-    assert world.hardware.interfaces() == ["effort"] * 7
-    plant, instance = world.plant, world.robot.model_instance
+    assert world.robot().stack.hardware.source == "transmission"
+    assert world.robot().stack.hardware.joint_names == JOINTS
+    assert world.robot().stack.hardware.interfaces() == ["effort"] * 7
+    plant, instance = world.plant, world.robot().robot.model_instance
     actuators = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices(instance)]
     assert [a.has_controller() for a in actuators] == [False] * 7  # no PD: torque only
     assert [a.effort_limit() for a in actuators] == [300.0] * 7  # the URDF's max_effort
@@ -103,8 +103,8 @@ def test_every_iiwa_joint_takes_torques_that_reach_the_plant_exactly(iiwa_packag
 
 def test_iiwa_pid_effort_controllers_reach_seed_style_targets(iiwa_package, tmp_path):
     world = iiwa_world(iiwa_package, tmp_path, ["joint_state_controller", *PIDS])
-    assert world.update_rate == 1000  # a ROS 1 file: gazebo_ros_control's 1 ms loop
-    hardware = world.hardware
+    assert world.robot().stack.update_rate == 1000  # a ROS 1 file: gazebo_ros_control's 1 ms loop
+    hardware = world.robot().stack.hardware
     targets = seed_targets_for(
         [j.lower for j in hardware.joints], [j.upper for j in hardware.joints]
     )

@@ -253,8 +253,12 @@ def test_gripper_on_its_own_controller_and_the_finger_follows(workspace):
         "gripper_controller]}\nactuators: {kp: 50.0, kd: 2.0}",
         seconds=1.0,
     )
-    assert world.controller_joints["gripper_controller"] == ["left_finger_joint"]
-    assert world.controller_joints["position_controller"] == ["shoulder", "wrist", "base_pan"]
+    assert world.robot().stack.controller_joints["gripper_controller"] == ["left_finger_joint"]
+    assert world.robot().stack.controller_joints["position_controller"] == [
+        "shoulder",
+        "wrist",
+        "base_pan",
+    ]
     plant = world.plant
     left = plant.GetJointByName("left_finger_joint").get_translation(plant_context)
     right = plant.GetJointByName("right_finger_joint").get_translation(plant_context)
@@ -326,8 +330,8 @@ def test_gazebo_plugin_yaml_is_the_controller_configuration(workspace):
         "controllers: {activate: [joint_state_broadcaster, forward_position_controller]}",
         seconds=1.0,
     )
-    assert world.controller_config.update_rate == 250  # not the decoy's 50
-    hardware = {joint.name: joint for joint in world.hardware.joints}
+    assert world.robot().stack.config.update_rate == 250  # not the decoy's 50
+    hardware = {joint.name: joint for joint in world.robot().stack.hardware.joints}
     assert (hardware["joint1"].lower, hardware["joint1"].upper) == (-1.0, 1.0)  # min/max params
     assert hardware["joint1"].initial_position == 0.4
     assert hardware["tool_joint"].initial_position == 0.5

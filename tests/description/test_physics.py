@@ -109,8 +109,8 @@ def test_derived_stiffness_holds_the_heavy_arm_within_the_sag_bound(tmp_path):
     urdf = write(tmp_path, "arm", chain_urdf("arm", **HEAVY))
     scenario = load_scenario("position", f"{QUIET}\nrobot: {{description: {urdf}}}")
     world = MakeWorld(scenario, quiet=True)
-    loads = joint_loads(world.plant, world.robot, world.hardware)
-    for joint in world.hardware.joints:
+    loads = joint_loads(world.plant, world.robot().robot, world.robot().stack.hardware)
+    for joint in world.robot().stack.hardware.joints:
         load = loads[joint.name]
         # The shoulder carries the arm: 112 N m at the worst pose, so kp > 2.2e4 N m/rad.
         if joint.name == "joint_2":
@@ -229,9 +229,9 @@ def test_armandos_own_seed_is_clear_of_collisions():
 
     world = MakeWorld(load_scenario("position", QUIET), quiet=True)
     seed = [list(target) for target in SEED_TARGETS]
-    names = world.hardware.joint_names
-    start = [joint.initial_position for joint in world.hardware.joints]
-    instance = world.robot.model_instance
+    names = world.robot().stack.hardware.joint_names
+    start = [joint.initial_position for joint in world.robot().stack.hardware.joints]
+    instance = world.robot().robot.model_instance
     assert clear_targets(world.plant, world.scene_graph, instance, names, seed, start) == seed
     world.close()
 

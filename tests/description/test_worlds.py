@@ -199,7 +199,7 @@ def test_scenario_world_file(tmp_path):
     world_file.write_text(WORLD)
     scenario = load_scenario("position", f"world_file: {world_file}")
     world = MakeWorld(scenario)
-    plant = world.topics.plant
+    plant = world.robot().plant
     assert plant.HasModelInstanceNamed("crate_a") and plant.HasModelInstanceNamed("tag")
     assert not plant.HasModelInstanceNamed("scene")
     scenario = load_scenario("position", f"world_file: {tmp_path / 'none.sdf'}")

@@ -158,11 +158,16 @@ def test_mujoco_model_reaches_the_targets_like_the_world():
     world = MakeWorld(load_scenario("position", bench.NO_CONSOLE), quiet=True)
     world.close()
     model = bench.mujoco_model(
-        world.robot.urdf, world.hardware, kp=8.0, kd=0.4, time_step=0.002, gravcomp=True
+        world.robot().robot.urdf,
+        world.robot().stack.hardware,
+        kp=8.0,
+        kd=0.4,
+        time_step=0.002,
+        gravcomp=True,
     )
     assert model.nu == 4
     assert list(model.actuator_forcerange[0]) == [-1.5, 1.5]
-    rtf, errors = bench.mujoco_job(model, world.hardware, period=bench.TARGET_PERIOD)
+    rtf, errors = bench.mujoco_job(model, world.robot().stack.hardware, period=bench.TARGET_PERIOD)
     assert rtf > 0
     assert len(errors) == len(bench.TARGETS)
     assert max(errors) < bench.FINAL_ERROR_TOLERANCE

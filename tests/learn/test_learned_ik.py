@@ -142,7 +142,7 @@ def test_learned_ik_scenario_reaches_its_targets():
     scenario.learned_ik.targets = scenario.learned_ik.targets[:2]
     world = MakeWorld(scenario, quiet=True)
     simulator = Simulator(world.diagram)
-    learned = world.topics.learned_ik
+    learned = world.robot().learned_ik
     assert learned.controller == "position_controller"
     for X_target, start in zip(learned.targets, learned.times, strict=True):
         simulator.AdvanceTo(start + scenario.learned_ik.period - 0.01)

@@ -51,4 +51,4 @@ def run(loaded, duration: float, *, before=None, at: float = 0.0) -> Run:
         simulator.AdvanceTo(at)
         before(world, simulator.get_mutable_context())
     simulator.AdvanceTo(duration)
-    return Run(world, simulator, world.base_log.array())
+    return Run(world, simulator, world.robot().base_log.array())

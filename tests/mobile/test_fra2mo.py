@@ -25,9 +25,9 @@ def _rests(result, start: float, end: float) -> None:
 def test_fra2mo_spawned_at_the_course_pose_rests_on_its_wheels():
     result = run(scenario(SPAWN, IDLE, "simulation: {duration: 2.0}"), 2.0)
     world = result.world
-    assert world.mobile.floating and world.mobile.base_link == "base_footprint"
-    assert world.mobile.plugins == ["diff_drive"]
-    assert world.hardware.interfaces() == ["velocity", "velocity"]
+    assert world.robot().mobile.floating and world.robot().mobile.base_link == "base_footprint"
+    assert world.robot().mobile.plugins == ["diff_drive"]
+    assert world.robot().stack.hardware.interfaces() == ["velocity", "velocity"]
     # It falls 0.1 m, lands, and rests: over the last second nothing moves.
     assert result.at("z", 0.0) == 0.1
     _rests(result, 1.0, 2.0)
@@ -55,7 +55,7 @@ def test_odometry_agrees_with_ground_truth_on_a_straight_and_a_turn():
         "{linear: 0.2, angular: 0.0, duration: 1.5}]}"
     )
     result = run(scenario(steps), 7.5)
-    summary = result.world.base_log.summary()
+    summary = result.world.robot().base_log.summary()
     travelled = summary["distance_travelled"]
     assert 1.0 < travelled < 1.1  # 0.4 + pi/2 * 0.2 + 0.3 m, less what the ramps take
     drift = summary["odometry_drift"]

@@ -62,7 +62,7 @@ def test_mcap_has_odom_tf_cmd_vel_and_scan(tmp_path):
     assert 60 <= len(odom) <= 71  # 50 Hz
     last = odom[-1]
     assert (last.header.frame_id, last.child_frame_id) == ("odom", "base_footprint")
-    logged = world.base_log.array()
+    logged = world.robot().base_log.array()
     assert last.pose.pose.position.x == pytest.approx(logged[-1, 8], abs=1e-9)
     assert 0.15 < last.pose.pose.position.x < 0.25  # ~1 s at 0.2 m/s
     moving = min(odom, key=lambda message: abs(_stamp(message) - 1.0))  # the step ends at 1.2 s
@@ -116,7 +116,7 @@ def test_cmd_vel_over_dds_drives_the_base():
         assert time.monotonic() < deadline, "the world's /cmd_vel subscription was not found"
         time.sleep(0.02)
     simulator.AdvanceTo(0.3)  # resting
-    x0 = world.base_log.array()[-1, 1]
+    x0 = world.robot().base_log.array()[-1, 1]
     twist = twist_message(Twist(linear=(0.2, 0.0, 0.0)))
     for _ in range(10):  # 1 s of simulated time, the Twist sent at each 0.1 s (timeout 0.5 s)
         count = sum(bridge.received.values())
@@ -125,7 +125,7 @@ def test_cmd_vel_over_dds_drives_the_base():
         while sum(bridge.received.values()) == count and time.monotonic() < deadline:
             time.sleep(0.005)
         simulator.AdvanceTo(simulator.get_context().get_time() + 0.1)
-    rows = world.base_log.array()
+    rows = world.robot().base_log.array()
     moved = rows[-1, 1] - x0
     speed = rows[-1, 11]
     world.close(simulator.get_context())

@@ -26,7 +26,7 @@ def test_upstream_fra2mo_loads_rests_and_turns_as_in_gazebo(fra2mo_package, capl
     assert "'left_wheel_link' collides as a cylinder 0.035 m in radius and 0.006 m wide" in text
     assert "wheel_separation=0.22 m, but the wheels are 0.13 m apart" in text
     world = result.world
-    assert world.mobile.floating and world.mobile.plugins == ["diff_drive"]
+    assert world.robot().mobile.floating and world.robot().mobile.plugins == ["diff_drive"]
     # The base link keeps its own inertia (the missing visual does not shrink it).
     assert "link 'base_link': inertia" not in text
     # Resting before the command: on the ground, steady.

@@ -12,7 +12,7 @@ IDLE = "twist: null"
 
 def _scan(result):
     """The latest LaserScan of fra2mo's lidar."""
-    port = result.world.topics.sensors["laser_frame"]["scan"]
+    port = result.world.robot().sensors["laser_frame"]["scan"]
     context = port.get_system().GetMyContextFromRoot(result.simulator.get_context())
     return port.Eval(context).message
 
@@ -66,7 +66,7 @@ def test_driven_into_a_crate_it_stops_against_it(tmp_path):
     assert front.max() < CRATE_FACE + 0.003, front.max() - CRATE_FACE
     assert abs(front[-1] - CRATE_FACE) < 0.003, front[-1] - CRATE_FACE
     assert abs(result.column("y")[-1]) < 0.01 and abs(result.column("yaw")[-1]) < 0.02
-    contacts = result.world.base_log.summary()["contacts"]
+    contacts = result.world.robot().base_log.summary()["contacts"]
     assert contacts["episodes"] == 1 and contacts["bodies"] == ["crate_1::link"], contacts
     # It reaches the face 0.34 m after starting (0.5 s + 1.7 s at 0.2 m/s, plus the start).
     assert 2.1 < contacts["first_contact_time"] < 2.5, contacts

@@ -33,15 +33,18 @@ def test_minibot_diff_drive_controller_limits_velocity_and_acceleration():
     twist = "twist: {start_delay: 0.3, steps: [{linear: 0.8, angular: 0.0, duration: 1.2}]}"
     result = run(minibot(twist), 1.5)
     world = result.world
-    assert world.mobile.floating and world.mobile.base_link == "base_link"
-    assert world.mobile.drives == ["minibot_base_controller"] and world.mobile.plugins == []
-    assert result.world.topics.twist_target == "minibot_base_controller"
+    assert world.robot().mobile.floating and world.robot().mobile.base_link == "base_link"
+    assert (
+        world.robot().mobile.drives == ["minibot_base_controller"]
+        and world.robot().mobile.plugins == []
+    )
+    assert result.world.robot().twist_target == "minibot_base_controller"
     # 0.2 s into the step: 0.2 m/s (the controller's 50 Hz ticks lag a tick or two).
     assert 0.15 < result.at("linear", 0.5) < 0.21
     assert abs(np.mean(result.between("linear", 1.0, 1.5)) - 0.5) < 0.01
     assert abs(np.mean(result.between("odom_linear", 1.1, 1.5)) - 0.5) < 0.01
     # The odometry (position feedback) follows the ground truth where nothing slips.
-    assert result.world.base_log.summary()["odometry_drift"]["max_position_at_axle"] < 5e-3
+    assert result.world.robot().base_log.summary()["odometry_drift"]["max_position_at_axle"] < 5e-3
 
 
 def test_minibot_cmd_vel_timeout_brakes_a_single_command():
@@ -67,8 +70,8 @@ def test_classic_plugin_world_odometry_and_wheel_acceleration():
     twist = "twist: {start_delay: 0.3, steps: [{linear: 0.3, angular: 0.5, duration: 1.5}]}"
     result = run(classic_bot(twist), 1.8)
     world = result.world
-    assert world.mobile.plugins == ["diff_drive"]
-    entry = world.controller_config.controllers["diff_drive"]
+    assert world.robot().mobile.plugins == ["diff_drive"]
+    entry = world.robot().stack.config.controllers["diff_drive"]
     assert entry.ros_topic == "/cmd_vel" and entry.drive.odometry_source == "world"
     assert entry.drive.max_wheel_torque == 10.0 and entry.drive.update_rate == 50.0
     # wheelAcceleration 1 m/s^2 on each wheel's rim: 0.1 s into the step, ~0.1 m/s.
@@ -76,7 +79,7 @@ def test_classic_plugin_world_odometry_and_wheel_acceleration():
     assert abs(np.mean(result.between("linear", 1.2, 1.8)) - 0.3) / 0.3 < 0.02
     assert abs(np.mean(result.between("angular", 1.2, 1.8)) - 0.5) / 0.5 < 0.02
     # odometrySource world: the odometry is the model's pose, however the wheels slip.
-    drift = result.world.base_log.summary()["odometry_drift"]
+    drift = result.world.robot().base_log.summary()["odometry_drift"]
     assert drift["max_position"] < 1e-3 and drift["final_heading"] < 1e-3
 
 
@@ -84,9 +87,10 @@ def test_classic_plugin_encoder_odometry_and_link_friction():
     twist = "twist: {start_delay: 0.2, steps: [{linear: 0.2, angular: 0.0, duration: 1.0}]}"
     result = run(classic_bot(twist, args="{odometry_source: encoder}"), 1.4)
     assert (
-        result.world.controller_config.controllers["diff_drive"].drive.odometry_source == "encoder"
+        result.world.robot().stack.config.controllers["diff_drive"].drive.odometry_source
+        == "encoder"
     )
-    assert result.world.base_log.summary()["odometry_drift"]["max_position_at_axle"] < 5e-3
+    assert result.world.robot().base_log.summary()["odometry_drift"]["max_position_at_axle"] < 5e-3
     # The caster's <mu1>0.05</mu1> (a box: no caster default), the wheels' 0.9.
     plant, inspector = result.world.plant, result.world.scene_graph.model_inspector()
     for link, mu in (("caster_back_link", 0.05), ("wheel_left_link", 0.9)):
@@ -174,7 +178,7 @@ def test_a_file_drive_not_activated_is_activated_as_its_bring_up_spawns_it(caplo
     overrides = ("controllers: {config: '', activate: [joint_state_broadcaster]}", twist)
     with caplog.at_level("INFO", logger="armando_drake.world"):
         result = run(minibot(*overrides), 1.3)
-    assert result.world.topics.twist_target == "minibot_base_controller"
+    assert result.world.robot().twist_target == "minibot_base_controller"
     lines = [r.getMessage() for r in caplog.records if r.getMessage().startswith("drive: ")]
     assert lines == ["drive: the controller file's own 'minibot_base_controller' takes cmd_vel"]
     assert abs(np.mean(result.between("linear", 1.0, 1.3)) - 0.3) < 0.01

@@ -95,7 +95,7 @@ def test_amcl_localizes_fra2mo_on_the_saved_map_from_half_a_metre_and_0_3_rad_of
     simulator = Simulator(world.diagram)
     simulator.Initialize()
     simulator.AdvanceTo(scenario.navigation.start_delay + 10.01)
-    amcl = world.topics.navigation.amcl
+    amcl = world.robot().navigation.amcl
     context = amcl.GetMyContextFromRoot(simulator.get_context())
     map_to_odom = amcl.GetOutputPort("map_to_odom").Eval(context)
     pose = compose(map_to_odom, body_odometry(amcl.GetInputPort("odom").Eval(context), 0.04025))
@@ -108,7 +108,7 @@ def test_amcl_localizes_fra2mo_on_the_saved_map_from_half_a_metre_and_0_3_rad_of
     assert abs(math.remainder(pose[2] - truth[2], 2 * math.pi)) < 0.05
     # The summary's localization errors: the wrong start, then within 0.1 m / 0.05 rad
     # from 5 s on.
-    navigator = world.topics.navigation.navigator
+    navigator = world.robot().navigation.navigator
     errors = navigator.summary(navigator.GetMyContextFromRoot(simulator.get_context()))[
         "localization"
     ]

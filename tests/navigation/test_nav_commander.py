@@ -39,11 +39,11 @@ def script():
     out["missed"] = navigator.missed_waypoints
     assert navigator.goToPose(FAR)
     navigator.spin(3.0)
-    out["moving"] = navigator.world.base_log.array()[-1].copy()
+    out["moving"] = navigator.world.robot().base_log.array()[-1].copy()
     navigator.cancelTask()
     out["cancel_complete"] = navigator.isTaskComplete()
     navigator.spin(1.0)
-    out["stopped"] = navigator.world.base_log.array()[-1].copy()
+    out["stopped"] = navigator.world.robot().base_log.array()[-1].copy()
     out["cancel_result"] = navigator.getResult()
     out["in_obstacle"] = navigator.goToPose((1.6, 0.0, 0.0))  # crate_1
     out["rejected"] = navigator.rejected

@@ -118,7 +118,7 @@ def test_fra2mo_reaches_a_goal_on_turtlebot3_burgers_parameters():
     world = MakeWorld(scenario, quiet=True)
     simulator = Simulator(world.diagram)
     simulator.Initialize()
-    navigator = world.topics.navigation.navigator
+    navigator = world.robot().navigation.navigator
     context = navigator.GetMyContextFromRoot(simulator.get_context())
     t = 0.0
     while t < 20.0 and not navigator.nav_state(context).results:

@@ -43,7 +43,7 @@ def explored(tmp_path_factory):
     world = MakeWorld(scenario, quiet=True)
     simulator = Simulator(world.diagram)
     simulator.Initialize()
-    navigation = world.topics.navigation
+    navigation = world.robot().navigation
     explorer_context = navigation.navigator.GetMyContextFromRoot(simulator.get_context())
     for end in np.arange(25.0, scenario.simulation.duration + 0.5, 1.0):
         simulator.AdvanceTo(min(end, scenario.simulation.duration))
@@ -69,7 +69,7 @@ def test_the_saved_map_matches_the_worlds_occupancy(explored):
     (world, _), _, folder = explored
     saved = load_map(folder / "map.yaml")
     assert saved.resolution == 0.05
-    truth = world.topics.navigation.truth
+    truth = world.robot().navigation.truth
     accuracy = map_accuracy(saved, truth, (0.0, 0.0), 0.2)
     assert accuracy["precision"] >= 0.9
     assert accuracy["recall"] >= 0.9

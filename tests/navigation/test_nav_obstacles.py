@@ -92,7 +92,7 @@ def run():
     simulator.Initialize()
     plant = world.plant
     body = plant.get_body(next(iter(plant.GetFloatingBaseBodies())))
-    navigator = world.topics.navigation.navigator
+    navigator = world.robot().navigation.navigator
     clearance, t, seen = math.inf, 0.0, None
     while t < scenario.simulation.duration:
         t += 0.1

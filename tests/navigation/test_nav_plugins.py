@@ -106,7 +106,7 @@ def test_fra2mo_drives_to_a_goal_on_the_new_planner(registered, tmp_path, caplog
     assert "spacing" not in caplog.text  # read, not warned about
     simulator = Simulator(world.diagram)
     simulator.Initialize()
-    navigator = world.topics.navigation.navigator
+    navigator = world.robot().navigation.navigator
     assert isinstance(navigator.planner, StraightLine)
     context = navigator.GetMyContextFromRoot(simulator.get_context())
     t = 0.0

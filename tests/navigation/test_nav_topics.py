@@ -65,7 +65,7 @@ def goal_pose_run(tmp_path_factory):
     deadline = time.monotonic() + 5
     while not bridge.received.get("/goal_pose") and time.monotonic() < deadline:
         time.sleep(0.005)
-    navigator = world.topics.navigation.navigator
+    navigator = world.robot().navigation.navigator
     context = simulator.get_context()
     nav_context = navigator.GetMyContextFromRoot(context)
     while context.get_time() < 20.0:
@@ -139,7 +139,7 @@ def test_goal_frames_and_map_are_latched(goal_pose_run):
     assert "laser_frame" in frames  # the robot's fixed joints are still there
     grid = latched["/map"][-1]
     info = grid["info"]
-    navigation_grid = world.topics.navigation.grid
+    navigation_grid = world.robot().navigation.grid
     assert (info["width"], info["height"]) == (navigation_grid.width, navigation_grid.height)
     assert len(grid["data"]) == info["width"] * info["height"]
     assert info["resolution"] == pytest.approx(navigation_grid.resolution)

@@ -39,7 +39,7 @@ def goals_run():
         summary = navigation_summary(world, context)
         if all(goal["reason"] != "not reached" for goal in summary["goals"]):
             break
-    return world, summary, world.base_log.array()
+    return world, summary, world.robot().base_log.array()
 
 
 def _shortest(free: np.ndarray, start, goal) -> float:
@@ -68,7 +68,7 @@ def test_every_goal_is_reached_within_the_goal_checkers_tolerances(goals_run):
     names = [g["name"] for g in summary["goals"]]
     assert names == ["north_east", "north_west", "south_west", "south_east"]  # the order
     assert summary["reached"] == 4
-    goals = {g.name: g for g in world.topics.navigation.navigator.goals}
+    goals = {g.name: g for g in world.robot().navigation.navigator.goals}
     time = rows[:, COLUMNS.index("time")]
     for result in summary["goals"]:
         assert result["reached"], result
@@ -91,7 +91,7 @@ def test_no_collision_with_the_worlds_obstacles(goals_run):
 
 def test_each_driven_path_is_at_most_1_25_times_the_shortest_collision_free_one(goals_run):
     world, summary, rows = goals_run
-    grid = world.topics.navigation.grid
+    grid = world.robot().navigation.grid
     radius = 0.2  # the robot's, in the Nav2 YAML
     cells = math.ceil(radius / grid.resolution)
     rr, cc = np.mgrid[-cells : cells + 1, -cells : cells + 1]
@@ -105,7 +105,7 @@ def test_each_driven_path_is_at_most_1_25_times_the_shortest_collision_free_one(
         )
 
     start = rows[0, COLUMNS.index("x")], rows[0, COLUMNS.index("y")]
-    goals = {g.name: g for g in world.topics.navigation.navigator.goals}
+    goals = {g.name: g for g in world.robot().navigation.navigator.goals}
     ratios = []
     for result in summary["goals"]:
         goal = goals[result["name"]]
@@ -118,7 +118,7 @@ def test_each_driven_path_is_at_most_1_25_times_the_shortest_collision_free_one(
 
 def test_the_worlds_map_is_its_geometry_cut_at_the_lidars_height(goals_run, tmp_path):
     world, _, _ = goals_run
-    grid = world.topics.navigation.grid
+    grid = world.robot().navigation.grid
     res = grid.resolution
 
     def occupied(x, y):
@@ -139,7 +139,7 @@ def test_the_worlds_map_is_its_geometry_cut_at_the_lidars_height(goals_run, tmp_
         world.scene_graph,
         height=0.215,
         resolution=res,
-        exclude=[world.topics.robot.model_instance],
+        exclude=[world.robot().robot.model_instance],
     )
     assert np.array_equal(again.data, grid.data)
     loaded = load_map(save_map(grid, tmp_path / "map"))

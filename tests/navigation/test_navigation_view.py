@@ -22,7 +22,7 @@ def drawn():
     simulator = Simulator(world.diagram)
     simulator.AdvanceTo(3.0)  # the first goal planned (after the start delay) and driven to
     view = world.diagram.GetSubsystemByName("navigation_view")
-    navigator = world.diagram.GetSubsystemByName(world.topics.navigation.navigator.get_name())
+    navigator = world.diagram.GetSubsystemByName(world.robot().navigation.navigator.get_name())
     nav = navigator.GetOutputPort("nav_state").Eval(
         navigator.GetMyContextFromRoot(simulator.get_context())
     )
@@ -48,13 +48,13 @@ def test_the_plan_drawn_is_the_navigators(drawn):
 
 def test_the_map_and_the_costmap_are_drawn_cell_by_cell(drawn):
     meshcat, view, world, _ = drawn
-    grid = world.topics.navigation.grid
+    grid = world.robot().navigation.grid
     occupied = np.asarray(grid.data) >= 65
     points = _positions(meshcat, f"{NAV_PATH}/map")
     assert view.map_cells == occupied.sum() == len(points) > 100
     expected = cell_centres(occupied, grid.resolution, grid.origin).T
     assert np.abs(np.sort(points[:, 0]) - np.sort(expected[:, 0])).max() < 1e-5
-    costs = np.asarray(world.topics.navigation.costmap.costs)
+    costs = np.asarray(world.robot().navigation.costmap.costs)
     inflated = ((costs > 0) & (costs < 254)).sum()
     assert view.costmap_cells == inflated == len(_positions(meshcat, f"{NAV_PATH}/costmap"))
 
@@ -108,7 +108,7 @@ def test_the_map_being_built_is_drawn_as_the_mapper_publishes_it():
     scenario = load_scenario("fra2mo_explore", "logging: {console_rate: 0}")
     world = MakeWorld(scenario, meshcat=meshcat, quiet=True)
     view = world.diagram.GetSubsystemByName("navigation_view")
-    mapper = world.topics.navigation.mapper
+    mapper = world.robot().navigation.mapper
     simulator = Simulator(world.diagram)
     counts = []
     for t in (1.5, 4.5):

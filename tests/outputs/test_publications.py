@@ -1,6 +1,7 @@
-"""The publication table: a publisher added to it is recorded in the MCAP file, published
-on DDS and served to Foxglove, with no edit of the recorder or the bridge; its message type
-(sensor_msgs/Imu, which no module of the package speaks) comes from the rosbags type store."""
+"""The publication table: a publisher registered in it as the world is built is recorded
+in the MCAP file, published on DDS and served to Foxglove, with no edit of the recorder or
+the bridge; its message type (sensor_msgs/Imu, which no module of the package speaks)
+comes from the rosbags type store."""
 
 import json
 import os
@@ -23,12 +24,17 @@ from armando_drake.control.stack import (
 )
 from armando_drake.description.loader import load_robot
 from armando_drake.messages.definitions import header, message_definition
-from armando_drake.messages.publications import PUBLISH, SUBSCRIBE, Publications, Topic, published
+from armando_drake.messages.publications import (
+    PUBLISH,
+    SUBSCRIBE,
+    PublicationRegistry,
+    Publications,
+    Topic,
+    published,
+)
 from armando_drake.messages.types import PublicationValue
-from armando_drake.outputs.publications import world_publications
 from armando_drake.outputs.recording import AddRosbagRecorder
-from armando_drake.outputs.topics import WorldTopics
-from armando_drake.ros2.bridge import AddRos2Bridge
+from armando_drake.ros2.bridge import AddRos2Bridge, BridgeRobot
 from armando_drake.ros2.config import Ros2Config
 
 IMU_RATE = 50.0  # [Hz]
@@ -70,9 +76,9 @@ def imu_message(reading) -> dict:
     }
 
 
-def armando_world(builder) -> WorldTopics:
+def armando_world(builder, publications: PublicationRegistry):
     """Armando with its joint state broadcaster and position controller, as MakeWorld
-    adds them."""
+    adds them, their topics registered in ``publications``; its ControlStack."""
     plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=0.001), builder)
     robot = load_robot(plant)
     controllers = ControllersConfig(activate=["joint_state_broadcaster", "position_controller"])
@@ -86,21 +92,33 @@ def armando_world(builder) -> WorldTopics:
         hardware=hardware,
         controller_config=yaml,
         update_rate=yaml.update_rate,
+        publications=publications,
     )
-    return WorldTopics(stack=stack)
+    return stack
 
 
-def with_imu(builder, topics: WorldTopics) -> Publications:
-    """The world's table with the test IMU registered: one record, nothing else."""
+def AddImu(builder, publications: PublicationRegistry) -> ImuSensor:
+    """The test IMU's AddX: adds the sensor and registers its topic, one record, as
+    every AddX of the world registers its own."""
     imu = builder.AddSystem(ImuSensor())
-    row = Topic("imu/data", "sensor_msgs/msg/Imu", port=imu.GetOutputPort("imu"),
-                read=published(imu_message), rate=IMU_RATE, frame_id="imu_link")  # fmt: skip
-    return world_publications(topics) + Publications((row,))
+    publications.add(
+        Topic("imu/data", "sensor_msgs/msg/Imu", port=imu.GetOutputPort("imu"),
+              read=published(imu_message), rate=IMU_RATE, frame_id="imu_link")
+    )  # fmt: skip
+    return imu
+
+
+def with_imu(builder) -> tuple[object, Publications]:
+    """Armando and the test IMU: (its ControlStack, the world's table)."""
+    publications = PublicationRegistry()
+    stack = armando_world(builder, publications)
+    AddImu(builder, publications)
+    return stack, publications.table()
 
 
 def test_the_table_lists_the_world_topics_and_subscriptions():
     builder = DiagramBuilder()
-    table = with_imu(builder, armando_world(builder))
+    _, table = with_imu(builder)
     assert [(t.name, t.type_name, t.direction) for t in table.topics] == [
         ("joint_states", "sensor_msgs/msg/JointState", PUBLISH),
         ("position_controller/commands", "std_msgs/msg/Float64MultiArray", SUBSCRIBE),
@@ -115,10 +133,9 @@ def test_a_publisher_added_to_the_table_is_recorded(tmp_path):
     from rosbags.highlevel import AnyReader  # a test dependency
 
     builder = DiagramBuilder()
-    topics = armando_world(builder)
-    table = with_imu(builder, topics)
-    recorder = AddRosbagRecorder(builder, tmp_path / "run.mcap", topics, table=table)
-    ConnectControlStack(builder, topics.stack, gravity_feedforward=True)
+    stack, table = with_imu(builder)
+    recorder = AddRosbagRecorder(builder, tmp_path / "run.mcap", table)
+    ConnectControlStack(builder, stack, gravity_feedforward=True)
     simulator = Simulator(builder.Build())
     simulator.AdvanceTo(0.5)
     recorder.close()
@@ -144,11 +161,10 @@ def test_a_publisher_added_to_the_table_is_on_dds_and_in_foxglove():
 
     domain_id = random.Random(os.getpid() * 7919 + time.monotonic_ns()).randint(100, 230)
     builder = DiagramBuilder()
-    topics = armando_world(builder)
-    table = with_imu(builder, topics)
+    stack, table = with_imu(builder)
     config = Ros2Config(enabled=True, domain_id=domain_id, foxglove=True, foxglove_port=0)
-    bridge = AddRos2Bridge(builder, config, topics, table=table)
-    ConnectControlStack(builder, topics.stack, gravity_feedforward=True)
+    bridge = AddRos2Bridge(builder, config, table, [BridgeRobot(stack)])
+    ConnectControlStack(builder, stack, gravity_feedforward=True)
     node = DdsNode(domain_id=domain_id)
     received: list[dict] = []
     node.subscribe("/imu/data", "sensor_msgs/msg/Imu", received.append)

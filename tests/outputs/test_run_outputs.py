@@ -152,7 +152,7 @@ def test_replay_plays_offline_with_the_robot_links(run_dir, chromium):
     plant = world.plant
     drawn = {
         plant.get_body(index).name()
-        for index in plant.GetBodyIndices(world.robot.model_instance)
+        for index in plant.GetBodyIndices(world.robot().robot.model_instance)
         if plant.GetVisualGeometriesForBody(plant.get_body(index))
     }
     links = {p.split("/")[4] for p in paths if p.startswith("/drake/illustration/armando/")}
@@ -235,7 +235,7 @@ def test_camera_recording_holds_the_frames_the_camera_took(tmp_path):
         "camera", "logging: {console_rate: 0}\ncamera: {live_view: false, depth: false}"
     )
     world = MakeWorld(scenario, quiet=True, record=tmp_path / "camera.mcap")
-    camera = world.cameras["camera"]
+    camera = world.robot().cameras["camera"]
     assert isinstance(camera, AddedCamera)
     simulator = Simulator(world.diagram)
     simulator.AdvanceTo(0.5)

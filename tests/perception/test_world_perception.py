@@ -66,8 +66,8 @@ def visible_centroid(world, context, obj) -> tuple[np.ndarray, int]:
     """Centroid [m] of the part of ``obj``'s surface the camera sees, and how many of
     the uniform surface samples that is: each sample is projected into the rendered
     depth image and kept where its depth matches (not hidden, in view)."""
-    added = world.perception
-    camera = world.cameras[added.camera]
+    added = world.robot().perception
+    camera = world.robot().cameras[added.camera]
     X_WC = added.camera_pose.Eval(added.camera_pose.get_system().GetMyContextFromRoot(context))
     depth = world.diagram.GetOutputPort(f"{added.camera}.depth_image").Eval(context).data[..., 0]
     intrinsics = camera.sensor.default_depth_render_camera().core().intrinsics()
@@ -165,7 +165,7 @@ def test_world_points_of_a_camera_on_a_moving_link_stay_put(tmp_path):
     plant_context = world.plant.GetMyMutableContextFromRoot(context)
     clouds = []
     for q1 in (0.0, 0.5):
-        world.plant.SetPositions(plant_context, world.robot.model_instance, [q1, 0.0])
+        world.plant.SetPositions(plant_context, world.robot().robot.model_instance, [q1, 0.0])
         in_world = world.diagram.GetOutputPort("hand_camera.points_in_world").Eval(context)
         in_camera = world.diagram.GetOutputPort("hand_camera.points_in_camera").Eval(context)
         keep = np.isfinite(in_world.xyzs()).all(axis=0)

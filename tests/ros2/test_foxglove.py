@@ -94,14 +94,14 @@ def test_websocket_client_receives_decoded_joint_states():
     stamps = []
     for log_time, payload in received:
         message = typestore.deserialize_cdr(payload, "sensor_msgs/msg/JointState")
-        assert list(message.name) == world.hardware.joint_names
+        assert list(message.name) == world.robot().stack.hardware.joint_names
         assert len(message.position) == len(message.velocity) == len(message.name)
         assert np.all(np.isfinite(message.position))
         stamp = message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
         assert stamp == log_time
         stamps.append(stamp)
     # One message per tick of the broadcaster (100 Hz), in order.
-    assert np.allclose(np.diff(stamps), 1e9 / world.update_rate, atol=1e3)
+    assert np.allclose(np.diff(stamps), 1e9 / world.robot().stack.update_rate, atol=1e3)
     # Armando's URDF references no file: every request is refused, even one naming
     # a file inside its package.
     assert [assets[uri][0] for uri in ASSETS] == [1, 1, 1]

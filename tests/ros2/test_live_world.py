@@ -69,7 +69,7 @@ def test_example_node_in_another_process_drives_the_arm():
     # world slower than real time; the rate is per simulated second).
     pattern = r"joint_states: (\d+) messages in ([\d.]+) s .*, ([\d.]+) s of simulation time"
     count, seconds, simulated = re.search(pattern, output).groups()
-    expected = world.update_rate * float(simulated)
+    expected = world.robot().stack.update_rate * float(simulated)
     assert float(simulated) >= 1.0, output  # the window saw the world run
     assert abs(int(count) - expected) <= max(2, 0.05 * expected), output
     # Every seed target reached within 0.01 rad (as the node measured it on /joint_states).
@@ -128,7 +128,7 @@ def test_tf_clock_and_joint_states_equal_the_plant():
     time.sleep(1.0)  # discovery between the two participants of this process
     # [s] the arm on its way from target 1 (sent at 3 s) to target 2 (at 6 s): a tick of the
     # bridge, computed as Drake computes periodic event times.
-    T = 615 * (1.0 / world.update_rate)
+    T = 615 * (1.0 / world.robot().stack.update_rate)
     simulator.AdvanceTo(T)
     context = simulator.get_context()
     stamp_ns = round(T * 1e9)
@@ -162,7 +162,7 @@ def test_tf_clock_and_joint_states_equal_the_plant():
     # /joint_states at T: the plant's positions and velocities.
     (sample,) = [m for m in received["joint_states"] if stamp(m["header"]) == stamp_ns]
     q = world.joint_positions(context)
-    assert sample["name"] == world.hardware.joint_names
+    assert sample["name"] == world.robot().stack.hardware.joint_names
     assert np.abs(np.array(sample["position"]) - q).max() <= 1e-12
     for target in SEED_TARGETS[1:3]:  # mid-motion, resting at neither
         assert np.abs(q - target).max() > 0.1, q
@@ -184,9 +184,9 @@ def test_tf_clock_and_joint_states_equal_the_plant():
         errors[link] = np.abs(X_WL.GetAsMatrix4() - X_WL_plant.GetAsMatrix4()).max()
     assert errors[deepest] <= 1e-9, errors
     assert max(errors.values()) <= 1e-9, errors
-    assert len(tf["transforms"]) == len(world.hardware.joints)
+    assert len(tf["transforms"]) == len(world.robot().stack.hardware.joints)
     # Latched topics reach a subscriber that joins late.
-    assert latched["robot_description"][-1]["data"] == world.robot.urdf
+    assert latched["robot_description"][-1]["data"] == world.robot().robot.urdf
     world.close(context)
     listener.close()
     print(f"tf error of {deepest}: {errors[deepest]:.2e}", file=sys.stderr)
@@ -207,7 +207,7 @@ def test_trajectory_over_dds_is_validated_as_in_process():
     assert world.diagram.GetSubsystemByName("ros2_bridge").commands[0].topic == (
         "trajectory_controller/joint_trajectory"
     )
-    joints = world.controller_joints["trajectory_controller"]
+    joints = world.robot().stack.controller_joints["trajectory_controller"]
     publisher = DdsNode(domain_id=domain_id)
     simulator = Simulator(world.diagram)
     simulator.set_target_realtime_rate(0)
@@ -306,7 +306,7 @@ def test_camera_topics_carry_the_rendered_frames():
 
     domain_id = new_domain_id()
     world = _world("camera", domain_id, "camera: {live_view: false, depth: false}")
-    (name,) = world.cameras
+    (name,) = world.robot().cameras
     received = {"camera/image_raw": [], "camera/camera_info": []}
     listener = DdsNode(domain_id=domain_id)
     listener.subscribe(
@@ -327,7 +327,9 @@ def test_camera_topics_carry_the_rendered_frames():
         time.sleep(0.02)
     context = simulator.get_context()
     rendered = world.diagram.GetOutputPort(f"{name}.color_image").Eval(context)
-    intrinsics = world.cameras[name].sensor.default_color_render_camera().core().intrinsics()
+    intrinsics = (
+        world.robot().cameras[name].sensor.default_color_render_camera().core().intrinsics()
+    )
     world.close(context)
     listener.close()
 

@@ -11,7 +11,7 @@ from armando_drake.simulation.scenario import load_scenario
 
 def project(world, context, p_W):
     """Pixel (u, v) of world point p_W in the camera, by the pinhole model."""
-    camera = world.cameras["camera"]
+    camera = world.robot().cameras["camera"]
     info = camera.info
     plant = world.plant
     X_WL = plant.GetBodyByName(info.link).EvalPoseInWorld(plant.GetMyContextFromRoot(context))

@@ -31,7 +31,7 @@ def test_scenario_builds_and_simulates(path, monkeypatch):
     simulator.AdvanceTo(0.2)
     q = world.joint_positions(simulator.get_context())
     assert np.all(np.isfinite(q))
-    assert len(q) == len(world.hardware.joints) > 0
+    assert len(q) == len(world.robot().stack.hardware.joints) > 0
     world.close()
 
 

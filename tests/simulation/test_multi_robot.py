@@ -111,7 +111,7 @@ def mounted():
     end, the world)."""
     world = MakeWorld(load_scenario("fra2mo_armando", QUIET), quiet=True)
     plant = world.plant
-    arm, base = (world.robot_topics(name).robot for name in ("armando", "fra2mo"))
+    arm, base = (world.robot(name).robot for name in ("armando", "fra2mo"))
     arm_frame = plant.GetFrameByName("base_link", arm.model_instance)
     base_frame = plant.GetFrameByName("base_link", base.model_instance)
     simulator = Simulator(world.diagram)
@@ -133,7 +133,7 @@ def test_the_mounted_arm_reaches_its_targets_while_the_base_drives(mounted):
     """Each of the arm's targets within 0.01 rad at the end of its 1.5 s, while fra2mo
     drives 0.3 m straight and turns."""
     _, _, base_poses, reached, world = mounted
-    targets = world.robot_topics("armando").sequencer.config.targets
+    targets = world.robot("armando").sequencer.config.targets
     assert len(reached) == len(targets) == 3
     for target, q in zip(targets, reached, strict=True):
         assert np.abs(q - np.array(target)).max() <= TOLERANCE, (target, q)

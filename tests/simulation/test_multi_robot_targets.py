@@ -50,7 +50,7 @@ def _two_armandos(tmp_path, extra: str):
 
 def _tool(world, context, name: str) -> np.ndarray:
     """The position [m] of robot ``name``'s crawer_base in the world."""
-    plant = world.topics.plant
+    plant = world.robot().plant
     part = world.robots[name]
     frame = plant.GetFrameByName("crawer_base", part.robot.model_instance)
     plant_context = plant.GetMyContextFromRoot(context)
@@ -90,7 +90,7 @@ def test_a_task_on_the_second_robot_moves_it_along_its_path(task_on_right):
     moved = after["right"][0] - before["right"][0]
     assert np.linalg.norm(moved - OFFSET) < 1e-3, moved
     robots = world.robots
-    assert robots["right"].topics.task is not None and robots["left"].topics.task is None
+    assert robots["right"].task is not None and robots["left"].task is None
 
 
 def test_a_task_on_the_second_robot_leaves_the_first_alone(task_on_right):
@@ -208,10 +208,10 @@ def test_a_camera_on_the_second_robots_link_renders_from_there(tmp_path):
     assert abs(centre - 0.88) < 0.005, centre
     ahead = depth["on_left"][12, 16]  # the ground only in its lower rows
     assert not np.isfinite(ahead) or ahead >= 5.0, ahead
-    plant = world.topics.plant
+    plant = world.robot().plant
     for name, part in (("on_right", world.robots["right"]), ("on_left", world.robots["left"])):
         body = plant.GetBodyByName("base_link", part.robot.model_instance)
-        sensor = world.topics.cameras[name].sensor
+        sensor = world.robot().cameras[name].sensor
         assert sensor.default_parent_frame_id() == plant.GetBodyFrameIdOrThrow(body.index())
     world.close(context)
 
@@ -233,12 +233,12 @@ def test_each_robots_description_camera_is_added(tmp_path):
     for entry in scenario.robots.values():
         entry.robot.xacro_args["use_camera"] = "true"
     world = MakeWorld(scenario, quiet=True)
-    cameras = world.topics.cameras
+    cameras = world.robot().cameras
     assert len(cameras) == 2, list(cameras)
     first, second = cameras.values()
     assert second.info.name == f"right_{first.info.name}"
     assert second.info.topic == f"/right/{(first.info.topic or first.info.name).strip('/')}"
-    plant = world.topics.plant
+    plant = world.robot().plant
     for camera, part in ((first, world.robots["left"]), (second, world.robots["right"])):
         body = plant.GetBodyByName(camera.info.link, part.robot.model_instance)
         assert camera.sensor.default_parent_frame_id() == plant.GetBodyFrameIdOrThrow(body.index())
@@ -269,5 +269,5 @@ def test_the_learned_ik_on_the_second_robot_reaches_its_world_target(tmp_path):
     error = np.linalg.norm(_tool(world, context, "right") - RIGHT_TARGET[:3])
     assert error < 1e-3, error
     assert np.abs(world.joint_positions(context, "left")).max() < 1e-3
-    assert world.robots["right"].topics.learned_ik is not None
+    assert world.robots["right"].learned_ik is not None
     world.close(context)

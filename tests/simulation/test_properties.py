@@ -568,8 +568,8 @@ def test_messages_into_running_controllers_are_taken_or_dropped(running_world, m
         assert status.accepted + status.rejected == before.accepted + before.rejected + 1
         q = world.joint_positions(context)
         assert np.all(np.isfinite(q)), q
-        lower = np.array([j.lower for j in world.hardware.joints])
-        upper = np.array([j.upper for j in world.hardware.joints])
+        lower = np.array([j.lower for j in world.robot().stack.hardware.joints])
+        upper = np.array([j.upper for j in world.robot().stack.hardware.joints])
         assert np.all(q >= lower - 0.05) and np.all(q <= upper + 0.05), q
         if controller == "position_controller" and status.accepted > before.accepted:
             desired = world.diagram.GetOutputPort("desired_state").Eval(context)[: len(q)]

@@ -22,17 +22,18 @@ from armando_drake.control.stack import (
     ExportFreeControllerPorts,
     LoadControllerConfig,
 )
+from armando_drake.control.topics import RegisterSentCommands
 from armando_drake.description.loader import load_robot
 from armando_drake.kinematics.motion import TaskSpaceMotion
+from armando_drake.messages.publications import PublicationRegistry
 from armando_drake.messages.types import Float64MultiArray, Publication
 from armando_drake.outputs.config import LoggingConfig
 from armando_drake.outputs.logger import AddJointStateLogger, read_joint_states
 from armando_drake.outputs.recording import AddRosbagRecorder
 from armando_drake.outputs.replay import AddVisualization
-from armando_drake.outputs.topics import WorldTopics
 from armando_drake.perception.config import PerceptionConfig
 from armando_drake.perception.systems import AddPerception
-from armando_drake.ros2.bridge import AddRos2Bridge
+from armando_drake.ros2.bridge import AddRos2Bridge, BridgeRobot
 from armando_drake.ros2.config import Ros2Config
 from armando_drake.sensors.cameras import AddCameras
 from armando_drake.sensors.config import CameraSettings
@@ -48,9 +49,12 @@ POSITION = ["joint_state_broadcaster", "position_controller"]
 TARGET = [0.6, -0.4, 0.5, 0.3]  # [rad] Armando's j0..j3, inside their limits
 
 
-def armando(builder, activate=POSITION, *, sequencer=None, ground=True, start=None):
+def armando(
+    builder, activate=POSITION, *, sequencer=None, ground=True, start=None, publications=None
+):
     """Armando's plant, hardware interface and controller manager, as MakeWorld adds them
-    (the description's own controller YAML); (plant, scene_graph, stack)."""
+    (the description's own controller YAML; its topics registered in ``publications``);
+    (plant, scene_graph, stack)."""
     config = MultibodyPlantConfig(time_step=0.001, discrete_contact_approximation="lagged")
     plant, scene_graph = AddMultibodyPlant(config, builder)
     robot = load_robot(plant)
@@ -71,6 +75,7 @@ def armando(builder, activate=POSITION, *, sequencer=None, ground=True, start=No
         controller_config=yaml,
         update_rate=yaml.update_rate,
         sequencer=sequencer,
+        publications=publications,
     )
     return plant, scene_graph, stack
 
@@ -252,13 +257,16 @@ def test_the_visualization_alone_samples_the_state_for_the_replay():
     assert states.shape == (len(times), plant.num_multibody_states())
 
 
-def test_the_topics_handle_reads_the_stack():
+def test_the_stack_registers_its_joint_states_and_command_inputs():
     builder = DiagramBuilder()
-    _, _, stack = armando(builder)
-    topics = WorldTopics(stack=stack)
-    assert topics.plant is stack.plant and topics.robot is stack.robot
-    assert topics.update_rate == stack.update_rate == 100
-    assert topics.broadcaster is stack.manager
+    publications = PublicationRegistry()
+    _, _, stack = armando(builder, publications=publications)
+    assert stack.update_rate == 100 and stack.broadcaster is stack.manager
+    table = publications.table()
+    (joint_states,) = table.published(recorded=True)
+    assert joint_states.name == "joint_states" and joint_states.rate == stack.update_rate
+    assert joint_states.port is stack.manager.GetOutputPort("joint_states")
+    assert [t.key for t in table.subscribed()] == ["position_controller.commands"]
 
 
 def _armando_with_camera(builder):
@@ -332,11 +340,12 @@ def read_bag(path: Path) -> dict[str, list]:
 def test_the_recorder_alone_writes_the_joint_states_and_the_commands(tmp_path):
     builder = DiagramBuilder()
     config = PositionTargets(targets=[TARGET], period=1.0)
-    _, _, stack = armando(builder, sequencer=config)
-    topics = WorldTopics(stack=stack)
-    topics.sequencer, topics.sequencer_target = AddSequencer(builder, config, stack)
+    publications = PublicationRegistry()
+    _, _, stack = armando(builder, sequencer=config, publications=publications)
+    sequencer, target = AddSequencer(builder, config, stack)
+    RegisterSentCommands(publications, stack, sequencer=sequencer, target=target)
     ConnectControlStack(builder, stack, gravity_feedforward=True)
-    recorder = AddRosbagRecorder(builder, tmp_path / "run.mcap", topics)
+    recorder = AddRosbagRecorder(builder, tmp_path / "run.mcap", publications.table())
     simulator = Simulator(builder.Build())
     simulator.AdvanceTo(0.5)
     recorder.close()
@@ -349,10 +358,11 @@ def test_the_recorder_alone_writes_the_joint_states_and_the_commands(tmp_path):
 def test_the_bridge_alone_subscribes_the_free_command_inputs():
     pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds)")
     builder = DiagramBuilder()
-    _, _, stack = armando(builder)
-    topics = WorldTopics(stack=stack)
-    assert AddRos2Bridge(builder, Ros2Config(), topics) is None  # off: nothing added
-    bridge = AddRos2Bridge(builder, Ros2Config(enabled=True, domain_id=71), topics)
+    publications = PublicationRegistry()
+    _, _, stack = armando(builder, publications=publications)
+    table, robots = publications.table(), [BridgeRobot(stack)]
+    assert AddRos2Bridge(builder, Ros2Config(), table, robots) is None  # off: nothing added
+    bridge = AddRos2Bridge(builder, Ros2Config(enabled=True, domain_id=71), table, robots)
     try:
         assert [c.port for c in bridge.commands] == ["position_controller.commands"]
         assert builder.IsConnectedOrExported(stack.command_input("position_controller"))

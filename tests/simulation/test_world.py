@@ -109,7 +109,7 @@ BAD_COMMANDS = [
 
 def test_the_sinusoid_drives_its_position_controller_as_a_stream():
     world, simulator = world_of("sinusoid")
-    assert world.stream_controller == "position_controller"
+    assert world.robot().stack.stream_controller == "position_controller"
     context = simulator.get_mutable_context()
     simulator.AdvanceTo(1.0)
     status = world.status(context, "position_controller")

@@ -22,7 +22,7 @@ class JogWorld:
 
     @property
     def jog(self):
-        return self.world.jog
+        return self.world.robot().jog
 
     def q(self) -> np.ndarray:
         """[rad] the measured joint positions, hardware order."""

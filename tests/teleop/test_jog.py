@@ -166,7 +166,7 @@ def test_gamepad_command_past_a_limit_is_clamped_with_a_note_in_the_viewer():
         run.advance(0.1)
         pad.set(axes=(-1.0, 0.0, 0.0, 0.0), pressed=[DEADMAN])  # j0 towards +2.57
         run.advance(1.0)
-        upper = run.world.hardware.joints[0].upper
+        upper = run.world.robot().stack.hardware.joints[0].upper
         assert run.jog.command(run.context)[0] == pytest.approx(upper)
         (note,) = run.notes()
         assert note == f"note: gamepad: j0 clamped to its upper limit {upper:.3f}"
@@ -205,7 +205,9 @@ def test_a_cartesian_jog_stopped_by_a_joint_limit_names_the_joint():
         pad.set(axes=(0.0, 0.0, 1.0, 0.0), pressed=[DEADMAN])  # turn about the gripper's x
         run.advance(1.0)
         assert run.notes() == ["note: gamepad: end effector stopped, j3 at its limit"]
-        assert run.jog.command(run.context)[3] == pytest.approx(run.world.hardware.joints[3].upper)
+        assert run.jog.command(run.context)[3] == pytest.approx(
+            run.world.robot().stack.hardware.joints[3].upper
+        )
     finally:
         run.close()
 

@@ -112,7 +112,7 @@ def test_a_gamepad_in_the_page_moves_the_joint_and_a_clamp_shows_a_note(chromium
             note = page.locator("li.cr.function", has_text="note: gamepad: j0 clamped")
             note.wait_for(state="visible", timeout=5000)
             text = note.inner_text()
-        upper = run.world.hardware.joints[0].upper
+        upper = run.world.robot().stack.hardware.joints[0].upper
         assert abs(run.q()[0] - upper) < 0.01
         assert f"clamped to its upper limit {upper:.3f}" in text
     finally:

@@ -52,8 +52,10 @@ class TeleopWorld:
 
     def published(self):
         """(count, linear.x, angular.z) of the cmd_vel publication."""
-        publication = self.world.twist.GetOutputPort("cmd_vel").Eval(
-            self.world.twist.GetMyContextFromRoot(self.context)
+        publication = (
+            self.world.robot()
+            .twist.GetOutputPort("cmd_vel")
+            .Eval(self.world.robot().twist.GetMyContextFromRoot(self.context))
         )
         if publication.count == 0:
             return 0, None, None
@@ -61,7 +63,7 @@ class TeleopWorld:
         return publication.count, twist.linear[0], twist.angular[2]
 
     def base(self, name: str) -> np.ndarray:
-        return self.world.base_log.array()[:, COLUMNS.index(name)]
+        return self.world.robot().base_log.array()[:, COLUMNS.index(name)]
 
     def close(self) -> None:
         self.world.close(self.context)
@@ -75,7 +77,7 @@ def teleop():
 
 
 def test_the_keys_publish_teleop_twist_keyboards_twists(teleop):
-    assert len(teleop.world.twist.buttons) == 15
+    assert len(teleop.world.robot().twist.buttons) == 15
     teleop.advance(0.25)
     assert teleop.published() == (0, None, None)  # nothing before the first key
     teleop.press("i")
@@ -86,7 +88,7 @@ def test_the_keys_publish_teleop_twist_keyboards_twists(teleop):
     teleop.advance(0.1)
     _, linear, angular = teleop.published()
     assert linear == pytest.approx(0.55, abs=1e-12) and angular == 0.0
-    assert teleop.world.twist.speeds(teleop.context) == pytest.approx((0.55, 1.1))
+    assert teleop.world.robot().twist.speeds(teleop.context) == pytest.approx((0.55, 1.1))
     teleop.press(".")  # back left: backing up as a car turns (teleop_twist_keyboard's)
     teleop.advance(0.1)
     assert teleop.published()[1:] == pytest.approx((-0.55, 1.1))
@@ -97,7 +99,7 @@ def test_the_keys_publish_teleop_twist_keyboards_twists(teleop):
     teleop.press("k")
     teleop.advance(0.1)
     assert teleop.published()[1:] == (0.0, 0.0)
-    assert teleop.world.twist.speeds(teleop.context) == pytest.approx((0.495, 1.1))
+    assert teleop.world.robot().twist.speeds(teleop.context) == pytest.approx((0.495, 1.1))
 
 
 def test_the_base_drives_forward_after_i_and_stops_after_k(teleop):
@@ -145,7 +147,7 @@ def test_a_drive_that_a_twist_sequence_drives_is_refused():
 def test_without_a_meshcat_there_is_no_twist_jog():
     scenario = merge_overrides(load_scenario("fra2mo_teleop"), ["logging: {console_rate: 0}"])
     world = MakeWorld(scenario, quiet=True)
-    assert world.twist is None
+    assert world.robot().twist is None
 
 
 class Pad:
@@ -158,7 +160,7 @@ class Pad:
 
 
 def test_a_gamepad_drives_as_teleop_twist_joy_while_its_enable_button_is_held(teleop):
-    jog = teleop.world.twist
+    jog = teleop.world.robot().twist
     jog.gamepad_source = lambda: Pad(enable=False, forward=1.0)
     teleop.advance(0.3)
     assert teleop.published()[0] == 0  # the stick without the enable button: nothing

@@ -33,16 +33,16 @@ def test_armando_looks_at_the_disc_within_0_05_rad(disc, pan):
         context = simulator.get_context()
         p_WD = true_disc_position(scenario)
         plant_context = world.plant.GetMyContextFromRoot(context)
-        q0 = world.plant.GetPositions(plant_context, world.robot.model_instance).copy()
-        start = pointing_error(world, context, "wrist_camera", p_WD)
+        q0 = world.plant.GetPositions(plant_context, world.robot().robot.model_instance).copy()
+        start = pointing_error(world.robot(), context, "wrist_camera", p_WD)
         assert start >= 0.25, start  # [rad] the disc well off the optical axis
         simulator.AdvanceTo(3.0)
-        final = pointing_error(world, context, "wrist_camera", p_WD)
+        final = pointing_error(world.robot(), context, "wrist_camera", p_WD)
         assert final < 0.05, (start, final)
-        q = world.plant.GetPositions(plant_context, world.robot.model_instance)
+        q = world.plant.GetPositions(plant_context, world.robot().robot.model_instance)
         # It panned (j0) towards the disc's side; the detector found the disc on every frame.
         assert pan * (q[0] - q0[0]) > 0.2, q - q0
-        blob = world.detectors.blob
+        blob = world.robot().detectors.blob
         assert blob.detections == blob.frames >= 90
         assert world.status(context, "improved_look_at_point_controller").state == "executing"
         published = world.diagram.GetOutputPort("wrist_camera.cam_T_target").Eval(context)

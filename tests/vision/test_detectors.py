@@ -28,7 +28,7 @@ def _world(name: str, override: str, until: float = 0.05):
 
 def X_WC(world, context, camera: str) -> RigidTransform:
     """The camera's true pose in the world."""
-    info = world.cameras[camera].info
+    info = world.robot().cameras[camera].info
     plant = world.plant
     X_WL = plant.GetBodyByName(info.link).EvalPoseInWorld(plant.GetMyContextFromRoot(context))
     return X_WL @ info.X_LC()
@@ -37,7 +37,7 @@ def X_WC(world, context, camera: str) -> RigidTransform:
 def project(world, context, camera: str, p_W) -> np.ndarray:
     """Pixel (u, v) of a world point, with the camera's true pose and Drake's intrinsics."""
     p_C = X_WC(world, context, camera).inverse() @ np.asarray(p_W, dtype=float)
-    uvw = intrinsic_matrix(world.cameras[camera]) @ p_C
+    uvw = intrinsic_matrix(world.robot().cameras[camera]) @ p_C
     return uvw[:2] / uvw[2]
 
 
@@ -69,12 +69,12 @@ def test_blob_centres_are_the_projected_disc_centres(objects, discs):
         assert distance <= 2.0, (expected, found)
     diameters = [k.diameter for k in detection.keypoints]
     # The disc's 0.3 m at the camera's 1.18 m: about 0.3 * f / 1.18 px.
-    f = intrinsic_matrix(world.cameras["top_camera"])[0, 0]
+    f = intrinsic_matrix(world.robot().cameras["top_camera"])[0, 0]
     assert np.allclose(diameters, 0.3 * f / 1.18, rtol=0.05), diameters
     annotated = world.diagram.GetOutputPort("top_camera.annotated_image").Eval(context).data
     raw = world.diagram.GetOutputPort("top_camera.color_image").Eval(context).data
     assert np.any(annotated[..., :3] != raw[..., :3])  # the keypoints are drawn
-    assert world.detectors.blob.frames == 2 and world.detectors.blob.detections == 2
+    assert world.robot().detectors.blob.frames == 2 and world.robot().detectors.blob.detections == 2
     world.close()
 
 
@@ -126,7 +126,9 @@ def test_marker_out_of_view_or_too_far_publishes_nothing(x, y, side, height):
     scenario, world, context = _marker_world(x, y, side=side, height=height)
     assert world.diagram.GetOutputPort("top_camera.cam_T_marker").Eval(context).count == 0
     assert world.diagram.GetOutputPort("top_camera.marker_in_world").Eval(context).count == 0
-    assert world.detectors.aruco.frames == 2 and world.detectors.aruco.detections == 0
+    assert (
+        world.robot().detectors.aruco.frames == 2 and world.robot().detectors.aruco.detections == 0
+    )
     world.close()
 
 

@@ -41,9 +41,9 @@ def test_camera_tracks_its_linear_path_within_2_mm_while_pointing_within_0_05_ra
         simulator = Simulator(world.diagram)
         context = simulator.get_context()
         p_WM = true_marker_position(scenario)
-        start = pointing_error(world, context, "flange_camera", p_WM)
+        start = pointing_error(world.robot(), context, "flange_camera", p_WM)
         assert start >= 0.2, start  # [rad] the marker well off the optical axis at first
-        params = world.controller_config.controllers[controller].params
+        params = world.robot().stack.config.controllers[controller].params
         time_law = make_time_law(
             TaskSpaceMotion(
                 offset=params.offset,
@@ -59,9 +59,9 @@ def test_camera_tracks_its_linear_path_within_2_mm_while_pointing_within_0_05_ra
             path = LinearPath(start=detail["path_start"], goal=detail["path_goal"])
             s = time_law(np.array([min(t - detail["path_start_time"], time_law.duration)]))
             p_d = path(s.s, s.s_dot, s.s_ddot).position[0]
-            p_C = camera_pose(world, context, "flange_camera").translation()
+            p_C = camera_pose(world.robot(), context, "flange_camera").translation()
             path_errors.append(np.linalg.norm(p_C - p_d))
-            pointing.append((t, pointing_error(world, context, "flange_camera", p_WM)))
+            pointing.append((t, pointing_error(world.robot(), context, "flange_camera", p_WM)))
         pointing = np.array(pointing)
         # The path starts where the camera was when the marker was first seen (1 ms).
         assert detail["path_start_time"] <= 0.002
@@ -69,7 +69,9 @@ def test_camera_tracks_its_linear_path_within_2_mm_while_pointing_within_0_05_ra
         assert max(path_errors) <= 0.002, max(path_errors)
         # Pointing within 0.05 rad once the first 0.5 s have turned the camera, to the end.
         assert pointing[pointing[:, 0] >= 0.5, 1].max() <= 0.05, pointing[pointing[:, 0] >= 0.5]
-        assert world.detectors.aruco.detections == world.detectors.aruco.frames == 90
+        assert (
+            world.robot().detectors.aruco.detections == world.robot().detectors.aruco.frames == 90
+        )
         # The controller's own figure (every tick) is at least what 10 ms samples saw.
         assert max(path_errors) - 1e-9 <= detail["max_path_error"] <= 0.002
         assert world.status(context, controller).state == "executing"

@@ -65,12 +65,12 @@ def test_iiwa_looks_at_the_marker_within_5_seconds(monkeypatch, controller, mark
     simulator = Simulator(world.diagram)
     context = simulator.get_context()
     p_WM = true_marker_position(scenario)
-    start = pointing_error(world, context, "flange_camera", p_WM)
+    start = pointing_error(world.robot(), context, "flange_camera", p_WM)
     assert start >= off, start  # [rad] at the start
     simulator.AdvanceTo(5.0)
-    final = pointing_error(world, context, "flange_camera", p_WM)
+    final = pointing_error(world.robot(), context, "flange_camera", p_WM)
     assert final < 0.02, (start, final)
-    assert world.detectors.aruco.detections >= 140  # found in (nearly) every frame
+    assert world.robot().detectors.aruco.detections >= 140  # found in (nearly) every frame
     assert world.status(context, controller).state == "executing"
     world.close()
 

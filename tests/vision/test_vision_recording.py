@@ -33,7 +33,7 @@ def test_recording_holds_the_annotated_image_the_poses_and_the_intrinsics(tmp_pa
     simulator.AdvanceTo(0.11)  # frames at 0, 1/30, 2/30 and 3/30 s
     context = simulator.get_context()
     latest = world.diagram.GetOutputPort("top_camera.cam_T_marker").Eval(context).message
-    K = intrinsic_matrix(world.cameras["top_camera"])
+    K = intrinsic_matrix(world.robot().cameras["top_camera"])
     world.close()
     topics = {}
     with AnyReader([path]) as reader:
