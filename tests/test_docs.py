@@ -191,3 +191,50 @@ def test_navigation_parameters_page_lists_the_course_keys(fra2mo_package):
     assert missing == [] and len(expected) > 80
     assert "| `desired_linear_vel` | honoured |" in page
     assert "| `min_particles` | warned: not applied | KLD sampling" in page
+
+
+def _hooks():
+    sys.path.insert(0, str(REPO / "docs"))
+    try:
+        return importlib.import_module("hooks")
+    finally:
+        sys.path.remove(str(REPO / "docs"))
+
+
+def test_navigation_pages_agree_with_the_implemented_plugins():
+    """The generated Navigation parameters page and docs/navigation.md say the same of the
+    Nav2 plugins as the registries: every implemented planner, controller and costmap layer
+    has its table, with nothing of it warned as not applied wholesale; every substitution is
+    on both pages; every Nav2 plugin name navigation.md gives is one the reference knows; and
+    every implemented layer is described in navigation.md."""
+    from armando_drake.navigation.registry import CONTROLLERS, LAYERS, PLANNERS
+
+    page = _hooks().navigation_parameters_page()
+    guide = (DOCS / "navigation.md").read_text(encoding="utf-8")
+    titles = re.findall(r"^## (.+)$", page, re.M)
+    for registry in (LAYERS, PLANNERS, CONTROLLERS):
+        for plugin in registry.implemented():
+            assert [t for t in titles if f"({plugin.name})" in t], (registry.kind, plugin.name)
+        names = [p.name for p in registry.substituted()]
+        for plugin in registry.substituted():
+            assert plugin.name in page, (registry.kind, plugin.name)
+            # The guide's table may shorten a family: `nav2_smac_planner::SmacPlanner2D`,
+            # `...Hybrid`.
+            cls = plugin.name.split("::")[-1]
+            family = [
+                n.split("::")[-1] for n in names if n.split("::")[0] == plugin.name.split("::")[0]
+            ]
+            tail = cls[len(os.path.commonprefix(family)) :] if len(family) > 1 else cls
+            assert plugin.name in guide or f"`...{tail}`" in guide, plugin.name
+    for plugin in LAYERS.implemented():
+        title = plugin.cls.title  # obstacle_layer
+        section = page.split(f"## {title} ({plugin.name})")[1].split("\n## ")[0]
+        assert "| honoured |" in section, title
+        assert title.replace("_", " ") in guide, f"docs/navigation.md never describes the {title}"
+        # The costmap's own table does not call the layer unapplied.
+        assert not re.search(rf"^\| `{title}` \| warned", page, re.M), title
+    known = {p.name for r in (LAYERS, PLANNERS, CONTROLLERS) for p in r.implemented()}
+    known |= {p.name for r in (LAYERS, PLANNERS, CONTROLLERS) for p in r.substituted()}
+    mentioned = set(re.findall(r"`((?:nav2_\w+|dwb_core)::\w+)`", guide))
+    assert mentioned and [m for m in mentioned if m not in known and m not in page] == []
+    assert "nav2_costmap_2d::ObstacleLayer" in mentioned & known
