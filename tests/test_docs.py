@@ -123,6 +123,8 @@ NOT_RUN = {
     "(tests/learn/ run it on DDS)",
     "my_robot_description": "~/ws/src/my_robot_description stands for the reader's package",
     "path/to/rl_fra2mo_description": "path/to/ stands for where the reader keeps the package",
+    "leonardo_race_field.sdf": "its package is found from the ROS_PACKAGE_PATH the block's "
+    "export line sets (a world_file's package:// does not take --package-path)",
 }
 # [s] of simulated time appended to the runs of a world (the last --duration wins) and to
 # every variant of a sweep.
@@ -193,7 +195,7 @@ def _run(module: str, argv: list[str], cwd: Path, where: str) -> str:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(REPO), *filter(None, [env.get("PYTHONPATH")])])
     command = [sys.executable, "-m", f"armando_drake.{module}", *argv]
-    if module == "world" or (module == "sweep" and "--resume" not in argv):
+    if module in ("world", "sweep"):
         command += ["--duration", SHORT]
     if module == "display" and "--loop-once" not in argv:
         process = subprocess.Popen(

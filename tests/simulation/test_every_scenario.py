@@ -123,22 +123,22 @@ WAYS = {
 }
 
 
+@pytest.mark.parametrize("way", WAYS)
 @pytest.mark.parametrize("path", SCENARIOS, ids=[p.stem for p in SCENARIOS])
-def test_scenario_runs_three_ways_from_the_command_line(path, tmp_path):
-    for way, options in WAYS.items():
-        out = tmp_path / way
-        argv = [o.replace("{out}", str(out)) for o in options]
-        result = subprocess.run(
-            [sys.executable, "-m", "armando_drake.world", "--scenario", path.stem]
-            + ["--duration", "0.5", *argv],
-            cwd=REPO,
-            stdin=subprocess.DEVNULL,
-            capture_output=True,
-            text=True,
-            timeout=300,
-        )
-        assert result.returncode == 0, f"{path.stem} ({way}):\n{result.stdout}{result.stderr}"
-        assert "0.50 s simulated" in result.stdout, f"{path.stem} ({way}):\n{result.stdout}"
-        if way == "output":
-            assert (out / "summary.json").is_file() and (out / "replay.html").is_file(), way
-            assert json.loads((out / "summary.json").read_text()), way
+def test_scenario_runs_three_ways_from_the_command_line(path, way, tmp_path):
+    out = tmp_path / "out"
+    argv = [o.replace("{out}", str(out)) for o in WAYS[way]]
+    result = subprocess.run(
+        [sys.executable, "-m", "armando_drake.world", "--scenario", path.stem]
+        + ["--duration", "0.5", *argv],
+        cwd=REPO,
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 0, f"{path.stem} ({way}):\n{result.stdout}{result.stderr}"
+    assert "0.50 s simulated" in result.stdout, f"{path.stem} ({way}):\n{result.stdout}"
+    if way == "output":
+        assert (out / "summary.json").is_file() and (out / "replay.html").is_file()
+        assert json.loads((out / "summary.json").read_text())
