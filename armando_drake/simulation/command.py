@@ -103,7 +103,10 @@ def world_parser(doc: str) -> argparse.ArgumentParser:
         "--realtime-rate",
         type=float,
         metavar="R",
-        help="target simulated/wall time ratio; 0 = as fast as possible (default: 1)",
+        help="target simulated/wall time ratio; 0 = as fast as possible (default: the "
+        "scenario's simulator_config.target_realtime_rate: 1, except the navigation "
+        "scenarios fra2mo_goals, fra2mo_obstacles, fra2mo_explore, fra2mo_amcl and "
+        "fra2mo_aruco, which run unpaced (0); 1 with --ros2 or --foxglove)",
     )
     parser.add_argument("--no-meshcat", action="store_true", help="run without the viewer")
     add_viewer_arguments(parser)

@@ -1,6 +1,7 @@
 """Every scenario in diagrams/ and every model in models/ loads and simulates briefly, and
 every scenario runs from a clone with nothing beside it (no ../shared)."""
 
+import json
 import os
 import shutil
 import subprocess
@@ -109,3 +110,35 @@ def test_every_scenario_runs_from_a_clone_without_shared(tmp_path):
     assert result.returncode == 0, result.stdout + result.stderr
     ran = [line.split()[1] for line in result.stdout.splitlines() if line.startswith("ran ")]
     assert ran == [p.stem for p in SCENARIOS]
+
+
+# The three ways a scenario is run from the command line: the live viewer (started at once,
+# exiting at the end), without a viewer but with the outputs (whose replay.html has its own
+# Meshcat), and without either. Each for half a simulated second: past initialisation and
+# the first publish of every system.
+WAYS = {
+    "meshcat": ["--no-wait", "--exit-when-done"],
+    "output": ["--no-meshcat", "--output", "{out}"],
+    "plain": ["--no-meshcat"],
+}
+
+
+@pytest.mark.parametrize("way", WAYS)
+@pytest.mark.parametrize("path", SCENARIOS, ids=[p.stem for p in SCENARIOS])
+def test_scenario_runs_three_ways_from_the_command_line(path, way, tmp_path):
+    out = tmp_path / "out"
+    argv = [o.replace("{out}", str(out)) for o in WAYS[way]]
+    result = subprocess.run(
+        [sys.executable, "-m", "armando_drake.world", "--scenario", path.stem]
+        + ["--duration", "0.5", *argv],
+        cwd=REPO,
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 0, f"{path.stem} ({way}):\n{result.stdout}{result.stderr}"
+    assert "0.50 s simulated" in result.stdout, f"{path.stem} ({way}):\n{result.stdout}"
+    if way == "output":
+        assert (out / "summary.json").is_file() and (out / "replay.html").is_file()
+        assert json.loads((out / "summary.json").read_text())
