@@ -176,13 +176,13 @@ def _add_drivers(builder, scenario, stacks, commands_dir, meshcat, publications,
     ``commands.csv`` of ``commands_dir`` (None: none), the commands they send
     registered; by robot name."""
     drivers = {}
-    for index, (name, stack) in enumerate(stacks.items()):
+    for name, stack in stacks.items():
         folder = output_folder(commands_dir, stack.body.spec.folder)
         csv = folder / "commands.csv" if folder else None
         added = AddRobotDrivers(builder, stack, csv, closers)
         with robot_scope(builder, stack.body.spec.folder):
             drivers[name] = _add_robot_drivers(builder, scenario, stack, added, meshcat, closers)
-        RegisterDriverCommands(publications, stack, drivers[name], first=index == 0)
+        RegisterDriverCommands(publications, stack, drivers[name])
     return drivers
 
 

@@ -419,17 +419,17 @@ def ConnectRobots(
 
 
 def RegisterDriverCommands(
-    publications: PublicationRegistry, robot: RobotStack, drivers: RobotDrivers, *, first: bool
+    publications: PublicationRegistry, robot: RobotStack, drivers: RobotDrivers
 ) -> None:
-    """The commands the sequencer (or, on the ``first`` robot, the live jog or the task)
-    sends, registered on the topic of the controller it drives."""
+    """The commands the robot's sequencer, live jog or task sends, registered on the topic
+    of the controller it drives (a jog or task is on the robot it names only)."""
     RegisterSentCommands(
         publications,
         robot.stack,
         sequencer=drivers.sequencer,
         target=drivers.sequencer_target,
-        jog=drivers.jog if first else None,
-        task=drivers.task if first else None,
+        jog=drivers.jog,
+        task=drivers.task,
     )
 
 

@@ -93,6 +93,21 @@ def test_a_task_on_the_second_robot_moves_it_along_its_path(task_on_right):
     assert robots["right"].task is not None and robots["left"].task is None
 
 
+def test_a_task_on_the_second_robot_has_its_commands_in_the_table(task_on_right):
+    """The trajectory the right arm's task sends is a row of the world's publication table,
+    under the right robot's namespace (recorded, not published live), as any robot's."""
+    world, _, _ = task_on_right
+    task = world.robots["right"].task
+    rows = [
+        t
+        for t in world.publications.topics
+        if t.topic.endswith(task.topic) and t.direction == "publish"
+    ]
+    assert [(t.namespace, t.topic, t.recorded, t.live) for t in rows] == [
+        ("right", f"{task.controller}/{task.topic}", True, False)
+    ], rows
+
+
 def test_a_task_on_the_second_robot_leaves_the_first_alone(task_on_right):
     """The left arm holds its zero start (no task start positions) within 1 mrad."""
     _, before, after = task_on_right
