@@ -42,6 +42,7 @@ TYPE_STRING = re.compile(
 BUILDER_MAX_LINES = 350
 LONG_FUNCTION = 80
 MAX_LONG_FUNCTIONS = 5
+LONG_CLASS = 400
 
 
 def module_name(path: Path) -> str:
@@ -168,6 +169,19 @@ def long_functions() -> list[str]:
     return found
 
 
+def long_classes(paths: dict[str, Path] | None = None) -> list[str]:
+    """The classes over :data:`LONG_CLASS` lines (definition to last line), of the package's
+    modules or of ``paths`` (module name: file)."""
+    found = []
+    for module, path in (paths or modules()).items():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ClassDef):
+                length = node.end_lineno - node.lineno + 1
+                if length > LONG_CLASS:
+                    found.append(f"{module}.{node.name}: {length} lines")
+    return found
+
+
 def type_strings_outside_registry() -> list[str]:
     registry = PACKAGE / "control" / "controllers"
     found = []
@@ -204,6 +218,10 @@ def test_few_long_functions():
     assert len(long_functions()) <= MAX_LONG_FUNCTIONS, long_functions()
 
 
+def test_no_class_over_400_lines():
+    assert long_classes() == []
+
+
 def test_controller_type_strings_only_in_the_registry():
     assert type_strings_outside_registry() == []
 
@@ -215,6 +233,11 @@ def test_the_measures_see_what_they_measure(tmp_path):
     assert not TYPE_STRING.search("/position_controller/commands")
     assert layer_of("armando_drake.control.manager") < layer_of("armando_drake.simulation.builder")
     assert layer_of("armando_drake.world") == ENTRY_LAYER
+    long = tmp_path / "long.py"
+    long.write_text("class Long:\n" + "    x = 1\n" * LONG_CLASS)
+    short = tmp_path / "short.py"
+    short.write_text("class Short:\n" + "    x = 1\n" * (LONG_CLASS - 1))
+    assert long_classes({"long": long, "short": short}) == [f"long.Long: {LONG_CLASS + 1} lines"]
 
 
 def packages() -> set[str]:
@@ -234,6 +257,7 @@ if __name__ == "__main__":
         "upward imports": upward_imports(),
         "function-level imports of armando_drake modules": function_level_imports(),
         "functions longer than 80 lines": long_functions(),
+        "classes longer than 400 lines": long_classes(),
         "controller type strings outside control/controllers/": type_strings_outside_registry(),
     }
     for name, items in figures.items():

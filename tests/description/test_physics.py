@@ -14,7 +14,7 @@ from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
 from pydrake.systems.framework import DiagramBuilder
 
 from armando_drake.control.gains import SAG_ROTATION
-from armando_drake.description.importer import DEFAULT_MASS
+from armando_drake.description.inertia_repairs import DEFAULT_MASS
 from armando_drake.description.loader import load_robot
 from armando_drake.sensors.objects import AddGround
 from armando_drake.simulation.run import run
