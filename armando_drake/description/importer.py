@@ -141,10 +141,6 @@ def _box_corners(half: np.ndarray) -> np.ndarray:
     return signs * half
 
 
-def _format(values) -> str:
-    return ", ".join(f"{v:.4g}" for v in values)
-
-
 # --------------------------------------------------------------------------
 # Preparation
 # --------------------------------------------------------------------------
