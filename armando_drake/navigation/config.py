@@ -77,6 +77,9 @@ class NavigationConfig:
     slam_params_file: str = ""
     # explore_lite's parameter file (explore: true).
     explore_params_file: str = ""
+    # In a world of several robots (robots:), the name of the one it acts on; "" = the
+    # first listed.
+    robot: str = ""
 
     def check(self) -> None:
         """Named goals, each once; an order of known names; a parameter file."""

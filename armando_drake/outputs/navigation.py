@@ -29,19 +29,20 @@ MAP_NAME = "map"  # map.yaml + map.pgm
 
 def navigation_summary(world, context) -> dict[str, Any] | None:
     """summary.json's ``navigation`` section of a world with a navigation (None without)."""
-    navigation = world.robot().navigation
+    robot = world.robot_with("navigation")
+    navigation = robot.navigation
     if navigation is None:
         return None
     navigator = navigation.navigator
     summary = navigator.summary(navigator.GetMyContextFromRoot(context))
-    base = world.robot().base_log.summary() if world.robot().base_log is not None else None
+    base = robot.base_log.summary() if robot.base_log is not None else None
     contacts = (base or {}).get("contacts") or {}
     summary["collisions"] = contacts.get("episodes", 0)
     summary["collision_bodies"] = contacts.get("bodies", [])
     grid, _ = navigation.final_map(context)
     if navigation.mapper is not None:
         summary["mapping"] = mapping_summary(world, navigation, grid, context)
-    marker_goal = getattr(world.robot().detectors, "marker_goal", None)
+    marker_goal = getattr(robot.detectors, "marker_goal", None)
     if marker_goal is not None:
         summary["aruco"] = marker_goal.summary(marker_goal.GetMyContextFromRoot(context))
     summary["map"] = {
@@ -83,10 +84,9 @@ def write_navigation_outputs(folder: Path, world, summary: dict, context):
     from matplotlib.figure import Figure
 
     folder = Path(folder)
-    rows = (
-        world.robot().base_log.array() if world.robot().base_log is not None else np.zeros((0, 1))
-    )
-    grid, costmap = world.robot().navigation.final_map(context)
+    robot = world.robot_with("navigation")
+    rows = robot.base_log.array() if robot.base_log is not None else np.zeros((0, 1))
+    grid, costmap = robot.navigation.final_map(context)
     written = [save_map(grid, folder / MAP_NAME)]
     fig = Figure(figsize=(7.0, 7.0), dpi=110)
     axis = fig.subplots()

@@ -77,18 +77,22 @@ def path_message(path: np.ndarray, goal_yaw: float, stamp: float, frame_id: str 
     }
 
 
-def goal_frames(goals, stamp: float, frame_id: str = MAP_FRAME) -> dict:
-    """tf2_msgs/TFMessage ``map -> <goal name>`` of each goal."""
+def goal_frames(goals, stamp: float, frame_id: str = MAP_FRAME, prefix: str = "") -> dict:
+    """tf2_msgs/TFMessage ``map -> <prefix><goal name>`` of each goal."""
     return {
         "transforms": [
-            transform_stamped(stamp, frame_id, goal.name, planar(goal.x, goal.y, goal.yaw))
+            transform_stamped(
+                stamp, frame_id, f"{prefix}{goal.name}", planar(goal.x, goal.y, goal.yaw)
+            )
             for goal in goals
         ]
     }
 
 
 class NavigationTopics(LeafSystem):
-    """Sends a navigation's /map, /plan, goal frames and map -> odom.
+    """Sends a navigation's /map, /plan, goal frames and map -> odom. ``space``: the
+    robot's namespace in a world of several: its ``/<space>/map`` and ``/<space>/plan``,
+    its frames ``<space>/odom``, ``<space>/<goal>`` (``map`` and /tf are shared).
 
     Ports:
       - input ``nav_state`` (the Navigator's :class:`NavState`);
@@ -97,12 +101,13 @@ class NavigationTopics(LeafSystem):
       - input ``marker_in_map`` (Publication of MarkerPose): ``map -> aruco_frame``.
     """
 
-    def __init__(self, grid, *, send: Send, rate: float):
+    def __init__(self, grid, *, send: Send, rate: float, space: str = ""):
         super().__init__()
         if not (math.isfinite(rate) and rate > 0):
             raise ValueError(f"rate={rate!r} must be positive [Hz]")
         self._grid = grid
         self._send = send
+        self._prefix = f"{space}/" if space else ""  # of its topics and frames
         self._nav = self.DeclareAbstractInputPort("nav_state", AbstractValue.Make(NavState()))
         self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
         self._map_to_odom = self.DeclareVectorInputPort("map_to_odom", 3)
@@ -117,7 +122,7 @@ class NavigationTopics(LeafSystem):
     def _PublishMap(self, context, event=None) -> None:
         stamp = context.get_time()
         message = occupancy_grid_message(self._grid, stamp)
-        self._send("/map", "nav_msgs/msg/OccupancyGrid", message, stamp)
+        self._send(f"/{self._prefix}map", "nav_msgs/msg/OccupancyGrid", message, stamp)
         self._PublishGoals(context)
 
     def _PublishGoals(self, context) -> None:
@@ -126,7 +131,8 @@ class NavigationTopics(LeafSystem):
             new = [goal for goal in nav.goals if goal not in self._goals]
             self._goals = nav.goals
             stamp = context.get_time()
-            self._send("/tf_static", TF_MESSAGE, goal_frames(new, stamp), stamp)
+            frames = goal_frames(new, stamp, prefix=self._prefix)
+            self._send("/tf_static", TF_MESSAGE, frames, stamp)
 
     def _Publish(self, context) -> None:
         self._PublishGoals(context)
@@ -135,14 +141,13 @@ class NavigationTopics(LeafSystem):
             self._planned_at = nav.planned_at
             goal = nav.goals[nav.goal]
             message = path_message(nav.path, goal.yaw, nav.planned_at)
-            self._send("/plan", "nav_msgs/msg/Path", message, nav.planned_at)
+            self._send(f"/{self._prefix}plan", "nav_msgs/msg/Path", message, nav.planned_at)
         if self._marker.HasValue(context):
             marker = self._marker.Eval(context)
             if marker.count > self._markers:
                 self._markers = marker.count
-                frame = transform_stamped(
-                    marker.stamp, MAP_FRAME, MARKER_FRAME, marker.message.pose
-                )
+                child = f"{self._prefix}{MARKER_FRAME}"
+                frame = transform_stamped(marker.stamp, MAP_FRAME, child, marker.message.pose)
                 self._send("/tf", TF_MESSAGE, {"transforms": [frame]}, marker.stamp)
         if not self._odom.HasValue(context):
             return
@@ -155,15 +160,17 @@ class NavigationTopics(LeafSystem):
                 else (0.0, 0.0, 0.0)
             )
             X = planar(*estimate)
-            tf = {"transforms": [transform_stamped(odom.stamp, MAP_FRAME, odom.frame_id, X)]}
+            child = f"{self._prefix}{odom.frame_id}"
+            tf = {"transforms": [transform_stamped(odom.stamp, MAP_FRAME, child, X)]}
             self._send("/tf", TF_MESSAGE, tf, odom.stamp)
 
 
 def AddNavigationTopics(builder, source: NavigationSource, send: Send, *, name: str):
     """A :class:`NavigationTopics` on ``source``'s navigation."""
     navigation, stack = source.navigation, source.stack
+    space = stack.namespace.strip("/")
     system = builder.AddNamedSystem(
-        name, NavigationTopics(navigation.grid, send=send, rate=stack.update_rate)
+        name, NavigationTopics(navigation.grid, send=send, rate=stack.update_rate, space=space)
     )
     navigator = navigation.navigator
     builder.Connect(navigator.GetOutputPort("nav_state"), system.GetInputPort("nav_state"))
@@ -195,27 +202,26 @@ class NavigationSource:
     """The :class:`NavigationTopics` of a robot's ``navigation`` (a Navigation), on the
     controllers of ``stack`` (a ControlStack), with the marker goal of ``detectors`` (the
     AddedDetectors, if any): a :class:`~armando_drake.messages.publications.TopicSource`.
-    ``recorded``: its topics go to the recording too (they are not under the robot's
-    namespace: the first robot's only)."""
+    In a world of several robots its topics are under the robot's namespace."""
 
     stack: Any
     navigation: Any
     detectors: Any = None
-    recorded: bool = True
 
     def table(self) -> list[Topic]:
         """Its topics, and the subscription of RViz's 2D goal ``/goal_pose`` (it preempts
         the goals as NavigateToPose would)."""
-        rate, recorded = self.stack.update_rate, self.recorded
+        rate = self.stack.update_rate
         space = self.stack.namespace.strip("/")
+        mine = f"/{space}" if space else ""  # its topics, under its namespace
         navigator = self.navigation.navigator
         return [
-            Topic("/map", "nav_msgs/msg/OccupancyGrid", source=self, frame_id=MAP_FRAME,
-                  qos="latched", recorded=recorded),
-            Topic("/tf_static", TF_MESSAGE, source=self, qos="latched", recorded=recorded),
-            Topic("/plan", "nav_msgs/msg/Path", source=self, rate=rate, frame_id=MAP_FRAME,
-                  recorded=recorded),
-            Topic("/tf", TF_MESSAGE, source=self, rate=rate, recorded=recorded),
+            Topic(f"{mine}/map", "nav_msgs/msg/OccupancyGrid", source=self,
+                  frame_id=MAP_FRAME, qos="latched"),
+            Topic("/tf_static", TF_MESSAGE, source=self, qos="latched"),
+            Topic(f"{mine}/plan", "nav_msgs/msg/Path", source=self, rate=rate,
+                  frame_id=MAP_FRAME),
+            Topic("/tf", TF_MESSAGE, source=self, rate=rate),
             Topic("/goal_pose", "geometry_msgs/msg/PoseStamped", SUBSCRIBE,
                   port=navigator.GetInputPort("goal_pose"), receive=goal_pose_of,
                   frame_id=MAP_FRAME, namespace=space, key="navigator.goal_pose",

@@ -14,6 +14,9 @@ Meshcat path                         what
 ``/drake/navigation/goals/<name>``   each goal: a sphere, and a short line for its heading
 ==================================== ==================================================
 
+In a world of several robots each robot's navigation is under
+``/drake/navigation/<robot>``.
+
 :class:`NavigationView` reads the navigator's state at a few hertz and redraws only what
 changed (a new plan, a new goal, a new map): nothing at the plant's steps.
 """
@@ -82,9 +85,10 @@ class NavigationView(LeafSystem):
     ``ForcedPublish`` all hand it that).
     """
 
-    def __init__(self, meshcat: Meshcat, navigation, *, point_size: float):
+    def __init__(self, meshcat: Meshcat, navigation, *, point_size: float, space: str = ""):
         super().__init__()
         self._meshcat = meshcat
+        self.path = f"{NAV_PATH}/{space}" if space else NAV_PATH  # its Meshcat folder
         self._navigation = navigation
         self._point_size = point_size
         self._nav = self.DeclareAbstractInputPort("nav_state", AbstractValue.Make(NavState()))
@@ -112,7 +116,7 @@ class NavigationView(LeafSystem):
     def _DrawMap(self, grid) -> None:
         xy = cell_centres(np.asarray(grid.data) >= 65, grid.resolution, grid.origin)
         self._meshcat.SetObject(
-            f"{NAV_PATH}/map", _cloud(xy, MAP_HEIGHT), self._point_size, MAP_COLOUR
+            f"{self.path}/map", _cloud(xy, MAP_HEIGHT), self._point_size, MAP_COLOUR
         )
         self.map_cells = xy.shape[1]
 
@@ -123,7 +127,7 @@ class NavigationView(LeafSystem):
         inflated = (costs > 0) & (costs < 254)
         xy = cell_centres(inflated, costmap.resolution, costmap.origin)
         cloud = _cloud(xy, COSTMAP_HEIGHT, cost_colours(costs[inflated]))
-        self._meshcat.SetObject(f"{NAV_PATH}/costmap", cloud, self._point_size)
+        self._meshcat.SetObject(f"{self.path}/costmap", cloud, self._point_size)
         self.costmap_cells = xy.shape[1]
 
     def _Draw(self, context) -> None:
@@ -147,11 +151,11 @@ class NavigationView(LeafSystem):
             self._planned_at = nav.planned_at
             path = np.asarray(nav.path, dtype=float).T
             vertices = np.vstack([path, np.full(path.shape[1], PLAN_HEIGHT)])
-            self._meshcat.SetLine(f"{NAV_PATH}/plan", vertices, 3.0, PLAN_COLOUR)
+            self._meshcat.SetLine(f"{self.path}/plan", vertices, 3.0, PLAN_COLOUR)
             self.plan_points = path.shape[1]
 
     def _DrawGoal(self, goal) -> None:
-        path = f"{NAV_PATH}/goals/{goal.name or 'goal'}"
+        path = f"{self.path}/goals/{goal.name or 'goal'}"
         self._meshcat.SetObject(f"{path}/position", Sphere(GOAL_RADIUS), GOAL_COLOUR)
         self._meshcat.SetTransform(path, RigidTransform([goal.x, goal.y, GOAL_RADIUS]))
         heading = np.array([[0.0, 0.25 * math.cos(goal.yaw)], [0.0, 0.25 * math.sin(goal.yaw)]])
@@ -161,14 +165,17 @@ class NavigationView(LeafSystem):
         self.goals_drawn.append(goal.name)
 
 
-def AddNavigationView(builder, navigation, meshcat: Meshcat) -> NavigationView | None:
+def AddNavigationView(
+    builder, navigation, meshcat: Meshcat, *, space: str = ""
+) -> NavigationView | None:
     """A :class:`NavigationView` of ``navigation`` (a robot's Navigation) in ``meshcat``
-    (None without one)."""
+    (None without one); ``space``: the robot's namespace in a world of several."""
     if navigation is None:
         return None
+    size = navigation.grid.resolution
     view = builder.AddNamedSystem(
-        "navigation_view",
-        NavigationView(meshcat, navigation, point_size=navigation.grid.resolution),
+        f"{space}/navigation_view" if space else "navigation_view",
+        NavigationView(meshcat, navigation, point_size=size, space=space),
     )
     builder.Connect(navigation.navigator.GetOutputPort("nav_state"), view.GetInputPort("nav_state"))
     if navigation.mapper is not None:

@@ -168,6 +168,9 @@ class PerceptionConfig:
     # cloud is 4.9 MB a message); 0 = not recorded. /perception/clusters is
     # recorded at every pipeline run.
     points_record_rate: float = param(1.0, unit="Hz", ge=0)
+    # In a world of several robots (robots:), the name of the one it acts on; "" = the
+    # first listed.
+    robot: str = ""
 
 
 def step_label(index: int, step) -> str:

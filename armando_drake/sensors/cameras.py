@@ -11,6 +11,7 @@ from pydrake.geometry import Meshcat, SceneGraph
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
 
+from armando_drake.description.camera_sensors import sensor_origin
 from armando_drake.description.loader import LoadedRobot
 from armando_drake.messages.publications import PublicationRegistry, register
 from armando_drake.sensors.camera import (
@@ -31,11 +32,31 @@ _log = logging.getLogger("armando_drake.world")
 ENGINES = {"gl": "RenderEngineGl", "vtk": "RenderEngineVtk"}
 
 
-def _of_robot(name: str, info):
-    """The description camera ``info`` of the robot ``name`` (not the first of several):
-    named ``<name>_<camera>``, on ``/<name>/<topic>``."""
-    topic = f"/{name}/{(info.topic or info.name).strip('/')}"
+def _of_robot(name: str, namespace: str, info):
+    """The description camera ``info`` of the robot ``name``: in the root namespace as
+    the description names it; under a namespace ``<name>_<camera>``, on
+    ``/<namespace>/<topic>``."""
+    space = namespace.strip("/")
+    if not space:
+        return dc.replace(info, robot=name)
+    topic = f"/{space}/{(info.topic or info.name).strip('/')}"
     return dc.replace(info, robot=name, name=f"{name}_{info.name}", topic=topic)
+
+
+def _on_robot(info, plant: MultibodyPlant, robots: dict[str, LoadedRobot]):
+    """A scenario camera ``info`` whose link names no robot (``ROBOT::link`` does): on
+    the first robot listed that has that link."""
+    if info.robot:
+        return info
+    for name, robot in robots.items():
+        if plant.HasBodyNamed(info.link, robot.model_instance):
+            return dc.replace(info, robot=name)
+    if len(robots) == 1:
+        return dc.replace(info, robot=next(iter(robots)))  # its error names the model
+    raise CameraError(
+        f"{sensor_origin(info.source, info.sensor_name)}: no robot has a link "
+        f"{info.link!r} (robots: {', '.join(robots)})"
+    )
 
 
 def AddCameras(
@@ -44,48 +65,49 @@ def AddCameras(
     *,
     plant: MultibodyPlant,
     scene_graph: SceneGraph,
-    robot: LoadedRobot,
+    robots: dict[str, LoadedRobot],
+    namespaces: dict[str, str] | None = None,
     extra: Sequence = (),
     meshcat: Meshcat | None = None,
     host: str = "127.0.0.1",
     where: str = "",
     source: str = "",
-    robots: dict[str, LoadedRobot] | None = None,
     publications: PublicationRegistry | None = None,
 ) -> tuple[dict[str, AddedCamera], ImageViewServer | None]:
-    """RgbdSensors from the description's camera blocks (when ``settings.enabled``:
-    the scenario's ``camera:`` section) and ``extra`` (the scenario's ``cameras:``,
-    each with a ``sensor_info(origin)``, added either way), a live view on ``host``
+    """RgbdSensors from the description camera blocks of every robot of ``robots`` (by
+    name; when ``settings.enabled``: the scenario's ``camera:`` section) and ``extra``
+    (the scenario's ``cameras:``, each with a ``sensor_info(origin)``, added either way,
+    on ``ROBOT::link`` or on the first robot with that link), a live view on ``host``
     (with ``settings.live_view`` or a watched ``meshcat``) and a frame saver. Returns
-    (the cameras by name, the live view's server or None). ``where``/``source``: the
-    origins named in errors. ``robots``: every robot of a world of several, by name
-    (``robot`` the first): the others' description cameras too, each
-    ``<robot>_<camera>`` on ``/<robot>/<topic>``, and a scenario camera on
-    ``ROBOT::link``. ``publications``: where each camera's ``image_raw`` and
-    ``camera_info`` are registered."""
-    robots = robots or {}
-    sensors = list(robot.cameras) if settings.enabled else []
-    for name, other in robots.items():
-        if other is not robot and settings.enabled:
-            sensors += [_of_robot(name, info) for info in other.cameras]
+    (the cameras by name, the live view's server or None). ``namespaces``: each robot's
+    namespace; a namespaced robot's cameras are ``<robot>_<camera>`` on
+    ``/<namespace>/<topic>``. ``where``/``source``: the origins named in errors.
+    ``publications``: where each camera's ``image_raw`` and ``camera_info`` are
+    registered."""
+    namespaces = namespaces or {}
+    sensors = []
+    if settings.enabled:
+        for name, robot in robots.items():
+            sensors += [_of_robot(name, namespaces.get(name, ""), i) for i in robot.cameras]
     if settings.enabled and not sensors and not extra:
-        _log.warning("camera enabled, but %s describes no camera sensor", robot.source)
+        described = ", ".join(str(robot.source) for robot in robots.values())
+        _log.warning("camera enabled, but %s describes no camera sensor", described)
         return {}, None
     if not settings.enabled and not extra:
         return {}, None
     try:
-        sensors += [camera.sensor_info(source) for camera in extra]
+        sensors += [_on_robot(c.sensor_info(source), plant, robots) for c in extra]
         renderer = choose_renderer(settings.renderer)
         cameras = AddCameraSensors(
             builder,
             plant,
             scene_graph,
-            robot.model_instance,
+            plant.world_body().model_instance(),  # every camera names its robot
             sensors,
             renderer=renderer,
             enable_depth=settings.depth,
             export=True,
-            instances={name: other.model_instance for name, other in robots.items()},
+            instances={name: robot.model_instance for name, robot in robots.items()},
         )
     except CameraError as error:  # a scenario camera's error names its origin already
         text = str(error)

@@ -114,13 +114,13 @@ def MakeWorld(
     # What watches them: the cameras, each robot's sensors, the detectors, perception.
     clusters_dir = output_dir if write_commands else None
     places = (source, clusters_dir, host)
-    image_view, sensors, scene = _add_sensing(
+    image_view, seen = _add_sensing(
         builder, scenario, stacks, drivers, scene_graph, meshcat, places, publications
     )
     closers += [image_view.close] if image_view is not None else []
-    closers += scene.pop("closers")
+    closers += [close for watching in seen.values() for close in watching.pop("closers")]
     # Each robot as the world keeps it, made once; its base's and navigation's topics.
-    robots = FinishRobots(stacks, drivers, wiring, sensors, scene, publications)
+    robots = FinishRobots(stacks, drivers, wiring, seen, publications)
     # The ROS 2 bag recorder, the live DDS / Foxglove bridge, Meshcat.
     table = publications.table()
     replay_sampler, bridge = _add_outputs(
@@ -214,70 +214,78 @@ def _add_robot_drivers(builder, scenario: Scenario, robot: RobotStack, drivers, 
 
 def _add_sensing(builder, scenario, stacks, drivers, scene_graph, meshcat, where, publications):
     """The cameras (their live view, returned, or None), each robot's sensors, the
-    detectors and perception, with their topics registered in ``publications``;
-    ``where``: (the scenario file, the folder of ``clusters.json``, the view's host).
-    Returns (the live view, each robot's sensors by robot name, the scene's cameras,
-    detectors and perception by field name, with the ``closers`` of its logs)."""
+    detectors and perception on the robot they act on, with their topics registered in
+    ``publications``; ``where``: (the scenario file, the folder of ``clusters.json``,
+    the view's host). Returns (the live view, what watches each robot by robot name:
+    its sensors, the cameras on its links, its detectors and perception, the
+    ``closers`` of their logs)."""
     source, output_dir, host = where
-    first, *_ = stacks.values()
-    stack, first_drivers = first.stack, drivers[first.body.spec.name]
+    plant = next(iter(stacks.values())).stack.plant  # the world's one plant
     cameras, image_view = AddCameras(
         builder,
         scenario.camera,
-        plant=stack.plant,
+        plant=plant,
         scene_graph=scene_graph,
-        robot=stack.robot,
+        robots={name: robot.body.robot for name, robot in stacks.items()},
+        namespaces={name: robot.body.spec.namespace for name, robot in stacks.items()},
         extra=scenario.cameras,
         meshcat=meshcat,
         host=host,
         where=f"{source}: " if source else "",
         source=sources_of(scenario).of("cameras"),
-        robots={
-            robot.body.spec.name: robot.body.robot
-            for robot in stacks.values()
-            if robot.body.spec.namespace
-        },
         publications=publications,
     )
-    sensors = {}
-    for name, robot in stacks.items():  # each robot's own sensors (a lidar); AMCL reads one
-        sensors[name] = AddRobotSensors(builder, stack.plant, robot, publications)
-        ConnectLocalization(builder, drivers[name].navigation, sensors[name])
-    detectors = perception = None
-    if scenario.vision is not None:
+    seen = {}
+    for name, robot in stacks.items():
+        sensors = AddRobotSensors(builder, plant, robot, publications)  # a lidar
+        ConnectLocalization(builder, drivers[name].navigation, sensors)  # AMCL reads one
+        on_robot = {key: cam for key, cam in cameras.items() if cam.info.robot == name}
+        seen[name] = dict(sensors=sensors, cameras=on_robot) | _add_watchers(
+            builder, scenario, robot, drivers[name], cameras, image_view, meshcat,
+            (source, output_dir), publications,
+        )  # fmt: skip
+    return image_view, seen
+
+
+def _add_watchers(builder, scenario, robot, drivers, cameras, image_view, meshcat, where, pubs):
+    """The detectors and perception that act on ``robot`` (its scenario sections
+    ``vision:`` and ``perception:``), on the world's ``cameras``, their topics registered
+    in ``pubs``; by field name, with the ``closers`` of their logs."""
+    source, output_dir = where
+    spec, stack = robot.body.spec, robot.stack
+    vision, perception = spec.section("vision"), spec.section("perception")
+    detectors = added = None
+    if vision is not None:
         detectors = AddDetectors(
             builder,
-            scenario.vision,
+            vision,
             stack,
             cameras=cameras,
             image_view=image_view,
             where=_origin(scenario, "vision"),
             console=scenario.logging.console_rate > 0,  # no console output: no keypoints
-            navigation=first_drivers.navigation,
+            navigation=drivers.navigation,
         )
-    if scenario.perception is not None:
-        perception = AddPerception(
+        pubs.add(*VisionSource(detectors, cameras).table())
+    if perception is not None:
+        added = AddPerception(
             builder,
-            scenario.perception,
+            perception,
             cameras=cameras,
             robot_source=str(stack.robot.source),
             meshcat=meshcat,
             output_dir=output_dir,
             source=source,
         )
-        publications.add(*PerceptionSource(perception, cameras[perception.camera]).table())
-    if detectors is not None:
-        publications.add(*VisionSource(detectors, cameras).table())
-    closers = [perception.log.close] if perception is not None and perception.log else []
-    scene = dict(cameras=cameras, detectors=detectors, perception=perception, closers=closers)
-    return image_view, sensors, scene
+        pubs.add(*PerceptionSource(added, cameras[added.camera]).table())
+    closers = [added.log.close] if added is not None and added.log else []
+    return dict(detectors=detectors, perception=added, closers=closers)
 
 
 def _add_outputs(builder, scenario: Scenario, robots, table, scene_graph, meshcat, record, closers):
     """The ROS 2 bag recorder (``record``), the live bridge and Meshcat's visualization,
     of the world's publication ``table``; (its replay sampler or None, the bridge or
     None)."""
-    first = next(iter(robots.values()))
     instances = [robot.robot.model_instance for robot in robots.values()]
     if record is not None:
         closers.append(AddRosbagRecorder(builder, record, table).close)
@@ -291,7 +299,7 @@ def _add_outputs(builder, scenario: Scenario, robots, table, scene_graph, meshca
     # Meshcat draws the world.
     replay_sampler = None
     if meshcat is not None and scenario.visualization.enable_meshcat_creation:
-        plant = first.plant
+        plant = next(iter(robots.values())).plant  # the world's one plant
         replay_sampler = AddVisualization(
             builder,
             scenario.visualization,
@@ -303,5 +311,6 @@ def _add_outputs(builder, scenario: Scenario, robots, table, scene_graph, meshca
         )
         # The lidars' scans as points; map, costmap, plan and goals.
         AddScanViews(builder, table, plant, meshcat)
-        AddNavigationView(builder, first.navigation, meshcat)
+        for robot in robots.values():
+            AddNavigationView(builder, robot.navigation, meshcat, space=robot.folder)
     return replay_sampler, bridge

@@ -90,7 +90,7 @@ class BasicNavigator:
         self.simulator.set_target_realtime_rate(scenario.simulator_config.target_realtime_rate)
         self.simulator.Initialize()
         self.step = step
-        self.navigation = self.world.robot().navigation
+        self.navigation = self.world.robot_with("navigation").navigation
         self.navigator = self.navigation.navigator
         self._number = 0  # tasks sent
         self.rejected = ""  # why the last goal was rejected

@@ -134,9 +134,8 @@ class RobotWiring:
 @dc.dataclass(frozen=True)
 class AddedRobot:
     """A robot of the built world: its name, namespace, control stack, what drives it,
-    its sensors and loggers, made once at the end of its build (:func:`FinishRobot`).
-    The scene's own publishers (cameras, detectors, perception) are the first robot's,
-    the one they report with; the others' are empty."""
+    its sensors and loggers, the cameras on its links and the detectors and perception
+    that act on it, made once at the end of its build (:func:`FinishRobot`)."""
 
     name: str  # its name in the robots map
     namespace: str  # "/left" ("" in the root namespace)
@@ -157,9 +156,9 @@ class AddedRobot:
     base_log: Any = None  # the BaseLogger of a floating base with a drive
     # The outputs of the description's other sensors (sensors.registry), by sensor name.
     sensors: dict = dc.field(default_factory=dict)
-    cameras: dict = dc.field(default_factory=dict)  # AddedCamera by name
-    detectors: Any = None  # AddedDetectors, if the scenario has a vision block
-    perception: Any = None  # AddedPerception, if the scenario has a perception block
+    cameras: dict = dc.field(default_factory=dict)  # AddedCamera on its links, by name
+    detectors: Any = None  # AddedDetectors, if the scenario's vision acts on it
+    perception: Any = None  # AddedPerception, if the scenario's perception acts on it
 
     @property
     def folder(self) -> str:
@@ -173,11 +172,11 @@ class AddedRobot:
 
 
 def FinishRobot(
-    robot: RobotStack, drivers: RobotDrivers, wiring: RobotWiring, sensors: dict, **scene
+    robot: RobotStack, drivers: RobotDrivers, wiring: RobotWiring, **watching
 ) -> AddedRobot:
     """The robot as the built world keeps it, of what its build added: its stack,
-    ``drivers``, ``wiring`` and ``sensors``; ``scene``: the scene's cameras, detectors and
-    perception (the first robot's)."""
+    ``drivers``, ``wiring``; ``watching``: its sensors, the cameras on its links, the
+    detectors and perception that act on it."""
     spec = robot.body.spec
     return AddedRobot(
         name=spec.name,
@@ -188,8 +187,7 @@ def FinishRobot(
         choice=robot.choice,
         **_fields(drivers),
         **_fields(wiring),
-        sensors=sensors,
-        **scene,
+        **watching,
     )
 
 
@@ -434,24 +432,20 @@ def RegisterDriverCommands(
 
 
 def FinishRobots(
-    stacks: dict, drivers: dict, wiring: dict, sensors: dict, scene: dict, publications
+    stacks: dict, drivers: dict, wiring: dict, watching: dict, publications
 ) -> dict[str, AddedRobot]:
-    """Each robot as the world keeps it, made once of what its build added (``scene``,
-    the scene's cameras, detectors and perception, on the first), its base's topics
-    (odometry, /tf, cmd_vel) and its navigation's (recorded for the first only)
-    registered in ``publications``; by name."""
+    """Each robot as the world keeps it, made once of what its build added
+    (``watching``: by robot name, its sensors, cameras, detectors and perception), its
+    base's topics (odometry, /tf, cmd_vel) and its navigation's registered in
+    ``publications``; by name."""
     robots = {}
-    for index, (name, stack) in enumerate(stacks.items()):
-        robot = FinishRobot(
-            stack, drivers[name], wiring[name], sensors[name], **(scene if index == 0 else {})
-        )
+    for name, stack in stacks.items():
+        robot = FinishRobot(stack, drivers[name], wiring[name], **watching[name])
         publications.add(
             *MobileSource(robot.stack, robot.base_log, robot.twist, robot.twist_target).table()
         )
         if robot.navigation is not None:
-            navigation = NavigationSource(
-                robot.stack, robot.navigation, robot.detectors, recorded=index == 0
-            )
+            navigation = NavigationSource(robot.stack, robot.navigation, robot.detectors)
             publications.add(*navigation.table())
         robots[name] = robot
     return robots

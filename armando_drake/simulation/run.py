@@ -661,7 +661,8 @@ def _result(scenario, world, simulator, table, tracker, log_dir, name: str = "")
     the caller fills in names and times."""
     sim_time = simulator.get_context().get_time()
 
-    vision_driven = world.robot().detectors.driven if world.robot().detectors is not None else []
+    watcher = world.robot_with("detectors")  # the robot the vision acts on
+    vision_driven = watcher.detectors.driven if watcher.detectors is not None else []
     mode = "vision" if vision_driven else controller_mode(scenario)
     dds_topics = _dds_command_topics(world)
     if mode == "none" and dds_topics:
@@ -696,12 +697,13 @@ def _result(scenario, world, simulator, table, tracker, log_dir, name: str = "")
             world.meshcat.SetLine(
                 "task/end_effector_trace", errors.actual.T, 2.0, Rgba(1.0, 0.3, 0.1, 1.0)
             )
-    if world.robot().base_log is not None:
-        result.base = world.robot().base_log.summary()
+    base = world.robot_with("base_log").base_log
+    if base is not None:
+        result.base = base.summary()
     result.navigation = navigation_summary(world, simulator.get_context())
-    if world.robot().detectors is not None:
+    if watcher.detectors is not None:
         result.vision = write_vision_outputs(
-            world.robot(),
+            watcher,
             world.diagram,
             simulator.get_context(),
             scenario,
@@ -723,11 +725,12 @@ def _task_tracker_of(world):
     """A listener on the world's joint-state logger that follows the end effector of the
     scenario's task (:class:`~armando_drake.outputs.task_space.TaskSpaceTracker`);
     None without a task."""
-    if world.robot().task is None or world.robot().logger is None:
+    robot = world.robot_with("task")
+    if robot.task is None or robot.logger is None:
         return None
 
-    tracker = TaskSpaceTracker(world.robot().task, list(world.robot().logger.joint_names))
-    world.robot().logger.add_listener(tracker.add)
+    tracker = TaskSpaceTracker(robot.task, list(robot.logger.joint_names))
+    robot.logger.add_listener(tracker.add)
     return tracker
 
 

@@ -323,8 +323,7 @@ def _has_sequencer(scenario: Scenario) -> bool:
 
 
 # The sections of a scenario that act on one robot of robots:, its `robot` field naming
-# it (the first by default; the navigation, the base jog, the vision and perception
-# act on the first).
+# it (the first by default).
 ROBOT_SECTIONS = ("task", "learned_ik", "jog", "navigation", "twist_jog", "vision", "perception")
 
 

@@ -23,7 +23,7 @@ class World:
     scene_graph: SceneGraph
     # Each robot (simulation.robots.AddedRobot: its stack, drivers, sensors, loggers), by
     # name, in the scenario's order; the one robot of a scenario without robots: is its
-    # only entry. The scene's cameras, detectors and perception are the first's.
+    # only entry.
     robots: dict[str, Any]
     publications: Publications = field(default_factory=Publications)  # what it publishes
     meshcat: Meshcat | None = None
@@ -45,6 +45,12 @@ class World:
         if name not in self.robots:
             raise KeyError(f"no robot {name!r} (robots: {', '.join(self.robots)})")
         return self.robots[name]
+
+    def robot_with(self, field: str):
+        """The robot whose ``field`` (``navigation``, ``task``, ``detectors``, ...) is
+        set: the one the scenario's section acts on; the first if none has it."""
+        having = (robot for robot in self.robots.values() if getattr(robot, field) is not None)
+        return next(having, None) or self.robot()
 
     def publish(self, context: Context, controller: str, message: Any) -> None:
         """Publishes ``message`` on a controller's command input, like a ROS topic."""

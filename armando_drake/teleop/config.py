@@ -159,3 +159,6 @@ class TwistJogConfig:
     gamepad_scale_linear: float = param(0.5, unit="m/s", gt=0)
     # [rad/s] at full sideways stick (teleop_twist_joy's `scale_angular.yaw`).
     gamepad_scale_angular: float = param(0.5, unit="rad/s", gt=0)
+    # In a world of several robots (robots:), the name of the one it acts on; "" = the
+    # first listed.
+    robot: str = ""

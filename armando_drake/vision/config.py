@@ -66,3 +66,6 @@ class VisionConfig:
     # [rad] where the robot's joints start (hardware joint order); empty = their
     # initial positions. (A vision scenario starts the arm looking away from the marker.)
     start_positions: list[float] = param([], unit="rad")
+    # In a world of several robots (robots:), the name of the one it acts on; "" = the
+    # first listed.
+    robot: str = ""

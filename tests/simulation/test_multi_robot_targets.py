@@ -226,7 +226,7 @@ def test_a_camera_on_the_second_robots_link_renders_from_there(tmp_path):
     plant = world.robot().plant
     for name, part in (("on_right", world.robots["right"]), ("on_left", world.robots["left"])):
         body = plant.GetBodyByName("base_link", part.robot.model_instance)
-        sensor = world.robot().cameras[name].sensor
+        sensor = part.cameras[name].sensor
         assert sensor.default_parent_frame_id() == plant.GetBodyFrameIdOrThrow(body.index())
     world.close(context)
 
@@ -241,18 +241,19 @@ def test_a_camera_on_an_unknown_robot_is_one_line(tmp_path):
 
 
 def test_each_robots_description_camera_is_added(tmp_path):
-    """Two Armandos with their camera stands (use_camera) and camera: {enabled: true}: the
-    first's camera keeps its name, the second's is right_<camera> on /right/<topic>, each
-    on its own robot's link."""
+    """Two Armandos with their camera stands (use_camera) and camera: {enabled: true}:
+    each robot's camera is <robot>_<camera> on /<robot>/<topic>, on its own robot's link,
+    and is that robot's (world.robots[name].cameras)."""
     scenario = _two_armandos(tmp_path, "camera: {enabled: true, depth: false}\n")
     for entry in scenario.robots.values():
         entry.robot.xacro_args["use_camera"] = "true"
     world = MakeWorld(scenario, quiet=True)
-    cameras = world.robot().cameras
-    assert len(cameras) == 2, list(cameras)
-    first, second = cameras.values()
-    assert second.info.name == f"right_{first.info.name}"
-    assert second.info.topic == f"/right/{(first.info.topic or first.info.name).strip('/')}"
+    (first,) = world.robots["left"].cameras.values()
+    (second,) = world.robots["right"].cameras.values()
+    described = world.robot().robot.cameras[0]  # the description's own camera block
+    topic = (described.topic or described.name).strip("/")
+    assert (first.info.name, first.info.topic) == (f"left_{described.name}", f"/left/{topic}")
+    assert (second.info.name, second.info.topic) == (f"right_{described.name}", f"/right/{topic}")
     plant = world.robot().plant
     for camera, part in ((first, world.robots["left"]), (second, world.robots["right"])):
         body = plant.GetBodyByName(camera.info.link, part.robot.model_instance)
@@ -286,3 +287,61 @@ def test_the_learned_ik_on_the_second_robot_reaches_its_world_target(tmp_path):
     assert np.abs(world.joint_positions(context, "left")).max() < 1e-3
     assert world.robots["right"].learned_ik is not None
     world.close(context)
+
+
+def test_a_navigation_on_the_second_fra2mo_drives_it_and_publishes_under_its_namespace(tmp_path):
+    """navigation: {robot: b}: b drives to a goal 0.8 m ahead (within the goal checker's
+    0.1 m) while a stays; the map and plan are on /b/map and /b/plan, map -> b/odom and
+    map -> b/ahead on /tf, the goal listened for on b/goal_pose; Meshcat draws the plan
+    under /drake/navigation/b; summary's navigation is b's."""
+    from pydrake.geometry import Meshcat
+    from rosbags.highlevel import AnyReader
+
+    robots = FRA2MO.format(name="a", y=-0.6) + FRA2MO.format(name="b", y=0.6)
+    navigation = (
+        "navigation:\n  robot: b\n"
+        "  params_file: package://fra2mo_description/config/navigation.yaml\n"
+        "  map: ''\n  start_delay: 0.3\n  localization: ground_truth\n"
+        "  goals: [{name: ahead, x: 0.8, y: 0.6, yaw: 0.0}]\n"
+    )
+    walls = "objects:\n"  # a 4 m x 4 m pen: the map of the world's true occupancy
+    for k, (x, y, sx, sy) in enumerate(
+        [(2, 0, 0.1, 4), (-2, 0, 0.1, 4), (0, 2, 4, 0.1), (0, -2, 4, 0.1)]
+    ):
+        box = f"!Box {{size: [{sx}, {sy}, 0.5]}}"
+        walls += f"  - {{name: wall{k}, shape: {box}, xyz: [{x}, {y}, 0.25]}}\n"
+    path = tmp_path / "nav_b.yaml"
+    path.write_text(f"robots:\n{robots}{navigation}{walls}{PLANT}")
+    bag = tmp_path / "nav_b.mcap"
+    meshcat = Meshcat()
+    world = MakeWorld(load_scenario(path), quiet=True, record=bag, meshcat=meshcat)
+    assert world.robots["a"].navigation is None and world.robots["b"].navigation is not None
+    names = {topic.name for topic in world.publications.published(recorded=True)}
+    assert {"/b/map", "/b/plan"} <= names and not {"/map", "/plan"} & names, names
+    subscribed = {topic.name for topic in world.publications.subscribed()}
+    assert "b/goal_pose" in subscribed, subscribed
+    simulator = Simulator(world.diagram)
+    simulator.AdvanceTo(8.0)
+    context = simulator.get_context()
+    plant = world.plant
+    pose = {
+        name: plant.EvalBodyPoseInWorld(
+            plant.GetMyContextFromRoot(context),
+            plant.GetBodyByName("base_footprint", world.robots[name].robot.model_instance),
+        ).translation()
+        for name in ("a", "b")
+    }
+    assert np.hypot(pose["b"][0] - 0.8, pose["b"][1] - 0.6) < 0.1, pose["b"]
+    assert np.hypot(pose["a"][0], pose["a"][1] + 0.6) < 0.01, pose["a"]
+    assert meshcat.HasPath("/drake/navigation/b/plan")
+    assert not meshcat.HasPath("/drake/navigation/plan")
+    world.close(context)
+    frames = set()
+    with AnyReader([bag]) as reader:
+        topics = {connection.topic for connection in reader.connections}
+        for connection, _, raw in reader.messages():
+            if connection.topic in ("/tf", "/tf_static"):
+                message = reader.deserialize(raw, connection.msgtype)
+                frames |= {(t.header.frame_id, t.child_frame_id) for t in message.transforms}
+    assert {"/b/map", "/b/plan"} <= topics and "/map" not in topics, topics
+    assert {("map", "b/odom"), ("map", "b/ahead")} <= frames, frames

@@ -202,7 +202,7 @@ def test_the_cameras_alone_render_at_their_size(tmp_path):
     plant, scene_graph, stack = armando(builder)
     settings = CameraSettings(enabled=True, depth=True, renderer="vtk")
     cameras, view = AddCameras(
-        builder, settings, plant=plant, scene_graph=scene_graph, robot=stack.robot
+        builder, settings, plant=plant, scene_graph=scene_graph, robots={"robot": stack.robot}
     )
     assert view is None  # no live view asked for, no Meshcat
     assert cameras, "Armando's description mounts a camera"
@@ -274,7 +274,7 @@ def _armando_with_camera(builder):
     plant, scene_graph, stack = armando(builder)
     settings = CameraSettings(enabled=True, depth=True, renderer="vtk")
     cameras, _ = AddCameras(
-        builder, settings, plant=plant, scene_graph=scene_graph, robot=stack.robot
+        builder, settings, plant=plant, scene_graph=scene_graph, robots={"robot": stack.robot}
     )
     ConnectControlStack(builder, stack, gravity_feedforward=True)
     return plant, stack, cameras
