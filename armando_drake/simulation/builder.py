@@ -39,12 +39,10 @@ from armando_drake.description.worlds import AddWorld
 from armando_drake.messages.publications import PublicationRegistry
 from armando_drake.navigation.building import AddNavigation, ConnectLocalization
 from armando_drake.outputs.navigation_view import AddNavigationView
-from armando_drake.outputs.perception_recording import PerceptionSource
 from armando_drake.outputs.recording import AddRosbagRecorder
 from armando_drake.outputs.replay import AddVisualization
 from armando_drake.outputs.scan_view import AddScanViews
-from armando_drake.outputs.vision_recording import VisionSource
-from armando_drake.perception.systems import AddPerception
+from armando_drake.perception.add import AddPerception
 from armando_drake.ros2.bridge import AddRos2Bridge, BridgeRobot
 from armando_drake.sensors import lidar  # noqa: F401  (registers the lidar sensor types)
 from armando_drake.sensors.cameras import AddCameras
@@ -67,7 +65,7 @@ from armando_drake.simulation.world import World
 from armando_drake.task.learned_ik import AddLearnedIk
 from armando_drake.task.reference import AddTask
 from armando_drake.teleop.add import AddTeleop
-from armando_drake.vision.detectors import AddDetectors
+from armando_drake.vision.add import AddDetectors
 
 
 def MakeWorld(
@@ -265,8 +263,8 @@ def _add_watchers(builder, scenario, robot, drivers, cameras, image_view, meshca
             where=_origin(scenario, "vision"),
             console=scenario.logging.console_rate > 0,  # no console output: no keypoints
             navigation=drivers.navigation,
+            publications=pubs,
         )
-        pubs.add(*VisionSource(detectors, cameras).table())
     if perception is not None:
         added = AddPerception(
             builder,
@@ -276,8 +274,8 @@ def _add_watchers(builder, scenario, robot, drivers, cameras, image_view, meshca
             meshcat=meshcat,
             output_dir=output_dir,
             source=source,
+            publications=pubs,
         )
-        pubs.add(*PerceptionSource(added, cameras[added.camera]).table())
     closers = [added.log.close] if added is not None and added.log else []
     return dict(detectors=detectors, perception=added, closers=closers)
 

@@ -256,7 +256,7 @@ def test_pipeline_in_the_camera_frame_finds_the_ground_seen_from_the_camera():
 
 
 def test_without_scikit_learn_the_hint_names_the_extra(monkeypatch):
-    import armando_drake.perception.systems as systems
+    import armando_drake.perception.add as systems
 
     monkeypatch.setattr(systems, "missing_modules", lambda names: list(names))
     scenario = load_scenario("perception", f"{QUIET}\n{NO_GL}")

@@ -31,8 +31,8 @@ from armando_drake.outputs.config import LoggingConfig
 from armando_drake.outputs.logger import AddJointStateLogger, read_joint_states
 from armando_drake.outputs.recording import AddRosbagRecorder
 from armando_drake.outputs.replay import AddVisualization
+from armando_drake.perception.add import AddPerception
 from armando_drake.perception.config import PerceptionConfig
-from armando_drake.perception.systems import AddPerception
 from armando_drake.ros2.bridge import AddRos2Bridge, BridgeRobot
 from armando_drake.ros2.config import Ros2Config
 from armando_drake.sensors.cameras import AddCameras
@@ -42,8 +42,8 @@ from armando_drake.task.reference import AddTask
 from armando_drake.teleop.config import JogConfig
 from armando_drake.teleop.jog import AddJog
 from armando_drake.tools.errors import ScenarioError
+from armando_drake.vision.add import AddDetectors
 from armando_drake.vision.config import ArucoDetectorConfig, VisionConfig
-from armando_drake.vision.detectors import AddDetectors
 
 POSITION = ["joint_state_broadcaster", "position_controller"]
 TARGET = [0.6, -0.4, 0.5, 0.3]  # [rad] Armando's j0..j3, inside their limits
