@@ -46,6 +46,7 @@ from armando_drake.navigation.navigator import Navigator, check_goals
 from armando_drake.navigation.planner import planner_plugin
 from armando_drake.navigation.slam import SlamMapper, canvas, slam_parameters
 from armando_drake.navigation.smoother import smoother_plugins
+from armando_drake.navigation.topics import NavigationSource
 from armando_drake.navigation.world_map import LIDAR_TYPES, lidar_height, world_map
 from armando_drake.tools.errors import ConfigError, ScenarioError
 from armando_drake.tools.extras import require_extra
@@ -222,10 +223,14 @@ def _layers(stack, servers: _Servers, grid: OccupancyMap, where: str) -> Layers 
     return Layers(global_params, local, laser, height)
 
 
-def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") -> Navigation:
+def AddNavigation(
+    builder, config: NavigationConfig, stack, *, where: str = "", publications=None
+) -> Navigation:
     """The navigation of ``config`` on the floating base of ``stack``'s robot: to its
     goals, or exploring (``explore: true``); publishes cmd_vel to the first active drive
-    (or ``config.controller``) and exports ``navigation_command``."""
+    (or ``config.controller``) and exports ``navigation_command``. ``publications`` (a
+    PublicationRegistry): where its topics are registered
+    (:mod:`armando_drake.navigation.topics`)."""
     require_extra("navigation", f"{where}navigation")
     drive = _drive(config, stack, where)
     servers = _Servers.read(config, where)
@@ -236,9 +241,11 @@ def AddNavigation(builder, config: NavigationConfig, stack, *, where: str = "") 
         inscribed_radius=servers.costmap.inscribed_radius,
         start_delay=config.start_delay,
     )
-    if config.explore:
-        return _explorer(builder, config, stack, servers, drive, system, where)
-    return _navigator(builder, config, stack, servers, drive, system, where)
+    add = _explorer if config.explore else _navigator
+    navigation = add(builder, config, stack, servers, drive, system, where)
+    if publications is not None:
+        publications.add(*NavigationSource(stack, navigation).table())
+    return navigation
 
 
 def _connect(builder, stack, navigator, drive: str) -> None:

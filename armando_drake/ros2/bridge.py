@@ -28,7 +28,7 @@ topic                                       type                                
 =========================================== ======================================== ===========
 
 A navigation adds ``map -> <goal>`` frames to ``/tf_static`` and ``map -> odom`` to ``/tf``
-(:mod:`armando_drake.outputs.navigation_topics`); a ``/goal_pose`` (RViz's 2D goal, in the
+(:mod:`armando_drake.navigation.topics`); a ``/goal_pose`` (RViz's 2D goal, in the
 map frame) preempts its goals as NavigateToPose would.
 
 A floating base with a drive has ``odom -> base_footprint`` on ``/tf`` from its wheel

@@ -179,21 +179,27 @@ def _add_drivers(builder, scenario, stacks, commands_dir, meshcat, publications,
         csv = folder / "commands.csv" if folder else None
         added = AddRobotDrivers(builder, stack, csv, closers)
         with robot_scope(builder, stack.body.spec.folder):
-            drivers[name] = _add_robot_drivers(builder, scenario, stack, added, meshcat, closers)
+            drivers[name] = _add_robot_drivers(
+                builder, scenario, stack, added, meshcat, closers, publications
+            )
         RegisterDriverCommands(publications, stack, drivers[name])
     return drivers
 
 
-def _add_robot_drivers(builder, scenario: Scenario, robot: RobotStack, drivers, meshcat, closers):
+def _add_robot_drivers(builder, scenario: Scenario, robot: RobotStack, drivers, meshcat, closers,
+                       publications):  # fmt: skip
     """The scenario's navigation, task, learned IK and live jogs (the arm's, the base's)
-    that act on ``robot``, on its controllers; ``drivers`` (its sequencers) with them."""
+    that act on ``robot``, on its controllers; ``drivers`` (its sequencers) with them.
+    ``publications``: where the navigation registers its topics."""
     spec, stack, where = robot.body.spec, robot.stack, partial(_origin, scenario)
     config = spec.entry.robot
     navigation, task = spec.section("navigation"), spec.section("task")
     learned_ik = spec.section("learned_ik")
     found = {}
     if navigation is not None:
-        nav = AddNavigation(builder, navigation, stack, where=where("navigation"))
+        nav = AddNavigation(
+            builder, navigation, stack, where=where("navigation"), publications=publications
+        )
         found.update(navigation=nav, twist=nav.navigator, twist_target=nav.drive)
     if task is not None:
         found["task"] = AddTask(builder, task, stack, meshcat=meshcat, where=where("task"))

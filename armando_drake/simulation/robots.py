@@ -52,7 +52,6 @@ from armando_drake.messages.publications import PublicationRegistry
 from armando_drake.outputs.base import BASE_CSV, AddBaseLogger
 from armando_drake.outputs.logger import AddJointStateLogger, CommandsCsv
 from armando_drake.outputs.mobile_topics import MobileSource
-from armando_drake.outputs.navigation_topics import NavigationSource
 from armando_drake.sensors.registry import AddSensors
 from armando_drake.simulation.scenario import (
     Scenario,
@@ -436,16 +435,12 @@ def FinishRobots(
 ) -> dict[str, AddedRobot]:
     """Each robot as the world keeps it, made once of what its build added
     (``watching``: by robot name, its sensors, cameras, detectors and perception), its
-    base's topics (odometry, /tf, cmd_vel) and its navigation's registered in
-    ``publications``; by name."""
+    base's topics (odometry, /tf, cmd_vel) registered in ``publications``; by name."""
     robots = {}
     for name, stack in stacks.items():
         robot = FinishRobot(stack, drivers[name], wiring[name], **watching[name])
         publications.add(
             *MobileSource(robot.stack, robot.base_log, robot.twist, robot.twist_target).table()
         )
-        if robot.navigation is not None:
-            navigation = NavigationSource(robot.stack, robot.navigation, robot.detectors)
-            publications.add(*navigation.table())
         robots[name] = robot
     return robots

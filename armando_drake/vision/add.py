@@ -30,7 +30,7 @@ from armando_drake.vision.detectors import (
     intrinsic_matrix,
 )
 from armando_drake.vision.marker_goal import AddMarkerGoal
-from armando_drake.vision.topics import VisionSource
+from armando_drake.vision.topics import MarkerFrameSource, VisionSource
 
 _log = logging.getLogger("armando_drake.vision")
 
@@ -168,6 +168,10 @@ def AddDetectors(
         AddImageView(builder, views, server=image_view, depth=False)
     if publications is not None:
         publications.add(*VisionSource(added, cameras).table())
+        if added.marker_goal is not None:
+            rate = cameras[added.aruco_camera].info.frame_rate
+            space = stack.namespace.strip("/")
+            publications.add(*MarkerFrameSource(added.marker_goal, rate, space).table())
     return added
 
 

@@ -8,6 +8,9 @@ ROS nodes publish them:
                                    in the camera frame, one per detection
 ``/aruco_single/pose_world``       ``geometry_msgs/msg/PoseStamped``: the marker in the
                                    world
+``/tf``                            ``map -> aruco_frame``: the marker on a navigation's
+                                   map (with a navigation; ``map -> <namespace>/aruco_frame``
+                                   for a robot with a namespace), live and recorded
 =================================  ====================================================
 
 The camera's own ``image_raw`` and ``camera_info`` (its intrinsics) are recorded by the
@@ -24,7 +27,11 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus, LeafSystem
 from pydrake.systems.sensors import ImageRgba8U
 
-from armando_drake.messages.definitions import image_message, pose_stamped_message
+from armando_drake.messages.definitions import (
+    image_message,
+    pose_stamped_message,
+    transform_stamped,
+)
 from armando_drake.messages.publications import Send, Topic
 from armando_drake.messages.types import PublicationValue
 from armando_drake.vision.detectors import FRAME_DELAY
@@ -32,6 +39,8 @@ from armando_drake.vision.detectors import FRAME_DELAY
 ANNOTATED_TOPIC = "/image_converter/output_video"
 POSE_TOPIC = "/aruco_single/pose"
 WORLD_POSE_TOPIC = "/aruco_single/pose_world"
+MAP_FRAME, MARKER_FRAME = "map", "aruco_frame"
+TF_MESSAGE = "tf2_msgs/msg/TFMessage"
 
 
 class VisionRecorder(LeafSystem):
@@ -88,6 +97,29 @@ class VisionRecorder(LeafSystem):
         return EventStatus.Succeeded()
 
 
+class MarkerFrame(LeafSystem):
+    """Sends ``map -> <prefix>aruco_frame`` on /tf each time the marker goal publishes a
+    new estimate of the marker on the map (input ``marker_in_map``, a Publication of
+    MarkerPose), at the camera rate."""
+
+    def __init__(self, *, send: Send, frame_rate: float, prefix: str = ""):
+        super().__init__()
+        self._send, self._child = send, f"{prefix}{MARKER_FRAME}"
+        self._marker = self.DeclareAbstractInputPort("marker_in_map", PublicationValue())
+        self._count = 0
+        self.DeclarePeriodicPublishEvent(1.0 / frame_rate, 3 * FRAME_DELAY, self._Publish)
+
+    def _Publish(self, context) -> EventStatus:
+        if self._marker.HasValue(context):
+            marker = self._marker.Eval(context)
+            if marker.count > self._count:
+                self._count = marker.count
+                pose = marker.message.pose
+                frame = transform_stamped(marker.stamp, MAP_FRAME, self._child, pose)
+                self._send("/tf", TF_MESSAGE, {"transforms": [frame]}, marker.stamp)
+        return EventStatus.Succeeded()
+
+
 @dataclass(frozen=True, eq=False)
 class VisionSource:
     """The :class:`VisionRecorder` of each detector of ``detectors`` (AddedDetectors) on
@@ -141,3 +173,28 @@ class VisionSource:
                     builder.Connect(detector.GetOutputPort(port), system.GetInputPort(port))
             added.append(system)
         return added
+
+
+@dataclass(frozen=True, eq=False)
+class MarkerFrameSource:
+    """The :class:`MarkerFrame` of a ``marker_goal`` (the MarkerGoal of the detectors of
+    a robot with a navigation) at the camera's ``rate``; ``space``: that robot's
+    namespace: a :class:`~armando_drake.messages.publications.TopicSource`."""
+
+    marker_goal: Any
+    rate: float
+    space: str = ""
+
+    def table(self) -> list[Topic]:
+        """``map -> aruco_frame`` on /tf (recorded and live)."""
+        return [Topic("/tf", TF_MESSAGE, source=self, rate=self.rate)]
+
+    def attach(self, builder, send: Send, consumer: str) -> MarkerFrame:
+        prefix = f"{self.space}/" if self.space else ""
+        frame = builder.AddNamedSystem(
+            f"{prefix}marker_frame_{consumer}",
+            MarkerFrame(send=send, frame_rate=self.rate, prefix=prefix),
+        )
+        port = self.marker_goal.GetOutputPort("marker_in_map")
+        builder.Connect(port, frame.GetInputPort("marker_in_map"))
+        return frame

@@ -13,7 +13,7 @@ import pytest
 from pydrake.systems.analysis import Simulator
 
 from armando_drake.messages.definitions import pose_stamped_message
-from armando_drake.outputs.navigation_topics import planar
+from armando_drake.navigation.topics import planar
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import load_scenario, merge_overrides
 

@@ -10,9 +10,10 @@ topic                type                              from
                                                        as static_transform_publisher
 ``/tf``              ``tf2_msgs/msg/TFMessage``        ``map -> odom``: AMCL's estimate, or
                                                        the identity (ground truth)
-``/tf``              ``tf2_msgs/msg/TFMessage``        ``map -> aruco_frame``: the ArUco
-                                                       marker on the map (vision.aruco)
 ==================== ================================= =======================================
+
+(The ArUco marker on the map, ``map -> aruco_frame``, is the detectors' row:
+:mod:`armando_drake.vision.topics`.)
 
 :class:`NavigationTopics` reads the navigator's state at the controller manager's rate and
 hands each new message to ``send(topic, type_name, message, stamp)``: the MCAP recorder's
@@ -32,12 +33,11 @@ from pydrake.systems.framework import LeafSystem
 
 from armando_drake.messages.definitions import header, pose_stamped_message, transform_stamped
 from armando_drake.messages.publications import SUBSCRIBE, Send, Topic
-from armando_drake.messages.types import Odometry, PublicationValue
+from armando_drake.messages.types import Odometry
 from armando_drake.navigation.config import NavigationGoal
 from armando_drake.navigation.navigator import NavState
 
 MAP_FRAME = "map"
-MARKER_FRAME = "aruco_frame"
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
 
 
@@ -97,8 +97,7 @@ class NavigationTopics(LeafSystem):
     Ports:
       - input ``nav_state`` (the Navigator's :class:`NavState`);
       - input ``odom`` (the drive's Odometry): map -> odom at each new stamp;
-      - input ``map_to_odom`` (x, y, yaw; AMCL's), unconnected: the identity;
-      - input ``marker_in_map`` (Publication of MarkerPose): ``map -> aruco_frame``.
+      - input ``map_to_odom`` (x, y, yaw; AMCL's), unconnected: the identity.
     """
 
     def __init__(self, grid, *, send: Send, rate: float, space: str = ""):
@@ -111,8 +110,6 @@ class NavigationTopics(LeafSystem):
         self._nav = self.DeclareAbstractInputPort("nav_state", AbstractValue.Make(NavState()))
         self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
         self._map_to_odom = self.DeclareVectorInputPort("map_to_odom", 3)
-        self._marker = self.DeclareAbstractInputPort("marker_in_map", PublicationValue())
-        self._markers = 0
         self._planned_at = None
         self._goals: tuple = ()
         self._last_odom: float | None = None
@@ -142,13 +139,6 @@ class NavigationTopics(LeafSystem):
             goal = nav.goals[nav.goal]
             message = path_message(nav.path, goal.yaw, nav.planned_at)
             self._send(f"/{self._prefix}plan", "nav_msgs/msg/Path", message, nav.planned_at)
-        if self._marker.HasValue(context):
-            marker = self._marker.Eval(context)
-            if marker.count > self._markers:
-                self._markers = marker.count
-                child = f"{self._prefix}{MARKER_FRAME}"
-                frame = transform_stamped(marker.stamp, MAP_FRAME, child, marker.message.pose)
-                self._send("/tf", TF_MESSAGE, {"transforms": [frame]}, marker.stamp)
         if not self._odom.HasValue(context):
             return
         odom = self._odom.Eval(context)
@@ -180,10 +170,6 @@ def AddNavigationTopics(builder, source: NavigationSource, send: Send, *, name: 
         builder.Connect(
             navigation.amcl.GetOutputPort("map_to_odom"), system.GetInputPort("map_to_odom")
         )
-    marker_goal = getattr(source.detectors, "marker_goal", None)
-    if marker_goal is not None:
-        port = marker_goal.GetOutputPort("marker_in_map")
-        builder.Connect(port, system.GetInputPort("marker_in_map"))
     return system
 
 
@@ -200,13 +186,12 @@ def goal_pose_of(message: Any) -> NavigationGoal:
 @dataclass(frozen=True, eq=False)
 class NavigationSource:
     """The :class:`NavigationTopics` of a robot's ``navigation`` (a Navigation), on the
-    controllers of ``stack`` (a ControlStack), with the marker goal of ``detectors`` (the
-    AddedDetectors, if any): a :class:`~armando_drake.messages.publications.TopicSource`.
-    In a world of several robots its topics are under the robot's namespace."""
+    controllers of ``stack`` (a ControlStack): a
+    :class:`~armando_drake.messages.publications.TopicSource`. In a world of several
+    robots its topics are under the robot's namespace."""
 
     stack: Any
     navigation: Any
-    detectors: Any = None
 
     def table(self) -> list[Topic]:
         """Its topics, and the subscription of RViz's 2D goal ``/goal_pose`` (it preempts
