@@ -347,3 +347,20 @@ def last_link_frame(plant, instance):
     moving = [plant.get_joint(i) for i in plant.GetJointIndices(instance)]
     moving = [j for j in moving if j.num_velocities() > 0]
     return max(moving, key=lambda j: j.velocity_start()).child_body().body_frame()
+
+
+def tool_frame(plant, instance):
+    """The robot's tool link: from the child of its last moving joint along the links
+    welded to it, as long as the chain does not branch (a gripper's palm, before its
+    fingers); that child itself when it branches at once or has none."""
+    body = last_link_frame(plant, instance).body()
+    while True:
+        welded = [
+            plant.get_joint(i).child_body()
+            for i in plant.GetJointIndices(instance)
+            if plant.get_joint(i).parent_body().index() == body.index()
+            and plant.get_joint(i).num_velocities() == 0
+        ]
+        if len(welded) != 1:
+            return body.body_frame()
+        body = welded[0]

@@ -193,6 +193,8 @@ class Explorer(Navigator):
     ``map``: the SlamMapper's OccupancyMap; the pose is map -> odom and the odometry.
     """
 
+    LOCALIZATION = "slam"  # slam_toolbox's pose against the ground truth
+
     def __init__(self, explore: ExploreParameters, costmap_params: CostmapParameters,
                  blank: OccupancyMap, *args: Any, **kwargs: Any):  # fmt: skip
         self.explore = explore

@@ -129,6 +129,10 @@ class Navigator(LeafSystem):
     simulator (:mod:`armando_drake.simulation.commander`).
     """
 
+    # What its localization is when not the ground truth (summary.json's
+    # navigation.localization.method).
+    LOCALIZATION = "amcl"
+
     def __init__(
         self,
         goals: list[NavigationGoal],
@@ -489,7 +493,8 @@ class Navigator(LeafSystem):
     def summary(self, context) -> dict[str, Any]:
         """``summary.json``'s ``navigation`` section (collisions are added by the run)."""
         nav, now = self.nav_state(context), context.get_time()
-        return navigation_summary(nav, now, self.controller, self._axle is not None)
+        localized = self.LOCALIZATION if self._axle is not None else ""
+        return navigation_summary(nav, now, self.controller, localized)
 
 
 def check_goals(goals: list[NavigationGoal], costmap: Costmap, where: str = "") -> None:

@@ -89,10 +89,11 @@ def _goal_summary(r: GoalResult, g) -> dict[str, Any]:
 
 
 def navigation_summary(
-    nav, now: float, controller: ControllerParameters, localized: bool
+    nav, now: float, controller: ControllerParameters, localized: str = ""
 ) -> dict[str, Any]:
     """``summary.json``'s ``navigation`` section of the state ``nav`` at ``now`` (the
-    collisions are added by the run); with AMCL (``localized``) its errors too."""
+    collisions are added by the run); with a localization (``localized``: ``amcl`` or
+    ``slam``; "" for the ground truth) its errors too."""
     results = goal_results(nav, now)
     summary = {
         "goals": [_goal_summary(r, g) for r, g in zip(results, nav.goals, strict=True)],
@@ -101,17 +102,17 @@ def navigation_summary(
         "yaw_goal_tolerance": controller.yaw_goal_tolerance,
     }
     if localized:
-        summary["localization"] = localization_summary(nav)
+        summary["localization"] = localization_summary(nav, method=localized)
     return summary
 
 
-def localization_summary(nav, settle: float = 5.0) -> dict[str, Any]:
-    """AMCL's errors against the ground truth: each second's, the last, and the largest
-    from ``settle`` [s] after the navigation started on."""
+def localization_summary(nav, settle: float = 5.0, method: str = "amcl") -> dict[str, Any]:
+    """The localization's (``method``'s) errors against the ground truth: each second's,
+    the last, and the largest from ``settle`` [s] after the navigation started on."""
     samples = nav.localization
     after = [s for s in samples if samples and s[0] >= samples[0][0] + settle]
     return {
-        "method": "amcl",
+        "method": method,
         "errors": [{"time": t, "position": e, "yaw": y} for t, e, y in samples],
         "final_position_error": samples[-1][1] if samples else None,
         "final_yaw_error": samples[-1][2] if samples else None,

@@ -111,6 +111,20 @@ class PerceptionResult:
     def computed(self) -> bool:
         return not math.isnan(self.time)
 
+    def summary(self) -> dict[str, Any]:
+        """summary.json's ``perception``: when and in which frame, each plane (its
+        coefficients, inliers), each cluster (centroid, box, points), largest first."""
+        return {
+            "computed": self.computed,
+            "time": None if not self.computed else float(self.time),
+            "frame": self.frame,
+            "planes": [
+                {"coefficients": [float(v) for v in p.coefficients], "inliers": int(p.inliers)}
+                for p in self.planes
+            ],
+            "clusters": [cluster.as_dict() for cluster in self.clusters],
+        }
+
     @property
     def output(self) -> PointCloud:
         """The cloud after the last step."""

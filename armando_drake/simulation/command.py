@@ -21,6 +21,7 @@ from armando_drake.control.sequencer import (
     Sinusoid,
 )
 from armando_drake.outputs.folder_lock import output_folder_lock
+from armando_drake.outputs.headlines import chapter_lines
 from armando_drake.outputs.recording import RecordingError, check_recording_path
 from armando_drake.outputs.view import serve_until_interrupted
 from armando_drake.simulation.run import format_table, run
@@ -356,6 +357,8 @@ def _report(result, args, started: float) -> None:
         )
     if result.vision:
         print(_vision_line(result.vision))
+    for line in chapter_lines(result.summary()):  # the chapter's own figures
+        print(line)
     if args.output:
         _print_outputs(args.output, started)
     if args.record:

@@ -212,6 +212,18 @@ def _parent_frame(plant, bodies: dict[str, RobotBody], spec: ScenarioRobot):
     return parent, plant.GetFrameByName(link, instance)
 
 
+def _check_tool_link(plant, robot: LoadedRobot, spec: ScenarioRobot) -> None:
+    """Refuses a ``tool_link`` that is not a link of the robot, naming its links."""
+    link = spec.entry.tool_link
+    if link and not plant.HasFrameNamed(link, robot.model_instance):
+        links = sorted(plant.get_body(i).name() for i in plant.GetBodyIndices(robot.model_instance))
+        file = spec.sources.file.rsplit(": robots.", 1)[0]
+        raise ScenarioError(
+            f"{file}: robots.{spec.name}.tool_link={link!r} is not a link of the robot "
+            f"(links: {', '.join(links)})"
+        )
+
+
 def AddRobotBodies(plant, scene_graph, scenario: Scenario) -> dict[str, RobotBody]:
     """Each robot's description in ``plant`` (its own model instance), its controller
     YAML read, its base welded in the world or to its parent's link, or free."""
@@ -224,6 +236,7 @@ def AddRobotBodies(plant, scene_graph, scenario: Scenario) -> dict[str, RobotBod
             controllers, robot, arguments=robot_config.xacro_args, prefix=spec.entry.prefix
         )
         parent, frame = _parent_frame(plant, bodies, spec)
+        _check_tool_link(plant, robot, spec)
         mobile = AddMobileBase(
             plant,
             scene_graph,

@@ -33,6 +33,7 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
 from armando_drake.control.sequencer import Sinusoid, mode_of, wave_of
 from armando_drake.control.stack import effective_actuators
+from armando_drake.kinematics.arm import tool_frame
 from armando_drake.outputs.navigation import navigation_summary, write_navigation_outputs
 from armando_drake.outputs.plots import write_plots
 from armando_drake.outputs.replay import REPLAY_FILE, RecordingMeshcat, publish_replay, write_replay
@@ -40,6 +41,7 @@ from armando_drake.outputs.task_space import TASK_SPACE_CSV, TaskSpaceTracker, w
 from armando_drake.outputs.view import wait_for_browser as wait
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import (
+    RobotEntry,
     Scenario,
     ScenarioRobot,
     default_duration,
@@ -110,8 +112,11 @@ class RunResult:
     base: dict[str, Any] | None = None
     # Navigation: per goal reached, errors [m, rad], time [s], path length [m]; collisions
     navigation: dict[str, Any] | None = None
+    # Perception: the last point cloud's planes and clusters (PerceptionResult.summary)
+    perception: dict[str, Any] | None = None
     # A world of several robots: per robot name, its namespace, joints, driven controller,
-    # step table (or tracking error), largest final error [rad] and base (robot_summary).
+    # step table (or tracking error), largest final error [rad], base and end effector
+    # (robot_summary).
     robots: dict[str, Any] | None = None
     # Their step tables, by robot name (not in summary.json: robots has them).
     robot_steps: dict[str, list[StepResult]] = field(default_factory=dict)
@@ -135,6 +140,7 @@ class RunResult:
             "vision": self.vision,
             "base": self.base,
             "navigation": self.navigation,
+            "perception": self.perception,
             **({"robots": self.robots} if self.robots is not None else {}),
         }
 
@@ -565,7 +571,8 @@ def run(
         # The logs and the summary are written whole, whatever signal comes.
         world.close(simulator.get_context())  # the logger's last rows reach the table too
         result = _result(scenario, world, simulator, table, tracker, log_dir, scenario_name)
-        _add_robot_sections(result, world, tables, sim_time)
+        entries = scenario.robots
+        _add_robot_sections(result, world, tables, simulator.get_context(), entries)
         result.scenario, result.sim_time, result.wall_time = scenario_name, sim_time, wall_time
         result.realtime_factor = sim_time / wall_time if wall_time > 0 else math.inf
         result.interrupted = interrupted
@@ -701,6 +708,9 @@ def _result(scenario, world, simulator, table, tracker, log_dir, name: str = "")
     if base is not None:
         result.base = base.summary()
     result.navigation = navigation_summary(world, simulator.get_context())
+    if world.robot_with("perception").perception is not None:
+        port = world.diagram.GetOutputPort("perception.result")
+        result.perception = port.Eval(simulator.get_context()).summary()
     if watcher.detectors is not None:
         result.vision = write_vision_outputs(
             watcher,
@@ -751,9 +761,11 @@ def _effective(scenario: Scenario, world) -> Scenario:
     return effective
 
 
-def _add_robot_sections(result: RunResult, world, tables: dict, sim_time: float) -> None:
+def _add_robot_sections(result: RunResult, world, tables: dict, context, entries) -> None:
     """``result.robots`` and ``result.robot_steps``: a section per robot with a namespace
-    (none for the one robot of the top-level keys, whose run is the top-level fields)."""
+    (none for the one robot of the top-level keys, whose run is the top-level fields), at
+    the end of the run (the diagram's ``context``; ``entries``: the scenario's robots)."""
+    sim_time = context.get_time()
     named = {name: robot for name, robot in world.robots.items() if robot.namespace}
     result.robot_steps = {
         name: tables[name].results(sim_time)
@@ -761,16 +773,22 @@ def _add_robot_sections(result: RunResult, world, tables: dict, sim_time: float)
         if isinstance(tables[name], StepTable)
     }
     sections = {
-        name: robot_summary(robot, tables[name], result.robot_steps.get(name, []))
+        name: robot_summary(
+            robot, tables[name], result.robot_steps.get(name, []), context, entries[name]
+        )
         for name, robot in named.items()
     }
     result.robots = sections or None
 
 
-def robot_summary(part, table, steps: list[StepResult]) -> dict[str, Any]:
+def robot_summary(
+    part, table, steps: list[StepResult], context=None, entry: RobotEntry | None = None
+) -> dict[str, Any]:
     """A robot's section of summary.json in a world of several: its namespace, joints,
     driven controller, step table (or sinusoid's tracking error), the largest final error
-    of its steps [rad] and its base's summary."""
+    of its steps [rad], its base's summary, and (an arm's, at the diagram's ``context``)
+    its end effector: the task's, else its tool point (``entry``'s tool_link and
+    tool_xyz; :func:`~armando_drake.kinematics.arm.tool_frame` without a link)."""
     return {
         "namespace": part.namespace,
         "model_instance": part.robot.name,
@@ -784,7 +802,26 @@ def robot_summary(part, table, steps: list[StepResult]) -> dict[str, Any]:
         "max_final_error": max((step.final_error for step in steps), default=None),
         "tracking_error": table.largest if isinstance(table, TrackingError) else None,
         "base": part.base_log.summary() if part.base_log is not None else None,
+        "end_effector": _end_effector(part, context, entry or RobotEntry()),
     }
+
+
+def _end_effector(part, context, entry: RobotEntry) -> dict[str, Any] | None:
+    """An arm's end effector at the diagram's ``context``: its frame's name, the point
+    in it and its world position [m]; None for a mobile base or without a context."""
+    if context is None or part.base_log is not None or not part.stack.hardware.joint_names:
+        return None
+    plant, instance = part.plant, part.robot.model_instance
+    point = np.zeros(3)
+    if part.task:
+        frame = part.task.arm.frame_E
+    elif entry.tool_link:
+        frame, point = plant.GetFrameByName(entry.tool_link, instance), np.array(entry.tool_xyz)
+    else:
+        frame = tool_frame(plant, instance)
+    X = frame.CalcPoseInWorld(plant.GetMyContextFromRoot(context))
+    position = [float(v) for v in X @ point]
+    return {"frame": frame.name(), "point": [float(v) for v in point], "position": position}
 
 
 def _table_of(robot, logger) -> StepTable | TrackingError | None:

@@ -122,6 +122,12 @@ class RobotEntry:
     sequencer: PositionTargets | JointTrajectoryTargets | Sinusoid | None = None
     # Velocity commands to its drive, a mobile base's (as the top-level twist:).
     twist: TwistSequence | None = None
+    # An arm's tool point, whose position the run reports (summary.json's
+    # robots.<name>.end_effector; on the terminal, how far apart the arms' tool points
+    # ended): the link, "" = the one after its last joint along the links welded to it
+    # while they do not branch (a gripper's palm), and the point in that link's frame.
+    tool_link: str = ""
+    tool_xyz: list[float] = param([0.0, 0.0, 0.0], unit="m", length=3)
 
     def check(self) -> None:
         if self.namespace not in ("", "/") and not _NAMESPACE.fullmatch(self.namespace):

@@ -87,6 +87,10 @@ def test_scan_matching_corrects_the_odometrys_drift(explored):
     assert mapping["slam_position_error"] < 0.04
     assert mapping["slam_yaw_error"] < 0.015
     assert mapping["odometry_position_error"] > 5 * mapping["slam_position_error"]
+    # The localization's errors over time are SLAM's, named so.
+    localization = summary["localization"]
+    assert localization["method"] == "slam"
+    assert localization["errors"] and localization["final_position_error"] < 0.04
 
 
 def _room_scan(pose, n=360):
