@@ -16,6 +16,11 @@ Each figure is titled once: the quantity with its unit, then the run (:func:`plo
   to the step table's error as each point comes due;
 - ``efforts.png``: joint efforts [N m] (the effort columns).
 
+Only the plots that apply to what ran are written: ``tracking_error.png`` when a joint
+was commanded (``commands.csv``); ``positions.png`` when a joint was commanded, or moved
+on a robot without a mobile base (whose wheels' angles say less than ``base_path.png``);
+``efforts.png`` when an effort was logged other than zero.
+
 A task-space run (``task_space.csv``, see :mod:`armando_drake.outputs.task_space`)
 also gets ``task_error.png`` (position [mm] and orientation [rad] error norms of
 the end effector against time, as the seed's figures), ``joint_torques.png``
@@ -55,7 +60,8 @@ if TYPE_CHECKING:
 
 FIGURE_SIZE = (10.0, 7.0)  # [inch]
 DPI = 100  # [pixel/inch]
-PLOTS = ("positions.png", "tracking_error.png", "efforts.png")
+PLOTS = ("positions.png", "tracking_error.png", "efforts.png")  # an arm's commanded run
+MOVED = 1e-3  # [rad or m] a joint whose range is larger moved
 
 
 def envelope(values: np.ndarray, max_points: int = 4000) -> np.ndarray:
@@ -221,6 +227,9 @@ def write_plots(output_dir: str | Path) -> list[Path]:
             commanded[:, joints.index(name)] = held[:, k]
 
     written = base_plots
+    commanded_any = bool(command_joints) and len(command_times) > 0
+    moved = len(times) > 0 and float(np.ptp(position, axis=0).max(initial=0.0)) > MOVED
+    mobile = bool(base_plots)
 
     def save(fig, name: str) -> None:
         path = folder / name
@@ -232,24 +241,27 @@ def write_plots(output_dir: str | Path) -> list[Path]:
     error = np.abs(position - commanded)
     shown = np.union1d(envelope(position), np.union1d(envelope(effort), envelope(error)))
 
-    fig, axes = _joint_figure("Joint positions", "rad", title, joints, step_starts)
-    _plot_positions(
-        axes, joints, times, position, shown, (command_times, commands, command_joints), trajectory
-    )
-    save(fig, "positions.png")
+    if commanded_any or (moved and not mobile):
+        fig, axes = _joint_figure("Joint positions", "rad", title, joints, step_starts)
+        commands_drawn = (command_times, commands, command_joints)
+        _plot_positions(axes, joints, times, position, shown, commands_drawn, trajectory)
+        save(fig, "positions.png")
 
-    fig, axes = _joint_figure("Tracking error |q - commanded|", "rad", title, joints, step_starts)
-    for j, axis in enumerate(axes):
-        if np.isnan(commanded[:, j]).all():
-            axis.text(0.5, 0.5, "no command", transform=axis.transAxes, ha="center")
-            continue
-        axis.plot(times[shown], error[shown, j], color="tab:red")
-    save(fig, "tracking_error.png")
+    if commanded_any:
+        title_error = "Tracking error |q - commanded|"
+        fig, axes = _joint_figure(title_error, "rad", title, joints, step_starts)
+        for j, axis in enumerate(axes):
+            if np.isnan(commanded[:, j]).all():
+                axis.text(0.5, 0.5, "no command", transform=axis.transAxes, ha="center")
+                continue
+            axis.plot(times[shown], error[shown, j], color="tab:red")
+        save(fig, "tracking_error.png")
 
-    fig, axes = _joint_figure("Joint efforts", "N m", title, joints, step_starts)
-    for j, axis in enumerate(axes):
-        axis.plot(times[shown], effort[shown, j], color="tab:green")
-    save(fig, "efforts.png")
+    if len(times) and float(np.abs(effort).max(initial=0.0)) > 0.0:
+        fig, axes = _joint_figure("Joint efforts", "N m", title, joints, step_starts)
+        for j, axis in enumerate(axes):
+            axis.plot(times[shown], effort[shown, j], color="tab:green")
+        save(fig, "efforts.png")
     if (folder / "task_space.csv").is_file():
         _task_space_plots(folder, title, times, effort, joints, save)
     return written

@@ -6,8 +6,10 @@
   a cell whose runs all failed says so, a cell without the metric (a step that
   never settled) is grey;
 - two axes of random values: a scatter plot coloured by the metric;
-- one axis: the metric against the axis values, as a line (points only for
-  random values; the median where other axes vary too).
+- one axis of numbers: the metric against the axis values, as a line (points only
+  for random values; the median where other axes vary too);
+- one axis of names (a categorical axis: planners, controllers, files): one bar per
+  value, its height the metric, written on it.
 
 Drawn with Matplotlib's object API (no pyplot, no display needed).
 """
@@ -72,6 +74,15 @@ def plot_sweep(
     table: ResultsTable, axes: Sequence[str], metric: str, path: str | Path, title: str = ""
 ) -> Path:
     """Draws ``metric`` over ``axes`` (one or two column names) into ``path`` (PNG)."""
+    figure = draw_sweep(table, axes, metric, title)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(path)
+    return path
+
+
+def draw_sweep(table: ResultsTable, axes: Sequence[str], metric: str, title: str = ""):
+    """The figure of :func:`plot_sweep` (a Matplotlib ``Figure``, one Axes)."""
     from matplotlib.figure import Figure
 
     numbers = [c for c, t in table.types.items() if t in ("int", "float") and c != "variant"]
@@ -110,10 +121,7 @@ def plot_sweep(
     if others:
         notes.append("median over the other axes")
     ax.set_title(title or f"{_metric_label(metric)}\n({', '.join(notes)})", fontsize=10)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(path)
-    return path
+    return figure
 
 
 def _heat_map(figure, ax, cells, levels, metric) -> None:
@@ -168,8 +176,14 @@ def _line(ax, cells, xs, metric) -> None:
     numeric = all(_is_number(x) for x in xs)
     positions = xs if numeric else list(range(len(xs)))
     values = [float("nan") if v is None else v for _, v in points]
-    style = "o-" if len(xs) <= MAX_GRID_VALUES else "o"
-    ax.plot(positions, values, style, markersize=4)
+    if numeric:
+        style = "o-" if len(xs) <= MAX_GRID_VALUES else "o"
+        ax.plot(positions, values, style, markersize=4)
+    else:  # names have no order between them: bars, not a line through them
+        drawn = [(p, v) for p, v in zip(positions, values, strict=True) if math.isfinite(v)]
+        if drawn:
+            bars = ax.bar(*zip(*drawn, strict=True), color="tab:blue", width=0.6)
+            ax.bar_label(bars, fmt="%.3g", fontsize=8)
     bad = [p for p, (_, v) in zip(positions, points, strict=True) if v is None]
     if bad:  # at the bottom edge of the axes
         from matplotlib.transforms import blended_transform_factory

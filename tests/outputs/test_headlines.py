@@ -1,5 +1,6 @@
 """The chapter figures on the terminal (outputs/headlines.py): each kind of run prints the
-numbers its chapter is about, the same as summary.json's."""
+numbers its chapter is about, the same as summary.json's; and writes only the plots that
+apply to it (outputs/plots.py)."""
 
 import contextlib
 import io
@@ -26,6 +27,10 @@ def _run(tmp_path, *argv: str) -> tuple[list[str], dict]:
     return after, json.loads((out / "summary.json").read_text())
 
 
+def _plots(folder) -> set[str]:
+    return {path.name for path in folder.glob("*.png")}
+
+
 def _line(lines: list[str], prefix: str) -> str:
     (line,) = [line for line in lines if line.startswith(prefix)]
     return line
@@ -45,6 +50,9 @@ def test_the_meeting_arms_tool_points_end_within_a_millimetre(tmp_path):
     assert left["point"] == [0.0, 0.015, 0.064]
     # The shared point of the scenario: (0, 0, 0.30) m midway between the bases.
     assert math.dist(left["position"], [0.0, 0.0, 0.30]) < 0.003
+    for arm in ("left", "right"):  # commanded arms: positions against their commands
+        expected = {"positions.png", "tracking_error.png", "efforts.png"}
+        assert _plots(tmp_path / "out" / arm) == expected
     assert distance_mm == pytest.approx(
         1e3 * math.dist(left["position"], right["position"]), abs=0.05
     )
@@ -59,6 +67,8 @@ def test_a_cmd_vel_run_prints_its_base_pose_and_odometry_drift(tmp_path):
     assert x > 0.3 and driven == round(base["distance_travelled"], 2)
     assert drift == round(base["odometry_drift"]["final_position"], 3)
     assert percent == pytest.approx(100 * drift / base["distance_travelled"], abs=0.1)
+    # The base's path and speeds; its wheels' torques; no wheel angles, nothing commanded.
+    assert _plots(tmp_path / "out") == {"base_path.png", "base_velocity.png", "efforts.png"}
 
 
 def test_an_amcl_run_prints_its_localisation_error_over_time(tmp_path):
@@ -82,6 +92,8 @@ def test_a_perception_run_prints_its_plane_and_clusters(tmp_path):
     assert f"{len(perception['clusters'])} clusters" in line and len(perception["clusters"]) == 3
     for cluster in perception["clusters"]:
         assert f"{cluster['count']} points at" in line
+    # An arm held still by no controller: only the torques holding it.
+    assert _plots(tmp_path / "out") == {"efforts.png"}
 
 
 def test_chapter_lines_of_an_exploration_and_of_goals():

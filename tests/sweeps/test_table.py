@@ -104,3 +104,32 @@ def test_figure_files_and_a_bad_metric(table, tmp_path):
         plot_sweep(table, ["a.kp"], "nope", tmp_path / "x.png")
     with pytest.raises(SweepError, match="'error' is not a number column"):
         plot_sweep(table, ["a.kp"], "error", tmp_path / "x.png")
+
+
+def test_a_numeric_axis_is_a_line_and_a_categorical_one_bars():
+    """Numbers on the axis: one line through the medians; names (a planner, a file): one
+    bar per name, as high as its metric, labelled with it, none for a failed one."""
+    from armando_drake.sweeps.plot import draw_sweep
+
+    planners = ["NavfnPlanner", "SmacPlanner2D", "ThetaStarPlanner"]
+    rows = [
+        row({"planner": name}, result(k, summary_=summary([error, 0.01], [0.5, 1.0])))
+        for k, (name, error) in enumerate(zip(planners[:2], [0.1, 0.25], strict=True))
+    ]
+    rows.append(row({"planner": planners[2]}, result(2, "failed", error="error: no plugin")))
+    categorical = ResultsTable(rows)
+    (ax,) = draw_sweep(categorical, ["planner"], "max_error").axes
+    heights = [patch.get_height() for patch in ax.patches]
+    assert heights == pytest.approx([0.1, 0.25]) and not [
+        line for line in ax.lines if len(line.get_xdata()) > 1
+    ]
+    assert [t.get_text() for t in ax.get_xticklabels()] == planners
+    assert [t.get_text() for t in ax.texts] == ["0.1", "0.25"]  # the bars' labels
+    numeric = ResultsTable(
+        [row({"a.kp": kp}, result(k, summary_=summary([e, 0.0], [0.5, 1.0])))
+         for k, (kp, e) in enumerate([(4, 0.3), (8, 0.2), (16, 0.1)])]
+    )  # fmt: skip
+    (ax,) = draw_sweep(numeric, ["a.kp"], "max_error").axes
+    assert not ax.patches
+    (line,) = ax.lines
+    assert list(line.get_xdata()) == [4, 8, 16] and list(line.get_ydata()) == [0.3, 0.2, 0.1]
