@@ -45,6 +45,7 @@ from pydrake.systems.framework import LeafSystem
 from pydrake.systems.lcm import LcmInterfaceSystem
 from pydrake.visualization import ApplyVisualizationConfig
 
+from armando_drake.outputs.follow import AddFollowCamera
 from armando_drake.outputs.view import AddViewFramer
 from armando_drake.tools.files import writing
 
@@ -245,6 +246,7 @@ LAYERS = (
     ("inertia", Role.kIllustration, False),
 )
 LAYER_PREFIX = "/drake"  # Meshcat path of the layers (Drake's default prefix)
+CONTACT_FORCES_PATH = f"{LAYER_PREFIX}/contact_forces"  # Drake's ContactVisualizer's
 POSE_TOLERANCE = 1e-6  # [m] (and [rad] about) a frame moved less is not sent again
 RATE_INTERVAL = 1.0  # [s] of wall-clock time between real-time rates sent to the page
 
@@ -331,7 +333,15 @@ class MovedPoses(LeafSystem):
 
 
 def AddVisualization(
-    builder, config, *, plant, scene_graph, meshcat: Meshcat, robot_instances, ground: bool
+    builder,
+    config,
+    *,
+    plant,
+    scene_graph,
+    meshcat: Meshcat,
+    robot_instances,
+    ground: bool,
+    mobile_bases=(),
 ):
     """Drake's visualization of ``plant`` in ``meshcat`` (``config``: a
     ``VisualizationConfig``), the collision layer hidden; the camera framed on the
@@ -363,7 +373,17 @@ def AddVisualization(
             MovedPoses(meshcat=meshcat, paths=paths, period=config.publish_period),
         )
         builder.Connect(scene_graph.get_query_output_port(), poses.get_input_port())
-    AddViewFramer(
-        builder, plant, scene_graph, meshcat, robot_instances=robot_instances, ground=ground
+    framer = AddViewFramer(
+        builder,
+        plant,
+        scene_graph,
+        meshcat,
+        robot_instances=robot_instances,
+        ground=ground,
+        arena=bool(mobile_bases),
     )
+    if mobile_bases:
+        meshcat.SetProperty(CONTACT_FORCES_PATH, "visible", False)
+        if live:
+            AddFollowCamera(builder, plant, meshcat, mobile_bases, framer=framer)
     return AddReplaySampler(builder, plant)

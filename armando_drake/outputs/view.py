@@ -71,13 +71,19 @@ def frame_scene(
     (:func:`~armando_drake.description.framing.frame_view`) and, given ``scene_frames``
     (the robot's and the objects'), draws the ground to fit them. Returns the content's
     bounds (2, 3) [m], None without geometry."""
+    framed = _frame_scene(meshcat, query, content_frames, scene_frames, view=view)
+    return None if framed is None else framed[0]
+
+
+def _frame_scene(meshcat: Meshcat, query, content_frames, scene_frames=None, *, view=None):
+    """:func:`frame_scene`'s work: (the content's bounds, (camera, target) [m]) or None."""
     from pydrake.math import RigidTransform
 
     view = view or load_view_config()
     points = scene_points(query, content_frames)
     if not len(points):
         return None
-    frame_view(meshcat, points, np.subtract(view.camera_position, view.camera_target))
+    pose = frame_view(meshcat, points, np.subtract(view.camera_position, view.camera_target))
     scene = None if scene_frames is None else scene_bounds(query, scene_frames)
     if scene is not None:
         center = (scene[0, :2] + scene[1, :2]) / 2
@@ -89,7 +95,7 @@ def frame_scene(
         meshcat.SetTransform(
             GROUND_PATH, RigidTransform([center[0], center[1], -GROUND_THICKNESS / 2])
         )
-    return np.array([points.min(axis=0), points.max(axis=0)])
+    return np.array([points.min(axis=0), points.max(axis=0)]), pose
 
 
 class ViewFramer(LeafSystem):
@@ -114,25 +120,40 @@ class ViewFramer(LeafSystem):
         self._query_port = self.DeclareAbstractInputPort("query", Value[QueryObject]())
         self.DeclareInitializationPublishEvent(self._Frame)
         self.content_bounds = None  # (2, 3) [m] once framed
+        self.camera_pose = None  # (camera, target) [m] once framed
 
     def _Frame(self, context) -> None:
-        self.content_bounds = frame_scene(
+        framed = _frame_scene(
             self._meshcat,
             self._query_port.Eval(context),
             self._content_frames,
             self._scene_frames,
             view=self._view,
         )
+        if framed is not None:
+            self.content_bounds, self.camera_pose = framed
 
 
 def AddViewFramer(
-    builder, plant, scene_graph, meshcat: Meshcat, *, robot_instances, ground: bool, view=None
+    builder,
+    plant,
+    scene_graph,
+    meshcat: Meshcat,
+    *,
+    robot_instances,
+    ground: bool,
+    view=None,
+    arena: bool = False,
 ) -> ViewFramer:
     """Adds a :class:`ViewFramer` of the arm of ``robot_instances`` and the objects
     (:func:`~armando_drake.description.framing.content_frames`: the robots' bodies but
-    accessories fixed to the world, and the world's geometry); with ``ground`` it draws
-    the ground to fit every body and the objects."""
+    accessories fixed to the world, and the world's geometry); with ``arena`` (a world
+    with a mobile robot) every body too, the world file's models with them: the arena
+    the robot drives in; with ``ground`` it draws the ground to fit every body and the
+    objects."""
     content = content_frames(plant, robot_instances)
+    if arena:
+        content |= body_frames(plant)
     framer = builder.AddSystem(
         ViewFramer(
             meshcat=meshcat,

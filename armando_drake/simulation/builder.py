@@ -304,6 +304,11 @@ def _add_outputs(builder, scenario: Scenario, robots, table, scene_graph, meshca
     replay_sampler = None
     if meshcat is not None and scenario.visualization.enable_meshcat_creation:
         plant = next(iter(robots.values())).plant  # the world's one plant
+        bases = [
+            plant.GetBodyByName(robot.mobile.base_link, robot.robot.model_instance)
+            for robot in robots.values()
+            if robot.mobile.floating
+        ]
         replay_sampler = AddVisualization(
             builder,
             scenario.visualization,
@@ -312,6 +317,7 @@ def _add_outputs(builder, scenario: Scenario, robots, table, scene_graph, meshca
             meshcat=meshcat,
             robot_instances=instances,
             ground=scenario.ground and not scenario.world_file,
+            mobile_bases=bases,
         )
         # The lidars' scans as points; map, costmap, plan and goals.
         AddScanViews(builder, table, plant, meshcat)
