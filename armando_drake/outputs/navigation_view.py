@@ -10,7 +10,8 @@ Meshcat path                         what
 ``/drake/navigation/costmap``        the global costmap's inflated cells, coloured by cost
                                      from light blue (low) to magenta (inscribed); with
                                      an obstacle layer, as the scans update it, each second
-``/drake/navigation/plan``           the current global plan (a green line)
+``/drake/navigation/plan/<k>``       the global plans (green lines), the current one
+                                     shown; a replay shows each while it was current
 ``/drake/navigation/goals/<name>``   each goal: a sphere, and a short line for its heading
 ==================================== ==================================================
 
@@ -43,6 +44,7 @@ COSTMAP_HEIGHT = 0.005  # [m]
 PLAN_HEIGHT = 0.02  # [m]
 GOAL_RADIUS = 0.06  # [m]
 RATE = 4.0  # [Hz] the view's redraws
+MAX_PLANS = 1000  # plans kept for the replay (a longer run keeps its latest)
 LETHAL = 253  # nav2_costmap_2d's inscribed cost; 254 lethal, 255 unknown
 
 
@@ -85,6 +87,8 @@ class NavigationView(LeafSystem):
     ``ForcedPublish`` all hand it that).
     """
 
+    replayed = True  # publish_replay forces its publish at each frame (:meth:`_Replay`)
+
     def __init__(self, meshcat: Meshcat, navigation, *, point_size: float, space: str = ""):
         super().__init__()
         self._meshcat = meshcat
@@ -102,11 +106,15 @@ class NavigationView(LeafSystem):
         self._costmap = None  # the costmap drawn last
         self._costmap_drawn_at = -math.inf
         self.plan_points = 0  # the points of the plan drawn last
+        self.plans: list[float] = []  # [s] when each plan drawn (plan/<k>) was made
+        self._replayed = None  # the plan a replay's frame shows (its index)
+        self._replayed_at = math.inf  # the time of that frame
         self.map_cells = 0  # the occupied cells drawn last
         self.costmap_cells = 0  # the inflated cells drawn
         self.goals_drawn: list[str] = []
         self.DeclareInitializationPublishEvent(self._Start)
         self.DeclarePeriodicPublishEvent(1.0 / RATE, 0.0, self._Draw)
+        self.DeclareForcedPublishEvent(self._Replay)
 
     def _Start(self, context, event=None) -> None:
         self._DrawMap(self._navigation.grid)
@@ -151,8 +159,32 @@ class NavigationView(LeafSystem):
             self._planned_at = nav.planned_at
             path = np.asarray(nav.path, dtype=float).T
             vertices = np.vstack([path, np.full(path.shape[1], PLAN_HEIGHT)])
-            self._meshcat.SetLine(f"{self.path}/plan", vertices, 3.0, PLAN_COLOUR)
+            if len(self.plans) >= MAX_PLANS:  # the oldest's place: the newest is what counts
+                self.plans.pop(0)
+                self._meshcat.Delete(f"{self.path}/plan/{len(self.plans)}")
+            k = len(self.plans)
+            self._meshcat.SetLine(f"{self.path}/plan/{k}", vertices, 3.0, PLAN_COLOUR)
+            if k:
+                self._meshcat.SetProperty(f"{self.path}/plan/{k - 1}", "visible", False)
+            self.plans.append(float(nav.planned_at))
             self.plan_points = path.shape[1]
+
+    def _Replay(self, context, event=None) -> None:
+        """In a replay's frame at ``context``'s time (publish_replay forces a publish at
+        each): the plan that was current then shown, the others hidden."""
+        now = context.get_time()
+        if now < self._replayed_at:  # a new replay from its start: every plan set again
+            self._replayed = None
+        self._replayed_at = now
+        current = sum(1 for made in self.plans if made <= now + 1e-9) - 1
+        if current == self._replayed:
+            return
+        shown = {current} if self._replayed is not None else set(range(len(self.plans)))
+        for k in shown | ({self._replayed} if self._replayed is not None else set()):
+            if 0 <= k < len(self.plans):
+                visible = k == current
+                self._meshcat.SetProperty(f"{self.path}/plan/{k}", "visible", visible, now)
+        self._replayed = current
 
     def _DrawGoal(self, goal) -> None:
         path = f"{self.path}/goals/{goal.name or 'goal'}"

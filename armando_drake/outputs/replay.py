@@ -151,11 +151,17 @@ def AddReplaySampler(builder, plant, *, rate: float = REPLAY_RATE, max_frames=No
 
 def _visualizers(diagram) -> list:
     """The Meshcat visualizers of ``diagram``'s illustration layer (the one shown by
-    default; ``ApplyVisualizationConfig`` names them ``meshcat_visualizer(illustration)``)."""
+    default; ``ApplyVisualizationConfig`` names them ``meshcat_visualizer(illustration)``)
+    and the views that animate themselves in a replay (``replayed``: a navigation's
+    plans)."""
     return [
         system
         for system in diagram.GetSystems()
-        if isinstance(system, MeshcatVisualizer) and system.get_name().endswith(f"({REPLAY_LAYER})")
+        if (
+            isinstance(system, MeshcatVisualizer)
+            and system.get_name().endswith(f"({REPLAY_LAYER})")
+        )
+        or getattr(system, "replayed", False)
     ]
 
 

@@ -40,10 +40,32 @@ def _positions(meshcat: Meshcat, path: str) -> np.ndarray:
 def test_the_plan_drawn_is_the_navigators(drawn):
     meshcat, view, _, nav = drawn
     assert nav.path is not None and len(nav.path) > 10
-    line = _positions(meshcat, f"{NAV_PATH}/plan")
+    line = _positions(meshcat, f"{NAV_PATH}/plan/{len(view.plans) - 1}")  # the latest
     assert view.plan_points == len(nav.path) == len(line)
     assert np.abs(line[:, :2] - nav.path).max() < 1e-6
     assert np.allclose(line[:, 2], PLAN_HEIGHT)
+
+
+def _visible(meshcat: Meshcat, path: str) -> bool:
+    packed = msgpack.unpackb(meshcat._GetPackedProperty(path, "visible"), raw=False)
+    return packed["value"]
+
+
+def test_each_plan_is_kept_and_a_replay_shows_the_one_current_then(drawn):
+    """Every plan stays drawn (plan/<k>), the latest shown; a replay's frame at time t
+    (the forced publish publish_replay makes) shows the plan current at t only."""
+    meshcat, view, world, nav = drawn
+    assert len(view.plans) >= 2 and view.plans == sorted(view.plans), view.plans
+    assert view.plans[-1] == pytest.approx(nav.planned_at)
+    latest = len(view.plans) - 1
+    assert [_visible(meshcat, f"{NAV_PATH}/plan/{k}") for k in range(latest)] == [False] * latest
+    context = world.diagram.CreateDefaultContext()
+    own = view.GetMyContextFromRoot(context)
+    for k, made in enumerate(view.plans):
+        context.SetTime(made + 0.01)
+        view.ForcedPublish(own)
+        shown = [_visible(meshcat, f"{NAV_PATH}/plan/{j}") for j in range(len(view.plans))]
+        assert shown == [j == k for j in range(len(view.plans))], (k, shown)
 
 
 def test_the_map_and_the_costmap_are_drawn_cell_by_cell(drawn):
@@ -124,3 +146,34 @@ def test_the_map_being_built_is_drawn_as_the_mapper_publishes_it():
         counts.append(len(points))
     world.close(simulator.get_context())
     assert counts[0] > 20 and counts[1] > counts[0] + 20  # the walls seen as it explores
+
+
+def test_the_replay_animates_the_plans_in_their_order(drawn, tmp_path):
+    """publish_replay of the run so far: in replay.html's animation each plan/<k> is
+    hidden at the start, shown from the frame its plan was made, hidden at the next's."""
+    import base64
+    import re
+
+    from armando_drake.outputs.replay import publish_replay
+
+    meshcat, view, world, _ = drawn
+    context = world.diagram.CreateDefaultContext()
+    context.SetTime(3.0)
+    frames = publish_replay(meshcat, world.diagram, world.plant, world.replay_sampler, context)
+    assert frames > 0
+    fps = 1.0 / world.replay_sampler.interval
+    html = meshcat.StaticHtml()
+    (animation,) = [
+        command
+        for blob in re.findall(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)", html)
+        for command in [msgpack.unpackb(base64.b64decode(blob), raw=False, strict_map_key=False)]
+        if command.get("type") == "set_animation"
+    ]
+    tracks = {a["path"]: a["clip"]["tracks"][0] for a in animation["animations"]}
+    sampled = world.replay_sampler.frames()[0]
+    for k, made in enumerate(view.plans):
+        track = tracks[f"{NAV_PATH}/plan/{k}"]
+        assert track["name"] == ".visible"
+        keys = [(key["time"], key["value"]) for key in track["keys"]]
+        shown_at = min(t for t in sampled if t >= made - 1e-9)  # the first frame after it
+        assert keys[0] == (0, False) and (round(shown_at * fps), True) in keys, (k, keys)
