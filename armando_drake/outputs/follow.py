@@ -48,15 +48,18 @@ class FollowCamera(LeafSystem):
     Ports:
       - input ``body_poses`` (the plant's body poses).
 
+    ``hidden``: Meshcat paths it hides at its first move, after the visualizers' own
+    initialisation (which redraws them visible): the wheels' contact forces.
     ``framer``: the :class:`~armando_drake.outputs.view.ViewFramer` whose first framing
     (its ``camera_pose``: camera and target [m]) it starts from, keeping their offset.
     After each move, :attr:`camera` and :attr:`target` hold where the camera is and
     looks (None before the first framing).
     """
 
-    def __init__(self, meshcat: Meshcat, bodies, *, framer, button: bool = True):
+    def __init__(self, meshcat: Meshcat, bodies, *, framer, button: bool = True, hidden=()):
         super().__init__()
         self._meshcat = meshcat
+        self._hidden = list(hidden)  # Meshcat paths hidden once the run has started
         self._bodies = list(bodies)
         self._framer = framer
         self.camera = self.target = None
@@ -82,6 +85,9 @@ class FollowCamera(LeafSystem):
 
     def _Move(self, context) -> None:
         now = context.get_time()
+        for path in self._hidden:
+            self._meshcat.SetProperty(path, "visible", False)
+        self._hidden = []
         if self._last is None:  # the first framing stays where it is: it shows the bases
             if self._framer.camera_pose is None:
                 return
@@ -107,12 +113,13 @@ class FollowCamera(LeafSystem):
             self._meshcat.DeleteButton(BUTTON)
 
 
-def AddFollowCamera(builder, plant, meshcat: Meshcat, bodies, *, framer) -> FollowCamera:
+def AddFollowCamera(builder, plant, meshcat: Meshcat, bodies, *, framer, hidden=()) -> FollowCamera:
     """A :class:`FollowCamera` of the free bases ``bodies`` (Body of each) on ``plant``'s
-    body poses, from ``framer``'s first framing (a ViewFramer)."""
+    body poses, from ``framer``'s first framing (a ViewFramer); ``hidden``: paths it
+    hides once the run has started."""
+    indices = [body.index() for body in bodies]
     follow = builder.AddNamedSystem(
-        "follow_camera",
-        FollowCamera(meshcat, [body.index() for body in bodies], framer=framer),
+        "follow_camera", FollowCamera(meshcat, indices, framer=framer, hidden=hidden)
     )
     builder.Connect(plant.get_body_poses_output_port(), follow.get_input_port())
     return follow

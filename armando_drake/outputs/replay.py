@@ -388,8 +388,7 @@ def AddVisualization(
         ground=ground,
         arena=bool(mobile_bases),
     )
-    if mobile_bases:
-        meshcat.SetProperty(CONTACT_FORCES_PATH, "visible", False)
-        if live:
-            AddFollowCamera(builder, plant, meshcat, mobile_bases, framer=framer)
+    if mobile_bases and live:  # (a recording draws no contact forces)
+        hidden = [CONTACT_FORCES_PATH]
+        AddFollowCamera(builder, plant, meshcat, mobile_bases, framer=framer, hidden=hidden)
     return AddReplaySampler(builder, plant)

@@ -41,6 +41,7 @@ GROUND_PATH = "/ground"  # Meshcat path of the ground drawn to fit the scene
 GROUND_THICKNESS = 0.01  # [m] of the drawn ground slab (its top face is z = 0)
 GROUND_MARGIN = 1.5  # the drawn ground's side over the scene's largest extent
 GROUND_MIN_SIDE = 0.5  # [m] smallest side of the drawn ground
+FLOOR_HEIGHT = 0.02  # [m] a body no higher is a floor: an arena's framing leaves it out
 
 __all__ = [
     "AddViewFramer",
@@ -98,6 +99,12 @@ def _frame_scene(meshcat: Meshcat, query, content_frames, scene_frames=None, *, 
     return np.array([points.min(axis=0), points.max(axis=0)]), pose
 
 
+def _above_the_floor(query, frame) -> bool:
+    """Whether the geometry on ``frame`` reaches higher than :data:`FLOOR_HEIGHT`."""
+    points = scene_points(query, {frame})
+    return bool(len(points)) and float(points[:, 2].max()) > FLOOR_HEIGHT
+
+
 class ViewFramer(LeafSystem):
     """Frames the robot and the objects in Meshcat when the simulation starts
     (:func:`frame_scene`).
@@ -106,15 +113,19 @@ class ViewFramer(LeafSystem):
       query: the SceneGraph's query object.
 
     ``content_frames``: geometry frames of what the view frames (the robot's bodies,
-    the world's with the objects); ``scene_frames``: those of everything the ground
-    should fit (None: no ground drawn); ``view``: the preset whose direction the camera
-    takes (default ``diagrams/display.yaml``).
+    the world's with the objects); ``arena_frames``: those framed too when they rise
+    above the floor (an arena's walls and furniture); ``scene_frames``: those of
+    everything the ground should fit (None: no ground drawn); ``view``: the preset whose
+    direction the camera takes (default ``diagrams/display.yaml``).
     """
 
-    def __init__(self, *, meshcat: Meshcat, content_frames, scene_frames=None, view=None):
+    def __init__(
+        self, *, meshcat: Meshcat, content_frames, scene_frames=None, view=None, arena_frames=None
+    ):
         super().__init__()
         self._meshcat = meshcat
         self._content_frames = set(content_frames)
+        self._arena_frames = set(arena_frames or ())
         self._scene_frames = None if scene_frames is None else set(scene_frames)
         self._view = view
         self._query_port = self.DeclareAbstractInputPort("query", Value[QueryObject]())
@@ -123,13 +134,11 @@ class ViewFramer(LeafSystem):
         self.camera_pose = None  # (camera, target) [m] once framed
 
     def _Frame(self, context) -> None:
-        framed = _frame_scene(
-            self._meshcat,
-            self._query_port.Eval(context),
-            self._content_frames,
-            self._scene_frames,
-            view=self._view,
-        )
+        query = self._query_port.Eval(context)
+        content = self._content_frames | {
+            frame for frame in self._arena_frames if _above_the_floor(query, frame)
+        }
+        framed = _frame_scene(self._meshcat, query, content, self._scene_frames, view=self._view)
         if framed is not None:
             self.content_bounds, self.camera_pose = framed
 
@@ -149,17 +158,17 @@ def AddViewFramer(
     (:func:`~armando_drake.description.framing.content_frames`: the robots' bodies but
     accessories fixed to the world, and the world's geometry); with ``arena`` (a world
     with a mobile robot) every body too, the world file's models with them: the arena
-    the robot drives in; with ``ground`` it draws the ground to fit every body and the
-    objects."""
+    the robot drives in, but a floor (geometry no higher than :data:`FLOOR_HEIGHT`: a
+    world's ground plane may be 100 m wide); with ``ground`` it draws the ground to fit
+    every body and the objects."""
     content = content_frames(plant, robot_instances)
-    if arena:
-        content |= body_frames(plant)
     framer = builder.AddSystem(
         ViewFramer(
             meshcat=meshcat,
             content_frames=content,
             scene_frames=(body_frames(plant) | content) if ground else None,
             view=view,
+            arena_frames=body_frames(plant) if arena else None,
         )
     )
     framer.set_name("view_framer")
