@@ -13,7 +13,9 @@ world) becomes one SDFormat model given to Drake's parser, after these edits:
   as in ``robot.description``). A Fuel URL is looked for by its model name in the
   same places and in Gazebo's Fuel cache. In the folder, ``model.config`` names
   the SDFormat file (else ``model.sdf``). The include's ``<name>``, ``<pose>`` and
-  ``<static>`` replace the model's own. ``ground_plane`` and ``sun``, which Gazebo
+  ``<static>`` replace the model's own. Nested ``<model>`` and ``<include>`` elements are
+  read at any depth (Drake composes their poses; a model inside a static model is made
+  static, as SDFormat says). ``ground_plane`` and ``sun``, which Gazebo
   installs, are built in when not found.
 - meshes: STL and Collada files are converted to OBJ once, into the mesh cache
   (:func:`~armando_drake.description.meshes.convert_mesh`). A mesh's collision
@@ -251,8 +253,9 @@ class _WorldReader:
 
     # ---- includes --------------------------------------------------------
 
-    def included_model(self, include: ET.Element) -> ET.Element | None:
-        """The ``<model>`` an include names, with the include's name, pose and static."""
+    def included_model(self, include: ET.Element) -> tuple[ET.Element, Path] | None:
+        """The ``<model>`` an include names, with the include's name, pose and static, and
+        the file it was read from (its nested includes not yet resolved)."""
         uri = (include.findtext("uri") or "").strip()
         where = f"{self.where(include)}: <include> {uri or '(no <uri>)'}"
         if not uri:
@@ -296,29 +299,56 @@ class _WorldReader:
                 if old is not None:
                     model.remove(old)
                 model.insert(0, value)
-        self.rewrite(model, model_file)
-        return model
+        return model, model_file
 
     # ---- model edits -----------------------------------------------------
 
-    def rewrite(self, model: ET.Element, model_file: Path) -> None:
-        """Edits one model (and its nested models) for Drake, in place."""
-        for parent in list(model.iter()):
-            for child in list(parent):
-                if child.tag in STRIPPED_ELEMENTS:
-                    parent.remove(child)
-                    self.stripped.add(child.tag)
-                elif child.tag == "include":
-                    index = list(parent).index(child)
-                    parent.remove(child)
-                    nested = self.included_model(child)
-                    if nested is not None:
-                        parent.insert(index, nested)
-        for link in model.iter("link"):
+    def rewrite(
+        self, model: ET.Element, model_file: Path, scope: str = "", static: bool = False
+    ) -> None:
+        """Edits one model (and its nested models, at any depth) for Drake, in place.
+
+        ``scope`` is the scoped name of the enclosing model (Drake names a nested model
+        instance ``outer::inner``); a model inside a static model is static, as SDFormat
+        says, so ``<static>true</static>`` is written into it."""
+        name = model.get("name", "").strip()
+        model.set("name", name)
+        scoped = f"{scope}::{name}" if scope else name
+        static = static or (model.findtext("static") or "").strip().lower() in ("true", "1")
+        if static and scope:
+            for old in model.findall("static"):
+                model.remove(old)
+            element = ET.Element("static")
+            element.text = "true"
+            model.insert(0, element)
+        for child in list(model):
+            if child.tag == "include":
+                index = list(model).index(child)
+                model.remove(child)
+                included = self.included_model(child)
+                if included is not None:
+                    nested, nested_file = included
+                    model.insert(index, nested)
+                    self.rewrite(nested, nested_file, scoped, static)
+            elif child.tag == "model":
+                self.rewrite(child, model_file, scoped, static)
+        for child in list(model):
+            if child.tag == "model":
+                continue
+            if child.tag in STRIPPED_ELEMENTS:
+                model.remove(child)
+                self.stripped.add(child.tag)
+                continue
+            for parent in list(child.iter()):
+                for element in list(parent):
+                    if element.tag in STRIPPED_ELEMENTS:
+                        parent.remove(element)
+                        self.stripped.add(element.tag)
+        for link in model.findall("link"):
             for visual in link.findall("visual"):
                 self.visual(visual, model_file)
             for collision in link.findall("collision"):
-                self.collision(model, link, collision, model_file)
+                self.collision(scoped, link, collision, model_file)
 
     def mesh_file(self, mesh: ET.Element, model_file: Path) -> Path:
         uri = (mesh.findtext("uri") or "").strip()
@@ -389,7 +419,7 @@ class _WorldReader:
         return None
 
     def collision(
-        self, model: ET.Element, link: ET.Element, collision: ET.Element, model_file: Path
+        self, model: str, link: ET.Element, collision: ET.Element, model_file: Path
     ) -> None:
         """A mesh collision is taken out, to be added as convex pieces after parsing."""
         mesh = collision.find("geometry/mesh")
@@ -409,7 +439,7 @@ class _WorldReader:
         )
         self.collisions.append(
             (
-                model.get("name", ""),
+                model,
                 link.get("name", ""),
                 RigidTransform(RollPitchYaw(values[3:]), values[:3]),
                 self.mesh_file(mesh, model_file),
@@ -439,13 +469,12 @@ class _WorldReader:
                 loaded.ignored.append(element.tag)
                 continue
             where = self.where(element)
-            if element.tag == "model":
-                self.rewrite(element, self.path)
-                model = element
-            else:
-                model = self.included_model(element)
-            if model is not None:
-                models.append((where, model))
+            included = (element, self.path) if element.tag == "model" else None
+            if element.tag == "include":
+                included = self.included_model(element)
+            if included is not None:
+                self.rewrite(*included)
+                models.append((where, included[0]))
         for where, model in models:
             name = model.get("name", "").strip()
             model.set("name", name)
@@ -464,7 +493,8 @@ class _WorldReader:
             "<sdf ", '<sdf xmlns:drake="http://drake.mit.edu" ', 1
         )
         try:
-            (instance,) = Parser(self.plant).AddModelsFromString(text, "sdf")
+            # A model with nested models is one instance per model, the outer one first.
+            instance = Parser(self.plant).AddModelsFromString(text, "sdf")[0]
         except Exception as error:  # Drake's parser raises RuntimeError with its diagnostic
             message = " ".join(str(error).split())
             raise WorldError(

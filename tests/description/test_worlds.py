@@ -205,3 +205,73 @@ def test_scenario_world_file(tmp_path):
     scenario = load_scenario("position", f"world_file: {tmp_path / 'none.sdf'}")
     with pytest.raises(WorldError, match=r"world_file='.*none\.sdf': no such file"):
         MakeWorld(scenario)
+
+
+NESTED_WORLD = """<?xml version="1.0"?>
+<sdf version="1.9">
+  <world name="nested">
+    <include><uri>model://ground_plane</uri></include>
+    <model name="outer">
+      <static>true</static>
+      <pose>1 0 0 0 0 1.5707963267948966</pose>
+      <link name="base"/>
+      <include>
+        <name>middle</name>
+        <pose>2 0 0 0 0 0</pose>
+        <uri>model://wrapper</uri>
+      </include>
+    </model>
+  </world>
+</sdf>
+"""
+WRAPPER = """<?xml version="1.0"?>
+<sdf version="1.9"><model name="wrapper">
+  <link name="frame_link"><pose>0 0 0.5 0 0 0</pose></link>
+  <model name="inner">
+    <pose>0 1 0 0 0 0</pose>
+    <include><name>crate_in</name><pose>0 0 0.25 0 0 0</pose><uri>model://crate</uri></include>
+    <link name="link"><pose>0 0 1 0 0 0</pose>
+      <collision name="box"><geometry><box><size>0.1 0.1 0.1</size></box></geometry></collision>
+    </link>
+  </model>
+</model></sdf>
+"""
+
+
+def test_nested_models_three_deep(tmp_path):
+    """A <model> wrapping an <include> of a model holding a <model> holding an <include>
+    (4 levels): every body where the composed poses say, every one static (welded) since
+    the outer model is, the deepest crate's STL collision on its own scoped instance."""
+    _models(tmp_path / "models")
+    wrapper = tmp_path / "models" / "wrapper"
+    wrapper.mkdir()
+    (wrapper / "model.sdf").write_text(WRAPPER)
+    world_file = tmp_path / "nested.sdf"
+    world_file.write_text(NESTED_WORLD)
+    builder, plant, scene_graph = _plant()
+    world = load_world(plant, world_file)
+    assert list(world.models) == ["ground_plane", "outer"]
+    names = ["outer::middle", "outer::middle::inner", "outer::middle::inner::crate_in"]
+    assert all(plant.HasModelInstanceNamed(n) for n in names)
+    plant.Finalize()
+    assert plant.num_positions() == 0  # static inherited: nothing floats
+    context = plant.GetMyContextFromRoot(builder.Build().CreateDefaultContext())
+
+    def where(link, model):
+        body = plant.GetBodyByName(link, plant.GetModelInstanceByName(model))
+        return plant.EvalBodyPoseInWorld(context, body)
+
+    # outer at (1, 0, 0) turned 90° about z: its +x is the world's +y.
+    assert where("base", "outer").translation() == pytest.approx([1, 0, 0], abs=1e-9)
+    assert where("frame_link", "outer::middle").translation() == pytest.approx(
+        [1, 2, 0.5], abs=1e-9
+    )
+    # inner at (0, 1, 0) in middle: the world's -x from middle's origin (1, 2, 0).
+    inner = where("link", "outer::middle::inner")
+    assert inner.translation() == pytest.approx([0, 2, 1], abs=1e-9)
+    assert RollPitchYaw(inner.rotation()).yaw_angle() == pytest.approx(1.5707963267948966)
+    crate = where("link", "outer::middle::inner::crate_in")
+    assert crate.translation() == pytest.approx([0, 2, 0.25], abs=1e-9)
+    body = plant.GetBodyByName("link", plant.GetModelInstanceByName(names[-1]))
+    (collision,) = plant.GetCollisionGeometriesForBody(body)
+    assert isinstance(scene_graph.model_inspector().GetShape(collision), Convex)
