@@ -238,13 +238,26 @@ def _floats(text: str | None, count: int, where: str) -> list[float]:
     return values
 
 
+@dataclass
+class _MeshCollision:
+    """A mesh ``<collision>`` taken out of a model, added as convex pieces after parsing."""
+
+    model: str  # the scoped model instance name
+    link: str
+    name: str  # the <collision>'s own name
+    X_LC: RigidTransform
+    path: Path
+    scale: np.ndarray
+    mu: float
+
+
 class _WorldReader:
     """Reads one world file into a plant (see the module docstring)."""
 
     def __init__(self, plant: MultibodyPlant, path: Path, resources: _Resources):
         self.plant, self.path, self.resources = plant, path, resources
         self.stripped: set[str] = set()
-        self.collisions: list[tuple[str, str, RigidTransform, Path, np.ndarray, float]] = []
+        self.collisions: list[_MeshCollision] = []
         self.warnings: list[str] = []
         self.lines: dict[ET.Element, int] = {}
 
@@ -438,13 +451,14 @@ class _WorldReader:
             "surface/friction/bullet/friction"
         )
         self.collisions.append(
-            (
-                model,
-                link.get("name", ""),
-                RigidTransform(RollPitchYaw(values[3:]), values[:3]),
-                self.mesh_file(mesh, model_file),
-                scale3,
-                float(mu) if mu else DEFAULT_FRICTION,
+            _MeshCollision(
+                model=model,
+                link=link.get("name", ""),
+                name=(collision.get("name") or "").strip(),
+                X_LC=RigidTransform(RollPitchYaw(values[3:]), values[:3]),
+                path=self.mesh_file(mesh, model_file),
+                scale=scale3,
+                mu=float(mu) if mu else DEFAULT_FRICTION,
             )
         )
         link.remove(collision)
@@ -504,7 +518,10 @@ class _WorldReader:
 
     def add_collisions(self, loaded: LoadedWorld) -> None:
         plant = self.plant
-        for model, link, X_LC, path, scale, mu in self.collisions:
+        used: set[tuple[str, str]] = set()
+        for item in self.collisions:
+            model, link, X_LC, path, mu = item.model, item.link, item.X_LC, item.path, item.mu
+            scale = item.scale
             instance = loaded.models.get(model) or plant.GetModelInstanceByName(model)
             body = plant.GetBodyByName(link, instance)
             friction = CoulombFriction(mu, mu)
@@ -516,11 +533,19 @@ class _WorldReader:
                     "faces collide as their convex hull under point contact (their true "
                     "surface under hydroelastic contact)"
                 )
+            # Named by the <collision>'s own name (unique in its link, as SDFormat says;
+            # a repeated or missing name gets a number).
+            stem = f"{link}_{item.name or path.stem}"
+            base, count = stem, 1
+            while (model, stem) in used:
+                count += 1
+                stem = f"{base}{count}"
+            used.add((model, stem))
             for index, (convex, piece) in enumerate(pieces):
                 # A file, not an in-memory mesh: Drake 1.51's proximity engine crashes when
                 # it copies a Convex of an InMemoryMesh once an earlier plant is freed.
                 data = _piece_file(piece)
-                name = f"{link}_{path.stem}_{index}"
+                name = f"{stem}_{index}"
                 if convex:
                     plant.RegisterCollisionGeometry(body, X_LC, Convex(data), name, friction)
                     continue

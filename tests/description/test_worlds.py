@@ -275,3 +275,41 @@ def test_nested_models_three_deep(tmp_path):
     body = plant.GetBodyByName("link", plant.GetModelInstanceByName(names[-1]))
     (collision,) = plant.GetCollisionGeometriesForBody(body)
     assert isinstance(scene_graph.model_inspector().GetShape(collision), Convex)
+
+
+SHARED_MESH_WORLD = """<?xml version="1.0"?>
+<sdf version="1.9">
+  <world name="shared">
+    <model name="pair"><static>true</static>
+      <link name="link">
+        <collision name="left"><pose>-1 0 0 0 0 0</pose>
+          <geometry><mesh><uri>model://crate/meshes/crate.stl</uri>
+          <scale>0.001 0.001 0.001</scale></mesh></geometry></collision>
+        <collision name="right"><pose>1 0 0 0 0 0</pose>
+          <geometry><mesh><uri>model://crate/meshes/crate.stl</uri>
+          <scale>0.001 0.001 0.001</scale></mesh></geometry></collision>
+        <collision name="right"><pose>0 3 0 0 0 0</pose>
+          <geometry><mesh><uri>model://crate/meshes/crate.stl</uri>
+          <scale>0.001 0.001 0.001</scale></mesh></geometry></collision>
+      </link>
+    </model>
+  </world>
+</sdf>
+"""
+
+
+def test_collisions_sharing_one_mesh(tmp_path):
+    """Three <collision>s of one link on one mesh file load, each named by its own name
+    (a repeated name gets a number), each at its own pose."""
+    _models(tmp_path / "models")
+    world_file = tmp_path / "shared.sdf"
+    world_file.write_text(SHARED_MESH_WORLD)
+    _, plant, scene_graph = _plant()
+    world = load_world(plant, world_file)
+    inspector = scene_graph.model_inspector()
+    body = plant.GetBodyByName("link", world.models["pair"])
+    ids = plant.GetCollisionGeometriesForBody(body)
+    names = sorted(inspector.GetName(g).split("::")[-1] for g in ids)
+    assert names == ["link_left_0", "link_right2_0", "link_right_0"]
+    poses = sorted(tuple(inspector.GetPoseInFrame(g).translation()) for g in ids)
+    assert [v for pose in poses for v in pose] == pytest.approx([-1, 0, 0, 0, 3, 0, 1, 0, 0])
