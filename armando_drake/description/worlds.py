@@ -60,7 +60,7 @@ from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
 from pydrake.multibody.tree import ModelInstanceIndex
 
 from armando_drake.description.importer import parse_with_lines
-from armando_drake.description.meshes import cache_dir, convert_mesh
+from armando_drake.description.meshes import cache_dir, convert_mesh, load_mesh
 from armando_drake.description.packages import DescriptionError, PackageSearch, find_packages
 
 _log = logging.getLogger("armando_drake.world")
@@ -588,7 +588,7 @@ def convex_pieces(path: Path, scale: tuple[float, float, float]) -> tuple[tuple[
     A concave part of more than :data:`MAX_PRISMS` faces is one non-convex piece."""
     import trimesh
 
-    mesh = trimesh.load(str(path), force="mesh", process=True)
+    mesh = load_mesh(path)  # in metres by its Collada <unit>, as the visual's OBJ
     mesh.merge_vertices(merge_tex=True, merge_norm=True)  # connected through shared corners
     mesh.apply_scale(np.asarray(scale, dtype=float))
     labels = trimesh.graph.connected_component_labels(

@@ -10,7 +10,7 @@ import trimesh
 from PIL import Image
 from pydrake.geometry import Convex, Mesh, Role
 from pydrake.math import RigidTransform, RollPitchYaw
-from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
+from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, CoulombFriction
 from pydrake.systems.framework import DiagramBuilder
 
 from armando_drake.description.worlds import WorldError, load_world
@@ -313,3 +313,56 @@ def test_collisions_sharing_one_mesh(tmp_path):
     assert names == ["link_left_0", "link_right2_0", "link_right_0"]
     poses = sorted(tuple(inspector.GetPoseInFrame(g).translation()) for g in ids)
     assert [v for pose in poses for v in pose] == pytest.approx([-1, 0, 0, 0, 3, 0, 1, 0, 0])
+
+
+INCH_WORLD = """<?xml version="1.0"?>
+<sdf version="1.9">
+  <world name="inches">
+    <model name="floor"><static>true</static>
+      <link name="link">
+        <collision name="slab"><geometry><mesh><uri>slab.dae</uri></mesh></geometry></collision>
+        <visual name="slab"><geometry><mesh><uri>slab.dae</uri></mesh></geometry></visual>
+      </link>
+    </model>
+  </world>
+</sdf>
+"""
+
+
+def test_collada_inches_world_collision(tmp_path):
+    """A Collada floor in inches (<unit meter="0.0254">, a 40 x 40 x 4 in slab, its top
+    4 in = 0.1016 m up) as a world collision: a ball dropped on it rests on its top
+    within 1 mm (Drake physics), and the visual OBJ has the same size."""
+    from pydrake.geometry import Sphere
+    from pydrake.multibody.tree import SpatialInertia
+    from pydrake.systems.analysis import Simulator
+
+    slab = trimesh.creation.box(extents=[40, 40, 4])
+    slab.apply_translation([0, 0, 2])
+    dae = trimesh.exchange.dae.export_collada(slab).decode()
+    dae = dae.replace("<asset>", '<asset><unit name="inch" meter="0.0254"/>', 1)
+    (tmp_path / "slab.dae").write_text(dae)
+    world_file = tmp_path / "inches.sdf"
+    world_file.write_text(INCH_WORLD)
+    builder, plant, scene_graph = _plant()
+    world = load_world(plant, world_file)
+    radius, top = 0.05, 4 * 0.0254
+    ball = plant.AddRigidBody(
+        "ball", plant.AddModelInstance("ball"), SpatialInertia.SolidSphereWithMass(1.0, radius)
+    )
+    plant.RegisterCollisionGeometry(
+        ball, RigidTransform(), Sphere(radius), "ball", CoulombFriction(1.0, 1.0)
+    )
+    plant.set_penetration_allowance(1e-4)
+    plant.Finalize()
+    inspector = scene_graph.model_inspector()
+    (visual,) = plant.GetVisualGeometriesForBody(plant.GetBodyByName("link", world.models["floor"]))
+    vertices = trimesh.load(str(inspector.GetShape(visual).source().path()), force="mesh")
+    assert vertices.bounds[1][2] == pytest.approx(top, abs=1e-6)
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    context = plant.GetMyMutableContextFromRoot(simulator.get_mutable_context())
+    plant.SetFreeBodyPose(context, ball, RigidTransform([0.1, -0.2, top + radius + 0.05]))
+    simulator.AdvanceTo(1.5)
+    z = plant.EvalBodyPoseInWorld(context, ball).translation()[2]
+    assert z - radius == pytest.approx(top, abs=1e-3)
