@@ -16,7 +16,8 @@ world) becomes one SDFormat model given to Drake's parser, after these edits:
   ``<static>`` replace the model's own. Nested ``<model>`` and ``<include>`` elements are
   read at any depth (Drake composes their poses; a model inside a static model is made
   static, as SDFormat says). ``ground_plane`` and ``sun``, which Gazebo
-  installs, are built in when not found.
+  installs, are built in when not found. A ``<plane>`` (Gazebo's ground) becomes a box
+  slab (:func:`plane_to_slab`): Drake 1.51's HalfSpace can crash its proximity engine.
 - meshes: STL and Collada files are converted to OBJ once, into the mesh cache
   (:func:`~armando_drake.description.meshes.convert_mesh`). A mesh's collision
   becomes convex pieces Drake collides with: each connected part of the mesh that
@@ -54,7 +55,7 @@ from pydrake.geometry import (
     Mesh,
     ProximityProperties,
 )
-from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
 from pydrake.multibody.tree import ModelInstanceIndex
@@ -117,6 +118,12 @@ PRISM_FACES = np.array(
 # true surface under hydroelastic contact, with its convex hull under point contact.
 MAX_PRISMS = 128
 DEFAULT_FRICTION = 1.0  # Gazebo's default mu
+# A <plane> becomes a box slab (Drake 1.51's HalfSpace crashes its proximity engine once a
+# dozen static models follow it; see docs/worlds.md): at least this wide, this deep
+# below the plane (collision), this thin (visual).
+PLANE_MIN_SIZE = 100.0  # [m]
+PLANE_SLAB_DEPTH = 0.1  # [m]
+PLANE_VISUAL_DEPTH = 0.01  # [m]
 
 BUILTIN_MODELS = {
     "ground_plane": """<sdf version="1.6"><model name="ground_plane"><static>true</static>
@@ -144,6 +151,7 @@ class LoadedWorld:
     models: dict[str, ModelInstanceIndex] = field(default_factory=dict)  # by include name
     ignored: list[str] = field(default_factory=list)  # world elements not simulated
     warnings: list[str] = field(default_factory=list)
+    planes: list[str] = field(default_factory=list)  # models whose <plane> became a slab
 
 
 @dataclass
@@ -260,6 +268,7 @@ class _WorldReader:
         self.collisions: list[_MeshCollision] = []
         self.warnings: list[str] = []
         self.lines: dict[ET.Element, int] = {}
+        self.planes: list[str] = []  # scoped names of the models whose <plane> became a slab
 
     def where(self, element: ET.Element) -> str:
         return f"{self.path}:{self.lines.get(element, 0)}"
@@ -358,6 +367,10 @@ class _WorldReader:
                         parent.remove(element)
                         self.stripped.add(element.tag)
         for link in model.findall("link"):
+            for element in link.findall("collision") + link.findall("visual"):
+                if element.find("geometry/plane") is not None:
+                    plane_to_slab(element, f"{model_file}: <plane>")
+                    self.planes.append(scoped)
             for visual in link.findall("visual"):
                 self.visual(visual, model_file)
             for collision in link.findall("collision"):
@@ -498,6 +511,7 @@ class _WorldReader:
         self.add_collisions(loaded)
         loaded.ignored += sorted(self.stripped)
         loaded.warnings = self.warnings
+        loaded.planes = list(dict.fromkeys(self.planes))
         return loaded
 
     def add(self, model: ET.Element, where: str) -> ModelInstanceIndex:
@@ -553,6 +567,34 @@ class _WorldReader:
                 AddContactMaterial(friction=friction, properties=properties)
                 AddRigidHydroelasticProperties(properties=properties)
                 plant.RegisterCollisionGeometry(body, X_LC, Mesh(data), name, properties)
+
+
+def plane_to_slab(element: ET.Element, where: str) -> None:
+    """Turns the ``<plane>`` of a ``<collision>`` or ``<visual>`` into the project's box
+    slab, in place: its top face on the plane (through the element's pose, facing the
+    plane's ``<normal>``), at least :data:`PLANE_MIN_SIZE` wide (a plane is infinite to
+    Gazebo), :data:`PLANE_SLAB_DEPTH` deep (collision) or :data:`PLANE_VISUAL_DEPTH`
+    (visual). Friction and material are kept."""
+    geometry = element.find("geometry")
+    plane = geometry.find("plane")
+    normal = np.array(_floats(plane.findtext("normal") or "0 0 1", 3, f"{where}<normal>"))
+    if not np.linalg.norm(normal) > 0:
+        raise WorldError(f"{where}<normal>: {plane.findtext('normal')!r} is not a direction")
+    size = _floats(plane.findtext("size") or "100 100", 2, f"{where}<size>")
+    depth = PLANE_SLAB_DEPTH if element.tag == "collision" else PLANE_VISUAL_DEPTH
+    pose = element.find("pose")
+    values = _floats(pose.text, 6, f"{where}<pose>") if pose is not None else [0.0] * 6
+    X_LP = RigidTransform(RollPitchYaw(values[3:]), values[:3])
+    R_PS = RotationMatrix.MakeFromOneVector(normal / np.linalg.norm(normal), 2)
+    X_LS = X_LP @ RigidTransform(R_PS, [0, 0, 0]) @ RigidTransform([0, 0, -depth / 2])
+    if pose is None:
+        pose = ET.SubElement(element, "pose")
+    rpy = RollPitchYaw(X_LS.rotation()).vector()
+    pose.text = " ".join(f"{v:.17g}" for v in [*X_LS.translation(), *rpy])
+    geometry.remove(plane)
+    box = ET.SubElement(geometry, "box")
+    width = [max(PLANE_MIN_SIZE, v) for v in size]
+    ET.SubElement(box, "size").text = f"{width[0]:g} {width[1]:g} {depth:g}"
 
 
 def _piece_file(piece: bytes) -> str:
@@ -665,6 +707,14 @@ def load_world(plant: MultibodyPlant, path: str | os.PathLike, *, resource_paths
         )
     for line in loaded.warnings:
         _log.warning("%s", line)
+    if loaded.planes:
+        _log.info(
+            "%s: the <plane> ground of %s is a %g m deep box slab (Drake's HalfSpace "
+            "can crash its proximity engine; docs/worlds.md)",
+            path,
+            ", ".join(loaded.planes),
+            PLANE_SLAB_DEPTH,
+        )
     _log.info("world %s: %d models from %s", loaded.name, len(loaded.models), path)
     return loaded
 

@@ -5,6 +5,7 @@ plane), one-line errors for a missing model, GZ_SIM_RESOURCE_PATH."""
 import re
 import xml.etree.ElementTree as ET
 
+import numpy as np
 import pytest
 import trimesh
 from PIL import Image
@@ -366,3 +367,82 @@ def test_collada_inches_world_collision(tmp_path):
     simulator.AdvanceTo(1.5)
     z = plant.EvalBodyPoseInWorld(context, ball).translation()[2]
     assert z - radius == pytest.approx(top, abs=1e-3)
+
+
+GAZEBO_GROUND = """<?xml version="1.0" ?>
+<sdf version="1.5"><model name="ground_plane"><static>true</static>
+  <link name="link">
+    <collision name="collision">
+      <geometry><plane><normal>0 0 1</normal><size>100 100</size></plane></geometry>
+      <surface><friction><ode><mu>100</mu><mu2>50</mu2></ode></friction></surface>
+    </collision>
+    <visual name="visual"><cast_shadows>false</cast_shadows>
+      <geometry><plane><normal>0 0 1</normal><size>100 100</size></plane></geometry>
+      <material><script><uri>file://media/materials/scripts/gazebo.material</uri>
+        <name>Gazebo/Grey</name></script></material>
+    </visual>
+  </link></model></sdf>
+"""
+STATIC_BOX = """<model name="box_{i}"><static>true</static><pose>{x} {y} 0.25 0 0 0</pose>
+  <link name="link"><collision name="collision"><geometry><box><size>0.5 0.5 0.5</size></box>
+  </geometry></collision></link></model>"""
+TILTED_PLANE = """<model name="ramp"><static>true</static><pose>0 20 0 0 0 0</pose>
+  <link name="link"><collision name="collision"><pose>0 0 1 0 0 0</pose>
+  <geometry><plane><normal>0 0.6 0.8</normal></plane></geometry></collision></link></model>"""
+
+
+def test_plane_ground_with_30_static_models(tmp_path, caplog):
+    """Gazebo's own ground_plane folder (a <plane>, mu 100) then 30 static models, a
+    Drake HalfSpace would crash on (docs/worlds.md): the plane is a box slab under z = 0
+    (one info line says so), its friction kept, a ball rests on it; a tilted <plane>'s
+    slab faces its normal."""
+    from pydrake.geometry import Box, Sphere
+    from pydrake.multibody.tree import SpatialInertia
+    from pydrake.systems.analysis import Simulator
+
+    (tmp_path / "models" / "ground_plane").mkdir(parents=True)
+    (tmp_path / "models" / "ground_plane" / "model.sdf").write_text(GAZEBO_GROUND)
+    boxes = "\n".join(STATIC_BOX.format(i=i, x=3 + i % 6, y=3 + i // 6) for i in range(30))
+    world_file = tmp_path / "plane.sdf"
+    world_file.write_text(
+        '<sdf version="1.9"><world name="plane">'
+        f"<include><uri>model://ground_plane</uri></include>{boxes}{TILTED_PLANE}</world></sdf>"
+    )
+    builder, plant, scene_graph = _plant()
+    with caplog.at_level("INFO", logger="armando_drake.world"):
+        world = load_world(plant, world_file)
+    (line,) = [r.message for r in caplog.records if "<plane>" in r.message]
+    assert "ground_plane, ramp" in line and "box slab" in line
+    assert len(world.models) == 32
+    inspector = scene_graph.model_inspector()
+    ground = plant.GetBodyByName("link", world.models["ground_plane"])
+    (collision,) = plant.GetCollisionGeometriesForBody(ground)
+    slab = inspector.GetShape(collision)
+    assert isinstance(slab, Box) and slab.height() == pytest.approx(0.1)
+    assert slab.width() == slab.depth() == pytest.approx(100)
+    X_BS = inspector.GetPoseInFrame(collision)
+    assert X_BS.translation() == pytest.approx([0, 0, -0.05], abs=1e-9)
+    friction = inspector.GetProximityProperties(collision).GetProperty(
+        "material", "coulomb_friction"
+    )
+    assert (friction.static_friction(), friction.dynamic_friction()) == (100, 50)
+    (ramp,) = plant.GetCollisionGeometriesForBody(plant.GetBodyByName("link", world.models["ramp"]))
+    X_RS = inspector.GetPoseInFrame(ramp)
+    assert X_RS.rotation().col(2) == pytest.approx([0, 0.6, 0.8], abs=1e-9)
+    expected = np.array([0, 0, 1]) - 0.05 * np.array([0, 0.6, 0.8])
+    assert X_RS.translation() == pytest.approx(expected, abs=1e-9)
+    radius = 0.05
+    ball = plant.AddRigidBody(
+        "ball", plant.AddModelInstance("ball"), SpatialInertia.SolidSphereWithMass(1.0, radius)
+    )
+    plant.RegisterCollisionGeometry(
+        ball, RigidTransform(), Sphere(radius), "ball", CoulombFriction(1.0, 1.0)
+    )
+    plant.set_penetration_allowance(1e-4)
+    plant.Finalize()
+    simulator = Simulator(builder.Build())
+    context = plant.GetMyMutableContextFromRoot(simulator.get_mutable_context())
+    plant.SetFreeBodyPose(context, ball, RigidTransform([0.5, 0.5, radius + 0.05]))
+    simulator.AdvanceTo(1.0)
+    z = plant.EvalBodyPoseInWorld(context, ball).translation()[2]
+    assert z - radius == pytest.approx(0, abs=1e-3)
