@@ -692,13 +692,18 @@ def textured_box(size: list[float], image: Path) -> Path:
     return obj
 
 
-def load_world(plant: MultibodyPlant, path: str | os.PathLike, *, resource_paths=()) -> LoadedWorld:
+def load_world(
+    plant: MultibodyPlant, path: str | os.PathLike, *, resource_paths=(), package_paths=()
+) -> LoadedWorld:
     """Adds every model of the world file ``path`` to ``plant`` (before ``Finalize``);
-    ignored world elements are named in one warning line."""
+    ignored world elements are named in one warning line. ``package_paths``: the ROS
+    package folders (``--package-path``) its ``package://`` and ``model://`` URIs may
+    name, searched as for the robot description."""
     path = Path(path).expanduser()
     if not path.is_file():
         raise WorldError(f"{path}: the world file does not exist")
-    resources = _Resources(resource_roots(path, resource_paths), find_packages(near=path))
+    search = find_packages([*package_paths, *resource_paths], near=path)
+    resources = _Resources(resource_roots(path, resource_paths), search)
     reader = _WorldReader(plant, path, resources)
     loaded = reader.read()
     if loaded.ignored:
@@ -720,17 +725,28 @@ def load_world(plant: MultibodyPlant, path: str | os.PathLike, *, resource_paths
 
 
 def AddWorld(
-    plant: MultibodyPlant, world_file: str, *, resource_paths=(), where: str = ""
+    plant: MultibodyPlant,
+    world_file: str,
+    *,
+    resource_paths=(),
+    package_paths=(),
+    where: str = "",
 ) -> LoadedWorld:
     """The scenario's ``world_file`` (a path, or ``package://pkg/worlds/x.sdf``) as the
-    scene; ``where``: the key's origin, named when the file is not there."""
+    scene; ``where``: the key's origin, named when the file is not there.
+    ``package_paths`` (the robots', with ``--package-path``) and ``resource_paths`` are
+    searched for ``package://`` as the robot description's packages are
+    (:func:`~armando_drake.description.packages.find_packages`)."""
     path = Path(world_file).expanduser()
     if world_file.startswith("package://"):
         package, _, rest = world_file[len("package://") :].partition("/")
-        search = find_packages(resource_paths)
+        search = find_packages([*package_paths, *resource_paths])
         if package not in search.packages:
-            raise WorldError(f"{where}world_file={world_file!r}: unknown package {package!r}")
+            raise WorldError(
+                f"{where}world_file={world_file!r}: unknown package {package!r} "
+                f"(searched {'; '.join(search.searched)})"
+            )
         path = search.packages[package] / rest
     if not path.is_file():
         raise WorldError(f"{where}world_file={world_file!r}: no such file")
-    return load_world(plant, path, resource_paths=resource_paths)
+    return load_world(plant, path, resource_paths=resource_paths, package_paths=package_paths)

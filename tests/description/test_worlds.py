@@ -446,3 +446,27 @@ def test_plane_ground_with_30_static_models(tmp_path, caplog):
     simulator.AdvanceTo(1.0)
     z = plant.EvalBodyPoseInWorld(context, ball).translation()[2]
     assert z - radius == pytest.approx(0, abs=1e-3)
+
+
+def test_scenario_world_file_package_from_package_path(tmp_path, monkeypatch):
+    """world_file: package://yard_world/... found through --package-path alone (as the
+    robot description's packages are), not only ROS_PACKAGE_PATH; model:// includes of
+    that world found in the package's models/."""
+    from argparse import Namespace
+
+    from armando_drake.simulation.scenario import apply_scenario_arguments, load_scenario
+
+    monkeypatch.delenv("ROS_PACKAGE_PATH", raising=False)
+    package = tmp_path / "workspace" / "yard_world"
+    _models(package / "models")
+    (package / "package.xml").write_text("<package><name>yard_world</name></package>")
+    (package / "worlds").mkdir()
+    (package / "worlds" / "yard.sdf").write_text(WORLD)
+    text = "world_file: package://yard_world/worlds/yard.sdf"
+    scenario = load_scenario("position", text)
+    with pytest.raises(WorldError, match=r"unknown package 'yard_world' \(searched "):
+        MakeWorld(scenario)
+    args = Namespace(set=[], description=None, package_path=[str(tmp_path / "workspace")])
+    scenario = apply_scenario_arguments(load_scenario("position", text), args)
+    plant = MakeWorld(scenario).robot().plant
+    assert plant.HasModelInstanceNamed("crate_a") and plant.HasModelInstanceNamed("tag")
