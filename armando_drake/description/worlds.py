@@ -236,6 +236,16 @@ def _model_file(folder: Path) -> Path | None:
     return files[0] if len(files) == 1 else None
 
 
+def _xml_text(path: Path, where: str) -> str:
+    """The text of an SDFormat file; one line naming it when it is unreadable or binary."""
+    try:
+        return path.read_text(encoding="utf-8")
+    except OSError as error:
+        raise WorldError(f"{path}: cannot read {where}: {error.strerror}") from None
+    except UnicodeDecodeError:
+        raise WorldError(f"{path}: {where} is not a text (SDFormat) file") from None
+
+
 def _floats(text: str | None, count: int, where: str) -> list[float]:
     try:
         values = [float(v) for v in (text or "").split()]
@@ -269,6 +279,7 @@ class _WorldReader:
         self.warnings: list[str] = []
         self.lines: dict[ET.Element, int] = {}
         self.planes: list[str] = []  # scoped names of the models whose <plane> became a slab
+        self.including: list[Path] = [path.resolve()]  # the files being read, outermost first
 
     def where(self, element: ET.Element) -> str:
         return f"{self.path}:{self.lines.get(element, 0)}"
@@ -307,7 +318,12 @@ class _WorldReader:
             model_file = folder if folder.is_file() else _model_file(folder)
             if model_file is None:
                 raise WorldError(f"{where}: {folder} has no model.config or model.sdf")
-            root, _ = parse_with_lines(model_file.read_text(), str(model_file))
+            if model_file.resolve() in self.including:
+                chain = " -> ".join(str(f) for f in [*self.including, model_file.resolve()])
+                raise WorldError(f"{where}: {model_file} includes itself ({chain})")
+            root, _ = parse_with_lines(
+                _xml_text(model_file, f"the model of {where}"), str(model_file)
+            )
             model = root if root.tag == "model" else root.find("model")
             if model is None:
                 raise WorldError(f"{where}: {model_file} has no <model>")
@@ -351,7 +367,9 @@ class _WorldReader:
                 if included is not None:
                     nested, nested_file = included
                     model.insert(index, nested)
+                    self.including.append(nested_file.resolve())
                     self.rewrite(nested, nested_file, scoped, static)
+                    self.including.pop()
             elif child.tag == "model":
                 self.rewrite(child, model_file, scoped, static)
         for child in list(model):
@@ -479,10 +497,7 @@ class _WorldReader:
     # ---- the world -------------------------------------------------------
 
     def read(self) -> LoadedWorld:
-        try:
-            text = self.path.read_text()
-        except OSError as error:
-            raise WorldError(f"{self.path}: cannot read the world: {error.strerror}") from None
+        text = _xml_text(self.path, "the world file")
         root, self.lines = parse_with_lines(text, str(self.path))
         world = root.find("world") if root.tag == "sdf" else None
         if world is None:
@@ -500,7 +515,9 @@ class _WorldReader:
             if element.tag == "include":
                 included = self.included_model(element)
             if included is not None:
+                self.including.append(included[1].resolve())
                 self.rewrite(*included)
+                self.including.pop()
                 models.append((where, included[0]))
         for where, model in models:
             name = model.get("name", "").strip()

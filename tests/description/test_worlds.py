@@ -470,3 +470,41 @@ def test_scenario_world_file_package_from_package_path(tmp_path, monkeypatch):
     scenario = apply_scenario_arguments(load_scenario("position", text), args)
     plant = MakeWorld(scenario).robot().plant
     assert plant.HasModelInstanceNamed("crate_a") and plant.HasModelInstanceNamed("tag")
+
+
+def _including(name: str, uri: str) -> str:
+    return (
+        f'<sdf version="1.9"><model name="{name}"><link name="link"/>'
+        f"<include><uri>{uri}</uri></include></model></sdf>"
+    )
+
+
+@pytest.mark.parametrize("case", ["itself", "loop", "world", "binary"])
+def test_include_loops_and_binary_worlds_are_one_line(tmp_path, case):
+    """A model including itself, two models including each other, a world including
+    itself, a binary world file: one WorldError line naming the file, no internal error."""
+    models = tmp_path / "models"
+    for name, uri in (("selfish", "model://selfish"), ("a", "model://b"), ("b", "model://a")):
+        (models / name).mkdir(parents=True)
+        (models / name / "model.sdf").write_text(_including(name, uri))
+    world_file = tmp_path / "w.sdf"
+    uri = {"itself": "model://selfish", "loop": "model://a", "world": world_file.as_uri()}
+    if case == "binary":
+        world_file.write_bytes(bytes(range(256)) * 4)
+    else:
+        world_file.write_text(
+            f'<sdf version="1.9"><world name="w"><include><uri>{uri[case]}</uri></include>'
+            "</world></sdf>"
+        )
+    _, plant, _ = _plant()
+    with pytest.raises(WorldError) as error:
+        load_world(plant, world_file, resource_paths=[models])
+    message = str(error.value)
+    assert "\n" not in message
+    expected = {
+        "itself": r"includes itself \(.*w\.sdf -> .*selfish/model\.sdf -> .*selfish/model\.sdf\)",
+        "loop": r"a/model\.sdf includes itself \(.*a/model\.sdf -> .*b/model\.sdf -> .*a/model",
+        "world": r"w\.sdf includes itself",
+        "binary": r"w\.sdf: the world file is not a text \(SDFormat\) file",
+    }[case]
+    assert re.search(expected, message), message
