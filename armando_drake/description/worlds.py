@@ -152,6 +152,7 @@ class LoadedWorld:
     ignored: list[str] = field(default_factory=list)  # world elements not simulated
     warnings: list[str] = field(default_factory=list)
     planes: list[str] = field(default_factory=list)  # models whose <plane> became a slab
+    builtins: list[str] = field(default_factory=list)  # include URIs found nowhere, built in
 
 
 @dataclass
@@ -280,6 +281,7 @@ class _WorldReader:
         self.lines: dict[ET.Element, int] = {}
         self.planes: list[str] = []  # scoped names of the models whose <plane> became a slab
         self.including: list[Path] = [path.resolve()]  # the files being read, outermost first
+        self.builtins: list[str] = []  # include URIs replaced by a built-in model
 
     def where(self, element: ET.Element) -> str:
         return f"{self.path}:{self.lines.get(element, 0)}"
@@ -309,6 +311,7 @@ class _WorldReader:
                 return None
             model = ET.fromstring(text).find("model")
             model_file = self.path
+            self.builtins.append(uri)
         else:
             if folder is None:
                 raise WorldError(
@@ -529,6 +532,7 @@ class _WorldReader:
         loaded.ignored += sorted(self.stripped)
         loaded.warnings = self.warnings
         loaded.planes = list(dict.fromkeys(self.planes))
+        loaded.builtins = list(dict.fromkeys(self.builtins))
         return loaded
 
     def add(self, model: ET.Element, where: str) -> ModelInstanceIndex:
@@ -729,6 +733,13 @@ def load_world(
         )
     for line in loaded.warnings:
         _log.warning("%s", line)
+    if loaded.builtins:
+        _log.info(
+            "%s: %s found nowhere on the resource path: the built-in ground (a 100 m box "
+            "slab, 0.1 m deep) is used",
+            path,
+            ", ".join(loaded.builtins),
+        )
     if loaded.planes:
         _log.info(
             "%s: the <plane> ground of %s is a %g m deep box slab (Drake's HalfSpace "

@@ -130,15 +130,19 @@ def test_race_field_loads_every_include():
     assert len(shapes) == 13 and all(isinstance(s, Convex) for s in shapes)
 
 
-def test_small_world(tmp_path):
-    """Our world: the built-in ground plane, the STL crate at its include's pose with a
-    convex collision of its 0.4 m cube, the tag's texture on an OBJ box."""
+def test_small_world(tmp_path, caplog):
+    """Our world: the built-in ground plane (said in one info line), the STL crate at its
+    include's pose with a convex collision of its 0.4 m cube, the tag's texture on an OBJ
+    box."""
     _models(tmp_path / "models")
     (tmp_path / "worlds").mkdir()
     world_file = tmp_path / "worlds" / "yard.sdf"
     world_file.write_text(WORLD)
     builder, plant, scene_graph = _plant()
-    world = load_world(plant, world_file)
+    with caplog.at_level("INFO", logger="armando_drake.world"):
+        world = load_world(plant, world_file)
+    (line,) = [r.message for r in caplog.records if "built-in ground" in r.message]
+    assert "model://ground_plane found nowhere on the resource path" in line
     assert list(world.models) == ["ground_plane", "crate_a", "tag"]
     assert {"physics", "plugin", "light", "cast_shadows"} <= set(world.ignored)
     inspector = scene_graph.model_inspector()
