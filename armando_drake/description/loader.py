@@ -35,6 +35,7 @@ from pydrake.multibody.tree import ModelInstanceIndex
 
 from armando_drake import DEFAULT_DESCRIPTION
 from armando_drake.description.camera_sensors import parse_camera_sensors
+from armando_drake.description.candidates import choose_description
 from armando_drake.description.config import RobotConfig
 from armando_drake.description.drive import DrivePlugin, link_friction, parse_drive_plugins
 from armando_drake.description.importer import PreparedUrdf, actuation, prepare_urdf
@@ -299,8 +300,9 @@ def resolve_description(description: str | os.PathLike | None, search: PackageSe
 
     In a package directory: ``urdf/*.urdf.xacro``, ``urdf/*.xacro``,
     ``urdf/*.urdf``, ``*.urdf*``, else any ``*.urdf.xacro`` or ``*.urdf`` up to
-    three folders down (``robots/fr3/fr3.urdf.xacro``); the first in that order,
-    the others named in the log.
+    three folders down (``robots/fr3/fr3.urdf.xacro``); of the ``.urdf.xacro`` and
+    ``.urdf`` files among them, the one the package's launch files name, else the one
+    with the most links (:func:`choose_description`), the others named in one log line.
     """
 
     if description is None or str(description) == "":
@@ -321,16 +323,19 @@ def resolve_description(description: str | os.PathLike | None, search: PackageSe
                 f"{path}: no .urdf or .xacro file in {urdf_dir}, {path} or the folders below"
             )
         tops = [c for c in candidates if c.name.endswith((".urdf.xacro", ".urdf"))]
-        others = [c for c in tops if c != candidates[0]]
+        chosen, reason = choose_description(path, candidates)
+        others = [c for c in tops if c != chosen]
         if others:
             LOGGER.info(
-                "%s holds %d descriptions: using %s (others: %s); name a file to choose",
+                "%s holds %d descriptions: using %s (others: %s); chosen as %s; "
+                "name a file to choose",
                 path,
                 len(others) + 1,
-                candidates[0].relative_to(path),
+                chosen.relative_to(path),
                 ", ".join(str(c.relative_to(path)) for c in others),
+                reason,
             )
-        return candidates[0]
+        return chosen
     if not path.exists():
         raise DescriptionError(f"{path}: description file not found")
     return path

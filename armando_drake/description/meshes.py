@@ -66,7 +66,7 @@ class ConvertedMesh:
         cached = _vertices_file(self.path)
         if cached.is_file():
             return np.load(cached)
-        return np.asarray(_load_trimesh(self.source).vertices, dtype=float)
+        return np.asarray(load_mesh(self.source).vertices, dtype=float)
 
 
 def cache_dir() -> Path:
@@ -106,7 +106,11 @@ def _content_key(path: Path) -> str:
 
 
 def _load_scene(path: Path):
-    """The trimesh scene of a mesh file, scaled to metres by its Collada ``<unit>``."""
+    """The trimesh scene of a mesh file, scaled to metres by its Collada ``<unit>``: the
+    one place every use of a mesh (visual and collision, robot and world) is read.
+
+    A Collada ``<up_axis>`` is not applied, as Gazebo and RViz do not: ROS meshes are
+    z-up whatever their exporter wrote (many say ``Y_UP``)."""
     import trimesh
 
     try:
@@ -121,8 +125,9 @@ def _load_scene(path: Path):
     return scene
 
 
-def _load_trimesh(path: Path):
-    """The single triangle mesh of an STL/DAE/OBJ/glTF file, in metres per its own units."""
+def load_mesh(path: Path):
+    """The single triangle mesh of an STL/DAE/OBJ/glTF file, in metres per its own units
+    (Collada ``<unit>``)."""
     mesh = _load_scene(path).to_mesh()
     if len(mesh.faces) == 0:
         raise DescriptionError(f"{path}: mesh has no triangles")
@@ -299,7 +304,7 @@ def convert_mesh(source: str | os.PathLike) -> ConvertedMesh:
         text, mtl = _material_obj(parts, source.name, mtl_path.name, textures)
         _write_atomically(mtl_path, lambda name: Path(name).write_text(mtl))
     else:
-        mesh = _load_trimesh(source)
+        mesh = load_mesh(source)
         vertices = np.asarray(mesh.vertices, dtype=float)
         faces = np.asarray(mesh.faces, dtype=np.int64)
         normals = np.asarray(mesh.face_normals, dtype=float)
@@ -344,7 +349,7 @@ def convex_hull(source: str | os.PathLike) -> ConvertedMesh:
     if target.is_file() and _vertices_file(target).is_file():
         return ConvertedMesh(source=source, path=target, converted=False)
     folder.mkdir(parents=True, exist_ok=True)
-    hull = _hull_of(_load_trimesh(source))
+    hull = _hull_of(load_mesh(source))
     vertices = np.asarray(hull.vertices, dtype=float)
     faces = np.asarray(hull.faces, dtype=np.int64)
     text = _obj_text(vertices, faces, np.asarray(hull.face_normals, dtype=float), source.name)
@@ -367,7 +372,7 @@ def mass_properties(path: str | os.PathLike, scale=(1.0, 1.0, 1.0)):
     """(volume [m^3], centre [m], inertia per unit density [m^5] about the centre, in
     the file's axes) of the solid a mesh file bounds, scaled by ``scale``: the mesh itself
     when it is closed, else its convex hull."""
-    mesh = _load_trimesh(Path(path)).copy()
+    mesh = load_mesh(Path(path)).copy()
     mesh.apply_transform(np.diag([*np.asarray(scale, dtype=float), 1.0]))
     if not (mesh.is_watertight and mesh.is_volume and mesh.volume > 0):
         mesh = _hull_of(mesh)

@@ -13,8 +13,11 @@ world) becomes one SDFormat model given to Drake's parser, after these edits:
   as in ``robot.description``). A Fuel URL is looked for by its model name in the
   same places and in Gazebo's Fuel cache. In the folder, ``model.config`` names
   the SDFormat file (else ``model.sdf``). The include's ``<name>``, ``<pose>`` and
-  ``<static>`` replace the model's own. ``ground_plane`` and ``sun``, which Gazebo
-  installs, are built in when not found.
+  ``<static>`` replace the model's own. Nested ``<model>`` and ``<include>`` elements are
+  read at any depth (Drake composes their poses; a model inside a static model is made
+  static, as SDFormat says). ``ground_plane`` and ``sun``, which Gazebo
+  installs, are built in when not found. A ``<plane>`` (Gazebo's ground) becomes a box
+  slab (:func:`plane_to_slab`): Drake 1.51's HalfSpace can crash its proximity engine.
 - meshes: STL and Collada files are converted to OBJ once, into the mesh cache
   (:func:`~armando_drake.description.meshes.convert_mesh`). A mesh's collision
   becomes convex pieces Drake collides with: each connected part of the mesh that
@@ -52,13 +55,13 @@ from pydrake.geometry import (
     Mesh,
     ProximityProperties,
 )
-from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
 from pydrake.multibody.tree import ModelInstanceIndex
 
 from armando_drake.description.importer import parse_with_lines
-from armando_drake.description.meshes import cache_dir, convert_mesh
+from armando_drake.description.meshes import cache_dir, convert_mesh, load_mesh
 from armando_drake.description.packages import DescriptionError, PackageSearch, find_packages
 
 _log = logging.getLogger("armando_drake.world")
@@ -115,6 +118,12 @@ PRISM_FACES = np.array(
 # true surface under hydroelastic contact, with its convex hull under point contact.
 MAX_PRISMS = 128
 DEFAULT_FRICTION = 1.0  # Gazebo's default mu
+# A <plane> becomes a box slab (Drake 1.51's HalfSpace crashes its proximity engine once a
+# dozen static models follow it; see docs/worlds.md): at least this wide, this deep
+# below the plane (collision), this thin (visual).
+PLANE_MIN_SIZE = 100.0  # [m]
+PLANE_SLAB_DEPTH = 0.1  # [m]
+PLANE_VISUAL_DEPTH = 0.01  # [m]
 
 BUILTIN_MODELS = {
     "ground_plane": """<sdf version="1.6"><model name="ground_plane"><static>true</static>
@@ -142,6 +151,8 @@ class LoadedWorld:
     models: dict[str, ModelInstanceIndex] = field(default_factory=dict)  # by include name
     ignored: list[str] = field(default_factory=list)  # world elements not simulated
     warnings: list[str] = field(default_factory=list)
+    planes: list[str] = field(default_factory=list)  # models whose <plane> became a slab
+    builtins: list[str] = field(default_factory=list)  # include URIs found nowhere, built in
 
 
 @dataclass
@@ -226,6 +237,16 @@ def _model_file(folder: Path) -> Path | None:
     return files[0] if len(files) == 1 else None
 
 
+def _xml_text(path: Path, where: str) -> str:
+    """The text of an SDFormat file; one line naming it when it is unreadable or binary."""
+    try:
+        return path.read_text(encoding="utf-8")
+    except OSError as error:
+        raise WorldError(f"{path}: cannot read {where}: {error.strerror}") from None
+    except UnicodeDecodeError:
+        raise WorldError(f"{path}: {where} is not a text (SDFormat) file") from None
+
+
 def _floats(text: str | None, count: int, where: str) -> list[float]:
     try:
         values = [float(v) for v in (text or "").split()]
@@ -236,23 +257,40 @@ def _floats(text: str | None, count: int, where: str) -> list[float]:
     return values
 
 
+@dataclass
+class _MeshCollision:
+    """A mesh ``<collision>`` taken out of a model, added as convex pieces after parsing."""
+
+    model: str  # the scoped model instance name
+    link: str
+    name: str  # the <collision>'s own name
+    X_LC: RigidTransform
+    path: Path
+    scale: np.ndarray
+    mu: float
+
+
 class _WorldReader:
     """Reads one world file into a plant (see the module docstring)."""
 
     def __init__(self, plant: MultibodyPlant, path: Path, resources: _Resources):
         self.plant, self.path, self.resources = plant, path, resources
         self.stripped: set[str] = set()
-        self.collisions: list[tuple[str, str, RigidTransform, Path, np.ndarray, float]] = []
+        self.collisions: list[_MeshCollision] = []
         self.warnings: list[str] = []
         self.lines: dict[ET.Element, int] = {}
+        self.planes: list[str] = []  # scoped names of the models whose <plane> became a slab
+        self.including: list[Path] = [path.resolve()]  # the files being read, outermost first
+        self.builtins: list[str] = []  # include URIs replaced by a built-in model
 
     def where(self, element: ET.Element) -> str:
         return f"{self.path}:{self.lines.get(element, 0)}"
 
     # ---- includes --------------------------------------------------------
 
-    def included_model(self, include: ET.Element) -> ET.Element | None:
-        """The ``<model>`` an include names, with the include's name, pose and static."""
+    def included_model(self, include: ET.Element) -> tuple[ET.Element, Path] | None:
+        """The ``<model>`` an include names, with the include's name, pose and static, and
+        the file it was read from (its nested includes not yet resolved)."""
         uri = (include.findtext("uri") or "").strip()
         where = f"{self.where(include)}: <include> {uri or '(no <uri>)'}"
         if not uri:
@@ -273,6 +311,7 @@ class _WorldReader:
                 return None
             model = ET.fromstring(text).find("model")
             model_file = self.path
+            self.builtins.append(uri)
         else:
             if folder is None:
                 raise WorldError(
@@ -282,7 +321,12 @@ class _WorldReader:
             model_file = folder if folder.is_file() else _model_file(folder)
             if model_file is None:
                 raise WorldError(f"{where}: {folder} has no model.config or model.sdf")
-            root, _ = parse_with_lines(model_file.read_text(), str(model_file))
+            if model_file.resolve() in self.including:
+                chain = " -> ".join(str(f) for f in [*self.including, model_file.resolve()])
+                raise WorldError(f"{where}: {model_file} includes itself ({chain})")
+            root, _ = parse_with_lines(
+                _xml_text(model_file, f"the model of {where}"), str(model_file)
+            )
             model = root if root.tag == "model" else root.find("model")
             if model is None:
                 raise WorldError(f"{where}: {model_file} has no <model>")
@@ -296,29 +340,62 @@ class _WorldReader:
                 if old is not None:
                     model.remove(old)
                 model.insert(0, value)
-        self.rewrite(model, model_file)
-        return model
+        return model, model_file
 
     # ---- model edits -----------------------------------------------------
 
-    def rewrite(self, model: ET.Element, model_file: Path) -> None:
-        """Edits one model (and its nested models) for Drake, in place."""
-        for parent in list(model.iter()):
-            for child in list(parent):
-                if child.tag in STRIPPED_ELEMENTS:
-                    parent.remove(child)
-                    self.stripped.add(child.tag)
-                elif child.tag == "include":
-                    index = list(parent).index(child)
-                    parent.remove(child)
-                    nested = self.included_model(child)
-                    if nested is not None:
-                        parent.insert(index, nested)
-        for link in model.iter("link"):
+    def rewrite(
+        self, model: ET.Element, model_file: Path, scope: str = "", static: bool = False
+    ) -> None:
+        """Edits one model (and its nested models, at any depth) for Drake, in place.
+
+        ``scope`` is the scoped name of the enclosing model (Drake names a nested model
+        instance ``outer::inner``); a model inside a static model is static, as SDFormat
+        says, so ``<static>true</static>`` is written into it."""
+        name = model.get("name", "").strip()
+        model.set("name", name)
+        scoped = f"{scope}::{name}" if scope else name
+        static = static or (model.findtext("static") or "").strip().lower() in ("true", "1")
+        if static and scope:
+            for old in model.findall("static"):
+                model.remove(old)
+            element = ET.Element("static")
+            element.text = "true"
+            model.insert(0, element)
+        for child in list(model):
+            if child.tag == "include":
+                index = list(model).index(child)
+                model.remove(child)
+                included = self.included_model(child)
+                if included is not None:
+                    nested, nested_file = included
+                    model.insert(index, nested)
+                    self.including.append(nested_file.resolve())
+                    self.rewrite(nested, nested_file, scoped, static)
+                    self.including.pop()
+            elif child.tag == "model":
+                self.rewrite(child, model_file, scoped, static)
+        for child in list(model):
+            if child.tag == "model":
+                continue
+            if child.tag in STRIPPED_ELEMENTS:
+                model.remove(child)
+                self.stripped.add(child.tag)
+                continue
+            for parent in list(child.iter()):
+                for element in list(parent):
+                    if element.tag in STRIPPED_ELEMENTS:
+                        parent.remove(element)
+                        self.stripped.add(element.tag)
+        for link in model.findall("link"):
+            for element in link.findall("collision") + link.findall("visual"):
+                if element.find("geometry/plane") is not None:
+                    plane_to_slab(element, f"{model_file}: <plane>")
+                    self.planes.append(scoped)
             for visual in link.findall("visual"):
                 self.visual(visual, model_file)
             for collision in link.findall("collision"):
-                self.collision(model, link, collision, model_file)
+                self.collision(scoped, link, collision, model_file)
 
     def mesh_file(self, mesh: ET.Element, model_file: Path) -> Path:
         uri = (mesh.findtext("uri") or "").strip()
@@ -389,7 +466,7 @@ class _WorldReader:
         return None
 
     def collision(
-        self, model: ET.Element, link: ET.Element, collision: ET.Element, model_file: Path
+        self, model: str, link: ET.Element, collision: ET.Element, model_file: Path
     ) -> None:
         """A mesh collision is taken out, to be added as convex pieces after parsing."""
         mesh = collision.find("geometry/mesh")
@@ -408,13 +485,14 @@ class _WorldReader:
             "surface/friction/bullet/friction"
         )
         self.collisions.append(
-            (
-                model.get("name", ""),
-                link.get("name", ""),
-                RigidTransform(RollPitchYaw(values[3:]), values[:3]),
-                self.mesh_file(mesh, model_file),
-                scale3,
-                float(mu) if mu else DEFAULT_FRICTION,
+            _MeshCollision(
+                model=model,
+                link=link.get("name", ""),
+                name=(collision.get("name") or "").strip(),
+                X_LC=RigidTransform(RollPitchYaw(values[3:]), values[:3]),
+                path=self.mesh_file(mesh, model_file),
+                scale=scale3,
+                mu=float(mu) if mu else DEFAULT_FRICTION,
             )
         )
         link.remove(collision)
@@ -422,10 +500,7 @@ class _WorldReader:
     # ---- the world -------------------------------------------------------
 
     def read(self) -> LoadedWorld:
-        try:
-            text = self.path.read_text()
-        except OSError as error:
-            raise WorldError(f"{self.path}: cannot read the world: {error.strerror}") from None
+        text = _xml_text(self.path, "the world file")
         root, self.lines = parse_with_lines(text, str(self.path))
         world = root.find("world") if root.tag == "sdf" else None
         if world is None:
@@ -439,13 +514,14 @@ class _WorldReader:
                 loaded.ignored.append(element.tag)
                 continue
             where = self.where(element)
-            if element.tag == "model":
-                self.rewrite(element, self.path)
-                model = element
-            else:
-                model = self.included_model(element)
-            if model is not None:
-                models.append((where, model))
+            included = (element, self.path) if element.tag == "model" else None
+            if element.tag == "include":
+                included = self.included_model(element)
+            if included is not None:
+                self.including.append(included[1].resolve())
+                self.rewrite(*included)
+                self.including.pop()
+                models.append((where, included[0]))
         for where, model in models:
             name = model.get("name", "").strip()
             model.set("name", name)
@@ -455,6 +531,8 @@ class _WorldReader:
         self.add_collisions(loaded)
         loaded.ignored += sorted(self.stripped)
         loaded.warnings = self.warnings
+        loaded.planes = list(dict.fromkeys(self.planes))
+        loaded.builtins = list(dict.fromkeys(self.builtins))
         return loaded
 
     def add(self, model: ET.Element, where: str) -> ModelInstanceIndex:
@@ -464,7 +542,8 @@ class _WorldReader:
             "<sdf ", '<sdf xmlns:drake="http://drake.mit.edu" ', 1
         )
         try:
-            (instance,) = Parser(self.plant).AddModelsFromString(text, "sdf")
+            # A model with nested models is one instance per model, the outer one first.
+            instance = Parser(self.plant).AddModelsFromString(text, "sdf")[0]
         except Exception as error:  # Drake's parser raises RuntimeError with its diagnostic
             message = " ".join(str(error).split())
             raise WorldError(
@@ -474,7 +553,10 @@ class _WorldReader:
 
     def add_collisions(self, loaded: LoadedWorld) -> None:
         plant = self.plant
-        for model, link, X_LC, path, scale, mu in self.collisions:
+        used: set[tuple[str, str]] = set()
+        for item in self.collisions:
+            model, link, X_LC, path, mu = item.model, item.link, item.X_LC, item.path, item.mu
+            scale = item.scale
             instance = loaded.models.get(model) or plant.GetModelInstanceByName(model)
             body = plant.GetBodyByName(link, instance)
             friction = CoulombFriction(mu, mu)
@@ -486,11 +568,19 @@ class _WorldReader:
                     "faces collide as their convex hull under point contact (their true "
                     "surface under hydroelastic contact)"
                 )
+            # Named by the <collision>'s own name (unique in its link, as SDFormat says;
+            # a repeated or missing name gets a number).
+            stem = f"{link}_{item.name or path.stem}"
+            base, count = stem, 1
+            while (model, stem) in used:
+                count += 1
+                stem = f"{base}{count}"
+            used.add((model, stem))
             for index, (convex, piece) in enumerate(pieces):
                 # A file, not an in-memory mesh: Drake 1.51's proximity engine crashes when
                 # it copies a Convex of an InMemoryMesh once an earlier plant is freed.
                 data = _piece_file(piece)
-                name = f"{link}_{path.stem}_{index}"
+                name = f"{stem}_{index}"
                 if convex:
                     plant.RegisterCollisionGeometry(body, X_LC, Convex(data), name, friction)
                     continue
@@ -498,6 +588,34 @@ class _WorldReader:
                 AddContactMaterial(friction=friction, properties=properties)
                 AddRigidHydroelasticProperties(properties=properties)
                 plant.RegisterCollisionGeometry(body, X_LC, Mesh(data), name, properties)
+
+
+def plane_to_slab(element: ET.Element, where: str) -> None:
+    """Turns the ``<plane>`` of a ``<collision>`` or ``<visual>`` into the project's box
+    slab, in place: its top face on the plane (through the element's pose, facing the
+    plane's ``<normal>``), at least :data:`PLANE_MIN_SIZE` wide (a plane is infinite to
+    Gazebo), :data:`PLANE_SLAB_DEPTH` deep (collision) or :data:`PLANE_VISUAL_DEPTH`
+    (visual). Friction and material are kept."""
+    geometry = element.find("geometry")
+    plane = geometry.find("plane")
+    normal = np.array(_floats(plane.findtext("normal") or "0 0 1", 3, f"{where}<normal>"))
+    if not np.linalg.norm(normal) > 0:
+        raise WorldError(f"{where}<normal>: {plane.findtext('normal')!r} is not a direction")
+    size = _floats(plane.findtext("size") or "100 100", 2, f"{where}<size>")
+    depth = PLANE_SLAB_DEPTH if element.tag == "collision" else PLANE_VISUAL_DEPTH
+    pose = element.find("pose")
+    values = _floats(pose.text, 6, f"{where}<pose>") if pose is not None else [0.0] * 6
+    X_LP = RigidTransform(RollPitchYaw(values[3:]), values[:3])
+    R_PS = RotationMatrix.MakeFromOneVector(normal / np.linalg.norm(normal), 2)
+    X_LS = X_LP @ RigidTransform(R_PS, [0, 0, 0]) @ RigidTransform([0, 0, -depth / 2])
+    if pose is None:
+        pose = ET.SubElement(element, "pose")
+    rpy = RollPitchYaw(X_LS.rotation()).vector()
+    pose.text = " ".join(f"{v:.17g}" for v in [*X_LS.translation(), *rpy])
+    geometry.remove(plane)
+    box = ET.SubElement(geometry, "box")
+    width = [max(PLANE_MIN_SIZE, v) for v in size]
+    ET.SubElement(box, "size").text = f"{width[0]:g} {width[1]:g} {depth:g}"
 
 
 def _piece_file(piece: bytes) -> str:
@@ -533,7 +651,7 @@ def convex_pieces(path: Path, scale: tuple[float, float, float]) -> tuple[tuple[
     A concave part of more than :data:`MAX_PRISMS` faces is one non-convex piece."""
     import trimesh
 
-    mesh = trimesh.load(str(path), force="mesh", process=True)
+    mesh = load_mesh(path)  # in metres by its Collada <unit>, as the visual's OBJ
     mesh.merge_vertices(merge_tex=True, merge_norm=True)  # connected through shared corners
     mesh.apply_scale(np.asarray(scale, dtype=float))
     labels = trimesh.graph.connected_component_labels(
@@ -595,13 +713,18 @@ def textured_box(size: list[float], image: Path) -> Path:
     return obj
 
 
-def load_world(plant: MultibodyPlant, path: str | os.PathLike, *, resource_paths=()) -> LoadedWorld:
+def load_world(
+    plant: MultibodyPlant, path: str | os.PathLike, *, resource_paths=(), package_paths=()
+) -> LoadedWorld:
     """Adds every model of the world file ``path`` to ``plant`` (before ``Finalize``);
-    ignored world elements are named in one warning line."""
+    ignored world elements are named in one warning line. ``package_paths``: the ROS
+    package folders (``--package-path``) its ``package://`` and ``model://`` URIs may
+    name, searched as for the robot description."""
     path = Path(path).expanduser()
     if not path.is_file():
         raise WorldError(f"{path}: the world file does not exist")
-    resources = _Resources(resource_roots(path, resource_paths), find_packages(near=path))
+    search = find_packages([*package_paths, *resource_paths], near=path)
+    resources = _Resources(resource_roots(path, resource_paths), search)
     reader = _WorldReader(plant, path, resources)
     loaded = reader.read()
     if loaded.ignored:
@@ -610,22 +733,48 @@ def load_world(plant: MultibodyPlant, path: str | os.PathLike, *, resource_paths
         )
     for line in loaded.warnings:
         _log.warning("%s", line)
+    if loaded.builtins:
+        _log.info(
+            "%s: %s found nowhere on the resource path: the built-in ground (a 100 m box "
+            "slab, 0.1 m deep) is used",
+            path,
+            ", ".join(loaded.builtins),
+        )
+    if loaded.planes:
+        _log.info(
+            "%s: the <plane> ground of %s is a %g m deep box slab (Drake's HalfSpace "
+            "can crash its proximity engine; docs/worlds.md)",
+            path,
+            ", ".join(loaded.planes),
+            PLANE_SLAB_DEPTH,
+        )
     _log.info("world %s: %d models from %s", loaded.name, len(loaded.models), path)
     return loaded
 
 
 def AddWorld(
-    plant: MultibodyPlant, world_file: str, *, resource_paths=(), where: str = ""
+    plant: MultibodyPlant,
+    world_file: str,
+    *,
+    resource_paths=(),
+    package_paths=(),
+    where: str = "",
 ) -> LoadedWorld:
     """The scenario's ``world_file`` (a path, or ``package://pkg/worlds/x.sdf``) as the
-    scene; ``where``: the key's origin, named when the file is not there."""
+    scene; ``where``: the key's origin, named when the file is not there.
+    ``package_paths`` (the robots', with ``--package-path``) and ``resource_paths`` are
+    searched for ``package://`` as the robot description's packages are
+    (:func:`~armando_drake.description.packages.find_packages`)."""
     path = Path(world_file).expanduser()
     if world_file.startswith("package://"):
         package, _, rest = world_file[len("package://") :].partition("/")
-        search = find_packages(resource_paths)
+        search = find_packages([*package_paths, *resource_paths])
         if package not in search.packages:
-            raise WorldError(f"{where}world_file={world_file!r}: unknown package {package!r}")
+            raise WorldError(
+                f"{where}world_file={world_file!r}: unknown package {package!r} "
+                f"(searched {'; '.join(search.searched)})"
+            )
         path = search.packages[package] / rest
     if not path.is_file():
         raise WorldError(f"{where}world_file={world_file!r}: no such file")
-    return load_world(plant, path, resource_paths=resource_paths)
+    return load_world(plant, path, resource_paths=resource_paths, package_paths=package_paths)

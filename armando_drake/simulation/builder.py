@@ -158,7 +158,10 @@ def _add_physics(builder: DiagramBuilder, scenario: Scenario, where: str):
     if scenario.world_file:
         where = _origin(scenario, "world_file")
         paths = scenario.world_resource_paths
-        AddWorld(plant, scenario.world_file, resource_paths=paths, where=where)
+        packages = [p for entry in scenario.robots.values() for p in entry.robot.package_paths]
+        AddWorld(
+            plant, scenario.world_file, resource_paths=paths, package_paths=packages, where=where
+        )
     elif scenario.ground:
         floating = any(body.mobile.floating for body in bodies.values())
         (AddFloor if floating else AddGround)(plant, scene_graph)

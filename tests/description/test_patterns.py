@@ -470,6 +470,53 @@ def test_a_package_with_its_descriptions_in_subfolders(workspace, tmp_path, capl
     )
 
 
+def _chain_urdf(name: str, links: int) -> str:
+    """A URDF of ``links`` links chained by revolute joints."""
+    inertial = (
+        '<inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" '
+        'ixz="0" iyz="0"/></inertial>'
+    )
+    parts = [f'<link name="l{i}">{inertial}</link>' for i in range(links)]
+    parts += [
+        f'<joint name="j{i}" type="revolute"><parent link="l{i - 1}"/><child link="l{i}"/>'
+        '<origin xyz="0 0 0.1"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" effort="10" velocity="1"/></joint>'
+        for i in range(1, links)
+    ]
+    return f'<?xml version="1.0"?><robot name="{name}">{"".join(parts)}</robot>'
+
+
+def test_a_package_with_a_materials_only_urdf_and_three_robots(tmp_path, caplog):
+    """A materials-only common_properties.urdf (first alphabetically) and three robots:
+    the one with the most links is chosen, unless a launch file names another; one log
+    line names the choice, why, and the other candidates."""
+    package = tmp_path / "three_robots_description"
+    (package / "urdf").mkdir(parents=True)
+    (package / "urdf" / "common_properties.urdf").write_text(
+        '<?xml version="1.0"?><robot name="common"><material name="blue">'
+        '<color rgba="0 0 1 1"/></material></robot>'
+    )
+    for name, links in (("robot_a", 2), ("robot_b", 4), ("robot_c", 3)):
+        (package / "urdf" / f"{name}.urdf").write_text(_chain_urdf(name, links))
+    (package / "package.xml").write_text("<package><name>three_robots_description</name></package>")
+    caplog.set_level(logging.INFO)
+    _, robot = load("package://three_robots_description", package_paths=[tmp_path])
+    assert robot.source == package.resolve() / "urdf" / "robot_b.urdf"
+    (line,) = [r.message for r in caplog.records if "holds 4 descriptions" in r.message]
+    assert (
+        "using urdf/robot_b.urdf (others: urdf/common_properties.urdf, urdf/robot_a.urdf, "
+        "urdf/robot_c.urdf); chosen as the most links: 4" in line
+    )
+    (package / "launch").mkdir()
+    (package / "launch" / "display.launch.py").write_text(
+        'urdf = os.path.join(share, "urdf", "robot_c.urdf")\n'
+    )
+    caplog.clear()
+    _, robot = load("package://three_robots_description", package_paths=[tmp_path])
+    assert robot.source == package.resolve() / "urdf" / "robot_c.urdf"
+    assert "chosen as named by the package's launch files or package.xml" in caplog.text
+
+
 # --------------------------------------------------------------------------
 # 6. Meshes
 # --------------------------------------------------------------------------
