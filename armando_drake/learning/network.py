@@ -25,6 +25,8 @@ from __future__ import annotations
 import functools
 import json
 import math
+import os
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -96,6 +98,61 @@ def _output_columns(angular: tuple[bool, ...]) -> tuple[np.ndarray, ...]:
     return tuple(np.array(v, dtype=int) for v in (angles, sines, lengths, length_columns))
 
 
+# The largest network file read (the shipped one is a few tens of kB).
+MAX_NETWORK_BYTES = 256 * 2**20
+_METADATA_LISTS = ("features", "joint_names", "lower", "upper", "angular")
+
+
+def regular_file(path: Path, what: str, max_bytes: int) -> None:
+    """A LearnedIkError unless ``path`` is a regular file of at most ``max_bytes`` (no
+    FIFO, device or directory: reading one would block or never end)."""
+    try:
+        info = os.stat(path)
+    except OSError as error:
+        raise LearnedIkError(f"{path}: {what} cannot be read ({error.strerror})") from None
+    if not stat.S_ISREG(info.st_mode):
+        raise LearnedIkError(f"{path}: not a regular file: {what} must be one")
+    if info.st_size > max_bytes:
+        raise LearnedIkError(
+            f"{path}: {info.st_size:,} bytes, over the limit of {max_bytes:,} for {what}"
+        )
+
+
+def checked_metadata(text: str | bytes, where: str) -> dict:
+    """The JSON metadata of a network or data set, checked: its lists present, of equal
+    lengths per joint, bounds finite numbers; a LearnedIkError naming the key else."""
+    try:
+        metadata = json.loads(text)
+    except (ValueError, TypeError):
+        raise LearnedIkError(f"{where}: not JSON") from None
+    if not isinstance(metadata, dict):
+        raise LearnedIkError(f"{where}: not a JSON object")
+    keys = [k for k in ("joint_names", "lower", "upper", "angular") if k in metadata]
+    for key in keys + (["features"] if "features" in metadata else []):
+        if not isinstance(metadata[key], list):
+            raise LearnedIkError(f"{where}: key {key!r} must be a list, not {metadata[key]!r}")
+    names = metadata.get("joint_names")
+    if not names or not all(isinstance(n, str) and n for n in names):
+        raise LearnedIkError(f"{where}: key 'joint_names' must list the joints, not {names!r}")
+    for key in ("lower", "upper", "angular"):
+        if key in metadata and len(metadata[key]) != len(names):
+            raise LearnedIkError(
+                f"{where}: key {key!r} has {len(metadata[key])} values for {len(names)} joints"
+            )
+    for key in ("lower", "upper"):
+        values = metadata.get(key, [])
+        if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in values):
+            raise LearnedIkError(f"{where}: key {key!r} must hold finite numbers, not {values!r}")
+    return metadata
+
+
+def require_keys(metadata: dict, keys, where: str) -> None:
+    """A LearnedIkError naming the first of ``keys`` that ``metadata`` lacks."""
+    for key in keys:
+        if key not in metadata:
+            raise LearnedIkError(f"{where}: key {key!r} is missing")
+
+
 def angular_joints(arm: ArmModel) -> list[bool]:
     """Whether each joint of ``arm`` is revolute (an angle) rather than prismatic."""
     return [
@@ -123,6 +180,7 @@ class IkModel:
         import onnxruntime
 
         self.path = Path(path)
+        regular_file(self.path, "the network", MAX_NETWORK_BYTES)
         options = onnxruntime.SessionOptions()
         options.intra_op_num_threads = threads
         options.inter_op_num_threads = 1
@@ -139,18 +197,48 @@ class IkModel:
                 f"{self.path}: no {METADATA_KEY!r} metadata (not written by "
                 "python -m armando_drake.learn ik)"
             )
-        self.metadata = json.loads(text)
+        where = f"{self.path}: metadata {METADATA_KEY!r}"
+        self.metadata = checked_metadata(text, where)
+        require_keys(self.metadata, (*_METADATA_LISTS, "robot", "frame"), where)
         self.features = list(self.metadata["features"])
         unknown = [name for name in self.features if name not in ALL_FEATURES]
-        if unknown:
-            raise LearnedIkError(f"{self.path}: unknown pose features {unknown}")
+        if unknown or not self.features:
+            raise LearnedIkError(f"{self.path}: unknown pose features {unknown or '[]'}")
         self._columns = np.array([ALL_FEATURES.index(name) for name in self.features])
         self.joint_names = list(self.metadata["joint_names"])
         self.lower = np.array(self.metadata["lower"], dtype=float)
         self.upper = np.array(self.metadata["upper"], dtype=float)
         self.angular = tuple(bool(a) for a in self.metadata["angular"])
-        self._input = self.session.get_inputs()[0].name
-        self._output = [self.session.get_outputs()[0].name]
+        inputs, outputs = self.session.get_inputs(), self.session.get_outputs()
+        if len(inputs) != 1 or not outputs:
+            raise LearnedIkError(
+                f"{self.path}: {len(inputs)} inputs and {len(outputs)} outputs; a network of "
+                "python -m armando_drake.learn ik has one of each"
+            )
+        self._input = inputs[0].name
+        self._output = [outputs[0].name]
+        self._check_shapes()
+
+    def _check_shapes(self) -> None:
+        """One row through the network: its input takes the metadata's features, its
+        output has a column per sine, cosine or length of the metadata's joints."""
+        width = len(self.features)
+        expected = sum(2 if a else 1 for a in self.angular)
+        try:
+            rows = np.zeros((1, width), dtype=np.float32)
+            out = self.session.run(self._output, {self._input: rows})[0]
+        except Exception as error:  # onnxruntime's InvalidArgument / Fail
+            reason = " ".join(str(error).split())[:200]
+            raise LearnedIkError(
+                f"{self.path}: the network does not take {width} pose features "
+                f"({', '.join(self.features)}) as its metadata says ({reason})"
+            ) from None
+        got = int(np.asarray(out).size)
+        if got != expected:
+            raise LearnedIkError(
+                f"{self.path}: the network answers {got} numbers per pose; its metadata's "
+                f"{len(self.joint_names)} joints need {expected}"
+            )
 
     @property
     def num_joints(self) -> int:

@@ -72,7 +72,11 @@ class AmclParameters:
     )
     max_beams: float = param(60.0, unit="-", ge=2, doc="beams of each scan used")
     max_particles: float = param(
-        2000.0, unit="-", ge=1, doc="the particle count (fixed: no KLD sampling)"
+        2000.0,
+        unit="-",
+        ge=1,
+        le=100_000,
+        doc="the particle count (fixed: no KLD sampling; each scan weighs them all)",
     )
     sigma_hit: float = param(0.2, unit="m", ge=0, doc="the hit model's deviation")
     z_hit: float = param(0.5, unit="-", ge=0, doc="weight of the hit model")

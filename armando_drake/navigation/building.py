@@ -40,7 +40,7 @@ from armando_drake.navigation.costmap import Costmap, costmap_parameters, make_c
 from armando_drake.navigation.explore import Explorer, explore_parameters
 from armando_drake.navigation.follower import controller_parameters
 from armando_drake.navigation.layers import Layers
-from armando_drake.navigation.maps import OccupancyMap, load_map
+from armando_drake.navigation.maps import MapError, OccupancyMap, load_map
 from armando_drake.navigation.nav2_params import Nav2Params, read_nav2
 from armando_drake.navigation.navigator import Navigator, check_goals
 from armando_drake.navigation.planner import planner_plugin
@@ -98,13 +98,18 @@ def navigation_map(config: NavigationConfig, plant, scene_graph, robot, where: s
     if config.map:
         return load_map(resolve_file(config.map, "navigation.map", where))
     height = config.scan_height or lidar_height(plant, scene_graph, robot)
-    return world_map(
-        plant,
-        scene_graph,
-        height=height,
-        resolution=config.map_resolution,
-        exclude=[robot.model_instance],
-    )
+    try:
+        return world_map(
+            plant,
+            scene_graph,
+            height=height,
+            resolution=config.map_resolution,
+            exclude=[robot.model_instance],
+        )
+    except MapError as error:
+        raise ScenarioError(
+            f"{where}navigation.map_resolution={config.map_resolution!r}: {error}"
+        ) from None
 
 
 def _read(reader, source, key: str, where: str):
@@ -291,6 +296,13 @@ def _add_amcl(builder, config, stack, servers: _Servers, grid, drive, lidar, axl
     params = _read(amcl_parameters, servers.nav2, "params_file", where)
     laser, spawn = _poses(stack, lidar)
     initial = config.initial_pose or (params.initial_pose if params.set_initial_pose else None)
+    if initial is not None and not _on_map(grid, initial):
+        key = "navigation.initial_pose" if config.initial_pose else "params_file: amcl initial_pose"
+        raise ScenarioError(
+            f"{where}{key}={list(initial)!r}: off the map ({grid.source}: x "
+            f"{grid.origin[0]:g}..{grid.origin[0] + grid.size_m[0]:g} m, y "
+            f"{grid.origin[1]:g}..{grid.origin[1] + grid.size_m[1]:g} m)"
+        )
     pf = ParticleFilter(params, grid, laser)
     rate = 2.0 * max(lidar.update_rate, 1.0)  # twice the scans: odometry at each
     amcl = builder.AddSystem(AmclLocalizer(pf, initial or spawn, axle=axle, rate=rate))
@@ -298,6 +310,16 @@ def _add_amcl(builder, config, stack, servers: _Servers, grid, drive, lidar, axl
     builder.Connect(stack.manager.GetOutputPort(f"{drive}.odom"), amcl.GetInputPort("odom"))
     builder.ExportOutput(amcl.GetOutputPort("estimate"), "amcl_estimate")
     return amcl
+
+
+def _on_map(grid: OccupancyMap, pose) -> bool:
+    """Whether the pose's position is finite and within the map's extent."""
+    x, y = float(pose[0]), float(pose[1])
+    width, height = grid.size_m
+    return (
+        grid.origin[0] <= x <= grid.origin[0] + width
+        and grid.origin[1] <= y <= grid.origin[1] + height
+    )
 
 
 def _explorer(builder, config, stack, servers: _Servers, drive, system, where) -> Navigation:

@@ -21,6 +21,9 @@ import math
 from armando_drake.tools.schema import Refusal, param
 
 LOCALIZATIONS = ("ground_truth", "amcl", "slam")
+# The most goals, and the most visits in `order`: each is planned for and driven to in
+# turn (a run of 2000 goals is hours of simulated driving).
+MAX_GOALS = 2000
 
 
 @dc.dataclass
@@ -93,6 +96,10 @@ class NavigationConfig:
             for key in ("slam_params_file", "explore_params_file"):
                 if not getattr(self, key):
                     raise Refusal(key, ": a parameter file is needed to explore")
+        if len(self.goals) > MAX_GOALS:
+            raise Refusal("goals", f": {len(self.goals)} goals, over the limit of {MAX_GOALS}")
+        if len(self.order) > MAX_GOALS:
+            raise Refusal("order", f": {len(self.order)} visits, over the limit of {MAX_GOALS}")
         names = set()
         for k, goal in enumerate(self.goals):
             if not goal.name:

@@ -38,7 +38,11 @@ from armando_drake.navigation.obstacle_layer import ObstacleParameters, empty_ob
 from armando_drake.navigation.registry import LAYERS
 from armando_drake.navigation.static_layer import static_layer
 from armando_drake.tools.errors import ConfigError
-from armando_drake.tools.schema import param
+from armando_drake.tools.schema import is_number, param
+
+MAX_FOOTPRINT_POINTS = 100  # a footprint polygon's points
+MAX_ROBOT_SIZE = 10.0  # [m] the largest robot_radius, and footprint point's distance
+MAX_INFLATION_RADIUS = 50.0  # [m]
 
 _log = logging.getLogger("armando_drake.navigation")
 
@@ -89,25 +93,40 @@ class CostmapParameters:
     """A costmap's parameters as Nav2 reads them (defaults: nav2_costmap_2d's)."""
 
     resolution: float = param(
-        0.05, unit="m", gt=0, doc="the costmap's cell size (a static map's resolution wins)"
+        0.05,
+        unit="m",
+        gt=0,
+        under=(1e-4, "a grid that fine is too large to build"),
+        le=100.0,
+        doc="the costmap's cell size (a static map's resolution wins)",
     )
     robot_radius: float = param(
-        0.1, unit="m", gt=0, doc="the circular footprint's radius: the inscribed radius"
+        0.1,
+        unit="m",
+        gt=0,
+        over=(MAX_ROBOT_SIZE, "no mobile base here is that large"),
+        doc="the circular footprint's radius: the inscribed radius",
     )
     track_unknown_space: bool = param(
         False, doc="unknown cells stay NO_INFORMATION (255) instead of free"
     )
     lethal_cost_threshold: int = param(
-        100, unit="-", doc="occupancy at or above which a map cell is lethal"
+        100, unit="-", ge=1, le=100, doc="occupancy at or above which a map cell is lethal"
     )
     trinary_costmap: bool = param(
         True, doc="map cells are free, lethal or unknown (else scaled occupancy)"
     )
     static_layer: bool = True
     inflation_layer: bool = True
-    inflation_radius: float = _m(0.55, "how far from obstacles costs are inflated")
+    inflation_radius: float = param(
+        0.55,
+        unit="m",
+        ge=0,
+        over=(MAX_INFLATION_RADIUS, "the inflation would cover the whole map"),
+        doc="how far from obstacles costs are inflated",
+    )
     cost_scaling_factor: float = param(
-        10.0, unit="-", doc="the exponential decay of the inflated cost with distance"
+        10.0, unit="-", ge=0, doc="the exponential decay of the inflated cost with distance"
     )
     inflate_unknown: bool = param(False, doc="unknown cells are inflated too")
     inflate_around_unknown: bool = param(False, doc="unknown cells are inflation sources")
@@ -211,9 +230,51 @@ def _footprint(value, where: str) -> list:
             raise ConfigError(f"{where}: {value!r} is not [[x, y], ...]") from None
     if not value:
         return []
-    if not isinstance(value, list) or len(value) < 3 or any(len(p) != 2 for p in value):
+    if (
+        not isinstance(value, list)
+        or len(value) < 3
+        or not all(isinstance(p, list) and len(p) == 2 for p in value)
+    ):
         raise ConfigError(f"{where}: {value!r} is not a polygon [[x, y], ...] of 3 points or more")
-    return [(float(p[0]), float(p[1])) for p in value]
+    if not all(is_number(c) and math.isfinite(c) for p in value for c in p):
+        raise ConfigError(f"{where}: {value!r}: every coordinate must be a finite number [m]")
+    if len(value) > MAX_FOOTPRINT_POINTS:
+        raise ConfigError(f"{where}: {len(value)} points, over {MAX_FOOTPRINT_POINTS}")
+    points = [(float(p[0]), float(p[1])) for p in value]
+    if max(abs(c) for p in points for c in p) > MAX_ROBOT_SIZE:
+        raise ConfigError(
+            f"{where}: {value!r} reaches farther than {MAX_ROBOT_SIZE:g} m from the robot"
+        )
+    problem = polygon_problem(points)
+    if problem:
+        raise ConfigError(f"{where}: {value!r} {problem}")
+    return points
+
+
+def polygon_problem(points: list[tuple[float, float]]) -> str:
+    """Why ``points`` is not a simple polygon of positive area ("" if it is one)."""
+    area = 0.5 * sum(
+        a[0] * b[1] - b[0] * a[1] for a, b in zip(points, points[1:] + points[:1], strict=True)
+    )
+    if abs(area) < 1e-9:
+        return "has no area (its points are on a line)"
+    edges = list(zip(points, points[1:] + points[:1], strict=True))
+    for i, (a, b) in enumerate(edges):
+        for j in range(i + 2, len(edges)):
+            if i == 0 and j == len(edges) - 1:
+                continue  # the first and the last edge meet at the first point
+            if _cross(a, b, *edges[j]):
+                return f"crosses itself (edges {i} and {j})"
+    return ""
+
+
+def _cross(a, b, c, d) -> bool:
+    """Whether the segments ab and cd cross (properly: not only touching)."""
+
+    def side(p, q, r) -> float:
+        return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+
+    return side(a, b, c) * side(a, b, d) < 0 and side(c, d, a) * side(c, d, b) < 0
 
 
 def make_costmap(grid: OccupancyMap, params: CostmapParameters) -> Costmap:

@@ -67,7 +67,13 @@ def _on(default, doc):
 class RppParameters:
     """RegulatedPurePursuitController's parameters (defaults: upstream's)."""
 
-    desired_linear_vel: float = param(0.5, unit="m/s", ge=0, doc="the cruise speed")
+    desired_linear_vel: float = param(
+        0.5,
+        unit="m/s",
+        ge=0,
+        over=(10.0, "no mobile base here drives that fast"),
+        doc="the cruise speed",
+    )
     lookahead_dist: float = _m(0.6, "the carrot's distance on the plan (fixed look-ahead)")
     min_lookahead_dist: float = _m(0.3, "the velocity-scaled look-ahead's lower bound")
     max_lookahead_dist: float = _m(0.9, "the velocity-scaled look-ahead's upper bound")
@@ -125,7 +131,11 @@ class ControllerParameters:
     registered name)."""
 
     controller_frequency: float = param(
-        20.0, unit="Hz", gt=0, doc="the rate of the controller (a discrete update)"
+        20.0,
+        unit="Hz",
+        gt=0,
+        over=(1000.0, "faster than the simulation can step the controller"),
+        doc="the rate of the controller (a discrete update)",
     )
     min_x_velocity_threshold: float = param(
         0.0001, unit="m/s", ge=0, doc="smaller odometry speeds count as 0"

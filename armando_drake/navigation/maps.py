@@ -15,6 +15,8 @@ map_saver writes (``occupied_thresh: 0.65``, ``free_thresh: 0.196``).
 from __future__ import annotations
 
 import math
+import os
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,11 +25,20 @@ import yaml
 from PIL import Image
 
 from armando_drake.tools.errors import ConfigError
+from armando_drake.tools.files import read_text_file
+from armando_drake.tools.schema import MAX_COORDINATE
 
 MODES = ("trinary", "scale", "raw")
 UNKNOWN = -1
 FREE = 0
 OCCUPIED = 100
+# The largest map loaded, in cells (width x height, read from the image's header before
+# it is decoded): a 4096 x 4096 map; a costmap, its inflation and the planner each hold
+# arrays of that size.
+MAX_MAP_CELLS = 4096 * 4096
+# [m/cell] the range of a map's resolution: 0.1 mm to 100 m.
+MIN_MAP_RESOLUTION = 1e-4
+MAX_MAP_RESOLUTION = 100.0
 
 
 class MapError(ConfigError):
@@ -72,10 +83,14 @@ def _number(doc: dict, key: str, path: Path) -> float:
 
 
 def _read_yaml(path: Path) -> dict:
-    if not path.is_file():
+    if not path.exists():
         raise MapError(f"{path}: the map YAML does not exist")
     try:
-        doc = yaml.safe_load(path.read_text())
+        doc = yaml.safe_load(read_text_file(path, what="a map YAML"))
+    except UnicodeDecodeError:
+        raise MapError(f"{path}: not a map YAML (not UTF-8 text)") from None
+    except OSError as error:
+        raise MapError(f"{path}: the map YAML cannot be read ({error.strerror})") from None
     except yaml.YAMLError as error:
         raise MapError(f"{path}: not YAML ({' '.join(str(error).split())})") from None
     if not isinstance(doc, dict):
@@ -95,11 +110,22 @@ def load_map_yaml(path: str | Path) -> dict:
     resolution = _number(doc, "resolution", path)
     if not resolution > 0:
         raise MapError(f"{path}: key 'resolution' must be positive, not {resolution}")
+    if not MIN_MAP_RESOLUTION <= resolution <= MAX_MAP_RESOLUTION:
+        raise MapError(
+            f"{path}: key 'resolution' is {resolution!r} m/cell, outside "
+            f"{MIN_MAP_RESOLUTION:g}..{MAX_MAP_RESOLUTION:g} m/cell"
+        )
     origin = doc.get("origin")
     if not isinstance(origin, list) or len(origin) != 3:
         raise MapError(f"{path}: key 'origin' must be [x, y, yaw] (3 numbers), not {origin!r}")
     if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in origin):
         raise MapError(f"{path}: key 'origin' must hold numbers, not {origin!r}")
+    if not all(math.isfinite(v) for v in origin):
+        raise MapError(f"{path}: key 'origin' must hold finite numbers, not {origin!r}")
+    if max(abs(origin[0]), abs(origin[1])) > MAX_COORDINATE:
+        raise MapError(
+            f"{path}: key 'origin' {origin!r} is farther than {MAX_COORDINATE:g} m from 0"
+        )
     free = _number(doc, "free_thresh", path)
     occupied = _number(doc, "occupied_thresh", path)
     if not 0.0 <= free < occupied <= 1.0:
@@ -126,16 +152,27 @@ def load_map_yaml(path: str | Path) -> dict:
 
 def _read_image(path: Path, yaml_path: Path) -> tuple[np.ndarray, np.ndarray | None]:
     """The image's gray values (uint8) and, if it has one, its alpha channel."""
-    if not path.is_file():
-        raise MapError(f"{yaml_path}: key 'image': the image {path} does not exist")
+    try:
+        info = os.stat(path)
+    except OSError:
+        raise MapError(f"{yaml_path}: key 'image': the image {path} does not exist") from None
+    if not stat.S_ISREG(info.st_mode):
+        raise MapError(f"{yaml_path}: key 'image': {path} is not a regular file")
     try:
         with Image.open(path) as image:
+            width, height = image.size  # from the header: nothing is decoded yet
+            if width * height > MAX_MAP_CELLS:
+                raise MapError(
+                    f"{yaml_path}: key 'image': {path} is {width} x {height} pixels "
+                    f"({width * height:,} cells), over the limit of {MAX_MAP_CELLS:,} cells"
+                )
             alpha = None
             if image.mode in ("RGBA", "LA", "PA") or "transparency" in image.info:
                 alpha = np.asarray(image.convert("RGBA"))[..., 3]
             gray = np.asarray(image.convert("L"))
-    except OSError as error:
-        raise MapError(f"{yaml_path}: key 'image': {path} cannot be read ({error})") from None
+    except (OSError, ValueError, SyntaxError, Image.DecompressionBombError) as error:
+        reason = " ".join(str(error).split())
+        raise MapError(f"{yaml_path}: key 'image': {path} cannot be read ({reason})") from None
     return gray, alpha
 
 
@@ -220,8 +257,8 @@ def save_map(
     text = (
         f"image: {image_path.name}\n"
         "mode: trinary\n"
-        f"resolution: {grid.resolution:.3f}\n"
-        f"origin: [{x:.3f}, {y:.3f}, {_g7(yaw)}]\n"
+        f"resolution: {_exact(grid.resolution)}\n"
+        f"origin: [{_exact(x)}, {_exact(y)}, {_exact(yaw)}]\n"
         "negate: 0\n"
         "occupied_thresh: 0.65\n"
         "free_thresh: 0.196\n"
@@ -231,6 +268,11 @@ def save_map(
     return yaml_path
 
 
-def _g7(value: float) -> str:
-    """A number with 7 significant digits, as yaml-cpp's emitter at Precision(7)."""
-    return "0" if value == 0 or not math.isfinite(value) else f"{value:.7g}"
+def _exact(value: float) -> str:
+    """A number written with the digits that read back to it exactly (map_saver's 3
+    decimals would write a resolution of 0.0004 as 0.000, which does not load)."""
+    if value == 0 or not math.isfinite(value):
+        return "0"
+    text = repr(float(value))
+    mantissa, e, exponent = text.partition("e")
+    return f"{mantissa}.0e{exponent}" if e and "." not in mantissa else text  # YAML 1.1

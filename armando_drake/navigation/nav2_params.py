@@ -23,6 +23,7 @@ import yaml
 
 from armando_drake.navigation.overrides import apply_overrides
 from armando_drake.tools.errors import ConfigError
+from armando_drake.tools.files import read_text_file
 from armando_drake.tools.schema import field_rules, problem_of
 
 ROS = "ros__parameters"
@@ -59,10 +60,16 @@ class Nav2Params:
 def read_yaml(path: Path) -> dict:
     """A YAML file's mapping ({} when it is not one); a one-line error naming it."""
     try:
-        doc = yaml.safe_load(Path(path).read_text())
+        doc = yaml.safe_load(read_text_file(path, what="a parameter file"))
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not a YAML parameter file (not UTF-8 text)") from None
     except (OSError, yaml.YAMLError) as error:
         raise ConfigError(f"{path}: cannot be read ({' '.join(str(error).split())})") from None
-    return doc if isinstance(doc, dict) else {}
+    if doc is not None and not isinstance(doc, dict):
+        raise ConfigError(
+            f"{path}: a parameter file is a mapping of nodes, not {type(doc).__name__}"
+        )
+    return doc or {}
 
 
 def read_nav2(path: str | Path, overrides: Mapping[str, float] | None = None, where: str = ""):

@@ -23,6 +23,7 @@ from armando_drake.tools.schema import param
 
 OBSTACLE_LAYER = "nav2_costmap_2d::ObstacleLayer"
 VOXEL_LAYER = "nav2_costmap_2d::VoxelLayer"
+COMBINATION_METHODS = (0, 1)  # 0 overwrite, 1 maximum (updateWithOverwrite / updateWithMax)
 
 _OBSTACLE_KEYS = {
     "plugin",
@@ -93,7 +94,7 @@ class ObstacleParameters:
     enabled: bool = True
     sources: list[ObservationSource] = field(default_factory=list)
     footprint_clearing_enabled: bool = True
-    combination_method: int = 1  # 0 overwrite, 1 maximum
+    combination_method: int = 1  # COMBINATION_METHODS: 0 overwrite, 1 maximum
 
 
 @LAYERS.register(OBSTACLE_LAYER, instead="the obstacle layer runs instead (a planar scan, 2-D)")
@@ -141,7 +142,12 @@ def _obstacle_layer(name: str, layer: dict, enabled: bool, where, ignored) -> Ob
         raise ConfigError(f"{here}.observation_sources must be a string of names, not {names!r}")
     params = ObstacleParameters(name=name, enabled=enabled)
     params.footprint_clearing_enabled = bool(layer.get("footprint_clearing_enabled", True))
-    params.combination_method = int(layer.get("combination_method", 1))
+    method = layer.get("combination_method", 1)
+    if method not in COMBINATION_METHODS or isinstance(method, bool):
+        raise ConfigError(
+            f"{here}.combination_method={method!r} is not one of 0 (overwrite), 1 (maximum)"
+        )
+    params.combination_method = int(method)
     for source in names.split():
         params.sources.append(_source(source, layer.get(source), layer, here, ignored))
     known = _OBSTACLE_KEYS | set(names.split())

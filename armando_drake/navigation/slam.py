@@ -70,7 +70,14 @@ class SlamParameters:
     mode: str = param(
         "mapping", choices=("mapping",), why="only mapping is known", doc="mapping only"
     )
-    resolution: float = param(0.05, unit="m", gt=0, doc="the map's cell size")
+    resolution: float = param(
+        0.05,
+        unit="m",
+        gt=0,
+        under=(1e-3, "a grid that fine is too large to build"),
+        over=(10.0, "a grid that coarse maps nothing"),
+        doc="the map's cell size",
+    )
     max_laser_range: float = param(20.0, unit="m", gt=0, doc="ranges used for the map")
     map_update_interval: float = param(5.0, unit="s", gt=0, doc="between published maps")
     transform_publish_period: float = param(

@@ -33,7 +33,7 @@ from pydrake.geometry import (
 )
 from pydrake.multibody.tree import BodyIndex, ModelInstanceIndex
 
-from armando_drake.navigation.maps import FREE, OCCUPIED, OccupancyMap
+from armando_drake.navigation.maps import FREE, MAX_MAP_CELLS, OCCUPIED, MapError, OccupancyMap
 
 LIDAR_TYPES = ("gpu_lidar", "lidar", "gpu_ray", "ray")
 DEFAULT_SCAN_HEIGHT = 0.2  # [m] without a lidar
@@ -150,6 +150,7 @@ def rasterise(
         c1, r1 = (math.ceil((v + pad) / resolution) + 1 for v in hi[:2])
         if c0 >= c1 or r0 >= r1:
             continue
+        _check_cells((c1 - c0) * (r1 - r0), resolution)
         rows, cols = (a.ravel() for a in np.mgrid[r0:r1, c0:c1])
         points = np.stack(
             [(cols + 0.5) * resolution, (rows + 0.5) * resolution, np.full(rows.size, height)],
@@ -175,6 +176,7 @@ def rasterise(
     row0 = math.floor(extent[1] / resolution + 1e-9)
     width = max(1, math.ceil(extent[2] / resolution - 1e-9) - col0)
     height_cells = max(1, math.ceil(extent[3] / resolution - 1e-9) - row0)
+    _check_cells(width * height_cells, resolution)
     data = np.full((height_cells, width), FREE, dtype=np.int8)
     rows, cols = rows - row0, cols - col0
     keep = (rows >= 0) & (rows < height_cells) & (cols >= 0) & (cols < width)
@@ -182,6 +184,16 @@ def rasterise(
     origin = (col0 * resolution, row0 * resolution, 0.0)
     grid = OccupancyMap(data=data, resolution=resolution, origin=origin, source="<world>")
     return grid, obstacles
+
+
+def _check_cells(cells: int, resolution: float) -> None:
+    """A MapError when a grid of ``cells`` cells (estimated before it is made) is over
+    :data:`~armando_drake.navigation.maps.MAX_MAP_CELLS`."""
+    if cells > MAX_MAP_CELLS:
+        raise MapError(
+            f"resolution {resolution!r} m: the world's map would be {cells:,} cells, over the "
+            f"limit of {MAX_MAP_CELLS:,} cells (a coarser resolution is needed)"
+        )
 
 
 def world_map(

@@ -93,6 +93,14 @@ class SimulationConfig:
 _ROBOT_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 # A namespace: /name, /name/inner, ...
 _NAMESPACE = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+")
+# A description's prefix: letters, digits, _ (it begins names of links and joints).
+_PREFIX = re.compile(r"[A-Za-z0-9_]*")
+# The most robots in robots: (each is a model, a controller manager and its systems: 64
+# arms take minutes to build), the longest name or prefix, and the deepest mount chain
+# (a robot on a robot on ...).
+MAX_ROBOTS = 64
+MAX_NAME_LENGTH = 64
+MAX_MOUNT_DEPTH = 8
 
 
 @dc.dataclass
@@ -134,6 +142,14 @@ class RobotEntry:
             raise Refusal("namespace", f"={self.namespace!r} is not a namespace like /left")
         if self.parent and len(self.parent.split("::")) != 2:
             raise Refusal("parent", f"={self.parent!r}: give OTHER_ROBOT::link")
+        if len(self.namespace) > MAX_NAME_LENGTH:
+            raise Refusal(
+                "namespace", f": {len(self.namespace)} characters, over {MAX_NAME_LENGTH}"
+            )
+        if not _PREFIX.fullmatch(self.prefix):
+            raise Refusal("prefix", f"={self.prefix!r}: give letters, digits and _ only")
+        if len(self.prefix) > MAX_NAME_LENGTH:
+            raise Refusal("prefix", f": {len(self.prefix)} characters, over {MAX_NAME_LENGTH}")
 
     def space(self, name: str) -> str:
         """Its namespace as robot ``name``: ``/<name>`` when none is given, "" for the
@@ -288,8 +304,15 @@ class Scenario:
             raise Refusal(
                 given[0], ": a key of the one robot, beside robots: (give it in each robot's entry)"
             )
-        names, spaces = [], []
+        if len(robots) > MAX_ROBOTS:
+            raise Refusal("robots", f": {len(robots)} robots, over the limit of {MAX_ROBOTS}")
+        names, spaces, depths = [], [], {}
         for name, entry in robots.items():
+            if len(name) > MAX_NAME_LENGTH:
+                raise Refusal(
+                    f"robots.{name[:20]}...",
+                    f": a name of {len(name)} characters, over {MAX_NAME_LENGTH}",
+                )
             if not _ROBOT_NAME.fullmatch(name):
                 raise Refusal(
                     f"robots.{name}", ": give a name (a letter or _, then letters, digits, _)"
@@ -303,6 +326,13 @@ class Scenario:
                     f"robots.{name}.parent",
                     f"={entry.parent!r}: no robot {other!r} is listed before "
                     f"{name!r} (listed: {', '.join(names) or 'none'})",
+                )
+            depths[name] = depths[other] + 1 if entry.parent else 0
+            if depths[name] >= MAX_MOUNT_DEPTH:
+                raise Refusal(
+                    f"robots.{name}.parent",
+                    f"={entry.parent!r}: a mount chain of {depths[name] + 1} robots, over "
+                    f"the limit of {MAX_MOUNT_DEPTH}",
                 )
             names.append(name)
             spaces.append(entry.space(name))

@@ -31,6 +31,9 @@ Examples:
 from __future__ import annotations
 
 import json
+import math
+import os
+import re
 import sys
 import time
 from collections.abc import Sequence
@@ -70,6 +73,15 @@ NETWORK_FILE = "ik_network.onnx"
 # [-] the least share of the data set's poses a branch must hold to be trained on alone
 MIN_BRANCH_SHARE = 0.05
 DATASET_FILE = "ik.parquet"
+# Limits of the options (each refused past it, the value named): work that grows with
+# them (nearest neighbours, L-BFGS iterations, Drake's solves, Gauss-Newton steps).
+MAX_NEIGHBOURS = 1000
+MAX_ITERATIONS = 100_000
+MAX_DRAKE_POSES = 100_000
+MAX_REFINE_STEPS = 50
+MAX_DOMAIN_ID = 232  # DDS's (ROS 2's) largest domain id
+MAX_NODE_DURATION = 366 * 86400.0  # [s] a year
+_NAMESPACE = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*){1,8}")
 
 
 def _log(message: str, quiet: bool) -> None:
@@ -90,17 +102,36 @@ def _hidden(text: str) -> tuple[int, ...]:
 def _check(settings: TrainSettings) -> None:
     if not 0 < settings.held_out < 1:
         raise SweepError(f"--held-out {settings.held_out} must be between 0 and 1")
-    for option, value in (
-        ("--max-iter", settings.max_iter),
-        ("--neighbours", settings.neighbours),
-        ("--drake-poses", settings.drake_poses),
+    for option, value, most in (
+        ("--max-iter", settings.max_iter, MAX_ITERATIONS),
+        ("--neighbours", settings.neighbours, MAX_NEIGHBOURS),
+        ("--drake-poses", settings.drake_poses, MAX_DRAKE_POSES),
     ):
-        if value < 1:
-            raise SweepError(f"{option} {value} must be at least 1")
-    if settings.refine_steps < 0:
-        raise SweepError(f"--refine-steps {settings.refine_steps} must be >= 0")
+        if not 1 <= value <= most:
+            raise SweepError(f"{option} {value} must be between 1 and {most}")
+    _check_refine_steps(settings.refine_steps)
     if not settings.min_dexterity >= 0:
         raise SweepError(f"--min-dexterity {settings.min_dexterity} must be >= 0")
+
+
+def _check_refine_steps(steps: int) -> None:
+    if not 0 <= steps <= MAX_REFINE_STEPS:
+        raise SweepError(f"--refine-steps {steps} must be between 0 and {MAX_REFINE_STEPS}")
+
+
+def _check_node(args) -> None:
+    """The ik-node command's options: a DDS domain, a namespace, steps and a duration
+    that can be used; a SweepError naming the option else."""
+    if not 0 <= args.domain_id <= MAX_DOMAIN_ID:
+        raise SweepError(f"--domain-id {args.domain_id} must be between 0 and {MAX_DOMAIN_ID}")
+    if args.namespace and not _NAMESPACE.fullmatch(args.namespace):
+        raise SweepError(f"--namespace {args.namespace!r} is not a namespace like /arm")
+    _check_refine_steps(args.refine_steps)
+    if not (math.isfinite(args.duration) and 0 <= args.duration <= MAX_NODE_DURATION):
+        raise SweepError(
+            f"--duration {args.duration} must be between 0 (until Ctrl-C) and "
+            f"{MAX_NODE_DURATION:g} s"
+        )
 
 
 def portable_robot(robot: dict) -> dict:
@@ -322,7 +353,8 @@ def _run_node(args) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     if args.kind == "ik-node":
-        with user_errors():
+        with user_errors(), reported():
+            _check_node(args)
             return _run_node(args)
     with user_errors(), reported():
         check_extras()
@@ -332,6 +364,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         output = Path(args.output)
         if output.exists() and not output.is_dir():
             raise SweepError(f"--output {args.output}: a file; name a folder")
+        try:
+            output.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise SweepError(
+                f"--output {args.output}: cannot write there: {error.strerror}"
+            ) from None
+        if not os.access(output, os.W_OK | os.X_OK):
+            raise SweepError(f"--output {args.output}: cannot write there: a read-only folder")
         settings = TrainSettings(
             hidden=args.hidden,
             max_iter=args.max_iter,

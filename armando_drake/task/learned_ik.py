@@ -52,7 +52,9 @@ class LearnedIkConfig:
     # Gauss-Newton steps after the network (0 = the network alone).
     refine_steps: int = param(3, unit="-", ge=0, le=50)
     # [Hz] how often the network answers the current target.
-    rate: float = param(10.0, unit="Hz", gt=0)
+    rate: float = param(
+        10.0, unit="Hz", gt=0, over=(1000.0, "faster than a network answers (about 1 ms a pose)")
+    )
     # In a world of several robots (robots:), the name of the one it acts on; "" = the
     # first listed.
     robot: str = ""
