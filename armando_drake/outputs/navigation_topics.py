@@ -35,6 +35,7 @@ from armando_drake.messages.publications import SUBSCRIBE, Send, Topic
 from armando_drake.messages.types import Odometry, PublicationValue
 from armando_drake.navigation.config import NavigationGoal
 from armando_drake.navigation.navigator import NavState
+from armando_drake.tools.rejections import RejectedMessage, require_finite, require_within
 
 MAP_FRAME = "map"
 MARKER_FRAME = "aruco_frame"
@@ -180,13 +181,25 @@ def AddNavigationTopics(builder, source: NavigationSource, send: Send, *, name: 
     return system
 
 
+# [m] the largest goal coordinate taken from /goal_pose (a larger one is a garbled message).
+GOAL_RANGE = 1e6
+
+
 def goal_pose_of(message: Any) -> NavigationGoal:
-    """The navigation goal of a received geometry_msgs/PoseStamped (RViz's 2D goal)."""
+    """The navigation goal of a received geometry_msgs/PoseStamped (RViz's 2D goal);
+    :class:`~armando_drake.tools.rejections.RejectedMessage` for a position that is not
+    finite or beyond GOAL_RANGE, an orientation that is not finite or a zero quaternion."""
     pose = message["pose"]
     p, q = pose["position"], pose["orientation"]
-    yaw = math.atan2(
-        2.0 * (q["w"] * q["z"] + q["x"] * q["y"]), 1.0 - 2.0 * (q["y"] ** 2 + q["z"] ** 2)
-    )
+    require_within(((f"pose.position.{k}", p[k]) for k in "xyz"), GOAL_RANGE, " m")
+    require_finite((f"pose.orientation.{k}", q[k]) for k in "xyzw")
+    qx, qy, qz, qw = (float(q[k]) for k in "xyzw")
+    norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+    if not (math.isfinite(norm) and norm > 0.0):
+        raise RejectedMessage(f"pose.orientation=({qx}, {qy}, {qz}, {qw}) is not a rotation")
+    if abs(norm - 1.0) > 1e-9:
+        qx, qy, qz, qw = (v / norm for v in (qx, qy, qz, qw))
+    yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy**2 + qz**2))
     return NavigationGoal(name="goal_pose", x=float(p["x"]), y=float(p["y"]), yaw=yaw)
 
 

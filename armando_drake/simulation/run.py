@@ -113,6 +113,8 @@ class RunResult:
     # A world of several robots: per robot name, its namespace, joints, driven controller,
     # step table (or tracking error), largest final error [rad] and base (robot_summary).
     robots: dict[str, Any] | None = None
+    # Runtime inputs dropped (not finite, out of range, malformed), by topic.
+    rejected_messages: dict[str, int] = field(default_factory=dict)
     # Their step tables, by robot name (not in summary.json: robots has them).
     robot_steps: dict[str, list[StepResult]] = field(default_factory=dict)
 
@@ -135,6 +137,7 @@ class RunResult:
             "vision": self.vision,
             "base": self.base,
             "navigation": self.navigation,
+            "rejected_messages": self.rejected_messages,
             **({"robots": self.robots} if self.robots is not None else {}),
         }
 
@@ -699,6 +702,8 @@ def _result(scenario, world, simulator, table, tracker, log_dir, name: str = "")
     if world.robot().base_log is not None:
         result.base = world.robot().base_log.summary()
     result.navigation = navigation_summary(world, simulator.get_context())
+    if world.ros2_bridge is not None:
+        result.rejected_messages = world.ros2_bridge.rejections.counts
     if world.robot().detectors is not None:
         result.vision = write_vision_outputs(
             world.robot(),
