@@ -34,7 +34,7 @@ from armando_drake.messages.definitions import header, pose_stamped_message, tra
 from armando_drake.messages.publications import SUBSCRIBE, Send, Topic
 from armando_drake.messages.types import Odometry, PublicationValue
 from armando_drake.navigation.config import NavigationGoal
-from armando_drake.navigation.navigator import NavState
+from armando_drake.navigation.navigator import FramedGoal, NavState
 from armando_drake.tools.rejections import RejectedMessage, require_finite, require_within
 
 MAP_FRAME = "map"
@@ -185,8 +185,9 @@ def AddNavigationTopics(builder, source: NavigationSource, send: Send, *, name: 
 GOAL_RANGE = 1e6
 
 
-def goal_pose_of(message: Any) -> NavigationGoal:
-    """The navigation goal of a received geometry_msgs/PoseStamped (RViz's 2D goal);
+def goal_pose_of(message: Any) -> FramedGoal:
+    """The navigation goal of a received geometry_msgs/PoseStamped (RViz's 2D goal), in
+    its header's frame (map when none);
     :class:`~armando_drake.tools.rejections.RejectedMessage` for a position that is not
     finite or beyond GOAL_RANGE, an orientation that is not finite or a zero quaternion."""
     pose = message["pose"]
@@ -200,7 +201,9 @@ def goal_pose_of(message: Any) -> NavigationGoal:
     if abs(norm - 1.0) > 1e-9:
         qx, qy, qz, qw = (v / norm for v in (qx, qy, qz, qw))
     yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy**2 + qz**2))
-    return NavigationGoal(name="goal_pose", x=float(p["x"]), y=float(p["y"]), yaw=yaw)
+    goal = NavigationGoal(name="goal_pose", x=float(p["x"]), y=float(p["y"]), yaw=yaw)
+    frame_id = str(message.get("header", {}).get("frame_id", "") or "map")
+    return FramedGoal(goal, frame_id)  # the navigator takes it to the map
 
 
 @dataclass(frozen=True, eq=False)

@@ -62,15 +62,19 @@ class Feedback:
     number_of_recoveries: int = 0
 
 
-def as_goal(pose: Any, name: str) -> NavigationGoal:
+def as_goal(pose: Any, name: str, navigator=None, context=None) -> NavigationGoal:
     """A NavigationGoal of ``(x, y, yaw)``, a NavigationGoal, or a PoseStamped dictionary;
     :class:`~armando_drake.tools.rejections.RejectedMessage` for a value that is not
     finite (or not a number), a position beyond GOAL_RANGE, a quaternion that is no
-    rotation."""
+    rotation. A PoseStamped in another frame than ``map`` is taken to the map by
+    ``navigator`` at ``context`` (its own) (:class:`ValueError` for an unknown frame)."""
     if isinstance(pose, NavigationGoal):
         goal = pose
-    elif isinstance(pose, dict):  # geometry_msgs/PoseStamped
-        goal = dc.replace(goal_pose_of(pose), name=name)
+    elif isinstance(pose, dict):  # geometry_msgs/PoseStamped, in its header's frame
+        framed = goal_pose_of(pose)
+        goal = dc.replace(framed.goal, name=name)
+        if navigator is not None:
+            goal = navigator.goal_in_map(context, goal, framed.frame_id)
     else:
         values = list(pose)
         if len(values) != 3:
@@ -125,10 +129,12 @@ class BasicNavigator:
 
     def _send(self, poses, prefix: str) -> bool:
         try:
-            goals = [as_goal(pose, f"{prefix}_{k}" if len(poses) > 1 else prefix)
+            context = self.navigator.GetMyContextFromRoot(self.context)
+            goals = [as_goal(pose, f"{prefix}_{k}" if len(poses) > 1 else prefix,
+                             self.navigator, context)
                      for k, pose in enumerate(poses)]  # fmt: skip
             check_goals(goals, self.navigation.costmap)
-        except (PlanningError, RejectedMessage, TypeError, KeyError) as error:
+        except (PlanningError, ValueError, TypeError, KeyError) as error:
             _log.warning("goal rejected: %s", error)
             self.rejected = str(error)
             return False

@@ -59,6 +59,19 @@ def script():
     out["hostile"] = [(pose, navigator.goToPose(pose), navigator.rejected) for pose in HOSTILE]
     out["complete_after_hostile"] = navigator.isTaskComplete()  # no "math domain error"
     out["summary"] = navigator.summary()
+    # A PoseStamped in base_link: 0.4 m ahead of the robot, a quarter turn left.
+    out["start"] = navigator._state().last_pose
+    ahead = {"header": {"frame_id": "base_link"},
+             "pose": {"position": {"x": 0.4, "y": 0.0, "z": 0.0},
+                      "orientation": {"x": 0.0, "y": 0.0, "z": math.sin(math.pi / 4),
+                                      "w": math.cos(math.pi / 4)}}}  # fmt: skip
+    out["ahead_sent"] = navigator.goToPose(ahead)
+    _drive(navigator, 20.0)
+    out["ahead_result"] = navigator.getResult()
+    out["ahead"] = navigator.summary()["goals"][-1]
+    unknown = dict(ahead, header={"frame_id": "camera_optical"})
+    out["unknown_sent"] = navigator.goToPose(unknown)
+    out["unknown_reason"] = navigator.rejected
     navigator.close()
     return out
 
@@ -120,3 +133,18 @@ def test_a_goal_with_a_nan_or_inf_is_rejected_with_its_reason(script):
     assert reasons[10] == "pose.orientation.z=nan is not finite"
     assert script["complete_after_hostile"] is True
     assert len(script["summary"]["goals"]) == 4  # none sent
+
+
+def test_a_goal_in_base_link_is_reached_at_its_map_pose(script):
+    x, y, yaw = script["start"]
+    expected = (x + 0.4 * math.cos(yaw), y + 0.4 * math.sin(yaw),
+                math.remainder(yaw + math.pi / 2, 2 * math.pi))  # fmt: skip
+    assert script["ahead_sent"] is True
+    assert script["ahead_result"] == TaskResult.SUCCEEDED
+    assert script["ahead"]["goal"] == pytest.approx(list(expected), abs=1e-6)  # at rest
+    assert script["ahead"]["position_error"] <= script["summary"]["xy_goal_tolerance"]
+
+
+def test_a_goal_in_an_unknown_frame_is_rejected_with_its_name(script):
+    assert script["unknown_sent"] is False
+    assert "goal frame 'camera_optical' is unknown" in script["unknown_reason"]
