@@ -31,6 +31,8 @@ from armando_drake.messages.publications import (
     published,
     sampled,
 )
+from armando_drake.messages.types import TwistStamped
+from armando_drake.tools.rejections import require_finite
 
 # Command inputs of the controllers by port suffix: ROS type and conversion to ours.
 COMMAND_TYPES: dict[str, tuple[str, Callable[[Any], Any]]] = {
@@ -38,7 +40,7 @@ COMMAND_TYPES: dict[str, tuple[str, Callable[[Any], Any]]] = {
     "joint_trajectory": ("trajectory_msgs/msg/JointTrajectory", joint_trajectory_of),
     "speed_scaling_input": ("control_msgs/msg/SpeedScalingFactor", speed_scaling_factor_of),
     "reference": ("control_msgs/msg/MultiDOFCommand", multi_dof_command_of),
-    "cmd_vel": ("geometry_msgs/msg/TwistStamped", twist_stamped_of),
+    "cmd_vel": ("geometry_msgs/msg/TwistStamped", lambda message: received_twist_of(message)),
 }
 # The commands a world's sequencer, jog or task sends, as recorded: type and conversion.
 SENT_COMMANDS = {
@@ -49,6 +51,18 @@ SENT_COMMANDS = {
         cartesian_trajectory_message,
     ),
 }
+
+
+def received_twist_of(message: Any) -> TwistStamped:
+    """Ours of a received cmd_vel (Twist or TwistStamped);
+    :class:`~armando_drake.tools.rejections.RejectedMessage` when a field is not finite
+    (the drive keeps its last good command)."""
+    twist = twist_stamped_of(message)
+    require_finite(
+        [(f"linear.{a}", v) for a, v in zip("xyz", twist.twist.linear, strict=True)]
+        + [(f"angular.{a}", v) for a, v in zip("xyz", twist.twist.angular, strict=True)]
+    )
+    return twist
 
 
 def RegisterControllerTopics(

@@ -56,6 +56,37 @@ from armando_drake.navigation.results import GoalResult, goal_results, navigatio
 _log = logging.getLogger("armando_drake.navigation")
 
 
+# The robot's body frames a goal may be given in (its current pose).
+BASE_FRAMES = ("base_link", "base_footprint")
+
+
+def goal_in_map(goal: NavigationGoal, frame_id: str, map_to_odom, base_pose) -> NavigationGoal:
+    """``goal`` given in ``frame_id`` as a map goal: ``map`` (or ``world``, or none),
+    ``odom`` (through ``map_to_odom``, (x, y, yaw)), ``base_link`` / ``base_footprint``
+    (``base_pose()``: the robot's current pose on the map). :class:`ValueError` naming an
+    unknown frame."""
+    frame = frame_id.strip("/").rpartition("/")[2]  # a robot's namespace dropped
+    if frame in ("", "map", "world"):
+        return goal
+    if frame == "odom":
+        offset = map_to_odom
+    elif frame in BASE_FRAMES:
+        offset = base_pose()
+    else:
+        known = ", ".join(["map", "odom", *BASE_FRAMES])
+        raise ValueError(f"goal frame {frame_id!r} is unknown (known: {known})")
+    x, y, yaw = compose(tuple(offset), (goal.x, goal.y, goal.yaw))
+    return dc.replace(goal, x=x, y=y, yaw=yaw)
+
+
+@dc.dataclass(frozen=True)
+class FramedGoal:
+    """A goal as a message gives it: in the frame ``frame_id`` (map, odom, base_link...)."""
+
+    goal: NavigationGoal
+    frame_id: str = "map"
+
+
 @dc.dataclass(frozen=True)
 class NavState:
     """The navigator's state; never mutated (a new one at each update)."""
@@ -270,6 +301,11 @@ class Navigator(LeafSystem):
         """The state in ``context`` (this system's)."""
         return context.get_abstract_state(self._nav).get_value()
 
+    def goal_in_map(self, context, goal: NavigationGoal, frame_id: str) -> NavigationGoal:
+        """``goal`` in ``frame_id`` as a map goal at ``context`` (:func:`goal_in_map`)."""
+        odom = (0.0, 0.0, 0.0) if self._axle is None else tuple(self._map_to_odom.Eval(context))
+        return goal_in_map(goal, frame_id, odom, lambda: self._pose(context)[0])
+
     def _requested(self, context, nav: NavState):
         """(state, the task requested since the last update or None)."""
         if nav.pending is not None:
@@ -279,6 +315,12 @@ class Navigator(LeafSystem):
             if publication.count > nav.received:
                 message = publication.message
                 task = tuple(message) if isinstance(message, (tuple, list)) else (message,)
+                try:  # a goal in its header's frame, to the map
+                    task = tuple(self.goal_in_map(context, g.goal, g.frame_id)
+                                 if isinstance(g, FramedGoal) else g for g in task)  # fmt: skip
+                except ValueError as error:  # the current task goes on
+                    _log.warning("goal_pose rejected: %s", error)
+                    return dc.replace(nav, received=publication.count), None
                 return dc.replace(nav, received=publication.count), task
         return nav, None
 

@@ -35,7 +35,8 @@ from armando_drake.messages.definitions import header, pose_stamped_message, tra
 from armando_drake.messages.publications import SUBSCRIBE, Send, Topic
 from armando_drake.messages.types import Odometry
 from armando_drake.navigation.config import NavigationGoal
-from armando_drake.navigation.navigator import NavState
+from armando_drake.navigation.navigator import FramedGoal, NavState
+from armando_drake.tools.rejections import RejectedMessage, require_finite, require_within
 
 MAP_FRAME = "map"
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
@@ -173,14 +174,29 @@ def AddNavigationTopics(builder, source: NavigationSource, send: Send, *, name: 
     return system
 
 
-def goal_pose_of(message: Any) -> NavigationGoal:
-    """The navigation goal of a received geometry_msgs/PoseStamped (RViz's 2D goal)."""
+# [m] the largest goal coordinate taken from /goal_pose (a larger one is a garbled message).
+GOAL_RANGE = 1e6
+
+
+def goal_pose_of(message: Any) -> FramedGoal:
+    """The navigation goal of a received geometry_msgs/PoseStamped (RViz's 2D goal), in
+    its header's frame (map when none);
+    :class:`~armando_drake.tools.rejections.RejectedMessage` for a position that is not
+    finite or beyond GOAL_RANGE, an orientation that is not finite or a zero quaternion."""
     pose = message["pose"]
     p, q = pose["position"], pose["orientation"]
-    yaw = math.atan2(
-        2.0 * (q["w"] * q["z"] + q["x"] * q["y"]), 1.0 - 2.0 * (q["y"] ** 2 + q["z"] ** 2)
-    )
-    return NavigationGoal(name="goal_pose", x=float(p["x"]), y=float(p["y"]), yaw=yaw)
+    require_within(((f"pose.position.{k}", p[k]) for k in "xyz"), GOAL_RANGE, " m")
+    require_finite((f"pose.orientation.{k}", q[k]) for k in "xyzw")
+    qx, qy, qz, qw = (float(q[k]) for k in "xyzw")
+    norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+    if not (math.isfinite(norm) and norm > 0.0):
+        raise RejectedMessage(f"pose.orientation=({qx}, {qy}, {qz}, {qw}) is not a rotation")
+    if abs(norm - 1.0) > 1e-9:
+        qx, qy, qz, qw = (v / norm for v in (qx, qy, qz, qw))
+    yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy**2 + qz**2))
+    goal = NavigationGoal(name="goal_pose", x=float(p["x"]), y=float(p["y"]), yaw=yaw)
+    frame_id = str(message.get("header", {}).get("frame_id", "") or "map")
+    return FramedGoal(goal, frame_id)  # the navigator takes it to the map
 
 
 @dataclass(frozen=True, eq=False)

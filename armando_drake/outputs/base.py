@@ -30,6 +30,7 @@ from pydrake.systems.framework import EventStatus, LeafSystem
 
 from armando_drake.control.manager import planar_base
 from armando_drake.messages.types import Odometry
+from armando_drake.tools.errors import UserInputError
 
 BASE_CSV = "base.csv"
 COLUMNS = (
@@ -328,9 +329,27 @@ def _axle_offset(plant, robot, base_link: str, wheels) -> tuple[float, float]:
 
 
 def read_base_csv(path: Path) -> np.ndarray:
-    """The rows of a ``base.csv`` (:data:`COLUMNS`)."""
-    data = np.genfromtxt(path, delimiter=",", skip_header=1, dtype=float)
-    return data.reshape(-1, len(COLUMNS))
+    """The rows of a ``base.csv`` (:data:`COLUMNS`); :class:`UserInputError` naming the
+    file and line of a row that is not :data:`COLUMNS` numbers (a garbled or cut file; a
+    last line cut short, as a run killed while writing leaves it, is left out)."""
+    rows = []
+    with open(path, newline="") as stream:
+        lines = list(enumerate(csv.reader(stream), start=1))
+    for number, fields in lines[1:]:
+        if not fields:
+            continue
+        last = number == lines[-1][0]
+        if len(fields) != len(COLUMNS):
+            if last:  # cut by a kill mid-write
+                break
+            raise UserInputError(
+                f"{path}: line {number}: {len(fields)} values, expected {len(COLUMNS)}"
+            )
+        try:
+            rows.append([float(v) for v in fields])
+        except ValueError as error:
+            raise UserInputError(f"{path}: line {number}: {error}") from None
+    return np.array(rows, dtype=float).reshape(-1, len(COLUMNS))
 
 
 def write_base_plots(folder: Path, title: str, dpi: int, size) -> list[Path]:

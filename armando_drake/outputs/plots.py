@@ -53,6 +53,7 @@ import numpy as np
 from armando_drake.outputs.base import BASE_CSV, write_base_plots
 from armando_drake.outputs.logger import read_csv, read_joint_states
 from armando_drake.tools.cli import add_version_argument
+from armando_drake.tools.errors import UserInputError
 from armando_drake.tools.files import writing
 
 if TYPE_CHECKING:
@@ -322,7 +323,15 @@ def main(argv: list[str] | None = None) -> int:
     if not (folder / "joint_states.csv").is_file():
         print(f"error: {folder}: no joint_states.csv there", file=sys.stderr)
         return 2
-    for path in write_plots(folder):
+    try:
+        written = write_plots(folder)
+    except UserInputError as error:  # a garbled file: named with its line
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    except (ValueError, KeyError, IndexError, OSError) as error:
+        print(f"error: {folder}: a file that cannot be read: {error}", file=sys.stderr)
+        return 2
+    for path in written:
         print(path)
     return 0
 

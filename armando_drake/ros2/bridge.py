@@ -87,6 +87,7 @@ from armando_drake.ros2.dds import DdsNode, Ros2Error, reachability
 from armando_drake.tools.cli import warn_if_open
 from armando_drake.tools.errors import ScenarioError
 from armando_drake.tools.extras import require_extra
+from armando_drake.tools.rejections import Rejections
 
 _log = logging.getLogger("armando_drake.ros2")
 
@@ -353,6 +354,7 @@ class Ros2Bridge(LeafSystem):
         self._commands = tuple(commands)
         self._queue: queue.SimpleQueue = queue.SimpleQueue()
         self._received = [0] * len(self._commands)  # messages received per command topic
+        self._rejections = Rejections("ros2")  # messages dropped per command topic
         for topic, (type_name, qos) in TOPICS.items():
             if topic != "/clock" or clock:
                 sinks.advertise(self.topic_name(topic), type_name, qos)
@@ -401,7 +403,7 @@ class Ros2Bridge(LeafSystem):
             subscriber.subscribe(
                 self.topic_name(command.topic),
                 command.type_name,
-                lambda message, k=k, receive=command.receive: self._Receive(k, receive(message)),
+                lambda message, k=k, receive=command.receive: self._Receive(k, message, receive),
             )
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._Deliver)
 
@@ -423,10 +425,23 @@ class Ros2Bridge(LeafSystem):
         """Messages received so far, by command topic (relative name)."""
         return {command.topic: n for command, n in zip(self._commands, self._received, strict=True)}
 
+    @property
+    def rejections(self) -> Rejections:
+        """Messages dropped so far (not finite, out of range, malformed), by topic."""
+        return self._rejections
+
     # -- receiving (Cyclone's thread) -------------------------------------------------------
-    def _Receive(self, k: int, message: Any) -> None:
+    def _Receive(self, k: int, message: Any, receive: Callable[[Any], Any] | None = None) -> None:
+        """Converts (with ``receive``; None: ``message`` is converted already) and queues a
+        message; one that cannot be used is dropped with a logged reason (counted in
+        :attr:`rejections`), the last good command kept."""
         self._received[k] += 1
-        self._queue.put((k, message))
+        try:
+            value = message if receive is None else receive(message)
+        except (ValueError, TypeError, KeyError, OverflowError, AttributeError) as error:
+            self._rejections.reject(self.topic_name(self._commands[k].topic), str(error))
+            return
+        self._queue.put((k, value))
 
     # -- delivering (the simulator's thread) ------------------------------------------------
     def _Deliver(self, context, state) -> EventStatus:

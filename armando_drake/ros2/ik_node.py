@@ -31,6 +31,7 @@ from pydrake.math import RigidTransform, RotationMatrix
 from armando_drake.learning.network import IkModel, pose_errors, refine
 from armando_drake.messages.definitions import header
 from armando_drake.ros2.dds import DdsNode
+from armando_drake.tools.rejections import RejectedMessage, Rejections, require_within
 
 _log = logging.getLogger("armando_drake.ros2")
 
@@ -40,12 +41,20 @@ POSE_TOPIC = "target_pose"
 SOLUTION_TOPIC = "ik_solution"
 
 
+# [m] the largest target coordinate taken (a larger one is a garbled message).
+POSE_RANGE = 1e3
+
+
 def pose_of(message: dict[str, Any]) -> RigidTransform | None:
     """The RigidTransform of a ``geometry_msgs/Pose`` message; None for a quaternion
-    that is not one (zero or not finite)."""
+    that is not one (zero or not finite);
+    :class:`~armando_drake.tools.rejections.RejectedMessage` for a position that is not
+    finite or beyond POSE_RANGE."""
     p, o = message["position"], message["orientation"]
+    require_within(((f"position.{k}", p[k]) for k in "xyz"), POSE_RANGE, " m")
     wxyz = np.array([o["w"], o["x"], o["y"], o["z"]], dtype=float)
-    norm = float(np.linalg.norm(wxyz))
+    with np.errstate(over="ignore", invalid="ignore"):  # 1e308: no rotation, not a warning
+        norm = float(np.linalg.norm(wxyz))
     if not math.isfinite(norm) or norm < 1e-9:
         return None
     rotation = RotationMatrix(Quaternion(wxyz / norm))
@@ -56,7 +65,9 @@ class LearnedIkNode:
     """Answers each ``target_pose`` on ``ik_solution`` with the learned IK's joints.
 
     ``network``: the ONNX file of ``python -m armando_drake.learn ik``. ``solved``
-    counts the answers; ``last``: the last (pose, joint positions, position error [m]).
+    counts the answers; ``last``: the last (pose, joint positions, position error [m]);
+    ``rejections``: the poses dropped (not finite, out of range, no rotation), each with
+    one log line.
     """
 
     def __init__(
@@ -72,6 +83,7 @@ class LearnedIkNode:
         self.arm = self.model.make_arm()
         self.refine_steps = refine_steps
         self.solved = 0
+        self.rejections = Rejections("learned IK node")
         self.last: tuple[RigidTransform, np.ndarray, float] | None = None
         self._lock = threading.Lock()
         self._start = time.monotonic()
@@ -92,15 +104,24 @@ class LearnedIkNode:
         return refine(self.arm, q, X_DE, self.refine_steps)
 
     def _on_pose(self, message: dict[str, Any]) -> None:
-        X_DE = pose_of(message)
+        try:
+            X_DE = pose_of(message)
+        except (RejectedMessage, KeyError, TypeError, ValueError) as error:
+            self.rejections.reject(POSE_TOPIC, str(error))
+            return
         if X_DE is None:
-            _log.warning("%s: a pose whose orientation is no quaternion, ignored", POSE_TOPIC)
+            self.rejections.reject(POSE_TOPIC, "the orientation is no quaternion")
             return
         with self._lock:  # the arm's context is shared
             q = self.solve(X_DE)
-            error, _ = pose_errors(self.arm, q, X_DE)
-            self.last = (X_DE, q, error)
-            self.solved += 1
+            finite = bool(np.all(np.isfinite(q)))
+            if finite:
+                error, _ = pose_errors(self.arm, q, X_DE)
+                self.last = (X_DE, q, error)
+                self.solved += 1
+        if not finite:
+            self.rejections.reject(POSE_TOPIC, "the learned IK gave no finite solution")
+            return
         answer = {
             "header": header(time.monotonic() - self._start),
             "name": list(self.model.joint_names),

@@ -33,9 +33,11 @@ from pydrake.systems.analysis import Simulator
 from armando_drake.navigation.config import NavigationGoal
 from armando_drake.navigation.navigator import check_goals
 from armando_drake.navigation.planner import PlanningError, path_length
+from armando_drake.outputs.navigation_topics import GOAL_RANGE, goal_pose_of
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import Scenario, load_scenario
 from armando_drake.tools.errors import ScenarioError
+from armando_drake.tools.rejections import RejectedMessage, require_finite, require_within
 
 _log = logging.getLogger("armando_drake.navigation")
 
@@ -60,18 +62,28 @@ class Feedback:
     number_of_recoveries: int = 0
 
 
-def as_goal(pose: Any, name: str) -> NavigationGoal:
-    """A NavigationGoal of ``(x, y, yaw)``, a NavigationGoal, or a PoseStamped dictionary."""
+def as_goal(pose: Any, name: str, navigator=None, context=None) -> NavigationGoal:
+    """A NavigationGoal of ``(x, y, yaw)``, a NavigationGoal, or a PoseStamped dictionary;
+    :class:`~armando_drake.tools.rejections.RejectedMessage` for a value that is not
+    finite (or not a number), a position beyond GOAL_RANGE, a quaternion that is no
+    rotation. A PoseStamped in another frame than ``map`` is taken to the map by
+    ``navigator`` at ``context`` (its own) (:class:`ValueError` for an unknown frame)."""
     if isinstance(pose, NavigationGoal):
-        return pose
-    if isinstance(pose, dict):  # geometry_msgs/PoseStamped
-        p, q = pose["pose"]["position"], pose["pose"]["orientation"]
-        yaw = math.atan2(
-            2 * (q["w"] * q["z"] + q["x"] * q["y"]), 1 - 2 * (q["y"] ** 2 + q["z"] ** 2)
-        )
-        return NavigationGoal(name=name, x=float(p["x"]), y=float(p["y"]), yaw=yaw)
-    x, y, yaw = (float(v) for v in pose)
-    return NavigationGoal(name=name, x=x, y=y, yaw=yaw)
+        goal = pose
+    elif isinstance(pose, dict):  # geometry_msgs/PoseStamped, in its header's frame
+        framed = goal_pose_of(pose)
+        goal = dc.replace(framed.goal, name=name)
+        if navigator is not None:
+            goal = navigator.goal_in_map(context, goal, framed.frame_id)
+    else:
+        values = list(pose)
+        if len(values) != 3:
+            raise RejectedMessage(f"pose={pose!r} is not (x, y, yaw)")
+        x, y, yaw = values
+        goal = NavigationGoal(name=name, x=x, y=y, yaw=yaw)
+    require_within((("x", goal.x), ("y", goal.y)), GOAL_RANGE, " m")
+    require_finite([("yaw", goal.yaw)])
+    return dc.replace(goal, x=float(goal.x), y=float(goal.y), yaw=float(goal.yaw))
 
 
 class BasicNavigator:
@@ -116,11 +128,13 @@ class BasicNavigator:
     # -- tasks
 
     def _send(self, poses, prefix: str) -> bool:
-        goals = [as_goal(pose, f"{prefix}_{k}" if len(poses) > 1 else prefix)
-                 for k, pose in enumerate(poses)]  # fmt: skip
         try:
+            context = self.navigator.GetMyContextFromRoot(self.context)
+            goals = [as_goal(pose, f"{prefix}_{k}" if len(poses) > 1 else prefix,
+                             self.navigator, context)
+                     for k, pose in enumerate(poses)]  # fmt: skip
             check_goals(goals, self.navigation.costmap)
-        except PlanningError as error:
+        except (PlanningError, ValueError, TypeError, KeyError) as error:
             _log.warning("goal rejected: %s", error)
             self.rejected = str(error)
             return False
@@ -131,7 +145,8 @@ class BasicNavigator:
 
     def goToPose(self, pose, behavior_tree: str = "") -> bool:
         """NavigateToPose: ``pose`` ((x, y, yaw), a NavigationGoal or a PoseStamped);
-        False (rejected) for a goal off the map or in an obstacle."""
+        False (rejected, the reason logged and in :attr:`rejected`) for a goal off the map
+        or in an obstacle, or one with a value that is NaN, infinite or no number."""
         return self._send([pose], "goal")
 
     def followWaypoints(self, poses) -> bool:

@@ -118,6 +118,8 @@ class RunResult:
     # step table (or tracking error), largest final error [rad], base and end effector
     # (robot_summary).
     robots: dict[str, Any] | None = None
+    # Runtime inputs dropped (not finite, out of range, malformed), by topic.
+    rejected_messages: dict[str, int] = field(default_factory=dict)
     # Their step tables, by robot name (not in summary.json: robots has them).
     robot_steps: dict[str, list[StepResult]] = field(default_factory=dict)
 
@@ -141,6 +143,7 @@ class RunResult:
             "base": self.base,
             "navigation": self.navigation,
             "perception": self.perception,
+            "rejected_messages": self.rejected_messages,
             **({"robots": self.robots} if self.robots is not None else {}),
         }
 
@@ -711,6 +714,8 @@ def _result(scenario, world, simulator, table, tracker, log_dir, name: str = "")
     if world.robot_with("perception").perception is not None:
         port = world.diagram.GetOutputPort("perception.result")
         result.perception = port.Eval(simulator.get_context()).summary()
+    if world.ros2_bridge is not None:
+        result.rejected_messages = world.ros2_bridge.rejections.counts
     if watcher.detectors is not None:
         result.vision = write_vision_outputs(
             watcher,

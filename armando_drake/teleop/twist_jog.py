@@ -7,7 +7,7 @@ mobile base through its drive's cmd_vel.
     j    k    l        turn left      stop      turn right
     m    ,    .        back right     back      back left
 
-    q / z   all speeds +10 % / -10 %
+    q / z   all speeds +10 % / -10 % (within MAX_JOG_SPEED, MAX_JOG_TURN, MIN_JOG_SPEED)
     w / x   linear speed only
     e / c   angular speed only
 
@@ -95,6 +95,19 @@ def button_label(key: str) -> str:
     return f"cmd_vel {name} ({key.upper() if key.isalpha() else key})"
 
 
+# The range the speed keys scale within: [m/s] and [rad/s] at most (or the configured
+# start, if larger), MIN_JOG_SPEED at least, so thousands of presses never overflow (and
+# the drive clamps the twist to what its wheels can give).
+MAX_JOG_SPEED = 10.0
+MAX_JOG_TURN = 10.0
+MIN_JOG_SPEED = 1e-3
+
+
+def _bounded(value: float, start: float, ceiling: float) -> float:
+    """A scaled speed kept in [MIN_JOG_SPEED, max(ceiling, start)]."""
+    return min(max(value, MIN_JOG_SPEED), max(ceiling, start))
+
+
 @dataclass
 class TwistJogState:
     """The twist jog's memory between two readings of the keys."""
@@ -174,16 +187,18 @@ class TwistJog(LeafSystem):
     def _Update(self, context, state) -> EventStatus:
         jog = copy.deepcopy(context.get_abstract_state(self._state).get_value())
         now = context.get_time()
+        scaled = False
         for key in self._pressed(jog):
             jog.started, jog.last_key = True, now
             if key in MOVE_KEYS:
                 jog.x, jog.th = MOVE_KEYS[key][1]
             else:
                 linear, angular = SPEED_KEYS[key][1]
-                jog.speed, jog.turn = jog.speed * linear, jog.turn * angular
-                _log.info(
-                    "twist jog: currently speed %.3g m/s, turn %.3g rad/s", *(jog.speed, jog.turn)
-                )
+                jog.speed = _bounded(jog.speed * linear, self._config.speed, MAX_JOG_SPEED)
+                jog.turn = _bounded(jog.turn * angular, self._config.turn, MAX_JOG_TURN)
+                scaled = True
+        if scaled:  # once per reading, however many speed keys came
+            _log.info("twist jog: currently speed %.3g m/s, turn %.3g rad/s", jog.speed, jog.turn)
         timeout = self._config.key_timeout
         if jog.started and timeout > 0 and now - jog.last_key >= timeout - 1e-12:
             jog.x = jog.th = 0

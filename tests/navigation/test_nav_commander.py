@@ -15,6 +15,15 @@ QUIET = ["logging: {console_rate: 0}", "visualization: {enable_meshcat_creation:
 POSE = (0.7, -0.6, -1.0)
 WAYPOINTS = [(0.2, -0.3, 3.1416), (-0.4, 0.3, 1.5708)]
 FAR = (-1.7, 0.5, 3.1416)
+NAN, INF = math.nan, math.inf
+HOSTILE = [
+    (NAN, 0.0, 0.0), (0.0, NAN, 0.0), (0.0, 0.0, NAN), (INF, 0.0, 0.0), (0.0, 0.0, INF),
+    (0.0, 0.0, -INF), (1e308, 0.0, 0.0), ("x", 0.0, 0.0), (0.0, 0.0),
+    {"pose": {"position": {"x": 0.2, "y": NAN, "z": 0.0},
+              "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}},
+    {"pose": {"position": {"x": 0.2, "y": 0.0, "z": 0.0},
+              "orientation": {"x": 0.0, "y": 0.0, "z": NAN, "w": 1.0}}},
+]  # fmt: skip
 
 
 def _drive(navigator: BasicNavigator, limit: float) -> list:
@@ -47,7 +56,22 @@ def script():
     out["cancel_result"] = navigator.getResult()
     out["in_obstacle"] = navigator.goToPose((1.6, 0.0, 0.0))  # crate_1
     out["rejected"] = navigator.rejected
+    out["hostile"] = [(pose, navigator.goToPose(pose), navigator.rejected) for pose in HOSTILE]
+    out["complete_after_hostile"] = navigator.isTaskComplete()  # no "math domain error"
     out["summary"] = navigator.summary()
+    # A PoseStamped in base_link: 0.4 m ahead of the robot, a quarter turn left.
+    out["start"] = navigator._state().last_pose
+    ahead = {"header": {"frame_id": "base_link"},
+             "pose": {"position": {"x": 0.4, "y": 0.0, "z": 0.0},
+                      "orientation": {"x": 0.0, "y": 0.0, "z": math.sin(math.pi / 4),
+                                      "w": math.cos(math.pi / 4)}}}  # fmt: skip
+    out["ahead_sent"] = navigator.goToPose(ahead)
+    _drive(navigator, 20.0)
+    out["ahead_result"] = navigator.getResult()
+    out["ahead"] = navigator.summary()["goals"][-1]
+    unknown = dict(ahead, header={"frame_id": "camera_optical"})
+    out["unknown_sent"] = navigator.goToPose(unknown)
+    out["unknown_reason"] = navigator.rejected
     navigator.close()
     return out
 
@@ -91,3 +115,36 @@ def test_a_goal_in_an_obstacle_is_rejected(script):
     assert script["in_obstacle"] is False
     assert "goal 'goal' (1.6, 0) is in an obstacle" in script["rejected"]
     assert len(script["summary"]["goals"]) == 4  # not sent
+
+
+def test_a_goal_with_a_nan_or_inf_is_rejected_with_its_reason(script):
+    """NaN, inf, 1e308, no number, a short tuple, a NaN PoseStamped: each goToPose is False
+    with the field named; nothing is sent and the navigator runs on."""
+    for pose, sent, reason in script["hostile"]:
+        assert sent is False, pose
+        assert reason, pose
+    reasons = [reason for _, _, reason in script["hostile"]]
+    assert reasons[0] == "x=nan is not finite"
+    assert reasons[4] == "yaw=inf is not finite"
+    assert reasons[6].startswith("x=1e+308 is out of range")
+    assert reasons[7] == "x='x' is not a number"
+    assert "is not (x, y, yaw)" in reasons[8]
+    assert reasons[9] == "pose.position.y=nan is not finite"
+    assert reasons[10] == "pose.orientation.z=nan is not finite"
+    assert script["complete_after_hostile"] is True
+    assert len(script["summary"]["goals"]) == 4  # none sent
+
+
+def test_a_goal_in_base_link_is_reached_at_its_map_pose(script):
+    x, y, yaw = script["start"]
+    expected = (x + 0.4 * math.cos(yaw), y + 0.4 * math.sin(yaw),
+                math.remainder(yaw + math.pi / 2, 2 * math.pi))  # fmt: skip
+    assert script["ahead_sent"] is True
+    assert script["ahead_result"] == TaskResult.SUCCEEDED
+    assert script["ahead"]["goal"] == pytest.approx(list(expected), abs=1e-6)  # at rest
+    assert script["ahead"]["position_error"] <= script["summary"]["xy_goal_tolerance"]
+
+
+def test_a_goal_in_an_unknown_frame_is_rejected_with_its_name(script):
+    assert script["unknown_sent"] is False
+    assert "goal frame 'camera_optical' is unknown" in script["unknown_reason"]

@@ -47,6 +47,20 @@ class TeleopWorld:
             assert time.monotonic() < deadline, f"Meshcat did not count the click of {label}"
             time.sleep(0.002)
 
+    def press_many(self, key: str, times: int) -> None:
+        """The page's messages for ``times`` presses of ``key`` on one websocket, waited
+        for."""
+        label = button_label(key)
+        before = self.meshcat.GetButtonClicks(label)
+        url = self.meshcat.web_url().replace("http", "ws")
+        with connect(url, close_timeout=0.1) as page:
+            for _ in range(times):
+                page.send(msgpack.packb({"type": "button", "name": label}))
+            deadline = time.monotonic() + 60.0
+            while self.meshcat.GetButtonClicks(label) < before + times:
+                assert time.monotonic() < deadline, f"Meshcat counted too few clicks of {label}"
+                time.sleep(0.01)
+
     def advance(self, seconds: float) -> None:
         self.simulator.AdvanceTo(self.context.get_time() + seconds)
 
@@ -100,6 +114,34 @@ def test_the_keys_publish_teleop_twist_keyboards_twists(teleop):
     teleop.advance(0.1)
     assert teleop.published()[1:] == (0.0, 0.0)
     assert teleop.world.robot().twist.speeds(teleop.context) == pytest.approx((0.495, 1.1))
+
+
+def test_ten_thousand_speed_keys_keep_the_jog_finite_and_within_its_limits(teleop):
+    """q pressed 10,000 times (1.1 ** 10000 overflows a float): the speeds stop at their
+    ceilings; z 10,000 times: at their floor, from which q still raises them."""
+    from armando_drake.teleop.twist_jog import MAX_JOG_SPEED, MAX_JOG_TURN, MIN_JOG_SPEED
+
+    jog = teleop.world.robot().twist
+    teleop.press("i")
+    teleop.press_many("q", 10_000)
+    teleop.advance(0.2)
+    assert jog.speeds(teleop.context) == (MAX_JOG_SPEED, MAX_JOG_TURN)
+    _, linear, angular = teleop.published()
+    assert (linear, angular) == (MAX_JOG_SPEED, 0.0)
+    teleop.press("j")  # the next key is a finite command, not NaN
+    teleop.advance(0.2)
+    assert teleop.published()[1:] == (0.0, MAX_JOG_TURN)
+    teleop.press_many("z", 10_000)
+    teleop.advance(0.2)
+    assert jog.speeds(teleop.context) == (MIN_JOG_SPEED, MIN_JOG_SPEED)
+    teleop.press("q")
+    teleop.advance(0.2)
+    assert jog.speeds(teleop.context) == pytest.approx((1.1 * MIN_JOG_SPEED,) * 2)
+    rows = teleop.world.robot().base_log.array()
+    assert np.isfinite(rows).all()
+    teleop.press("k")
+    teleop.advance(0.2)
+    assert np.isfinite(teleop.world.robot().base_log.array()).all()
 
 
 def test_the_base_drives_forward_after_i_and_stops_after_k(teleop):

@@ -65,6 +65,9 @@ from armando_drake.messages.types import (
 from armando_drake.tools.schema import Refusal, param
 
 NAN = math.nan
+# [rad/s] the velocity limit of a wheel whose description gives none: a received twist is
+# clamped to what the wheels can give (a command of 1e308 never reaches the contact solver).
+MAX_WHEEL_SPEED = 1000.0
 
 
 # --------------------------------------------------------------------------------------
@@ -354,6 +357,25 @@ class _Drive(Controller):
         state = dataclasses.replace(state, message=self._message(0.0, state.odometry))
         return dataclasses.replace(memory, internal=state, running=True)
 
+    def twist_limits(self) -> tuple[float, float]:
+        """([m/s], [rad/s]) the largest twist the wheels can give: each axis alone at the
+        wheels' velocity limit (the slowest wheel's; MAX_WHEEL_SPEED for wheels without
+        one)."""
+        limits = np.asarray(self.joints.velocity, dtype=float)
+        finite = limits[np.isfinite(limits) & (limits > 0)]
+        wheel = float(finite.min()) if finite.size else MAX_WHEEL_SPEED
+        linear = wheel * min(self.left_radius, self.right_radius)
+        return linear, 2.0 * linear / self.separation if self.separation > 0 else math.inf
+
+    def clamped(self, linear: float, angular: float) -> tuple[float, float]:
+        """A received twist clamped into :meth:`twist_limits` (a command beyond what the
+        wheels can do never reaches the plant)."""
+        top_linear, top_angular = self.twist_limits()
+        return (
+            min(max(linear, -top_linear), top_linear),
+            min(max(angular, -top_angular), top_angular),
+        )
+
     def wheel_commands(self, linear: float, angular: float) -> np.ndarray:
         """[rad/s] the velocity of each wheel (controller order) for a twist."""
         left = (linear - angular * self.separation / 2.0) / self.left_radius
@@ -387,6 +409,7 @@ class _Drive(Controller):
             except TypeError as error:
                 return state, self.reject(status, str(error))
             if math.isfinite(linear) and math.isfinite(angular):
+                linear, angular = self.clamped(linear, angular)
                 state = dataclasses.replace(state, reference=(linear, angular), command_stamp=stamp)
                 status = self.accept(status, "active", {})
             else:
