@@ -51,7 +51,7 @@ from armando_drake.navigation.layers import Layers, observe_layers
 from armando_drake.navigation.maps import OccupancyMap
 from armando_drake.navigation.planner import PlanningError, path_length
 from armando_drake.navigation.registry import CONTROLLERS
-from armando_drake.navigation.results import GoalResult, goal_results, navigation_summary
+from armando_drake.navigation.results import GoalResult, navigation_summary
 
 _log = logging.getLogger("armando_drake.navigation")
 
@@ -160,9 +160,7 @@ class Navigator(LeafSystem):
     simulator (:mod:`armando_drake.simulation.commander`).
     """
 
-    # What its localization is when not the ground truth (summary.json's
-    # navigation.localization.method).
-    LOCALIZATION = "amcl"
+    LOCALIZATION = "amcl"  # summary.json's localization method (without the ground truth)
 
     def __init__(
         self,
@@ -527,10 +525,6 @@ class Navigator(LeafSystem):
         return nav, 0.0, 0.0
 
     # -- results
-
-    def results(self, context) -> list[GoalResult]:
-        """Every goal's result at ``context``'s time (those not finished: not reached)."""
-        return goal_results(self.nav_state(context), context.get_time())
 
     def summary(self, context) -> dict[str, Any]:
         """``summary.json``'s ``navigation`` section (collisions are added by the run)."""
