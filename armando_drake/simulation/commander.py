@@ -33,7 +33,7 @@ from pydrake.systems.analysis import Simulator
 from armando_drake.navigation.config import NavigationGoal
 from armando_drake.navigation.navigator import check_goals
 from armando_drake.navigation.planner import PlanningError, path_length
-from armando_drake.outputs.navigation_topics import GOAL_RANGE, goal_pose_of
+from armando_drake.navigation.topics import GOAL_RANGE, goal_pose_of
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import Scenario, load_scenario
 from armando_drake.tools.errors import ScenarioError
