@@ -141,7 +141,6 @@ def end_effectors_line(robots: dict[str, Any]) -> str:
     pairs = []
     for (a, ea), (b, eb) in itertools.combinations(arms.items(), 2):
         distance = math.dist(ea["position"], eb["position"])
-        pairs.append(
-            f"{a}'s ({ea['frame']}) and {b}'s ({eb['frame']}) {distance * 1e3:.1f} mm apart"
-        )
+        apart = f"{distance * 1e3:.1f} mm" if distance < 0.1 else f"{distance:.3f} m"
+        pairs.append(f"{a}'s ({ea['frame']}) and {b}'s ({eb['frame']}) {apart} apart")
     return "tool points: " + "; ".join(pairs) if pairs else ""

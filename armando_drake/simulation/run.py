@@ -811,13 +811,28 @@ def robot_summary(
     }
 
 
+def _last_joint_bounded(plant, instance) -> bool:
+    """Whether the robot's last moving joint has position limits (an arm's; a wheel's
+    continuous joint has none)."""
+    moving = [plant.get_joint(i) for i in plant.GetJointIndices(instance)]
+    moving = [joint for joint in moving if joint.num_velocities() > 0]
+    if not moving:
+        return False
+    last = max(moving, key=lambda joint: joint.velocity_start())
+    limits = np.concatenate([last.position_lower_limits(), last.position_upper_limits()])
+    return bool(np.all(np.isfinite(limits)))
+
+
 def _end_effector(part, context, entry: RobotEntry) -> dict[str, Any] | None:
     """An arm's end effector at the diagram's ``context``: its frame's name, the point
-    in it and its world position [m]; None for a mobile base or without a context."""
+    in it and its world position [m]; None for a mobile base (free, or welded on its
+    wheels) or without a context."""
     if context is None or part.base_log is not None or not part.stack.hardware.joint_names:
         return None
     plant, instance = part.plant, part.robot.model_instance
     point = np.zeros(3)
+    if not (part.task or entry.tool_link) and not _last_joint_bounded(plant, instance):
+        return None  # its last joint turns without end: a wheel, not an arm's tool
     if part.task:
         frame = part.task.arm.frame_E
     elif entry.tool_link:

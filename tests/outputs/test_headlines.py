@@ -115,3 +115,34 @@ def test_chapter_lines_of_an_exploration_and_of_goals():
         line
         == "goals: 1/2 reached, largest errors 0.050 m and 0.100 rad, not reached: b, 1 collisions"
     )
+
+
+def test_tool_points_apart_in_millimetres_or_metres():
+    robots = {
+        "a": {"end_effector": {"frame": "tool", "position": [0.0, 0.0, 0.3]}},
+        "b": {"end_effector": {"frame": "tool", "position": [0.0, 0.0004, 0.3]}},
+        "c": {"end_effector": {"frame": "tool", "position": [1.25, 0.0, 0.3]}},
+        "base": {"end_effector": None},  # a mobile base has none
+    }
+    (line,) = chapter_lines({"robots": robots})
+    assert line == (
+        "tool points: a's (tool) and b's (tool) 0.4 mm apart; "
+        "a's (tool) and c's (tool) 1.250 m apart; b's (tool) and c's (tool) 1.250 m apart"
+    )
+
+
+def test_two_welded_wheeled_robots_report_no_tool_point(tmp_path):
+    """fra2mo welded (base: fixed): its last joints are wheels (continuous), so no tool
+    point is reported or printed, as for a free mobile base."""
+    robots = "".join(
+        f"  - name: {name}\n    robot:\n      description: "
+        "package://fra2mo_description/urdf/fra2mo.urdf.xacro\n"
+        f"      base_xyz: [0.0, {y}, 0.1]\n      base: fixed\n"
+        "    controllers:\n      activate: [joint_state_broadcaster]\n"
+        for name, y in (("a", -0.5), ("b", 0.5))
+    )
+    path = tmp_path / "welded.yaml"
+    path.write_text(f"robots:\n{robots}simulation: {{duration: 0.2}}\n")
+    lines, summary = _run(tmp_path, "--scenario", str(path))
+    assert [summary["robots"][n]["end_effector"] for n in ("a", "b")] == [None, None]
+    assert not [line for line in lines if line.startswith("tool points:")], lines
