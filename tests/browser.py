@@ -46,6 +46,24 @@ def browser_page(chromium: str) -> Iterator:
             browser.close()
 
 
+def open_url(page, url: str, attempts: int = 3) -> None:
+    """Opens ``url`` in ``page`` from a blank page.
+
+    A page still showing an earlier run's Meshcat reloads itself when its server goes away,
+    and that reload can interrupt the next navigation to a reused port: leaving the old page
+    first stops it, and an interrupted navigation is tried again.
+    """
+    page.goto("about:blank")
+    for attempt in range(attempts):
+        try:
+            page.goto(url)
+            return
+        except Exception as error:  # playwright's Error, imported lazily with the browser
+            if "interrupted by another navigation" not in str(error) or attempt == attempts - 1:
+                raise
+            page.wait_for_timeout(500)
+
+
 def wait_for_scene_paths(page, predicate, timeout: float = 20.0) -> list[str]:
     """Polls the Meshcat scene tree until ``predicate(paths)`` holds or time runs out."""
     deadline = time.monotonic() + timeout

@@ -4,7 +4,7 @@ import subprocess
 import sys
 
 import pytest
-from browser import browser_page, running, wait_for_scene_paths
+from browser import browser_page, open_url, running, wait_for_scene_paths
 
 from armando_drake import DEFAULT_DESCRIPTION
 
@@ -73,7 +73,7 @@ def test_meshcat_page_shows_every_link_in_both_layers(chromium):
     assert len(links) >= 10
     with running(["armando_drake.display"], r"Meshcat: (\S+)") as (_, url):
         with browser_page(chromium) as page:
-            page.goto(url)
+            open_url(page, url)
 
             def complete(paths):
                 return all(

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from browser import (
     measure_framing,
+    open_url,
     running,
     save_screenshot,
     scene_children,
@@ -40,7 +41,7 @@ FAST = ["--no-wait", "--duration", "0.01", "--realtime-rate", "0", "--quiet"]
 
 
 def open_scene(page, url: str) -> None:
-    page.goto(url)
+    open_url(page, url)
     wait_for_scene_paths(page, lambda paths: any(p.startswith(ROBOT + "/") for p in paths))
     page.wait_for_timeout(1000)  # the camera and the poses of the first publish
 

@@ -65,7 +65,7 @@ def test_camera_view_only_with_meshcat_or_when_asked():
 
 @pytest.mark.browser
 def test_the_run_waits_for_a_browser_then_starts(chromium):
-    from browser import browser_page
+    from browser import browser_page, open_url
 
     process = subprocess.Popen(
         [sys.executable, "-m", "armando_drake.world", "--wait", "60", "--exit-when-done"]
@@ -84,7 +84,7 @@ def test_the_run_waits_for_a_browser_then_starts(chromium):
         time.sleep(3.0)
         assert process.poll() is None, "the run did not wait for a browser"
         with browser_page(chromium) as page:
-            page.goto(url)
+            open_url(page, url)
             rest, _ = process.communicate(timeout=60)
         assert process.returncode == 0
         # The run started when the page opened, and ran to its end; the messages come in
@@ -102,7 +102,7 @@ def test_the_run_waits_for_a_browser_then_starts(chromium):
 
 @pytest.mark.browser
 def test_after_the_run_the_page_answers_frames_the_robot_and_holds_the_replay(chromium):
-    from browser import browser_page, robot_span, wait_for_scene_paths
+    from browser import browser_page, open_url, robot_span, wait_for_scene_paths
 
     process = subprocess.Popen(
         [sys.executable, "-m", "armando_drake.world", "--keep-serving", "--no-wait"]
@@ -124,7 +124,7 @@ def test_after_the_run_the_page_answers_frames_the_robot_and_holds_the_replay(ch
         time.sleep(1.0)
         assert process.poll() is None, "the process ended with the run"
         with browser_page(chromium) as page:
-            page.goto(url)
+            open_url(page, url)
             paths = wait_for_scene_paths(
                 page, lambda p: any(x.startswith("/drake/illustration/armando/") for x in p)
             )

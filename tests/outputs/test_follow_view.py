@@ -92,7 +92,7 @@ def test_the_page_keeps_fra2mo_in_view_for_the_whole_run(chromium):
     line (each simulated second) the base's origin, projected with the page's camera, is
     inside the view, and the view moved with it; screenshots of the start, the middle and
     the end (docs/images/fra2mo_goals_*.png with ARMANDO_DRAKE_SCREENSHOTS)."""
-    from browser import browser_page, save_screenshot, wait_for_scene_paths
+    from browser import browser_page, open_url, save_screenshot, wait_for_scene_paths
 
     base = ["drake", "illustration", "fra2mo", "base_link"]
     process = subprocess.Popen(
@@ -111,7 +111,7 @@ def test_the_page_keeps_fra2mo_in_view_for_the_whole_run(chromium):
                 break
         url = re.search(r"Meshcat: (\S+)", "".join(lines)).group(1)
         with browser_page(chromium) as page:
-            page.goto(url)
+            open_url(page, url)
             wait_for_scene_paths(page, lambda paths: "/" + "/".join(base) in paths)
             for line in process.stdout:
                 lines.append(line)

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from browser import browser_page, running
+from browser import browser_page, open_url, running
 from pydrake.systems.analysis import Simulator
 
 from armando_drake.simulation.builder import MakeWorld
@@ -86,7 +86,7 @@ def test_live_view_during_a_run_shows_the_camera_image(chromium):
     ]
     with running(args, r"Camera view: (\S+)") as (_, url):
         with browser_page(chromium) as page:
-            page.goto(url)
+            open_url(page, url)
             # The page swaps its image at the camera rate; take the one it shows
             # as soon as one is decoded, draw it on a canvas and read it back.
             handle = page.wait_for_function(SNAPSHOT_JS, timeout=60000)

@@ -7,7 +7,7 @@ import time
 
 import numpy as np
 import pytest
-from browser import browser_page, running
+from browser import browser_page, open_url, running
 from jog_worlds import jog_world
 
 from armando_drake.teleop.config import GamepadMapping
@@ -35,7 +35,7 @@ def wait_until(predicate, page, timeout: float = 10.0) -> None:
 
 def open_jog_page(page, url: str) -> None:
     """Loads the page and opens its controls, which Meshcat shows closed."""
-    page.goto(url)
+    open_url(page, url)
     page.wait_for_function(
         "() => viewer.gui_controllers && 'home (H)' in viewer.gui_controllers", timeout=20000
     )
