@@ -68,9 +68,9 @@ def test_quick_run_writes_every_row_with_positive_numbers(quick_run):
         "start-up, empty cache",
         "start-up, warm cache",
         "resident memory at the start",
-        "resident memory after 20 s simulated and replay.html",
-        "replay.html after 20 s simulated",
-        "peak resident memory, plots of the 20 s drawn after the run",
+        "resident memory after 5 s simulated and replay.html",
+        "replay.html after 5 s simulated",
+        "peak resident memory, plots of the 5 s drawn after the run",
     ]
     if shutil.which("Xvfb") or os.environ.get("CI"):  # CI installs Xvfb: the GL rows too
         expected += [
@@ -102,8 +102,8 @@ def test_quick_run_writes_every_row_with_positive_numbers(quick_run):
     assert budget["start-up, warm cache"]["target"] == "<= 1.5"
     camera_budget = [name for name in budget if name.startswith("camera scenario + camera")]
     assert len(camera_budget) == 1 and budget[camera_budget[0]]["target"] == ">= 1"
-    assert budget["growth over 20 s, replay on"]["target"] == "<= 20"
-    assert budget["replay.html after 20 s simulated"]["target"] == "<= 50"
+    assert budget["growth over 5 s, replay on"]["target"] == "<= 20"
+    assert budget["replay.html after 5 s simulated"]["target"] == "<= 50"
     assert budget["iiwa operational-space ID at 1 kHz, 0.5 s"]["target"] == ">= 2"
     assert all(isinstance(row["met"], bool) for row in budget.values())
 
