@@ -18,7 +18,16 @@ from __future__ import annotations
 
 import dataclasses as dc
 
-from armando_drake.navigation import amcl, behaviors, costmap, explore, follower, planner, slam
+from armando_drake.navigation import (
+    amcl,
+    behaviors,
+    costmap,
+    explore,
+    follower,
+    planner,
+    slam,
+    velocity_smoother,
+)
 from armando_drake.navigation.registry import BEHAVIORS, CONTROLLERS, LAYERS, PLANNERS
 from armando_drake.tools.schema import field_rules, range_text
 
@@ -186,6 +195,15 @@ def _controller_sections() -> list[Section]:
             "behavior_server.ros__parameters",
             behaviors_keys,
             f" Behaviours: {names} (each an entry with its `plugin`).",
+        )
+    )
+    v = velocity_smoother
+    sections.append(
+        Section(
+            "velocity_smoother (nav2_velocity_smoother)",
+            "velocity_smoother.ros__parameters",
+            {**declared(v.VelocitySmootherParameters), **_of((), sorted(v._KNOWN))},
+            " Run between the controller and the base when the file has this node.",
         )
     )
     return sections
