@@ -49,7 +49,7 @@ from armando_drake.navigation.follower import (
 )
 from armando_drake.navigation.layers import Layers, observe_layers
 from armando_drake.navigation.maps import OccupancyMap
-from armando_drake.navigation.planner import PlanningError, path_length
+from armando_drake.navigation.planner import PlanningError, path_length, plan_heading
 from armando_drake.navigation.registry import CONTROLLERS
 from armando_drake.navigation.results import GoalResult, navigation_summary
 
@@ -385,12 +385,6 @@ class Navigator(LeafSystem):
             nav, path=path, path_index=0, planned_at=now, plan_length=length, first_plan=first
         )
 
-    def _final_yaw(self, path, pose, goal: NavigationGoal) -> float:
-        """The heading of the plan's last pose: the goal's, or the planner's own
-        (NavFn's ``use_final_approach_orientation``)."""
-        final = getattr(self.planner, "final_orientation", None)
-        return goal.yaw if final is None else final(path, pose[2], goal.yaw)
-
     def _blocked(self, nav: NavState) -> bool:
         """Whether the rest of the current plan crosses an obstacle of the costmap."""
         return path_blocked(self._costmap(nav), nav.path[nav.path_index :])
@@ -462,7 +456,7 @@ class Navigator(LeafSystem):
             local,
             pose,
             speed,
-            (goal.x, goal.y, self._final_yaw(nav.path, pose, goal)),
+            (goal.x, goal.y, plan_heading(self.planner, nav.path, pose[2], goal.yaw)),
             rotating_to_goal=nav.rotating_to_goal,
             inscribed_radius=self._inscribed,
         )

@@ -238,6 +238,13 @@ def final_orientation(path: np.ndarray, start_yaw: float, goal_yaw: float, param
     return math.atan2(last[1] - approach[1], last[0] - approach[0])
 
 
+def plan_heading(planner, path: np.ndarray, start_yaw: float, goal_yaw: float) -> float:
+    """The heading of ``planner``'s plan ``path`` at its end: the planner's own
+    (:meth:`NavfnPlanner.final_orientation`), else the goal's."""
+    final = getattr(planner, "final_orientation", None)
+    return goal_yaw if final is None else final(path, start_yaw, goal_yaw)
+
+
 def path_length(path: np.ndarray) -> float:
     """The length of a path of points (n, 2), in metres."""
     return float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
