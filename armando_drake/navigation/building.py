@@ -35,6 +35,7 @@ from armando_drake.description.packages import find_packages
 from armando_drake.messages.types import TwistStamped
 from armando_drake.navigation.amcl import AmclLocalizer, ParticleFilter, amcl_parameters
 from armando_drake.navigation.behaviors import behavior_parameters
+from armando_drake.navigation.bringup import warn_not_run
 from armando_drake.navigation.config import NavigationConfig
 from armando_drake.navigation.costmap import Costmap, costmap_parameters, make_costmap
 from armando_drake.navigation.explore import Explorer, explore_parameters
@@ -47,6 +48,10 @@ from armando_drake.navigation.planner import planner_plugin
 from armando_drake.navigation.slam import SlamMapper, canvas, slam_parameters
 from armando_drake.navigation.smoother import smoother_plugins
 from armando_drake.navigation.topics import NavigationSource
+from armando_drake.navigation.velocity_smoother import (
+    VelocitySmoother,
+    velocity_smoother_parameters,
+)
 from armando_drake.navigation.world_map import LIDAR_TYPES, lidar_height, world_map
 from armando_drake.tools.errors import ConfigError, ScenarioError
 from armando_drake.tools.extras import require_extra
@@ -131,6 +136,7 @@ class _Servers:
     controller: Any  # ControllerParameters
     behaviors: Any  # BehaviorParameters or None
     smoothers: dict  # the smoother server's registered plugins (none run by the default tree)
+    velocity_smoother: Any  # VelocitySmootherParameters, or None without the node
 
     @classmethod
     def read(cls, config: NavigationConfig, where: str) -> _Servers:
@@ -149,9 +155,12 @@ class _Servers:
                 controller_parameters(nav2),
                 behavior_parameters(nav2),
                 smoother_plugins(nav2),
+                velocity_smoother_parameters(nav2),
             )
 
-        return _read(servers, nav2, "params_file", where)
+        read = _read(servers, nav2, "params_file", where)
+        warn_not_run(nav2, localization=config.localization, map_given=bool(config.map))
+        return read
 
 
 def _drive(config: NavigationConfig, stack, where: str) -> str:
@@ -253,11 +262,22 @@ def AddNavigation(
     return navigation
 
 
-def _connect(builder, stack, navigator, drive: str) -> None:
-    """The navigator on the robot's state, its cmd_vel to the drive."""
+def _connect(builder, stack, navigator, drive: str, smoother=None) -> None:
+    """The navigator on the robot's state, its cmd_vel to the drive: through Nav2's
+    velocity smoother when the file has one (``smoother``: its parameters), as Nav2's
+    bringup places it (CLOSED_LOOP: on the drive's odometry)."""
     state = stack.plant.get_state_output_port(stack.robot.model_instance)
     builder.Connect(state, navigator.GetInputPort("state"))
-    builder.Connect(navigator.GetOutputPort("cmd_vel"), stack.command_input(drive))
+    command = navigator.GetOutputPort("cmd_vel")
+    if smoother is not None:
+        system = builder.AddSystem(VelocitySmoother(smoother))
+        system.set_name(f"{navigator.get_name()}_velocity_smoother")
+        builder.Connect(command, system.GetInputPort("cmd_vel"))
+        if smoother.feedback == "CLOSED_LOOP":
+            odom = stack.manager.GetOutputPort(f"{drive}.odom")
+            builder.Connect(odom, system.GetInputPort("odom"))
+        command = system.GetOutputPort("cmd_vel_smoothed")
+    builder.Connect(command, stack.command_input(drive))
     builder.ExportOutput(navigator.GetOutputPort("command"), "navigation_command")
 
 
@@ -275,7 +295,7 @@ def _navigator(builder, config, stack, servers: _Servers, drive, system, where) 
                   amcl_axle=axle, layers=layers, behaviors=servers.behaviors, **system)
     )  # fmt: skip
     navigator.set_name("navigator")
-    _connect(builder, stack, navigator, drive)
+    _connect(builder, stack, navigator, drive, servers.velocity_smoother)
     lidar = _lidar(stack, ": the costmap's obstacle layer", where).name if layers else ""
     localizer = None
     if amcl:
@@ -347,7 +367,7 @@ def _explorer(builder, config, stack, servers: _Servers, drive, system, where) -
         SlamMapper(slam, blank, laser, axle=axle, rate=rate, footprint=footprint, start=spawn)
     )
     mapper.set_name("slam")
-    _connect(builder, stack, explorer, drive)
+    _connect(builder, stack, explorer, drive, servers.velocity_smoother)
     odom = stack.manager.GetOutputPort(f"{drive}.odom")
     builder.Connect(odom, mapper.GetInputPort("odom"))
     builder.Connect(odom, explorer.GetInputPort("odom"))

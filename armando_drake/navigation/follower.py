@@ -11,18 +11,23 @@ there are no transforms to wait for), as any unknown one.
 
 :func:`rpp_command` is ``RegulatedPurePursuitController::computeVelocityCommands``: the
 path pruned to the part ahead of the robot (within ``max_robot_pose_search_dist``), the
-lookahead (``lookahead_dist``, or ``|v| lookahead_time`` clamped to
-``[min_lookahead_dist, max_lookahead_dist]``), the carrot on the path at that distance
-(interpolated on the segment that crosses the circle with ``use_interpolation``), the
-curvature ``2 y / (x^2 + y^2)`` to it (or to the point at ``curvature_lookahead_dist``);
+path cut at its first point beyond half the costmap's larger side (``transformGlobalPlan``),
+the lookahead (``lookahead_dist``, or ``|v| lookahead_time`` clamped to
+``[min_lookahead_dist, max_lookahead_dist]``; with ``allow_reversing`` not beyond the
+path's first cusp), the carrot on the path at that distance (on the segment that crosses
+the circle with ``use_interpolation``: ``circleSegmentIntersection``), the curvature
+``2 y / (x^2 + y^2)`` to it (or to the point at ``curvature_lookahead_dist``, projected
+past the path's end with ``interpolate_curvature_after_goal``);
 rotation in place toward the path beyond ``rotate_to_heading_min_angle`` or to the goal's
 heading within the goal checker's ``xy_goal_tolerance`` (``rotate_to_heading_angular_vel``
-within ``max_angular_accel``, slowing to stop on the heading); else
+at most the rate that stops on the heading, within ``max_angular_accel`` of the current
+turn rate); else
 ``desired_linear_vel`` regulated by curvature (below ``regulated_linear_scaling_min_radius``
 scaled by ``radius / min_radius``), by the cost under the robot (``cost_scaling_dist``,
 ``cost_scaling_gain``, ``inflation_cost_scaling_factor``), not below
 ``regulated_linear_scaling_min_speed``, then slowed on the last
-``approach_velocity_scaling_dist`` (not below ``min_approach_linear_velocity``); the
+``approach_velocity_scaling_dist`` of the path (not below
+``min_approach_linear_velocity``); the
 angular velocity is the linear one times the curvature. With ``use_collision_detection``
 the arc is projected forward (up to ``max_allowed_time_to_collision_up_to_carrot`` and
 the carrot) and a cell at or above the inscribed cost on it stops the robot: a failure
@@ -34,6 +39,7 @@ from __future__ import annotations
 import dataclasses as dc
 import logging
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -53,6 +59,8 @@ PROGRESS_CHECKERS = (
 )
 
 _log = logging.getLogger("armando_drake.navigation")
+
+NO_SPEED_LIMIT = 0.0  # nav2_costmap_2d's filter value: no speed limit
 
 
 def _m(default, doc, **rule):
@@ -121,6 +129,10 @@ class RppParameters:
     allow_reversing: bool = _on(False, "drive backwards when the carrot is behind")
     max_robot_pose_search_dist: float = _m(10.0, "how far along the plan the robot is searched")
     use_interpolation: bool = _on(True, "the carrot interpolated between plan poses")
+    interpolate_curvature_after_goal: bool = _on(
+        False,
+        "the curvature's carrot projected past the path's end (with use_fixed_curvature_lookahead)",
+    )
     stateful: bool = _on(True, "the rotation to the goal's heading, once begun, goes on")
 
 
@@ -177,7 +189,7 @@ _SERVER_KNOWN = {
     "controller_plugins", "goal_checker_plugins", "goal_checker_plugin",
     "progress_checker_plugins", "progress_checker_plugin", "min_y_velocity_threshold",
 }  # fmt: skip
-_NOT_APPLIED = {"transform_tolerance", "interpolate_curvature_after_goal"}
+_NOT_APPLIED = {"transform_tolerance"}
 SERVER_KEYS = (
     "controller_frequency", "min_x_velocity_threshold", "min_theta_velocity_threshold",
     "failure_tolerance",
@@ -246,6 +258,15 @@ def controller_parameters(source: Nav2Params | str | Path) -> ControllerParamete
     params.plugin = plugin.runs_as or plugin.name
     params.rpp = plugin.cls.Parameters()
     unused = fill(params.rpp, follow, f"{where}.{name}")
+    rpp = params.rpp
+    if rpp.interpolate_curvature_after_goal and not rpp.use_fixed_curvature_lookahead:
+        _log.warning(
+            "%s.%s.interpolate_curvature_after_goal: true needs use_fixed_curvature_lookahead:"
+            " true; set to false (as Nav2 does)",
+            where,
+            name,
+        )
+        rpp.interpolate_curvature_after_goal = False
     ignored += [f"{where}.{name}.{key}" for key in unused if key != "plugin"]
     known.add(name)
     ignored += [
@@ -279,34 +300,110 @@ def to_robot(points: np.ndarray, pose) -> np.ndarray:
 
 
 def prune(path: np.ndarray, start: int, pose, search_dist: float) -> int:
-    """The index of the path point nearest the robot, searched from ``start`` over
-    ``search_dist`` metres of path (``transformGlobalPlan``'s pruning)."""
+    """The index of the path point nearest the robot, searched from ``start`` up to the
+    first point past ``search_dist`` metres of path (``transformGlobalPlan``'s pruning);
+    the last point of that window gives way to the one before it, so that at least two
+    points remain to tell the path's end direction."""
     steps = np.linalg.norm(np.diff(path[start:], axis=0), axis=1)
     along = np.concatenate([[0.0], np.cumsum(steps)])
     end = start + int(np.searchsorted(along, search_dist, side="right"))
     window = path[start : max(end, start + 1)]
     d = np.hypot(window[:, 0] - pose[0], window[:, 1] - pose[1])
-    return start + int(np.argmin(d))
+    nearest = start + int(np.argmin(d))
+    if len(path) - start > 1 and nearest == start + len(window) - 1:
+        nearest = max(start, nearest - 1)
+    return nearest
 
 
-def carrot(local: np.ndarray, lookahead: float, interpolate: bool) -> np.ndarray:
-    """The point of the path (robot frame, from the nearest point on) at ``lookahead``
-    from the robot: the first point at least that far, or the crossing of the circle on
-    the segment before it (``circleSegmentIntersection``); the last point when none."""
+def circle_segment_intersection(p1, p2, r: float) -> np.ndarray:
+    """RPP's ``circleSegmentIntersection``: the point at ``r`` from the origin (the robot)
+    on the line through ``p1`` and ``p2`` (robot frame), the one on the segment: toward
+    ``p2`` when the segment leaves the circle, toward ``p1`` when it enters it."""
+    x1, y1 = float(p1[0]), float(p1[1])
+    x2, y2 = float(p2[0]), float(p2[1])
+    dx, dy = x2 - x1, y2 - y1
+    dr2 = dx * dx + dy * dy
+    big_d = x1 * y2 - x2 * y1
+    dd = (x2 * x2 + y2 * y2) - (x1 * x1 + y1 * y1)
+    root = math.sqrt(max(0.0, r * r * dr2 - big_d * big_d))
+    sign = math.copysign(1.0, dd)
+    return np.array([(big_d * dy + sign * dx * root) / dr2, (-big_d * dx + sign * dy * root) / dr2])
+
+
+def carrot(
+    local: np.ndarray, lookahead: float, interpolate: bool, after_goal: bool = False
+) -> np.ndarray:
+    """RPP's ``getLookAheadPoint`` on the path ``local`` (robot frame, from the nearest
+    point on): the first point at least ``lookahead`` from the robot, or, with
+    ``interpolate``, the crossing of that circle on the segment before it
+    (:func:`circle_segment_intersection`); when no point is that far, the last one or,
+    ``after_goal`` (``interpolate_curvature_after_goal``), the last segment projected
+    past the path's end to the circle."""
     d = np.hypot(local[:, 0], local[:, 1])
     beyond = np.nonzero(d >= lookahead)[0]
     if not len(beyond):
+        if after_goal and len(local) > 1:
+            last, before = local[-1], local[-2]
+            heading = math.atan2(last[1] - before[1], last[0] - before[0])
+            projected = last + lookahead * np.array([math.cos(heading), math.sin(heading)])
+            return circle_segment_intersection(last, projected, lookahead)
         return local[-1]
     k = int(beyond[0])
     if not interpolate or k == 0:
         return local[k]
-    p1, p2 = local[k - 1], local[k]
-    seg = p2 - p1
-    a = seg @ seg
-    b = 2 * (p1 @ seg)
-    c = p1 @ p1 - lookahead * lookahead
-    t = (-b + math.sqrt(max(0.0, b * b - 4 * a * c))) / (2 * a) if a > 0 else 1.0
-    return p1 + min(1.0, max(0.0, t)) * seg
+    return circle_segment_intersection(local[k - 1], local[k], lookahead)
+
+
+def velocity_sign_change(local: np.ndarray) -> float:
+    """RPP's ``findVelocitySignChange``: the distance from the robot to the first cusp of
+    the path ``local`` (robot frame; where it turns back: the dot product of two
+    consecutive segments negative), or the largest float when it has none. (The plans
+    here carry no orientations: overlapping poses of different headings are not cusps.)"""
+    seg = np.diff(local, axis=0)
+    for k in range(1, len(local) - 1):
+        if float(seg[k - 1] @ seg[k]) < 0.0:
+            return float(math.hypot(*local[k]))
+    return sys.float_info.max
+
+
+def within_costmap(local: np.ndarray, costmap: Costmap) -> np.ndarray:
+    """``transformGlobalPlan``'s cut: the path ``local`` (robot frame) up to its first
+    point farther from the robot than half the costmap's larger side."""
+    extent = max(costmap.costs.shape) * costmap.resolution / 2.0
+    far = np.nonzero(np.hypot(local[:, 0], local[:, 1]) > extent)[0]
+    return local[: int(far[0])] if len(far) else local
+
+
+def transform_global_plan(path: np.ndarray, start: int, pose, search_dist: float, costmap):
+    """RPP's ``transformGlobalPlan``: (the index the plan is pruned to, the plan from it in
+    the robot's frame up to the costmap's extent; empty when even its nearest point is
+    beyond). The navigator keeps the index; :func:`rpp_command` makes the cut."""
+    index = prune(path, start, pose, search_dist)
+    return index, within_costmap(to_robot(path[index:], pose), costmap)
+
+
+def lookahead_distance(p: RppParameters, speed_x: float) -> float:
+    """RPP's ``getLookAheadDistance``: ``lookahead_dist``, or (velocity-scaled)
+    ``|v| lookahead_time`` within ``[min_lookahead_dist, max_lookahead_dist]``."""
+    if not p.use_velocity_scaled_lookahead_dist:
+        return p.lookahead_dist
+    return min(max(abs(speed_x) * p.lookahead_time, p.min_lookahead_dist), p.max_lookahead_dist)
+
+
+def angle_to_path(target, sign: float = 1.0) -> float:
+    """RPP's ``shouldRotateToPath`` angle: the carrot's bearing (reversing: from behind)."""
+    angle = math.atan2(target[1], target[0])
+    return wrap(angle + math.pi) if sign < 0.0 else angle
+
+
+def speed_limited(p: RppParameters, speed_limit: float, percentage: bool) -> RppParameters:
+    """RPP's ``setSpeedLimit``: ``desired_linear_vel`` under a speed limit (a costmap speed
+    filter's ``speed_limit_topic``): ``speed_limit`` percent of it (``percentage``) or
+    ``speed_limit`` m/s; ``NO_SPEED_LIMIT`` (0) keeps it."""
+    if speed_limit == NO_SPEED_LIMIT:
+        return p
+    desired = p.desired_linear_vel * speed_limit / 100.0 if percentage else speed_limit
+    return dc.replace(p, desired_linear_vel=desired)
 
 
 @dc.dataclass(frozen=True)
@@ -319,13 +416,16 @@ class Command:
     collision: bool = False
 
 
-def _rotate(angle: float, current_w: float, p: RppParameters, dt: float) -> float:
-    """rotateToHeading: toward ``angle`` at rotate_to_heading_angular_vel, within
-    max_angular_accel of ``current_w``, slowing to stop on the heading."""
-    target = math.copysign(p.rotate_to_heading_angular_vel, angle)
-    stop = math.sqrt(2.0 * p.max_angular_accel * abs(angle))
-    target = math.copysign(min(abs(target), stop), angle)
+def rotate_to_heading(angle: float, current_w: float, p: RppParameters, dt: float) -> float:
+    """RPP's ``rotateToHeading``: ``rotate_to_heading_angular_vel`` toward ``angle``, at
+    most the speed that stops on the heading, ``sqrt(2 max_angular_accel |angle|)``, then
+    within ``max_angular_accel`` of ``current_w`` over ``dt``. (Nav2 clamps in the other
+    order, so that its command may drop below the acceleration window: at 1.8 rad/s and
+    0.1 rad, 0.8 rad/s where this gives 1.64; see the parameter reference.)"""
+    sign = 1.0 if angle > 0.0 else -1.0
     step = p.max_angular_accel * dt
+    stop = math.sqrt(2.0 * p.max_angular_accel * abs(angle))
+    target = sign * min(p.rotate_to_heading_angular_vel, stop)
     return min(max(target, current_w - step), current_w + step)
 
 
@@ -362,21 +462,35 @@ def _collision_ahead(costmap, pose, v, w, carrot_dist, p: RppParameters) -> bool
     return False
 
 
-def _regulate(p: RppParameters, curvature: float, cost: int, remaining: float, inscribed):
-    """applyConstraints: the linear speed regulated by curvature, cost and approach."""
-    curvature_vel = cost_vel = p.desired_linear_vel
-    radius = abs(1.0 / curvature) if abs(curvature) > 1e-9 else math.inf
+def regulate(
+    p: RppParameters, linear: float, curvature: float, cost: int, local: np.ndarray, inscribed
+) -> float:
+    """RPP's ``applyConstraints`` on the speed ``linear``: regulated by curvature (below
+    ``regulated_linear_scaling_min_radius``) and by the cost under the robot (the
+    obstacle distance that cost means in the inflation, ``log(253 / cost)``), not below
+    ``regulated_linear_scaling_min_speed``; then, once the distance left along the path
+    ``local`` (from the robot) is under ``approach_velocity_scaling_dist``, scaled by it
+    over that distance (not below ``min_approach_linear_velocity``); at most
+    ``desired_linear_vel`` (unsigned)."""
+    curvature_vel = cost_vel = linear
+    radius = abs(1.0 / curvature) if curvature != 0.0 else math.inf
     if p.use_regulated_linear_velocity_scaling and radius < p.regulated_linear_scaling_min_radius:
-        curvature_vel *= radius / p.regulated_linear_scaling_min_radius
-    if p.use_cost_regulated_linear_velocity_scaling and 0 < cost < NO_INFORMATION:
-        ratio = min(1.0, cost / (INSCRIBED_INFLATED_OBSTACLE - 1))
-        distance = -math.log(max(ratio, 1e-9)) / p.inflation_cost_scaling_factor + inscribed
+        curvature_vel *= 1.0 - abs(radius - p.regulated_linear_scaling_min_radius) / (
+            p.regulated_linear_scaling_min_radius
+        )
+    if p.use_cost_regulated_linear_velocity_scaling and cost not in (NO_INFORMATION, 0):
+        k = p.inflation_cost_scaling_factor
+        distance = (k * inscribed - math.log(cost) + math.log(253.0)) / k
         if distance < p.cost_scaling_dist:
             cost_vel *= p.cost_scaling_gain * distance / p.cost_scaling_dist
     linear = max(min(curvature_vel, cost_vel), p.regulated_linear_scaling_min_speed)
-    if remaining < p.approach_velocity_scaling_dist and p.approach_velocity_scaling_dist > 0:
-        approach = linear * remaining / p.approach_velocity_scaling_dist
-        linear = min(linear, max(approach, p.min_approach_linear_velocity))
+    # The distance left along the path, from the robot (Nav2: the path's length decides
+    # when, the straight-line distance to its end how much; see the parameter reference).
+    steps = np.linalg.norm(np.diff(local, axis=0), axis=1)
+    remaining = float(math.hypot(*local[0]) + steps.sum())
+    if remaining < p.approach_velocity_scaling_dist:
+        scale = remaining / p.approach_velocity_scaling_dist
+        linear = min(linear, max(linear * scale, p.min_approach_linear_velocity))
     return min(abs(linear), p.desired_linear_vel)
 
 
@@ -397,38 +511,36 @@ def rpp_command(
     p = params.rpp
     dt = 1.0 / params.controller_frequency
     v0, w0 = speed
-    lookahead = p.lookahead_dist
-    if p.use_velocity_scaled_lookahead_dist:
-        lookahead = min(max(abs(v0) * p.lookahead_time, p.min_lookahead_dist), p.max_lookahead_dist)
+    local = within_costmap(local, costmap)
+    if not len(local):  # Nav2: "Resulting plan has 0 poses in it": no valid control
+        return Command(0.0, 0.0, collision=True)
+    lookahead = lookahead_distance(p, v0)
+    bend_dist = p.curvature_lookahead_dist
+    if p.allow_reversing:  # a cusp nearer than the look-ahead: the carrot at the cusp
+        cusp = velocity_sign_change(local)
+        lookahead, bend_dist = min(lookahead, cusp), min(bend_dist, cusp)
     target = carrot(local, lookahead, p.use_interpolation)
     bend = target
     if p.use_fixed_curvature_lookahead:
-        bend = carrot(local, p.curvature_lookahead_dist, p.use_interpolation)
+        after_goal = p.interpolate_curvature_after_goal
+        bend = carrot(local, bend_dist, p.use_interpolation, after_goal)
     dist2 = float(bend @ bend)
-    curvature = 2.0 * bend[1] / dist2 if dist2 > 1e-9 else 0.0
+    curvature = 2.0 * bend[1] / dist2 if dist2 > 0.001 else 0.0
     to_goal = math.hypot(goal[0] - pose[0], goal[1] - pose[1])
-    sign = 1.0
-    if p.allow_reversing:
-        sign = -1.0 if target[0] < 0 else 1.0
+    sign = -1.0 if p.allow_reversing and target[0] < 0.0 else 1.0
     rotating_to_goal = p.use_rotate_to_heading and (
         (p.stateful and rotating_to_goal) or to_goal < params.xy_goal_tolerance
     )
     if rotating_to_goal:
-        w = _rotate(wrap(goal[2] - pose[2]), w0, p, dt)
+        w = rotate_to_heading(wrap(goal[2] - pose[2]), w0, p, dt)
         return Command(0.0, w, rotating_to_goal=True)
-    angle_to_path = math.atan2(target[1], target[0])
-    if (
-        p.use_rotate_to_heading
-        and not p.allow_reversing
-        and abs(angle_to_path) > p.rotate_to_heading_min_angle
-    ):
-        w = _rotate(angle_to_path, w0, p, dt)
+    angle = angle_to_path(bend, sign)
+    if p.use_rotate_to_heading and abs(angle) > p.rotate_to_heading_min_angle:
+        w = rotate_to_heading(angle, w0, p, dt)
         v = 0.0
     else:
-        steps = np.linalg.norm(np.diff(local, axis=0), axis=1)
-        remaining = float(np.hypot(*local[0]) + steps.sum())
         cost = _cost_at(costmap, pose[0], pose[1])
-        v = sign * _regulate(p, curvature, cost, remaining, inscribed_radius)
+        v = sign * regulate(p, p.desired_linear_vel, curvature, cost, local, inscribed_radius)
         w = v * curvature
     carrot_dist = float(math.hypot(*target))
     if p.use_collision_detection and _collision_ahead(costmap, pose, v, w, carrot_dist, p):

@@ -8,12 +8,17 @@ that are not opaque are unknown; ``raw`` mode takes the pixel value itself (0..1
 -1). The image's top row is the map's last row: ``OccupancyMap.data[0]`` is the bottom row,
 at the map's origin, as in a nav_msgs/OccupancyGrid.
 
-Saving writes map_saver's trinary output: 254 free, 0 occupied, 205 unknown, with the YAML
-map_saver writes (``occupied_thresh: 0.65``, ``free_thresh: 0.196``).
+Saving follows map_io's ``saveMapToFile``: thresholds of 0.0 are "unspecified" (free 0.25,
+occupied 0.65); the ``mode`` trinary (254 free, 0 occupied, 205 unknown, with the YAML
+map_saver writes: ``occupied_thresh: 0.65``, ``free_thresh: 0.196``), scale (gray
+``(100 - value)/100``, unknown transparent) or raw (the value itself, unknown 255); the
+``image_format`` pgm, png or bmp ("" = png in scale mode, else pgm). A map YAML path
+beginning with ``~/`` is in the user's home (``expand_user_home_dir_if_needed``).
 """
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import stat
@@ -28,7 +33,10 @@ from armando_drake.tools.errors import ConfigError
 from armando_drake.tools.files import read_text_file
 from armando_drake.tools.schema import MAX_COORDINATE
 
+_log = logging.getLogger("armando_drake.navigation")
+
 MODES = ("trinary", "scale", "raw")
+IMAGE_FORMATS = ("bmp", "pgm", "png")  # map_io's "blessed" formats
 UNKNOWN = -1
 FREE = 0
 OCCUPIED = 100
@@ -82,6 +90,16 @@ def _number(doc: dict, key: str, path: Path) -> float:
     return float(value)
 
 
+def expand_user_home(name: str, home: str | None = None) -> str:
+    """map_io's ``expand_user_home_dir_if_needed``: ``~/...`` with ``~`` replaced by
+    ``home`` (default: ``$HOME``); unchanged when it does not begin with ``~/`` or
+    there is no home."""
+    home = os.environ.get("HOME", "") if home is None else home
+    if len(name) < 2 or not name.startswith("~/") or not home:
+        return name
+    return home + name[1:]
+
+
 def _read_yaml(path: Path) -> dict:
     if not path.exists():
         raise MapError(f"{path}: the map YAML does not exist")
@@ -100,8 +118,9 @@ def _read_yaml(path: Path) -> dict:
 
 def load_map_yaml(path: str | Path) -> dict:
     """The checked parameters of a map YAML, as ``loadMapYaml``: image (a path, relative
-    to the YAML's folder), resolution, origin, free/occupied thresholds, mode, negate."""
-    path = Path(path)
+    to the YAML's folder), resolution, origin, free/occupied thresholds, mode, negate.
+    A ``path`` beginning with ``~/`` is in the user's home."""
+    path = Path(expand_user_home(str(path)))
     doc = _read_yaml(path)
     image = doc.get("image")
     if not isinstance(image, str) or not image:
@@ -208,7 +227,7 @@ def occupancy_from_image(
 
 def load_map(path: str | Path) -> OccupancyMap:
     """A map_server map: the YAML's parameters and its image as an :class:`OccupancyMap`."""
-    path = Path(path)
+    path = Path(expand_user_home(str(path)))
     params = load_map_yaml(path)
     gray, alpha = _read_image(params["image"], path)
     data = occupancy_from_image(
@@ -227,41 +246,98 @@ def load_map(path: str | Path) -> OccupancyMap:
     )
 
 
+def save_parameters(free_thresh: float, occupied_thresh: float, image_format: str, mode: str):
+    """map_io's ``checkSaveParameters``: (free, occupied, format) with 0.0 thresholds
+    taken as unspecified (0.25, 0.65) and an unspecified format chosen by the mode; a
+    MapError for thresholds out of order or an unknown mode."""
+    if mode not in MODES:
+        raise MapError(f"map_saver: mode {mode!r} is not one of {', '.join(MODES)}")
+    if occupied_thresh == 0.0:
+        occupied_thresh = 0.65
+        _log.warning("map_saver: occupied threshold unspecified; set to 0.65")
+    if free_thresh == 0.0:
+        free_thresh = 0.25
+        _log.warning("map_saver: free threshold unspecified; set to 0.25")
+    if not (free_thresh >= 0.0 and occupied_thresh <= 1.0 and free_thresh < occupied_thresh):
+        raise MapError(
+            f"map_saver: free_thresh {free_thresh} and occupied_thresh {occupied_thresh} must "
+            "be 0 <= free_thresh < occupied_thresh <= 1"
+        )
+    image_format = (image_format or ("png" if mode == "scale" else "pgm")).lower()
+    if image_format not in IMAGE_FORMATS:
+        _log.warning(
+            "map_saver: image format %r is not one of %s; png is written instead",
+            image_format,
+            ", ".join(IMAGE_FORMATS),
+        )
+        image_format = "png"
+    if mode == "scale" and image_format != "png":
+        _log.warning(
+            "map_saver: mode scale needs transparency, which %s has not (unknown cells "
+            "are written gray); consider png",
+            image_format,
+        )
+    return free_thresh, occupied_thresh, image_format
+
+
+def map_image(data: np.ndarray, mode: str, free_thresh: float, occupied_thresh: float):
+    """map_io's ``tryWriteMapToFile`` pixels of occupancy ``data`` (bottom row first):
+    the image (top row first), gray uint8 or, in scale mode, gray and alpha."""
+    data = data.astype(np.int16)
+    known = (data >= 0) & (data <= 100)
+    if mode == "raw":
+        return np.flipud(np.where(known, data, 255).astype(np.uint8))
+    if mode == "scale":
+        gray = np.where(known, np.rint((100.0 - data) / 100.0 * 255.0), 128).astype(np.uint8)
+        alpha = np.where(known, 255, 0).astype(np.uint8)
+        return np.flipud(np.stack([gray, alpha], axis=-1))
+    pixels = np.full(data.shape, 205, dtype=np.uint8)
+    pixels[known & (data <= round(free_thresh * 100.0))] = 254
+    pixels[known & (data >= round(occupied_thresh * 100.0))] = 0
+    return np.flipud(pixels)
+
+
 def save_map(
     grid: OccupancyMap,
     path: str | Path,
     *,
     free_thresh: float = 0.25,
     occupied_thresh: float = 0.65,
+    image_format: str = "",
+    mode: str = "trinary",
 ) -> Path:
-    """map_saver's trinary output: ``<path>.pgm`` (254 free, 0 occupied, 205 unknown) and
-    ``<path>.yaml``; ``path`` is given without suffix (a ``.yaml`` one is dropped).
-    A cell is free at ``value <= rint(100 free_thresh)``, occupied at ``value >=
-    rint(100 occupied_thresh)``. Returns the YAML's path."""
+    """map_saver's output: ``<path>.<image_format>`` and ``<path>.yaml``; ``path`` is
+    given without suffix (a ``.yaml`` one is dropped). Thresholds of 0.0 mean unspecified
+    (0.25, 0.65); in trinary mode a cell is free at ``value <= rint(100 free_thresh)``,
+    occupied at ``value >= rint(100 occupied_thresh)`` (see :func:`map_image`). Returns
+    the YAML's path."""
     path = Path(path)
     if path.suffix == ".yaml":
         path = path.with_suffix("")
-    if not 0.0 <= free_thresh < occupied_thresh <= 1.0:
-        raise MapError(
-            f"{path}: free_thresh {free_thresh} and occupied_thresh {occupied_thresh} must be "
-            "0 <= free_thresh < occupied_thresh <= 1"
+    try:
+        free_thresh, occupied_thresh, image_format = save_parameters(
+            free_thresh, occupied_thresh, image_format, mode
         )
-    data = grid.data.astype(np.int16)
-    pixels = np.full(data.shape, 205, dtype=np.uint8)
-    known = (data >= 0) & (data <= 100)
-    pixels[known & (data <= round(free_thresh * 100.0))] = 254
-    pixels[known & (data >= round(occupied_thresh * 100.0))] = 0
-    image_path = path.with_suffix(".pgm")
-    Image.fromarray(np.flipud(pixels), mode="L").save(image_path)
+    except MapError as error:
+        raise MapError(f"{path}: {error}") from None
+    pixels = map_image(grid.data, mode, free_thresh, occupied_thresh)
+    image_path = path.with_suffix(f".{image_format}")
+    if pixels.ndim == 3 and image_format != "png":  # no transparency: gray only
+        pixels = pixels[..., 0]
+    try:
+        Image.fromarray(pixels, mode="LA" if pixels.ndim == 3 else "L").save(image_path)
+    except OSError as error:
+        raise MapError(f"{image_path}: the map cannot be written ({error})") from None
     x, y, yaw = grid.origin
+    thresholds = (0.65, 0.196) if mode == "trinary" else (occupied_thresh, free_thresh)
     text = (
         f"image: {image_path.name}\n"
-        "mode: trinary\n"
+        f"mode: {mode}\n"
         f"resolution: {_exact(grid.resolution)}\n"
         f"origin: [{_exact(x)}, {_exact(y)}, {_exact(yaw)}]\n"
         "negate: 0\n"
-        "occupied_thresh: 0.65\n"
-        "free_thresh: 0.196\n"
+        f"occupied_thresh: {thresholds[0]:g}\n"
+        f"free_thresh: {thresholds[1]:g}\n"
     )
     yaml_path = path.with_suffix(".yaml")
     yaml_path.write_text(text)

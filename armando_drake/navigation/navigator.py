@@ -49,7 +49,7 @@ from armando_drake.navigation.follower import (
 )
 from armando_drake.navigation.layers import Layers, observe_layers
 from armando_drake.navigation.maps import OccupancyMap
-from armando_drake.navigation.planner import PlanningError, path_length
+from armando_drake.navigation.planner import PlanningError, path_length, plan_heading
 from armando_drake.navigation.registry import CONTROLLERS
 from armando_drake.navigation.results import GoalResult, navigation_summary
 
@@ -456,7 +456,7 @@ class Navigator(LeafSystem):
             local,
             pose,
             speed,
-            (goal.x, goal.y, goal.yaw),
+            (goal.x, goal.y, plan_heading(self.planner, nav.path, pose[2], goal.yaw)),
             rotating_to_goal=nav.rotating_to_goal,
             inscribed_radius=self._inscribed,
         )

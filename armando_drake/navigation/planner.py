@@ -8,7 +8,11 @@ its two cells' costs times its length, 1 or sqrt 2 cells) found by SciPy's Dijks
 (``scipy.sparse.csgraph``) from the start cell; ``use_astar`` is accepted and gives the
 same path (A* with an admissible heuristic finds the same least cost; only the search
 order differs). Upstream interpolates a smooth path on the potential field; here the path
-is the sequence of cell centres.
+is the sequence of cell centres between the robot's position (its first point) and the
+goal's (its last point, placed as ``smoothApproachToGoal`` places it: it replaces the last
+cell centre when that one is farther from the one before than the goal, else it follows
+it). With ``use_final_approach_orientation`` the plan's last pose faces along its last
+segment (:meth:`NavfnPlanner.final_orientation`), else the goal's heading.
 
 As NavfnPlanner, the start cell is cleared (the robot stands there), and a goal that is
 blocked or unreachable is replaced by the reachable cell nearest to it within
@@ -55,6 +59,9 @@ class PlannerParameters:
     )
     use_astar: bool = param(False, doc="A* instead of Dijkstra (the same plan cost)")
     allow_unknown: bool = param(True, doc="the plan may cross unknown cells")
+    use_final_approach_orientation: bool = param(
+        False, doc="the plan's last pose faces along its last segment, not the goal's heading"
+    )
 
 
 @PLANNERS.register(NAVFN, instead="NavFn plans instead")
@@ -69,6 +76,10 @@ class NavfnPlanner:
     def plan(self, costmap: Costmap, start, goal) -> np.ndarray:
         """The path (n, 2) from ``start`` (x, y) to ``goal`` (x, y)."""
         return plan(costmap, start, goal, self.params)
+
+    def final_orientation(self, path: np.ndarray, start_yaw: float, goal_yaw: float) -> float:
+        """The heading of the plan's last pose (:func:`final_orientation`)."""
+        return final_orientation(path, start_yaw, goal_yaw, self.params)
 
 
 # Planners Nav2 ships that are not implemented here: NavFn plans instead (their
@@ -168,8 +179,10 @@ def _goal_cell(costmap: Costmap, reachable: np.ndarray, goal, tolerance: float):
 
 
 def plan(costmap: Costmap, start, goal, params: PlannerParameters | None = None) -> np.ndarray:
-    """NavFn's path from ``start`` (x, y) to ``goal`` (x, y) in world coordinates: the
-    centres of the cells it crosses, shape (n, 2), start cell first."""
+    """NavFn's path from ``start`` (x, y) to ``goal`` (x, y) in world coordinates, shape
+    (n, 2): ``start``, the centres of the cells it crosses after the start's, ``goal``
+    (or, when the goal is blocked, the centre of the reachable cell within ``tolerance``
+    nearest to it)."""
     params = params or PlannerParameters()
     srow, scol = costmap.world_to_cell(*start)
     if not costmap.contains(srow, scol):
@@ -191,7 +204,45 @@ def plan(costmap: Costmap, start, goal, params: PlannerParameters | None = None)
         node = predecessors[node]
         nodes.append(node)
     nodes = np.array(nodes[::-1])
-    return costmap.cell_to_world(nodes // w, nodes % w)
+    cells = costmap.cell_to_world(nodes // w, nodes % w)
+    exact = (grow, gcol) == costmap.world_to_cell(*goal)  # else the nearest cell's centre
+    end = np.asarray(goal[:2], dtype=float) if exact else cells[-1]
+    return smooth_approach_to_goal(np.vstack([np.asarray(start[:2], dtype=float), cells[1:]]), end)
+
+
+def smooth_approach_to_goal(path: np.ndarray, goal) -> np.ndarray:
+    """NavfnPlanner's ``smoothApproachToGoal``: ``goal`` replaces the path's last point
+    when that one is farther from the point before it than the goal is (or is the goal's
+    position), else it is appended."""
+    goal = np.asarray(goal, dtype=float)
+    if len(path) >= 2:
+        before, last = path[-2], path[-1]
+        if np.sum((last - before) ** 2) > np.sum((goal - before) ** 2) or (
+            np.sum((last - goal) ** 2) < 1e-6
+        ):
+            return np.vstack([path[:-1], goal])
+    return np.vstack([path, goal])
+
+
+def final_orientation(path: np.ndarray, start_yaw: float, goal_yaw: float, params=None) -> float:
+    """The heading of the plan's last pose: the goal's, or with
+    ``use_final_approach_orientation`` the direction of its last segment (the one before
+    when the last two points coincide; a one-point plan: the start's heading)."""
+    if params is None or not params.use_final_approach_orientation:
+        return goal_yaw
+    if len(path) == 1:
+        return start_yaw
+    last, approach = path[-1], path[-2]
+    if np.all(np.abs(last - approach) < 1e-4) and len(path) > 2:
+        approach = path[-3]
+    return math.atan2(last[1] - approach[1], last[0] - approach[0])
+
+
+def plan_heading(planner, path: np.ndarray, start_yaw: float, goal_yaw: float) -> float:
+    """The heading of ``planner``'s plan ``path`` at its end: the planner's own
+    (:meth:`NavfnPlanner.final_orientation`), else the goal's."""
+    final = getattr(planner, "final_orientation", None)
+    return goal_yaw if final is None else final(path, start_yaw, goal_yaw)
 
 
 def path_length(path: np.ndarray) -> float:

@@ -57,7 +57,7 @@ class Feedback:
 
     current_pose: tuple[float, float, float]  # (x, y, yaw) [m, m, rad]
     navigation_time: float  # [s] since the current goal was sent
-    distance_remaining: float  # [m] along the plan from the robot
+    distance_remaining: float  # [m] along the plan from its pose nearest the robot
     current_waypoint: int  # the index of the goal under way in the task
     number_of_recoveries: int = 0
 
@@ -196,9 +196,9 @@ class BasicNavigator:
             return None
         pose = nav.last_pose
         remaining = math.nan
-        if nav.path is not None:
-            ahead = nav.path[nav.path_index :]
-            remaining = float(np.hypot(*(ahead[0] - pose[:2]))) + path_length(ahead)
+        if nav.path is not None:  # bt_navigator's: the plan's length from its pose nearest
+            ahead = nav.path[nav.path_index :]  # the robot
+            remaining = path_length(ahead[int(np.argmin(np.hypot(*(ahead - pose[:2]).T))) :])
         return Feedback(
             current_pose=tuple(pose),
             navigation_time=self.time - nav.started,

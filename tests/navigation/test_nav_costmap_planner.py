@@ -18,9 +18,11 @@ from armando_drake.navigation.maps import OccupancyMap
 from armando_drake.navigation.planner import (
     PlannerParameters,
     PlanningError,
+    final_orientation,
     path_length,
     plan,
     planner_parameters,
+    smooth_approach_to_goal,
 )
 from armando_drake.tools.errors import ConfigError
 
@@ -151,3 +153,36 @@ def test_goal_inside_obstacle_is_refused():
     # with a tolerance reaching past the inscribed band, the nearest free cell is the goal
     path = plan(costmap, (1.5, 1.0), (3.0, 1.0), PlannerParameters(tolerance=0.5))
     assert 0.2 < abs(path[-1][0] - 3.0) <= 0.5
+
+
+def test_navfn_plan_starts_at_the_robot_and_ends_at_the_goal_exactly():
+    """NavfnPlanner: the plan from the robot's position (not its cell's centre) to the
+    goal's (smoothApproachToGoal), cell centres between."""
+    costmap = make_costmap(_wall_map(), CostmapParameters())
+    start, goal = (1.013, 1.027), (5.021, 1.238)
+    path = plan(costmap, start, goal)
+    assert tuple(path[0]) == start and tuple(path[-1]) == goal
+    inner = path[1:-1]
+    centres = (inner - 0.5 * RES) / RES
+    assert np.allclose(centres, np.round(centres))  # cell centres between
+    assert not np.allclose(path[-2], goal)  # the goal is not given twice
+
+
+def test_smooth_approach_to_goal():
+    """smoothApproachToGoal: the goal replaces the last point when it is nearer the
+    point before, or is that point; else it is appended."""
+    path = np.array([[0.0, 0.0], [1.0, 0.0]])
+    assert smooth_approach_to_goal(path, (0.9, 0.0)).tolist() == [[0.0, 0.0], [0.9, 0.0]]
+    assert smooth_approach_to_goal(path, (1.0, 0.0)).tolist() == [[0.0, 0.0], [1.0, 0.0]]
+    assert smooth_approach_to_goal(path, (1.1, 0.0)).tolist() == [[0, 0], [1, 0], [1.1, 0]]
+
+
+def test_use_final_approach_orientation():
+    """NavfnPlanner's last pose faces along the last segment (the one before when the
+    last two coincide; a one-pose plan: the start's heading), else the goal's."""
+    on = PlannerParameters(use_final_approach_orientation=True)
+    path = np.array([[0.0, 0.0], [1.0, 1.0], [1.0, 1.0]])
+    assert final_orientation(path, 0.3, 2.0, on) == pytest.approx(math.pi / 4)
+    assert final_orientation(path[:2], 0.3, 2.0, on) == pytest.approx(math.pi / 4)
+    assert final_orientation(path[:1], 0.3, 2.0, on) == 0.3
+    assert final_orientation(path, 0.3, 2.0, PlannerParameters()) == 2.0

@@ -1,0 +1,248 @@
+"""Regulated Pure Pursuit, case for case with Nav2 (jazzy).
+
+Ported from navigation2's nav2_regulated_pure_pursuit_controller/test/test_regulated_pp.cpp
+(findVelocitySignChange, circleSegmentIntersection, projectCarrotPastGoal, lookaheadAPI,
+rotateTests, applyConstraints, the TransformGlobalPlanTest cases) with its path_utils
+(test/path_utils/path_utils.cpp); and the numbers read in its source
+(regulation_functions.hpp's cost regulation; the two deliberate differences, rotateToHeading's
+clamping order and the approach's distance, with Nav2's numbers beside the project's).
+"""
+
+import math
+import sys
+
+import numpy as np
+import pytest
+
+from armando_drake.navigation.costmap import Costmap
+from armando_drake.navigation.follower import (
+    ControllerParameters,
+    RppParameters,
+    angle_to_path,
+    carrot,
+    circle_segment_intersection,
+    lookahead_distance,
+    regulate,
+    rotate_to_heading,
+    rpp_command,
+    speed_limited,
+    transform_global_plan,
+    velocity_sign_change,
+)
+
+DT = 1.0 / 20.0  # control_duration_ at the default controller_frequency
+
+
+# -- path_utils.cpp
+
+
+def _append(path, rotation, forward):
+    x, y, yaw = path[-1]
+    path.append((x + forward * math.cos(yaw), y + forward * math.sin(yaw), yaw + rotation))
+
+
+def straight(path, length, spacing):
+    for _ in range(int(math.floor(length / spacing))):
+        _append(path, 0.0, spacing)
+
+
+def arc(path, radius, radians, spacing):
+    n = int(math.floor(radius * abs(radians) / spacing))
+    if n == 0:
+        return
+    step = radians / n
+    for _ in range(n):
+        _append(path, step, 2 * radius * math.sin(abs(step) / 2))
+
+
+def generate_path(spacing, *segments):
+    path = [(0.0, 0.0, 0.0)]
+    for segment, *args in segments:
+        segment(path, *args, spacing)
+    return np.array(path)[:, :2]
+
+
+def costmap(width, resolution, around=(0.0, 0.0)):
+    """A free costmap ``width`` metres wide (Costmap2DROS's width is in metres) centred on
+    ``around``."""
+    cells = int(round(width / resolution))
+    origin = (around[0] - width / 2, around[1] - width / 2, 0.0)
+    return Costmap(np.zeros((cells, cells), dtype=np.uint8), resolution, origin)
+
+
+# -- the cases
+
+
+def test_findVelocitySignChange():
+    path = np.array([[1.0, 1.0], [2.0, 2.0], [-1.0, -1.0]])
+    assert velocity_sign_change(path) == math.sqrt(8.0)
+    path[2] = (3.0, 3.0)
+    assert velocity_sign_change(path) == sys.float_info.max
+
+
+@pytest.mark.parametrize(
+    ("p1", "p2", "r", "expected"),
+    [
+        ((0.0, 0.0), (2.0, 0.0), 1.0, (1.0, 0.0)),
+        ((0.0, 0.0), (-2.0, 0.0), 1.0, (-1.0, 0.0)),
+        ((0.0, 0.0), (0.0, 2.0), 1.0, (0.0, 1.0)),
+        ((0.0, 0.0), (0.0, -2.0), 1.0, (0.0, -1.0)),
+        ((4.0, 0.0), (-1.0, 0.0), 2.0, (2.0, 0.0)),  # the segment enters the circle
+        ((0.0, 4.0), (0.0, -0.5), 2.0, (0.0, 2.0)),  # the segment enters the circle
+        ((2.0, 0.0), (0.0, 0.0), 2.0, (2.0, 0.0)),
+        ((0.0, 0.0), (0.0, 2.0), 2.0, (0.0, 2.0)),
+        ((0.0, 0.0), (6.0, 8.0), 5.0, (3.0, 4.0)),
+        ((0.0, 0.0), (-6.0, -8.0), 5.0, (-3.0, -4.0)),
+        ((0.0, 0.0), (-6.0, 8.0), 5.0, (-3.0, 4.0)),
+        ((0.0, 0.0), (6.0, -8.0), 5.0, (3.0, -4.0)),
+    ],
+)
+def test_circleSegmentIntersection(p1, p2, r, expected):
+    actual = circle_segment_intersection(p1, p2, r)
+    assert actual == pytest.approx(expected, rel=1e-12, abs=1e-12)
+    assert math.hypot(*actual) == pytest.approx(r, rel=1e-12)
+
+
+def _at(degrees):
+    return (10 * math.cos(math.radians(degrees)), 10 * math.sin(math.radians(degrees)))
+
+
+@pytest.mark.parametrize(
+    ("path", "expected"),
+    [
+        ([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]], (10.0, 0.0)),
+        ([[2.0, 0.0], [3.0, 0.0]], (10.0, 0.0)),
+        ([[2.0, 2.0], [3.0, 3.0]], _at(45)),
+        ([[0.0, 2.0], [0.0, 3.0]], _at(90)),
+        ([[-2.0, 2.0], [-3.0, 3.0]], _at(135)),
+        ([[-2.0, 0.0], [-3.0, 0.0]], (-10.0, 0.0)),
+        ([[-2.0, -2.0], [-3.0, -3.0]], _at(-135)),
+        ([[0.0, -2.0], [0.0, -3.0]], _at(-90)),
+        ([[2.0, -2.0], [3.0, -3.0]], _at(-45)),
+    ],
+)
+def test_projectCarrotPastGoal(path, expected):
+    eps = float(np.finfo(np.float32).eps)
+    point = carrot(np.array(path), 10.0, True, after_goal=True)
+    assert point == pytest.approx(expected, abs=eps)
+
+
+def test_lookaheadAPI():
+    p = RppParameters()
+    assert lookahead_distance(p, 0.0) == 0.6
+    assert lookahead_distance(p, 10.0) == 0.6  # not a function of speed
+    p.use_velocity_scaled_lookahead_dist = True
+    assert lookahead_distance(p, 10.0) == 0.9
+    assert lookahead_distance(p, 0.35) == pytest.approx(0.525, abs=1e-4)
+    assert lookahead_distance(p, 0.0) == 0.3
+    path = np.array([[float(i), 0.0] for i in range(10)])
+    assert carrot(path, 1.0, True)[0] == 1.0  # an exact hit
+    assert carrot(path, 3.8, True)[0] == pytest.approx(3.8)  # interpolated
+
+
+def test_rotateTests():
+    p = RppParameters()
+    assert abs(angle_to_path((0.0, 0.0))) <= p.rotate_to_heading_min_angle  # no rotation
+    assert abs(angle_to_path((0.5, 0.25))) <= p.rotate_to_heading_min_angle
+    assert abs(angle_to_path((0.5, 1.0))) > p.rotate_to_heading_min_angle
+    assert rotate_to_heading(0.4, 1.75, p, DT) == 1.6  # the slow-down limit
+    assert rotate_to_heading(-0.4, -1.75, p, DT) == -1.6
+    assert rotate_to_heading(0.4, 0.0, p, DT) == pytest.approx(0.16, abs=0.01)
+    assert rotate_to_heading(0.4, 1.0, p, DT) == pytest.approx(1.16, abs=0.01)
+    assert rotate_to_heading(-0.4, 1.0, p, DT) == pytest.approx(0.84, abs=0.01)
+
+
+def test_rotate_to_heading_keeps_within_the_acceleration_window():
+    """A deliberate difference (the parameter reference says it): at 1.8 rad/s and 0.1 rad
+    from the heading the command stays within max_angular_accel of the turn rate,
+    1.8 - 3.2 / 20 = 1.64 rad/s; Nav2's rotateToHeading clamps to the stopping rate last,
+    sqrt(2 x 3.2 x 0.1) = 0.8 rad/s."""
+    assert rotate_to_heading(0.1, 1.8, RppParameters(), DT) == pytest.approx(1.64)
+    assert math.sqrt(2 * 3.2 * 0.1) == pytest.approx(0.8)  # Nav2's command
+
+
+def test_applyConstraints():
+    p = RppParameters(approach_velocity_scaling_dist=0.6)
+    no_approach = generate_path(0.1, (straight, 1.6))
+    assert regulate(p, 0.0, 0.5, 0, no_approach, 0.2) == 0.25  # the min set speed
+    assert regulate(p, 1.0, 0.7407, 0, no_approach, 0.2) == pytest.approx(0.5, abs=0.01)
+    assert regulate(p, 1.0, 1000.0, 0, no_approach, 0.2) == pytest.approx(0.25, abs=0.01)
+    approach = generate_path(0.1, (straight, 0.0))
+    assert regulate(p, 1.0, 0.0, 0, approach, 0.2) == pytest.approx(0.05, abs=0.01)
+
+
+def test_cost_regulation_takes_the_distance_from_log_253_over_the_cost():
+    """costConstraint: d = (k r - ln(cost) + ln(253)) / k; cost 100, r 0.2 m, k 3:
+    d = 0.5094 m, under cost_scaling_dist 0.6: v = 0.5 x 0.5094 / 0.6."""
+    p = RppParameters(use_regulated_linear_velocity_scaling=False)
+    p.regulated_linear_scaling_min_speed = 0.0
+    path = generate_path(0.1, (straight, 2.0))
+    distance = 0.2 + math.log(253 / 100) / 3.0
+    assert regulate(p, 0.5, 0.0, 100, path, 0.2) == pytest.approx(0.5 * distance / 0.6)
+    assert regulate(p, 0.5, 0.0, 253, path, 0.2) == pytest.approx(0.5 * 0.2 / 0.6)  # inscribed
+    assert regulate(p, 0.5, 0.0, 0, path, 0.2) == 0.5  # free: no regulation
+
+
+def test_approach_slowing_takes_the_distance_left_along_the_path():
+    """A deliberate difference (the parameter reference says it): a U-shaped path 0.5 m
+    long whose end is 0.1 m from the robot slows 0.5 m/s by 0.5 / 0.6 (Nav2: by the
+    straight-line 0.1 / 0.6)."""
+    p = RppParameters()
+    path = np.array([[0.0, 0.0], [0.2, 0.0], [0.2, 0.1], [0.0, 0.1]])
+    assert regulate(p, 0.5, 0.0, 0, path, 0.2) == pytest.approx(0.5 * 0.5 / 0.6)
+
+
+def test_speed_limit():
+    p = RppParameters(desired_linear_vel=0.5)
+    assert speed_limited(p, 0.0, True).desired_linear_vel == 0.5  # NO_SPEED_LIMIT
+    assert speed_limited(p, 50.0, True).desired_linear_vel == 0.25
+    assert speed_limited(p, 0.3, False).desired_linear_vel == 0.3
+
+
+def test_no_pruning_on_large_costmap():
+    plan = generate_path(0.1, (arc, 1.0, 2 * math.pi))
+    index, local = transform_global_plan(plan, 0, (-0.1, 0.0, 0.0), 5.0, costmap(100, 0.1))
+    assert (index, len(local)) == (0, len(plan))
+
+
+def test_transform_start_selection():
+    plan = generate_path(0.1, (arc, 2.0, 2 * math.pi))
+    pose = (0.0, 4.0, 0.0)  # on the other side of the circle
+    _, local = transform_global_plan(plan, 0, pose, 10.0, costmap(100, 0.1, pose[:2]))
+    assert abs(len(local) - len(plan) // 2) <= 1
+    assert local[0] == pytest.approx((0.0, 0.0), abs=0.5)
+
+
+def test_all_poses_outside_of_costmap():
+    plan = generate_path(0.1, (arc, 2.0, 2 * math.pi))
+    pose = (1000.0, 1000.0, 0.0)
+    grid = costmap(10, 0.1, pose[:2])
+    _, local = transform_global_plan(plan, 0, pose, 10.0, grid)
+    assert len(local) == 0  # Nav2 throws: the controller fails
+    params = ControllerParameters()
+    command = rpp_command(params, grid, local, pose, (0.0, 0.0), (0.0, 0.0, 0.0),
+                          rotating_to_goal=False, inscribed_radius=0.2)  # fmt: skip
+    assert command.collision and (command.linear, command.angular) == (0.0, 0.0)
+
+
+def test_good_circle_shortcut():
+    plan = generate_path(0.1, (arc, 2.0, 2 * math.pi))
+    _, local = transform_global_plan(plan, 0, (-0.1, 0.0, 0.0), 15.0, costmap(100, 0.1))
+    assert abs(len(local) - 1) <= 1
+    assert local[0] == pytest.approx((0.0, 0.0), abs=0.5)
+
+
+def test_costmap_pruning():
+    """A 100 m straight plan (a pose a metre) on a 20 m costmap: the 10 poses within its
+    half-width kept, not all 101."""
+    plan = generate_path(1.0, (straight, 100.0))
+    _, local = transform_global_plan(plan, 0, (-0.1, 0.0, 0.0), 10.0, costmap(20, 0.5))
+    assert abs(len(local) - 10) <= 1
+    assert local[0] == pytest.approx((0.0, 0.0), abs=0.5)
+
+
+def test_prune_after_leaving_costmap():
+    plan = generate_path(1.0, (straight, 100.0), (arc, 1.0, math.pi), (straight, 100.0))
+    _, local = transform_global_plan(plan, 0, (-0.1, 0.0, 0.0), 10.0, costmap(20, 0.5))
+    assert abs(len(local) - 10) <= 1
+    assert local[0] == pytest.approx((0.0, 0.0), abs=0.5)
