@@ -33,6 +33,14 @@ world) becomes one SDFormat model given to Drake's parser, after these edits:
 
 A world that names a model the resource path does not hold is one error line naming
 the world file, the ``<include>``'s line and the URI, and where it was looked for.
+
+Bounded work: a world file or model file is read as a regular file (a FIFO or a device
+is refused, not waited on) of at most :data:`MAX_WORLD_FILE_BYTES`; the links and
+geometries a world holds, its includes expanded, are counted as each file is read and
+refused past :data:`MAX_WORLD_ELEMENTS` (and its models past :data:`MAX_WORLD_MODELS`),
+before any reaches Drake; a collision mesh of
+more than :data:`MAX_MESH_PARTS` separate parts, or that would make more than
+:data:`MAX_MESH_PIECES` collision pieces, is refused before its pieces are made.
 """
 
 from __future__ import annotations
@@ -63,6 +71,7 @@ from pydrake.multibody.tree import ModelInstanceIndex
 from armando_drake.description.importer import parse_with_lines
 from armando_drake.description.meshes import cache_dir, convert_mesh, load_mesh
 from armando_drake.description.packages import DescriptionError, PackageSearch, find_packages
+from armando_drake.tools.files import FileInputError, read_text_file
 
 _log = logging.getLogger("armando_drake.world")
 
@@ -117,6 +126,19 @@ PRISM_FACES = np.array(
 # A concave part of more faces than this is one non-convex mesh: Drake collides with its
 # true surface under hydroelastic contact, with its convex hull under point contact.
 MAX_PRISMS = 128
+# Bounded work. The course's race field holds 13 models, 14 links and meshes of at most
+# 104 collision pieces; a house or warehouse world of Gazebo's samples, about a hundred
+# models of a few links each.
+MAX_WORLD_FILE_BYTES = 64 * 2**20  # [bytes] of one world or model file (SDFormat text)
+# <link>, <collision> and <visual> elements of a world: Drake's SDFormat parser grows
+# about with the square of a model's links (1,000 links take 3 s of CPU, 3,000 take 25 s).
+MAX_WORLD_ELEMENTS = 4_000
+# Models (each a model instance of the plant; an <include> is one): Drake's diagram build
+# grows about with the cube of their number (150 take 3 s, 300 take 20 s on one core).
+MAX_WORLD_MODELS = 200
+MAX_MESH_PARTS = 2_000  # separate (connected) parts of one collision mesh
+MAX_MESH_PIECES = 6_000  # collision pieces (hulls, prisms) one collision mesh makes
+ELEMENT_TAGS = ("link", "collision", "visual")
 DEFAULT_FRICTION = 1.0  # Gazebo's default mu
 # A <plane> becomes a box slab (Drake 1.51's HalfSpace crashes its proximity engine once a
 # dozen static models follow it; see docs/worlds.md): at least this wide, this deep
@@ -234,13 +256,16 @@ def _model_file(folder: Path) -> Path | None:
     if (folder / "model.sdf").is_file():
         return folder / "model.sdf"
     files = sorted(folder.glob("*.sdf"))
-    return files[0] if len(files) == 1 else None
+    return files[0] if len(files) == 1 else None  # a FIFO too: refused as it is read
 
 
 def _xml_text(path: Path, where: str) -> str:
-    """The text of an SDFormat file; one line naming it when it is unreadable or binary."""
+    """The text of an SDFormat file; one line naming it when it is unreadable, binary, not
+    a regular file (a FIFO) or over :data:`MAX_WORLD_FILE_BYTES`."""
     try:
-        return path.read_text(encoding="utf-8")
+        return read_text_file(path, what=where, max_bytes=MAX_WORLD_FILE_BYTES)
+    except FileInputError as error:
+        raise WorldError(str(error)) from None
     except OSError as error:
         raise WorldError(f"{path}: cannot read {where}: {error.strerror}") from None
     except UnicodeDecodeError:
@@ -281,10 +306,34 @@ class _WorldReader:
         self.lines: dict[ET.Element, int] = {}
         self.planes: list[str] = []  # scoped names of the models whose <plane> became a slab
         self.including: list[Path] = [path.resolve()]  # the files being read, outermost first
+        self.elements = 0  # links and geometries read so far (MAX_WORLD_ELEMENTS)
+        self.models = 0  # models and includes read so far (MAX_WORLD_MODELS)
         self.builtins: list[str] = []  # include URIs replaced by a built-in model
 
     def where(self, element: ET.Element) -> str:
         return f"{self.path}:{self.lines.get(element, 0)}"
+
+    def count(self, root: ET.Element, source: Path, included: bool = False) -> None:
+        """Adds the models (an ``<include>`` is one, before it is read: an ``included``
+        model ``root`` is not counted again) and the links and geometries under ``root``
+        (read from ``source``) to the world's counts; refuses
+        the world past :data:`MAX_WORLD_MODELS` or :data:`MAX_WORLD_ELEMENTS`, before
+        Drake sees any."""
+        tags = [e.tag for e in root.iter()]
+        self.models += sum(1 for tag in tags if tag in ("model", "include")) - included
+        self.elements += sum(1 for tag in tags if tag in ELEMENT_TAGS)
+        if self.models > MAX_WORLD_MODELS:
+            raise WorldError(
+                f"{self.path}: about {self.models} models (<model>, <include>) by {source}, "
+                f"over the limit of {MAX_WORLD_MODELS} a world may hold (Drake's diagram "
+                "takes minutes to build past it; merge static models into one)"
+            )
+        if self.elements > MAX_WORLD_ELEMENTS:
+            raise WorldError(
+                f"{self.path}: about {self.elements} links and geometries (<link>, "
+                f"<collision>, <visual>) by {source}, over the limit of "
+                f"{MAX_WORLD_ELEMENTS} a world may hold"
+            )
 
     # ---- includes --------------------------------------------------------
 
@@ -330,6 +379,7 @@ class _WorldReader:
             model = root if root.tag == "model" else root.find("model")
             if model is None:
                 raise WorldError(f"{where}: {model_file} has no <model>")
+            self.count(model, model_file, included=True)
         for tag in ("name", "pose", "static"):
             value = include.find(tag)
             if value is not None and (value.text or "").strip():
@@ -506,6 +556,7 @@ class _WorldReader:
         if world is None:
             raise WorldError(f"{self.path}: no <sdf><world> (is it a model file?)")
         loaded = LoadedWorld(source=self.path, name=world.get("name", ""))
+        self.count(world, self.path)
         models: list[tuple[str, ET.Element]] = []
         for element in world:
             if not isinstance(element.tag, str):
@@ -657,8 +708,21 @@ def convex_pieces(path: Path, scale: tuple[float, float, float]) -> tuple[tuple[
     labels = trimesh.graph.connected_component_labels(
         mesh.face_adjacency, node_count=len(mesh.faces)
     )
+    parts, sizes = np.unique(labels, return_counts=True)
+    if len(parts) > MAX_MESH_PARTS:
+        raise WorldError(
+            f"{path}: {len(parts)} separate parts in the collision mesh, over the limit of "
+            f"{MAX_MESH_PARTS} (each becomes collision pieces: join or simplify the mesh)"
+        )
+    # At most: one piece per large or convex part, one prism per face of a small one.
+    estimate = int(np.where(sizes > MAX_PRISMS, 1, sizes).sum())
+    if estimate > MAX_MESH_PIECES:
+        raise WorldError(
+            f"{path}: its collision mesh would make up to {estimate} collision pieces "
+            f"({len(parts)} parts), over the limit of {MAX_MESH_PIECES}"
+        )
     pieces = []
-    for label in np.unique(labels):
+    for label in parts:
         part = trimesh.Trimesh(mesh.vertices, mesh.faces[labels == label], process=True)
         try:
             hull = part.convex_hull
@@ -721,7 +785,7 @@ def load_world(
     package folders (``--package-path``) its ``package://`` and ``model://`` URIs may
     name, searched as for the robot description."""
     path = Path(path).expanduser()
-    if not path.is_file():
+    if not path.exists():  # one that is not a regular file (a FIFO) is refused as read
         raise WorldError(f"{path}: the world file does not exist")
     search = find_packages([*package_paths, *resource_paths], near=path)
     resources = _Resources(resource_roots(path, resource_paths), search)
@@ -775,6 +839,6 @@ def AddWorld(
                 f"(searched {'; '.join(search.searched)})"
             )
         path = search.packages[package] / rest
-    if not path.is_file():
+    if not path.exists():
         raise WorldError(f"{where}world_file={world_file!r}: no such file")
     return load_world(plant, path, resource_paths=resource_paths, package_paths=package_paths)

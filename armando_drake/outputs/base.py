@@ -7,7 +7,11 @@ and the commanded twist. The odometry's frame is where the base was at the start
 spawn pose, projected on the ground), so the ground truth is also given in that frame
 and the two compare directly: where the wheels slip, the odometry drifts.
 
-With an output folder the samples are written to ``base.csv``; :meth:`BaseLogger.summary`
+With an output folder the samples are streamed to ``base.csv``: a row at each sample,
+written to the file at least every :data:`FLUSH_WALL` seconds of wall time (whatever
+the real-time rate), so a process killed outright loses at most the last of them, and
+the rest at the end of the run (Ctrl-C and SIGTERM keep every row);
+:meth:`BaseLogger.summary`
 is ``summary.json``'s ``base`` section: distance travelled, final pose (world and
 odometry), odometry drift (final and largest position error [m], final heading error
 [rad]) and the contacts with obstacles (see :class:`ObstacleContacts`).
@@ -20,6 +24,7 @@ from __future__ import annotations
 import csv
 import math
 from pathlib import Path
+from time import monotonic
 from typing import Any
 
 import numpy as np
@@ -30,9 +35,12 @@ from pydrake.systems.framework import EventStatus, LeafSystem
 
 from armando_drake.control.manager import planar_base
 from armando_drake.messages.types import Odometry
+from armando_drake.tools.cli import stop_signals_held
 from armando_drake.tools.errors import UserInputError
+from armando_drake.tools.files import OutputFile
 
 BASE_CSV = "base.csv"
+FLUSH_WALL = 0.5  # [s] of wall time: the longest base.csv's rows wait to reach the file
 COLUMNS = (
     "time",
     "x", "y", "z", "yaw",  # ground truth in the world [m, rad]
@@ -153,6 +161,9 @@ class BaseLogger(LeafSystem):
     odometry of the base frame is off by the offset turned with the robot, slip or not.
     ``axle`` [m] is that midpoint in the base frame; ``axle_drift`` the odometry's error
     at it: the drift the wheels' slip makes.
+
+    ``csv_path``: the ``base.csv`` the rows are streamed to (see the module's docstring);
+    :meth:`close` writes the last ones and closes it.
     """
 
     def __init__(
@@ -164,6 +175,7 @@ class BaseLogger(LeafSystem):
         drive: str = "",
         axle=(0.0, 0.0),
         contacts: ObstacleContacts | None = None,
+        csv_path: Path | None = None,
     ):
         super().__init__()
         self.drive = drive
@@ -180,6 +192,13 @@ class BaseLogger(LeafSystem):
         self.rows: list[tuple[float, ...]] = []
         self._recent: list[tuple[float, tuple]] = []  # (time, ground truth) of the last ticks
         self._origin: tuple[float, float, float] | None = None
+        self._file: OutputFile | None = None
+        self._rows_written = 0  # of self.rows, in the file
+        self._flushed_at = monotonic()  # [s] wall time of the last write
+        if csv_path is not None:
+            self._file = OutputFile(csv_path, "w", newline="")
+            self._file.write(",".join(COLUMNS) + "\r\n")  # as csv.writer ends a line
+            self._file.flush()
         self.DeclarePeriodicPublishEvent(1.0 / rate, 0.0, self._Sample)
 
     def _Sample(self, context) -> EventStatus:
@@ -225,17 +244,33 @@ class BaseLogger(LeafSystem):
                 math.hypot(odom_axle[0] - true_axle[0], odom_axle[1] - true_axle[1]),
             )
         )  # fmt: skip
+        if self._file is not None and monotonic() - self._flushed_at >= FLUSH_WALL:
+            self._flush()
         return EventStatus.Succeeded()
 
     def array(self) -> np.ndarray:
         """The samples so far, one row each, :data:`COLUMNS`."""
         return np.array(self.rows, dtype=float).reshape(-1, len(COLUMNS))
 
-    def write(self, path: Path) -> None:
-        with open(path, "w", newline="") as stream:
-            writer = csv.writer(stream)
-            writer.writerow(COLUMNS)
-            writer.writerows([f"{value:.9g}" for value in row] for row in self.rows)
+    def _flush(self) -> None:
+        """Writes the rows not yet in the file, whole lines, and pushes them to the system
+        (a stop signal waits: a row is never written twice nor cut)."""
+        with stop_signals_held():
+            rows = self.rows[self._rows_written :]
+            if rows:
+                self._file.write(
+                    "".join(",".join(f"{value:.9g}" for value in row) + "\r\n" for row in rows)
+                )
+                self._file.flush()
+                self._rows_written += len(rows)
+            self._flushed_at = monotonic()
+
+    def close(self) -> None:
+        """Writes the rows not yet in ``base.csv`` and closes it. Safe to call twice."""
+        if self._file is not None:
+            self._flush()
+            self._file.close()
+            self._file = None
 
     def summary(self) -> dict[str, Any] | None:
         """``summary.json``'s ``base`` section (None before any sample)."""
@@ -278,10 +313,11 @@ def base_summary(rows: np.ndarray, drive: str = "") -> dict[str, Any] | None:
     }
 
 
-def AddBaseLogger(builder, stack, base, *, command=None) -> BaseLogger | None:
+def AddBaseLogger(builder, stack, base, *, command=None, csv_path=None) -> BaseLogger | None:
     """The :class:`BaseLogger` of a floating base with an active drive (``base``: the
     world's :class:`~armando_drake.control.mobile.MobileBase`), a row per odometry message
-    of that drive; ``command``: the twist sequencer's (linear, angular) output. None for
+    of that drive; ``command``: the twist sequencer's (linear, angular) output;
+    ``csv_path``: the ``base.csv`` it streams to (close the logger at the end). None for
     a welded robot or one without an active drive."""
     if base is None or not base.floating:
         return None
@@ -301,6 +337,7 @@ def AddBaseLogger(builder, stack, base, *, command=None) -> BaseLogger | None:
             drive=drive,
             axle=axle,
             contacts=ObstacleContacts(stack.plant, stack.robot.model_instance),
+            csv_path=csv_path,
         )
     )
     logger.set_name("base_logger")

@@ -18,11 +18,13 @@ The logger is Drake's ``VectorLogSink`` (C++) with two Python events added:
 the sink records its input at ``update_rate`` at no Python cost, and a
 periodic flush at ``flush_rate`` (1 Hz by default) appends the rows
 recorded since the last flush to the file in one write, then clears the log,
-so memory stays bounded however long the run. A run stopped with Ctrl-C
+so memory stays bounded however long the run; a simulation slower than real time
+flushes also once :data:`FLUSH_WALL` seconds of wall time have passed since the last
+flush (checked ten times a simulated second). A run stopped with Ctrl-C
 ends with :meth:`JointStateLogger.flush`, which writes the rest; a process
 killed outright keeps every row up to its last flush (at most
-``1 / flush_rate`` of simulated time is lost), and every line on disk is
-complete.
+``1 / flush_rate`` of simulated time, and about a second of wall time, is lost),
+and every line on disk is complete.
 
 Listeners added with :meth:`JointStateLogger.add_listener` receive the same
 rows (time and positions) at each flush, in memory: the run's step table is
@@ -43,6 +45,7 @@ import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from time import monotonic
 from typing import Any, BinaryIO, TextIO
 
 import numpy as np
@@ -53,6 +56,8 @@ from armando_drake.control.manager import AddJointStateVector
 from armando_drake.control.stack import ControlStack
 from armando_drake.outputs.config import LoggingConfig
 from armando_drake.tools.files import OutputFile
+
+FLUSH_WALL = 0.5  # [s] of wall time: the longest rows wait for a flush (besides flush_rate)
 
 
 def csv_header(joint_names: list[str] | tuple[str, ...]) -> str:
@@ -179,6 +184,10 @@ class JointStateLogger(VectorLogSink):
         # The sink records at update_rate (declared first, so at a common time the
         # sample is recorded before it is flushed or printed).
         LeafSystem.DeclarePeriodicPublishEvent(self, 1.0 / flush_rate, 0.0, self.flush)
+        # The wall clock's check, at a multiple of the sample period (no new event times).
+        check = max(1, round(0.1 * update_rate)) / update_rate
+        self._flushed_at = monotonic()  # [s] wall time of the last flush
+        LeafSystem.DeclarePeriodicPublishEvent(self, check, 0.0, self._FlushIfDue)
         LeafSystem.DeclarePeriodicPublishEvent(self, 1.0 / console_rate, 0.0, self._Print)
 
     @property
@@ -210,6 +219,7 @@ class JointStateLogger(VectorLogSink):
 
         ``context`` is the logger's own (``GetMyContextFromRoot``).
         """
+        self._flushed_at = monotonic()
         log = self.GetMutableLog(context)
         if log.num_samples() == 0:
             return
@@ -245,6 +255,12 @@ class JointStateLogger(VectorLogSink):
             self._last_time = times[-1]
             self._last_row = np.array([times[-1], *block[-1]])
         log.Clear()
+
+    def _FlushIfDue(self, context: Context) -> None:
+        """:meth:`flush` when :data:`FLUSH_WALL` seconds of wall time have passed since
+        the last one (a simulation slower than real time)."""
+        if monotonic() - self._flushed_at >= FLUSH_WALL:
+            self.flush(context)
 
     def close(self) -> None:
         """Closes the CSV file. Safe to call more than once."""

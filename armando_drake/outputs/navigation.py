@@ -4,10 +4,11 @@
 :func:`navigation_summary` is the navigator's per-goal results (reached, position and
 yaw errors when the goal checker took the goal, time, path length driven and planned)
 with the run's collisions: the base logger's episodes of contact between the robot and
-an obstacle (outputs/base.py). :func:`write_navigation_outputs` writes the map the
-navigation used (``map.yaml`` + ``map.pgm``, map_saver's format) and ``navigation.png``:
-the x-y path over the map, with heading arrows, the goals as coloured dots and arrows,
-and where each was reached.
+an obstacle (outputs/base.py). :func:`write_navigation_map` writes the map the
+navigation used (``map.yaml`` + ``map.pgm``, map_saver's format; a run writes it with
+its logs, before the plots), :func:`write_navigation_plot` ``navigation.png``: the x-y
+path over the map, with heading arrows, the goals as coloured dots and arrows, and where
+each was reached; :func:`write_navigation_outputs` both.
 """
 
 from __future__ import annotations
@@ -76,18 +77,31 @@ def mapping_summary(world, navigation, built, context) -> dict[str, Any]:
     return summary
 
 
-def write_navigation_outputs(folder: Path, world, summary: dict, context):
-    """``map.yaml``/``map.pgm`` and ``navigation.png`` in ``folder``: the map ``world``'s
-    navigation has at ``context`` (the diagram's; the map built when exploring) and the
-    base logger's path (:data:`~armando_drake.outputs.base.COLUMNS`). Returns the files
-    written."""
+def write_navigation_outputs(folder: Path, world, summary: dict, context) -> list[Path]:
+    """:func:`write_navigation_map` and :func:`write_navigation_plot`: the files written."""
+    return [
+        write_navigation_map(folder, world, context),
+        write_navigation_plot(folder, world, summary, context),
+    ]
+
+
+def write_navigation_map(folder: Path, world, context) -> Path:
+    """``map.yaml``/``map.pgm`` in ``folder``: the map ``world``'s navigation has at
+    ``context`` (the diagram's; the map built when exploring). Returns the YAML's path."""
+    grid, _ = world.robot_with("navigation").navigation.final_map(context)
+    return save_map(grid, Path(folder) / MAP_NAME)
+
+
+def write_navigation_plot(folder: Path, world, summary: dict, context) -> Path:
+    """``navigation.png`` in ``folder``: the map ``world``'s navigation has at ``context``
+    with its costmap, the base logger's path (:data:`~armando_drake.outputs.base.COLUMNS`)
+    and the goals of ``summary`` (:func:`navigation_summary`). Returns its path."""
     from matplotlib.figure import Figure
 
     folder = Path(folder)
     robot = world.robot_with("navigation")
     rows = robot.base_log.array() if robot.base_log is not None else np.zeros((0, 1))
     grid, costmap = robot.navigation.final_map(context)
-    written = [save_map(grid, folder / MAP_NAME)]
     fig = Figure(figsize=(7.0, 7.0), dpi=110)
     axis = fig.subplots()
     x0, y0, _ = grid.origin
@@ -144,5 +158,4 @@ def write_navigation_outputs(folder: Path, world, summary: dict, context):
     axis.legend(loc="upper left", fontsize="x-small", framealpha=0.8)
     fig.tight_layout()
     fig.savefig(folder / NAVIGATION_PNG)
-    written.append(folder / NAVIGATION_PNG)
-    return written
+    return folder / NAVIGATION_PNG

@@ -81,6 +81,9 @@ PIXELS_PER_BEAM = 2
 MAX_WIDTH = 4096  # [px]
 # Neighbouring depths further apart than this fraction are an edge (no interpolation).
 EDGE_FRACTION = 0.05
+# [m] a ground robot's lidar is below this: one higher (or below the world's z = 0) whose
+# first scan sees nothing is warned about (a base_xyz or <origin> off by a unit, say).
+MAX_LIDAR_HEIGHT = 3.0
 
 
 class _Sector:
@@ -164,6 +167,7 @@ class LidarScanner(LeafSystem):
         self.body_frame_id = self._frame = body_frame_id
         self._sectors = ring(info)
         self._X_BC = [X_BS @ sector.X_SC for sector in self._sectors]
+        self._X_BS = X_BS
         self._query = self.DeclareAbstractInputPort(
             "geometry_query", AbstractValue.Make(QueryObject())
         )
@@ -191,10 +195,29 @@ class LidarScanner(LeafSystem):
         ranges[ranges > info.range_max] = np.inf
         return ranges
 
+    def _warn_if_misplaced(self, query) -> None:
+        """Warns, naming the sensor and its height, when a first scan that saw nothing was
+        taken over :data:`MAX_LIDAR_HEIGHT` above the world's z = 0 or below it."""
+        height = float((query.GetPoseInWorld(self._frame) @ self._X_BS).translation()[2])
+        if 0.0 <= height <= MAX_LIDAR_HEIGHT:
+            return
+        info = self.info
+        where = "above" if height > 0 else "below"
+        _log.warning(
+            "%s: lidar %r on link %r sees nothing in its first scan: it is %.3g m %s the "
+            "world's floor (z = 0), where a ground robot's lidar is 0 to %g m up: check the "
+            "robot's base_xyz and the sensor's <origin>/<pose>",
+            info.source or "the description", info.name, info.link, abs(height), where,
+            MAX_LIDAR_HEIGHT,
+        )  # fmt: skip
+
     def _update(self, context, state) -> None:
         previous: Publication = context.get_abstract_state(0).get_value()
         stamp = context.get_time()
-        ranges = self.scan_ranges(self._query.Eval(context), previous.count)
+        query = self._query.Eval(context)
+        ranges = self.scan_ranges(query, previous.count)
+        if previous.count == 0 and not np.isfinite(ranges).any():
+            self._warn_if_misplaced(query)
         ranges.flags.writeable = False
         info = self.info
         scan = LaserScan(

@@ -390,9 +390,10 @@ def ConnectRobot(
             closers.append(logger.close)
         twist = drivers.twist
         command = twist.GetOutputPort("command") if twist is not None else None
-        log = AddBaseLogger(builder, stack, robot.body.mobile, command=command)
-        if log is not None and output_dir is not None:
-            closers.append(lambda: log.write(Path(output_dir) / BASE_CSV))
+        csv_path = None if output_dir is None else Path(output_dir) / BASE_CSV
+        log = AddBaseLogger(builder, stack, robot.body.mobile, command=command, csv_path=csv_path)
+        if log is not None:
+            closers.append(log.close)
     return RobotWiring(logger, gravity_feedforward, log)
 
 

@@ -34,7 +34,11 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from armando_drake.control.sequencer import Sinusoid, mode_of, wave_of
 from armando_drake.control.stack import effective_actuators
 from armando_drake.kinematics.arm import tool_frame
-from armando_drake.outputs.navigation import navigation_summary, write_navigation_outputs
+from armando_drake.outputs.navigation import (
+    navigation_summary,
+    write_navigation_map,
+    write_navigation_plot,
+)
 from armando_drake.outputs.plots import write_plots
 from armando_drake.outputs.replay import REPLAY_FILE, RecordingMeshcat, publish_replay, write_replay
 from armando_drake.outputs.task_space import TASK_SPACE_CSV, TaskSpaceTracker, write_task_space_csv
@@ -583,13 +587,15 @@ def run(
         if log_dir is not None:
             with writing(log_dir / "summary.json"):
                 (log_dir / "summary.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
+            if result.navigation is not None:  # what the run made: kept with its logs
+                write_navigation_map(log_dir, world, simulator.get_context())
     # A Ctrl-C that came while they were written stops the plots and the replay.
     signals.raise_pending(f"the logs are complete in {log_dir}" if log_dir else "")
     if log_dir is not None and plots:
         for folder in {log_dir / robot.folder for robot in world.robots.values()}:
             write_plots(folder)
     if log_dir is not None and result.navigation is not None:
-        write_navigation_outputs(log_dir, world, result.navigation, simulator.get_context())
+        write_navigation_plot(log_dir, world, result.navigation, simulator.get_context())
     if replay and replay_meshcat is not None and world.replay_sampler is not None:
         _publish_replay(replay_meshcat, world, simulator, log_dir)
     return result

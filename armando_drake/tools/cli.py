@@ -23,6 +23,22 @@ from armando_drake.tools.version import version_text
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
+@contextlib.contextmanager
+def stop_signals_held() -> Iterator[None]:
+    """The :data:`STOP_SIGNALS` held back (blocked) for the block: one that comes meanwhile
+    is delivered when it ends, so a file write and the note of what it wrote are never
+    cut apart (Python runs its handlers on the main thread: call it there)."""
+    try:
+        previous = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+    except (AttributeError, ValueError, OSError):  # no pthread_sigmask on this platform
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
 class UserError(UserInputError):
     """A mistake in the user's input, reported as one line without a traceback."""
 

@@ -265,3 +265,22 @@ def test_a_last_line_cut_short_is_skipped_by_the_reader(tmp_path, cut):
     assert header == csv_header(("j0", "j1")).split(",")
     assert data.shape == (2, 7)
     assert data[:, 0].tolist() == [0.0, 0.001]
+
+
+def test_a_simulation_slower_than_real_time_flushes_at_least_every_half_second(tmp_path):
+    """At a tenth of real time a simulated second (flush_rate's flush) is ten seconds of
+    wall time: the rows reach the file every half second of wall time instead."""
+    path = tmp_path / "states.csv"
+    logger = JointStateLogger(
+        joint_names=JOINTS, update_rate=100.0, csv_path=path, stream=io.StringIO()
+    )
+    builder = DiagramBuilder()
+    source = builder.AddSystem(Source())
+    builder.AddSystem(logger)
+    builder.Connect(source.get_output_port(), logger.get_input_port())
+    simulator = Simulator(builder.Build())
+    simulator.set_target_realtime_rate(0.1)
+    simulator.AdvanceTo(0.3)  # 3 s of wall time, no flush_rate flush since t = 0
+    _, rows = read_rows(path)  # without a flush or a close: what a kill would leave
+    assert rows[-1][0] >= 0.2 - 1e-9
+    assert [row[0] for row in rows] == pytest.approx([k / 100 for k in range(len(rows))])
