@@ -508,20 +508,24 @@ def ConnectHardwareInterface(
     desired_state: OutputPort,
     effort: OutputPort | None,
     gravity_feedforward: bool,
+    velocity_limits: bool = False,
 ) -> OutputPort | None:
     """Wires the commands to the plant: ``desired_state`` ([q_d; v_d], actuator order)
     to the PD actuators' desired-state input; to the actuation input the sum of the
     gravity feed-forward of the position joints (when ``gravity_feedforward``) and
     ``effort`` (the effort joints' commanded torques [N m], zero on other joints;
     None when no joint takes effort commands). The joints' velocity limits are capped
-    on the way (:func:`~armando_drake.control.velocity_limits.AddVelocityLimiter`).
+    on the way when ``velocity_limits``
+    (:func:`~armando_drake.control.velocity_limits.AddVelocityLimiter`).
     Returns the gravity feed-forward's output port (:func:`AddGravityFeedforward`), or
     None without one."""
     instance = robot.model_instance
     torques = []
     # The feed-forward stays at the command (cached, not run per plant step); while a
     # velocity limit holds the joint back, the limiter's integral takes up the difference.
-    limiter = AddVelocityLimiter(builder, plant, robot, hardware, desired_state, effort)
+    limiter = None
+    if velocity_limits:
+        limiter = AddVelocityLimiter(builder, plant, robot, hardware, desired_state, effort)
     capped = desired_state
     if limiter is not None:
         capped = limiter.desired_state

@@ -46,7 +46,8 @@ def limited_world(tmp_path, interface: str, controller: str):
         "position",
         f"robot: {{description: {package}}}\nsequencer: null\nlogging: {{console_rate: 0}}\n"
         f"controllers: {{config: {controllers}, "
-        f"activate: [joint_state_broadcaster, {controller}]}}",
+        f"activate: [joint_state_broadcaster, {controller}]}}\n"
+        "actuators: {velocity_limits: true}",
     )
     return MakeWorld(scenario, quiet=True)
 
