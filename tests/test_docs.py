@@ -123,6 +123,8 @@ NOT_RUN = {
     "(tests/learn/ run it on DDS)",
     "my_robot_description": "~/ws/src/my_robot_description stands for the reader's package",
     "path/to/rl_fra2mo_description": "path/to/ stands for where the reader keeps the package",
+    "path/to/turtlebot3_gazebo": "path/to/ stands for where the reader keeps the package "
+    "(tests/mobile/test_sdf_robot.py loads a model folder)",
     "leonardo_race_field.sdf": "its package is found from the ROS_PACKAGE_PATH the block's "
     "export line sets (a world_file's package:// does not take --package-path)",
 }

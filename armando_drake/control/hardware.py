@@ -42,6 +42,7 @@ from pydrake.systems.primitives import (
     ZeroOrderHold,
 )
 
+from armando_drake.control.velocity_limits import AddVelocityLimiter
 from armando_drake.description.loader import LoadedRobot
 from armando_drake.description.ros2_control import (
     ComponentInfo,
@@ -507,16 +508,30 @@ def ConnectHardwareInterface(
     desired_state: OutputPort,
     effort: OutputPort | None,
     gravity_feedforward: bool,
+    velocity_limits: bool = False,
 ) -> OutputPort | None:
     """Wires the commands to the plant: ``desired_state`` ([q_d; v_d], actuator order)
     to the PD actuators' desired-state input; to the actuation input the sum of the
     gravity feed-forward of the position joints (when ``gravity_feedforward``) and
     ``effort`` (the effort joints' commanded torques [N m], zero on other joints;
-    None when no joint takes effort commands). Returns the gravity feed-forward's
-    output port (:func:`AddGravityFeedforward`), or None without one."""
+    None when no joint takes effort commands). The joints' velocity limits are capped
+    on the way when ``velocity_limits``
+    (:func:`~armando_drake.control.velocity_limits.AddVelocityLimiter`).
+    Returns the gravity feed-forward's output port (:func:`AddGravityFeedforward`), or
+    None without one."""
     instance = robot.model_instance
-    builder.Connect(desired_state, plant.get_desired_state_input_port(instance))
     torques = []
+    # The feed-forward stays at the command (cached, not run per plant step); while a
+    # velocity limit holds the joint back, the limiter's integral takes up the difference.
+    limiter = None
+    if velocity_limits:
+        limiter = AddVelocityLimiter(builder, plant, robot, hardware, desired_state, effort)
+    capped = desired_state
+    if limiter is not None:
+        capped = limiter.desired_state
+        if limiter.torque is not None:
+            torques.append(limiter.torque)
+    builder.Connect(capped, plant.get_desired_state_input_port(instance))
     feedforward = None
     if gravity_feedforward and "position" in hardware.interfaces():
         feedforward = AddGravityFeedforward(builder, plant, robot, hardware, desired_state)

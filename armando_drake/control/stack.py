@@ -116,6 +116,9 @@ class ActuatorConfig:
     # position, through the actuation input, so the steady-state error does not
     # depend on how stiff the gains are.
     gravity_feedforward: bool = True
+    # Caps each joint at its URDF <limit velocity> on every command interface, as
+    # Gazebo's physics does (docs/physics.md).
+    velocity_limits: bool = False
 
     def check(self) -> None:
         """Each per-joint pair [kp, kd]: two gains, zero or positive, no stiffer than a
@@ -910,6 +913,7 @@ def ConnectControlStack(
     *,
     gravity_feedforward: bool,
     tick_command: OutputPort | None = None,
+    velocity_limits: bool = False,
 ) -> OutputPort | None:
     """Wires the commands to the plant through the hardware interface: the desired
     state of the actuators (the controllers' commands, unclaimed joints held at their
@@ -938,6 +942,7 @@ def ConnectControlStack(
             else None
         ),
         gravity_feedforward=gravity_feedforward,
+        velocity_limits=velocity_limits,
     )
     builder.ExportOutput(desired, stack.port_name("desired_state"))
     return feedforward

@@ -12,8 +12,9 @@ from armando_drake.tools.schema import param
 class RobotConfig:
     """Which description is loaded and where its base is welded."""
 
-    # A .urdf/.xacro file, a package directory or package://pkg/file; "" is the
-    # built-in Armando (models/armando_description/urdf/armando.urdf.xacro).
+    # A .urdf/.xacro file, a package directory or package://pkg/file, or a Gazebo model
+    # (its .sdf, or its folder with model.config); "" is the built-in Armando
+    # (models/armando_description/urdf/armando.urdf.xacro).
     description: str = ""
     # xacro:arg values, as name: value.
     xacro_args: dict[str, str] = dc.field(default_factory=dict)

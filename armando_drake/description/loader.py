@@ -48,6 +48,7 @@ from armando_drake.description.packages import (
     find_packages,
 )
 from armando_drake.description.ros2_control import HardwareInfo, parse_ros2_control
+from armando_drake.description.sdf_robot import is_sdf_model, sdf_model_file, sdf_to_urdf
 from armando_drake.description.urdf import (
     BaseWeld,
     JointInfo,
@@ -161,7 +162,8 @@ def expand_description(
     mappings: Mapping[str, str] | None = None,
     search: PackageSearch | None = None,
 ) -> str:
-    """The URDF text of a ``.urdf`` or ``.xacro`` file, xacro expanded.
+    """The URDF text of a ``.urdf`` or ``.xacro`` file, xacro expanded (of an SDFormat
+    ``.sdf`` model: :func:`~armando_drake.description.sdf_robot.sdf_to_urdf`).
 
     ``mappings`` are the ``xacro:arg`` values (as on the command line,
     ``name:=value``). Errors name the file and, where xacro knows it, the line.
@@ -171,6 +173,8 @@ def expand_description(
         raise DescriptionError(f"{path}: description file not found")
     if search is None:
         search = find_packages(near=path)
+    if path.suffix == ".sdf":
+        return sdf_to_urdf(path, search)
     if path.suffix != ".xacro":
         try:
             text = path.read_text(encoding="utf-8")
@@ -303,6 +307,7 @@ def resolve_description(description: str | os.PathLike | None, search: PackageSe
     three folders down (``robots/fr3/fr3.urdf.xacro``); of the ``.urdf.xacro`` and
     ``.urdf`` files among them, the one the package's launch files name, else the one
     with the most links (:func:`choose_description`), the others named in one log line.
+    A Gazebo model folder (``model.config`` or ``model.sdf``) is its SDFormat file.
     """
 
     if description is None or str(description) == "":
@@ -313,6 +318,8 @@ def resolve_description(description: str | os.PathLike | None, search: PackageSe
         path = search.resolve(package) / rest
     else:
         path = Path(text).expanduser()
+    if path.is_dir() and is_sdf_model(path):
+        return sdf_model_file(path)
     if path.is_dir():
         urdf_dir = path / "urdf"
         candidates = sorted(urdf_dir.glob("*.urdf.xacro")) + sorted(urdf_dir.glob("*.xacro"))

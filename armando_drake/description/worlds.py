@@ -259,6 +259,11 @@ def _model_file(folder: Path) -> Path | None:
     return files[0] if len(files) == 1 else None  # a FIFO too: refused as it is read
 
 
+def model_file_of(folder: Path) -> Path | None:
+    """The SDFormat file of a model folder (see :func:`_model_file`)."""
+    return _model_file(folder)
+
+
 def _xml_text(path: Path, where: str) -> str:
     """The text of an SDFormat file; one line naming it when it is unreadable, binary, not
     a regular file (a FIFO) or over :data:`MAX_WORLD_FILE_BYTES`."""

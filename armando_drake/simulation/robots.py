@@ -382,6 +382,7 @@ def ConnectRobot(
             stack,
             gravity_feedforward=spec.entry.actuators.gravity_feedforward,
             tick_command=tick,
+            velocity_limits=spec.entry.actuators.velocity_limits,
         )
         logger = AddJointStateLogger(
             builder, scenario.logging, stack, output_dir=output_dir, quiet=quiet

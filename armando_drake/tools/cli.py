@@ -334,8 +334,8 @@ def add_description_arguments(parser, default: str) -> None:
     parser.add_argument(
         "--description",
         metavar="PATH",
-        help="robot description: .urdf/.xacro file, package directory or package://pkg/file "
-        f"(default: {default})",
+        help="robot description: .urdf/.xacro file, package directory, package://pkg/file, "
+        f"or a Gazebo model (model.sdf, or its folder with model.config) (default: {default})",
     )
     parser.add_argument(
         "--package-path",

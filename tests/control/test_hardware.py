@@ -114,7 +114,8 @@ def test_gravity_feedforward_cancels_gravity_at_the_command():
     context = simulator.get_mutable_context()
     target = (0.3, -0.9, 1.1, 0.5)
     world.publish(context, "position_controller", Float64MultiArray(data=target))
-    simulator.AdvanceTo(0.05)  # handled at the 10 ms tick
+    # Handled at the 10 ms tick; the joints (velocity limit 6.18 rad/s) are there by 0.5 s.
+    simulator.AdvanceTo(0.5)
     port = world.robot().gravity_feedforward
     feedforward = port.Eval(port.get_system().GetMyContextFromRoot(context))
     # The generalized gravity forces at q = target, computed directly on the plant.

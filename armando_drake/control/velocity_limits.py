@@ -1,0 +1,209 @@
+"""Joint velocity limits: the URDF ``<limit velocity>`` enforced on every command interface.
+
+Gazebo's physics caps a joint's speed at its velocity limit whatever drives it; Drake's
+plant enforces position limits only. This module adds the cap in front of the plant,
+as a small diagram of C++ primitives (no Python at the plant's steps):
+
+- ``position`` and ``velocity`` joints: Drake's PD actuator, integrated implicitly with
+  ``q_next = q + h v_next`` (h the plant's step), gives the torque
+  ``kp (q_d - q - h v_next) + kd (v_d - v_next) = K (u - v_next)`` with
+  ``K = kp h + kd`` and ``u = (kp (q_d - q) + kd v_d) / K``: a velocity servo towards
+  ``u``. The limiter saturates ``u`` at the limit and shifts the desired position (a
+  velocity joint: its desired velocity) by the excess, so that the servo drives the
+  joint towards at most the limit. While ``|u|`` is within the limit the desired state
+  passes unchanged (the run is the same as without the cap).
+- ``effort`` joints: the velocity the command would reach over the step,
+  ``w = v + h tau / M`` (``M`` the joint's diagonal of the mass matrix at home), is
+  capped: the torque ``-c (w - clip(w, -limit, limit))``, ``c = M / h``, is added to
+  the command.
+- every limited servo joint also gets ``-c (v - clip(v, -limit, limit))``, ``c = 0.9 M /
+  h``, on the measured velocity: a weak servo dragged past its limit by a neighbour's
+  acceleration is taken back within a step or two; and on every limited joint the
+  excess is integrated (``0.3 M / h`` per step, reset to zero once under the limit), so
+  that a steady load such as gravity leaves no excess.
+
+A joint without a finite velocity limit passes unchanged.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
+from pydrake.systems.primitives import (
+    AffineSystem,
+    ConstantVectorSource,
+    MatrixGain,
+    Multiplexer,
+    Saturation,
+    ZeroOrderHold,
+)
+
+from armando_drake.description.loader import LoadedRobot
+
+if TYPE_CHECKING:  # the hardware interface adds the limiter
+    from armando_drake.control.hardware import HardwareInterface
+
+# Shares of the one-step (deadbeat) gain M / h that the cap on the measured velocity
+# uses: on an effort joint, and on top of a servo's (which already drives it back).
+EFFORT_CAP_SHARE = 1.0
+SERVO_CAP_SHARE = 0.9
+# Share of M / h per step that integrates the measured velocity's excess (a steady load,
+# such as gravity, leaves none).
+INTEGRAL_SHARE = 0.3
+
+
+@dataclass
+class VelocityLimiter:
+    """The limiter's ports: ``desired_state`` ([q_d; v_d] actuator order, capped) and
+    ``torque`` (the effort joints' cap [N m], actuator order; None without one)."""
+
+    desired_state: OutputPort
+    torque: OutputPort | None
+
+
+def limited_joints(hardware: HardwareInterface) -> list[int]:
+    """Indices (actuator order) of the joints the limiter caps: a finite velocity limit
+    and a way to cap it (a servo with a velocity gain, or the effort interface)."""
+    return [
+        i
+        for i, joint in enumerate(hardware.joints)
+        if np.isfinite(joint.velocity)
+        and (joint.command_interface == "effort" or joint.kp > 0 or joint.kd > 0)
+    ]
+
+
+@dataclass
+class _Matrices:
+    """The limiter's linear maps over z = [q_d; v_d; x; tau; i_up; i_down] (x the robot's
+    state, tau the effort command, i_up >= 0 and i_down <= 0 the integral of the measured
+    velocity beyond +limit and -limit): ``A z + offset`` = [u; w; i_up'; i_down'] (the
+    servos' demands, the velocities the cap acts on, the integrals' next values) is
+    saturated between ``lower`` and ``upper`` into s; the capped desired state is
+    ``C [z; s]``, the cap's torque ``E [z; s]``."""
+
+    A: np.ndarray
+    offset: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    C: np.ndarray
+    E: np.ndarray
+
+
+def _matrices(
+    plant: MultibodyPlant, robot: LoadedRobot, hardware: HardwareInterface, rows: list[int]
+) -> _Matrices:
+    """The limiter's maps for the joints ``rows`` (see :class:`_Matrices`)."""
+    n = len(hardware.joints)
+    h = plant.time_step() if plant.time_step() > 0 else 1e-3
+    x0 = 2 * n  # where the robot's state starts in z
+    tau = x0 + hardware.num_model_states  # where the effort command starts
+    size = tau + 3 * n
+    A = np.zeros((4 * n, size))
+    offset = np.zeros(4 * n)
+    lower = np.concatenate([np.full(2 * n, -np.inf), np.zeros(n), np.full(n, -np.inf)])
+    upper = np.concatenate([np.full(3 * n, np.inf), np.zeros(n)])
+    C = np.zeros((2 * n, size + 4 * n))
+    C[:, : 2 * n] = np.eye(2 * n)
+    E = np.zeros((n, size + 4 * n))
+    mass = np.diag(plant.CalcMassMatrix(plant.CreateDefaultContext()))
+    for i in rows:
+        joint = hardware.joints[i]
+        limit = joint.velocity
+        m = mass[plant.GetJointByName(joint.name, robot.model_instance).velocity_start()]
+        v_row = x0 + hardware.velocity_index[i]
+        # The velocity w the cap acts on (an effort joint's: plus what its command adds
+        # over the step), taken back by c per step, and the measured velocity's excess
+        # integrated (zero once back under the limit).
+        lower[n + i], upper[n + i] = -limit, limit
+        A[n + i, v_row] = 1.0
+        effort = joint.command_interface == "effort"
+        if effort:
+            A[n + i, tau + i] = h / m
+        c = (EFFORT_CAP_SHARE if effort else SERVO_CAP_SHARE) * m / h
+        E[i, :size] = -c * A[n + i]
+        E[i, size + n + i] = c
+        for k, sign in ((2 * n + i, 1.0), (3 * n + i, -1.0)):
+            A[k, tau + n + (k - 2 * n)] = 1.0
+            A[k, v_row] = INTEGRAL_SHARE * m / h
+            offset[k] = -sign * INTEGRAL_SHARE * m / h * limit
+            E[i, tau + n + (k - 2 * n)] = -1.0
+        if effort:
+            continue
+        # The servo's demand u, saturated: the excess u - s moves q_d by -(K / kp) (u - s),
+        # or v_d by -(K / kd) (u - s).
+        lower[i], upper[i] = -limit, limit
+        gain = joint.kp * plant.time_step() + joint.kd
+        A[i, i] = joint.kp / gain
+        A[i, x0 + hardware.position_index[i]] = -joint.kp / gain
+        A[i, n + i] = joint.kd / gain
+        target, scale = (i, gain / joint.kp) if joint.kp > 0 else (n + i, gain / joint.kd)
+        C[target, :size] -= scale * A[i]
+        C[target, size + i] += scale
+    return _Matrices(A, offset, lower, upper, C, E)
+
+
+def _limiter_diagram(maps: _Matrices, n: int, state_size: int, h: float) -> Diagram:
+    """The limiter as one diagram: inputs ``desired_state``, ``state`` and ``effort``,
+    outputs ``desired_state`` and ``torque``; the integrals are held by a
+    ``ZeroOrderHold`` at the plant's step ``h``."""
+    inner = DiagramBuilder()
+    inputs = inner.AddNamedSystem("inputs", Multiplexer([2 * n, state_size, n, 2 * n]))
+    demand = inner.AddNamedSystem("demand", AffineSystem(D=maps.A, y0=maps.offset, time_period=0.0))
+    cap = inner.AddNamedSystem("cap", Saturation(maps.lower, maps.upper))
+    integrals = inner.AddNamedSystem("integrals", MatrixGain(np.eye(4 * n)[2 * n :]))
+    hold = inner.AddNamedSystem("integral_hold", ZeroOrderHold(h, 2 * n))
+    both = inner.AddNamedSystem("inputs_and_cap", Multiplexer([5 * n + state_size, 4 * n]))
+    desired = inner.AddNamedSystem("capped_desired_state", MatrixGain(maps.C))
+    torque = inner.AddNamedSystem("velocity_cap", MatrixGain(maps.E))
+    inner.ExportInput(inputs.get_input_port(0), "desired_state")
+    inner.ExportInput(inputs.get_input_port(1), "state")
+    inner.ExportInput(inputs.get_input_port(2), "effort")
+    inner.Connect(hold.get_output_port(), inputs.get_input_port(3))
+    inner.Connect(inputs.get_output_port(), demand.get_input_port())
+    inner.Connect(demand.get_output_port(), cap.get_input_port())
+    inner.Connect(cap.get_output_port(), integrals.get_input_port())
+    inner.Connect(integrals.get_output_port(), hold.get_input_port())
+    inner.Connect(inputs.get_output_port(), both.get_input_port(0))
+    inner.Connect(cap.get_output_port(), both.get_input_port(1))
+    inner.Connect(both.get_output_port(), desired.get_input_port())
+    inner.Connect(both.get_output_port(), torque.get_input_port())
+    inner.ExportOutput(desired.get_output_port(), "desired_state")
+    inner.ExportOutput(torque.get_output_port(), "torque")
+    return inner.Build()
+
+
+def AddVelocityLimiter(
+    builder: DiagramBuilder,
+    plant: MultibodyPlant,
+    robot: LoadedRobot,
+    hardware: HardwareInterface,
+    desired_state: OutputPort,
+    effort: OutputPort | None,
+) -> VelocityLimiter | None:
+    """Adds the system ``velocity_limits`` between ``desired_state`` ([q_d; v_d] of the
+    hardware joints, actuator order) and the plant (see the module's docstring); None
+    when no joint has a finite velocity limit to cap. ``effort`` is the effort joints'
+    command [N m] (actuator order; None: none)."""
+    rows = limited_joints(hardware)
+    if not rows:
+        return None
+    maps = _matrices(plant, robot, hardware, rows)
+    n = len(hardware.joints)
+    h = plant.time_step() if plant.time_step() > 0 else 1e-3
+    system = builder.AddNamedSystem(
+        "velocity_limits", _limiter_diagram(maps, n, hardware.num_model_states, h)
+    )
+    builder.Connect(desired_state, system.GetInputPort("desired_state"))
+    builder.Connect(plant.get_state_output_port(robot.model_instance), system.GetInputPort("state"))
+    if effort is None:
+        effort = builder.AddNamedSystem("no_effort", ConstantVectorSource(np.zeros(n)))
+        effort = effort.get_output_port()
+    builder.Connect(effort, system.GetInputPort("effort"))
+    return VelocityLimiter(
+        desired_state=system.GetOutputPort("desired_state"),
+        torque=system.GetOutputPort("torque"),
+    )
