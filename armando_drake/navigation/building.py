@@ -245,6 +245,7 @@ def AddNavigation(
         state_size=hardware.num_model_states,
         base_rows=(hardware.base_position_index, hardware.base_velocity_index),
         inscribed_radius=servers.costmap.inscribed_radius,
+        footprint=tuple(servers.costmap.polygon),
         start_delay=config.start_delay,
     )
     add = _explorer if config.explore else _navigator

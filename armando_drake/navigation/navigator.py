@@ -176,6 +176,7 @@ class Navigator(LeafSystem):
         state_size: int,
         base_rows: tuple[list[int], list[int]],
         inscribed_radius: float,
+        footprint: tuple = (),
         start_delay: float = 0.0,
         grid: OccupancyMap | None = None,
         amcl_axle: float | None = None,
@@ -192,6 +193,7 @@ class Navigator(LeafSystem):
         self.planner = planner  # the planner plugin (planner.plan(costmap, start, goal))
         self._follow = CONTROLLERS.lookup(controller.plugin, "controller_server").cls
         self._inscribed = inscribed_radius
+        self._footprint = footprint  # the padded footprint polygon (the collision checker's)
         self._q_rows, self._v_rows = base_rows
         self._state = self.DeclareVectorInputPort("state", state_size)
         self._poses = self.DeclareAbstractInputPort("poses", AbstractValue.Make(RobotPoses()))
@@ -496,7 +498,7 @@ class Navigator(LeafSystem):
             recovery,
             pose,
             now,
-            lambda d: blocked_behind(self._local(nav), pose, d, self._inscribed),
+            lambda d: blocked_behind(self._local(nav), pose, d, self._footprint),
         )
         if not done:
             return nav, v, w
