@@ -38,10 +38,11 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from armando_drake.messages.types import Odometry, PublicationValue
+from armando_drake.messages.types import PublicationValue
 from armando_drake.navigation.follower import wrap
 from armando_drake.navigation.maps import OCCUPIED, OccupancyMap
 from armando_drake.navigation.nav2_params import Nav2Params, as_nav2, fill
+from armando_drake.navigation.pose_buffer import RobotPoses, compose, inverse
 from armando_drake.tools.errors import ConfigError
 from armando_drake.tools.schema import field_rules, param
 
@@ -267,35 +268,10 @@ class ParticleFilter:
         return x, y, yaw
 
 
-def compose(a, b) -> tuple[float, float, float]:
-    """The planar pose ``a`` then ``b`` (b expressed in a's frame)."""
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], wrap(a[2] + b[2])
-
-
-def inverse(a) -> tuple[float, float, float]:
-    """The planar pose whose composition with ``a`` is the identity."""
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return -c * a[0] - s * a[1], s * a[0] - c * a[1], wrap(-a[2])
-
-
-def body_odometry(message, axle: float) -> tuple[float, float, float]:
-    """The odometry's pose of the base frame: a drive integrates the wheel axle's midpoint,
-    ``axle`` [m] ahead of the base frame's origin (both start at the odometry's origin)."""
-    if message is None:
-        return 0.0, 0.0, 0.0
-    odom = (message.position[0], message.position[1], message.yaw)
-    return compose(compose((axle, 0.0, 0.0), odom), (-axle, 0.0, 0.0))
-
-
-ODOM_HISTORY = 8  # odometry poses kept, to pair a scan with the odometry at its stamp
-
-
 @dc.dataclass(frozen=True)
 class _Memory:
     filter: FilterState | None = None
     scan_count: int = 0
-    history: tuple = ()  # ((stamp, (x, y, yaw)), ...) the latest odometry poses
 
     def __deepcopy__(self, memo):
         return self
@@ -308,23 +284,23 @@ class AmclLocalizer(LeafSystem):
 
         name: AmclLocalizer
         input_ports:
-        - odom
+        - poses
         - scan
         output_ports:
         - map_to_odom
         - estimate
 
-    - ``odom``: the drive's latest Odometry; ``scan``: a Publication of LaserScan;
+    - ``poses``: the robot's :class:`~.pose_buffer.RobotPoses` (the odometry at a scan's
+      stamp); ``scan``: a Publication of LaserScan;
     - ``map_to_odom``: (x, y, yaw) of the odometry frame in the map;
     - ``estimate``: (x, y, yaw) of the base in the map at the latest filter update.
     """
 
-    def __init__(self, pf: ParticleFilter, initial_pose, *, axle: float, rate: float):
+    def __init__(self, pf: ParticleFilter, initial_pose, *, rate: float):
         super().__init__()
         self.filter = pf
         self._initial = tuple(float(v) for v in initial_pose)
-        self._axle = axle
-        self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
+        self._poses = self.DeclareAbstractInputPort("poses", AbstractValue.Make(RobotPoses()))
         self._scan = self.DeclareAbstractInputPort("scan", PublicationValue())
         self._memory = self.DeclareAbstractState(AbstractValue.Make(_Memory()))
         self._map_to_odom = self.DeclareDiscreteState(BasicVector(np.array(self._initial)))
@@ -334,17 +310,14 @@ class AmclLocalizer(LeafSystem):
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._Update)
 
     def _Update(self, context, state) -> None:
-        message = self._odom.Eval(context)
+        odometry = self._poses.Eval(context).odom
         memory = context.get_abstract_state(self._memory).get_value()
-        history = (*memory.history, (message.stamp, body_odometry(message, self._axle)))
-        history = history[-ODOM_HISTORY:]
         scan = self._scan.Eval(context) if self._scan.HasValue(context) else None
         if memory.filter is None:
-            memory = _Memory(self.filter.start(self._initial, history[-1][1]), 0, history)
+            memory = _Memory(self.filter.start(self._initial, odometry.latest), 0)
         elif scan is not None and scan.count != memory.scan_count and scan.message is not None:
             # The odometry when the scan was taken (as Nav2 looks its TF up at the stamp).
-            stamp = scan.message.stamp
-            odom = min(history, key=lambda entry: abs(entry[0] - stamp))[1]
+            odom = odometry.at(scan.message.stamp)
             current = memory.filter
             if current.updates == 0 or self.filter.moved(current, odom):
                 current = self.filter.update(current, odom, scan.message)
@@ -352,7 +325,5 @@ class AmclLocalizer(LeafSystem):
                 state.get_mutable_discrete_state(self._estimate).set_value(estimate)
                 map_to_odom = compose(estimate, inverse(odom))
                 state.get_mutable_discrete_state(self._map_to_odom).set_value(map_to_odom)
-            memory = _Memory(current, scan.count, history)
-        else:
-            memory = dc.replace(memory, history=history)
+            memory = _Memory(current, scan.count)
         state.get_mutable_abstract_state(self._memory).set_value(memory)

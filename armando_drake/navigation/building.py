@@ -45,6 +45,7 @@ from armando_drake.navigation.maps import MapError, OccupancyMap, load_map
 from armando_drake.navigation.nav2_params import Nav2Params, read_nav2
 from armando_drake.navigation.navigator import Navigator, check_goals
 from armando_drake.navigation.planner import planner_plugin
+from armando_drake.navigation.pose_buffer import PoseBuffer
 from armando_drake.navigation.slam import SlamMapper, canvas, slam_parameters
 from armando_drake.navigation.smoother import smoother_plugins
 from armando_drake.navigation.topics import NavigationSource
@@ -253,6 +254,7 @@ def AddNavigation(
         state_size=hardware.num_model_states,
         base_rows=(hardware.base_position_index, hardware.base_velocity_index),
         inscribed_radius=servers.costmap.inscribed_radius,
+        footprint=tuple(servers.costmap.polygon),
         start_delay=config.start_delay,
     )
     add = _explorer if config.explore else _navigator
@@ -262,12 +264,32 @@ def AddNavigation(
     return navigation
 
 
-def _connect(builder, stack, navigator, drive: str, smoother=None) -> None:
-    """The navigator on the robot's state, its cmd_vel to the drive: through Nav2's
-    velocity smoother when the file has one (``smoother``: its parameters), as Nav2's
+def _pose_buffer(builder, stack, drive: str, system: dict) -> PoseBuffer:
+    """The robot's PoseBuffer on its state and the drive's odometry, sampled at the
+    odometry's rate."""
+    logic = next(c.logic for c in stack.manager.controllers if c.name == drive)
+    period = getattr(logic, "publish_period", math.inf)
+    rate = 1.0 / period if math.isfinite(period) and period > 0 else float(stack.update_rate)
+    buffer = builder.AddSystem(
+        PoseBuffer(state_size=system["state_size"], base_rows=system["base_rows"],
+                   axle=_axle_offset(stack, drive), rate=rate)
+    )  # fmt: skip
+    buffer.set_name("pose_buffer")
+    builder.Connect(
+        stack.plant.get_state_output_port(stack.robot.model_instance),
+        buffer.GetInputPort("state"),
+    )
+    builder.Connect(stack.manager.GetOutputPort(f"{drive}.odom"), buffer.GetInputPort("odom"))
+    return buffer
+
+
+def _connect(builder, stack, navigator, drive: str, buffer: PoseBuffer, smoother=None) -> None:
+    """The navigator on the robot's state and pose buffer, its cmd_vel to the drive: through
+    Nav2's velocity smoother when the file has one (``smoother``: its parameters), as Nav2's
     bringup places it (CLOSED_LOOP: on the drive's odometry)."""
     state = stack.plant.get_state_output_port(stack.robot.model_instance)
     builder.Connect(state, navigator.GetInputPort("state"))
+    builder.Connect(buffer.GetOutputPort("poses"), navigator.GetInputPort("poses"))
     command = navigator.GetOutputPort("cmd_vel")
     if smoother is not None:
         system = builder.AddSystem(VelocitySmoother(smoother))
@@ -295,12 +317,13 @@ def _navigator(builder, config, stack, servers: _Servers, drive, system, where) 
                   amcl_axle=axle, layers=layers, behaviors=servers.behaviors, **system)
     )  # fmt: skip
     navigator.set_name("navigator")
-    _connect(builder, stack, navigator, drive, servers.velocity_smoother)
+    buffer = _pose_buffer(builder, stack, drive, system)
+    _connect(builder, stack, navigator, drive, buffer, servers.velocity_smoother)
     lidar = _lidar(stack, ": the costmap's obstacle layer", where).name if layers else ""
     localizer = None
     if amcl:
         lidar = _lidar(stack, ".localization=amcl", where)
-        localizer = _add_amcl(builder, config, stack, servers, grid, drive, lidar, axle, where)
+        localizer = _add_amcl(builder, config, stack, servers, grid, buffer, lidar, where)
         builder.Connect(
             localizer.GetOutputPort("map_to_odom"), navigator.GetInputPort("map_to_odom")
         )
@@ -311,8 +334,9 @@ def _navigator(builder, config, stack, servers: _Servers, drive, system, where) 
     return Navigation(navigator, drive, grid, costmap, amcl=localizer, lidar=lidar)
 
 
-def _add_amcl(builder, config, stack, servers: _Servers, grid, drive, lidar, axle, where):
-    """The AmclLocalizer on the drive's odometry (and, later, the lidar's scan)."""
+def _add_amcl(builder, config, stack, servers: _Servers, grid, buffer, lidar, where):
+    """The AmclLocalizer on the robot's pose buffer (the drive's odometry) and, later, the
+    lidar's scan."""
     params = _read(amcl_parameters, servers.nav2, "params_file", where)
     laser, spawn = _poses(stack, lidar)
     initial = config.initial_pose or (params.initial_pose if params.set_initial_pose else None)
@@ -325,9 +349,9 @@ def _add_amcl(builder, config, stack, servers: _Servers, grid, drive, lidar, axl
         )
     pf = ParticleFilter(params, grid, laser)
     rate = 2.0 * max(lidar.update_rate, 1.0)  # twice the scans: odometry at each
-    amcl = builder.AddSystem(AmclLocalizer(pf, initial or spawn, axle=axle, rate=rate))
+    amcl = builder.AddSystem(AmclLocalizer(pf, initial or spawn, rate=rate))
     amcl.set_name("amcl")
-    builder.Connect(stack.manager.GetOutputPort(f"{drive}.odom"), amcl.GetInputPort("odom"))
+    builder.Connect(buffer.GetOutputPort("poses"), amcl.GetInputPort("poses"))
     builder.ExportOutput(amcl.GetOutputPort("estimate"), "amcl_estimate")
     return amcl
 
@@ -364,13 +388,13 @@ def _explorer(builder, config, stack, servers: _Servers, drive, system, where) -
     rate = 2.0 * max(lidar.update_rate, 1.0)  # twice the scans: odometry at each
     footprint = 0.5 * servers.costmap.robot_radius
     mapper = builder.AddSystem(
-        SlamMapper(slam, blank, laser, axle=axle, rate=rate, footprint=footprint, start=spawn)
+        SlamMapper(slam, blank, laser, rate=rate, footprint=footprint, start=spawn)
     )
     mapper.set_name("slam")
-    _connect(builder, stack, explorer, drive, servers.velocity_smoother)
-    odom = stack.manager.GetOutputPort(f"{drive}.odom")
-    builder.Connect(odom, mapper.GetInputPort("odom"))
-    builder.Connect(odom, explorer.GetInputPort("odom"))
+    buffer = _pose_buffer(builder, stack, drive, system)
+    _connect(builder, stack, explorer, drive, buffer, servers.velocity_smoother)
+    builder.Connect(buffer.GetOutputPort("poses"), mapper.GetInputPort("poses"))
+    builder.Connect(stack.manager.GetOutputPort(f"{drive}.odom"), explorer.GetInputPort("odom"))
     builder.Connect(mapper.GetOutputPort("map_to_odom"), explorer.GetInputPort("map_to_odom"))
     builder.Connect(mapper.GetOutputPort("map"), explorer.GetInputPort("map"))
     builder.ExportOutput(mapper.GetOutputPort("estimate"), "slam_estimate")

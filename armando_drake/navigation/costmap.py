@@ -12,7 +12,9 @@ the static map, whatever its ``resolution`` parameter). A local costmap (``rolli
 true``) is a ``width`` x ``height`` window centred on the robot, on the same grid.
 :func:`make_costmap` is the static layer then the inflation layer; :func:`layered_costmap`
 the static layer, the obstacle layer by its maximum (``updateWithMax``;
-``combination_method: 0`` overwrites), the rolling window, then the inflation layer.
+``combination_method: 0`` overwrites, ``2`` keeps unknown cells unknown), the rolling window,
+then the inflation layer. The footprint (``robot_radius`` as upstream's 16-point polygon,
+``footprint_padding`` applied) and its collision checker are :mod:`.footprint`'s.
 """
 
 from __future__ import annotations
@@ -30,6 +32,12 @@ from armando_drake.navigation.cost_values import (
     INSCRIBED_INFLATED_OBSTACLE,
     LETHAL_OBSTACLE,
     NO_INFORMATION,
+)
+from armando_drake.navigation.footprint import (
+    footprint_cost,
+    footprint_from_radius,
+    min_max_distances,
+    pad_footprint,
 )
 from armando_drake.navigation.inflation_layer import inflate
 from armando_drake.navigation.maps import OccupancyMap
@@ -61,6 +69,7 @@ _READ = {
     "height",
     "update_frequency",
     "footprint",
+    "footprint_padding",
 }
 _KNOWN = {
     "use_sim_time",
@@ -69,7 +78,6 @@ _KNOWN = {
     "global_frame",
     "robot_base_frame",
     "always_send_full_costmap",
-    "footprint_padding",
     "origin_x",
     "origin_y",
     "transform_tolerance",
@@ -80,7 +88,7 @@ _KNOWN = {
 }
 _COSTMAP_KEYS = (
     "resolution", "robot_radius", "rolling_window", "width", "height", "update_frequency",
-    "track_unknown_space", "trinary_costmap", "lethal_cost_threshold",
+    "track_unknown_space", "trinary_costmap", "lethal_cost_threshold", "footprint_padding",
 )  # fmt: skip
 
 
@@ -139,19 +147,34 @@ class CostmapParameters:
         5.0, unit="Hz", gt=0, doc="how often the obstacle layer takes a scan"
     )
     footprint: list = field(default_factory=list)  # [[x, y], ...]; [] = robot_radius
+    footprint_padding: float = param(
+        0.01, unit="m", ge=0, doc="added to each footprint point's x and y, away from the centre"
+    )
     ignored: list[str] = field(default_factory=list)
     """Keys read from the file that this package does not use (each one warned about)."""
 
     @property
+    def polygon(self) -> list[tuple[float, float]]:
+        """The padded footprint, as Costmap2DROS sets it: ``footprint``, or ``robot_radius``
+        as the 16-point polygon, with ``footprint_padding`` (:mod:`.footprint`)."""
+        points = self.footprint or footprint_from_radius(self.robot_radius)
+        return pad_footprint([tuple(p) for p in points], self.footprint_padding)
+
+    @property
     def inscribed_radius(self) -> float:
-        """The inscribed radius: the robot's radius (a circular footprint)."""
+        """The inscribed radius the inflation and the controller use: a ``footprint``'s
+        (the padded polygon's nearest vertex or edge, as LayeredCostmap's), or
+        ``robot_radius`` itself (upstream: its padded 16-gon's, 0.2059 m for 0.2 m:
+        :attr:`nav2_inscribed_radius`)."""
         if self.footprint:
-            ring = self.footprint[1:] + self.footprint[:1]
-            return min(
-                abs(a[0] * b[1] - a[1] * b[0]) / max(math.dist(a, b), 1e-9)
-                for a, b in zip(self.footprint, ring, strict=True)
-            )
+            return min_max_distances(self.polygon)[0]
         return self.robot_radius
+
+    @property
+    def nav2_inscribed_radius(self) -> float:
+        """The padded footprint's inscribed radius as LayeredCostmap computes it, also for
+        a ``robot_radius`` (its 16-point polygon)."""
+        return min_max_distances(self.polygon)[0]
 
 
 @dataclass
@@ -295,7 +318,8 @@ def layered_costmap(
     robot: tuple[float, float] | None = None,
 ) -> Costmap:
     """The master grid: the static layer, the obstacle layer by its maximum (as
-    ``updateWithMax``; ``combination_method: 0`` overwrites), then the inflation layer; a
+    ``updateWithMax``; ``combination_method: 0`` overwrites, ``2`` takes the maximum but
+    leaves an unknown master cell unknown), then the inflation layer; a
     rolling window keeps only the ``width`` x ``height`` around ``robot``."""
     costs = (
         static_layer(grid, params)
@@ -305,9 +329,12 @@ def layered_costmap(
     layer = params.obstacle_layer
     if obstacles is not None and layer is not None and layer.enabled:
         seen = obstacles != NO_INFORMATION
-        if layer.combination_method == 0:
+        if layer.combination_method == 0:  # updateWithOverwrite
             costs[seen] = obstacles[seen]
-        else:
+        elif layer.combination_method == 2:  # updateWithMaxWithoutUnknownOverwrite
+            take = seen & (costs != NO_INFORMATION) & (costs < obstacles)
+            costs[take] = obstacles[take]
+        else:  # updateWithMax
             take = seen & ((costs == NO_INFORMATION) | (costs < obstacles))
             costs[take] = obstacles[take]
     if params.rolling_window and robot is not None:
@@ -332,13 +359,13 @@ def path_blocked(costmap: Costmap, path: np.ndarray) -> bool:
     return bool(((costs >= INSCRIBED_INFLATED_OBSTACLE) & (costs <= LETHAL_OBSTACLE)).any())
 
 
-def blocked_behind(costmap: Costmap, pose, distance: float, inscribed: float) -> bool:
-    """Whether backing up ``distance`` [m] from ``pose`` (x, y, yaw) puts the robot's back
-    (``inscribed`` [m] behind its centre) on a lethal cell."""
+def blocked_behind(costmap: Costmap, pose, distance: float, footprint) -> bool:
+    """Whether backing up ``distance`` [m] from ``pose`` (x, y, yaw) puts the robot's
+    ``footprint`` (the padded polygon) on a lethal cell, as the behaviour's collision
+    checker finds it (:func:`~.footprint.footprint_cost` at least lethal)."""
     for d in np.arange(0.0, distance + 1e-9, 0.5 * costmap.resolution):
-        x = pose[0] - (d + inscribed) * math.cos(pose[2])
-        y = pose[1] - (d + inscribed) * math.sin(pose[2])
-        row, col = costmap.world_to_cell(x, y)
-        if costmap.contains(row, col) and costmap.costs[row, col] == LETHAL_OBSTACLE:
+        x = pose[0] - d * math.cos(pose[2])
+        y = pose[1] - d * math.sin(pose[2])
+        if footprint_cost(costmap, (x, y, pose[2]), footprint) >= LETHAL_OBSTACLE:
             return True
     return False

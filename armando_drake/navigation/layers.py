@@ -14,10 +14,10 @@ from __future__ import annotations
 import dataclasses as dc
 import math
 
-from armando_drake.navigation.amcl import compose
 from armando_drake.navigation.costmap import Costmap, CostmapParameters, layered_costmap
 from armando_drake.navigation.maps import OccupancyMap
 from armando_drake.navigation.obstacle_layer import clear_footprint, empty_obstacles, observe
+from armando_drake.navigation.pose_buffer import compose
 
 
 @dc.dataclass(frozen=True)
@@ -35,10 +35,12 @@ class Layers:
         return (self.global_params, self.local_params)
 
 
-def observe_layers(nav, layers: Layers, grid: OccupancyMap, costmap: Costmap, scan, now: float):
+def observe_layers(
+    nav, layers: Layers, grid: OccupancyMap, costmap: Costmap, scan, pose, now: float
+):
     """The navigator's state ``nav`` with its costmaps' obstacle layers after ``scan``
-    (each at its update_frequency) on the map ``grid`` (``costmap``: its static costmap)."""
-    pose = min(nav.poses, key=lambda item: abs(item[0] - scan.stamp))[1]
+    (each at its update_frequency) on the map ``grid`` (``costmap``: its static costmap),
+    seen from the base's ``pose`` (x, y, yaw) at the scan's stamp (the pose buffer's)."""
     laser = compose(pose, layers.laser)
     shape = grid.data.shape
     obstacles = list(nav.obstacles or (None, None))

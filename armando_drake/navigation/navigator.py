@@ -29,7 +29,6 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 
 from armando_drake.control.manager import planar_base
 from armando_drake.messages.types import Odometry, PublicationValue, Twist, TwistStamped
-from armando_drake.navigation.amcl import body_odometry, compose
 from armando_drake.navigation.behaviors import (
     CLEAR,
     BehaviorParameters,
@@ -50,6 +49,7 @@ from armando_drake.navigation.follower import (
 from armando_drake.navigation.layers import Layers, observe_layers
 from armando_drake.navigation.maps import OccupancyMap
 from armando_drake.navigation.planner import PlanningError, path_length, plan_heading
+from armando_drake.navigation.pose_buffer import RobotPoses, compose
 from armando_drake.navigation.registry import CONTROLLERS
 from armando_drake.navigation.results import GoalResult, navigation_summary
 
@@ -63,8 +63,8 @@ BASE_FRAMES = ("base_link", "base_footprint")
 def goal_in_map(goal: NavigationGoal, frame_id: str, map_to_odom, base_pose) -> NavigationGoal:
     """``goal`` given in ``frame_id`` as a map goal: ``map`` (or ``world``, or none),
     ``odom`` (through ``map_to_odom``, (x, y, yaw)), ``base_link`` / ``base_footprint``
-    (``base_pose()``: the robot's current pose on the map). :class:`ValueError` naming an
-    unknown frame."""
+    (``base_pose()``: the robot's pose on the map at the goal's stamp). :class:`ValueError`
+    naming an unknown frame."""
     frame = frame_id.strip("/").rpartition("/")[2]  # a robot's namespace dropped
     if frame in ("", "map", "world"):
         return goal
@@ -81,10 +81,12 @@ def goal_in_map(goal: NavigationGoal, frame_id: str, map_to_odom, base_pose) -> 
 
 @dc.dataclass(frozen=True)
 class FramedGoal:
-    """A goal as a message gives it: in the frame ``frame_id`` (map, odom, base_link...)."""
+    """A goal as a message gives it: in the frame ``frame_id`` (map, odom, base_link...)
+    at ``stamp`` [s] (0: the latest, as tf2 reads a zero stamp)."""
 
     goal: NavigationGoal
     frame_id: str = "map"
+    stamp: float = 0.0
 
 
 @dc.dataclass(frozen=True)
@@ -110,6 +112,7 @@ class NavState:
     task_start: int = 0  # the index of the current task's first goal
     pending: Any = None  # a task the commander requested (a tuple of goals; () cancels)
     received: int = 0  # the goal_pose publications taken so far
+    rejected: int = 0  # the goal_pose messages refused (a frame the world does not know)
     # With AMCL: (time, position error [m], yaw error [rad]) of the estimate against the
     # ground truth, each second.
     localization: tuple = ()
@@ -120,7 +123,6 @@ class NavState:
     obstacles: tuple = ()
     costmaps: tuple = ()
     observed_at: tuple = ()
-    poses: tuple = ()  # the localization's last (time, (x, y, yaw)): a scan's at its stamp
     # The recovery running (behaviors.Recovery) or None; the retries of the current goal
     # and its recoveries so far ((behaviour, start, end), ...).
     recovery: Any = None
@@ -141,7 +143,7 @@ class Navigator(LeafSystem):
         name: Navigator
         input_ports:
         - state
-        input_ports:
+        - poses
         - goal_pose (optional)
         output_ports:
         - cmd_vel
@@ -149,6 +151,8 @@ class Navigator(LeafSystem):
         - nav_state
 
     - ``state``: the robot model instance's state (its floating base's pose and twist);
+    - ``poses``: the robot's :class:`~.pose_buffer.RobotPoses` (a scan's or a goal's pose
+      at its stamp, the controller's pose now);
     - ``goal_pose``: a Publication of a NavigationGoal (or a tuple of them): each new one
       is a task that preempts the current one (RViz's 2D goal on ``/goal_pose``);
     - with AMCL, ``odom`` (the drive's Odometry) and ``map_to_odom`` (x, y, yaw) too;
@@ -172,6 +176,7 @@ class Navigator(LeafSystem):
         state_size: int,
         base_rows: tuple[list[int], list[int]],
         inscribed_radius: float,
+        footprint: tuple = (),
         start_delay: float = 0.0,
         grid: OccupancyMap | None = None,
         amcl_axle: float | None = None,
@@ -188,8 +193,10 @@ class Navigator(LeafSystem):
         self.planner = planner  # the planner plugin (planner.plan(costmap, start, goal))
         self._follow = CONTROLLERS.lookup(controller.plugin, "controller_server").cls
         self._inscribed = inscribed_radius
+        self._footprint = footprint  # the padded footprint polygon (the collision checker's)
         self._q_rows, self._v_rows = base_rows
         self._state = self.DeclareVectorInputPort("state", state_size)
+        self._poses = self.DeclareAbstractInputPort("poses", AbstractValue.Make(RobotPoses()))
         self._axle = amcl_axle  # None: the ground truth; else AMCL, the drive's axle offset
         if amcl_axle is not None:
             self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
@@ -212,14 +219,19 @@ class Navigator(LeafSystem):
         x = self._state.Eval(context)
         return planar_base(x[self._q_rows], x[self._v_rows])
 
+    def _pose_at(self, context, stamp: float) -> tuple[float, float, float]:
+        """The localization's pose (x, y, yaw) at ``stamp`` (the pose buffer's: the ground
+        truth, or AMCL's map -> odom then the odometry)."""
+        map_to_odom = None if self._axle is None else self._map_to_odom.Eval(context)
+        return self._poses.Eval(context).map_pose(stamp, map_to_odom)
+
     def _pose(self, context):
-        """The localization's pose (x, y, yaw) and the measured twist (v, w)."""
+        """The localization's pose (x, y, yaw) now and the measured twist (v, w)."""
+        px, py, yaw = self._pose_at(context, context.get_time())
         if self._axle is None:
-            px, py, yaw, v, w = self._truth(context)
-        else:  # AMCL's map -> odom, then the odometry
+            v, w = self._truth(context)[3:]
+        else:  # the odometry's twist
             message = self._odom.Eval(context)
-            odom = body_odometry(message, self._axle)
-            px, py, yaw = compose(self._map_to_odom.Eval(context), odom)
             v, w = message.linear[0], message.angular[2]
         c = self.controller
         v = 0.0 if abs(v) < c.min_x_velocity_threshold else v
@@ -235,10 +247,8 @@ class Navigator(LeafSystem):
             step = math.hypot(truth[0] - nav.last_pose[0], truth[1] - nav.last_pose[1])
             nav = dc.replace(nav, driven=nav.driven + step)
         nav = dc.replace(nav, last_pose=truth, estimate=tuple(pose))
-        if self.layers is not None:
-            nav = dc.replace(nav, poses=(*nav.poses[-5:], (now, tuple(pose))))
-            if self._scan.HasValue(context):
-                nav = self._observe(nav, self._scan.Eval(context).message, now)
+        if self.layers is not None and self._scan.HasValue(context):
+            nav = self._observe(context, nav, self._scan.Eval(context).message, now)
         if self._axle is not None and (
             not nav.localization or now - nav.localization[-1][0] >= 1.0 - 1e-9
         ):
@@ -277,11 +287,13 @@ class Navigator(LeafSystem):
             return nav.costmaps[1]
         return self._costmap(nav)
 
-    def _observe(self, nav: NavState, scan, now: float) -> NavState:
-        """The costmaps' obstacle layers after ``scan`` (:mod:`.layers`)."""
+    def _observe(self, context, nav: NavState, scan, now: float) -> NavState:
+        """The costmaps' obstacle layers after ``scan`` (:mod:`.layers`), seen from the
+        pose at its stamp."""
         if scan is None or self.grid is None:
             return nav
-        return observe_layers(nav, self.layers, self.grid, self.costmap, scan, now)
+        pose = self._pose_at(context, scan.stamp)
+        return observe_layers(nav, self.layers, self.grid, self.costmap, scan, pose, now)
 
     # -- tasks
 
@@ -299,10 +311,14 @@ class Navigator(LeafSystem):
         """The state in ``context`` (this system's)."""
         return context.get_abstract_state(self._nav).get_value()
 
-    def goal_in_map(self, context, goal: NavigationGoal, frame_id: str) -> NavigationGoal:
-        """``goal`` in ``frame_id`` as a map goal at ``context`` (:func:`goal_in_map`)."""
+    def goal_in_map(
+        self, context, goal: NavigationGoal, frame_id: str, stamp: float = 0.0
+    ) -> NavigationGoal:
+        """``goal`` in ``frame_id`` at ``stamp`` (0: now) as a map goal at ``context``
+        (:func:`goal_in_map`; a base frame's pose at the stamp, from the pose buffer)."""
         odom = (0.0, 0.0, 0.0) if self._axle is None else tuple(self._map_to_odom.Eval(context))
-        return goal_in_map(goal, frame_id, odom, lambda: self._pose(context)[0])
+        at = stamp if stamp > 0.0 else context.get_time()
+        return goal_in_map(goal, frame_id, odom, lambda: self._pose_at(context, at))
 
     def _requested(self, context, nav: NavState):
         """(state, the task requested since the last update or None)."""
@@ -313,12 +329,14 @@ class Navigator(LeafSystem):
             if publication.count > nav.received:
                 message = publication.message
                 task = tuple(message) if isinstance(message, (tuple, list)) else (message,)
-                try:  # a goal in its header's frame, to the map
-                    task = tuple(self.goal_in_map(context, g.goal, g.frame_id)
+                try:  # a goal in its header's frame at its stamp, to the map
+                    task = tuple(self.goal_in_map(context, g.goal, g.frame_id, g.stamp)
                                  if isinstance(g, FramedGoal) else g for g in task)  # fmt: skip
                 except ValueError as error:  # the current task goes on
                     _log.warning("goal_pose rejected: %s", error)
-                    return dc.replace(nav, received=publication.count), None
+                    return dc.replace(
+                        nav, received=publication.count, rejected=nav.rejected + 1
+                    ), None
                 return dc.replace(nav, received=publication.count), task
         return nav, None
 
@@ -390,37 +408,9 @@ class Navigator(LeafSystem):
         return path_blocked(self._costmap(nav), nav.path[nav.path_index :])
 
     def _finish(self, nav: NavState, pose, now: float, reason: str, then=True) -> NavState:
-        """The goal's result, measured on the ground truth; the next goal sent from
-        ``pose`` (the localization's) if ``then``."""
-        goal = nav.goals[nav.goal]
-        truth = nav.last_pose
-        error = math.hypot(truth[0] - goal.x, truth[1] - goal.y)
-        yaw_error = abs(wrap(truth[2] - goal.yaw))
-        result = GoalResult(
-            name=goal.name,
-            reached=reason == "reached",
-            reason=reason,
-            start=nav.started,
-            end=now,
-            pose=tuple(float(v) for v in truth),
-            position_error=error,
-            yaw_error=yaw_error,
-            path_length=nav.driven,
-            recoveries=nav.recoveries,
-            blocked_replans=nav.blocked_replans,
-            first_plan=nav.first_plan,
-            plan_length=nav.plan_length,
-        )
-        log = _log.info if result.reached else _log.warning
-        log(
-            "goal %r %s at %.2f s: position error %.3f m, yaw error %.3f rad",
-            goal.name,
-            reason,
-            now,
-            error,
-            yaw_error,
-        )
-        nav = dc.replace(nav, results=(*nav.results, result))
+        """The goal's result (:func:`goal_result`); the next goal sent from ``pose`` (the
+        localization's) if ``then``."""
+        nav = dc.replace(nav, results=(*nav.results, goal_result(nav, now, reason)))
         return self._start(nav, nav.goal + 1, pose, now) if then else nav
 
     def _goal_reached(self, nav: NavState, pose, speed) -> tuple[bool, NavState]:
@@ -508,7 +498,7 @@ class Navigator(LeafSystem):
             recovery,
             pose,
             now,
-            lambda d: blocked_behind(self._local(nav), pose, d, self._inscribed),
+            lambda d: blocked_behind(self._local(nav), pose, d, self._footprint),
         )
         if not done:
             return nav, v, w
@@ -531,6 +521,39 @@ class Navigator(LeafSystem):
         nav, now = self.nav_state(context), context.get_time()
         localized = self.LOCALIZATION if self._axle is not None else ""
         return navigation_summary(nav, now, self.controller, localized)
+
+
+def goal_result(nav: NavState, now: float, reason: str) -> GoalResult:
+    """The current goal's result, measured on the ground truth, logged."""
+    goal = nav.goals[nav.goal]
+    truth = nav.last_pose
+    error = math.hypot(truth[0] - goal.x, truth[1] - goal.y)
+    yaw_error = abs(wrap(truth[2] - goal.yaw))
+    result = GoalResult(
+        name=goal.name,
+        reached=reason == "reached",
+        reason=reason,
+        start=nav.started,
+        end=now,
+        pose=tuple(float(v) for v in truth),
+        position_error=error,
+        yaw_error=yaw_error,
+        path_length=nav.driven,
+        recoveries=nav.recoveries,
+        blocked_replans=nav.blocked_replans,
+        first_plan=nav.first_plan,
+        plan_length=nav.plan_length,
+    )
+    log = _log.info if result.reached else _log.warning
+    log(
+        "goal %r %s at %.2f s: position error %.3f m, yaw error %.3f rad",
+        goal.name,
+        reason,
+        now,
+        error,
+        yaw_error,
+    )
+    return result
 
 
 def check_goals(goals: list[NavigationGoal], costmap: Costmap, where: str = "") -> None:

@@ -23,7 +23,9 @@ from armando_drake.tools.schema import param
 
 OBSTACLE_LAYER = "nav2_costmap_2d::ObstacleLayer"
 VOXEL_LAYER = "nav2_costmap_2d::VoxelLayer"
-COMBINATION_METHODS = (0, 1)  # 0 overwrite, 1 maximum (updateWithOverwrite / updateWithMax)
+# 0 overwrite, 1 maximum, 2 maximum leaving unknown master cells (updateWithOverwrite,
+# updateWithMax, updateWithMaxWithoutUnknownOverwrite)
+COMBINATION_METHODS = (0, 1, 2)
 
 _OBSTACLE_KEYS = {
     "plugin",
@@ -94,7 +96,7 @@ class ObstacleParameters:
     enabled: bool = True
     sources: list[ObservationSource] = field(default_factory=list)
     footprint_clearing_enabled: bool = True
-    combination_method: int = 1  # COMBINATION_METHODS: 0 overwrite, 1 maximum
+    combination_method: int = 1  # COMBINATION_METHODS: 0 overwrite, 1 maximum, 2 (unknown kept)
 
 
 @LAYERS.register(OBSTACLE_LAYER, instead="the obstacle layer runs instead (a planar scan, 2-D)")
@@ -145,7 +147,8 @@ def _obstacle_layer(name: str, layer: dict, enabled: bool, where, ignored) -> Ob
     method = layer.get("combination_method", 1)
     if method not in COMBINATION_METHODS or isinstance(method, bool):
         raise ConfigError(
-            f"{here}.combination_method={method!r} is not one of 0 (overwrite), 1 (maximum)"
+            f"{here}.combination_method={method!r} is not one of 0 (overwrite), 1 (maximum), "
+            "2 (maximum without overwriting unknown)"
         )
     params.combination_method = int(method)
     for source in names.split():

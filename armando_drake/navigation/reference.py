@@ -45,7 +45,10 @@ MEANINGS = {
     "stateful": "the position, once within tolerance, stays reached while turning",
     "observation_sources": "the obstacle layer's sources, by name (LaserScan ones marked)",
     "footprint_clearing_enabled": "the cells under the robot are cleared",
-    "combination_method": "0 overwrites the master grid, 1 takes the maximum",
+    "combination_method": (
+        "0 overwrites the master grid, 1 takes the maximum, 2 the maximum leaving an unknown "
+        "master cell unknown"
+    ),
     "behavior_plugins": "the behaviours the recoveries may run",
     "topic": "the source's topic (the lidar's scan here)",
     "data_type": "LaserScan (marked and cleared) or PointCloud2 (accepted)",

@@ -45,11 +45,11 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from armando_drake.messages.types import Odometry, PublicationValue
-from armando_drake.navigation.amcl import ODOM_HISTORY, body_odometry, compose, inverse
+from armando_drake.messages.types import PublicationValue
 from armando_drake.navigation.follower import wrap
 from armando_drake.navigation.maps import FREE, OCCUPIED, UNKNOWN, OccupancyMap
 from armando_drake.navigation.nav2_params import fill, read_yaml
+from armando_drake.navigation.pose_buffer import RobotPoses, compose, inverse
 from armando_drake.tools.errors import ConfigError
 from armando_drake.tools.schema import param
 
@@ -375,7 +375,6 @@ class SlamState:
     seen: int = 0  # scans seen (for throttle_scans)
     used: int = 0  # scans used
     response: float = 0.0  # the last match's response
-    history: tuple = ()  # ((stamp, odometry pose), ...) the latest odometry poses
     published: float = -math.inf  # when the map was last published
 
     def __deepcopy__(self, memo):
@@ -389,29 +388,29 @@ class SlamMapper(LeafSystem):
 
         name: SlamMapper
         input_ports:
-        - odom
+        - poses
         - scan
         output_ports:
         - map_to_odom
         - estimate
         - map
 
-    - ``odom``: the drive's latest Odometry; ``scan``: a Publication of LaserScan;
+    - ``poses``: the robot's :class:`~.pose_buffer.RobotPoses` (the odometry at a scan's
+      stamp); ``scan``: a Publication of LaserScan;
     - ``map_to_odom``: (x, y, yaw) of the odometry frame in the map;
     - ``estimate``: (x, y, yaw) of the base in the map at the last scan used;
     - ``map``: the OccupancyMap published every ``map_update_interval``.
     """
 
-    def __init__(self, params: SlamParameters, blank: OccupancyMap, laser, *, axle, rate,
+    def __init__(self, params: SlamParameters, blank: OccupancyMap, laser, *, rate,
                  footprint: float = 0.0, start=(0.0, 0.0, 0.0)):  # fmt: skip
         super().__init__()
         self.params = params
         self.blank = blank
         self.laser = tuple(float(v) for v in laser)
-        self._axle = axle
         self._footprint = footprint
         self._start = tuple(float(v) for v in start)
-        self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
+        self._poses = self.DeclareAbstractInputPort("poses", AbstractValue.Make(RobotPoses()))
         self._scan = self.DeclareAbstractInputPort("scan", PublicationValue())
         shape = blank.data.shape
         hits = np.zeros((SUB * shape[0], SUB * shape[1]), dtype=np.int32)
@@ -426,26 +425,23 @@ class SlamMapper(LeafSystem):
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._Update)
 
     def _Update(self, context, state) -> None:
-        message = self._odom.Eval(context)
+        odometry = self._poses.Eval(context).odom
         s = context.get_abstract_state(self._state).get_value()
-        odom_now = body_odometry(message, self._axle)
-        history = (*s.history, (message.stamp, odom_now))[-ODOM_HISTORY:]
-        s = dc.replace(s, history=history)
         scan = self._scan.Eval(context) if self._scan.HasValue(context) else None
         if scan is not None and scan.count != s.scan_count and scan.message is not None:
             s = dc.replace(s, scan_count=scan.count, seen=s.seen + 1)
             if (s.seen - 1) % max(1, int(self.params.throttle_scans)) == 0:
-                s = self._use(s, scan.message, state)
+                s = self._use(s, scan.message, odometry.at(scan.message.stamp), state)
         now = context.get_time()
         if now - s.published >= self.params.map_update_interval - 1e-9 and s.used:
             state.get_mutable_abstract_state(self._map).set_value(occupancy(s.logodds, self.blank))
             s = dc.replace(s, published=now)
         state.get_mutable_abstract_state(self._state).set_value(s)
 
-    def _use(self, s: SlamState, scan, state) -> SlamState:
-        """The scan matched and inserted, when the robot moved enough since the last one."""
+    def _use(self, s: SlamState, scan, odom, state) -> SlamState:
+        """The scan matched and inserted, when the robot moved enough since the last one
+        (``odom``: the odometry's pose at the scan's stamp)."""
         p = self.params
-        odom = min(s.history, key=lambda entry: abs(entry[0] - scan.stamp))[1]
         if s.pose is None:
             predicted = compose(self._start, odom)  # map -> odom starts at the spawn pose
         else:
@@ -486,7 +482,7 @@ class SlamMapper(LeafSystem):
     def poses(self, context) -> tuple[tuple, tuple]:
         """The base's pose (x, y, yaw) in the map by the odometry alone, and corrected
         (map -> odom, then the odometry), now."""
-        odom = body_odometry(self._odom.Eval(context), self._axle)
+        odom = self._poses.Eval(context).odom.latest
         map_to_odom = context.get_discrete_state(self._map_to_odom).get_value()
         return compose(self._start, odom), compose(map_to_odom, odom)
 

@@ -31,7 +31,12 @@ from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
-from armando_drake.messages.definitions import header, pose_stamped_message, transform_stamped
+from armando_drake.messages.definitions import (
+    header,
+    pose_stamped_message,
+    seconds,
+    transform_stamped,
+)
 from armando_drake.messages.publications import SUBSCRIBE, Send, Topic
 from armando_drake.messages.types import Odometry
 from armando_drake.navigation.config import NavigationGoal
@@ -180,7 +185,7 @@ GOAL_RANGE = 1e6
 
 def goal_pose_of(message: Any) -> FramedGoal:
     """The navigation goal of a received geometry_msgs/PoseStamped (RViz's 2D goal), in
-    its header's frame (map when none);
+    its header's frame (map when none) at its header's stamp (0 when none: the latest);
     :class:`~armando_drake.tools.rejections.RejectedMessage` for a position that is not
     finite or beyond GOAL_RANGE, an orientation that is not finite or a zero quaternion."""
     pose = message["pose"]
@@ -195,8 +200,11 @@ def goal_pose_of(message: Any) -> FramedGoal:
         qx, qy, qz, qw = (v / norm for v in (qx, qy, qz, qw))
     yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy**2 + qz**2))
     goal = NavigationGoal(name="goal_pose", x=float(p["x"]), y=float(p["y"]), yaw=yaw)
-    frame_id = str(message.get("header", {}).get("frame_id", "") or "map")
-    return FramedGoal(goal, frame_id)  # the navigator takes it to the map
+    head = message.get("header") or {}
+    frame_id = str(head.get("frame_id", "") or "map")
+    stamp = seconds(head["stamp"]) if head.get("stamp") is not None else 0.0
+    require_finite([("header.stamp", stamp)])
+    return FramedGoal(goal, frame_id, stamp)  # the navigator takes it to the map at its stamp
 
 
 @dataclass(frozen=True, eq=False)

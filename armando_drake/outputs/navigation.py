@@ -55,6 +55,17 @@ def navigation_summary(world, context) -> dict[str, Any] | None:
     return summary
 
 
+def goal_rejections(world, context) -> dict[str, int]:
+    """``/goal_pose`` messages the navigator refused (a frame the world does not know),
+    for summary.json's ``rejected_messages`` (empty without a navigation or a refusal)."""
+    robot = world.robot_with("navigation")
+    if robot is None or robot.navigation is None:
+        return {}
+    navigator = robot.navigation.navigator
+    rejected = navigator.nav_state(navigator.GetMyContextFromRoot(context)).rejected
+    return {"/goal_pose": rejected} if rejected else {}
+
+
 def mapping_summary(world, navigation, built, context) -> dict[str, Any]:
     """summary.json's ``navigation.mapping``: the map ``built`` (which becomes the
     navigation's map, saved and drawn) against the world's, the exploration, the drift

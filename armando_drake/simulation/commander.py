@@ -74,7 +74,7 @@ def as_goal(pose: Any, name: str, navigator=None, context=None) -> NavigationGoa
         framed = goal_pose_of(pose)
         goal = dc.replace(framed.goal, name=name)
         if navigator is not None:
-            goal = navigator.goal_in_map(context, goal, framed.frame_id)
+            goal = navigator.goal_in_map(context, goal, framed.frame_id, framed.stamp)
     else:
         values = list(pose)
         if len(values) != 3:

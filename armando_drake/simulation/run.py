@@ -35,6 +35,7 @@ from armando_drake.control.sequencer import Sinusoid, mode_of, wave_of
 from armando_drake.control.stack import effective_actuators
 from armando_drake.kinematics.arm import tool_frame
 from armando_drake.outputs.navigation import (
+    goal_rejections,
     navigation_summary,
     write_navigation_map,
     write_navigation_plot,
@@ -722,6 +723,8 @@ def _result(scenario, world, simulator, table, tracker, log_dir, name: str = "")
         result.perception = port.Eval(simulator.get_context()).summary()
     if world.ros2_bridge is not None:
         result.rejected_messages = world.ros2_bridge.rejections.counts
+    for topic, n in goal_rejections(world, simulator.get_context()).items():
+        result.rejected_messages[topic] = result.rejected_messages.get(topic, 0) + n
     if watcher.detectors is not None:
         result.vision = write_vision_outputs(
             watcher,

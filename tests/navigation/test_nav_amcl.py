@@ -10,15 +10,9 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 
-from armando_drake.navigation.amcl import (
-    AmclParameters,
-    ParticleFilter,
-    amcl_parameters,
-    body_odometry,
-    compose,
-    inverse,
-)
+from armando_drake.navigation.amcl import AmclParameters, ParticleFilter, amcl_parameters
 from armando_drake.navigation.maps import OccupancyMap
+from armando_drake.navigation.pose_buffer import body_odometry, compose, inverse
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import load_scenario, merge_overrides
 
@@ -98,7 +92,7 @@ def test_amcl_localizes_fra2mo_on_the_saved_map_from_half_a_metre_and_0_3_rad_of
     amcl = world.robot().navigation.amcl
     context = amcl.GetMyContextFromRoot(simulator.get_context())
     map_to_odom = amcl.GetOutputPort("map_to_odom").Eval(context)
-    pose = compose(map_to_odom, body_odometry(amcl.GetInputPort("odom").Eval(context), 0.04025))
+    pose = compose(map_to_odom, amcl.GetInputPort("poses").Eval(context).odom.latest)
     plant = world.plant
     body = plant.get_body(next(iter(plant.GetFloatingBaseBodies())))
     X = plant.EvalBodyPoseInWorld(plant.GetMyContextFromRoot(simulator.get_context()), body)

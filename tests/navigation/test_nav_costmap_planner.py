@@ -41,7 +41,12 @@ def _wall_map() -> OccupancyMap:
 def test_inflation_costs_equal_upstreams_formula():
     data = np.zeros((41, 41), dtype=np.int8)
     data[20, 20] = 100
-    params = CostmapParameters(robot_radius=0.2, inflation_radius=0.75, cost_scaling_factor=2.0)
+    # A footprint whose inscribed radius is 0.2 m (a robot_radius is Nav2's padded 16-gon:
+    # 0.2059 m for 0.2 m, test_nav_costmap_upstream.py)
+    square = [[0.2, 0.2], [-0.2, 0.2], [-0.2, -0.2], [0.2, -0.2]]
+    params = CostmapParameters(footprint=square, footprint_padding=0.0, inflation_radius=0.75,
+                               cost_scaling_factor=2.0)  # fmt: skip
+    assert params.inscribed_radius == 0.2
     costs = make_costmap(OccupancyMap(data, RES, (0.0, 0.0, 0.0)), params).costs
     assert costs[20, 20] == 254
     for cells in range(1, 20):

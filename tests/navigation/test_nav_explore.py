@@ -239,4 +239,6 @@ def test_the_summary_has_the_mapping_section_and_the_figure_is_written(explored,
     reasons = [goal["reason"] for goal in summary["goals"]]
     assert len(reasons) == summary["mapping"]["frontier_goals"]
     assert set(reasons) <= {"superseded", "reached", "explored", "no plan", "progress timeout"}
-    assert reasons[-1] == "explored"
+    # The last one explored, or reached just before the search found no frontier left
+    # (the scans placed with the odometry at their stamp: the drifting run reaches it).
+    assert reasons[-1] in ("explored", "reached")
