@@ -47,6 +47,7 @@ comes without one).
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import os
@@ -136,6 +137,28 @@ def parse_with_lines(text: str, source: str = "") -> tuple[ET.Element, dict[ET.E
     return builder.close(), lines
 
 
+def xacro_origin(
+    source: str, written: list[str], parents: dict, element: ET.Element, line: int | None
+) -> str:
+    """``element`` of the URDF expanded from the xacro ``source`` (whose lines are
+    ``written``; ``parents``: each element's parent in the expanded tree); see ``where``."""
+    named = element
+    while named is not None and not named.get("name"):
+        named = parents.get(named)
+    if named is None:
+        return f"{source} (line {line} of the expanded URDF)" if line else source
+    name = named.get("name")
+    hits = [
+        number
+        for number, text in enumerate(written, 1)
+        if f'name="{name}"' in text or f"name='{name}'" in text
+    ]
+    if len(hits) == 1:
+        return f"{source}:{hits[0]} (<{named.tag} name={name!r}>)"
+    what = f"<{named.tag} name={name!r}>"
+    return f"{source} ({what}, line {line} of the expanded URDF)" if line else source
+
+
 def _box_corners(half: np.ndarray) -> np.ndarray:
     signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
     return signs * half
@@ -161,10 +184,23 @@ class _Preparation:
         self.density = DEFAULT_DENSITY
         self.vertices: dict[Path, np.ndarray] = {}
         self.links = {link.get("name", ""): link for link in self.root.findall("link")}
+        self._xacro: tuple | None = None  # (the xacro's lines, parents), for where()
 
     def where(self, element: ET.Element) -> str:
+        """Where ``element`` came from: ``file:line`` of a URDF. xacro keeps no map from
+        its output back to its input, so for a xacro the line is the xacro's own line of
+        the nearest named element (``name="..."`` written there once), else the expanded
+        URDF's line, said as such."""
         line = self.lines.get(element)
-        return f"{self.source}:{line}" if line else self.source
+        if not self.source.endswith(".xacro"):
+            return f"{self.source}:{line}" if line else self.source
+        if self._xacro is None:
+            written: list[str] = []
+            with contextlib.suppress(OSError, UnicodeDecodeError):
+                written = Path(self.source).read_text(encoding="utf-8").splitlines()
+            parents = {child: parent for parent in self.root.iter() for child in parent}
+            self._xacro = (written, parents)
+        return xacro_origin(self.source, *self._xacro, element, line)
 
     def warn(self, message: str) -> None:
         LOGGER.warning("%s", message)
