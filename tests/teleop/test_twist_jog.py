@@ -216,3 +216,50 @@ def test_a_gamepad_drives_as_teleop_twist_joy_while_its_enable_button_is_held(te
     jog.gamepad_source = lambda: Pad(enable=False, forward=1.0)
     teleop.advance(0.3)
     assert teleop.published()[1:] == (0.0, 0.0)  # released: stopped
+
+
+# Presses a key in the page as a keyboard does (Meshcat's window-level keydown handler calls
+# the key's button, which sends its message): ``times`` times in one go.
+PRESS_KEY_JS = """([code, times]) => {
+  for (let i = 0; i < times; i++) {
+    document.body.dispatchEvent(new KeyboardEvent("keydown", {code: code, bubbles: true}));
+  }
+}"""
+
+
+@pytest.mark.browser
+def test_ten_thousand_speed_keys_in_the_page_keep_the_base_finite(teleop, chromium):
+    """The same 10,000 presses of q, typed in the real page in headless Chromium: every
+    one reaches Meshcat as a click, the speeds stop at their ceilings, the next key drives
+    a finite command and no NaN reaches the base's log."""
+    from browser import browser_page, open_url
+
+    from armando_drake.teleop.twist_jog import MAX_JOG_SPEED, MAX_JOG_TURN
+
+    label = button_label("q")
+    with browser_page(chromium) as page:
+        open_url(page, teleop.meshcat.web_url())
+        page.wait_for_function(
+            "() => viewer.keydown_callbacks && 'KeyQ' in viewer.keydown_callbacks", timeout=20000
+        )
+        page.evaluate(PRESS_KEY_JS, ["KeyI", 1])
+        before = teleop.meshcat.GetButtonClicks(label)
+        page.evaluate(PRESS_KEY_JS, ["KeyQ", 10_000])
+        deadline = time.monotonic() + 60.0
+        while teleop.meshcat.GetButtonClicks(label) < before + 10_000:
+            assert time.monotonic() < deadline, "Meshcat counted too few clicks of q"
+            time.sleep(0.01)
+        teleop.advance(0.5)
+        jog = teleop.world.robot().twist
+        assert jog.speeds(teleop.context) == (MAX_JOG_SPEED, MAX_JOG_TURN)
+        assert teleop.published()[1:] == (MAX_JOG_SPEED, 0.0)
+        turns = teleop.meshcat.GetButtonClicks(button_label("j"))
+        page.evaluate(PRESS_KEY_JS, ["KeyJ", 1])
+        while teleop.meshcat.GetButtonClicks(button_label("j")) == turns:
+            assert time.monotonic() < deadline, "Meshcat did not count the click of j"
+            time.sleep(0.01)
+        teleop.advance(0.5)
+        assert teleop.published()[1:] == (0.0, MAX_JOG_TURN)
+    rows = teleop.world.robot().base_log.array()
+    assert len(rows) and np.isfinite(rows).all()
+    assert np.ptp(rows[:, COLUMNS.index("x")]) > 0.01  # it drove, at a finite speed
