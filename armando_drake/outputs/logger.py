@@ -76,6 +76,12 @@ def _rate(name: str, value: float) -> float:
     return float(value)
 
 
+def rounded(value: float, digits: int = 3) -> float:
+    """``value`` rounded to ``digits`` decimals, a negative zero made 0 (printed as
+    ``0.000``, not ``-0.000``)."""
+    return round(float(value), digits) + 0.0
+
+
 class JointStateLogger(VectorLogSink):
     """Records joint states at ``update_rate``, writes them to CSV, prints positions.
 
@@ -281,7 +287,7 @@ class JointStateLogger(VectorLogSink):
         positions = self.get_input_port().Eval(context)[self._positions]
         lines = [f"[t={context.get_time():.3f} s] Joint positions:"]
         lines += [
-            f"Joint {name}: {position:.3f}"
+            f"Joint {name}: {rounded(position):.3f}"
             for name, position in zip(self._joint_names, positions, strict=True)
         ]
         stream = sys.stdout if self._stream is None else self._stream

@@ -34,6 +34,7 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from armando_drake.control.sequencer import Sinusoid, mode_of, wave_of
 from armando_drake.control.stack import effective_actuators
 from armando_drake.kinematics.arm import tool_frame
+from armando_drake.outputs.logger import rounded
 from armando_drake.outputs.navigation import (
     goal_rejections,
     navigation_summary,
@@ -381,8 +382,8 @@ def format_table(joint_names: list[str], steps: list[StepResult]) -> str:
         f"  {'final error':>11}  {'after settling':>14}  {'settling [s]':>12}"
     ]
     for k, step in enumerate(steps):
-        target = " ".join(f"{v:6.3f}" for v in step.target)
-        reached = " ".join(f"{v:6.3f}" for v in step.reached)
+        target = " ".join(f"{rounded(v):6.3f}" for v in step.target)
+        reached = " ".join(f"{rounded(v):6.3f}" for v in step.reached)
         settle = "-" if step.settling_time is None else f"{step.settling_time:.3f}"
         after = step.largest_error_after_settling
         after_text = "-" if after is None else f"{after:.4f}"

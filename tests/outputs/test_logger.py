@@ -284,3 +284,22 @@ def test_a_simulation_slower_than_real_time_flushes_at_least_every_half_second(t
     _, rows = read_rows(path)  # without a flush or a close: what a kill would leave
     assert rows[-1][0] >= 0.2 - 1e-9
     assert [row[0] for row in rows] == pytest.approx([k / 100 for k in range(len(rows))])
+
+
+def test_a_negative_zero_prints_as_zero():
+    from armando_drake.outputs.logger import rounded
+    from armando_drake.simulation.run import StepResult, format_table
+
+    assert f"{rounded(-0.0001):.3f}" == "0.000" and f"{rounded(-0.0006):.3f}" == "-0.001"
+    step = StepResult(
+        start=0.0,
+        end=3.0,
+        target=[0.0, -0.0],
+        reached=[-0.0002, 0.0],
+        final_error=0.0002,
+        largest_error_after_settling=None,
+        settling_time=None,
+    )
+    table = format_table(["a", "b"], [step])
+    assert "-0.000" not in table
+    assert table.splitlines()[1].split()[2:6] == ["0.000"] * 4
