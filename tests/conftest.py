@@ -210,3 +210,26 @@ def pytest_xdist_auto_num_workers(config):
     """``-n auto``: a worker per CPU this process may use, at most 4 (the tests start
     simulations, browsers and servers of their own)."""
     return max(1, min(4, len(os.sched_getaffinity(0))))
+
+
+def refused_in_one_line(call, error: type[Exception], names, watchdog: float) -> str:
+    """``call()`` raises ``error`` whose message is one line naming each of ``names``,
+    within ``watchdog`` seconds (more is a hang: SIGALRM ends it)."""
+    import signal
+
+    def expired(signum, frame):
+        raise TimeoutError(f"still running after {watchdog} s: a hang")
+
+    previous = signal.signal(signal.SIGALRM, expired)
+    signal.alarm(int(watchdog))
+    try:
+        with pytest.raises(error) as raised:
+            call()
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    message = str(raised.value)
+    assert "\n" not in message.strip(), message
+    for name in names:
+        assert name in message, (name, message)
+    return message

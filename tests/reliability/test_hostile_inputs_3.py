@@ -6,7 +6,6 @@ never an internal error, a hang or a silent wrong run."""
 import json
 import os
 import shutil
-import signal
 import struct
 import subprocess
 import sys
@@ -17,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from conftest import refused_in_one_line
 from PIL import Image
 
 from armando_drake.learning.network import ALL_FEATURES, IkModel
@@ -39,23 +39,7 @@ WATCHDOG = 60  # [s] a refusal takes milliseconds; more is a hang
 def refused(call, *names: str) -> str:
     """``call()`` raises a UserInputError whose message is one line naming ``names``,
     within the watchdog's time."""
-
-    def expired(signum, frame):
-        raise TimeoutError(f"still running after {WATCHDOG} s: a hang")
-
-    previous = signal.signal(signal.SIGALRM, expired)
-    signal.alarm(WATCHDOG)
-    try:
-        with pytest.raises(UserInputError) as error:
-            call()
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, previous)
-    message = str(error.value)
-    assert "\n" not in message.strip(), message
-    for name in names:
-        assert name in message, (name, message)
-    return message
+    return refused_in_one_line(call, UserInputError, names, WATCHDOG)
 
 
 # ------------------------------------------------------------------------------ maps

@@ -4,7 +4,6 @@ links of one model), a collision mesh of 20,000 parts, a FIFO as a model's model
 as the world file. A world within the limits loads."""
 
 import os
-import signal
 import subprocess
 import sys
 import time
@@ -12,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import refused_in_one_line
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
 from pydrake.systems.framework import DiagramBuilder
 
@@ -54,23 +54,7 @@ def load(path: Path):
 def refused(path: Path, *names: str) -> str:
     """Loading ``path`` raises a WorldError of one line naming ``names``, within the
     watchdog's time."""
-
-    def expired(signum, frame):
-        raise TimeoutError(f"still loading after {WATCHDOG} s: a hang")
-
-    previous = signal.signal(signal.SIGALRM, expired)
-    signal.alarm(WATCHDOG)
-    try:
-        with pytest.raises(WorldError) as error:
-            load(path)
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, previous)
-    message = str(error.value)
-    assert "\n" not in message.strip(), message
-    for name in names:
-        assert name in message, (name, message)
-    return message
+    return refused_in_one_line(lambda: load(path), WorldError, names, WATCHDOG)
 
 
 def test_a_world_of_10000_boxes_is_refused_before_drake_parses_it(tmp_path):
