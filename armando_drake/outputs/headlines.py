@@ -21,6 +21,8 @@ import itertools
 import math
 from typing import Any
 
+from armando_drake.outputs.logger import rounded
+
 
 def chapter_lines(summary: dict[str, Any]) -> list[str]:
     """The chapter figures of a run's ``summary`` (the dictionary of summary.json)."""
@@ -51,14 +53,15 @@ def base_line(base: dict[str, Any], name: str = "") -> str:
     pose, drift = base["final_pose"], base.get("odometry_drift") or {}
     travelled = base.get("distance_travelled") or 0.0
     text = (
-        f"base{f' {name}' if name else ''}: at ({pose['x']:.3f}, {pose['y']:.3f}) m, "
-        f"yaw {pose['yaw']:.3f} rad, after {travelled:.2f} m driven"
+        f"base{f' {name}' if name else ''}: "
+        f"at ({rounded(pose['x']):.3f}, {rounded(pose['y']):.3f}) m, "
+        f"yaw {rounded(pose['yaw']):.3f} rad, after {travelled:.2f} m driven"
     )
     if drift.get("final_position") is not None:
         text += f"; odometry drift {drift['final_position']:.3f} m"
         if travelled > 0.05:
             text += f" ({100 * drift['final_position'] / travelled:.1f} % of the distance)"
-        text += f", heading {drift['final_heading']:.3f} rad"
+        text += f", heading {rounded(drift['final_heading']):.3f} rad"
     return text
 
 
@@ -119,13 +122,14 @@ def perception_line(perception: dict[str, Any]) -> str:
     for plane in perception["planes"]:
         a, b, c, d = plane["coefficients"]
         parts.append(
-            f"plane {a:+.3f} x {b:+.3f} y {c:+.3f} z {d:+.3f} = 0 ({plane['inliers']} points)"
+            f"plane {rounded(a):+.3f} x {rounded(b):+.3f} y {rounded(c):+.3f} z "
+            f"{rounded(d):+.3f} = 0 ({plane['inliers']} points)"
         )
     clusters = perception["clusters"]
     found = f"{len(clusters)} cluster{'s' if len(clusters) != 1 else ''}"
     if clusters:
         found += ": " + ", ".join(
-            f"{c['count']} points at ({', '.join(f'{v:.3f}' for v in c['centroid'])}) m"
+            f"{c['count']} points at ({', '.join(f'{rounded(v):.3f}' for v in c['centroid'])}) m"
             for c in clusters
         )
     parts.append(found)

@@ -303,3 +303,17 @@ def test_a_negative_zero_prints_as_zero():
     table = format_table(["a", "b"], [step])
     assert "-0.000" not in table
     assert table.splitlines()[1].split()[2:6] == ["0.000"] * 4
+
+
+def test_the_base_headline_prints_no_negative_zero():
+    from armando_drake.outputs.headlines import base_line
+
+    line = base_line(
+        {
+            "final_pose": {"x": 0.392, "y": -0.0000004, "yaw": -0.0001},
+            "distance_travelled": 0.39,
+            "odometry_drift": {"final_position": 0.004, "final_heading": -0.0002},
+        }
+    )
+    assert "-0.000" not in line
+    assert line.startswith("base: at (0.392, 0.000) m, yaw 0.000 rad, after 0.39 m driven")
