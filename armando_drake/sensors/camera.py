@@ -76,6 +76,9 @@ at about 95 frames/s, colour or colour + depth. ``RenderEngineVtk`` renders
 headless through EGL with no display at all, at about 37 frames/s colour
 (it antialiases every frame), which at 30 Hz leaves the world just short of
 real time; ``auto`` falls back to it, saying so, when no display can be had.
+VTK cameras render from a scene graph of their own
+(:mod:`~armando_drake.sensors.camera_scene`, the same images): a VTK engine on the
+world's scene graph would cost at every plant step, rendering or not.
 
 Noise
 -----
@@ -94,7 +97,13 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.schema import Transform
-from pydrake.geometry import RenderEngineGlParams, RenderEngineVtkParams, Rgba, SceneGraph
+from pydrake.geometry import (
+    MakeRenderEngineVtk,
+    RenderEngineGlParams,
+    RenderEngineVtkParams,
+    Rgba,
+    SceneGraph,
+)
 from pydrake.lcm import DrakeLcm
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
@@ -115,6 +124,7 @@ from armando_drake.description.camera_sensors import (
     CameraSensorInfo,
     sensor_origin,
 )
+from armando_drake.sensors.camera_scene import AddCameraScene, CameraScene
 from armando_drake.sensors.frame_hold import FrameHold
 from armando_drake.tools.xdisplay import DisplayError, ensure_display
 
@@ -305,6 +315,33 @@ def _apply_camera(
     return builder.GetMutableSubsystemByName(f"rgbd_sensor_{info.name}")
 
 
+def _add_scene_camera(
+    builder: DiagramBuilder,
+    plant: MultibodyPlant,
+    scene: CameraScene,
+    config: CameraConfig,
+    info: CameraSensorInfo,
+    instance: ModelInstanceIndex,
+) -> RgbdSensor:
+    """Adds the camera of ``config`` on the cameras' own scene graph ``scene`` (what
+    ``ApplyCameraConfig`` does, on the mirror of the link's frame); returns its sensor."""
+    name = config.renderer_name
+    try:
+        if not scene.scene_graph.HasRenderer(name):
+            scene.scene_graph.AddRenderer(name, MakeRenderEngineVtk(config.renderer_class))
+        color, depth = config.MakeCameras()
+    except RuntimeError as error:
+        raise CameraError(f"{sensor_origin(info.source, info.sensor_name)}: {error}") from None
+    body = plant.GetBodyByName(info.link, instance)
+    parent = scene.frame(plant.GetBodyFrameIdOrThrow(body.index()))
+    sensor = builder.AddNamedSystem(
+        f"rgbd_sensor_{info.name}",
+        RgbdSensor(parent, config.X_PB.GetDeterministicValue(), color, depth),
+    )
+    builder.Connect(scene.scene_graph.get_query_output_port(), sensor.query_object_input_port())
+    return sensor
+
+
 def _color_output(
     builder: DiagramBuilder,
     sensor: RgbdSensor,
@@ -349,6 +386,7 @@ def AddCameraSensors(
     noise_seed: int = 0,
     background: tuple[float, float, float] | None = None,
     instances: dict[str, ModelInstanceIndex] | None = None,
+    own_scene: bool = True,
 ) -> dict[str, AddedCamera]:
     """Adds one Drake RGB-D camera per sensor block, attached to its link.
 
@@ -363,11 +401,15 @@ def AddCameraSensors(
     With ``export`` the diagram exports ``<camera>.color_image`` and
     ``<camera>.depth_image``. ``instances``: the model instance of each robot of a world
     of several, by name: a camera whose ``robot`` names one is on that robot's link
-    (else on ``model_instance``'s). Call after ``plant.Finalize()``.
+    (else on ``model_instance``'s). With ``own_scene`` VTK cameras render from a scene
+    graph of their own (:mod:`~armando_drake.sensors.camera_scene`: the same images,
+    without VTK's cost at every plant step); call after the last geometry is
+    registered (``plant.Finalize()``, the scene objects).
     """
     if not hold and any(info.noise is not None and info.noise.stddev > 0 for info in sensors):
         _logger.warning("hold=False: camera noise is applied at the camera rate anyway")
     no_lcm = DrakeLcm("memq://null")  # ApplyCameraConfig's opt-out of LCM publishing
+    scene = None  # the VTK cameras' own scene graph, made for the first one
     added: dict[str, AddedCamera] = {}
     for info in sensors:
         instance = _instance_of(info, model_instance, instances or {})
@@ -381,7 +423,12 @@ def AddCameraSensors(
             enable_depth=enable_depth,
             background=background,
         )
-        sensor = _apply_camera(builder, plant, scene_graph, config, info, no_lcm)
+        if renderer == "vtk" and own_scene:
+            if scene is None:
+                scene = AddCameraScene(builder, scene_graph)
+            sensor = _add_scene_camera(builder, plant, scene, config, info, instance)
+        else:
+            sensor = _apply_camera(builder, plant, scene_graph, config, info, no_lcm)
         period = 1.0 / info.frame_rate
         color, frame_hold = _color_output(builder, sensor, info, hold=hold, noise_seed=noise_seed)
         # Depth is not held: it is rendered when a consumer reads it (the frame

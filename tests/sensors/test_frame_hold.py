@@ -159,3 +159,36 @@ def test_a_reader_needs_a_positive_rate_and_offset():
         hold.add_reader(0.0)
     with pytest.raises(ValueError, match=r"offset=-1.0 must be >= 0"):
         hold.add_reader(10.0, -1.0)
+
+
+def scene_camera_images(own_scene: bool, time: float = 0.3):
+    """(colour, depth, X_WB) of the falling-ball camera at ``time``, its VTK camera on the
+    cameras' own scene graph or on the world's."""
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=0.001)
+    (eye,) = Parser(plant).AddModelsFromString(CAMERA, "urdf")
+    Parser(plant).AddModelsFromString(BALL, "urdf")
+    plant.WeldFrames(
+        plant.world_frame(), plant.GetFrameByName("camera_link"), RigidTransform([0, 0, 0.5])
+    )
+    plant.Finalize()
+    plant.SetDefaultFloatingBaseBodyPose(plant.GetBodyByName("ball"), RigidTransform([1.5, 0, 0.9]))
+    (info,) = parse_camera_sensors(ET.fromstring(CAMERA), "inline.urdf")
+    camera = AddCameraSensors(builder, plant, scene_graph, eye, [info], own_scene=own_scene)
+    sensor = camera["camera"].sensor
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    simulator.AdvanceTo(time)
+    context = sensor.GetMyContextFromRoot(simulator.get_context())
+    color = sensor.GetOutputPort("color_image").Eval(context).data.copy()
+    depth = sensor.GetOutputPort("depth_image_32f").Eval(context).data.copy()
+    return color, depth, sensor.GetOutputPort("body_pose_in_world").Eval(context)
+
+
+def test_vtk_cameras_on_their_own_scene_graph_render_the_same_images():
+    color, depth, X_WB = scene_camera_images(own_scene=True)
+    color_world, depth_world, X_WB_world = scene_camera_images(own_scene=False)
+    assert np.any(color != color[0, 0])  # the ball is in view
+    np.testing.assert_array_equal(color, color_world)
+    np.testing.assert_array_equal(depth, depth_world)
+    assert X_WB.IsExactlyEqualTo(X_WB_world)
