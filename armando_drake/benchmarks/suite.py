@@ -71,6 +71,7 @@ import json
 import logging
 import os
 import platform
+import shutil
 import statistics
 import subprocess
 import sys
@@ -829,12 +830,30 @@ def camera_fps(frames: int, *, depth: bool, renderer: str = "auto") -> tuple[flo
         world.close()
 
 
-def camera_world_rtf(duration: float, renderer: str = "auto") -> float:
-    """Real-time factor of the camera scenario (the camera at its 30 Hz, colour held,
-    no live view), as fast as it goes."""
-    return pipeline_rtf(
-        "camera", duration, (f"camera: {{live_view: false, renderer: {renderer}}}",)
-    )
+def camera_world_rtf(duration: float, renderer: str = "auto", *, read: bool = False) -> float:
+    """Real-time factor of the camera scenario (the camera at its 30 Hz, no live view),
+    as fast as it goes: as the scenario is (nothing reads the images, none is rendered),
+    or with ``read`` every frame read (colour and depth saved, as the frame saver does)."""
+    overrides = [f"camera: {{live_view: false, renderer: {renderer}}}"]
+    if read:
+        folder = tempfile.mkdtemp(prefix="bench-frames-")
+        overrides.append(f"camera: {{save_frames: {folder}}}")
+    try:
+        return pipeline_rtf("camera", duration, tuple(overrides))
+    finally:
+        if read:
+            shutil.rmtree(folder, ignore_errors=True)
+
+
+def renderers_to_bench(quick: bool) -> list[str]:
+    """The renderers whose camera rows a run has: the one a world gets here first
+    (``"gl"`` where an X display or Xvfb is there, else ``"vtk"``), then VTK through EGL
+    too when that is not it (not in a ``--quick`` run, beyond the camera section)."""
+    fastest = choose_renderer("auto")
+    return [fastest] if fastest == "vtk" or quick else [fastest, "vtk"]
+
+
+ENGINES = {"gl": "RenderEngineGl", "vtk": "RenderEngineVtk"}
 
 
 def bench_camera(report: Report, frames: int, duration: float) -> None:
@@ -850,10 +869,13 @@ def bench_camera(report: Report, frames: int, duration: float) -> None:
             both = camera_fps(frames, depth=True, renderer=renderer)[0]
             rows.setdefault((renderer, "both"), []).append(both)
             rows.setdefault((renderer, "world"), []).append(camera_world_rtf(duration, renderer))
+            if not report.quick:
+                rtf = camera_world_rtf(duration, renderer, read=True)
+                rows.setdefault((renderer, "read"), []).append(rtf)
         rows.setdefault(("none", "world"), []).append(
             pipeline_rtf("camera", duration, ("camera: {enabled: false}",))
         )
-    names = {"gl": "RenderEngineGl", "vtk": "RenderEngineVtk"}
+    names = ENGINES
     for renderer in renderers:
         engine = names[renderer]
         report.add(Row("camera", f"colour render, {engine}", "frames/s", rows[renderer, "colour"]))
@@ -871,10 +893,16 @@ def bench_camera(report: Report, frames: int, duration: float) -> None:
             rows[renderer, "world"],
         )
         report.add(row.check(">=", 1.0) if renderer == fastest else row)
+        if (renderer, "read") in rows:
+            label = f"camera scenario, every frame saved, {names[renderer]}, {duration:g} s"
+            report.add(Row("camera", label, RTF, rows[renderer, "read"]))
     report.notes.append(
         f"Camera: {what} in the scene of diagrams/camera.yaml, on the CPU (no GPU). "
         "The world uses RenderEngineGl (OpenGL, on DISPLAY or a private Xvfb) when it can, "
         "else RenderEngineVtk (EGL); the target applies to the renderer a world gets here. "
+        "A camera renders only the frames a system reads: in the camera scenario nothing "
+        "reads them ('+ camera' renders none); 'every frame saved' reads colour and depth "
+        "at 30 Hz (the frame saver). "
         "The world rows include the first frame, which builds the render pipeline."
     )
 
@@ -1075,13 +1103,17 @@ def perception_fps(frames: int) -> tuple[float, float, dict[str, float], str]:
         world.close()
 
 
-def perception_world_rtf(duration: float, override: str = "") -> tuple[float, float]:
+def perception_world_rtf(
+    duration: float, override: str = "", renderer: str = "auto"
+) -> tuple[float, float]:
     """(simulated per wall-clock second, simulated per CPU second of this process) of
     the perception scenario run as fast as it goes, no viewer, from the first step
-    (which renders the first frame) to the end; building the world is not counted."""
+    (which renders the first frame) to the end, its cameras rendered by ``renderer``;
+    building the world is not counted."""
     from pydrake.systems.analysis import Simulator
 
-    world = MakeWorld(load_scenario("perception", f"{NO_CONSOLE}\n{override}"), quiet=True)
+    text = f"{NO_CONSOLE}\ncamera: {{renderer: {renderer}}}\n{override}"
+    world = MakeWorld(load_scenario("perception", text), quiet=True)
     try:
         simulator = Simulator(world.diagram)
         simulator.set_target_realtime_rate(0.0)
@@ -1094,6 +1126,7 @@ def perception_world_rtf(duration: float, override: str = "") -> tuple[float, fl
 
 
 def bench_perception(report: Report, frames: int, duration: float) -> None:
+    renderers = renderers_to_bench(report.quick)
     fps, cpu_fps = [], []
     worlds: dict[str, list[float]] = {}
     stages: dict[str, list[float]] = {}
@@ -1104,11 +1137,11 @@ def bench_perception(report: Report, frames: int, duration: float) -> None:
         cpu_fps.append(cpu_rate)
         for name, value in medians.items():
             stages.setdefault(name, []).append(value)
-        for key, override in (("with", ""), ("without", "perception: null")):
-            wall, cpu = perception_world_rtf(duration, override)
-            worlds.setdefault(key, []).append(wall)
-            worlds.setdefault(f"{key}, cpu", []).append(cpu)
-    scenario, camera_only = worlds["with"], worlds["without"]
+        for renderer in renderers:
+            for key, override in (("with", ""), ("without", "perception: null")):
+                wall, cpu = perception_world_rtf(duration, override, renderer)
+                worlds.setdefault(f"{key}, {renderer}", []).append(wall)
+                worlds.setdefault(f"{key}, {renderer}, cpu", []).append(cpu)
     report.add(
         Row("perception", "perception pipeline, 640 x 480 depth frames", "frames/s", fps).check(
             ">=", 15.0
@@ -1117,43 +1150,38 @@ def bench_perception(report: Report, frames: int, duration: float) -> None:
     report.add(
         Row("perception", "perception pipeline, per CPU second of the process", "frames/s", cpu_fps)
     )
-    report.add(
-        Row("perception", f"perception scenario, no pipeline, {duration:g} s", RTF, camera_only)
-    )
-    report.add(
-        Row(
-            "perception",
-            f"perception scenario, camera 30 Hz, pipeline 10 Hz, {duration:g} s",
-            RTF,
-            scenario,
-        ).check(">=", 1.0)
-    )
-    report.add(
-        Row(
-            "perception",
-            "perception scenario, pipeline 10 Hz, per CPU second of the process",
-            RTF,
-            worlds["with, cpu"],
-        )
-    )
+    for renderer in renderers:
+        engine = ENGINES[renderer]
+        label = f"perception scenario, no pipeline, {engine}, {duration:g} s"
+        report.add(Row("perception", label, RTF, worlds[f"without, {renderer}"]))
+        label = f"perception scenario, camera 30 Hz, pipeline 10 Hz, {engine}, {duration:g} s"
+        row = Row("perception", label, RTF, worlds[f"with, {renderer}"])
+        report.add(row.check(">=", 1.0) if renderer == renderers[0] else row)
+        label = f"perception scenario, pipeline 10 Hz, {engine}, per CPU second of the process"
+        report.add(Row("perception", label, RTF, worlds[f"with, {renderer}, cpu"]))
     steps = ", ".join(f"{name}: {statistics.median(v):.1f}" for name, v in stages.items())
     report.notes.append(
         f"Perception: diagrams/perception.yaml ({what}); the pipeline row converts the "
         f"rendered depth frame and runs every step (rendering excluded); median ms per "
         f"stage: {steps}. The scenario rows run the world with the camera at 30 Hz, "
-        "without and with the pipeline at 10 Hz (no viewer). 'Per CPU second' divides by "
+        "without and with the pipeline at 10 Hz (no viewer), by the renderer named (the "
+        "pipeline reads colour and depth at 10 Hz: 10 frames rendered a second; without it, "
+        "none). 'Per CPU second' divides by "
         "the process's CPU time instead of the wall time: what the frame rate would be "
         "with the CPU to itself, on a machine shared with other jobs."
     )
 
 
-def vision_world_rtf(duration: float, override: str) -> tuple[float, float, float, int]:
+def vision_world_rtf(
+    duration: float, override: str, renderer: str = "auto"
+) -> tuple[float, float, float, int]:
     """(simulated per wall-clock second, per CPU second of this process, detector
     seconds per frame, frames) of diagrams/vision_blob.yaml with ``override``, as fast
-    as it goes, no viewer; building the world is not counted. (vision, #15)"""
+    as it goes, no viewer, its cameras rendered by ``renderer``; building the world is
+    not counted. (vision, #15)"""
     from pydrake.systems.analysis import Simulator
 
-    text = f"{NO_CONSOLE}\ncamera: {{live_view: false}}\n{override}"
+    text = f"{NO_CONSOLE}\ncamera: {{live_view: false, renderer: {renderer}}}\n{override}"
     world = MakeWorld(load_scenario("vision_blob", text), quiet=True)
     try:
         simulator = Simulator(world.diagram)
@@ -1187,26 +1215,34 @@ VISION_CASES = (
 
 def bench_vision(report: Report, duration: float) -> None:
     """The blob scenario (640 x 480 at 30 Hz, detection on every frame)."""
-    results: dict[str, dict[str, list[float]]] = {}
+    renderers = renderers_to_bench(report.quick)
+    results: dict[tuple[str, str], dict[str, list[float]]] = {}
     for _ in range(report.repeat):
-        for label, override in VISION_CASES:
-            wall, cpu, per_frame, _frames = vision_world_rtf(duration, override)
-            entry = results.setdefault(label, {"wall": [], "cpu": [], "ms": []})
-            entry["wall"].append(wall)
-            entry["cpu"].append(cpu)
-            entry["ms"].append(per_frame * 1000.0)
-    for label, _ in VISION_CASES:
-        entry = results[label]
-        row = Row("vision", f"vision scenario, {label}, {duration:g} s", RTF, entry["wall"])
-        report.add(row.check(">=", 1.0) if "seed" in label else row)
-        if "seed" in label:
-            report.add(Row("vision", f"{label}, per CPU second of the process", RTF, entry["cpu"]))
-        if label != "no detector":
-            report.add(Row("vision", f"{label}: cost per frame", "ms", entry["ms"]))
+        for renderer in renderers:
+            for label, override in VISION_CASES:
+                wall, cpu, per_frame, _frames = vision_world_rtf(duration, override, renderer)
+                entry = results.setdefault((label, renderer), {"wall": [], "cpu": [], "ms": []})
+                entry["wall"].append(wall)
+                entry["cpu"].append(cpu)
+                entry["ms"].append(per_frame * 1000.0)
+    for renderer in renderers:
+        engine, first = ENGINES[renderer], renderer == renderers[0]
+        for label, _ in VISION_CASES:
+            entry = results[label, renderer]
+            name = f"vision scenario, {label}, {engine}, {duration:g} s"
+            row = Row("vision", name, RTF, entry["wall"])
+            report.add(row.check(">=", 1.0) if "seed" in label and first else row)
+            if "seed" in label:
+                name = f"{label}, {engine}, per CPU second of the process"
+                report.add(Row("vision", name, RTF, entry["cpu"]))
+            if label != "no detector" and first:
+                report.add(Row("vision", f"{label}: cost per frame", "ms", entry["ms"]))
     report.notes.append(
         "Vision: diagrams/vision_blob.yaml (a 640 x 480 camera at 30 Hz looking down at the "
-        "blue disc; RenderEngineGl when a display can be had), run as fast as it goes, no "
-        "viewer; the detector runs on every frame; 'cost per frame' is the OpenCV time of "
+        "blue disc), by the renderer named (RenderEngineGl first when a display can be had, "
+        "then RenderEngineVtk too), run as fast as it goes, no "
+        "viewer; the detector runs on every frame (30 frames rendered a second; none "
+        "without a detector); 'cost per frame' is the OpenCV time of "
         "the detector (wall clock, annotated image included). The seed's row runs OpenCV once per "
         "distinct binary image (armando_drake/vision/blobs.py, the same keypoints); 'as it "
         "is' runs SimpleBlobDetector over all 249 thresholds."

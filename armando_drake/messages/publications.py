@@ -69,6 +69,9 @@ class Topic:
     key: str = ""  # the name of a subscription's port on the bridge (controller.suffix)
     recorded: bool = True  # written to the MCAP recording
     live: bool = True  # published on DDS and Foxglove
+    # PUBLISH from a port: called once by each consumer that connects to the port (a
+    # camera renders only the frames read: it learns of its readers so)
+    on_attach: Callable[[], None] | None = None
 
     def __post_init__(self) -> None:
         where = f"topic {self.topic!r} ({self.type_name})"

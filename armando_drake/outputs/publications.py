@@ -83,10 +83,13 @@ def from_ports(topics: Sequence[Topic]) -> list[Topic]:
 def AttachTopics(builder, system: TopicPublisher, topics: Sequence[Topic], send: Send,
                  *, consumer: str) -> None:  # fmt: skip
     """Connects a consumer to the published ``topics``: ``system`` (made on
-    :func:`from_ports` of them, added to ``builder``) to their ports, and each source's
-    system to ``send`` (only the topics among ``topics``; ``consumer`` names it)."""
+    :func:`from_ports` of them, added to ``builder``) to their ports (telling each topic,
+    :attr:`Topic.on_attach`), and each source's system to ``send`` (only the topics
+    among ``topics``; ``consumer`` names it)."""
     for index, topic in enumerate(from_ports(topics)):
         builder.Connect(topic.port, system.get_input_port(index))
+        if topic.on_attach is not None:
+            topic.on_attach()
     for source, names in sources(topics):
         source.attach(builder, _only(send, names), consumer)
 

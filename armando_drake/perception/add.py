@@ -28,6 +28,7 @@ from armando_drake.perception.systems import (
     PointCloudPerception,
 )
 from armando_drake.perception.topics import PerceptionSource
+from armando_drake.sensors.camera import read_color
 from armando_drake.tools.errors import ScenarioError
 from armando_drake.tools.extras import extra_hint, missing_modules
 from armando_drake.tools.schema import check_config
@@ -150,6 +151,7 @@ def _add_pipeline(builder, config: PerceptionConfig, name: str, camera) -> Added
     )
     if config.frame == "world":
         builder.Connect(camera_pose, pipeline.GetInputPort("camera_pose"))
+    read_color(camera, config.rate, offset)  # the cloud's colour, at the pipeline's rate
     added = AddedPerception(
         config=config,
         camera=name,

@@ -17,6 +17,7 @@ from armando_drake.messages.definitions import header, ros_time
 from armando_drake.messages.publications import Send, Topic
 from armando_drake.perception.pipeline import NO_RESULT
 from armando_drake.perception.systems import CLUSTER_COLOURS
+from armando_drake.sensors.camera import read_color
 
 # PointCloud2 layout of /camera/points: x, y, z as float32 and rgb packed as in
 # PCL (0x00RRGGBB in the bytes of a float32), 16 bytes a point, little-endian.
@@ -225,4 +226,6 @@ class PerceptionSource:
         )
         builder.Connect(perception.points_in_camera, system.GetInputPort("points"))
         builder.Connect(perception.result, system.GetInputPort("result"))
+        if perception.config.points_record_rate > 0:  # the cloud's colour, at its rate
+            read_color(self.camera, perception.config.points_record_rate, 2 * perception.offset)
         return system

@@ -50,14 +50,20 @@ about the most Drake's 16-bit depth image can hold; farther points read as
 
 Rate
 ----
-The colour image is sampled and held at ``<update_rate>`` (a zero-order hold,
-or the noise system) so that every reader sees Gazebo's frame timing and
-rendering happens at the camera rate, never per plant step. Depth is rendered
-on demand, when a reader evaluates it (the frame saver at its rate, the live
-view only while a page shows depth), so a camera whose depth nobody reads
-costs only its colour render. SDFormat's default rate of 0
-means "every physics step", which has no meaning for Drake's variable-step
-simulation: :data:`DEFAULT_FRAME_RATE` (30 Hz) is used instead.
+The colour image is sampled and held at ``<update_rate>`` (a
+:class:`~armando_drake.sensors.frame_hold.FrameHold`, which also adds the noise)
+so that every reader sees Gazebo's frame timing: the frame of ``k / rate`` in the
+period after it. Drake renders only when a port is evaluated, and the hold
+samples only the frames its readers read (each reader says its rate with
+:meth:`AddedCamera.read_color`: a detector at the camera rate, the point-cloud
+pipeline at its own, the frame saver at its save rate, the live view and the
+recorded topics at the camera rate while they are on), so a camera whose colour
+nobody reads renders no colour, and a 10 Hz reader of a 30 Hz camera costs 10
+renders a second, not 30. Depth is rendered on demand, when a reader evaluates
+it (the frame saver at its rate, the point-cloud pipeline at its rate, the live
+view only while a page shows depth); labels are not rendered. SDFormat's default
+rate of 0 means "every physics step", which has no meaning for Drake's
+variable-step simulation: :data:`DEFAULT_FRAME_RATE` (30 Hz) is used instead.
 
 Renderer
 --------
@@ -70,35 +76,42 @@ at about 95 frames/s, colour or colour + depth. ``RenderEngineVtk`` renders
 headless through EGL with no display at all, at about 37 frames/s colour
 (it antialiases every frame), which at 30 Hz leaves the world just short of
 real time; ``auto`` falls back to it, saying so, when no display can be had.
+VTK cameras render from a scene graph of their own
+(:mod:`~armando_drake.sensors.camera_scene`, the same images): a VTK engine on the
+world's scene graph would cost at every plant step, rendering or not.
 
 Noise
 -----
 Gazebo's camera ``<noise>`` (type ``gaussian``) adds N(mean, stddev) to every
-colour channel in [0, 1] units, clamped; :class:`CameraColorNoise` does the
-same on the 8-bit colour image at the camera rate (alpha untouched). Depth
-images are noise-free.
+colour channel in [0, 1] units, clamped; the colour hold does the same on
+each 8-bit frame it samples (alpha untouched; :class:`CameraColorNoise` is such
+a hold on its own, of every frame). Depth images are noise-free.
 """
 
 from __future__ import annotations
 
 import logging
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.schema import Transform
-from pydrake.common.value import AbstractValue
-from pydrake.geometry import RenderEngineGlParams, RenderEngineVtkParams, Rgba, SceneGraph
+from pydrake.geometry import (
+    MakeRenderEngineVtk,
+    RenderEngineGlParams,
+    RenderEngineVtkParams,
+    Rgba,
+    SceneGraph,
+)
 from pydrake.lcm import DrakeLcm
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import ModelInstanceIndex
-from pydrake.systems.framework import DiagramBuilder, LeafSystem, OutputPort
-from pydrake.systems.primitives import ZeroOrderHold
+from pydrake.systems.framework import DiagramBuilder, OutputPort
 from pydrake.systems.sensors import (
     ApplyCameraConfig,
     CameraConfig,
-    ImageDepth32F,
     ImageRgba8U,
     RgbdSensor,
 )
@@ -111,21 +124,24 @@ from armando_drake.description.camera_sensors import (
     CameraSensorInfo,
     sensor_origin,
 )
+from armando_drake.sensors.camera_scene import AddCameraScene, CameraScene
+from armando_drake.sensors.frame_hold import FrameHold
 from armando_drake.tools.xdisplay import DisplayError, ensure_display
 
 _logger = logging.getLogger(__name__)
 
 
-class CameraColorNoise(LeafSystem):
+class CameraColorNoise(FrameHold):
     """Adds Gazebo-style Gaussian noise to a colour image at the camera rate.
 
     Samples its input every ``1 / frame_rate`` seconds, adds ``mean + stddev *
     N(0, 1)`` (in [0, 1] colour units, i.e. times 255) to R, G and B, clamps,
-    and holds the result in its state (so reading the output costs nothing).
+    and holds the result (so reading the output costs nothing): a
+    :class:`~armando_drake.sensors.frame_hold.FrameHold` of every frame.
 
     Ports:
-      - input ``color_image`` (ImageRgba8U)
-      - output ``color_image`` (ImageRgba8U, state)
+      - input ``image`` (ImageRgba8U)
+      - output ``image`` (ImageRgba8U)
     """
 
     def __init__(
@@ -138,28 +154,9 @@ class CameraColorNoise(LeafSystem):
         stddev: float = 0.0,
         seed: int = 0,
     ):
-        super().__init__()
-        if not frame_rate > 0:
-            raise ValueError(f"frame_rate={frame_rate!r} must be positive")
-        if not stddev >= 0:
-            raise ValueError(f"stddev={stddev!r} must be >= 0")
-        self._mean = 255.0 * mean
-        self._stddev = 255.0 * stddev
-        self._rng = np.random.default_rng(seed)
-        model = AbstractValue.Make(ImageRgba8U(width, height))
-        self._input = self.DeclareAbstractInputPort("color_image", model)
-        state = self.DeclareAbstractState(model)
-        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / frame_rate, 0.0, self._UpdateImage)
-        self.DeclareStateOutputPort("color_image", state)
-        self._state = state
-
-    def _UpdateImage(self, context, state):
-        image = self._input.Eval(context)
-        noisy = image.data.astype(np.float32)
-        noise = self._rng.normal(self._mean, self._stddev, size=noisy.shape[:2] + (3,))
-        noisy[:, :, :3] += noise.astype(np.float32)
-        out = state.get_mutable_abstract_state(self._state).get_mutable_value()
-        out.mutable_data[:] = np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
+        super().__init__(
+            ImageRgba8U(width, height), frame_rate=frame_rate, mean=mean, stddev=stddev, seed=seed
+        )
 
 
 @dataclass
@@ -170,7 +167,23 @@ class AddedCamera:
     config: CameraConfig  # the Drake camera configuration that was applied
     sensor: RgbdSensor  # Drake's sensor system (renders on demand)
     color_image: OutputPort  # ImageRgba8U, held at the camera rate (noise applied)
-    depth_image: OutputPort | None  # ImageDepth32F [m], held at the camera rate; None if off
+    depth_image: OutputPort | None  # ImageDepth32F [m], rendered when read; None if off
+    hold: FrameHold | None = None  # what holds color_image (None: not held)
+
+    def read_color(
+        self, rate: float, offset: float = 0.0, active: Callable[[], bool] | None = None
+    ) -> None:
+        """Says that a system reads ``color_image`` at ``rate`` [Hz] from ``offset`` [s]
+        (while ``active()``, if given): only the frames read are rendered."""
+        if self.hold is not None:
+            self.hold.add_reader(rate, offset, active)
+
+
+def read_color(camera, rate: float, offset: float = 0.0) -> None:
+    """:meth:`AddedCamera.read_color` of ``camera``, if it is one (a view of an image
+    that is not a camera's holds nothing)."""
+    if isinstance(camera, AddedCamera):
+        camera.read_color(rate, offset)
 
 
 def choose_renderer(wanted: str) -> str:
@@ -302,6 +315,33 @@ def _apply_camera(
     return builder.GetMutableSubsystemByName(f"rgbd_sensor_{info.name}")
 
 
+def _add_scene_camera(
+    builder: DiagramBuilder,
+    plant: MultibodyPlant,
+    scene: CameraScene,
+    config: CameraConfig,
+    info: CameraSensorInfo,
+    instance: ModelInstanceIndex,
+) -> RgbdSensor:
+    """Adds the camera of ``config`` on the cameras' own scene graph ``scene`` (what
+    ``ApplyCameraConfig`` does, on the mirror of the link's frame); returns its sensor."""
+    name = config.renderer_name
+    try:
+        if not scene.scene_graph.HasRenderer(name):
+            scene.scene_graph.AddRenderer(name, MakeRenderEngineVtk(config.renderer_class))
+        color, depth = config.MakeCameras()
+    except RuntimeError as error:
+        raise CameraError(f"{sensor_origin(info.source, info.sensor_name)}: {error}") from None
+    body = plant.GetBodyByName(info.link, instance)
+    parent = scene.frame(plant.GetBodyFrameIdOrThrow(body.index()))
+    sensor = builder.AddNamedSystem(
+        f"rgbd_sensor_{info.name}",
+        RgbdSensor(parent, config.X_PB.GetDeterministicValue(), color, depth),
+    )
+    builder.Connect(scene.scene_graph.get_query_output_port(), sensor.query_object_input_port())
+    return sensor
+
+
 def _color_output(
     builder: DiagramBuilder,
     sensor: RgbdSensor,
@@ -309,27 +349,26 @@ def _color_output(
     *,
     hold: bool,
     noise_seed: int,
-) -> OutputPort:
-    """The camera's colour image: with the block's noise, else held at its rate (``hold``)."""
-    period = 1.0 / info.frame_rate
+) -> tuple[OutputPort, FrameHold | None]:
+    """The camera's colour image and what holds it: sampled at its rate (``hold``), only
+    for the frames its readers read, with the block's noise (held either way)."""
     color = sensor.GetOutputPort("color_image")
-    if info.noise is not None and info.noise.stddev > 0:
-        noise = builder.AddNamedSystem(
-            f"camera_noise_{info.name}",
-            CameraColorNoise(
-                width=info.width,
-                height=info.height,
-                frame_rate=info.frame_rate,
-                mean=info.noise.mean,
-                stddev=info.noise.stddev,
-                seed=noise_seed,
-            ),
-        )
-        builder.Connect(color, noise.get_input_port())
-        return noise.get_output_port()
-    if hold:
-        return _hold(builder, f"camera_hold_color_{info.name}", color, period, info)
-    return color
+    noise = info.noise if info.noise is not None and info.noise.stddev > 0 else None
+    if not hold and noise is None:
+        return color, None
+    frame_hold = builder.AddNamedSystem(
+        f"camera_{'noise' if noise else 'hold_color'}_{info.name}",
+        FrameHold(
+            ImageRgba8U(info.width, info.height),
+            frame_rate=info.frame_rate,
+            on_demand=True,
+            mean=noise.mean if noise else 0.0,
+            stddev=noise.stddev if noise else 0.0,
+            seed=noise_seed,
+        ),
+    )
+    builder.Connect(color, frame_hold.get_input_port())
+    return frame_hold.get_output_port(), frame_hold
 
 
 def AddCameraSensors(
@@ -347,6 +386,7 @@ def AddCameraSensors(
     noise_seed: int = 0,
     background: tuple[float, float, float] | None = None,
     instances: dict[str, ModelInstanceIndex] | None = None,
+    own_scene: bool = True,
 ) -> dict[str, AddedCamera]:
     """Adds one Drake RGB-D camera per sensor block, attached to its link.
 
@@ -354,18 +394,22 @@ def AddCameraSensors(
     with one renderer shared by all cameras: ``renderer`` ``"vtk"`` (headless
     through EGL) or ``"gl"`` (OpenGL, needs an X display: see
     :func:`choose_renderer`), named ``renderer_name`` (default: the same).
-    With ``hold`` the colour image is sampled and held at each camera's rate
-    (set it False only to render on every evaluation); depth is rendered when
-    read; Gaussian colour noise, if the
-    block has some, is added by a :class:`CameraColorNoise` at the same rate.
+    With ``hold`` the colour image is sampled and held at each camera's rate, only
+    for the frames its readers read (:meth:`AddedCamera.read_color`; set it False
+    only to render on every evaluation); depth is rendered when read; Gaussian
+    colour noise, if the block has some, is added to the frames held.
     With ``export`` the diagram exports ``<camera>.color_image`` and
     ``<camera>.depth_image``. ``instances``: the model instance of each robot of a world
     of several, by name: a camera whose ``robot`` names one is on that robot's link
-    (else on ``model_instance``'s). Call after ``plant.Finalize()``.
+    (else on ``model_instance``'s). With ``own_scene`` VTK cameras render from a scene
+    graph of their own (:mod:`~armando_drake.sensors.camera_scene`: the same images,
+    without VTK's cost at every plant step); call after the last geometry is
+    registered (``plant.Finalize()``, the scene objects).
     """
     if not hold and any(info.noise is not None and info.noise.stddev > 0 for info in sensors):
         _logger.warning("hold=False: camera noise is applied at the camera rate anyway")
     no_lcm = DrakeLcm("memq://null")  # ApplyCameraConfig's opt-out of LCM publishing
+    scene = None  # the VTK cameras' own scene graph, made for the first one
     added: dict[str, AddedCamera] = {}
     for info in sensors:
         instance = _instance_of(info, model_instance, instances or {})
@@ -379,9 +423,14 @@ def AddCameraSensors(
             enable_depth=enable_depth,
             background=background,
         )
-        sensor = _apply_camera(builder, plant, scene_graph, config, info, no_lcm)
+        if renderer == "vtk" and own_scene:
+            if scene is None:
+                scene = AddCameraScene(builder, scene_graph)
+            sensor = _add_scene_camera(builder, plant, scene, config, info, instance)
+        else:
+            sensor = _apply_camera(builder, plant, scene_graph, config, info, no_lcm)
         period = 1.0 / info.frame_rate
-        color = _color_output(builder, sensor, info, hold=hold, noise_seed=noise_seed)
+        color, frame_hold = _color_output(builder, sensor, info, hold=hold, noise_seed=noise_seed)
         # Depth is not held: it is rendered when a consumer reads it (the frame
         # saver, a page showing it, a test), so a camera whose depth nobody reads
         # costs only its colour render.
@@ -391,22 +440,15 @@ def AddCameraSensors(
             if depth is not None:
                 builder.ExportOutput(depth, f"{info.name}.depth_image")
         added[info.name] = AddedCamera(
-            info=info, config=config, sensor=sensor, color_image=color, depth_image=depth
+            info=info,
+            config=config,
+            sensor=sensor,
+            color_image=color,
+            depth_image=depth,
+            hold=frame_hold,
         )
         _logger.debug("camera %r on %s::%s at %g Hz", info.name, model_name, info.link, 1 / period)
     return added
-
-
-def _hold(
-    builder: DiagramBuilder, name: str, port: OutputPort, period: float, info: CameraSensorInfo
-) -> OutputPort:
-    if port.get_name().startswith("depth"):
-        model = AbstractValue.Make(ImageDepth32F(info.width, info.height))
-    else:
-        model = AbstractValue.Make(ImageRgba8U(info.width, info.height))
-    zoh = builder.AddNamedSystem(name, ZeroOrderHold(period, model))
-    builder.Connect(port, zoh.get_input_port())
-    return zoh.get_output_port()
 
 
 def describe(info: CameraSensorInfo) -> str:

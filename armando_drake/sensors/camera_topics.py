@@ -13,6 +13,7 @@ import numpy as np
 
 from armando_drake.messages.definitions import header, image_message
 from armando_drake.messages.publications import Topic
+from armando_drake.sensors.camera import read_color
 from armando_drake.sensors.image_view import PUBLISH_OFFSET_FRACTION
 
 
@@ -93,11 +94,13 @@ def camera_topics(name: str, camera) -> list[Topic]:
     stream = camera_stream(name, camera)
     base = stream.topic.strip("/")
     period = 1.0 / stream.rate
+    offset = PUBLISH_OFFSET_FRACTION * period
     common = dict(
         port=camera.color_image,
         rate=stream.rate,
-        offset=PUBLISH_OFFSET_FRACTION * period,
+        offset=offset,
         frame_id=stream.frame_id,
+        on_attach=lambda: read_color(camera, stream.rate, offset),
     )
     return [
         Topic(f"{base}/image_raw", "sensor_msgs/msg/Image", read=stream.image,

@@ -43,6 +43,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.sensors import ImageDepth32F, ImageRgba8U
 
+from armando_drake.sensors.camera import read_color
 from armando_drake.tools.cli import server_url, server_urls
 
 _logger = logging.getLogger(__name__)
@@ -450,6 +451,11 @@ class FrameSaver(_FrameConsumer):
         self._depth_format = depth_format
 
     @property
+    def rate(self) -> float:
+        """The frames saved per second [Hz]."""
+        return self._rate
+
+    @property
     def directory(self) -> Path:
         return self._directory
 
@@ -493,6 +499,8 @@ def AddImageView(
             ),
         )
         builder.Connect(camera.color_image, publisher.GetInputPort("color_image"))
+        rate = camera.info.frame_rate
+        read_color(camera, rate, PUBLISH_OFFSET_FRACTION / rate)
         if with_depth:
             builder.Connect(camera.depth_image, publisher.GetInputPort("depth_image"))
     return server
@@ -523,6 +531,7 @@ def AddFrameSaver(
         ),
     )
     builder.Connect(camera.color_image, saver.GetInputPort("color_image"))
+    read_color(camera, saver.rate, PUBLISH_OFFSET_FRACTION / saver.rate)
     if with_depth:
         builder.Connect(camera.depth_image, saver.GetInputPort("depth_image"))
     return saver

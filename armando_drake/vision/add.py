@@ -15,6 +15,7 @@ from pydrake.systems.primitives import LogVectorOutput
 from armando_drake.control.stack import ControlStack
 from armando_drake.messages.publications import PublicationRegistry
 from armando_drake.messages.types import MarkerPose
+from armando_drake.sensors.camera import read_color
 from armando_drake.sensors.image_view import AddImageView, ImageViewServer
 from armando_drake.tools.errors import ScenarioError
 from armando_drake.tools.extras import require_extra
@@ -218,6 +219,7 @@ def _add_blob(builder, config, stack, cameras, added: AddedDetectors, where, con
     )
     added.blob_camera = info.name
     builder.Connect(camera.color_image, added.blob.GetInputPort("color_image"))
+    read_color(camera, info.frame_rate, FRAME_DELAY)
     builder.ExportOutput(added.blob.GetOutputPort("keypoints"), f"{info.name}.keypoints")
     added.annotated[info.name] = added.blob.GetOutputPort("annotated_image")
     if target is not None:
@@ -251,6 +253,7 @@ def _add_aruco(builder, aruco, stack, cameras, added: AddedDetectors, where) -> 
     added.aruco = builder.AddNamedSystem(f"aruco_detector_{info.name}", detector)
     added.aruco_camera = info.name
     builder.Connect(camera.color_image, detector.GetInputPort("color_image"))
+    read_color(camera, info.frame_rate, FRAME_DELAY)
     builder.Connect(plant.get_body_poses_output_port(), detector.GetInputPort("body_poses"))
     builder.ExportOutput(detector.GetOutputPort("cam_T_marker"), f"{info.name}.cam_T_marker")
     builder.ExportOutput(detector.GetOutputPort("marker_in_world"), f"{info.name}.marker_in_world")

@@ -1,0 +1,105 @@
+"""A scene graph of the cameras' own, so that a VTK engine costs only when it renders.
+
+Drake's ``SceneGraph`` hands the new geometry poses to each of its render engines at
+every pose update, that is at every plant step (the plant's contact query), whether
+a camera renders then or not. Drake's OpenGL engine takes that in its stride; VTK's
+(through EGL, what a machine without an X server has) costs more than the whole
+plant step on our 2-core machines (``docs/design/performance.md``).
+
+:func:`AddCameraScene` mirrors the perception geometry of the world's
+``SceneGraph`` (same shapes, poses in their frames and perception properties, so
+the same images) into a second ``SceneGraph`` that holds the cameras' renderer.
+Its frames' poses come from a :class:`MirroredPoses` system that reads the world's
+``QueryObject`` only when the second scene graph needs them, i.e. when a camera
+renders (or a reader asks a camera's pose). Build it after the last geometry is
+registered (after ``plant.Finalize()`` and the scene objects).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from pydrake.common.value import AbstractValue
+from pydrake.geometry import (
+    FrameId,
+    FramePoseVector,
+    GeometryFrame,
+    GeometryInstance,
+    QueryObject,
+    Role,
+    SceneGraph,
+)
+from pydrake.systems.framework import DiagramBuilder, LeafSystem
+
+CAMERA_SCENE = "camera_scene_graph"  # the name of the cameras' SceneGraph in the diagram
+
+
+class MirroredPoses(LeafSystem):
+    """The world poses of frames of one scene graph, as poses of their mirrors in another.
+
+    ``frames``: (frame of the source scene graph, its mirror) pairs. Computed on demand
+    from the source's ``QueryObject`` (nothing runs per step).
+
+    Ports:
+      - input ``query`` (QueryObject of the source scene graph)
+      - output ``poses`` (FramePoseVector of the mirror frames)
+    """
+
+    def __init__(self, frames: list[tuple[FrameId, FrameId]]):
+        super().__init__()
+        self._frames = list(frames)
+        self._query = self.DeclareAbstractInputPort("query", AbstractValue.Make(QueryObject()))
+        self.DeclareAbstractOutputPort(
+            "poses", lambda: AbstractValue.Make(FramePoseVector()), self._CalcPoses
+        )
+
+    def _CalcPoses(self, context, output) -> None:
+        query = self._query.Eval(context)
+        poses = output.get_mutable_value()
+        for source, mirror in self._frames:
+            poses.set_value(mirror, query.GetPoseInWorld(source))
+
+
+@dataclass
+class CameraScene:
+    """The cameras' scene graph and the map from the world's frames to its own."""
+
+    scene_graph: SceneGraph
+    frames: dict[FrameId, FrameId]  # world scene graph frame -> mirror frame
+
+    def frame(self, world_frame: FrameId) -> FrameId:
+        """The mirror of a frame of the world's scene graph."""
+        return self.frames[world_frame]
+
+
+def _instance(inspector, geometry) -> GeometryInstance:
+    pose, shape = inspector.GetPoseInFrame(geometry), inspector.GetShape(geometry)
+    instance = GeometryInstance(pose, shape, inspector.GetName(geometry))
+    instance.set_perception_properties(inspector.GetPerceptionProperties(geometry))
+    return instance
+
+
+def AddCameraScene(builder: DiagramBuilder, scene_graph: SceneGraph) -> CameraScene:
+    """The cameras' scene graph: the perception geometry of ``scene_graph`` mirrored, its
+    poses read from ``scene_graph``'s query port when needed (see the module)."""
+    inspector = scene_graph.model_inspector()
+    mirror = builder.AddNamedSystem(CAMERA_SCENE, SceneGraph())
+    source = mirror.RegisterSource("world_mirror")
+    world = inspector.world_frame_id()
+    frames: dict[FrameId, FrameId] = {}
+    for frame in inspector.GetAllFrameIds():
+        geometries = inspector.GetGeometries(frame, Role.kPerception)
+        if frame == world:
+            for geometry in geometries:
+                mirror.RegisterAnchoredGeometry(source, _instance(inspector, geometry))
+            continue
+        name = f"{inspector.GetName(frame)}#{frame.get_value()}"  # unique whatever the source
+        frames[frame] = mirror.RegisterFrame(
+            source, GeometryFrame(name, inspector.GetFrameGroup(frame))
+        )
+        for geometry in geometries:
+            mirror.RegisterGeometry(source, frames[frame], _instance(inspector, geometry))
+    poses = builder.AddNamedSystem("camera_scene_poses", MirroredPoses(list(frames.items())))
+    builder.Connect(scene_graph.get_query_output_port(), poses.get_input_port())
+    builder.Connect(poses.get_output_port(), mirror.get_source_pose_port(source))
+    return CameraScene(scene_graph=mirror, frames=frames)

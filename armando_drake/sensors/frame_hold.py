@@ -1,0 +1,174 @@
+"""A camera image sampled and held at the camera rate, rendered only for the frames read.
+
+Drake's ``RgbdSensor`` renders an image when its output port is evaluated. A
+``ZeroOrderHold`` on that port evaluates it at every sample, so a 30 Hz camera
+costs 30 renders a second even when nothing reads its image. :class:`FrameHold`
+keeps Gazebo's frame timing (the frame of time ``k / rate`` is what the readers
+of the period ``[k / rate, (k + 1) / rate)`` see) but samples a frame only when a
+reader reads in its period:
+
+- each reader says at which rate and offset it reads (:meth:`FrameHold.add_reader`,
+  e.g. a detector at the camera rate, a point-cloud pipeline at 10 Hz, the frame
+  saver at its save rate), optionally only while ``active()`` says so;
+- with ``on_demand=False`` (the default for a hold built alone) every frame is
+  sampled, as a ``ZeroOrderHold`` would.
+
+The sample events stay at every ``1 / rate`` either way (a frame nobody reads is
+skipped, the event does nothing), so the simulation's step boundaries, and with
+them its results, do not depend on which frames are read. A read the hold was not
+told of, in a period whose frame was not sampled (a test or a script evaluating
+the port after a run), renders the scene of that instant instead.
+
+Gazebo's camera ``<noise>`` (type ``gaussian``) is applied here, to the frames
+sampled: N(mean, stddev) added to every colour channel in [0, 1] units, clamped,
+alpha untouched (:func:`add_color_noise`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import EventStatus, LeafSystem
+
+# Two instants closer than this [s] are one (event times are sums of float periods).
+_TIME_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class FrameReader:
+    """One reader of a held image: it reads at ``rate`` [Hz] from ``offset`` [s], while
+    ``active()`` (None: always)."""
+
+    rate: float
+    offset: float = 0.0
+    active: Callable[[], bool] | None = None
+
+    def reads_between(self, start: float, end: float) -> bool:
+        """Whether it reads at an instant of ``[start, end)`` [s] (and is active)."""
+        if self.active is not None and not self.active():
+            return False
+        first = max(0, math.ceil((start - self.offset) * self.rate - 1e-6))
+        return first / self.rate + self.offset < end - _TIME_TOLERANCE
+
+
+def add_color_noise(image: np.ndarray, rng: np.random.Generator, mean: float, stddev: float):
+    """``image`` (H x W x 4 uint8) with N(``mean``, ``stddev``) [0..255 units] added to R, G
+    and B, rounded and clamped; alpha untouched."""
+    noisy = image.astype(np.float32)
+    noise = rng.normal(mean, stddev, size=noisy.shape[:2] + (3,))
+    noisy[:, :, :3] += noise.astype(np.float32)
+    return np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
+
+
+class FrameHold(LeafSystem):
+    """Holds an image sampled every ``1 / frame_rate`` seconds (from time 0).
+
+    ``model``: the image type (an ``ImageRgba8U`` or ``ImageDepth32F`` of the camera's
+    size). With ``on_demand`` a frame is sampled only when a reader of
+    :meth:`add_reader` reads in its period; without, every frame (a zero-order hold).
+    ``stddev`` > 0: Gaussian colour noise (``mean``, ``stddev`` in [0, 1] colour units,
+    random generator seeded with ``seed``) on each frame sampled (colour images only).
+
+    Ports:
+      - input ``image``
+      - output ``image``: the frame of the latest sample time
+    """
+
+    def __init__(
+        self,
+        model,
+        *,
+        frame_rate: float,
+        on_demand: bool = False,
+        mean: float = 0.0,
+        stddev: float = 0.0,
+        seed: int = 0,
+    ):
+        super().__init__()
+        if not (math.isfinite(frame_rate) and frame_rate > 0):
+            raise ValueError(f"frame_rate={frame_rate!r} must be positive")
+        if not stddev >= 0:
+            raise ValueError(f"stddev={stddev!r} must be >= 0")
+        self._rate = float(frame_rate)
+        self._on_demand = on_demand
+        self._readers: list[FrameReader] = []
+        self._mean = 255.0 * mean
+        self._stddev = 255.0 * stddev
+        self._seed = seed
+        self._rng = np.random.default_rng(seed)
+        value = AbstractValue.Make(model)
+        self._input = self.DeclareAbstractInputPort("image", value)
+        self._image = self.DeclareAbstractState(value)
+        self._tick = self.DeclareAbstractState(AbstractValue.Make(-1))  # frame held; -1 none
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / frame_rate, 0.0, self._Sample)
+        self.DeclareAbstractOutputPort("image", lambda: value.Clone(), self._CalcImage)
+        # Frames taken from the input (each a render): sampled, and rendered for a read
+        # the hold was not told of; for tests and benchmarks.
+        self.samples = 0
+        self.renders_on_read = 0
+
+    @property
+    def frame_rate(self) -> float:
+        return self._rate
+
+    @property
+    def on_demand(self) -> bool:
+        return self._on_demand
+
+    @property
+    def readers(self) -> tuple[FrameReader, ...]:
+        return tuple(self._readers)
+
+    def add_reader(
+        self, rate: float, offset: float = 0.0, active: Callable[[], bool] | None = None
+    ) -> None:
+        """Tells the hold of a reader at ``rate`` [Hz] from ``offset`` [s] (while
+        ``active()``, if given): the frames of the periods it reads in are sampled."""
+        if not (math.isfinite(rate) and rate > 0):
+            raise ValueError(f"rate={rate!r} must be positive [Hz]")
+        if not (math.isfinite(offset) and offset >= 0):
+            raise ValueError(f"offset={offset!r} must be >= 0 [s]")
+        self._readers.append(FrameReader(float(rate), float(offset), active))
+
+    def wanted(self, tick: int) -> bool:
+        """Whether the frame of ``tick`` (time ``tick / frame_rate``) is sampled."""
+        if not self._on_demand:
+            return True
+        start, end = tick / self._rate, (tick + 1) / self._rate
+        return any(reader.reads_between(start, end) for reader in self._readers)
+
+    def _frame(self, image, rng: np.random.Generator):
+        if self._stddev <= 0 and self._mean == 0:
+            return image
+        noisy = type(image)(image.width(), image.height())
+        noisy.mutable_data[:] = add_color_noise(image.data, rng, self._mean, self._stddev)
+        return noisy
+
+    def _Sample(self, context, state) -> EventStatus:
+        tick = round(context.get_time() * self._rate)
+        if not self.wanted(tick):
+            return EventStatus.DidNothing()
+        image = self._frame(self._input.Eval(context), self._rng)
+        state.get_mutable_abstract_state(self._image).set_value(image)
+        state.get_mutable_abstract_state(self._tick).set_value(tick)
+        self.samples += 1
+        return EventStatus.Succeeded()
+
+    def _CalcImage(self, context, output) -> None:
+        held = context.get_abstract_state(self._tick).get_value()
+        scaled = context.get_time() * self._rate
+        latest = math.floor(scaled + _TIME_TOLERANCE)
+        on_tick = abs(scaled - round(scaled)) < _TIME_TOLERANCE * self._rate
+        # The frame of the latest sample; at a sample instant, before its event, the one
+        # before (a zero-order hold's value then).
+        if held >= 0 and (held == latest or (on_tick and held == latest - 1)):
+            output.set_value(context.get_abstract_state(self._image).get_value())
+            return
+        # A read the hold was not told of: the scene of this instant.
+        rng = np.random.default_rng([self._seed, latest])
+        self.renders_on_read += 1
+        output.set_value(self._frame(self._input.Eval(context), rng))
