@@ -80,8 +80,11 @@ def test_the_inscribed_radius_of_a_padded_radius_is_the_polygons():
 
 @pytest.mark.xfail(
     strict=True,
-    reason="a robot_radius is still its own inscribed radius in the inflation "
-    "and the controller (0.2 m, not the padded 16-gon's 0.2059 m)",
+    reason="a robot_radius is still its own inscribed radius in the inflation and the "
+    "controller (0.2 m, not the padded 16-gon's 0.2059 m); with 0.2059 m the cost "
+    "regulation slows fra2mo near its spawn corner on fra2mo_obstacles, the crate that "
+    "the first plan grazes (0.079 m from its corner) is not yet marked near the plan at "
+    "the 5 s replan, and the plan is moved off it without ever being found blocked",
 )
 def test_the_inflation_uses_the_padded_16_gons_inscribed_radius():
     # layered_costmap.cpp setFootprint -> InflationLayer::onFootprintChanged
@@ -213,11 +216,6 @@ def test_diagonal_raytrace_does_not_clear_endpoint():
     assert layer[_cell(0.45, 0.45)] == FREE_SPACE
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="the clearing walk stops one cell short of a ray clipped at "
-    "raytrace_max_range: the clip cell (7, 7) stays lethal",
-)
 def test_clear_diagonal_distance_clears_the_clip_cell():
     # obstacle_layer_test.cpp TEST_F(ObstacleLayerTest, testClearDiagonalDistance): a ray to
     # (1.55, 1.55) clipped at raytrace_max_range 1.0 clears cells (0, 0) to (7, 7): 8 cells,
