@@ -276,7 +276,8 @@ class Navigator(LeafSystem):
         nav, task = self._requested(context, nav)
         if task is not None:
             nav = self._new_task(nav, task, pose, now)
-        nav = self._updated(context, nav)
+        if self._goal_update.HasValue(context):
+            nav = goal_updated(nav, self._goal_update.Eval(context))
         if nav.goal < 0:
             nav = self._start(nav, 0, pose, now)
         if 0 <= nav.goal < len(nav.goals):
@@ -345,22 +346,6 @@ class Navigator(LeafSystem):
                     ), None
                 return dc.replace(nav, received=publication.count), task
         return nav, None
-
-    def _updated(self, context, nav: NavState) -> NavState:
-        """The current goal replaced by a new ``goal_update`` (GoalUpdater): the same
-        task and result, the plan and the goal checker's latches redone."""
-        if not self._goal_update.HasValue(context):
-            return nav
-        publication = self._goal_update.Eval(context)
-        if publication.count <= nav.updates:
-            return nav
-        nav = dc.replace(nav, updates=publication.count)
-        if not 0 <= nav.goal < len(nav.goals):
-            return nav
-        goal = publication.message
-        _log.info("goal %r updated: (%.3f, %.3f, %.3f)", goal.name, goal.x, goal.y, goal.yaw)
-        goals = (*nav.goals[: nav.goal], goal, *nav.goals[nav.goal + 1 :])
-        return dc.replace(nav, goals=goals, path=None, xy_reached=False, rotating_to_goal=False)
 
     def _new_task(self, nav: NavState, task: tuple, pose, now: float) -> NavState:
         """The current goal canceled (if any), the pending ones dropped, ``task`` started."""
@@ -543,6 +528,21 @@ class Navigator(LeafSystem):
         nav, now = self.nav_state(context), context.get_time()
         localized = self.LOCALIZATION if self._axle is not None else ""
         return navigation_summary(nav, now, self.controller, localized)
+
+
+def goal_updated(nav: NavState, publication) -> NavState:
+    """``nav`` with its current goal replaced by a new ``goal_update`` ``publication``
+    (Nav2's GoalUpdater): the same task and result, the plan and the goal checker's
+    latches redone."""
+    if publication.count <= nav.updates:
+        return nav
+    nav = dc.replace(nav, updates=publication.count)
+    if not 0 <= nav.goal < len(nav.goals):
+        return nav
+    goal = publication.message
+    _log.info("goal %r updated: (%.3f, %.3f, %.3f)", goal.name, goal.x, goal.y, goal.yaw)
+    goals = (*nav.goals[: nav.goal], goal, *nav.goals[nav.goal + 1 :])
+    return dc.replace(nav, goals=goals, path=None, xy_reached=False, rotating_to_goal=False)
 
 
 def goal_result(nav: NavState, now: float, reason: str) -> GoalResult:
