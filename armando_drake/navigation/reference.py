@@ -55,7 +55,7 @@ MEANINGS = {
     # AMCL's keys read without a declared field
     "initial_pose": "{x, y, yaw}: the initial estimate",
     "laser_model_type": "only likelihood_field",
-    "robot_model_type": "only nav2_amcl::DifferentialMotionModel",
+    "robot_model_type": "nav2_amcl::DifferentialMotionModel or nav2_amcl::OmniMotionModel",
 }
 
 
