@@ -80,15 +80,6 @@ DIFFERENCES = {
         "Measured: 500 particles on fra2mo_amcl settle in 5 s, within 3.2 cm from then on "
         "and 2.4 cm from 10 s"
     ),
-    ("global_costmap", "robot_radius"): (
-        "the inflation and the controller take the radius itself as the inscribed radius "
-        "(0.2 m for 0.2 m); Nav2's LayeredCostmap takes the padded 16-point polygon's "
-        "(0.2059 m with footprint_padding 0.01), as the footprint collision checker here "
-        "does. Measured: with 0.2059 m the cost regulation leaves fra2mo 6 cm behind after its "
-        "first 5 s on fra2mo_obstacles; the crate its first plan grazes is then seen too "
-        "little at the 5 s replan and the plan is moved off it without ever being found "
-        "blocked (0 blocked replans instead of 1; the goals' outcomes unchanged)"
-    ),
 }
 
 

@@ -78,14 +78,6 @@ def test_the_inscribed_radius_of_a_padded_radius_is_the_polygons():
     assert unpadded.nav2_inscribed_radius == pytest.approx(0.2 * math.cos(math.pi / 16))
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="a robot_radius is still its own inscribed radius in the inflation and the "
-    "controller (0.2 m, not the padded 16-gon's 0.2059 m); with 0.2059 m the cost "
-    "regulation slows fra2mo near its spawn corner on fra2mo_obstacles, the crate that "
-    "the first plan grazes (0.079 m from its corner) is not yet marked near the plan at "
-    "the 5 s replan, and the plan is moved off it without ever being found blocked",
-)
 def test_the_inflation_uses_the_padded_16_gons_inscribed_radius():
     # layered_costmap.cpp setFootprint -> InflationLayer::onFootprintChanged
     assert CostmapParameters(robot_radius=0.2).inscribed_radius == pytest.approx(0.2059, abs=1e-4)
