@@ -900,6 +900,7 @@ def _managed_controller(
         ),
         params=controller.params,
     )
+    logic.set_namespace(stack.namespace)
     try:
         logic.connect_plant(stack.plant, stack.robot.model_instance)
     except ValueError as error:

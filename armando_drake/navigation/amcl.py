@@ -8,7 +8,10 @@ lidar's scans.
   last filter update as (rot1, trans, rot2), each particle's drawn with the noise of
   ``alpha1`` (rotation from rotation), ``alpha2`` (rotation from translation), ``alpha3``
   (translation from translation) and ``alpha4`` (translation from rotation), as
-  upstream's ``odometryUpdate`` (``alpha5`` is the omni model's: warned about);
+  upstream's ``odometryUpdate``; with ``robot_model_type: nav2_amcl::OmniMotionModel``
+  the omni model's (``OmniMotionModel::odometryUpdate``: the translation along the
+  odometry's bearing, a rotation and a strafe across it, ``alpha5`` the strafe's noise from
+  translation; under the differential model ``alpha5`` is warned about);
 - **sensor** (``likelihood_field``): ``max_beams`` beams of the scan, evenly spread, those
   within ``laser_min_range`` .. ``laser_max_range``; each beam's end point in the map,
   ``z`` its distance to the nearest occupied cell (a distance transform, capped at
@@ -47,6 +50,7 @@ from armando_drake.tools.errors import ConfigError
 from armando_drake.tools.schema import field_rules, param
 
 DIFFERENTIAL = "nav2_amcl::DifferentialMotionModel"
+OMNI = "nav2_amcl::OmniMotionModel"
 INITIAL_STD = (0.5, 0.5, math.pi / 12)  # nav2_amcl's initial covariance, as deviations
 
 _log = logging.getLogger("armando_drake.navigation")
@@ -64,6 +68,7 @@ class AmclParameters:
     alpha2: float = _noise("rotation noise from translation")
     alpha3: float = _noise("translation noise from translation")
     alpha4: float = _noise("translation noise from rotation")
+    alpha5: float = _noise("strafe noise from translation (omni model)")
     laser_likelihood_max_dist: float = param(
         2.0, unit="m", ge=0, doc="the likelihood field's distance cap"
     )
@@ -86,6 +91,7 @@ class AmclParameters:
     update_min_d: float = param(0.25, unit="m", ge=0, doc="travel before a filter update")
     resample_interval: float = param(1.0, unit="-", ge=0, doc="filter updates between resamplings")
     set_initial_pose: bool = param(False, doc="start from initial_pose")
+    robot_model_type: str = DIFFERENTIAL  # or OMNI
     initial_pose: tuple | None = None  # (x, y, yaw)
     ignored: list[str] = dc.field(default_factory=list)
 
@@ -96,7 +102,6 @@ _KNOWN = {
     "always_reset_initial_pose", "first_map_only", "laser_model_type", "robot_model_type",
 }  # fmt: skip
 _NOT_APPLIED = {
-    "alpha5": "the omni motion model's",
     "min_particles": "KLD sampling is not applied: max_particles particles",
     "pf_err": "KLD sampling is not applied",
     "pf_z": "KLD sampling is not applied",
@@ -122,13 +127,18 @@ def amcl_parameters(source: Nav2Params | str | Path) -> AmclParameters:
     if model != "likelihood_field":
         raise ConfigError(f"{where}.laser_model_type {model!r}: only likelihood_field is known")
     motion = ros.get("robot_model_type", DIFFERENTIAL)
-    if motion != DIFFERENTIAL:
-        raise ConfigError(f"{where}.robot_model_type {motion!r}: only {DIFFERENTIAL} is known")
+    if motion not in (DIFFERENTIAL, OMNI):
+        raise ConfigError(f"{where}.robot_model_type {motion!r}: known: {DIFFERENTIAL}, {OMNI}")
+    params.robot_model_type = motion
     ignored = []
-    for key in fill(
-        params, ros, where, set(field_rules(AmclParameters)) - {"initial_pose", "ignored"}
-    ):
-        if key == "initial_pose":
+    keys = set(field_rules(AmclParameters)) - {"initial_pose", "ignored", "robot_model_type"}
+    if motion == DIFFERENTIAL:
+        keys -= {"alpha5"}
+    for key in fill(params, ros, where, keys):
+        if key == "alpha5":
+            ignored.append(key)
+            _log.warning("%s.%s: the omni motion model's", where, key)
+        elif key == "initial_pose":
             pose = ros[key] if isinstance(ros[key], dict) else {}
             params.initial_pose = tuple(float(pose.get(k, 0.0)) for k in ("x", "y", "yaw"))
         elif key not in _KNOWN:
@@ -185,6 +195,39 @@ class ParticleFilter:
         return math.hypot(dx, dy) >= self.params.update_min_d or turned >= self.params.update_min_a
 
     def motion(self, particles: np.ndarray, old, new) -> np.ndarray:
+        """The motion model's odometryUpdate from odometry pose ``old`` to ``new``."""
+        if self.params.robot_model_type == OMNI:
+            return self.omni_motion(particles, old, new)
+        return self.differential_motion(particles, old, new)
+
+    def omni_motion(self, particles: np.ndarray, old, new) -> np.ndarray:
+        """OmniMotionModel::odometryUpdate: the odometry's change ``delta`` (x, y in the
+        odom frame, the heading's shortest difference); each particle moves ``trans`` along
+        its own heading plus the bearing of the motion in the old odometry frame, with a
+        strafe across it, and turns ``rot``; each drawn with its deviation (``alpha3``,
+        ``alpha4``: translation; ``alpha1``, ``alpha2``: rotation; ``alpha4``, ``alpha5``:
+        strafe)."""
+        p = self.params
+        dx, dy = new[0] - old[0], new[1] - old[1]
+        rot = wrap(new[2] - old[2])
+        trans = math.hypot(dx, dy)
+        trans_std = math.sqrt(p.alpha3 * trans**2 + p.alpha4 * rot**2)
+        rot_std = math.sqrt(p.alpha1 * rot**2 + p.alpha2 * trans**2)
+        strafe_std = math.sqrt(p.alpha4 * rot**2 + p.alpha5 * trans**2)
+        n = len(particles)
+        bearing = wrap(math.atan2(dy, dx) - old[2]) + particles[:, 2]
+        normal = self.rng.normal(size=(3, n))
+        trans_hat = trans + normal[0] * trans_std
+        rot_hat = rot + normal[1] * rot_std
+        strafe_hat = normal[2] * strafe_std
+        cs, sn = np.cos(bearing), np.sin(bearing)
+        out = particles.copy()
+        out[:, 0] += trans_hat * cs + strafe_hat * sn
+        out[:, 1] += trans_hat * sn - strafe_hat * cs
+        out[:, 2] = np.arctan2(np.sin(particles[:, 2] + rot_hat), np.cos(particles[:, 2] + rot_hat))
+        return out
+
+    def differential_motion(self, particles: np.ndarray, old, new) -> np.ndarray:
         """DifferentialMotionModel::odometryUpdate from odometry pose ``old`` to ``new``."""
         p = self.params
         dx, dy = new[0] - old[0], new[1] - old[1]

@@ -113,7 +113,7 @@ class CostmapParameters:
         unit="m",
         gt=0,
         over=(MAX_ROBOT_SIZE, "no mobile base here is that large"),
-        doc="the circular footprint's radius: the inscribed radius",
+        doc="the circular footprint's radius (a padded 16-point polygon)",
     )
     track_unknown_space: bool = param(
         False, doc="unknown cells stay NO_INFORMATION (255) instead of free"
@@ -162,19 +162,16 @@ class CostmapParameters:
 
     @property
     def inscribed_radius(self) -> float:
-        """The inscribed radius the inflation and the controller use: a ``footprint``'s
-        (the padded polygon's nearest vertex or edge, as LayeredCostmap's), or
-        ``robot_radius`` itself (upstream: its padded 16-gon's, 0.2059 m for 0.2 m:
-        :attr:`nav2_inscribed_radius`)."""
-        if self.footprint:
-            return min_max_distances(self.polygon)[0]
-        return self.robot_radius
+        """The inscribed radius the inflation and the controller use, as LayeredCostmap
+        computes it: the padded polygon's nearest vertex or edge (:attr:`polygon`; for a
+        ``robot_radius`` its padded 16-gon's: 0.2059 m for 0.2 m)."""
+        return min_max_distances(self.polygon)[0]
 
     @property
     def nav2_inscribed_radius(self) -> float:
-        """The padded footprint's inscribed radius as LayeredCostmap computes it, also for
-        a ``robot_radius`` (its 16-point polygon)."""
-        return min_max_distances(self.polygon)[0]
+        """The padded footprint's inscribed radius as LayeredCostmap computes it (the same
+        as :attr:`inscribed_radius`)."""
+        return self.inscribed_radius
 
 
 @dataclass

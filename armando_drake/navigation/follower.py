@@ -20,13 +20,13 @@ the circle with ``use_interpolation``: ``circleSegmentIntersection``), the curva
 past the path's end with ``interpolate_curvature_after_goal``);
 rotation in place toward the path beyond ``rotate_to_heading_min_angle`` or to the goal's
 heading within the goal checker's ``xy_goal_tolerance`` (``rotate_to_heading_angular_vel``
-at most the rate that stops on the heading, within ``max_angular_accel`` of the current
-turn rate); else
+within ``max_angular_accel`` of the current turn rate, then at most the rate that stops on
+the heading); else
 ``desired_linear_vel`` regulated by curvature (below ``regulated_linear_scaling_min_radius``
 scaled by ``radius / min_radius``), by the cost under the robot (``cost_scaling_dist``,
 ``cost_scaling_gain``, ``inflation_cost_scaling_factor``), not below
-``regulated_linear_scaling_min_speed``, then slowed on the last
-``approach_velocity_scaling_dist`` of the path (not below
+``regulated_linear_scaling_min_speed``, then, on a path shorter than
+``approach_velocity_scaling_dist``, slowed by the straight-line distance to its end (not below
 ``min_approach_linear_velocity``); the
 angular velocity is the linear one times the curvature. With ``use_collision_detection``
 the arc is projected forward (up to ``max_allowed_time_to_collision_up_to_carrot`` and
@@ -417,16 +417,15 @@ class Command:
 
 
 def rotate_to_heading(angle: float, current_w: float, p: RppParameters, dt: float) -> float:
-    """RPP's ``rotateToHeading``: ``rotate_to_heading_angular_vel`` toward ``angle``, at
-    most the speed that stops on the heading, ``sqrt(2 max_angular_accel |angle|)``, then
-    within ``max_angular_accel`` of ``current_w`` over ``dt``. (Nav2 clamps in the other
-    order, so that its command may drop below the acceleration window: at 1.8 rad/s and
-    0.1 rad, 0.8 rad/s where this gives 1.64; see the parameter reference.)"""
+    """RPP's ``rotateToHeading``: ``rotate_to_heading_angular_vel`` toward ``angle``,
+    within ``max_angular_accel`` of ``current_w`` over ``dt``, then at most the speed that
+    stops on the heading, ``sqrt(2 max_angular_accel |angle|)`` (at 1.8 rad/s and 0.1 rad:
+    0.8 rad/s)."""
     sign = 1.0 if angle > 0.0 else -1.0
     step = p.max_angular_accel * dt
+    w = min(max(sign * p.rotate_to_heading_angular_vel, current_w - step), current_w + step)
     stop = math.sqrt(2.0 * p.max_angular_accel * abs(angle))
-    target = sign * min(p.rotate_to_heading_angular_vel, stop)
-    return min(max(target, current_w - step), current_w + step)
+    return sign * stop if abs(w) > stop else w
 
 
 def _cost_at(costmap: Costmap, x: float, y: float) -> int:
@@ -468,9 +467,9 @@ def regulate(
     """RPP's ``applyConstraints`` on the speed ``linear``: regulated by curvature (below
     ``regulated_linear_scaling_min_radius``) and by the cost under the robot (the
     obstacle distance that cost means in the inflation, ``log(253 / cost)``), not below
-    ``regulated_linear_scaling_min_speed``; then, once the distance left along the path
-    ``local`` (from the robot) is under ``approach_velocity_scaling_dist``, scaled by it
-    over that distance (not below ``min_approach_linear_velocity``); at most
+    ``regulated_linear_scaling_min_speed``; then, once the length of the path ``local``
+    (robot frame) is under ``approach_velocity_scaling_dist``, scaled by the straight-line
+    distance to its end over that distance (not below ``min_approach_linear_velocity``); at most
     ``desired_linear_vel`` (unsigned)."""
     curvature_vel = cost_vel = linear
     radius = abs(1.0 / curvature) if curvature != 0.0 else math.inf
@@ -484,12 +483,11 @@ def regulate(
         if distance < p.cost_scaling_dist:
             cost_vel *= p.cost_scaling_gain * distance / p.cost_scaling_dist
     linear = max(min(curvature_vel, cost_vel), p.regulated_linear_scaling_min_speed)
-    # The distance left along the path, from the robot (Nav2: the path's length decides
-    # when, the straight-line distance to its end how much; see the parameter reference).
-    steps = np.linalg.norm(np.diff(local, axis=0), axis=1)
-    remaining = float(math.hypot(*local[0]) + steps.sum())
-    if remaining < p.approach_velocity_scaling_dist:
-        scale = remaining / p.approach_velocity_scaling_dist
+    # approachVelocityScalingFactor: the path's length decides when, the straight-line
+    # distance to its end how much.
+    length = float(np.linalg.norm(np.diff(local, axis=0), axis=1).sum())
+    if length < p.approach_velocity_scaling_dist:
+        scale = math.hypot(*local[-1]) / p.approach_velocity_scaling_dist
         linear = min(linear, max(linear * scale, p.min_approach_linear_velocity))
     return min(abs(linear), p.desired_linear_vel)
 

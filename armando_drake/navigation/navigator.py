@@ -112,6 +112,7 @@ class NavState:
     task_start: int = 0  # the index of the current task's first goal
     pending: Any = None  # a task the commander requested (a tuple of goals; () cancels)
     received: int = 0  # the goal_pose publications taken so far
+    updates: int = 0  # the goal_update publications taken so far
     rejected: int = 0  # the goal_pose messages refused (a frame the world does not know)
     # With AMCL: (time, position error [m], yaw error [rad]) of the estimate against the
     # ground truth, each second.
@@ -145,6 +146,7 @@ class Navigator(LeafSystem):
         - state
         - poses
         - goal_pose (optional)
+        - goal_update (optional)
         output_ports:
         - cmd_vel
         - command
@@ -155,6 +157,8 @@ class Navigator(LeafSystem):
       at its stamp, the controller's pose now);
     - ``goal_pose``: a Publication of a NavigationGoal (or a tuple of them): each new one
       is a task that preempts the current one (RViz's 2D goal on ``/goal_pose``);
+    - ``goal_update``: a Publication of a NavigationGoal that replaces the current goal
+      in its task (Nav2's ``GoalUpdater`` on ``goal_update``): replanned, no new result;
     - with AMCL, ``odom`` (the drive's Odometry) and ``map_to_odom`` (x, y, yaw) too;
     - ``cmd_vel``: a Publication of TwistStamped (``frame_id`` ``base_link``);
     - ``command``: vector (linear [m/s], angular [rad/s]) of the latest message;
@@ -203,6 +207,7 @@ class Navigator(LeafSystem):
             self._map_to_odom = self.DeclareVectorInputPort("map_to_odom", 3)
         self._nav = self.DeclareAbstractState(AbstractValue.Make(NavState(goals=tuple(goals))))
         self._goal_pose = self.DeclareAbstractInputPort("goal_pose", PublicationValue())
+        self._goal_update = self.DeclareAbstractInputPort("goal_update", PublicationValue())
         if layers is not None:
             self._scan = self.DeclareAbstractInputPort("scan", PublicationValue())
         self._topic = self.DeclareAbstractState(PublicationValue())
@@ -271,6 +276,8 @@ class Navigator(LeafSystem):
         nav, task = self._requested(context, nav)
         if task is not None:
             nav = self._new_task(nav, task, pose, now)
+        if self._goal_update.HasValue(context):
+            nav = goal_updated(nav, self._goal_update.Eval(context))
         if nav.goal < 0:
             nav = self._start(nav, 0, pose, now)
         if 0 <= nav.goal < len(nav.goals):
@@ -521,6 +528,21 @@ class Navigator(LeafSystem):
         nav, now = self.nav_state(context), context.get_time()
         localized = self.LOCALIZATION if self._axle is not None else ""
         return navigation_summary(nav, now, self.controller, localized)
+
+
+def goal_updated(nav: NavState, publication) -> NavState:
+    """``nav`` with its current goal replaced by a new ``goal_update`` ``publication``
+    (Nav2's GoalUpdater): the same task and result, the plan and the goal checker's
+    latches redone."""
+    if publication.count <= nav.updates:
+        return nav
+    nav = dc.replace(nav, updates=publication.count)
+    if not 0 <= nav.goal < len(nav.goals):
+        return nav
+    goal = publication.message
+    _log.info("goal %r updated: (%.3f, %.3f, %.3f)", goal.name, goal.x, goal.y, goal.yaw)
+    goals = (*nav.goals[: nav.goal], goal, *nav.goals[nav.goal + 1 :])
+    return dc.replace(nav, goals=goals, path=None, xy_reached=False, rotating_to_goal=False)
 
 
 def goal_result(nav: NavState, now: float, reason: str) -> GoalResult:

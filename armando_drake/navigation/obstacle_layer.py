@@ -1,7 +1,8 @@
 """nav2_costmap_2d's ObstacleLayer on ``data_type: LaserScan`` sources.
 
-Each scan clears the cells along its beams (``clearing``: from ``raytrace_min_range`` to
-the hit, or to ``raytrace_max_range``) and then marks the hit cells lethal (``marking``:
+Each scan clears the cells along its beams (``clearing``: Nav2's Bresenham from
+``raytrace_min_range`` to the hit's cell, or to the cell at ``raytrace_max_range``,
+included; :func:`raytrace`) and then marks the hit cells lethal (``marking``:
 ranges within ``obstacle_min_range``..``obstacle_max_range``, the scan's height within
 ``min_obstacle_height``..``max_obstacle_height``); the layer is combined into the master
 grid by its maximum (``updateWithMax``: an unknown cell of the layer leaves the master's;
@@ -11,6 +12,7 @@ layer (a planar lidar, 2-D): a substitution of the registry.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -185,19 +187,10 @@ def observe(
     rows_n, cols_n = out.shape
     if source.clearing:
         reach = np.where(np.isposinf(ranges) & source.inf_is_valid, scan.range_max, ranges)
-        reach = np.where(np.isfinite(reach), reach, np.nan)
-        reach = np.minimum(reach, source.raytrace_max_range)
-        ok = np.isfinite(reach) & (reach > source.raytrace_min_range)
-        steps = np.arange(source.raytrace_min_range, source.raytrace_max_range, 0.5 * res)
-        # each beam sampled every half cell up to one cell short of its end
-        d = steps[None, :] * np.ones((ok.sum(), 1))
-        keep = d < (reach[ok] - res)[:, None]
-        px = laser[0] + d * c[ok][:, None]
-        py = laser[1] + d * s[ok][:, None]
-        cols = np.floor((px[keep] - costmap.origin[0]) / res).astype(int)
-        rows = np.floor((py[keep] - costmap.origin[1]) / res).astype(int)
-        inside = (rows >= 0) & (rows < rows_n) & (cols >= 0) & (cols < cols_n)
-        out[rows[inside], cols[inside]] = FREE_SPACE
+        ok = np.isfinite(reach)
+        ends = (laser[0] + reach[ok] * c[ok], laser[1] + reach[ok] * s[ok])
+        rows, cols = raytrace(costmap, laser[:2], ends, source)
+        out[rows, cols] = FREE_SPACE
     if source.marking and source.min_obstacle_height <= height <= source.max_obstacle_height:
         hit = np.isfinite(ranges) & (ranges >= source.obstacle_min_range)
         hit &= ranges <= source.obstacle_max_range
@@ -209,6 +202,76 @@ def observe(
         inside = (rows >= 0) & (rows < rows_n) & (cols >= 0) & (cols < cols_n)
         out[rows[inside], cols[inside]] = LETHAL_OBSTACLE
     return out
+
+
+def _clip_to_map(costmap, origin, wx, wy):
+    """``raytraceFreespace``'s endpoints (arrays) moved onto the map's edges along their
+    rays from ``origin`` (x, y)."""
+    ox, oy = origin
+    x0, y0 = costmap.origin[0], costmap.origin[1]
+    x_end = x0 + costmap.costs.shape[1] * costmap.resolution
+    y_end = y0 + costmap.costs.shape[0] * costmap.resolution
+    a, b = wx - ox, wy - oy
+    with np.errstate(divide="ignore", invalid="ignore"):
+        low = wx < x0
+        wy = np.where(low, oy + b * (x0 - ox) / a, wy)
+        wx = np.where(low, x0, wx)
+        low = wy < y0
+        wx = np.where(low, ox + a * (y0 - oy) / b, wx)
+        wy = np.where(low, y0, wy)
+        high = wx > x_end
+        wy = np.where(high, oy + b * (x_end - ox) / a, wy)
+        wx = np.where(high, x_end - 0.001, wx)
+        high = wy > y_end
+        wx = np.where(high, ox + a * (y_end - oy) / b, wx)
+        wy = np.where(high, y_end - 0.001, wy)
+    return wx, wy
+
+
+def raytrace(costmap, origin, ends, source: ObservationSource) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, cols) of the cells Nav2's ``raytraceFreespace`` clears for rays from the
+    sensor at ``origin`` (x, y) to ``ends`` (xs, ys): each endpoint clipped to the map,
+    ``Costmap2D::raytraceLine``'s Bresenham from the origin's cell (moved
+    ``raytrace_min_range`` cells along the ray) to the endpoint's cell, cut after
+    ``raytrace_max_range`` cells (``cellDistance``: rounded up) scaled onto the dominant
+    axis, the last cell included (the clip cell, or the hit's cell: marked after)."""
+    res = costmap.resolution
+    rows_n, cols_n = costmap.costs.shape
+    empty = (np.zeros(0, dtype=int), np.zeros(0, dtype=int))
+    x0 = int(math.floor((origin[0] - costmap.origin[0]) / res))
+    y0 = int(math.floor((origin[1] - costmap.origin[1]) / res))
+    if not (0 <= x0 < cols_n and 0 <= y0 < rows_n) or not len(ends[0]):
+        return empty  # Nav2: "Sensor origin ... is out of map bounds"
+    wx, wy = _clip_to_map(costmap, origin, *(np.asarray(e, dtype=float) for e in ends))
+    with np.errstate(invalid="ignore"):
+        x1 = np.floor((wx - costmap.origin[0]) / res)
+        y1 = np.floor((wy - costmap.origin[1]) / res)
+    legal = (x1 >= 0) & (x1 < cols_n) & (y1 >= 0) & (y1 < rows_n)
+    x1, y1 = x1[legal].astype(int), y1[legal].astype(int)
+    max_cells = max(0.0, math.ceil(source.raytrace_max_range / res))
+    min_cells = max(0.0, math.ceil(source.raytrace_min_range / res))
+    dx_full, dy_full = x1 - x0, y1 - y0
+    dist = np.hypot(dx_full, dy_full)
+    keep = dist >= min_cells
+    x1, y1, dx_full, dy_full, dist = (v[keep] for v in (x1, y1, dx_full, dy_full, dist))
+    safe = np.where(dist > 0, dist, 1.0)
+    sx0 = np.where(dist > 0, np.trunc(x0 + dx_full / safe * min_cells), x0).astype(int)
+    sy0 = np.where(dist > 0, np.trunc(y0 + dy_full / safe * min_cells), y0).astype(int)
+    dx, dy = x1 - sx0, y1 - sy0
+    scale = np.where(dist > 0, np.minimum(1.0, max_cells / safe), 1.0)
+    x_major = np.abs(dx) >= np.abs(dy)
+    da = np.where(x_major, np.abs(dx), np.abs(dy))
+    db = np.where(x_major, np.abs(dy), np.abs(dx))
+    end = np.minimum((scale * da).astype(int), da)
+    i = np.arange(int(end.max()) + 1 if len(end) else 0)[None, :]
+    crossings = (da[:, None] // 2 + i * db[:, None]) // np.maximum(da, 1)[:, None]
+    along_x = np.where(x_major[:, None], i * np.sign(dx)[:, None], crossings * np.sign(dx)[:, None])
+    along_y = np.where(x_major[:, None], crossings * np.sign(dy)[:, None], i * np.sign(dy)[:, None])
+    valid = i <= end[:, None]
+    cols = (sx0[:, None] + along_x)[valid]
+    rows = (sy0[:, None] + along_y)[valid]
+    inside = (rows >= 0) & (rows < rows_n) & (cols >= 0) & (cols < cols_n)
+    return rows[inside], cols[inside]
 
 
 def clear_footprint(layer: np.ndarray, costmap, pose, radius: float) -> np.ndarray:

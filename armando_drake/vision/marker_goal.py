@@ -7,8 +7,9 @@ navigation's localization: the ground truth's, or AMCL's map -> odom -> base) ->
 mean of their quaternions) is the marker's pose on the map (``marker_in_map``, published
 as the TF frame ``aruco_frame``). Once the marker was seen ``after`` times, the goal
 ``distance`` in front of its face, facing it, is sent to the navigator (``goal_pose``),
-preempting its task; it is sent again (at most twice more) if the mean moves the goal by
-more than 5 cm or 0.05 rad as the robot comes nearer.
+preempting its task; as the robot comes nearer and the mean moves that goal by more than
+1 cm or 0.01 rad, the goal is refined (``goal_update``: the same task, replanned; Nav2's
+``GoalUpdater``), at most ``MAX_SENDS - 1`` times.
 """
 
 from __future__ import annotations
@@ -28,8 +29,8 @@ from armando_drake.navigation.config import NavigationGoal
 from armando_drake.navigation.navigator import NavState
 
 GOAL_NAME = "aruco_front"
-MAX_SENDS = 3
-MOVED = (0.05, 0.05)  # [m, rad] a goal moved by more is sent again
+MAX_SENDS = 5
+MOVED = (0.01, 0.01)  # [m, rad] a goal moved by more is refined
 
 
 def planar(x: float, y: float, yaw: float) -> RigidTransform:
@@ -38,9 +39,13 @@ def planar(x: float, y: float, yaw: float) -> RigidTransform:
 
 @dc.dataclass(frozen=True)
 class MarkerEstimate:
-    """The running mean of the marker's poses on the map."""
+    """The running mean of the marker's poses on the map, one per viewpoint: a detection
+    from the camera pose of the previous one is the same measurement again (a rendered
+    frame has no noise; PnP's error is the viewpoint's), counted but not averaged again."""
 
     count: int = 0
+    views: int = 0  # the detections averaged
+    viewpoint: tuple = ()  # the camera's pose on the map (x, y, z, qw, qx, qy, qz), last
     position_sum: tuple = (0.0, 0.0, 0.0)
     quaternion_sum: tuple = (0.0, 0.0, 0.0, 0.0)  # (w, x, y, z), signs aligned to the first
     sent: tuple = ()  # the goals sent, (x, y, yaw) each
@@ -53,16 +58,26 @@ class MarkerEstimate:
         if not self.count:
             return None
         q = np.asarray(self.quaternion_sum) / np.linalg.norm(self.quaternion_sum)
-        position = np.asarray(self.position_sum) / self.count
+        position = np.asarray(self.position_sum) / self.views
         return RigidTransform(Quaternion(q), position)
 
-    def add(self, X_map_marker: RigidTransform, now: float) -> MarkerEstimate:
+    def add(
+        self, X_map_marker: RigidTransform, now: float, X_map_camera: RigidTransform
+    ) -> MarkerEstimate:
+        viewpoint = (
+            *X_map_camera.translation(),
+            *X_map_camera.rotation().ToQuaternion().wxyz(),
+        )
+        if self.viewpoint and np.allclose(viewpoint, self.viewpoint, rtol=0.0, atol=1e-4):
+            return dc.replace(self, count=self.count + 1)
         q = X_map_marker.rotation().ToQuaternion().wxyz()
         if self.count and np.dot(q, self.quaternion_sum) < 0:
             q = -q
         return dc.replace(
             self,
             count=self.count + 1,
+            views=self.views + 1,
+            viewpoint=viewpoint,
             position_sum=tuple(np.add(self.position_sum, X_map_marker.translation())),
             quaternion_sum=tuple(np.add(self.quaternion_sum, q)),
             first_seen=now if not self.count else self.first_seen,
@@ -95,6 +110,7 @@ class MarkerGoal(LeafSystem):
         output_ports:
         - marker_in_map
         - goal_pose
+        - goal_update
 
     Runs at the camera's ``frame_rate``, just after the detector (its new detection, the
     robot where the frame was taken).
@@ -121,8 +137,10 @@ class MarkerGoal(LeafSystem):
         self._estimate = self.DeclareAbstractState(AbstractValue.Make(MarkerEstimate()))
         self._marker = self.DeclareAbstractState(PublicationValue())
         self._goal = self.DeclareAbstractState(PublicationValue())
+        self._update = self.DeclareAbstractState(PublicationValue())
         self.DeclareStateOutputPort("marker_in_map", self._marker)
         self.DeclareStateOutputPort("goal_pose", self._goal)
+        self.DeclareStateOutputPort("goal_update", self._update)
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / frame_rate, offset, self._Update)
 
     def X_map_world(self, nav: NavState) -> RigidTransform:
@@ -141,10 +159,10 @@ class MarkerGoal(LeafSystem):
         detection: MarkerPose = publication.message
         now = context.get_time()
         X_W_link = self._poses.Eval(context)[self._link]
-        X_map_marker = (
-            self.X_map_world(self._nav.Eval(context)) @ X_W_link @ detection.X_LC @ detection.pose
-        )
-        estimate = context.get_abstract_state(self._estimate).get_value().add(X_map_marker, now)
+        X_map_camera = self.X_map_world(self._nav.Eval(context)) @ X_W_link @ detection.X_LC
+        X_map_marker = X_map_camera @ detection.pose
+        estimate = context.get_abstract_state(self._estimate).get_value()
+        estimate = estimate.add(X_map_marker, now, X_map_camera)
         mean = estimate.pose()
         marker = MarkerPose(
             stamp=now,
@@ -164,9 +182,11 @@ class MarkerGoal(LeafSystem):
                 or abs(math.remainder(goal[2] - last[2], 2 * math.pi)) > MOVED[1]
             ):
                 estimate = dc.replace(estimate, sent=(*estimate.sent, goal))
-                task = (NavigationGoal(name=GOAL_NAME, x=goal[0], y=goal[1], yaw=goal[2]),)
-                sent = context.get_abstract_state(self._goal).get_value()
-                state.get_mutable_abstract_state(self._goal).set_value(sent.publish(task, now))
+                message = NavigationGoal(name=GOAL_NAME, x=goal[0], y=goal[1], yaw=goal[2])
+                port = self._goal if last is None else self._update  # new, or refined
+                sent = context.get_abstract_state(port).get_value()
+                task = (message,) if last is None else message
+                state.get_mutable_abstract_state(port).set_value(sent.publish(task, now))
         state.get_mutable_abstract_state(self._estimate).set_value(estimate)
         return EventStatus.Succeeded()
 
@@ -208,4 +228,5 @@ def AddMarkerGoal(builder, detector, *, navigation, plant, link_body, rate, offs
     builder.Connect(navigator.GetOutputPort("nav_state"), system.GetInputPort("nav_state"))
     if config.approach_distance > 0:
         builder.Connect(system.GetOutputPort("goal_pose"), navigator.GetInputPort("goal_pose"))
+        builder.Connect(system.GetOutputPort("goal_update"), navigator.GetInputPort("goal_update"))
     return system

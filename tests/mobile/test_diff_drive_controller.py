@@ -215,7 +215,8 @@ def test_position_feedback_odometry_integrates_an_arc_exactly():
     quarter = math.pi / 2
     wheels = Wheels()
     wheels.q = np.array([quarter * 0.75, quarter * 1.25])  # arcs of radius 0.75 m, 1.25 m
-    memory = logic.update(1.0, None, memory, wheels)
+    # (a command: before the first one upstream integrates no odometry)
+    memory = logic.update(1.0, twist(0.0), memory, wheels)
     odometry = memory.internal.odometry
     assert (odometry.x, odometry.y, odometry.heading) == pytest.approx((1.0, 1.0, quarter))
     message = logic.output("odom", memory)
@@ -246,6 +247,117 @@ def test_frame_ids_with_tf_prefix(enable, prefix, expected):
     logic = controller(tf_frame_prefix_enable=enable, tf_frame_prefix=prefix)
     message = logic.output("odom", logic.initial_memory())
     assert (message.frame_id, message.child_frame_id) == expected
+
+
+@pytest.mark.parametrize(
+    "enable, prefix, expected",
+    [
+        (False, "test_prefix", ("odom", "base_link")),
+        (True, "test_prefix", ("test_prefix/odom", "test_prefix/base_link")),
+        (True, "", ("test_namespace/odom", "test_namespace/base_link")),
+    ],
+)
+def test_frame_ids_with_tf_prefix_and_namespace(enable, prefix, expected):
+    """configure_succeeds_tf_*_set_namespace: a blank prefix takes the namespace."""
+    logic = controller(tf_frame_prefix_enable=enable, tf_frame_prefix=prefix)
+    logic.set_namespace("/test_namespace")
+    message = logic.output("odom", logic.initial_memory())
+    assert (message.frame_id, message.child_frame_id) == expected
+
+
+def test_no_odometry_before_the_first_command():
+    """update_and_write_commands returns early while the reference is NaN: no odometry
+    integrated or published (the wheels turned meanwhile) until a command (or the
+    timeout's braking) sets it."""
+    logic = controller(wheel_radius=1.0, wheel_separation=0.5)
+    memory = logic.initial_memory()
+    wheels = Wheels()
+    wheels.q = np.array([0.3, 0.3])
+    memory = logic.update(0.1, None, memory, wheels)
+    assert memory.internal.odometry.x == 0.0 and memory.internal.last_publish == -math.inf
+    memory = logic.update(0.2, twist(0.0), memory, wheels)
+    assert memory.internal.odometry.x == pytest.approx(0.3)
+    assert logic.output("odom", memory).stamp == 0.2
+
+
+def test_cleanup():
+    """TEST_F cleanup: moving, then deactivated: the wheels halted; cleaned up: still."""
+    logic = controller(wheel_separation=0.4, wheel_radius=0.1)
+    memory = step(logic, logic.initial_memory(), 0.0, twist(1.0, 1.0))
+    assert (wheel_velocities(memory) > 0.0).all()
+    memory = logic.deactivate(0.01, memory)
+    assert np.array_equal(wheel_velocities(memory), [0.0, 0.0])
+    memory = logic.reset(0.02, memory)
+    assert np.array_equal(wheel_velocities(memory), [0.0, 0.0])
+
+
+def test_deactivate_then_activate():
+    """TEST_F deactivate_then_activate (and correct_initialization_using_parameters):
+    halted on deactivation despite updates and commands; the reference NaN on activation,
+    the wheels at their last command (0); a new command drives again."""
+    logic = controller(wheel_separation=0.4, wheel_radius=1.0)
+    memory = step(logic, logic.initial_memory(), 0.0, twist(1.0))
+    assert np.array_equal(wheel_velocities(memory), [1.0, 1.0])
+    memory = logic.deactivate(0.3, memory)
+    memory = step(logic, memory, 0.31, twist(1.0))  # the subscriber is inactive
+    assert np.array_equal(wheel_velocities(memory), [0.0, 0.0])
+    memory = logic.activate(0.32, memory)
+    assert all(math.isnan(v) for v in memory.internal.reference)
+    assert np.array_equal(wheel_velocities(memory), [0.0, 0.0])
+    memory = step(logic, memory, 0.33, twist(1.0))
+    assert np.array_equal(wheel_velocities(memory), [1.0, 1.0])
+
+
+def test_reset_zeroes_the_odometry_pose():
+    """reset() (on_cleanup, on_error, on_configure): resetOdometry, x = y = heading = 0;
+    the wheels' last positions kept, so the next update does not jump."""
+    logic = controller(wheel_radius=1.0, wheel_separation=0.5, velocity_rolling_window_size=1)
+    wheels = Wheels()
+    memory = step(logic, logic.initial_memory(), 0.0, twist(1.0), wheels)
+    for k in range(1, 11):
+        memory = step(logic, memory, 0.01 * k, twist(1.0), wheels)
+    assert memory.internal.odometry.x > 0.05
+    memory = logic.reset(0.11, memory)
+    odometry = memory.internal.odometry
+    assert (odometry.x, odometry.y, odometry.heading) == (0.0, 0.0, 0.0)
+    memory = logic.activate(0.11, memory)
+    memory = step(logic, memory, 0.12, twist(1.0), wheels)
+    assert memory.internal.odometry.x == pytest.approx(0.01, abs=1e-9)
+
+
+def test_chainable_controller_chained_mode():
+    """TEST_F chainable_controller_chained_mode: the reference interfaces NaN at first (the
+    wheels not NaN); a preceding controller's 3 m/s on them drives the wheels at 3 rad/s;
+    halted on deactivation."""
+    logic = controller(wheel_separation=0.4, wheel_radius=1.0)
+    assert logic.set_chained_mode(True) and logic.chained_mode
+    assert logic.reference_interfaces() == ["base/linear/velocity", "base/angular/velocity"]
+    memory = logic.initial_memory()
+    assert all(math.isnan(v) for v in memory.internal.reference)
+    assert not np.isnan(wheel_velocities(memory)).any()
+    memory = logic.write_reference(memory, 3.0, 0.0)
+    memory = step(logic, memory, 0.0)
+    assert np.array_equal(wheel_velocities(memory), [3.0, 3.0])
+    memory = step(logic, memory, 1.0)  # no cmd_vel timeout in chained mode
+    assert np.array_equal(wheel_velocities(memory), [3.0, 3.0])
+    memory = logic.deactivate(1.3, memory)
+    memory = step(logic, memory, 1.31)
+    assert np.array_equal(wheel_velocities(memory), [0.0, 0.0])
+
+
+def test_chainable_controller_unchained_mode():
+    """TEST_F chainable_controller_unchained_mode: a command older than cmd_vel_timeout
+    brakes; a timely one drives; halted on deactivation."""
+    logic = controller(wheel_separation=0.4, wheel_radius=1.0)
+    assert logic.set_chained_mode(False) and not logic.chained_mode
+    memory = step(logic, logic.initial_memory(), 0.0, twist(1.0))
+    memory = step(logic, memory, 0.501)
+    assert np.array_equal(wheel_velocities(memory), [0.0, 0.0])
+    memory = step(logic, memory, 0.6, twist(1.0))
+    assert np.array_equal(wheel_velocities(memory), [1.0, 1.0])
+    memory = logic.deactivate(0.9, memory)
+    memory = step(logic, memory, 0.91)
+    assert np.array_equal(wheel_velocities(memory), [0.0, 0.0])
 
 
 @pytest.mark.parametrize(

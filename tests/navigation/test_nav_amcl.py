@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 
-from armando_drake.navigation.amcl import AmclParameters, ParticleFilter, amcl_parameters
+from armando_drake.navigation.amcl import OMNI, AmclParameters, ParticleFilter, amcl_parameters
 from armando_drake.navigation.maps import OccupancyMap
 from armando_drake.navigation.pose_buffer import body_odometry, compose, inverse
 from armando_drake.simulation.builder import MakeWorld
@@ -36,6 +36,49 @@ def test_motion_model_without_noise_moves_each_particle_by_the_odometry():
     params.alpha3 = 0.2
     many = pf.motion(np.zeros((4000, 3)), (0.0, 0.0, 0.0), (1.0, 0.0, 0.0))
     assert np.std(many[:, 0]) == pytest.approx(math.sqrt(0.2), rel=0.1)
+
+
+def test_omni_motion_model_moves_each_particle_along_the_odometrys_bearing():
+    """OmniMotionModel::odometryUpdate (nav2_amcl omni_motion_model.cpp): a strafe of the
+    odometry (0.1 m to its left, heading 0) moves a particle heading pi/2 0.1 m along -x;
+    the noise: alpha3 on the translation, alpha5 on the strafe across it, alpha1 on the
+    rotation."""
+    params = AmclParameters(alpha1=0.0, alpha2=0.0, alpha3=0.0, alpha4=0.0, alpha5=0.0)
+    params.robot_model_type = OMNI
+    pf = ParticleFilter(params, _room(), (0.0, 0.0, 0.0))
+    particles = np.array([[0.0, 0.0, 0.0], [1.0, -0.5, math.pi / 2]])
+    moved = pf.motion(particles, (0.0, 0.0, 0.0), (0.0, 0.1, 0.3))
+    assert moved[0] == pytest.approx([0.0, 0.1, 0.3])
+    assert moved[1] == pytest.approx([0.9, -0.5, math.pi / 2 + 0.3])
+    # odometry that turned: the bearing taken in the old odometry frame
+    moved = pf.motion(particles[:1], (1.0, 1.0, math.pi / 2), (1.0, 1.5, math.pi / 2))
+    assert moved[0] == pytest.approx([0.5, 0.0, 0.0])
+    # 1 m forward: the strafe's deviation sqrt(alpha5) 1 m, across the motion (y)
+    params.alpha5 = 0.1
+    many = pf.motion(np.zeros((4000, 3)), (0.0, 0.0, 0.0), (1.0, 0.0, 0.0))
+    assert np.std(many[:, 1]) == pytest.approx(math.sqrt(0.1), rel=0.1)
+    assert np.std(many[:, 0]) == pytest.approx(0.0, abs=1e-12)
+    params.alpha5, params.alpha3, params.alpha1 = 0.0, 0.2, 0.05
+    many = pf.motion(np.zeros((4000, 3)), (0.0, 0.0, 0.0), (1.0, 0.0, 1.0))
+    assert np.std(many[:, 0]) == pytest.approx(math.sqrt(0.2), rel=0.1)
+    assert np.std(many[:, 2]) == pytest.approx(math.sqrt(0.05), rel=0.1)
+
+
+def test_the_omni_model_is_read_with_alpha5(tmp_path, caplog):
+    path = tmp_path / "nav2.yaml"
+    path.write_text(
+        "amcl:\n  ros__parameters:\n    robot_model_type: nav2_amcl::OmniMotionModel\n"
+        "    alpha5: 0.3\n"
+    )
+    with caplog.at_level(logging.WARNING, "armando_drake.navigation"):
+        params = amcl_parameters(path)
+    assert (params.robot_model_type, params.alpha5) == (OMNI, 0.3)
+    assert "alpha5" not in caplog.text
+    path.write_text("amcl:\n  ros__parameters:\n    robot_model_type: nav2_amcl::Tank\n")
+    with pytest.raises(
+        Exception, match=r"amcl\.ros__parameters\.robot_model_type 'nav2_amcl::Tank'"
+    ):
+        amcl_parameters(path)
 
 
 def test_the_likelihood_field_peaks_at_the_true_pose():

@@ -78,11 +78,6 @@ def test_the_inscribed_radius_of_a_padded_radius_is_the_polygons():
     assert unpadded.nav2_inscribed_radius == pytest.approx(0.2 * math.cos(math.pi / 16))
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="a robot_radius is still its own inscribed radius in the inflation "
-    "and the controller (0.2 m, not the padded 16-gon's 0.2059 m)",
-)
 def test_the_inflation_uses_the_padded_16_gons_inscribed_radius():
     # layered_costmap.cpp setFootprint -> InflationLayer::onFootprintChanged
     assert CostmapParameters(robot_radius=0.2).inscribed_radius == pytest.approx(0.2059, abs=1e-4)
@@ -213,11 +208,6 @@ def test_diagonal_raytrace_does_not_clear_endpoint():
     assert layer[_cell(0.45, 0.45)] == FREE_SPACE
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="the clearing walk stops one cell short of a ray clipped at "
-    "raytrace_max_range: the clip cell (7, 7) stays lethal",
-)
 def test_clear_diagonal_distance_clears_the_clip_cell():
     # obstacle_layer_test.cpp TEST_F(ObstacleLayerTest, testClearDiagonalDistance): a ray to
     # (1.55, 1.55) clipped at raytrace_max_range 1.0 clears cells (0, 0) to (7, 7): 8 cells,

@@ -22,7 +22,7 @@ from armando_drake.tools.errors import ConfigError
 
 CONFIG = Path(__file__).parents[2] / "models" / "fra2mo_description" / "config"
 QUIET = ["logging: {console_rate: 0}", "visualization: {enable_meshcat_creation: false}"]
-CRATE = (-0.6, -0.1, 0.2)  # the crate's centre (x, y) and half side [m]
+CRATE = (-0.72, -0.43, 0.2)  # the crate's centre (x, y) and half side [m]
 BASE_RADIUS = 0.11  # [m] fra2mo's base cylinder (its wheels are within it)
 
 
@@ -143,10 +143,11 @@ def test_the_plan_blocked_by_the_crate_is_replanned_and_the_goal_reached(run):
     first = run["summary"]["goals"][0]
     assert first["name"] == "north_west" and first["status"] == "succeeded"
     assert first["position_error"] < 0.1
-    # Its first plan passed within the costmap's robot_radius (0.2 m) of the crate, beyond
-    # the obstacle range when planned ...
+    # Its first plan passed within the costmap's robot_radius (0.2 m) of the crate, across
+    # it, beyond the obstacle range when planned ...
     plan = run["state"].results[0].first_plan
     assert min(_crate_clearance(x, y) for x, y in plan) < 0.2
+    assert min(_crate_clearance(x, y) for x, y in plan) == 0.0
     # ... replanned once it was seen, and driven around it without touching it.
     assert first["blocked_replans"] >= 1
     assert run["clearance"] > BASE_RADIUS + 0.05

@@ -4,8 +4,8 @@ Ported from navigation2's nav2_regulated_pure_pursuit_controller/test/test_regul
 (findVelocitySignChange, circleSegmentIntersection, projectCarrotPastGoal, lookaheadAPI,
 rotateTests, applyConstraints, the TransformGlobalPlanTest cases) with its path_utils
 (test/path_utils/path_utils.cpp); and the numbers read in its source
-(regulation_functions.hpp's cost regulation; the two deliberate differences, rotateToHeading's
-clamping order and the approach's distance, with Nav2's numbers beside the project's).
+(regulation_functions.hpp's cost regulation and approach slowing, rotateToHeading's clamping
+order).
 """
 
 import math
@@ -152,13 +152,16 @@ def test_rotateTests():
     assert rotate_to_heading(-0.4, 1.0, p, DT) == pytest.approx(0.84, abs=0.01)
 
 
-def test_rotate_to_heading_keeps_within_the_acceleration_window():
-    """A deliberate difference (the parameter reference says it): at 1.8 rad/s and 0.1 rad
-    from the heading the command stays within max_angular_accel of the turn rate,
-    1.8 - 3.2 / 20 = 1.64 rad/s; Nav2's rotateToHeading clamps to the stopping rate last,
-    sqrt(2 x 3.2 x 0.1) = 0.8 rad/s."""
-    assert rotate_to_heading(0.1, 1.8, RppParameters(), DT) == pytest.approx(1.64)
-    assert math.sqrt(2 * 3.2 * 0.1) == pytest.approx(0.8)  # Nav2's command
+def test_rotate_to_heading_clamps_to_the_acceleration_window_then_to_the_stopping_rate():
+    """rotateToHeading: at 1.8 rad/s and 0.1 rad from the heading the command is first kept
+    within max_angular_accel of the turn rate (1.8 - 3.2 / 20 = 1.64), then cut to the
+    stopping rate sqrt(2 x 3.2 x 0.1) = 0.8 rad/s."""
+    p = RppParameters()
+    assert rotate_to_heading(0.1, 1.8, p, DT) == pytest.approx(math.sqrt(2 * 3.2 * 0.1))
+    assert rotate_to_heading(0.1, 1.8, p, DT) == pytest.approx(0.8)
+    assert rotate_to_heading(-0.1, -1.8, p, DT) == pytest.approx(-0.8)
+    # below the stopping rate the acceleration window holds: 0 + 3.2 / 20
+    assert rotate_to_heading(1.0, 0.0, p, DT) == pytest.approx(0.16)
 
 
 def test_applyConstraints():
@@ -183,13 +186,18 @@ def test_cost_regulation_takes_the_distance_from_log_253_over_the_cost():
     assert regulate(p, 0.5, 0.0, 0, path, 0.2) == 0.5  # free: no regulation
 
 
-def test_approach_slowing_takes_the_distance_left_along_the_path():
-    """A deliberate difference (the parameter reference says it): a U-shaped path 0.5 m
-    long whose end is 0.1 m from the robot slows 0.5 m/s by 0.5 / 0.6 (Nav2: by the
-    straight-line 0.1 / 0.6)."""
+def test_approach_slowing_takes_the_straight_line_distance_to_the_paths_end():
+    """approachVelocityScalingFactor: a U-shaped path 0.5 m long (under
+    approach_velocity_scaling_dist 0.6) whose end is 0.1 m from the robot slows 0.5 m/s by
+    the straight-line 0.1 / 0.6, not below min_approach_linear_velocity 0.05."""
     p = RppParameters()
     path = np.array([[0.0, 0.0], [0.2, 0.0], [0.2, 0.1], [0.0, 0.1]])
-    assert regulate(p, 0.5, 0.0, 0, path, 0.2) == pytest.approx(0.5 * 0.5 / 0.6)
+    assert regulate(p, 0.5, 0.0, 0, path, 0.2) == pytest.approx(0.5 * 0.1 / 0.6)
+    p.min_approach_linear_velocity = 0.1
+    assert regulate(p, 0.5, 0.0, 0, path, 0.2) == pytest.approx(0.1)  # the floor
+    # the path's length (from its first pose) decides when: 0.7 m long, no slowing
+    longer = np.array([[0.0, 0.0], [0.3, 0.0], [0.3, 0.1], [0.0, 0.1]])
+    assert regulate(p, 0.5, 0.0, 0, longer, 0.2) == 0.5
 
 
 def test_speed_limit():

@@ -113,7 +113,7 @@ def test_the_costmap_drawn_follows_the_obstacle_layer():
     simulator.AdvanceTo(6.0)
     after = _positions(meshcat, f"{NAV_PATH}/costmap")
     world.close(simulator.get_context())
-    crate = np.array([-0.6, -0.1])  # the crate's centre (diagrams/fra2mo_obstacles.yaml)
+    crate = np.array([-0.72, -0.43])  # the crate's centre (diagrams/fra2mo_obstacles.yaml)
 
     def near(points):
         return int((np.linalg.norm(points[:, :2] - crate, axis=1) < 0.5).sum())

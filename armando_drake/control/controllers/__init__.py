@@ -662,6 +662,11 @@ class Controller:
         """Called by the controller manager with its ``update_rate`` [Hz] before the run
         (upstream's ``on_configure`` reads ``get_update_rate()``); the default ignores it."""
 
+    def set_namespace(self, namespace: str) -> None:
+        """Called by the world builder with the robot's namespace ("/left"; "" for the
+        only robot), the node namespace upstream's controller runs in; the default ignores
+        it (a drive prefixes its frames with it)."""
+
     def connect_plant(self, plant, model_instance) -> None:
         """Called by the world builder once the plant is finalized, before the run:
         a controller that computes from the robot's model (inverse dynamics) keeps

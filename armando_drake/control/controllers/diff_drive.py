@@ -1,28 +1,29 @@
 """Differential drives: ``diff_drive_controller/DiffDriveController`` and the Gazebo plugins.
 
-**diff_drive_controller/DiffDriveController** as upstream's (ros2_controllers ``jazzy``,
-not chained): a ``geometry_msgs/TwistStamped`` (a plain ``Twist`` too, stamped when it
-arrives) on ``/<controller>/cmd_vel`` sets the reference (``linear.x`` [m/s],
-``angular.z`` [rad/s]); at every update the reference goes through the speed limiters
-(control_toolbox's RateLimiter: velocity, acceleration and jerk limits per axis, from the
-two previous commands) and becomes the wheels' velocity commands [rad/s]::
+**diff_drive_controller/DiffDriveController** as upstream's (ros2_controllers ``jazzy``;
+chainable: :meth:`DiffDriveController.set_chained_mode`): a ``geometry_msgs/TwistStamped``
+(a plain ``Twist`` too, stamped when it arrives) on ``/<controller>/cmd_vel`` sets the
+reference (``linear.x`` [m/s], ``angular.z`` [rad/s]); at every update the reference goes
+through the speed limiters (control_toolbox's RateLimiter: velocity, acceleration and jerk
+limits per axis, from the two previous commands) and becomes the wheels' velocity commands [rad/s]::
 
     left  = (v - w * wheel_separation / 2) / left_wheel_radius
     right = (v + w * wheel_separation / 2) / right_wheel_radius
 
 with the multipliers applied (``wheel_separation_multiplier``, ``*_wheel_radius_multiplier``).
-Before any command the reference is NaN and nothing is written (the wheels hold still). A
+Before any command the reference is NaN and nothing is written (the wheels hold still) and
+no odometry is integrated or published, as upstream's update returns early. A
 command older than ``cmd_vel_timeout`` [s] (its stamp, 0 taken as the time it arrived)
 brakes: the reference becomes zero, through the limiters; one that is already that old
 when it arrives is ignored; 0 disables the timeout. A NaN in ``linear.x`` or
 ``angular.z`` leaves the reference as it was.
 
 The odometry (``nav_msgs/Odometry`` ``odom_frame_id`` -> ``base_frame_id``, with
-``tf_frame_prefix``; the TF ``odom -> base`` it broadcasts with ``enable_odom_tf``) is
-integrated at every update as upstream's ``Odometry`` does: from the wheels' positions
-(``position_feedback``, the default; the mean of each side), from their velocities, or
-with ``open_loop`` from the limited commands; exact arc integration (second-order
-Runge-Kutta when the turn is under 1e-6 rad), the twist a rolling mean over
+``tf_frame_prefix`` or the robot's namespace; the TF ``odom -> base`` it broadcasts with
+``enable_odom_tf``) is integrated at every update as upstream's ``Odometry`` does: from the
+wheels' positions (``position_feedback``, the default; the mean of each side), from their
+velocities, or with ``open_loop`` from the limited commands; exact arc integration (second-
+order Runge-Kutta when the turn is under 1e-6 rad), the twist a rolling mean over
 ``velocity_rolling_window_size`` updates. It is published at ``publish_rate`` [Hz] on the
 output ``<controller>.odom``. So it drifts from the ground truth exactly where the wheels
 slip.
@@ -281,6 +282,7 @@ class DriveState:
     # [m/s] each wheel's commanded rim speed (Gazebo classic's acceleration limit).
     rim_speeds: tuple[float, ...] = ()
     timed_out: bool = False  # the latest update braked for a stale command
+    inactive: bool = False  # deactivated: its subscriber takes no command (upstream's)
 
     def __deepcopy__(self, memo):
         return self
@@ -326,6 +328,9 @@ class _Drive(Controller):
     initial_state = "active"
     # Published topics of the controller (leaf -> message class), outputs of the manager.
     outputs: ClassVar[dict[str, type]] = {"odom": Odometry}
+    # Whether the odometry is integrated and published before the first command (Gazebo's
+    # plugins); diff_drive_controller returns early while its reference is NaN.
+    odometry_before_command: ClassVar[bool] = True
 
     def _setup(
         self,
@@ -459,6 +464,9 @@ class _Drive(Controller):
             state = dataclasses.replace(state, previous=(state.previous[1], command))
             velocities, state = self._wheels(command, state, dt)
             desired = np.concatenate([desired[: self.n], velocities])
+        elif not self.odometry_before_command:
+            state = dataclasses.replace(state, last_update=now)
+            return ControllerMemory(desired, status, internal=state, running=True)
         odometry = self._odometry(now, command, state, _Feedback(measure, memory.desired), dt)
         state = dataclasses.replace(state, odometry=odometry, last_update=now)
         if state.last_publish + self.publish_period < now or state.last_publish == -math.inf:
@@ -610,11 +618,15 @@ class DiffDriveParameters:
             except ParameterError as error:
                 raise Refusal(prefix, f": {error.problem}") from None
 
-    def frames(self) -> tuple[str, str]:
-        """(odom frame, base frame) with the prefix (no namespace here)."""
+    def frames(self, namespace: str = "") -> tuple[str, str]:
+        """(odom frame, base frame) as upstream's on_configure names them: with
+        ``tf_frame_prefix_enable``, ``tf_frame_prefix`` or, when it is empty, the
+        controller's ``namespace`` ("/" for none), a "/" after it and none before."""
         prefix = ""
-        if self.tf_frame_prefix_enable and self.tf_frame_prefix:
-            prefix = self.tf_frame_prefix.rstrip("/").lstrip("/") + "/"
+        if self.tf_frame_prefix_enable:
+            prefix = self.tf_frame_prefix or namespace or "/"
+            prefix = prefix if prefix.endswith("/") else prefix + "/"
+            prefix = prefix[1:] if prefix.startswith("/") else prefix
         return prefix + self.odom_frame_id, prefix + self.base_frame_id
 
 
@@ -626,6 +638,8 @@ class DiffDriveController(_Drive):
     ignored_parameters = frozenset(
         {"wheels_per_side", "use_stamped_vel", "publish_limited_velocity"}
     )
+    odometry_before_command = False
+    chained_mode = False  # set_chained_mode: the reference written by a preceding controller
 
     @classmethod
     def joints_of(cls, params) -> list[str]:
@@ -677,7 +691,67 @@ class DiffDriveController(_Drive):
             tuple(map(float, p.twist_covariance_diagonal)),
         )
 
+    # Lifecycle (upstream's on_configure, on_activate, on_deactivate, on_cleanup) --------
+
+    def set_namespace(self, namespace: str) -> None:
+        """The controller's node namespace ("/left"; "" for none): the frames' prefix
+        when ``tf_frame_prefix_enable`` and ``tf_frame_prefix`` is empty."""
+        self.odom_frame, self.base_frame = self.params.frames(namespace)
+
+    def set_chained_mode(self, chained: bool) -> bool:
+        """``set_chained_mode``: in chained mode the reference is what a preceding
+        controller writes (:meth:`write_reference`); cmd_vel and its timeout are not read."""
+        self.chained_mode = bool(chained)
+        return True
+
+    def reference_interfaces(self) -> list[str]:
+        """The exported reference interfaces: ``<name>/linear/velocity``,
+        ``<name>/angular/velocity``."""
+        return [f"{self.name}/linear/velocity", f"{self.name}/angular/velocity"]
+
+    def write_reference(self, memory, linear: float, angular: float) -> ControllerMemory:
+        """A preceding controller's write to the reference interfaces (chained mode)."""
+        state = dataclasses.replace(memory.internal, reference=(float(linear), float(angular)))
+        return dataclasses.replace(memory, internal=state)
+
+    def _reset_buffers(self, state: DriveState, now: float) -> DriveState:
+        """``reset_buffers``: the reference NaN, the two previous commands zero, the
+        command message NaN stamped ``now`` (its timeout counts from it)."""
+        return dataclasses.replace(
+            state, reference=(NAN, NAN), previous=((0.0, 0.0), (0.0, 0.0)), command_stamp=now
+        )
+
+    def deactivate(self, now: float, memory: ControllerMemory) -> ControllerMemory:
+        """``on_deactivate``: the subscriber off, the wheels halted (velocity 0), the
+        buffers reset."""
+        state = dataclasses.replace(self._reset_buffers(memory.internal, now), inactive=True)
+        desired = np.concatenate([memory.desired[: self.n], np.zeros(self.n)])
+        status = dataclasses.replace(memory.status, state="inactive")
+        return ControllerMemory(desired, status, internal=state, running=True)
+
+    def activate(self, now: float, memory: ControllerMemory) -> ControllerMemory:
+        """``on_activate``: the subscriber takes commands again; the wheels keep the
+        command they last had."""
+        state = dataclasses.replace(memory.internal, inactive=False)
+        status = dataclasses.replace(memory.status, state="active")
+        return ControllerMemory(memory.desired, status, internal=state, running=True)
+
+    def reset(self, now: float, memory: ControllerMemory) -> ControllerMemory:
+        """``reset`` (on_configure, on_cleanup, on_error): the odometry's pose back to 0
+        (``resetOdometry``: the wheels' last positions and the rolling means kept), the
+        buffers reset, the subscriber off until activated."""
+        state = memory.internal
+        odometry = dataclasses.replace(state.odometry, x=0.0, y=0.0, heading=0.0)
+        state = dataclasses.replace(self._reset_buffers(state, now), odometry=odometry)
+        state = dataclasses.replace(state, inactive=True)
+        status = dataclasses.replace(memory.status, state="inactive")
+        return ControllerMemory(memory.desired, status, internal=state, running=True)
+
     def _reference(self, now, message, state, status):
+        if self.chained_mode:  # update_reference_from_subscribers is not called
+            return state, status
+        if state.inactive and message is not None:
+            message = None  # "Can't accept new commands. subscriber is inactive"
         timeout = self.params.cmd_vel_timeout
         if message is not None and timeout > 0:
             try:
