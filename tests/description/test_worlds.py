@@ -512,3 +512,42 @@ def test_include_loops_and_binary_worlds_are_one_line(tmp_path, case):
         "binary": r"w\.sdf: the world file is not a text \(SDFormat\) file",
     }[case]
     assert re.search(expected, message), message
+
+
+FRAME_WORLD = """<?xml version="1.0"?>
+<sdf version="1.6">
+  <world name="old">
+    <include>
+      <uri>model://crate</uri>
+      <name>crate_a</name>
+      <pose frame="">1.5 -0.5 0 0 0 0.7</pose>
+    </include>
+    <model name="post"><static>true</static>
+      <pose frame=''>0 2 0 0 0 0</pose>
+      <link name="link"><pose frame="">0 0 0.5 0 0 0</pose>
+        <collision name="collision"><geometry><box><size>0.1 0.1 1</size></box></geometry>
+        </collision>
+      </link>
+    </model>
+  </world>
+</sdf>
+"""
+
+
+def test_sdformat_16_pose_frames(tmp_path):
+    """SDFormat 1.6's <pose frame=""> (AWS RoboMaker's worlds write it on every include),
+    which Drake's SDFormat 1.9 has no attribute for: an empty frame is the parent's."""
+    _models(tmp_path / "models")
+    world_file = tmp_path / "old.world"
+    world_file.write_text(FRAME_WORLD)
+    builder, plant, _ = _plant()
+    world = load_world(plant, world_file)
+    plant.Finalize()
+    context = plant.GetMyContextFromRoot(builder.Build().CreateDefaultContext())
+
+    def where(model):
+        body = plant.GetBodyByName("link", world.models[model])
+        return plant.EvalBodyPoseInWorld(context, body).translation()
+
+    assert where("crate_a") == pytest.approx([1.5, -0.5, 0], abs=1e-9)
+    assert where("post") == pytest.approx([0, 2, 0.5], abs=1e-9)
