@@ -61,6 +61,8 @@ WORLDS = [
     Case("turtlebot3_gazebo/worlds/turtlebot3_world.world", "turtlebot3", (-2.0, -0.5, 0.0)),
     Case("turtlebot3_gazebo/worlds/turtlebot3_dqn_stage1.world", "turtlebot3", (0.0, 0.0, 0.0)),
     Case("examples/worlds/shapes.sdf", "gz-sim", (-2.0, 0.0, 0.0)),
+    # Its floor: GroundB_01's collision slab, 12.43 cm thick (a centimetre DAE) at z -0.0901.
+    Case("worlds/no_roof_small_warehouse.world", "aws-warehouse", (1.5, -2.0, 0.0), floor=0.0342),
 ]
 # Robots: a Gazebo model folder, or a robot written inside a world file
 # ("WORLD#MODEL": the <model> named MODEL of that world, spawned as its own folder).
@@ -69,6 +71,10 @@ ROBOTS = [
     ("turtlebot3", "turtlebot3_gazebo/models/turtlebot3_waffle"),
     ("gz-sim", "examples/worlds/visualize_lidar.sdf#vehicle_blue"),
 ]
+
+
+# The folders of a snapshot written out (worlds and models; not docs or images of docs).
+SNAPSHOT_FOLDERS = ("turtlebot3_gazebo/", "examples/worlds/", "test/worlds/", "models/", "worlds/")
 
 
 def materialize(repo: Path, out: Path) -> tuple[Path, str, int]:
@@ -86,7 +92,7 @@ def materialize(repo: Path, out: Path) -> tuple[Path, str, int]:
     ).stdout.split("\n")
     missing = 0
     for name in filter(None, files):
-        if not name.startswith(("turtlebot3_gazebo/", "examples/worlds/", "test/worlds/")):
+        if not name.startswith(SNAPSHOT_FOLDERS):
             continue
         shown = subprocess.run(
             ["git", "-C", str(repo), "show", f"HEAD:{name}"], capture_output=True

@@ -428,6 +428,13 @@ class _WorldReader:
             element = ET.Element("static")
             element.text = "true"
             model.insert(0, element)
+        if static:
+            # A static model does not move: Gazebo never reads its links' inertia, which
+            # published worlds leave invalid (a floor of 1000 kg with moments that fail
+            # the triangle inequality), and Drake would refuse.
+            for link in model.findall("link"):
+                for inertial in link.findall("inertial"):
+                    link.remove(inertial)
         for child in list(model):
             if child.tag == "include":
                 index = list(model).index(child)

@@ -551,3 +551,31 @@ def test_sdformat_16_pose_frames(tmp_path):
 
     assert where("crate_a") == pytest.approx([1.5, -0.5, 0], abs=1e-9)
     assert where("post") == pytest.approx([0, 2, 0.5], abs=1e-9)
+
+
+INVALID_STATIC_WORLD = """<?xml version="1.0"?>
+<sdf version="1.6">
+  <world name="floor">
+    <model name="slab"><static>1</static>
+      <link name="link">
+        <inertial><mass>1000</mass>
+          <inertia><ixx>1200083.33</ixx><iyy>8333416.66</iyy><izz>2033333.33</izz>
+          </inertia></inertial>
+        <collision name="collision"><geometry><box><size>4 4 0.1</size></box></geometry>
+        </collision>
+      </link>
+    </model>
+  </world>
+</sdf>
+"""
+
+
+def test_a_static_model_with_an_invalid_inertia_loads(tmp_path):
+    """A static model's inertia is never used (AWS RoboMaker's warehouse floor declares
+    moments that fail the triangle inequality): it loads, welded where it is."""
+    world_file = tmp_path / "floor.world"
+    world_file.write_text(INVALID_STATIC_WORLD)
+    builder, plant, _ = _plant()
+    world = load_world(plant, world_file)
+    assert _pose(plant, builder, world.models["slab"]).translation() == pytest.approx([0, 0, 0])
+    assert plant.num_positions() == 0
