@@ -61,6 +61,10 @@ SERVO_CAP_SHARE = 0.9
 # Share of M / h per step that integrates the measured velocity's excess (a steady load,
 # such as gravity, leaves none).
 INTEGRAL_SHARE = 0.3
+# Share of the one-step (deadbeat) approach to the limit that a servo whose demand is
+# saturated keeps (see _matrices): it closes its gap to the limit with a time constant
+# of about h / APPROACH_SHARE (7 ms at 1 ms steps) whatever its damping.
+APPROACH_SHARE = 0.15
 # The largest loop gain the coupling between two capped joints may close (see
 # _coupling_weight): a light joint on a heavy one has a small one (Armando's tip on its
 # shoulder: 0.02); two strongly coupled joints (a gripper's finger on its wrist) get a
@@ -183,6 +187,7 @@ def _matrices(
         plant.GetJointByName(joint.name, robot.model_instance).velocity_start()
         for joint in hardware.joints
     ]
+    inverse = np.linalg.inv(matrix)
     for i in rows:
         joint = hardware.joints[i]
         limit = joint.velocity
@@ -216,11 +221,21 @@ def _matrices(
             continue
         # The servo's demand u, saturated: the excess u - s moves q_d by -(K / kp) (u - s),
         # or v_d by -(K / kd) (u - s).
-        lower[i], upper[i] = -limit, limit
+        # The demand is saturated where the servo's torque K (u - v_next) would take the
+        # joint APPROACH_SHARE of the way to the limit within the step (M_free: the
+        # joint's inertia with every other joint free, 1 / (M^-1)_ii):
+        # u <= L + g (L - w), g = APPROACH_SHARE M_free / (h K), w the velocity the cap
+        # acts on; that is, y = u + g w saturated at +-(1 + g) L. Saturating u at L
+        # alone would leave a servo with little damping (small K) the torque
+        # K (L - v), next to nothing, far below its limit.
         gain = joint.kp * plant.time_step() + joint.kd
+        free = 1.0 / inverse[starts[i], starts[i]]
+        reach = APPROACH_SHARE * free / (h * gain)
+        lower[i], upper[i] = -(1 + reach) * limit, (1 + reach) * limit
         A[i, i] = joint.kp / gain
         A[i, x0 + hardware.position_index[i]] = -joint.kp / gain
         A[i, n + i] = joint.kd / gain
+        A[i] += reach * A[n + i]  # the measured velocity and the coupling's pull
         target, scale = (i, gain / joint.kp) if joint.kp > 0 else (n + i, gain / joint.kd)
         C[target, :size] -= scale * A[i]
         C[target, size + i] += scale
