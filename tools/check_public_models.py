@@ -61,11 +61,20 @@ WORLDS = [
     Case("turtlebot3_gazebo/worlds/turtlebot3_world.world", "turtlebot3", (-2.0, -0.5, 0.0)),
     Case("turtlebot3_gazebo/worlds/turtlebot3_dqn_stage1.world", "turtlebot3", (0.0, 0.0, 0.0)),
     Case("examples/worlds/shapes.sdf", "gz-sim", (-2.0, 0.0, 0.0)),
+    # Its floor: GroundB_01's collision slab, 12.43 cm thick (a centimetre DAE) at z -0.0901.
+    Case("worlds/no_roof_small_warehouse.world", "aws-warehouse", (1.5, -2.0, 0.0), floor=0.0342),
 ]
+# Robots: a Gazebo model folder, or a robot written inside a world file
+# ("WORLD#MODEL": the <model> named MODEL of that world, spawned as its own folder).
 ROBOTS = [
     ("turtlebot3", "turtlebot3_gazebo/models/turtlebot3_burger"),
     ("turtlebot3", "turtlebot3_gazebo/models/turtlebot3_waffle"),
+    ("gz-sim", "examples/worlds/visualize_lidar.sdf#vehicle_blue"),
 ]
+
+
+# The folders of a snapshot written out (worlds and models; not docs or images of docs).
+SNAPSHOT_FOLDERS = ("turtlebot3_gazebo/", "examples/worlds/", "test/worlds/", "models/", "worlds/")
 
 
 def materialize(repo: Path, out: Path) -> tuple[Path, str, int]:
@@ -83,7 +92,7 @@ def materialize(repo: Path, out: Path) -> tuple[Path, str, int]:
     ).stdout.split("\n")
     missing = 0
     for name in filter(None, files):
-        if not name.startswith(("turtlebot3_gazebo/", "examples/worlds/", "test/worlds/")):
+        if not name.startswith(SNAPSHOT_FOLDERS):
             continue
         shown = subprocess.run(
             ["git", "-C", str(repo), "show", f"HEAD:{name}"], capture_output=True
@@ -145,6 +154,33 @@ def lowest_point(world, context, instance) -> float:
         mesh.apply_transform(query.GetPoseInWorld(geometry).GetAsMatrix4())
         lowest = min(lowest, float(mesh.vertices[:, 2].min()))
     return lowest
+
+
+def model_folder(root: Path, robot: str, out: Path) -> Path:
+    """The model folder of ``robot`` under ``root``: the folder itself, or for
+    "WORLD#MODEL" a folder written under ``out`` with the world's ``<model>`` named MODEL
+    as its ``model.sdf`` (its pose dropped: the check spawns it) and a ``model.config``."""
+    path, _, name = robot.partition("#")
+    if not name:
+        return root / path
+    tree = ET.parse(root / path)
+    found = [m for m in tree.getroot().iter("model") if m.get("name") == name]
+    if not found:
+        raise ValueError(f"{root / path}: no <model name='{name}'>")
+    model = found[0]
+    for pose in model.findall("pose"):
+        model.remove(pose)
+    folder = out / "extracted" / name
+    folder.mkdir(parents=True, exist_ok=True)
+    version = tree.getroot().get("version", "1.9")
+    sdf = ET.Element("sdf", version=version)
+    sdf.append(model)
+    ET.ElementTree(sdf).write(folder / "model.sdf", encoding="unicode", xml_declaration=True)
+    (folder / "model.config").write_text(
+        f"<?xml version='1.0'?>\n<model><name>{name}</name>"
+        f"<sdf version='{version}'>model.sdf</sdf></model>\n"
+    )
+    return folder
 
 
 def without_noise(robot_dir: Path, out: Path) -> Path:
@@ -264,6 +300,7 @@ def main(argv=None) -> int:
     parser.add_argument("--repo", action="append", default=[], help="NAME=PATH")
     parser.add_argument("--out", default=None, help="where git snapshots are written out")
     parser.add_argument("--only", default="", help="run the worlds whose path contains this")
+    parser.add_argument("--robot", default="", help="run the robots whose path contains this")
     args = parser.parse_args(argv)
     out = Path(args.out or tempfile.mkdtemp(prefix="public_check_"))
     roots = {}
@@ -277,11 +314,11 @@ def main(argv=None) -> int:
         if case.repo not in roots or args.only not in case.world:
             continue
         for repo, model in ROBOTS:
-            if repo not in roots:
+            if repo not in roots or args.robot not in model:
                 continue
-            robot_dir = without_noise(roots[repo] / model, out)
             label = f"{case.world} + {Path(model).name}"
             try:
+                robot_dir = without_noise(model_folder(roots[repo], model, out), out)
                 f = run_case(case, robot_dir, roots[case.repo], out)
             except Exception as error:  # a check's failure is a line, the others go on
                 print(f"FAIL {label}: {type(error).__name__}: {error}")

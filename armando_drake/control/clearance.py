@@ -9,9 +9,16 @@ collision queries, and scales a target's excursion from home back (in
 :data:`SCALE_STEP` steps) until all of that is free.
 
 What counts as a collision: the robot's geometry against anything anchored to the world
-(the floor, fixed scene objects) and against itself, except pairs already in contact at
-home and pairs across a joint (the links on its two sides, with everything welded to
-them), as Drake and the importer filter them. Free objects are not obstacles.
+(the floor, fixed scene objects) and against itself, except pairs across a joint (the
+links on its two sides, with everything welded to them), as Drake and the importer
+filter them, and pairs already in contact at home that the driven joints cannot part
+(the robot against itself; a mobile base's wheels on the floor). Free objects are not
+obstacles.
+
+A home where a link the driven joints move touches the world (a gripper pointing down
+into the floor) is a problem of its own: the targets then start from the pose nearest
+home, towards the targets, that is clear (said in one warning), and the path from the
+start pose may leave the contacts it starts in.
 """
 
 from __future__ import annotations
@@ -51,6 +58,14 @@ class _Checker:
                 plant.CollectRegisteredGeometries(robot_bodies), Role.kProximity
             )
         )
+        joint_indices = [joint.index() for joint in joints]
+        moved = plant.GetBodiesKinematicallyAffectedBy(joint_indices)
+        self.moved = set(
+            inspector.GetGeometryIds(
+                plant.CollectRegisteredGeometries([plant.get_body(i) for i in moved]),
+                Role.kProximity,
+            )
+        )
         self.names = {
             geometry: plant.GetBodyFromFrameId(inspector.GetFrameId(geometry)).name()
             for geometry in inspector.GetAllGeometryIds()
@@ -85,7 +100,11 @@ class _Checker:
             declaration.ExcludeBetween(robot_set, plant.CollectRegisteredGeometries(free))
         manager.Apply(declaration)
         home = CollisionFilterDeclaration()
+        self.home_contacts = []  # a moved link against the world, at home
         for a, b in self.pairs(None):
+            if (a in self.moved) != (b in self.moved) and not ({a, b} <= self.robot):
+                self.home_contacts.append((a, b))
+                continue
             home.ExcludeBetween(GeometrySet(a), GeometrySet(b))
         manager.Apply(home)
 
@@ -107,16 +126,24 @@ class _Checker:
             if p.id_A in self.robot or p.id_B in self.robot
         ]
 
-    def collides(self, positions) -> bool:
-        return self._query(positions).HasCollisions()
+    def collides(self, positions, allowed: frozenset = frozenset()) -> bool:
+        """Whether the robot collides at ``positions`` (other than in the pairs
+        ``allowed``)."""
+        if not allowed:
+            return self._query(positions).HasCollisions()
+        return any(pair not in allowed for pair in self.pairs(positions))
 
-    def first_contact(self, path: np.ndarray) -> str:
-        """'<body> with <body>' of the first colliding pose of ``path``."""
+    def describe(self, pair) -> str:
+        a, b = pair
+        return f"{self.names.get(a, a)} with {self.names.get(b, b)}"
+
+    def first_contact(self, path: np.ndarray, allowed: frozenset = frozenset()) -> str:
+        """'<body> with <body>' of the first colliding pose of ``path`` (other than in
+        the pairs ``allowed``)."""
         for positions in path:
-            found = self.pairs(positions)
+            found = [pair for pair in self.pairs(positions) if pair not in allowed]
             if found:
-                a, b = found[0]
-                return f"{self.names.get(a, a)} with {self.names.get(b, b)}"
+                return self.describe(found[0])
         return ""
 
 
@@ -148,18 +175,45 @@ def clear_targets(
     targets_ = np.asarray(targets, dtype=float)
     home = targets_[0]
     previous = np.asarray(start, dtype=float)
+    # The contacts the start pose is in, which the path from it may leave.
+    allowed = frozenset(checker.pairs(previous))
+    if checker.home_contacts:
+        clear = _clear_home(checker, targets_)
+        where = checker.describe(checker.home_contacts[0])
+        if clear is None:
+            _log.warning(
+                "home of %s touches the world (%s) and no pose towards its seed targets "
+                "is clear: the targets are not checked",
+                robot_name,
+                where,
+            )
+            return [list(map(float, target)) for target in targets]
+        _log.warning(
+            "home of %s touches the world (%s): its seed targets start from the nearest "
+            "clear pose towards them instead, %s",
+            robot_name,
+            where,
+            [round(float(v), 3) for v in clear],
+        )
+        targets_ = np.array([clear if np.array_equal(t, home) else t for t in targets_])
+        home = clear
     result = []
     scales = [1.0 - k * SCALE_STEP for k in range(round(1 / SCALE_STEP))] + [0.0]
     for k, target in enumerate(targets_):
         chosen, blocked = target, ""
         for scale in scales:
             candidate = home + scale * (target - home)
-            path = np.vstack([_path(previous, candidate), _path(candidate, home)])
-            if not any(checker.collides(q) for q in path):
+            lead = _path(previous, candidate)
+            if not (
+                any(checker.collides(q, allowed) for q in lead)
+                or any(checker.collides(q) for q in _path(candidate, home))
+            ):
                 chosen = candidate
                 break
             if scale == 1.0:
-                blocked = checker.first_contact(path)
+                blocked = checker.first_contact(lead, allowed) or checker.first_contact(
+                    _path(candidate, home)
+                )
         else:
             chosen = home
             scale = 0.0
@@ -175,4 +229,18 @@ def clear_targets(
             )
         result.append([float(v) for v in chosen])
         previous = chosen
+        allowed = frozenset()
     return result
+
+
+def _clear_home(checker: _Checker, targets: np.ndarray) -> np.ndarray | None:
+    """The pose nearest home (``targets[0]``) on the way to one of the other targets, in
+    steps of :data:`SCALE_STEP` of the way, that is free of collisions; None if none is."""
+    home = targets[0]
+    for k in range(1, round(1 / SCALE_STEP) + 1):
+        scale = k * SCALE_STEP
+        for target in targets[1:]:
+            candidate = home + scale * (target - home)
+            if np.any(target != home) and not checker.collides(candidate):
+                return candidate
+    return None

@@ -50,6 +50,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from armando_drake.control.clearance import clear_targets
 from armando_drake.control.controllers import takes_stream
+from armando_drake.control.velocity_limits import slowest_move, slowest_wave
 from armando_drake.description.loader import is_builtin_armando
 from armando_drake.messages.types import (
     Float64MultiArray,
@@ -896,6 +897,14 @@ def stream_controller(config: SequencerConfig | None, managed: Sequence, stack) 
     return controller.name
 
 
+def _too_fast(config: SequencerConfig, joints: Sequence[str], rows: Sequence) -> str:
+    """What the joints' velocity limits keep ``config`` from doing in time, or ""."""
+    if isinstance(config, Sinusoid):
+        return slowest_wave(rows, wave_of(config, joints).amplitude, config.frequency)
+    start = [joint.initial_position for joint in rows]
+    return slowest_move(rows, config.targets, start, config.period)
+
+
 def AddSequencer(
     builder,
     config: SequencerConfig,
@@ -903,13 +912,16 @@ def AddSequencer(
     *,
     commands_log: Callable[[list[str]], Callable] | None = None,
     where: str = "",
+    velocity_limits: bool = False,
 ):
     """The command sequencer of ``config`` on the first active controller of
     ``stack`` (a :class:`~armando_drake.control.stack.ControlStack`) of the kind its
     configuration feeds (a position or a trajectory controller). ``commands_log``,
     given the joints driven, returns what is called with each command published (the
     commands log). Exports ``reference``;
-    returns (the sequencer, the controller it drives)."""
+    returns (the sequencer, the controller it drives). With ``velocity_limits`` (the
+    joints capped at their URDF velocity limits) a target or wave the limits keep a
+    joint from following in time is said in one warning."""
     kind = CONTROLLER_KIND[type(config)]
     message = JointTrajectory if kind == "trajectory" else Float64MultiArray
     targets = stack.taking(message, position_targets=True)
@@ -943,6 +955,10 @@ def AddSequencer(
         [joint.upper for joint in rows],
         source=where.rstrip(": "),
     )
+    if velocity_limits:
+        late = _too_fast(config, joints, rows)
+        if late:
+            _log.warning("%ssequencer of %s: %s", where, stack.robot.name, late)
     stream = name == stack.stream_controller
     sequencer = builder.AddSystem(
         MakeSequencer(

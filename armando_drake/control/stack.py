@@ -117,8 +117,8 @@ class ActuatorConfig:
     # depend on how stiff the gains are.
     gravity_feedforward: bool = True
     # Caps each joint at its URDF <limit velocity> on every command interface, as
-    # Gazebo's physics does (docs/physics.md).
-    velocity_limits: bool = False
+    # Gazebo's physics does (docs/physics.md); false lifts the cap.
+    velocity_limits: bool = True
 
     def check(self) -> None:
         """Each per-joint pair [kp, kd]: two gains, zero or positive, no stiffer than a

@@ -257,7 +257,10 @@ class _Writer:
         diffuse = element.findtext("material/diffuse")
         if tag == "visual" and diffuse and diffuse.strip():
             values = diffuse.split() + ["1"] * 4
-            material = ET.SubElement(written, "material", name=f"{element.get('name', '')}_color")
+            # SDFormat's visual names are unique within their link only; URDF's material
+            # names are the robot's.
+            name = f"{link.get('name', '')}_{element.get('name', '')}_color"
+            material = ET.SubElement(written, "material", name=name)
             ET.SubElement(material, "color", rgba=" ".join(values[:4]))
 
     def geometry(self, kind: ET.Element, element: ET.Element) -> ET.Element | None:

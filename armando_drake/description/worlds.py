@@ -277,6 +277,16 @@ def _xml_text(path: Path, where: str) -> str:
         raise WorldError(f"{path}: {where} is not a text (SDFormat) file") from None
 
 
+def _poses_without_frame(model: ET.Element) -> None:
+    """SDFormat 1.6's ``<pose frame="...">`` as SDFormat 1.7 converts it, in place: an
+    empty frame (the default, the parent's) is dropped, another one becomes
+    ``relative_to`` (Drake reads the model as SDFormat 1.9, which has no ``frame``)."""
+    for pose in model.iter("pose"):
+        frame = pose.attrib.pop("frame", None)
+        if frame and frame.strip() and not pose.get("relative_to"):
+            pose.set("relative_to", frame.strip())
+
+
 def _floats(text: str | None, count: int, where: str) -> list[float]:
     try:
         values = [float(v) for v in (text or "").split()]
@@ -410,6 +420,7 @@ class _WorldReader:
         name = model.get("name", "").strip()
         model.set("name", name)
         scoped = f"{scope}::{name}" if scope else name
+        _poses_without_frame(model)
         static = static or (model.findtext("static") or "").strip().lower() in ("true", "1")
         if static and scope:
             for old in model.findall("static"):
@@ -417,6 +428,13 @@ class _WorldReader:
             element = ET.Element("static")
             element.text = "true"
             model.insert(0, element)
+        if static:
+            # A static model does not move: Gazebo never reads its links' inertia, which
+            # published worlds leave invalid (a floor of 1000 kg with moments that fail
+            # the triangle inequality), and Drake would refuse.
+            for link in model.findall("link"):
+                for inertial in link.findall("inertial"):
+                    link.remove(inertial)
         for child in list(model):
             if child.tag == "include":
                 index = list(model).index(child)

@@ -352,6 +352,7 @@ def AddRobotDrivers(
                 stack,
                 commands_log=commands_log if commands_csv is not None else None,
                 where=spec.where("sequencer"),
+                velocity_limits=spec.entry.actuators.velocity_limits,
             )
         if spec.entry.twist is not None:
             twist, twist_target = AddTwistSequence(

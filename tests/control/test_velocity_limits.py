@@ -90,14 +90,24 @@ def test_a_step_command_never_drives_a_joint_above_its_velocity_limit(
         assert q[1] == pytest.approx(0.0, abs=0.01)
 
 
-def test_a_weak_servo_dragged_by_its_neighbour_is_taken_back_within_2_percent(tmp_path):
+@pytest.mark.parametrize("data", [(1.5, -1.0), (0.2, -1.5), (0.3, -1.0), (-1.5, 0.3)])
+def test_joints_stepped_together_never_run_above_their_limits_by_more_than_1_percent(
+    tmp_path, data
+):
     # Both joints stepped at once: the shoulder's start drags the light tip (derived kp
-    # 0.09 N m/rad) past its limit for a few steps before the cap takes it back.
+    # 0.09 N m/rad, its mass matrix coupling to the shoulder as large as its own
+    # inertia) within a step; the cap sees that coupling and holds every joint.
     world = limited_world(tmp_path, "position", "position_controller")
     try:
-        peak, _ = peak_speed(
-            world, ("position_controller", Float64MultiArray(data=(1.5, -1.0))), 1.0
-        )
+        simulator = Simulator(world.diagram)
+        context = simulator.get_mutable_context()
+        world.publish(context, "position_controller", Float64MultiArray(data=data))
+        peaks = np.zeros(2)
+        for t in np.arange(0.001, 0.6, 0.001):
+            simulator.AdvanceTo(t)
+            state = world.diagram.GetOutputPort("joint_states").Eval(context)
+            peaks = np.maximum(peaks, np.abs(state.velocity))
     finally:
         world.close()
-    assert LIMIT <= peak <= 1.02 * LIMIT
+    assert np.all(peaks <= 1.01 * LIMIT), f"{data}: {peaks} rad/s against {LIMIT}"
+    assert np.max(peaks) >= 0.95 * LIMIT  # a joint does run at its limit

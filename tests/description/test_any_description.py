@@ -2,6 +2,7 @@
 link, ROS 1 transmissions) and a xacro arm with a gripper."""
 
 import json
+import logging
 import subprocess
 import sys
 import textwrap
@@ -9,6 +10,9 @@ import textwrap
 import numpy as np
 import pytest
 from conftest import make_mini_package
+
+from armando_drake.simulation.builder import MakeWorld
+from armando_drake.simulation.scenario import load_scenario
 
 
 def run(module: str, *args: str) -> subprocess.CompletedProcess:
@@ -26,6 +30,8 @@ def test_display_loads_the_course_package(course_package):
 
 
 def test_world_drives_the_course_package_to_the_seed_targets(course_package, tmp_path):
+    # The package's placeholder velocity limits (0.1 rad/s) would keep the arm from the
+    # targets (see the test below): this one is about the import, so it lifts the cap.
     result = run(
         "armando_drake.world",
         "--no-meshcat",
@@ -33,6 +39,8 @@ def test_world_drives_the_course_package_to_the_seed_targets(course_package, tmp
         "0",
         "--description",
         str(course_package),
+        "--set",
+        "actuators: {velocity_limits: false}",
         "--output",
         str(tmp_path),
         "--quiet",
@@ -43,6 +51,23 @@ def test_world_drives_the_course_package_to_the_seed_targets(course_package, tmp
     assert max(step["final_error"] for step in summary["steps"]) <= 0.01
     # The importer said what it repaired.
     assert "link 'base_link': inertia" in result.stderr + result.stdout
+
+
+def test_the_course_packages_velocity_limits_are_said_to_make_its_targets_late(
+    course_package, caplog
+):
+    scenario = load_scenario(
+        "position",
+        f"robot: {{description: {course_package}}}\nlogging: {{console_rate: 0}}",
+    )
+    with caplog.at_level(logging.WARNING, logger="armando_drake.world"):
+        MakeWorld(scenario, quiet=True).close()
+    lines = [r.getMessage() for r in caplog.records if "velocity limit" in r.getMessage()]
+    assert len(lines) == 1, lines
+    # j0 from 1.2 to -1.2 rad at 0.1 rad/s: 24 s against the seed's 3 s.
+    expected = "joint j0 (velocity limit 0.1 rad/s) needs 24 s to move 2.4 rad to target 2"
+    assert expected in lines[0]
+    assert "3 s are given" in lines[0]
 
 
 GRIPPER = """

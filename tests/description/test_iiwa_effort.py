@@ -64,7 +64,7 @@ def ros1_controllers() -> str:
     return "\n".join(lines) + "\n"
 
 
-def iiwa_world(iiwa_package, tmp_path, activate: list[str]):
+def iiwa_world(iiwa_package, tmp_path, activate: list[str], extra: str = ""):
     controllers = tmp_path / "iiwa_control.yaml"
     controllers.write_text(ros1_controllers())
     scenario = load_scenario(
@@ -72,13 +72,21 @@ def iiwa_world(iiwa_package, tmp_path, activate: list[str]):
         f"robot: {{description: {iiwa_package}, base_xyz: [0, 0, 0], "
         "xacro_args: {hardware_interface: EffortJointInterface}}\n"
         "sequencer: null\nlogging: {console_rate: 0}\n"
-        f"controllers: {{config: {controllers}, activate: [{', '.join(activate)}]}}\n",
+        f"controllers: {{config: {controllers}, activate: [{', '.join(activate)}]}}\n" + extra,
     )
     return MakeWorld(scenario, quiet=True)
 
 
 def test_every_iiwa_joint_takes_torques_that_reach_the_plant_exactly(iiwa_package, tmp_path):
-    world = iiwa_world(iiwa_package, tmp_path, ["joint_state_controller", "effort_group"])
+    # The torques pass unchanged only while no joint is at its velocity limit, which
+    # these reach within the 50 ms (with the cap, iiwa_joint_1's 40 N m is taken down to
+    # 18.9 N m): this test is about the pass-through, so it lifts the cap.
+    world = iiwa_world(
+        iiwa_package,
+        tmp_path,
+        ["joint_state_controller", "effort_group"],
+        "actuators: {velocity_limits: false}\n",
+    )
     assert world.robot().stack.hardware.source == "transmission"
     assert world.robot().stack.hardware.joint_names == JOINTS
     assert world.robot().stack.hardware.interfaces() == ["effort"] * 7

@@ -512,3 +512,70 @@ def test_include_loops_and_binary_worlds_are_one_line(tmp_path, case):
         "binary": r"w\.sdf: the world file is not a text \(SDFormat\) file",
     }[case]
     assert re.search(expected, message), message
+
+
+FRAME_WORLD = """<?xml version="1.0"?>
+<sdf version="1.6">
+  <world name="old">
+    <include>
+      <uri>model://crate</uri>
+      <name>crate_a</name>
+      <pose frame="">1.5 -0.5 0 0 0 0.7</pose>
+    </include>
+    <model name="post"><static>true</static>
+      <pose frame=''>0 2 0 0 0 0</pose>
+      <link name="link"><pose frame="">0 0 0.5 0 0 0</pose>
+        <collision name="collision"><geometry><box><size>0.1 0.1 1</size></box></geometry>
+        </collision>
+      </link>
+    </model>
+  </world>
+</sdf>
+"""
+
+
+def test_sdformat_16_pose_frames(tmp_path):
+    """SDFormat 1.6's <pose frame=""> (AWS RoboMaker's worlds write it on every include),
+    which Drake's SDFormat 1.9 has no attribute for: an empty frame is the parent's."""
+    _models(tmp_path / "models")
+    world_file = tmp_path / "old.world"
+    world_file.write_text(FRAME_WORLD)
+    builder, plant, _ = _plant()
+    world = load_world(plant, world_file)
+    plant.Finalize()
+    context = plant.GetMyContextFromRoot(builder.Build().CreateDefaultContext())
+
+    def where(model):
+        body = plant.GetBodyByName("link", world.models[model])
+        return plant.EvalBodyPoseInWorld(context, body).translation()
+
+    assert where("crate_a") == pytest.approx([1.5, -0.5, 0], abs=1e-9)
+    assert where("post") == pytest.approx([0, 2, 0.5], abs=1e-9)
+
+
+INVALID_STATIC_WORLD = """<?xml version="1.0"?>
+<sdf version="1.6">
+  <world name="floor">
+    <model name="slab"><static>1</static>
+      <link name="link">
+        <inertial><mass>1000</mass>
+          <inertia><ixx>1200083.33</ixx><iyy>8333416.66</iyy><izz>2033333.33</izz>
+          </inertia></inertial>
+        <collision name="collision"><geometry><box><size>4 4 0.1</size></box></geometry>
+        </collision>
+      </link>
+    </model>
+  </world>
+</sdf>
+"""
+
+
+def test_a_static_model_with_an_invalid_inertia_loads(tmp_path):
+    """A static model's inertia is never used (AWS RoboMaker's warehouse floor declares
+    moments that fail the triangle inequality): it loads, welded where it is."""
+    world_file = tmp_path / "floor.world"
+    world_file.write_text(INVALID_STATIC_WORLD)
+    builder, plant, _ = _plant()
+    world = load_world(plant, world_file)
+    assert _pose(plant, builder, world.models["slab"]).translation() == pytest.approx([0, 0, 0])
+    assert plant.num_positions() == 0

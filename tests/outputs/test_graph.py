@@ -47,8 +47,9 @@ def test_svg_names_every_system_and_port_of_the_position_world(dot, tmp_path):
     world = MakeWorld(load_scenario("position", "logging: {console_rate: 0}"), quiet=True)
     systems = [system.get_name() for system in world.diagram.GetSystems()]
     # plant, scene graph, controller manager, effort state, gravity feed-forward,
-    # sequencer, joint-state vector, logger
-    assert len(systems) == 8, systems
+    # sequencer, joint-state vector, logger; and the velocity limits' cap (on by
+    # default), its zero effort input and the adder of its torque and the feed-forward
+    assert len(systems) == 11, systems
     missing = [name for name in systems if f"name={name}" not in texts]
     assert missing == [], f"systems not drawn: {missing}"
     # The named connections: the sequencer's commands topic and the broadcaster's output.
