@@ -126,6 +126,10 @@ TARGET_PERIOD = 3.0  # [s] between targets
 TIME_STEPS = (0.001, 0.002, 0.005, 0.010, 0.020)  # [s] candidates of the step search
 FINAL_ERROR_TOLERANCE = 0.01  # [rad] every joint at the end of every target
 NO_CONSOLE = "logging: {console_rate: 0}"
+# The replays feed the bare plant's PD inputs at the controller ticks; the velocity cap
+# reshapes those inputs at every plant step, so the worlds they replay run without it (its
+# cost stays in the pipeline rows, which run the scenarios as they are).
+UNCAPPED = "actuators: {velocity_limits: false}"
 RTF = "x real time"  # unit of a real-time factor: simulated over wall-clock seconds
 
 
@@ -483,12 +487,13 @@ class PlantInputs:
 
 
 def recorded_plant_inputs(name: str, duration: float) -> PlantInputs:
-    """The plant inputs of scenario ``name`` over ``duration`` [s]: its desired state and
-    gravity feed-forward, read half a tick after each controller tick (they change only at
-    the ticks, where the controllers and the sequencer's streams write)."""
+    """The plant inputs of scenario ``name`` (without the velocity cap, :data:`UNCAPPED`)
+    over ``duration`` [s]: its desired state and gravity feed-forward, read half a tick after
+    each controller tick (they change only at the ticks, where the controllers and the
+    sequencer's streams write)."""
     from pydrake.systems.analysis import Simulator
 
-    world = MakeWorld(load_scenario(name, NO_CONSOLE), quiet=True)
+    world = MakeWorld(load_scenario(name, f"{NO_CONSOLE}\n{UNCAPPED}"), quiet=True)
     simulator = Simulator(world.diagram)
     context = simulator.get_mutable_context()
     port = world.diagram.GetOutputPort("desired_state")

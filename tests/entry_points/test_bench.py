@@ -192,7 +192,7 @@ def test_a_replay_moves_the_arm_as_its_world_does(name):
     diagram, plant = bench.replay_diagram(inputs)
     replay = Simulator(diagram)
     replay.AdvanceTo(duration)
-    world = MakeWorld(load_scenario(name, bench.NO_CONSOLE), quiet=True)
+    world = MakeWorld(load_scenario(name, f"{bench.NO_CONSOLE}\n{bench.UNCAPPED}"), quiet=True)
     simulator = Simulator(world.diagram)
     simulator.AdvanceTo(duration)
     x_world = world.plant.GetPositionsAndVelocities(
