@@ -271,9 +271,8 @@ def _pose_buffer(builder, stack, drive: str, system: dict) -> PoseBuffer:
     period = getattr(logic, "publish_period", math.inf)
     rate = 1.0 / period if math.isfinite(period) and period > 0 else float(stack.update_rate)
     buffer = builder.AddSystem(
-        PoseBuffer(state_size=system["state_size"], base_rows=system["base_rows"],
-                   axle=_axle_offset(stack, drive), rate=rate)
-    )  # fmt: skip
+        PoseBuffer(state_size=system["state_size"], base_rows=system["base_rows"], rate=rate)
+    )
     buffer.set_name("pose_buffer")
     builder.Connect(
         stack.plant.get_state_output_port(stack.robot.model_instance),

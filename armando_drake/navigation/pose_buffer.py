@@ -7,7 +7,10 @@ interpolated between two samples as tf2 does: the position linearly, the heading
 the shorter arc of the circle; a stamp outside the history takes its nearest end (tf2's
 "latest" for a stamp of 0). :class:`RobotPoses` holds a robot's two tracks: the ground
 truth (the plant's base, for a navigation without localization) and the drive's
-odometry (``odom -> base_link``; AMCL's and SLAM's map -> odom composed on it).
+odometry (``odom -> base_link``; AMCL's and SLAM's map -> odom composed on it). The
+odometry is the drive's message as it is: the integration of the wheel axle's midpoint,
+published as the base frame's pose, as ROS's diff_drive_controller and Gazebo's DiffDrive
+publish it (see :func:`body_odometry`).
 
 :class:`PoseBuffer` is the Drake system that keeps them, one per robot: sampled at the
 drive's odometry rate (its ``publish_rate``, 50 Hz by default), :data:`BUFFER_SECONDS`
@@ -47,13 +50,14 @@ def inverse(a) -> tuple[float, float, float]:
     return -c * a[0] - s * a[1], s * a[0] - c * a[1], _wrap(-a[2])
 
 
-def body_odometry(message, axle: float) -> tuple[float, float, float]:
-    """The odometry's pose of the base frame: a drive integrates the wheel axle's midpoint,
-    ``axle`` [m] ahead of the base frame's origin (both start at the odometry's origin)."""
+def body_odometry(message) -> tuple[float, float, float]:
+    """The odometry's pose of the base frame (``odom -> base_link``): the drive's
+    integration of its wheel axle's midpoint, published as the base frame's pose, as
+    ros2_controllers' diff_drive_controller and Gazebo's DiffDrive do (they know no offset
+    between the axle and the base frame: turning in place is a pure rotation in odom)."""
     if message is None:
         return 0.0, 0.0, 0.0
-    odom = (message.position[0], message.position[1], message.yaw)
-    return compose(compose((axle, 0.0, 0.0), odom), (-axle, 0.0, 0.0))
+    return float(message.position[0]), float(message.position[1]), float(message.yaw)
 
 
 @dc.dataclass(frozen=True)
@@ -137,15 +141,14 @@ class PoseBuffer(LeafSystem):
         - poses
 
     - ``state``: the robot model instance's state (its floating base's pose and twist);
-    - ``odom``: the drive's latest Odometry (its pose of the wheel axle's midpoint,
-      ``axle`` [m] ahead of the base frame);
+    - ``odom``: the drive's latest Odometry (the wheel axle's midpoint integrated, as
+      the base frame's pose: :func:`body_odometry`);
     - ``poses``: the :class:`RobotPoses` kept, with the current sample added.
     """
 
-    def __init__(self, *, state_size: int, base_rows, axle: float, rate: float):
+    def __init__(self, *, state_size: int, base_rows, rate: float):
         super().__init__()
         self._q_rows, self._v_rows = base_rows
-        self._axle = float(axle)
         self._state = self.DeclareVectorInputPort("state", state_size)
         self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
         self._poses = self.DeclareAbstractState(AbstractValue.Make(RobotPoses()))
@@ -159,7 +162,7 @@ class PoseBuffer(LeafSystem):
         x = self._state.Eval(context)
         truth = poses.truth.add(now, planar_base(x[self._q_rows], x[self._v_rows])[:3])
         message = self._odom.Eval(context)
-        odom = poses.odom.add(message.stamp, body_odometry(message, self._axle))
+        odom = poses.odom.add(message.stamp, body_odometry(message))
         return RobotPoses(truth, odom)
 
     def _Update(self, context, state) -> None:

@@ -9,7 +9,7 @@ import pytest
 
 from armando_drake.control.config import ControllerConfigError, parse_controller_config
 from armando_drake.control.controllers import ControllerJoints, lookup
-from armando_drake.control.controllers.diff_drive import RateLimiter
+from armando_drake.control.controllers.diff_drive import OdometryState, RateLimiter
 from armando_drake.messages.types import Twist, TwistStamped
 
 TYPE = "diff_drive_controller/DiffDriveController"
@@ -205,6 +205,27 @@ def test_open_loop_odometry_with_clamped_and_unclamped_input(clamped):
     odometry = memory.internal.odometry
     assert odometry.angular == pytest.approx(expected, abs=1e-3)
     assert odometry.heading == pytest.approx(expected * 0.1, abs=1e-3)
+
+
+@pytest.mark.parametrize(
+    "left, right, pose, twist_",
+    [
+        (1.0, 1.0, (1.0, 0.0, 0.0), (1.0, 0.0)),  # TestLinearMotion
+        (-1.0, 1.0, (0.0, 0.0, 2.0), (0.0, 2.0)),  # TestPureRotation
+        (1.0, 2.0, (1.5 * math.sin(1.0), -1.5 * (math.cos(1.0) - 1.0), 1.0), (1.5, 1.0)),
+    ],
+    ids=["linear", "pure_rotation", "exact_arc"],
+)
+def test_odometry_integrates_the_axles_midpoint(left, right, pose, twist_):
+    """Upstream's test_odometry.cpp (wheel separation 1 m, 1 s): the pose integrated is the
+    wheel axle's midpoint's, published as the base frame's; turning in place (TestPureRotation)
+    leaves it where it was, whatever offset the base frame has from the axle."""
+    start = OdometryState()
+    assert (start.x, start.y, start.heading, start.linear, start.angular) == (0, 0, 0, 0, 0)
+    odometry = start.from_travel(left, right, 1.0, 1.0, 10)
+    assert (odometry.x, odometry.y, odometry.heading) == pytest.approx(pose, abs=1e-12)
+    assert (odometry.linear, odometry.angular) == pytest.approx(twist_)
+    assert start.from_travel(1.0, 1.0, 1.0, 1e-7, 10) is start  # TestSmallDtRejection
 
 
 def test_position_feedback_odometry_integrates_an_arc_exactly():

@@ -4,7 +4,10 @@ A base turning at 1.8 rad/s while driving 0.2 m/s (an exact arc: the true pose i
 any time), its drive's odometry published at 50 Hz, a 10 Hz lidar and a 5 Hz consumer (the
 controller's rate): the pose the consumer takes for each scan, from the buffer at the
 scan's stamp, is the true pose at that stamp within 1 mm and 1 mrad, whether the stamp
-falls on an odometry sample or between two.
+falls on an odometry sample or between two; the localized pose (map -> odom then the
+odometry) is the odometry's at that stamp, the odometry being the drive's message as ROS's
+diff_drive_controller publishes it: the wheel axle's midpoint integrated, as the base
+frame's pose.
 """
 
 from __future__ import annotations
@@ -39,6 +42,12 @@ def true_pose(t: float) -> tuple[float, float, float]:
     return (r * math.sin(W * t), r * (1.0 - math.cos(W * t)), math.remainder(W * t, 2 * math.pi))
 
 
+def odometry_pose(t: float) -> tuple[float, float, float]:
+    """The drive's odometry at ``t``: the axle's midpoint from where it started."""
+    start = (AXLE, 0.0, 0.0)
+    return compose(inverse(start), compose(true_pose(t), (AXLE, 0.0, 0.0)))
+
+
 class ArcPlant(LeafSystem):
     """The floating base's state (qw qx qy qz x y z, wx wy wz vx vy vz) on the arc, and the
     drive's Odometry of the axle's midpoint published at ODOM_RATE."""
@@ -52,8 +61,7 @@ class ArcPlant(LeafSystem):
 
     @staticmethod
     def _message(t: float) -> Odometry:
-        start = (AXLE, 0.0, 0.0)
-        axle = compose(inverse(start), compose(true_pose(t), (AXLE, 0.0, 0.0)))
+        axle = odometry_pose(t)
         half = axle[2] / 2
         return Odometry(stamp=t, position=(axle[0], axle[1], 0.0),
                         orientation=(math.cos(half), 0.0, 0.0, math.sin(half)))  # fmt: skip
@@ -109,9 +117,8 @@ def consumed():
     builder = DiagramBuilder()
     plant = builder.AddSystem(ArcPlant())
     buffer = builder.AddSystem(
-        PoseBuffer(state_size=13, base_rows=(list(range(7)), list(range(7, 13))), axle=AXLE,
-                   rate=ODOM_RATE)
-    )  # fmt: skip
+        PoseBuffer(state_size=13, base_rows=(list(range(7)), list(range(7, 13))), rate=ODOM_RATE)
+    )
     lidar = builder.AddSystem(Lidar())
     consumer = builder.AddSystem(Consumer())
     builder.Connect(plant.GetOutputPort("state"), buffer.GetInputPort("state"))
@@ -137,9 +144,21 @@ def test_a_scan_is_placed_at_its_stamp_within_a_millimetre_while_turning(consume
     for _, stamp, truth, localized in consumed:
         position, yaw = _error(truth, true_pose(stamp))
         assert position < 1e-3 and yaw < 1e-3, stamp
-        expected = compose(Consumer.MAP_TO_ODOM, true_pose(stamp))
+        expected = compose(Consumer.MAP_TO_ODOM, odometry_pose(stamp))
         position, yaw = _error(localized, expected)
         assert position < 1e-3 and yaw < 1e-3, stamp
+
+
+def test_the_odometry_is_the_axles_integration_as_the_base_frames_pose(consumed):
+    """As diff_drive_controller publishes odom -> base_link (it knows no axle offset): the
+    odometry track is the axle's integration, off the base frame's true pose by the offset
+    turned with the base (here 0.1 m through up to 7.2 rad)."""
+    worst = 0.0
+    for _, stamp, truth, localized in consumed:
+        odometry = compose(inverse(Consumer.MAP_TO_ODOM), localized)
+        assert _error(odometry, odometry_pose(stamp))[0] < 1e-3, stamp
+        worst = max(worst, _error(odometry, truth)[0])
+    assert worst > AXLE  # not the base frame's true arc
 
 
 def test_the_nearest_controller_pose_would_smear_the_scan(consumed):
