@@ -12,13 +12,22 @@ lidar's scans.
   the omni model's (``OmniMotionModel::odometryUpdate``: the translation along the
   odometry's bearing, a rotation and a strafe across it, ``alpha5`` the strafe's noise from
   translation; under the differential model ``alpha5`` is warned about);
-- **sensor** (``likelihood_field``): ``max_beams`` beams of the scan, evenly spread, those
-  within ``laser_min_range`` .. ``laser_max_range``; each beam's end point in the map,
-  ``z`` its distance to the nearest occupied cell (a distance transform, capped at
+- **sensor** (``likelihood_field``): every step-th beam of the scan from the first, step
+  ``(beams - 1) // (max_beams - 1)`` (at least 1), those over ``laser_min_range`` and
+  under ``laser_max_range`` (upstream takes a reading at or under the minimum as the
+  maximum, which the model ignores); each beam's end point in the map, ``z`` its
+  distance to the nearest occupied cell (a distance transform, capped at
   ``laser_likelihood_max_dist``), ``pz = z_hit exp(-z^2 / (2 sigma_hit^2)) + z_rand /
-  range_max``, and a particle's weight multiplied by ``1 + sum pz^3`` (upstream's);
-- an update only after the odometry moved ``update_min_d`` or turned ``update_min_a``
-  (and at the first scan); systematic resampling every ``resample_interval`` updates;
+  range_max``, and a particle's weight multiplied by ``1 + sum pz^3`` (upstream's). An end
+  point falls in the cell that contains it (map_server's convention); upstream's
+  ``MAP_GXWX`` rounds instead, taking cell ``i`` as centred at ``origin + i *
+  resolution``, half a cell off the map it loaded: not reproduced (on the fra2mo_amcl
+  scenario it shifts the estimate by half a cell, 2.5 cm in x and in y);
+- an update only when ``|dx|`` or ``|dy|`` of the odometry (each alone, in its frame) is
+  over ``update_min_d`` or ``|dyaw|`` over ``update_min_a`` since the last one (and at the
+  first scan), as ``AmclNode::shouldUpdateFilter``; resampling every
+  ``resample_interval`` updates by upstream's sampler (each particle drawn independently
+  by the cumulative weights);
 - ``max_particles`` particles, drawn at the start around the initial pose (``initial_pose``
   with ``set_initial_pose``, else the scenario's) with upstream's initial covariance
   (0.5 m, 0.5 m, pi/12 rad standard deviations);
@@ -72,11 +81,15 @@ class AmclParameters:
     laser_likelihood_max_dist: float = param(
         2.0, unit="m", ge=0, doc="the likelihood field's distance cap"
     )
-    laser_max_range: float = param(100.0, unit="m", ge=0, doc="longer ranges are dropped")
-    laser_min_range: float = param(
-        -1.0, unit="m", doc="shorter ranges are dropped (-1: the scan's own)"
+    laser_max_range: float = param(
+        100.0, unit="m", ge=0, doc="ranges from it on are dropped (0: the scan's range_max)"
     )
-    max_beams: float = param(60.0, unit="-", ge=2, doc="beams of each scan used")
+    laser_min_range: float = param(
+        -1.0, unit="m", doc="ranges up to it are dropped (-1: the scan's range_min)"
+    )
+    max_beams: float = param(
+        60.0, unit="-", ge=2, doc="every (n - 1) // (max_beams - 1)-th of a scan's n beams used"
+    )
     max_particles: float = param(
         2000.0,
         unit="-",
@@ -87,8 +100,10 @@ class AmclParameters:
     sigma_hit: float = param(0.2, unit="m", ge=0, doc="the hit model's deviation")
     z_hit: float = param(0.5, unit="-", ge=0, doc="weight of the hit model")
     z_rand: float = param(0.5, unit="-", ge=0, doc="weight of the random model")
-    update_min_a: float = param(0.2, unit="rad", ge=0, doc="turn before a filter update")
-    update_min_d: float = param(0.25, unit="m", ge=0, doc="travel before a filter update")
+    update_min_a: float = param(0.2, unit="rad", ge=0, doc="|dyaw| over it: a filter update")
+    update_min_d: float = param(
+        0.25, unit="m", ge=0, doc="|dx| or |dy| (each alone) over it: a filter update"
+    )
     resample_interval: float = param(1.0, unit="-", ge=0, doc="filter updates between resamplings")
     set_initial_pose: bool = param(False, doc="start from initial_pose")
     robot_model_type: str = DIFFERENTIAL  # or OMNI
@@ -190,9 +205,13 @@ class ParticleFilter:
         return FilterState(particles, np.full(n, 1.0 / n), tuple(odom))
 
     def moved(self, state: FilterState, odom) -> bool:
+        """Whether the odometry moved enough since the last update for a new one, as
+        ``AmclNode::shouldUpdateFilter`` tests it: ``|dx|`` or ``|dy|`` (in the odometry
+        frame, each alone) over ``update_min_d``, or ``|dyaw|`` over ``update_min_a``."""
         dx, dy = odom[0] - state.odom[0], odom[1] - state.odom[1]
         turned = abs(wrap(odom[2] - state.odom[2]))
-        return math.hypot(dx, dy) >= self.params.update_min_d or turned >= self.params.update_min_a
+        d, a = self.params.update_min_d, self.params.update_min_a
+        return abs(dx) > d or abs(dy) > d or turned > a
 
     def motion(self, particles: np.ndarray, old, new) -> np.ndarray:
         """The motion model's odometryUpdate from odometry pose ``old`` to ``new``."""
@@ -257,12 +276,18 @@ class ParticleFilter:
         p = self.params
         ranges = np.asarray(scan.ranges, dtype=float)
         angles = scan.angle_min + scan.angle_increment * np.arange(len(ranges))
-        count = min(int(p.max_beams), len(ranges))
-        pick = np.round(np.linspace(0, len(ranges) - 1, count)).astype(int)
-        ranges, angles = ranges[pick], angles[pick]
-        range_max = min(scan.range_max, p.laser_max_range)
-        range_min = max(scan.range_min, p.laser_min_range)
-        keep = np.isfinite(ranges) & (ranges < range_max) & (ranges >= range_min)
+        # Every step-th beam from the first, step = (count - 1) // (max_beams - 1) at least 1
+        # (LikelihoodFieldModel::sensorFunction): 64 of 640 beams at max_beams 60.
+        step = max(1, (len(ranges) - 1) // max(1, int(p.max_beams) - 1))
+        ranges, angles = ranges[::step], angles[::step]
+        range_max, range_min = scan.range_max, scan.range_min  # the YAML's where positive
+        if p.laser_max_range > 0:
+            range_max = min(range_max, p.laser_max_range)
+        if p.laser_min_range > 0:
+            range_min = max(range_min, p.laser_min_range)
+        # A reading at or under range_min is taken as range_max, which the model ignores
+        # (AmclNode::updateFilter); so are NaN readings.
+        keep = np.isfinite(ranges) & (ranges < range_max) & (ranges > range_min)
         ranges, angles = ranges[keep], angles[keep]
         total = np.ones(len(particles))
         if not len(ranges):
@@ -294,11 +319,17 @@ class ParticleFilter:
         )
         updates = state.updates + 1
         if updates % max(1, int(self.params.resample_interval)) == 0:
-            n = len(particles)
-            positions = (self.rng.random() + np.arange(n)) / n
-            index = np.minimum(np.searchsorted(np.cumsum(weights), positions), n - 1)
-            particles, weights = particles[index], np.full(n, 1.0 / n)
+            particles, weights = self.resample(particles, weights)
         return FilterState(particles, weights, tuple(odom), updates)
+
+    def resample(self, particles: np.ndarray, weights: np.ndarray):
+        """(particles, uniform weights) drawn as ``pf_update_resample``'s naive discrete
+        event sampler: each new particle independently by the cumulative weights (upstream
+        leaves its low-variance sampler commented out)."""
+        n = len(particles)
+        draws = self.rng.random(n)
+        index = np.minimum(np.searchsorted(np.cumsum(weights), draws, side="right"), n - 1)
+        return particles[index], np.full(n, 1.0 / n)
 
     @staticmethod
     def estimate(state: FilterState) -> tuple[float, float, float]:

@@ -101,6 +101,64 @@ def test_the_likelihood_field_peaks_at_the_true_pose():
     assert weights[0] > 1.4 * weights[1:].max()
 
 
+def test_an_update_is_due_as_should_update_filter_tests_each_axis_alone():
+    """AmclNode::shouldUpdateFilter: |dx| or |dy| (odometry frame) over update_min_d, or
+    |dyaw| over update_min_a, each strictly and alone (a diagonal 0.2 * 0.8 m is not due)."""
+    params = AmclParameters(update_min_d=0.2, update_min_a=0.5)
+    pf = ParticleFilter(params, _room(), (0.0, 0.0, 0.0))
+    state = pf.start((0.0, 0.0, 0.0), (1.0, 1.0, 3.0))
+    assert not pf.moved(state, (1.16, 1.16, 3.0))  # 0.226 m along the diagonal
+    assert not pf.moved(state, (1.2, 0.8, 3.0))  # exactly update_min_d: not over it
+    assert pf.moved(state, (1.0, 1.21, 3.0)) and pf.moved(state, (0.79, 1.0, 3.0))
+    assert not pf.moved(state, (1.0, 1.0, 3.0 + 0.5))
+    assert pf.moved(state, (1.0, 1.0, -2.78))  # 0.50 rad across +-pi
+
+
+def test_the_laser_model_takes_every_step_th_beam_and_drops_short_and_long_readings():
+    """LikelihoodFieldModel::sensorFunction: beams 0, step, 2 step, ... with step =
+    (count - 1) // (max_beams - 1) (640 beams, max_beams 60: 64 beams, every 10th); a
+    reading at or under range_min is taken as range_max (AmclNode::updateFilter), which
+    the model ignores with NaN and longer readings. A particle's weight is 1 + sum pz^3."""
+    params = AmclParameters(max_beams=60, sigma_hit=0.05, z_hit=0.9, z_rand=0.1)
+    pf = ParticleFilter(params, _room(), (0.0, 0.0, 0.0))
+    z_rand = params.z_rand / 10.0  # z_rand / range_max
+    on_wall = (params.z_hit + z_rand) ** 3  # a beam ending in an occupied cell
+
+    class Scan:
+        angle_min, angle_increment, range_min, range_max = 0.0, 0.0, 0.1, 10.0
+        ranges = np.full(640, np.inf)
+
+    # only every 10th beam is read: the wall 1.975 m ahead (in its cell)
+    Scan.ranges[::10] = 1.975
+    Scan.ranges[5::10] = 0.5  # between the beams read: never seen
+    weight = pf.likelihood(np.zeros((1, 3)), Scan)[0]
+    assert weight == pytest.approx(1.0 + 64 * on_wall)
+    Scan.ranges[::10] = 0.1  # at range_min: taken as range_max, ignored
+    Scan.ranges[0], Scan.ranges[10], Scan.ranges[20] = np.nan, 10.0, 0.10001
+    weight = pf.likelihood(np.zeros((1, 3)), Scan)[0]
+    field = pf.field[30, 42]  # the cell of (0.10001, 0): 1.45 m from the nearest wall
+    pz = params.z_hit * math.exp(-(field**2) / (2 * params.sigma_hit**2)) + z_rand
+    assert weight == pytest.approx(1.0 + pz**3)
+
+
+def test_resampling_draws_each_particle_independently():
+    """pf_update_resample: each of the n new particles drawn alone by the cumulative weights
+    (a particle of weight 1/2 is copied Binomial(n, 1/2) times, not exactly n/2 times as a
+    low-variance sampler would), the new weights uniform."""
+    pf = ParticleFilter(AmclParameters(), _room(), (0.0, 0.0, 0.0))
+    n = 1000
+    particles = np.arange(n, dtype=float)[:, None] * np.ones((1, 3))
+    weights = np.full(n, 0.5 / (n - 1))
+    weights[0] = 0.5
+    copies = []
+    for _ in range(20):
+        drawn, uniform = pf.resample(particles, weights)
+        assert uniform == pytest.approx(np.full(n, 1.0 / n))
+        copies.append(int(np.sum(drawn[:, 0] == 0.0)))
+    assert np.mean(copies) == pytest.approx(n / 2, abs=4 * math.sqrt(n / 4 / 20))
+    assert np.std(copies) == pytest.approx(math.sqrt(n / 4), rel=0.5)  # 15.8, not 0
+
+
 def test_poses_compose_and_the_odometry_is_the_base_frames_pose_as_ros_publishes_it():
     a = (1.0, 2.0, 0.5)
     assert compose(a, inverse(a)) == pytest.approx((0.0, 0.0, 0.0), abs=1e-12)
