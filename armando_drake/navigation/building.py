@@ -29,8 +29,6 @@ import math
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from armando_drake.description.packages import find_packages
 from armando_drake.messages.types import TwistStamped
 from armando_drake.navigation.amcl import AmclLocalizer, ParticleFilter, amcl_parameters
@@ -202,23 +200,6 @@ def _poses(stack, lidar) -> tuple[tuple, tuple]:
     return _planar(X_BS), _planar(plant.EvalBodyPoseInWorld(context, body))
 
 
-def _axle_offset(stack, drive: str) -> float:
-    """[m] the drive's wheel axle midpoint ahead of the floating base's origin."""
-    plant, robot = stack.plant, stack.robot
-    logic = next(c.logic for c in stack.manager.controllers if c.name == drive)
-    body = plant.get_body(next(iter(plant.GetFloatingBaseBodies())))
-    context = plant.CreateDefaultContext()
-    points = [
-        plant.CalcRelativeTransform(
-            context,
-            body.body_frame(),
-            plant.GetJointByName(name, robot.model_instance).frame_on_child(),
-        ).translation()
-        for name in logic.joint_names
-    ]
-    return float(np.mean(points, axis=0)[0])
-
-
 def _layers(stack, servers: _Servers, grid: OccupancyMap, where: str) -> Layers | None:
     """The costmaps fed by the lidar's scans: the global one if it has an obstacle layer,
     the file's local_costmap if it has one; None if neither."""
@@ -309,11 +290,10 @@ def _navigator(builder, config, stack, servers: _Servers, drive, system, where) 
     goals = config.visits()
     check_goals(goals, costmap, where)
     amcl = config.localization == "amcl"
-    axle = _axle_offset(stack, drive) if amcl else None
     layers = _layers(stack, servers, grid, where)
     navigator = builder.AddSystem(
         Navigator(goals, costmap, servers.controller, servers.planner, grid=grid,
-                  amcl_axle=axle, layers=layers, behaviors=servers.behaviors, **system)
+                  odometry=amcl, layers=layers, behaviors=servers.behaviors, **system)
     )  # fmt: skip
     navigator.set_name("navigator")
     buffer = _pose_buffer(builder, stack, drive, system)
@@ -378,10 +358,9 @@ def _explorer(builder, config, stack, servers: _Servers, drive, system, where) -
     truth = navigation_map(config, stack.plant, stack.scene_graph, stack.robot, where)
     blank = canvas(truth, slam.resolution)
     laser, spawn = _poses(stack, lidar)
-    axle = _axle_offset(stack, drive)
     explorer = builder.AddSystem(
         Explorer(explore, servers.costmap, blank, servers.controller, planner, grid=blank,
-                 amcl_axle=axle, **system)
+                 odometry=True, **system)
     )  # fmt: skip
     explorer.set_name("explorer")
     rate = 2.0 * max(lidar.update_rate, 1.0)  # twice the scans: odometry at each

@@ -183,7 +183,7 @@ class Navigator(LeafSystem):
         footprint: tuple = (),
         start_delay: float = 0.0,
         grid: OccupancyMap | None = None,
-        amcl_axle: float | None = None,
+        odometry: bool = False,
         layers: Layers | None = None,
         behaviors: BehaviorParameters | None = None,
     ):
@@ -201,8 +201,8 @@ class Navigator(LeafSystem):
         self._q_rows, self._v_rows = base_rows
         self._state = self.DeclareVectorInputPort("state", state_size)
         self._poses = self.DeclareAbstractInputPort("poses", AbstractValue.Make(RobotPoses()))
-        self._axle = amcl_axle  # None: the ground truth; else AMCL, the drive's axle offset
-        if amcl_axle is not None:
+        self._localized = odometry  # False: the ground truth; True: map -> odom, then odometry
+        if odometry:
             self._odom = self.DeclareAbstractInputPort("odom", AbstractValue.Make(Odometry()))
             self._map_to_odom = self.DeclareVectorInputPort("map_to_odom", 3)
         self._nav = self.DeclareAbstractState(AbstractValue.Make(NavState(goals=tuple(goals))))
@@ -227,13 +227,13 @@ class Navigator(LeafSystem):
     def _pose_at(self, context, stamp: float) -> tuple[float, float, float]:
         """The localization's pose (x, y, yaw) at ``stamp`` (the pose buffer's: the ground
         truth, or AMCL's map -> odom then the odometry)."""
-        map_to_odom = None if self._axle is None else self._map_to_odom.Eval(context)
+        map_to_odom = None if not self._localized else self._map_to_odom.Eval(context)
         return self._poses.Eval(context).map_pose(stamp, map_to_odom)
 
     def _pose(self, context):
         """The localization's pose (x, y, yaw) now and the measured twist (v, w)."""
         px, py, yaw = self._pose_at(context, context.get_time())
-        if self._axle is None:
+        if not self._localized:
             v, w = self._truth(context)[3:]
         else:  # the odometry's twist
             message = self._odom.Eval(context)
@@ -254,7 +254,7 @@ class Navigator(LeafSystem):
         nav = dc.replace(nav, last_pose=truth, estimate=tuple(pose))
         if self.layers is not None and self._scan.HasValue(context):
             nav = self._observe(context, nav, self._scan.Eval(context).message, now)
-        if self._axle is not None and (
+        if self._localized and (
             not nav.localization or now - nav.localization[-1][0] >= 1.0 - 1e-9
         ):
             error = math.hypot(pose[0] - truth[0], pose[1] - truth[1])
@@ -323,7 +323,7 @@ class Navigator(LeafSystem):
     ) -> NavigationGoal:
         """``goal`` in ``frame_id`` at ``stamp`` (0: now) as a map goal at ``context``
         (:func:`goal_in_map`; a base frame's pose at the stamp, from the pose buffer)."""
-        odom = (0.0, 0.0, 0.0) if self._axle is None else tuple(self._map_to_odom.Eval(context))
+        odom = (0.0, 0.0, 0.0) if not self._localized else tuple(self._map_to_odom.Eval(context))
         at = stamp if stamp > 0.0 else context.get_time()
         return goal_in_map(goal, frame_id, odom, lambda: self._pose_at(context, at))
 
@@ -526,7 +526,7 @@ class Navigator(LeafSystem):
     def summary(self, context) -> dict[str, Any]:
         """``summary.json``'s ``navigation`` section (collisions are added by the run)."""
         nav, now = self.nav_state(context), context.get_time()
-        localized = self.LOCALIZATION if self._axle is not None else ""
+        localized = self.LOCALIZATION if self._localized else ""
         return navigation_summary(nav, now, self.controller, localized)
 
 
