@@ -14,8 +14,12 @@ import numpy as np
 import pytest
 
 from armando_drake.navigation.cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
-from armando_drake.navigation.costmap import Costmap, CostmapParameters, layered_costmap
-from armando_drake.navigation.costmap import costmap_parameters
+from armando_drake.navigation.costmap import (
+    Costmap,
+    CostmapParameters,
+    costmap_parameters,
+    layered_costmap,
+)
 from armando_drake.navigation.footprint import (
     footprint_cost,
     footprint_from_radius,
@@ -24,14 +28,14 @@ from armando_drake.navigation.footprint import (
     pad_footprint,
     parse_vvf,
 )
-from armando_drake.navigation.obstacle_layer import raytrace
-from armando_drake.tools.errors import ConfigError
 from armando_drake.navigation.maps import OccupancyMap
 from armando_drake.navigation.obstacle_layer import (
     ObservationSource,
     ObstacleParameters,
     observe,
+    raytrace,
 )
+from armando_drake.tools.errors import ConfigError
 
 MAX_Z = 1.0  # testing_helper.hpp's
 

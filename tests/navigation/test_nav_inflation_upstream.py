@@ -90,11 +90,11 @@ class Layers:
         clearing observation, then marks every marking one (ObstacleLayer::updateBounds);
         the layers combined and inflated."""
         view = Costmap(self.obstacles, 1.0, (0.0, 0.0, 0.0))
-        for point, origin, marking, clearing, ranges in self.observations:
+        for point, origin, _, clearing, ranges in self.observations:
             if clearing:
                 source = ObservationSource(clearing=True, marking=False, **ranges)
                 self.obstacles = _observe(self.obstacles, view, point, origin, source)
-        for point, origin, marking, clearing, ranges in self.observations:
+        for point, origin, marking, _, ranges in self.observations:
             if marking:
                 source = ObservationSource(clearing=False, marking=True, **ranges)
                 self.obstacles = _observe(self.obstacles, view, point, origin, source)
