@@ -242,6 +242,18 @@ def test_bresenham2DSamePoint():
     assert list(zip(rows, cols, strict=True)) == [(4, 2)]
 
 
+def test_GetCostService_without_and_with_footprint():
+    # costmap_cost_service_test.cpp TEST_F(GetCostServiceTest, TestWithoutFootprint) and
+    # TestWithFootprint: the cost at (0.5, 1.0), and of the footprint at (1.0, 1.0, 0.5), on
+    # Costmap2DROS's default costmap (5 m x 5 m of 0.1 m), within 0..255
+    params = CostmapParameters(resolution=0.1)
+    costmap = _costmap(50, 0.1, 0)
+    cost = float(costmap.costs[costmap.world_to_cell(0.5, 1.0)])
+    assert 0.0 <= cost <= 255.0
+    cost = footprint_cost(costmap, (1.0, 1.0, 0.5), params.polygon)
+    assert 0.0 <= cost <= 255.0
+
+
 def test_a_footprint_off_the_map_is_lethal():
     # footprint_collision_checker.cpp footprintCost: a vertex off the map is LETHAL_OBSTACLE
     assert footprint_cost(_costmap(100, 0.1, 0), (0.2, 5.0, 0.0), SQUARE) == LETHAL_OBSTACLE
