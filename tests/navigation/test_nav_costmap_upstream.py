@@ -377,3 +377,45 @@ def test_max_without_unknown_overwrite_combination_method():
     # obstacle_tests.cpp TEST_F(TestNodeWithoutUnknownOverwrite,
     # testMaxWithoutUnknownOverwriteCombinationMethod)
     assert (_unknown_master(2) == NO_INFORMATION).sum() == 100
+
+
+# -- footprint_tests.cpp's parameters as a Nav2 file gives them (a footprint string)
+
+
+def _file_costmap(tmp_path, body: str) -> CostmapParameters:
+    path = tmp_path / "nav2.yaml"
+    path.write_text(
+        "local_costmap:\n  local_costmap:\n    ros__parameters:\n      plugins: []\n" + body
+    )
+    return costmap_parameters(path, "local_costmap")
+
+
+@pytest.mark.parametrize(
+    ("padding", "expected"),
+    [
+        (0.0, [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0)]),  # unpadded_footprint_from_string_param
+        (0.5, [(1.5, 1.5), (-1.5, 1.5), (-1.5, -1.5)]),  # padded_footprint_from_string_param
+    ],
+)
+def test_footprint_from_string_param_in_a_file(tmp_path, padding, expected):
+    params = _file_costmap(
+        tmp_path,
+        f'      footprint: "[[1, 1], [-1, 1], [-1, -1]]"\n      footprint_padding: {padding}\n',
+    )
+    assert params.polygon == expected
+
+
+def test_radius_param_in_a_file(tmp_path):
+    # footprint_tests.cpp TEST_F(TestNode, radius_param): robot_radius 10, padding 0
+    params = _file_costmap(tmp_path, "      robot_radius: 10.0\n      footprint_padding: 0.0\n")
+    assert len(params.polygon) == 16
+    assert params.polygon[0] == (10.0, 0.0)
+    assert params.polygon[4] == pytest.approx((0.0, 10.0), abs=1e-4)
+
+
+def test_footprint_from_same_level_param_in_a_file_is_refused(tmp_path):
+    # footprint_tests.cpp TEST_F(TestNode, footprint_from_same_level_param) takes the three
+    # collinear points [[1, 2], [3, 4], [5, 6]]; a Nav2 file's footprint here must have an
+    # area (docs/navigation.md, the limits on the Nav2 parameters): refused, naming the key
+    with pytest.raises(ConfigError, match=r"footprint: .* has no area"):
+        _file_costmap(tmp_path, '      footprint: "[[1, 2], [3, 4], [5, 6]]"\n')
