@@ -316,3 +316,16 @@ def test_testMultipleAdditions():
     layers = _obstacle_layers(static=True)
     layers.add_observation(9.5, 0.0)
     assert count(layers.update_map(), LETHAL_OBSTACLE) == 20
+
+
+def test_inflation_distances_are_exact_as_jazzys_cached_distances():
+    # inflation_layer.cpp (jazzy) computeCaches: cached_distances_ = hypot(i, j), not
+    # quantized to 1/100 cell: at hypot(1, 1) 166 (1.41 cells would give 167), at
+    # hypot(1, 2) 73 (2.24 cells: 72), cost_scaling_factor 1, inscribed radius 1
+    costs = np.zeros((10, 10), dtype=np.uint8)
+    costs[0, 0] = LETHAL_OBSTACLE
+    params = CostmapParameters(footprint=set_radii(1.0, 1.0), footprint_padding=0.0,
+                               inflation_radius=5.0, cost_scaling_factor=1.0)  # fmt: skip
+    inflated = inflate(costs, 1.0, params)
+    assert inflated[1, 1] == compute_cost(math.hypot(1, 1), 1.0) == 166
+    assert inflated[2, 1] == inflated[1, 2] == compute_cost(math.hypot(1, 2), 1.0) == 73
