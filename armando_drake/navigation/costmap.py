@@ -25,7 +25,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from armando_drake.navigation.cost_values import (
     FREE_SPACE,
@@ -36,6 +35,7 @@ from armando_drake.navigation.cost_values import (
 from armando_drake.navigation.footprint import (
     footprint_cost,
     footprint_from_radius,
+    footprint_from_string,
     min_max_distances,
     pad_footprint,
 )
@@ -242,12 +242,15 @@ def costmap_parameters(
 
 
 def _footprint(value, where: str) -> list:
-    """A footprint polygon, as Nav2 takes it: a string "[[x, y], ...]" (or a list)."""
+    """A footprint polygon, as Nav2 takes it: a string "[[x, y], ...]" (read as
+    ``makeFootprintFromString``; "[]" none) or a list."""
     if isinstance(value, str):
+        if value.strip() in ("", "[]"):
+            return []
         try:
-            value = yaml.safe_load(value)
-        except yaml.YAMLError:
-            raise ConfigError(f"{where}: {value!r} is not [[x, y], ...]") from None
+            value = [list(p) for p in footprint_from_string(value)]
+        except ValueError as error:
+            raise ConfigError(f"{where}: {value!r}: {error}") from None
     if not value:
         return []
     if (

@@ -45,11 +45,11 @@ from pathlib import Path
 import numpy as np
 
 from armando_drake.navigation.cost_values import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
-from armando_drake.navigation.costmap import Costmap
+from armando_drake.navigation.costmap import Costmap, CostmapParameters
 from armando_drake.navigation.nav2_params import Nav2Params, as_nav2, fill
 from armando_drake.navigation.registry import CONTROLLERS
 from armando_drake.tools.errors import ConfigError
-from armando_drake.tools.schema import param
+from armando_drake.tools.schema import is_number, param
 
 RPP = "nav2_regulated_pure_pursuit_controller::RegulatedPurePursuitController"
 GOAL_CHECKERS = ("nav2_controller::SimpleGoalChecker", "nav2_controller::StoppedGoalChecker")
@@ -109,7 +109,9 @@ class RppParameters:
     cost_scaling_dist: float = _m(0.6, "the obstacle distance from which cost regulation slows")
     cost_scaling_gain: float = param(1.0, unit="-", ge=0, doc="the cost regulation's gain")
     inflation_cost_scaling_factor: float = param(
-        3.0, unit="-", ge=0, doc="the inflation layer's factor, to recover distances"
+        3.0,
+        unit="-",
+        doc="the inflation layer's factor, to recover distances (<= 0: no cost regulation)",
     )
     regulated_linear_scaling_min_radius: float = _m(0.9, "curvature radius below which it slows")
     regulated_linear_scaling_min_speed: float = param(
@@ -127,7 +129,12 @@ class RppParameters:
         3.2, unit="rad/s^2", ge=0, doc="the in-place rotation's acceleration limit"
     )
     allow_reversing: bool = _on(False, "drive backwards when the carrot is behind")
-    max_robot_pose_search_dist: float = _m(10.0, "how far along the plan the robot is searched")
+    max_robot_pose_search_dist: float = param(
+        10.0,
+        unit="m",
+        doc="how far along the plan the robot is searched (unset: half the local costmap's "
+        "width; negative: the whole plan)",
+    )
     use_interpolation: bool = _on(True, "the carrot interpolated between plan poses")
     interpolate_curvature_after_goal: bool = _on(
         False,
@@ -199,10 +206,24 @@ STOPPED_KEYS = ("trans_stopped_velocity", "rot_stopped_velocity")
 PROGRESS_KEYS = ("required_movement_radius", "movement_time_allowance")
 
 
+# controller_server's default plugin of each kind: its name and its type, declared when the
+# plugin list is the default one (``default_goal_checker_ids_``/``default_goal_checker_types_``)
+_DEFAULT_TYPES = {
+    "goal_checker": GOAL_CHECKERS[0],
+    "progress_checker": PROGRESS_CHECKERS[0],
+    "FollowPath": "dwb_core::DWBLocalPlanner",
+}
+
+
 def _plugin(ros: dict, names_key: str, name_key: str, default: str, where: str):
     """(name, parameters) of the server's first plugin of a kind (Nav2 takes a list
-    ``<kind>_plugins`` or, before Humble, one ``<kind>_plugin``)."""
+    ``<kind>_plugins`` or, before Humble, one ``<kind>_plugin``); the default list's plugin
+    without a ``plugin`` type has the server's default type."""
     names = ros.get(names_key, [ros.get(name_key, default)])
+    if names in (default, [default]):
+        node = ros.get(default, {})
+        if isinstance(node, dict) and "plugin" not in node:
+            return default, {"plugin": _DEFAULT_TYPES[default], **node}
     if isinstance(names, str):
         names = [names]
     if not isinstance(names, list) or not names:
@@ -267,6 +288,7 @@ def controller_parameters(source: Nav2Params | str | Path) -> ControllerParamete
             name,
         )
         rpp.interpolate_curvature_after_goal = False
+    _rpp_checks(rpp, follow, nav2, f"{where}.{name}")
     ignored += [f"{where}.{name}.{key}" for key in unused if key != "plugin"]
     known.add(name)
     ignored += [
@@ -282,6 +304,33 @@ def controller_parameters(source: Nav2Params | str | Path) -> ControllerParamete
         _log.warning("%s: %s", key, why)
     params.ignored = ignored
     return params
+
+
+def _rpp_checks(rpp: RppParameters, follow: dict, nav2: Nav2Params, where: str) -> None:
+    """ParameterHandler's corrections: ``max_robot_pose_search_dist`` unset is half the
+    local costmap's width (``getSizeInMetersX() / 2``), negative the whole plan; an
+    ``inflation_cost_scaling_factor`` <= 0 disables the cost regulation."""
+    if "max_robot_pose_search_dist" not in follow:
+        local = nav2.node("local_costmap", "local_costmap") or {}
+        width = local.get("width", CostmapParameters().width)
+        if is_number(width) and width > 0:
+            rpp.max_robot_pose_search_dist = width / 2.0
+    if rpp.max_robot_pose_search_dist < 0.0:
+        _log.warning(
+            "%s.max_robot_pose_search_dist: %s is negative, the whole plan is searched "
+            "for the closest pose (as Nav2)",
+            where,
+            rpp.max_robot_pose_search_dist,
+        )
+        rpp.max_robot_pose_search_dist = sys.float_info.max
+    if rpp.inflation_cost_scaling_factor <= 0.0:
+        _log.warning(
+            "%s.inflation_cost_scaling_factor: %s should be > 0; cost regulated linear "
+            "velocity scaling disabled (as Nav2)",
+            where,
+            rpp.inflation_cost_scaling_factor,
+        )
+        rpp.use_cost_regulated_linear_velocity_scaling = False
 
 
 # ---------------------------------------------------------------------------- the follower

@@ -8,6 +8,9 @@
   centre (``padFootprint``, 0.01 m by default);
 - :func:`min_max_distances`: the inscribed and circumscribed radii
   (``calculateMinAndMaxDistances``: the nearest and farthest vertex or edge);
+- :func:`parse_vvf`, :func:`footprint_from_string`: a footprint given as a string
+  "[[x, y], ...]", read as nav2_util's ``parseVVF`` and ``makeFootprintFromString`` read
+  it (numbers as a C++ stream reads them: ``.3``, ``-4e4``);
 - :func:`footprint_cost`: the footprint collision checker (``footprintCostAtPose``): the
   footprint placed at a pose, the highest cost of the cells along its outline (nav2_util's
   LineIterator between consecutive vertices), lethal as soon as a vertex is off the map.
@@ -16,6 +19,7 @@
 from __future__ import annotations
 
 import math
+import re
 import sys
 
 import numpy as np
@@ -23,6 +27,58 @@ import numpy as np
 from armando_drake.navigation.cost_values import LETHAL_OBSTACLE
 
 FOOTPRINT_POINTS = 16  # makeFootprintFromRadius's polygon
+_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+
+
+def parse_vvf(text: str) -> tuple[list[list[float]], str]:
+    """nav2_util's ``parseVVF``: a string of vectors of numbers "[[1, 2.2], [.3, -4e4]]"
+    as (the vectors read, the error: "" when none)."""
+    result: list[list[float]] = []
+    current: list[float] = []
+    depth, k = 0, 0
+    while k < len(text):
+        char = text[k]
+        if char == "[":
+            depth += 1
+            if depth > 2:
+                return result, "Array depth greater than 2"
+            current, k = [], k + 1
+        elif char == "]":
+            depth -= 1
+            if depth < 0:
+                return result, "More close ] than open ["
+            if depth == 1:
+                result.append(current)
+            k += 1
+        elif char in ", \t":
+            k += 1
+        elif depth != 2:
+            return result, f"Numbers at depth other than 2. Char was '{char}'."
+        else:
+            number = _NUMBER.match(text, k)
+            if number is None:
+                break  # the stream fails: what follows is not read
+            current.append(float(number.group()))
+            k = number.end()
+    return result, ("Unterminated vector string." if depth != 0 else "")
+
+
+def footprint_from_string(text: str) -> list[tuple[float, float]]:
+    """``makeFootprintFromString``: the polygon of "[[x, y], ...]"; a ValueError with
+    upstream's reason for a string that does not parse, fewer than three points, or a
+    point that is not a pair."""
+    vvf, error = parse_vvf(text)
+    if error:
+        raise ValueError(f"Error parsing footprint parameter: '{error}'")
+    if len(vvf) < 3:
+        raise ValueError("You must specify at least three points for the robot footprint")
+    for point in vvf:
+        if len(point) != 2:
+            raise ValueError(
+                "Points in the footprint specification must be pairs of numbers. "
+                f"Found a point with {len(point)} numbers."
+            )
+    return [(p[0], p[1]) for p in vvf]
 
 
 def footprint_from_radius(radius: float) -> list[tuple[float, float]]:

@@ -5,7 +5,8 @@ distance transform, as upstream's own), the cost is 254 at ``d = 0``, 253 for ``
 inscribed_radius``, else ``int(252 * exp(-cost_scaling_factor * (d - inscribed_radius)))``,
 for cells with ``d <= ceil(inflation_radius / resolution)`` cells; a cell keeps the larger
 of its cost and the inflated one (an unknown cell only becomes >= 253). Distances are
-quantized to 1/100 cell, as upstream's lookup table. Its parameters are the costmap's
+exact (``hypot`` of the cell offsets, as jazzy's ``cached_distances_``; not quantized to
+1/100 cell as later releases' lookup table). Its parameters are the costmap's
 (:class:`~.costmap.CostmapParameters`: ``inflation_radius``, ``cost_scaling_factor``,
 ``inflate_unknown``, ``inflate_around_unknown``).
 """
@@ -17,7 +18,6 @@ import math
 import numpy as np
 
 from armando_drake.navigation.cost_values import (
-    COST_LUT_PRECISION,
     FREE_SPACE,
     INSCRIBED_INFLATED_OBSTACLE,
     LETHAL_OBSTACLE,
@@ -78,9 +78,8 @@ def inflate(costs: np.ndarray, resolution: float, params) -> np.ndarray:
     from scipy import ndimage  # the navigation extra: imported where used
 
     distance = ndimage.distance_transform_edt(~sources)
-    quantized = np.floor(distance * COST_LUT_PRECISION + 0.5) / COST_LUT_PRECISION
     inflated = inflation_cost(
-        quantized, resolution, params.inscribed_radius, params.cost_scaling_factor
+        distance, resolution, params.inscribed_radius, params.cost_scaling_factor
     )
     inside = distance <= cell_radius
     out = costs.copy()

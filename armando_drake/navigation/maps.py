@@ -12,7 +12,8 @@ Saving follows map_io's ``saveMapToFile``: thresholds of 0.0 are "unspecified" (
 occupied 0.65); the ``mode`` trinary (254 free, 0 occupied, 205 unknown, with the YAML
 map_saver writes: ``occupied_thresh: 0.65``, ``free_thresh: 0.196``), scale (gray
 ``(100 - value)/100``, unknown transparent) or raw (the value itself, unknown 255); the
-``image_format`` pgm, png or bmp ("" = png in scale mode, else pgm). A map YAML path
+``image_format`` pgm, png or bmp ("" = png in scale mode, else pgm; another: png); a
+mode not recognized is trinary (map_saver's fallback), any mode is read lower-cased. A map YAML path
 beginning with ``~/`` is in the user's home (``expand_user_home_dir_if_needed``).
 """
 
@@ -120,6 +121,8 @@ def load_map_yaml(path: str | Path) -> dict:
     """The checked parameters of a map YAML, as ``loadMapYaml``: image (a path, relative
     to the YAML's folder), resolution, origin, free/occupied thresholds, mode, negate.
     A ``path`` beginning with ``~/`` is in the user's home."""
+    if not str(path):
+        raise MapError("map YAML: the file name is empty, can't load")
     path = Path(expand_user_home(str(path)))
     doc = _read_yaml(path)
     image = doc.get("image")
@@ -153,6 +156,7 @@ def load_map_yaml(path: str | Path) -> dict:
             "0 <= free_thresh < occupied_thresh <= 1"
         )
     mode = doc.get("mode", "trinary")
+    mode = mode.lower() if isinstance(mode, str) else mode  # map_mode_from_string
     if mode not in MODES:
         raise MapError(f"{path}: key 'mode' is {mode!r}, not one of {', '.join(MODES)}")
     negate = doc.get("negate", 0)
@@ -227,6 +231,8 @@ def occupancy_from_image(
 
 def load_map(path: str | Path) -> OccupancyMap:
     """A map_server map: the YAML's parameters and its image as an :class:`OccupancyMap`."""
+    if not str(path):
+        raise MapError("map YAML: the file name is empty, can't load")
     path = Path(expand_user_home(str(path)))
     params = load_map_yaml(path)
     gray, alpha = _read_image(params["image"], path)
@@ -247,11 +253,14 @@ def load_map(path: str | Path) -> OccupancyMap:
 
 
 def save_parameters(free_thresh: float, occupied_thresh: float, image_format: str, mode: str):
-    """map_io's ``checkSaveParameters``: (free, occupied, format) with 0.0 thresholds
-    taken as unspecified (0.25, 0.65) and an unspecified format chosen by the mode; a
-    MapError for thresholds out of order or an unknown mode."""
+    """map_io's ``checkSaveParameters``: (free, occupied, format, mode) with 0.0
+    thresholds taken as unspecified (0.25, 0.65), an unspecified format chosen by the mode
+    and a mode not recognized taken as trinary (map_saver's, with a warning); a MapError
+    for thresholds out of order."""
+    mode = str(mode).lower()  # map_mode_from_string
     if mode not in MODES:
-        raise MapError(f"map_saver: mode {mode!r} is not one of {', '.join(MODES)}")
+        _log.warning("map_saver: map mode %r not recognized, using trinary", mode)
+        mode = "trinary"
     if occupied_thresh == 0.0:
         occupied_thresh = 0.65
         _log.warning("map_saver: occupied threshold unspecified; set to 0.65")
@@ -277,7 +286,7 @@ def save_parameters(free_thresh: float, occupied_thresh: float, image_format: st
             "are written gray); consider png",
             image_format,
         )
-    return free_thresh, occupied_thresh, image_format
+    return free_thresh, occupied_thresh, image_format, mode
 
 
 def map_image(data: np.ndarray, mode: str, free_thresh: float, occupied_thresh: float):
@@ -315,7 +324,7 @@ def save_map(
     if path.suffix == ".yaml":
         path = path.with_suffix("")
     try:
-        free_thresh, occupied_thresh, image_format = save_parameters(
+        free_thresh, occupied_thresh, image_format, mode = save_parameters(
             free_thresh, occupied_thresh, image_format, mode
         )
     except MapError as error:

@@ -11,7 +11,8 @@ order differs). Upstream interpolates a smooth path on the potential field; here
 is the sequence of cell centres between the robot's position (its first point) and the
 goal's (its last point, placed as ``smoothApproachToGoal`` places it: it replaces the last
 cell centre when that one is farther from the one before than the goal, else it follows
-it). With ``use_final_approach_orientation`` the plan's last pose faces along its last
+it); a goal at the start's very position is a plan of one pose (``createPlan``'s corner
+case). With ``use_final_approach_orientation`` the plan's last pose faces along its last
 segment (:meth:`NavfnPlanner.final_orientation`), else the goal's heading.
 
 As NavfnPlanner, the start cell is cleared (the robot stands there), and a goal that is
@@ -182,11 +183,13 @@ def plan(costmap: Costmap, start, goal, params: PlannerParameters | None = None)
     """NavFn's path from ``start`` (x, y) to ``goal`` (x, y) in world coordinates, shape
     (n, 2): ``start``, the centres of the cells it crosses after the start's, ``goal``
     (or, when the goal is blocked, the centre of the reachable cell within ``tolerance``
-    nearest to it)."""
+    nearest to it). A goal at the start's very position is a one-pose plan."""
     params = params or PlannerParameters()
     srow, scol = costmap.world_to_cell(*start)
     if not costmap.contains(srow, scol):
         raise PlanningError(f"start ({start[0]:.3f}, {start[1]:.3f}) is outside the map")
+    if start[0] == goal[0] and start[1] == goal[1]:  # createPlan's corner case: one pose
+        return np.array([start[:2]], dtype=float)
     cell_costs = navfn_costs(costmap.costs, params.allow_unknown)
     cell_costs[srow, scol] = COST_NEUTRAL  # clearRobotCell
     h, w = cell_costs.shape

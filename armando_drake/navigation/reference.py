@@ -67,7 +67,10 @@ DIFFERENCES = {
         "NavFn's plan is the robot's position, the centres of the 8-connected cells of the "
         "least-cost path, the goal's position; not NavFn's gradient-descent path over its "
         "potential. Measured: on fra2mo_goals each driven leg stays within 1.25 times the "
-        "shortest collision-free path (RPP's carrot cuts the 45-degree steps)"
+        "shortest collision-free path (RPP's carrot cuts the 45-degree steps). With "
+        "use_final_approach_orientation the last pose faces along the last segment, which "
+        "the half-cell offset of the centres turns: from (0.5, 0.5) to (0.5, 2.0) on 0.1 m "
+        "cells it faces 3 pi/4 where NavFn's faces pi/2"
     ),
     ("FollowPath", "plugin"): (
         "dwb_core::DWBLocalPlanner and nav2_mppi_controller::MPPIController run as Regulated "

@@ -446,3 +446,63 @@ def test_rate_limiter_is_control_toolbox_s():
     assert jerky.limit(0.6, 0.5, 0.0, 0.1) == 0.6  # the jerk against the acceleration: free
     with pytest.raises(ValueError, match="Invalid value limits"):
         RateLimiter.ros_limiter(2.0, 1.0)
+
+
+def test_init_fails_without_parameters():
+    """TEST_F init_fails_without_parameters: no wheel names, separation or radius."""
+    with pytest.raises(ControllerConfigError):
+        parse_controller_config(
+            {
+                "controller_manager": {
+                    "ros__parameters": {"update_rate": 100, "base": {"type": TYPE}}
+                },
+                "base": {"ros__parameters": {}},
+            },
+            "test.yaml",
+        )
+
+
+@pytest.mark.parametrize(
+    "parameters",
+    [
+        {},  # activate_succeeds_with_pos_resources_assigned: position feedback by default
+        {"position_feedback": False},  # activate_succeeds_with_vel_resources_assigned
+        {"open_loop": True},  # activate_succeeds_with_open_loop_assigned
+        {"open_loop": True, "position_feedback": False},  # ..._unnecessary_resources_1
+    ],
+)
+def test_activate_succeeds_with_each_feedback(parameters):
+    """The activate_succeeds_* cases: configured and activated, a command drives."""
+    logic = controller(wheel_separation=0.4, wheel_radius=1.0, **parameters)
+    memory = logic.activate(0.0, logic.initial_memory())
+    memory = step(logic, memory, 0.01, twist(1.0))
+    assert np.array_equal(wheel_velocities(memory), [1.0, 1.0])
+
+
+def test_reference_interfaces_are_properly_exported():
+    """TEST_F reference_interfaces_are_properly_exported: exactly 2, linear then angular,
+    ``<node name>/<linear|angular>/velocity``."""
+    logic = controller()
+    assert logic.reference_interfaces() == ["base/linear/velocity", "base/angular/velocity"]
+
+
+def test_load_controller():
+    """test_load_diff_drive_controller.cpp TEST(TestLoadDiffDriveController, load_controller):
+    its test/config/test_diff_drive_controller.yaml (NaN limits: none) loads."""
+    limits = {
+        f"{axis}.{key}": math.nan
+        for axis in ("linear.x", "angular.z")
+        for key in ("max_velocity", "min_velocity", "max_acceleration", "max_deceleration",
+                    "max_acceleration_reverse", "max_deceleration_reverse", "max_jerk",
+                    "min_jerk")
+    }  # fmt: skip
+    logic = controller(
+        wheel_separation=0.40, wheel_radius=0.02, wheel_separation_multiplier=1.0,
+        left_wheel_radius_multiplier=1.0, right_wheel_radius_multiplier=1.0,
+        odom_frame_id="odom", base_frame_id="base_link",
+        pose_covariance_diagonal=[0.0] * 6, twist_covariance_diagonal=[0.0] * 6,
+        position_feedback=False, open_loop=True, enable_odom_tf=True, cmd_vel_timeout=0.5,
+        publish_limited_velocity=True, velocity_rolling_window_size=10, **limits,
+    )  # fmt: skip
+    memory = step(logic, logic.initial_memory(), 0.0, twist(0.02))
+    assert np.allclose(wheel_velocities(memory), [1.0, 1.0])

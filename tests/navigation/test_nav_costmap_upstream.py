@@ -14,19 +14,28 @@ import numpy as np
 import pytest
 
 from armando_drake.navigation.cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
-from armando_drake.navigation.costmap import Costmap, CostmapParameters, layered_costmap
+from armando_drake.navigation.costmap import (
+    Costmap,
+    CostmapParameters,
+    costmap_parameters,
+    layered_costmap,
+)
 from armando_drake.navigation.footprint import (
     footprint_cost,
     footprint_from_radius,
+    footprint_from_string,
     min_max_distances,
     pad_footprint,
+    parse_vvf,
 )
 from armando_drake.navigation.maps import OccupancyMap
 from armando_drake.navigation.obstacle_layer import (
     ObservationSource,
     ObstacleParameters,
     observe,
+    raytrace,
 )
+from armando_drake.tools.errors import ConfigError
 
 MAX_Z = 1.0  # testing_helper.hpp's
 
@@ -122,6 +131,127 @@ def test_collision_footprint_point_and_line_cost():
 def test_collision_footprint_not_enough_points():
     # footprint_collision_checker_test.cpp TEST(collision_footprint, not_enough_points)
     assert min_max_distances([(2.0, 2.0), (-2.0, -2.0)]) == (sys.float_info.max, 0.0)
+
+
+def test_collision_footprint_point_cost():
+    # footprint_collision_checker_test.cpp TEST(collision_footprint, test_point_cost)
+    assert _costmap(100, 0.1, 0).costs[50, 50] == pytest.approx(0.0, abs=0.001)
+
+
+def test_collision_footprint_world_to_map():
+    # footprint_collision_checker_test.cpp TEST(collision_footprint, test_world_to_map)
+    costmap = _costmap(100, 0.1, 0)
+    assert costmap.costs[costmap.world_to_cell(1.0, 1.0)] == pytest.approx(0.0, abs=0.001)
+    costmap.costs[50, 50] = 200  # setCost(50, 50, 200)
+    assert costmap.world_to_cell(5.0, 5.0) == (50, 50)
+    assert costmap.costs[costmap.world_to_cell(5.0, 5.0)] == pytest.approx(200.0, abs=0.001)
+
+
+def test_make_footprint_from_string():
+    # footprint_collision_checker_test.cpp TEST(collision_footprint, make_footprint_from_string)
+    footprint = footprint_from_string("[[1, 2.2], [.3, -4e4], [-.3, -4e4], [-1, 2.2]]")
+    assert len(footprint) == 4
+    expected = [(1.0, 2.2), (0.3, -4e4), (-0.3, -4e4), (-1.0, 2.2)]
+    for point, (x, y) in zip(footprint, expected, strict=True):
+        assert point == pytest.approx((x, y), abs=1e-5)
+
+
+@pytest.mark.parametrize(
+    ("case", "text"),
+    [
+        ("make_footprint_from_string_parse_error", "[[bad_string"),
+        ("make_footprint_from_string_two_points_error", "[[1, 2.2], [.3, -4e4]"),
+        ("make_footprint_from_string_not_pairs",
+         "[[1, 2.2], [.3, -4e4], [-.3, -4e4], [-1, 2.2, 5.6]]"),
+    ],
+)  # fmt: skip
+def test_make_footprint_from_string_errors(case, text):
+    # footprint_collision_checker_test.cpp TEST(collision_footprint, <case>): false
+    with pytest.raises(ValueError):
+        footprint_from_string(text)
+
+
+def test_a_footprint_string_in_a_nav2_file_is_read_as_nav2_reads_it(tmp_path):
+    # Costmap2DROS's footprint parameter, through makeFootprintFromString
+    path = tmp_path / "nav2.yaml"
+    path.write_text(
+        "local_costmap:\n  local_costmap:\n    ros__parameters:\n"
+        '      footprint: "[[.3, .2], [-.3, .2], [-.3, -.2], [.3, -.2]]"\n'
+        "      plugins: []\n"
+    )
+    params = costmap_parameters(path, "local_costmap")
+    assert params.footprint == [(0.3, 0.2), (-0.3, 0.2), (-0.3, -0.2), (0.3, -0.2)]
+    path.write_text(path.read_text().replace("[.3, -.2]]", "[.3, -.2, 1]]"))
+    with pytest.raises(ConfigError, match="must be pairs of numbers"):
+        costmap_parameters(path, "local_costmap")
+
+
+# -- nav2_util/test/test_array_parser.cpp (parseVVF, which reads a footprint string)
+
+
+def test_array_parser_basic_operation():
+    # test_array_parser.cpp TEST(array_parser, basic_operation)
+    vvf, error = parse_vvf("[[1, 2.2], [.3, -4e4]]")
+    assert len(vvf) == 2 and len(vvf[0]) == 2 and len(vvf[1]) == 2
+    assert np.float32(vvf[0][0]) == np.float32(1.0)
+    assert np.float32(vvf[0][1]) == np.float32(2.2)
+    assert np.float32(vvf[1][0]) == np.float32(0.3)
+    assert np.float32(vvf[1][1]) == np.float32(-40000.0)
+    assert error == ""
+
+
+@pytest.mark.parametrize(
+    ("case", "text"),
+    [
+        ("missing_open", "[1, 2.2], [.3, -4e4]]"),
+        ("missing_close", "[[1, 2.2], [.3, -4e4]"),
+        ("wrong_depth", "[1, 2.2], [.3, -4e4]"),
+    ],
+)
+def test_array_parser_errors(case, text):
+    # test_array_parser.cpp TEST(array_parser, <case>): an error
+    assert parse_vvf(text)[1] != "", case
+
+
+# -- nav2_costmap_2d/test/regression/costmap_bresenham_2d.cpp (Costmap2D::raytraceLine, as
+# the obstacle layer's raytrace runs it between two cells of a 60 x 60 map of 0.1 m)
+
+
+def _raytrace_cells(x0, y0, x1, y1, max_length, min_length):
+    grid = Costmap(np.zeros((60, 60), dtype=np.uint8), 0.1, (0.0, 0.0, 0.0))
+    source = ObservationSource(raytrace_max_range=max_length * 0.1,
+                               raytrace_min_range=min_length * 0.1)  # fmt: skip
+    centre = lambda v: (v + 0.5) * 0.1  # noqa: E731
+    return raytrace(grid, (centre(x0), centre(y0)), ([centre(x1)], [centre(y1)]), source)
+
+
+def test_bresenham2DBoundariesCheck():
+    # costmap_bresenham_2d.cpp TEST(costmap_2d, bresenham2DBoundariesCheck): every cell the
+    # line from (2, 4) to a cell of the map's edges passes is on the map
+    ends = [(x, 0) for x in range(60)] + [(x, 59) for x in range(60)]
+    ends += [(0, y) for y in range(60)] + [(59, y) for y in range(60)]
+    for x1, y1 in ends:
+        rows, cols = _raytrace_cells(2, 4, x1, y1, 60, 6)
+        assert ((rows >= 0) & (rows < 60) & (cols >= 0) & (cols < 60)).all()
+
+
+def test_bresenham2DSamePoint():
+    # costmap_bresenham_2d.cpp TEST(costmap_2d, bresenham2DSamePoint): the line from a cell
+    # to itself marks that cell
+    rows, cols = _raytrace_cells(2, 4, 2, 4, 60, 0)
+    assert list(zip(rows, cols, strict=True)) == [(4, 2)]
+
+
+def test_GetCostService_without_and_with_footprint():
+    # costmap_cost_service_test.cpp TEST_F(GetCostServiceTest, TestWithoutFootprint) and
+    # TestWithFootprint: the cost at (0.5, 1.0), and of the footprint at (1.0, 1.0, 0.5), on
+    # Costmap2DROS's default costmap (5 m x 5 m of 0.1 m), within 0..255
+    params = CostmapParameters(resolution=0.1)
+    costmap = _costmap(50, 0.1, 0)
+    cost = float(costmap.costs[costmap.world_to_cell(0.5, 1.0)])
+    assert 0.0 <= cost <= 255.0
+    cost = footprint_cost(costmap, (1.0, 1.0, 0.5), params.polygon)
+    assert 0.0 <= cost <= 255.0
 
 
 def test_a_footprint_off_the_map_is_lethal():
@@ -247,3 +377,45 @@ def test_max_without_unknown_overwrite_combination_method():
     # obstacle_tests.cpp TEST_F(TestNodeWithoutUnknownOverwrite,
     # testMaxWithoutUnknownOverwriteCombinationMethod)
     assert (_unknown_master(2) == NO_INFORMATION).sum() == 100
+
+
+# -- footprint_tests.cpp's parameters as a Nav2 file gives them (a footprint string)
+
+
+def _file_costmap(tmp_path, body: str) -> CostmapParameters:
+    path = tmp_path / "nav2.yaml"
+    path.write_text(
+        "local_costmap:\n  local_costmap:\n    ros__parameters:\n      plugins: []\n" + body
+    )
+    return costmap_parameters(path, "local_costmap")
+
+
+@pytest.mark.parametrize(
+    ("padding", "expected"),
+    [
+        (0.0, [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0)]),  # unpadded_footprint_from_string_param
+        (0.5, [(1.5, 1.5), (-1.5, 1.5), (-1.5, -1.5)]),  # padded_footprint_from_string_param
+    ],
+)
+def test_footprint_from_string_param_in_a_file(tmp_path, padding, expected):
+    params = _file_costmap(
+        tmp_path,
+        f'      footprint: "[[1, 1], [-1, 1], [-1, -1]]"\n      footprint_padding: {padding}\n',
+    )
+    assert params.polygon == expected
+
+
+def test_radius_param_in_a_file(tmp_path):
+    # footprint_tests.cpp TEST_F(TestNode, radius_param): robot_radius 10, padding 0
+    params = _file_costmap(tmp_path, "      robot_radius: 10.0\n      footprint_padding: 0.0\n")
+    assert len(params.polygon) == 16
+    assert params.polygon[0] == (10.0, 0.0)
+    assert params.polygon[4] == pytest.approx((0.0, 10.0), abs=1e-4)
+
+
+def test_footprint_from_same_level_param_in_a_file_is_refused(tmp_path):
+    # footprint_tests.cpp TEST_F(TestNode, footprint_from_same_level_param) takes the three
+    # collinear points [[1, 2], [3, 4], [5, 6]]; a Nav2 file's footprint here must have an
+    # area (docs/navigation.md, the limits on the Nav2 parameters): refused, naming the key
+    with pytest.raises(ConfigError, match=r"footprint: .* has no area"):
+        _file_costmap(tmp_path, '      footprint: "[[1, 2], [3, 4], [5, 6]]"\n')

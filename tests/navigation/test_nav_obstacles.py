@@ -15,7 +15,9 @@ from armando_drake.messages.scans import LaserScan
 from armando_drake.navigation.behaviors import behavior_parameters
 from armando_drake.navigation.cost_values import FREE_SPACE, LETHAL_OBSTACLE, NO_INFORMATION
 from armando_drake.navigation.costmap import Costmap, costmap_parameters
+from armando_drake.navigation.inflation_layer import inflate
 from armando_drake.navigation.obstacle_layer import ObservationSource, observe
+from armando_drake.navigation.planner import PlanningError, plan, planner_parameters
 from armando_drake.simulation.builder import MakeWorld
 from armando_drake.simulation.scenario import load_scenario, merge_overrides
 from armando_drake.tools.errors import ConfigError
@@ -24,6 +26,9 @@ CONFIG = Path(__file__).parents[2] / "models" / "fra2mo_description" / "config"
 QUIET = ["logging: {console_rate: 0}", "visualization: {enable_meshcat_creation: false}"]
 CRATE = (-0.72, -0.43, 0.2)  # the crate's centre (x, y) and half side [m]
 BASE_RADIUS = 0.11  # [m] fra2mo's base cylinder (its wheels are within it)
+
+
+IN_CRATE = (-0.72, -0.28)  # the goal inside the crate, 0.05 m in from its north face [m]
 
 
 def _crate_clearance(x: float, y: float) -> float:
@@ -81,6 +86,30 @@ def test_bad_obstacle_layer_values_name_the_file_and_key(tmp_path):
     )
     with pytest.raises(ConfigError, match=r"nav.yaml: .*obstacle_layer.scan.obstacle_max_range"):
         costmap_parameters(path)
+
+
+def test_the_goal_in_the_crate_is_blocked_by_its_north_face_alone():
+    # The designed abort does not depend on which other faces the scans marked, nor on a
+    # cost's last unit: with only the north face lethal (the one seen from north_west), the
+    # goal's cell and every cell within NavFn's tolerance are inscribed.
+    goal = load_scenario("fra2mo_obstacles").navigation.goals[1]
+    assert (goal.name, goal.x, goal.y) == ("in_crate", *IN_CRATE)
+    path = CONFIG / "navigation_obstacles.yaml"
+    params, planner = costmap_parameters(path), planner_parameters(path)
+    cx, cy, h = CRATE
+    costs = np.zeros((124, 126), np.uint8)  # the arena map's grid
+    costmap = Costmap(costs, 0.05, (-3.15, -3.1, 0.0))
+    for x in np.arange(cx - h, cx + h + 1e-9, 0.01):
+        costs[costmap.world_to_cell(x, cy + h)] = LETHAL_OBSTACLE
+    costmap = Costmap(inflate(costs, 0.05, params), 0.05, (-3.15, -3.1, 0.0))
+    row, col = costmap.world_to_cell(*IN_CRATE)
+    radius = 3  # cells: beyond the 0.1 m tolerance
+    rows, cols = np.mgrid[row - radius : row + radius + 1, col - radius : col + radius + 1]
+    centres = costmap.cell_to_world(rows.ravel(), cols.ravel())
+    within = np.hypot(*(centres - IN_CRATE).T) <= planner.tolerance
+    assert (costmap.costs[rows.ravel()[within], cols.ravel()[within]] >= 253).all()
+    with pytest.raises(PlanningError, match="in an obstacle"):
+        plan(costmap, (-1.7, 0.5), IN_CRATE, planner)
 
 
 @pytest.fixture(scope="module")

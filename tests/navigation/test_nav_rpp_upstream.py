@@ -1,9 +1,12 @@
 """Regulated Pure Pursuit, case for case with Nav2 (jazzy).
 
-Ported from navigation2's nav2_regulated_pure_pursuit_controller/test/test_regulated_pp.cpp
-(findVelocitySignChange, circleSegmentIntersection, projectCarrotPastGoal, lookaheadAPI,
-rotateTests, applyConstraints, the TransformGlobalPlanTest cases) with its path_utils
-(test/path_utils/path_utils.cpp); and the numbers read in its source
+Ported from navigation2's (jazzy, f4108e5b1c2bce804a1aa0c7be6673a8eb4a1501)
+nav2_regulated_pure_pursuit_controller/test/test_regulated_pp.cpp
+(basicAPI's speed limits, findVelocitySignChange, circleSegmentIntersection,
+projectCarrotPastGoal, lookaheadAPI, rotateTests, applyConstraints, testDynamicParameter's
+values read from a file, the TransformGlobalPlanTest cases) with its path_utils
+(test/path_utils/path_utils.cpp and its own test_path_utils.cpp); ParameterHandler's
+corrections; and the numbers read in its source
 (regulation_functions.hpp's cost regulation and approach slowing, rotateToHeading's clamping
 order).
 """
@@ -21,6 +24,7 @@ from armando_drake.navigation.follower import (
     angle_to_path,
     carrot,
     circle_segment_intersection,
+    controller_parameters,
     lookahead_distance,
     regulate,
     rotate_to_heading,
@@ -55,11 +59,23 @@ def arc(path, radius, radians, spacing):
         _append(path, step, 2 * radius * math.sin(abs(step) / 2))
 
 
-def generate_path(spacing, *segments):
-    path = [(0.0, 0.0, 0.0)]
+def generate_poses(spacing, *segments, start=(0.0, 0.0, 0.0)):
+    """path_utils' generate_path: the poses (x, y, yaw) from ``start``."""
+    path = [tuple(start)]
     for segment, *args in segments:
         segment(path, *args, spacing)
-    return np.array(path)[:, :2]
+    return np.array(path)
+
+
+def generate_path(spacing, *segments, start=(0.0, 0.0, 0.0)):
+    return generate_poses(spacing, *segments, start=start)[:, :2]
+
+
+def quaternion(yaw):
+    """tf2's rotation of a yaw, as toMsg gives it from the transform's matrix (w >= 0)."""
+    half = math.atan2(math.sin(yaw), math.cos(yaw)) / 2
+    sign = 1.0 if math.cos(half) >= 0 else -1.0
+    return (0.0, 0.0, sign * math.sin(half), sign * math.cos(half))
 
 
 def costmap(width, resolution, around=(0.0, 0.0)):
@@ -254,3 +270,111 @@ def test_prune_after_leaving_costmap():
     _, local = transform_global_plan(plan, 0, (-0.1, 0.0, 0.0), 10.0, costmap(20, 0.5))
     assert abs(len(local) - 10) <= 1
     assert local[0] == pytest.approx((0.0, 0.0), abs=0.5)
+
+
+# -- test_regulated_pp.cpp: basicAPI, testDynamicParameter; ParameterHandler
+
+
+def test_basicAPI_speed_limit():
+    # test_regulated_pp.cpp TEST(RegulatedPurePursuitTest, basicAPI): setSpeedLimit
+    p = RppParameters()
+    base_speed = p.desired_linear_vel
+    assert speed_limited(p, 0.51, False).desired_linear_vel == 0.51
+    assert speed_limited(p, 0.0, False).desired_linear_vel == base_speed  # NO_SPEED_LIMIT
+    assert speed_limited(p, 30, True).desired_linear_vel == base_speed * 0.3
+    assert speed_limited(p, 0.0, True).desired_linear_vel == base_speed
+
+
+RPP_FILE = (
+    "controller_server:\n  ros__parameters:\n    FollowPath:\n      plugin: "
+    "nav2_regulated_pure_pursuit_controller::RegulatedPurePursuitController\n"
+)
+
+
+def _rpp(tmp_path, body: str, costmap: str = "") -> RppParameters:
+    path = tmp_path / "nav2.yaml"
+    path.write_text(RPP_FILE + body + costmap)
+    return controller_parameters(path).rpp
+
+
+def test_testDynamicParameter_values_are_read(tmp_path):
+    values = {
+        "desired_linear_vel": 1.0, "lookahead_dist": 7.0, "max_lookahead_dist": 7.0,
+        "min_lookahead_dist": 6.0, "lookahead_time": 1.8, "rotate_to_heading_angular_vel": 18.0,
+        "min_approach_linear_velocity": 1.0, "max_allowed_time_to_collision_up_to_carrot": 2.0,
+        "cost_scaling_dist": 2.0, "cost_scaling_gain": 4.0,
+        "regulated_linear_scaling_min_radius": 10.0, "max_angular_accel": 3.0,
+        "rotate_to_heading_min_angle": 0.7, "regulated_linear_scaling_min_speed": 4.0,
+        "use_velocity_scaled_lookahead_dist": False,
+        "use_regulated_linear_velocity_scaling": False,
+        "use_cost_regulated_linear_velocity_scaling": False,
+        "inflation_cost_scaling_factor": 1.0, "allow_reversing": False,
+        "use_rotate_to_heading": False, "stateful": False,
+    }  # fmt: skip
+    body = "".join(f"      {k}: {str(v).lower()}\n" for k, v in values.items())
+    rpp = _rpp(tmp_path, body + "      transform_tolerance: 30.0\n")
+    for key, value in values.items():
+        assert getattr(rpp, key) == value, key
+
+
+def test_a_nonpositive_inflation_cost_scaling_factor_disables_cost_regulation(tmp_path, caplog):
+    # parameter_handler.cpp: "it should be >0. Disabling cost regulated linear velocity
+    # scaling." (testDynamicParameter's -1.0 is refused at run time)
+    rpp = _rpp(tmp_path, "      inflation_cost_scaling_factor: -1.0\n")
+    assert rpp.use_cost_regulated_linear_velocity_scaling is False
+    assert "inflation_cost_scaling_factor" in caplog.text
+    assert _rpp(tmp_path, "").use_cost_regulated_linear_velocity_scaling is True
+
+
+def test_max_robot_pose_search_dist_defaults_to_half_the_local_costmap(tmp_path):
+    # parameter_handler.cpp: its default is costmap_size_x / 2; negative: every pose
+    assert _rpp(tmp_path, "").max_robot_pose_search_dist == 2.5  # a 5 m local costmap
+    local = "local_costmap:\n  local_costmap:\n    ros__parameters:\n      width: 3\n"
+    assert _rpp(tmp_path, "", local).max_robot_pose_search_dist == 1.5
+    rpp = _rpp(tmp_path, "      max_robot_pose_search_dist: -1.0\n", local)
+    assert rpp.max_robot_pose_search_dist == sys.float_info.max
+
+
+# -- path_utils/test_path_utils.cpp
+
+
+def test_path_utils_generate_straight():
+    path = generate_poses(1.0, (straight, 2.0))
+    assert len(path) == 3
+    assert tuple(path[0, :2]) == (0.0, 0.0)
+    assert path[1, :2] == pytest.approx((1.0, 0.0), abs=0.1)
+    assert path[2, :2] == pytest.approx((2.0, 0.0), abs=0.1)
+
+
+def test_path_utils_half_turn():
+    # from (1, -1) turned the other way (orientation z 1, w 0), a right turn around of 2 m
+    path = generate_poses(0.1, (arc, 2.0, -math.pi), start=(1.0, -1.0, math.pi))
+    expected_length = math.pi * 2.0
+    assert abs(len(path) - (1 + int(expected_length / 0.1))) <= 10
+    assert path[-1, :2] == pytest.approx((1.0, 3.0), abs=0.2)
+    assert quaternion(path[-1, 2]) == pytest.approx((0.0, 0.0, 0.0, 1.0), abs=0.1)
+
+
+def test_path_utils_generate_all():
+    path = generate_poses(
+        0.1,
+        (straight, 1.0),
+        (arc, 1.0, math.pi / 2), (arc, 1.0, -math.pi / 2),  # LeftTurn, RightTurn
+        (arc, 1.0, math.pi), (arc, 1.0, -math.pi),  # LeftTurnAround, RightTurnAround
+        (arc, 1.0, 2 * math.pi), (arc, 1.0, -2 * math.pi),  # LeftCircle, RightCircle
+        (arc, 1.0, 2 * math.pi),  # Arc(1.0, 2 pi): another circle
+    )  # fmt: skip
+    expected_length = 1.0 + 2.0 * (math.pi / 2 + math.pi / 2) + 2.0 * math.pi + 3.0 * 2 * math.pi
+    assert abs(len(path) - (1 + int(expected_length / 0.1))) <= 50
+    assert path[-1, :2] == pytest.approx((3.0, 6.0), abs=0.5)
+    assert quaternion(path[-1, 2]) == pytest.approx((0.0, 0.0, 0.0, 1.0), abs=0.1)
+
+
+def test_controller_server_default_plugins_have_their_default_types(tmp_path):
+    # controller_server.cpp: the default ids goal_checker, progress_checker and FollowPath
+    # are declared with SimpleGoalChecker, SimpleProgressChecker and DWBLocalPlanner
+    path = tmp_path / "nav2.yaml"
+    path.write_text("controller_server:\n  ros__parameters:\n    controller_frequency: 20.0\n")
+    params = controller_parameters(path)
+    assert params.stopped_goal_checker is False
+    assert params.plugin == "nav2_regulated_pure_pursuit_controller::RegulatedPurePursuitController"
