@@ -63,6 +63,9 @@ FIGURE_SIZE = (10.0, 7.0)  # [inch]
 DPI = 100  # [pixel/inch]
 PLOTS = ("positions.png", "tracking_error.png", "efforts.png")  # an arm's commanded run
 MOVED = 1e-3  # [rad or m] a joint whose range is larger moved
+# Blank pixels of a joint figure: at its left edge, right of the panels, above them
+# (title and offset text), below them (time ticks and label) and between two panels.
+LAYOUT_GAPS = {"edge": 8.0, "right": 20.0, "top": 45.0, "bottom": 48.0, "between": 18.0}
 
 
 def envelope(values: np.ndarray, max_points: int = 4000) -> np.ndarray:
@@ -152,19 +155,56 @@ def _read_summary(folder: Path) -> tuple[list[float], str, bool]:
     return step_starts, plot_title(summary, folder.name), trajectory
 
 
+def _text_width(text: str, size: str | float) -> float:
+    """The width [pixel] of ``text`` in the default font at ``size``, without drawing."""
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.textpath import text_to_path
+
+    width, _, _ = text_to_path.get_text_width_height_descent(
+        text, FontProperties(size=size), ismath=False
+    )
+    return width * DPI / 72.0  # [point] to [pixel]
+
+
+def _fixed_layout(joints: list[str]) -> dict[str, float]:
+    """The subplot parameters of a joint figure, computed from the text it holds instead
+    of drawn twice by a layout engine: on the left the longest joint name and a tick
+    label as wide as ``-0.00000``, the title and an axis' offset text (``1e-3``) above
+    each panel, the time axis' labels below (:data:`LAYOUT_GAPS`, pixels)."""
+    import matplotlib as mpl
+
+    width, height = FIGURE_SIZE[0] * DPI, FIGURE_SIZE[1] * DPI
+    rc = mpl.rcParams
+    name = max((_text_width(joint, rc["axes.labelsize"]) for joint in joints), default=0.0)
+    tick = _text_width("\N{MINUS SIGN}0.00000", rc["ytick.labelsize"])
+    pads = (rc["axes.labelpad"] + rc["ytick.major.pad"] + rc["ytick.major.size"]) * DPI / 72.0
+    left = LAYOUT_GAPS["edge"] + name + pads + tick
+    panels = height - LAYOUT_GAPS["top"] - LAYOUT_GAPS["bottom"]  # with the gaps between
+    space = min(LAYOUT_GAPS["between"], panels / len(joints) / 2)  # many joints: panels first
+    panel = (panels - space * (len(joints) - 1)) / len(joints)
+    return {
+        "left": min(left / width, 0.5),
+        "right": 1.0 - LAYOUT_GAPS["right"] / width,
+        "top": 1.0 - LAYOUT_GAPS["top"] / height,
+        "bottom": LAYOUT_GAPS["bottom"] / height,
+        "hspace": space / panel,
+    }
+
+
 def _joint_figure(
     quantity: str, unit: str, title: str, joints: list[str], step_starts: list[float]
 ) -> tuple[Figure, np.ndarray]:
     """A figure with one panel per joint, each step's start marked; (figure, axes).
 
     The unit is in the title; each panel's joint name is written across, beside it, and
-    the constrained layout makes room for the longest, so long names (``iiwa_joint_7``)
-    never run into the next panel's."""
+    the left margin makes room for the longest (:func:`_fixed_layout`), so long names
+    (``iiwa_joint_7``) never run into the next panel's."""
     # A bare Figure draws with the Agg canvas and leaves pyplot's backend (and a
     # notebook's inline plots) alone.
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=FIGURE_SIZE, dpi=DPI, layout="constrained")
+    fig = Figure(figsize=FIGURE_SIZE, dpi=DPI)
+    fig.subplots_adjust(**_fixed_layout(joints))
     axes = fig.subplots(len(joints), 1, sharex=True, squeeze=False)
     axes = axes[:, 0]
     fig.suptitle(f"{quantity} [{unit}]: {title}")
