@@ -126,11 +126,11 @@ def test_wall_scan_matches_the_ray_cast(tmp_path):
 def test_a_vtk_lidar_renders_from_the_cameras_scene_graph_not_the_worlds(tmp_path):
     """VTK on the world's scene graph would get the poses at every plant step: the lidar
     renders from the mirror, whose poses are read only when it scans."""
-    diagram, port = _scanner(tmp_path)
+    diagram, _ = _scanner(tmp_path)
     world = diagram.GetSubsystemByName("scene_graph")
     mirror = diagram.GetSubsystemByName(CAMERA_SCENE)
     assert mirror.HasRenderer(LIDAR_RENDERER) and not world.HasRenderer(LIDAR_RENDERER)
-    scanner = port.get_system()
+    (scanner,) = [s for s in diagram.GetSystems() if isinstance(s, lidar.LidarScanner)]
     query = scanner.get_query_input_port().get_index()
     (source, _) = diagram.connection_map()[(scanner, query)]
     assert source is mirror
