@@ -34,6 +34,7 @@ from pydrake.systems.framework import DiagramBuilder, LeafSystem
 
 CAMERA_SCENE = "camera_scene_graph"  # the name of the cameras' SceneGraph in the diagram
 CAMERA_SCENE_POSES = "camera_scene_poses"  # the name of its MirroredPoses
+WORLD_POSES = "camera_world_poses"  # the world's frames' poses a camera on it watches
 
 
 class MirroredPoses(LeafSystem):
@@ -107,6 +108,20 @@ def AddCameraScene(builder: DiagramBuilder, scene_graph: SceneGraph) -> CameraSc
     builder.Connect(poses.get_output_port(), mirror.get_source_pose_port(source))
     poses.scene = CameraScene(scene_graph=mirror, frames=frames, poses=poses)
     return poses.scene
+
+
+def WorldPosesOf(builder: DiagramBuilder, scene_graph: SceneGraph) -> MirroredPoses:
+    """The poses of every frame of ``scene_graph`` (a :class:`MirroredPoses` of each frame
+    to itself, read only when asked): what the images of a camera rendering on it depend
+    on. One per diagram, shared by its cameras."""
+    if builder.HasSubsystemNamed(WORLD_POSES):
+        return builder.GetSubsystemByName(WORLD_POSES)
+    inspector = scene_graph.model_inspector()
+    world = inspector.world_frame_id()
+    frames = [(frame, frame) for frame in inspector.GetAllFrameIds() if frame != world]
+    poses = builder.AddNamedSystem(WORLD_POSES, MirroredPoses(frames))
+    builder.Connect(scene_graph.get_query_output_port(), poses.get_input_port())
+    return poses
 
 
 def CameraSceneOf(builder: DiagramBuilder, scene_graph: SceneGraph) -> CameraScene:

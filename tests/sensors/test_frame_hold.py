@@ -16,6 +16,8 @@ from armando_drake.description.camera_sensors import parse_camera_sensors
 from armando_drake.sensors.camera import AddCameraSensors
 from armando_drake.sensors.frame_hold import FrameHold, FrameReader
 from armando_drake.sensors.image_view import AddFrameSaver
+from armando_drake.tools.xdisplay import DisplayError, ensure_display
+from tests.conftest import skip_or_fail
 
 # A 30 Hz, 64 x 48 camera looking along the world's +x, and a ball falling through its view.
 CAMERA = """<?xml version="1.0"?>
@@ -54,7 +56,7 @@ class Reader(LeafSystem):
         self.reads.append((context.get_time(), self._input.Eval(context).data.copy()))
 
 
-def camera_world(*, readers=(), saver=None, still=False):
+def camera_world(*, readers=(), saver=None, still=False, renderer="vtk"):
     """The camera and the falling ball (``still``: the ball welded in view); ``readers``:
     (rate, offset) of Reader systems on its colour image, each told to the camera.
     Returns (diagram, camera, readers, a zero-order hold of every frame that a reader at
@@ -73,7 +75,7 @@ def camera_world(*, readers=(), saver=None, still=False):
         ball = plant.GetBodyByName("ball")
         plant.SetDefaultFloatingBaseBodyPose(ball, RigidTransform([1.5, 0, 0.9]))
     (info,) = parse_camera_sensors(ET.fromstring(CAMERA), "inline.urdf")
-    camera = AddCameraSensors(builder, plant, scene_graph, eye, [info])["camera"]
+    camera = AddCameraSensors(builder, plant, scene_graph, eye, [info], renderer=renderer)["camera"]
     every = builder.AddSystem(FrameHold(ImageRgba8U(64, 48), frame_rate=30.0))
     builder.Connect(camera.sensor.GetOutputPort("color_image"), every.get_input_port())
     added, references = [], []
@@ -121,6 +123,20 @@ def test_a_camera_on_a_still_scene_renders_once_and_holds_that_frame_again():
     for (_, image), (_, rendered) in zip(reader.reads, reference.reads, strict=True):
         np.testing.assert_array_equal(image, rendered)  # each frame rendered, the same
     assert np.any(reader.reads[0][1] != reader.reads[0][1][0, 0])  # the ball is in view
+
+
+def test_an_opengl_camera_on_a_still_scene_renders_once_too():
+    try:
+        ensure_display()
+    except DisplayError as error:
+        skip_or_fail(f"Drake's OpenGL renderer needs an X display or Xvfb: {error}")
+    diagram, camera, (reader,), (reference,) = camera_world(
+        readers=[(30.0, 1e-4)], still=True, renderer="gl"
+    )
+    Simulator(diagram).AdvanceTo(0.99)
+    assert camera.hold.samples == 30 and camera.hold.reuses == 29
+    for (_, image), (_, rendered) in zip(reader.reads, reference.reads, strict=True):
+        np.testing.assert_array_equal(image, rendered)
 
 
 def test_a_moving_scene_is_rendered_at_every_frame_read():
