@@ -28,6 +28,7 @@ drop them themselves).
 
 from __future__ import annotations
 
+import importlib
 import math
 import time
 from dataclasses import dataclass, field
@@ -372,6 +373,13 @@ STEP_FUNCTIONS = {
 }
 # Steps that skip non-finite points themselves (Drake's crop and voxel filter).
 SKIPS_NON_FINITE = (CropBox, VoxelDownsample)
+# The libraries each step imports when it runs (SciPy and scikit-learn: about 1.5 s of
+# CPU to import here), loaded beforehand by :meth:`PointCloudPipeline.load_libraries`.
+STEP_LIBRARIES = {
+    StatisticalOutlierRemoval: ("scipy.spatial",),
+    PlaneSegmentation: ("sklearn.base", "sklearn.linear_model"),
+    Clustering: ("scipy.spatial", "scipy.sparse.csgraph"),  # + sklearn.cluster for DBSCAN
+}
 
 
 class PointCloudPipeline:
@@ -397,6 +405,17 @@ class PointCloudPipeline:
         for index, step in enumerate(self.steps):
             if type(step) not in STEP_FUNCTIONS:
                 raise PerceptionError(f"{step_label(index, step)}: no implementation")
+
+    def load_libraries(self) -> None:
+        """Imports the libraries the steps use, which they would import on their first
+        run: a world loads them when it is built, not at its first frame (a stall of
+        a second or more a little after the start)."""
+        for step in self.steps:
+            modules = STEP_LIBRARIES.get(type(step), ())
+            if isinstance(step, Clustering) and step.min_neighbours != 1:
+                modules += ("sklearn.cluster",)
+            for module in modules:
+                importlib.import_module(module)
 
     def run(
         self,

@@ -22,6 +22,7 @@ recorder (:mod:`armando_drake.outputs.recording`).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import math
@@ -106,6 +107,29 @@ class CameraPoseInWorld(LeafSystem):
         output.set_value(self._body.Eval(context) @ self._X_BC)
 
 
+def _cloud_key(cloud: PointCloud, viewpoint) -> list[np.ndarray]:
+    """What a pipeline's result depends on: the cloud's fields and the viewpoint."""
+    key = [cloud.xyzs(), np.asarray(viewpoint, dtype=np.float64)]
+    if cloud.has_rgbs():
+        key.append(cloud.rgbs())
+    if cloud.has_normals():
+        key.append(cloud.normals())
+    return key
+
+
+def _same_key(key: list[np.ndarray], other: list[np.ndarray]) -> bool:
+    """Whether two keys are equal bit for bit (NaNs included)."""
+    return len(key) == len(other) and all(
+        a.shape == b.shape and a.dtype == b.dtype and np.array_equal(_bits(a), _bits(b))
+        for a, b in zip(key, other, strict=True)
+    )
+
+
+def _bits(array: np.ndarray) -> np.ndarray:
+    """The array's elements as unsigned integers of the same size (a view, no copy)."""
+    return array.view(np.dtype(f"u{array.itemsize}"))
+
+
 class PointCloudPerception(LeafSystem):
     """Runs a :class:`~armando_drake.perception.pipeline.PointCloudPipeline` at its own rate.
 
@@ -121,7 +145,10 @@ class PointCloudPerception(LeafSystem):
         step saw (the last one without clustering), from the state.
 
     A periodic unrestricted update every ``1 / rate`` seconds from ``offset``
-    runs the steps; ``result.time`` is the frame's time, ``k / rate``.
+    runs the steps; ``result.time`` is the frame's time, ``k / rate``. A frame whose
+    cloud and camera position equal the last frame's, bit for bit, gets the last result
+    (with its own time) without running the steps again: they are deterministic
+    (RANSAC is seeded).
     """
 
     def __init__(self, *, steps, rate: float, offset: float = 0.0, frame: str = "world"):
@@ -129,6 +156,11 @@ class PointCloudPerception(LeafSystem):
         if not (math.isfinite(rate) and rate > 0):
             raise ValueError(f"rate={rate!r} must be positive [Hz]")
         self._pipeline = PointCloudPipeline(steps)
+        self._pipeline.load_libraries()
+        # The last cloud's key and result: a frame whose cloud is the same, bit for bit,
+        # reuses it (a camera on a still scene); ``reuses`` counts those frames.
+        self._last: tuple[list[np.ndarray], PerceptionResult] | None = None
+        self.reuses = 0
         self._rate = rate
         self._frame = frame
         self._cloud = self.DeclareAbstractInputPort("point_cloud", AbstractValue.Make(PointCloud()))
@@ -150,12 +182,22 @@ class PointCloudPerception(LeafSystem):
         return self._pipeline
 
     def _Update(self, context: Context, state) -> None:
-        cloud = PointCloud(self._cloud.Eval(context))  # the stages keep it: a copy
+        source = self._cloud.Eval(context)
         viewpoint = (
             self._pose.Eval(context).translation() if self._pose.HasValue(context) else np.zeros(3)
         )
         frame_time = math.floor(context.get_time() * self._rate + 1e-6) / self._rate
-        result = self._pipeline.run(cloud, viewpoint=viewpoint, time=frame_time, frame=self._frame)
+        key = _cloud_key(source, viewpoint)
+        if self._last is not None and _same_key(key, self._last[0]):
+            # The same cloud from the same viewpoint: the steps (seeded) find the same.
+            self.reuses += 1
+            result = dataclasses.replace(self._last[1], time=float(frame_time))
+        else:
+            cloud = PointCloud(source)  # the stages keep it: a copy
+            result = self._pipeline.run(
+                cloud, viewpoint=viewpoint, time=frame_time, frame=self._frame
+            )
+            self._last = ([np.array(a, copy=True) for a in key], result)
         state.get_mutable_abstract_state(self._state).set_value(result)
 
     def _CalcFiltered(self, context: Context, output) -> None:

@@ -2,9 +2,10 @@
 
 Drake's ``SceneGraph`` hands the new geometry poses to each of its render engines at
 every pose update, that is at every plant step (the plant's contact query), whether
-a camera renders then or not. Drake's OpenGL engine takes that in its stride; VTK's
-(through EGL, what a machine without an X server has) costs more than the whole
-plant step on our 2-core machines (``docs/design/performance.md``).
+a camera (or a lidar, which renders depth) renders then or not. Drake's OpenGL engine
+takes that in its stride; VTK's (through EGL, what a machine without an X server has)
+costs more than the whole plant step on our 2-core machines
+(``docs/design/performance.md``).
 
 :func:`AddCameraScene` mirrors the perception geometry of the world's
 ``SceneGraph`` (same shapes, poses in their frames and perception properties, so
@@ -32,6 +33,8 @@ from pydrake.geometry import (
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 
 CAMERA_SCENE = "camera_scene_graph"  # the name of the cameras' SceneGraph in the diagram
+CAMERA_SCENE_POSES = "camera_scene_poses"  # the name of its MirroredPoses
+WORLD_POSES = "camera_world_poses"  # the world's frames' poses a camera on it watches
 
 
 class MirroredPoses(LeafSystem):
@@ -66,6 +69,7 @@ class CameraScene:
 
     scene_graph: SceneGraph
     frames: dict[FrameId, FrameId]  # world scene graph frame -> mirror frame
+    poses: MirroredPoses  # the mirror frames' poses: all that the cameras' images depend on
 
     def frame(self, world_frame: FrameId) -> FrameId:
         """The mirror of a frame of the world's scene graph."""
@@ -99,7 +103,30 @@ def AddCameraScene(builder: DiagramBuilder, scene_graph: SceneGraph) -> CameraSc
         )
         for geometry in geometries:
             mirror.RegisterGeometry(source, frames[frame], _instance(inspector, geometry))
-    poses = builder.AddNamedSystem("camera_scene_poses", MirroredPoses(list(frames.items())))
+    poses = builder.AddNamedSystem(CAMERA_SCENE_POSES, MirroredPoses(list(frames.items())))
     builder.Connect(scene_graph.get_query_output_port(), poses.get_input_port())
     builder.Connect(poses.get_output_port(), mirror.get_source_pose_port(source))
-    return CameraScene(scene_graph=mirror, frames=frames)
+    poses.scene = CameraScene(scene_graph=mirror, frames=frames, poses=poses)
+    return poses.scene
+
+
+def WorldPosesOf(builder: DiagramBuilder, scene_graph: SceneGraph) -> MirroredPoses:
+    """The poses of every frame of ``scene_graph`` (a :class:`MirroredPoses` of each frame
+    to itself, read only when asked): what the images of a camera rendering on it depend
+    on. One per diagram, shared by its cameras."""
+    if builder.HasSubsystemNamed(WORLD_POSES):
+        return builder.GetSubsystemByName(WORLD_POSES)
+    inspector = scene_graph.model_inspector()
+    world = inspector.world_frame_id()
+    frames = [(frame, frame) for frame in inspector.GetAllFrameIds() if frame != world]
+    poses = builder.AddNamedSystem(WORLD_POSES, MirroredPoses(frames))
+    builder.Connect(scene_graph.get_query_output_port(), poses.get_input_port())
+    return poses
+
+
+def CameraSceneOf(builder: DiagramBuilder, scene_graph: SceneGraph) -> CameraScene:
+    """The cameras' scene graph of the diagram ``builder`` builds: the one added already
+    (the VTK cameras and lidars share it), else a new one (:func:`AddCameraScene`)."""
+    if builder.HasSubsystemNamed(CAMERA_SCENE_POSES):
+        return builder.GetSubsystemByName(CAMERA_SCENE_POSES).scene
+    return AddCameraScene(builder, scene_graph)

@@ -59,6 +59,21 @@ def _on_robot(info, plant: MultibodyPlant, robots: dict[str, LoadedRobot]):
     )
 
 
+def capped(info, max_rate: float):
+    """The camera ``info`` at no more than ``max_rate`` [Hz] (0: as it is), saying so."""
+    if max_rate <= 0 or info.frame_rate <= max_rate:
+        return info
+    _log.warning(
+        "camera.max_rate=%g (an interactive setting): camera %s renders at %g Hz instead "
+        "of its %g Hz; its detections and figures are not the scenario's",
+        max_rate,
+        info.name,
+        max_rate,
+        info.frame_rate,
+    )
+    return dc.replace(info, update_rate=float(max_rate))
+
+
 def AddCameras(
     builder: DiagramBuilder,
     settings: CameraSettings,
@@ -78,7 +93,8 @@ def AddCameras(
     name; when ``settings.enabled``: the scenario's ``camera:`` section) and ``extra``
     (the scenario's ``cameras:``, each with a ``sensor_info(origin)``, added either way,
     on ``ROBOT::link`` or on the first robot with that link), a live view on ``host``
-    (with ``settings.live_view`` or a watched ``meshcat``) and a frame saver. Returns
+    (with ``settings.live_view`` or a watched ``meshcat``) and a frame saver; with
+    ``settings.max_rate`` every camera at most at that rate (:func:`capped`). Returns
     (the cameras by name, the live view's server or None). ``namespaces``: each robot's
     namespace; a namespaced robot's cameras are ``<robot>_<camera>`` on
     ``/<namespace>/<topic>``. ``where``/``source``: the origins named in errors.
@@ -97,6 +113,7 @@ def AddCameras(
         return {}, None
     try:
         sensors += [_on_robot(c.sensor_info(source), plant, robots) for c in extra]
+        sensors = [capped(info, settings.max_rate) for info in sensors]
         renderer = choose_renderer(settings.renderer)
         cameras = AddCameraSensors(
             builder,

@@ -28,3 +28,8 @@ class CameraSettings:
     # Renderer: "gl" (Drake's OpenGL engine, on DISPLAY or a private Xvfb), "vtk"
     # (VTK through EGL, no display needed) or "auto" (gl when possible, else vtk).
     renderer: str = param("auto", choices=RENDERERS)
+    # For interactive runs only: every camera renders at most at this rate [Hz] instead
+    # of its own (its detectors and readers follow); 0 = the cameras' own rates, the
+    # default. What the detectors see then differs from the scenario's, so the run's log
+    # warns and summary.json's "interactive" says it (the CLI's --camera-max-rate).
+    max_rate: float = param(0.0, unit="Hz", ge=0)

@@ -19,6 +19,14 @@ them its results, do not depend on which frames are read. A read the hold was no
 told of, in a period whose frame was not sampled (a test or a script evaluating
 the port after a run), renders the scene of that instant instead.
 
+A frame whose scene is the one of the frame held is not rendered again: given the
+poses of the camera's scene (``watch_scene``: an input of every frame's pose, e.g. the
+cameras' own scene graph's, :mod:`~armando_drake.sensors.camera_scene`), a sample
+whose poses are, bit for bit, those of the frame last rendered holds that frame
+again. A renderer draws the same pixels from the same poses, so the frames are the
+same; a camera that looks at a still scene renders once (``reuses`` counts the
+frames held again).
+
 Gazebo's camera ``<noise>`` (type ``gaussian``) is applied here, to the frames
 sampled: N(mean, stddev) added to every colour channel in [0, 1] units, clamped,
 alpha untouched (:func:`add_color_noise`).
@@ -32,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
+from pydrake.geometry import FramePoseVector
 from pydrake.systems.framework import EventStatus, LeafSystem
 
 # Two instants closer than this [s] are one (event times are sums of float periods).
@@ -72,9 +81,13 @@ class FrameHold(LeafSystem):
     :meth:`add_reader` reads in its period; without, every frame (a zero-order hold).
     ``stddev`` > 0: Gaussian colour noise (``mean``, ``stddev`` in [0, 1] colour units,
     random generator seeded with ``seed``) on each frame sampled (colour images only).
+    With ``watch_scene`` a sample whose scene poses equal those of the frame last taken
+    from the input holds that frame again instead of rendering it (noise drawn anew).
 
     Ports:
       - input ``image``
+      - input ``scene_poses`` (FramePoseVector; only with ``watch_scene``): every pose
+        the image depends on
       - output ``image``: the frame of the latest sample time
     """
 
@@ -87,6 +100,7 @@ class FrameHold(LeafSystem):
         mean: float = 0.0,
         stddev: float = 0.0,
         seed: int = 0,
+        watch_scene: bool = False,
     ):
         super().__init__()
         if not (math.isfinite(frame_rate) and frame_rate > 0):
@@ -104,12 +118,22 @@ class FrameHold(LeafSystem):
         self._input = self.DeclareAbstractInputPort("image", value)
         self._image = self.DeclareAbstractState(value)
         self._tick = self.DeclareAbstractState(AbstractValue.Make(-1))  # frame held; -1 none
+        self._scene = self._key = self._clean = None
+        if watch_scene:
+            self._scene = self.DeclareAbstractInputPort(
+                "scene_poses", AbstractValue.Make(FramePoseVector())
+            )
+            self._key = self.DeclareAbstractState(AbstractValue.Make(b""))  # poses rendered
+            if self._stddev > 0 or self._mean != 0:
+                self._clean = self.DeclareAbstractState(value)  # the frame before the noise
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / frame_rate, 0.0, self._Sample)
         self.DeclareAbstractOutputPort("image", lambda: value.Clone(), self._CalcImage)
         # Frames taken from the input (each a render): sampled, and rendered for a read
         # the hold was not told of; for tests and benchmarks.
         self.samples = 0
         self.renders_on_read = 0
+        # Samples that held the frame last taken again, its scene unchanged (no render).
+        self.reuses = 0
 
     @property
     def frame_rate(self) -> float:
@@ -148,11 +172,36 @@ class FrameHold(LeafSystem):
         noisy.mutable_data[:] = add_color_noise(image.data, rng, self._mean, self._stddev)
         return noisy
 
+    def _scene_key(self, context) -> bytes:
+        """The poses of the scene, as bytes: equal bytes, the same image."""
+        poses = self._scene.Eval(context)
+        return b"".join(
+            poses.value(frame).GetAsMatrix34().tobytes()
+            for frame in sorted(poses.ids(), key=lambda f: f.get_value())
+        )
+
+    def _clean_frame(self, context, state):
+        """The frame of this sample before the noise: rendered, or the one last rendered
+        when the scene is the same."""
+        if self._scene is None:
+            return self._input.Eval(context)
+        key = self._scene_key(context)
+        if context.get_abstract_state(self._tick).get_value() >= 0:
+            if key == context.get_abstract_state(self._key).get_value():
+                self.reuses += 1
+                held = self._clean if self._clean is not None else self._image
+                return context.get_abstract_state(held).get_value()
+        image = self._input.Eval(context)
+        state.get_mutable_abstract_state(self._key).set_value(key)
+        if self._clean is not None:
+            state.get_mutable_abstract_state(self._clean).set_value(image)
+        return image
+
     def _Sample(self, context, state) -> EventStatus:
         tick = round(context.get_time() * self._rate)
         if not self.wanted(tick):
             return EventStatus.DidNothing()
-        image = self._frame(self._input.Eval(context), self._rng)
+        image = self._frame(self._clean_frame(context, state), self._rng)
         state.get_mutable_abstract_state(self._image).set_value(image)
         state.get_mutable_abstract_state(self._tick).set_value(tick)
         self.samples += 1

@@ -65,6 +65,7 @@ from armando_drake.messages.definitions import laser_scan_message
 from armando_drake.messages.publications import Topic
 from armando_drake.messages.scans import LaserScan
 from armando_drake.messages.types import Publication, PublicationValue
+from armando_drake.sensors.camera_scene import CAMERA_SCENE, CameraSceneOf
 from armando_drake.sensors.image_view import PUBLISH_OFFSET_FRACTION
 from armando_drake.sensors.registry import register_sensor
 from armando_drake.tools.errors import ScenarioError
@@ -156,15 +157,20 @@ class LidarScanner(LeafSystem):
     """A planar lidar on a body: its scan from rendered depth at its update rate.
 
     Ports:
-      - input ``geometry_query`` (QueryObject, from the SceneGraph)
+      - input ``geometry_query`` (QueryObject, from the SceneGraph that renders: the
+        plant's, or the cameras' own, where the body's frame is ``render_frame_id``)
       - output ``scan`` (:class:`Publication` of :class:`LaserScan`, state: reading it
         renders nothing)
     """
 
-    def __init__(self, info: LidarInfo, *, body_frame_id, X_BS: RigidTransform):
+    def __init__(
+        self, info: LidarInfo, *, body_frame_id, X_BS: RigidTransform, render_frame_id=None
+    ):
         super().__init__()
         self.info = info
-        self.body_frame_id = self._frame = body_frame_id
+        self.body_frame_id = body_frame_id  # the body's frame in the plant's scene graph
+        # Its frame in the scene graph the query comes from (the cameras' own, or the same).
+        self._frame = body_frame_id if render_frame_id is None else render_frame_id
         self._sectors = ring(info)
         self._X_BC = [X_BS @ sector.X_SC for sector in self._sectors]
         self._X_BS = X_BS
@@ -236,7 +242,7 @@ class LidarScanner(LeafSystem):
 
 def _scene_graph(builder: DiagramBuilder) -> SceneGraph:
     for system in builder.GetSystems():
-        if isinstance(system, SceneGraph):
+        if isinstance(system, SceneGraph) and system.get_name() != CAMERA_SCENE:
             return system
     raise ScenarioError("a lidar needs a SceneGraph in the diagram (AddMultibodyPlant)")
 
@@ -254,21 +260,29 @@ def AddLidar(
     builder: DiagramBuilder, info: LidarInfo, *, plant: MultibodyPlant, robot: LoadedRobot
 ) -> LidarScanner:
     """The scanner of ``info`` on its link of ``robot``, fed by the diagram's SceneGraph
-    (which gets the lidar renderer the first time)."""
+    (which gets the lidar renderer the first time): the world's when the cameras render
+    with OpenGL, else the cameras' own (:mod:`~armando_drake.sensors.camera_scene`)."""
     scene_graph = _scene_graph(builder)
-    if not scene_graph.HasRenderer(LIDAR_RENDERER):
-        scene_graph.AddRenderer(LIDAR_RENDERER, _engine(scene_graph))
     if not plant.HasBodyNamed(info.link, robot.model_instance):
         raise ScenarioError(
             f'{info.source}: <gazebo reference="{info.link}"><sensor name="{info.name}">: '
             f"{info.link!r} is not a link of {robot.name!r}"
         )
     body = plant.GetBodyByName(info.link, robot.model_instance)
+    frame = plant.GetBodyFrameIdOrThrow(body.index())
+    renders, render_frame = scene_graph, frame  # OpenGL cameras' engine: the world's
+    if not scene_graph.HasRenderer(GL_RENDERER):
+        # VTK on the world's scene graph would cost at every plant step: the cameras' own
+        # scene graph (the same geometry, its poses read only when a scan renders).
+        scene = CameraSceneOf(builder, scene_graph)
+        renders, render_frame = scene.scene_graph, scene.frame(frame)
+    if not renders.HasRenderer(LIDAR_RENDERER):
+        renders.AddRenderer(LIDAR_RENDERER, _engine(scene_graph))
     scanner = builder.AddSystem(
-        LidarScanner(info, body_frame_id=plant.GetBodyFrameIdOrThrow(body.index()), X_BS=info.X_LS)
+        LidarScanner(info, body_frame_id=frame, X_BS=info.X_LS, render_frame_id=render_frame)
     )
     scanner.set_name(f"lidar_{info.name}")
-    builder.Connect(scene_graph.get_query_output_port(), scanner.get_query_input_port())
+    builder.Connect(renders.get_query_output_port(), scanner.get_query_input_port())
     return scanner
 
 

@@ -119,7 +119,7 @@ def world_parser(doc: str) -> argparse.ArgumentParser:
 
 
 def _add_camera_options(parser) -> None:
-    """--camera, --camera-view, --save-frames, --save-rate, --renderer."""
+    """--camera, --camera-view, --save-frames, --save-rate, --renderer, --camera-max-rate."""
     parser.add_argument(
         "--camera",
         action=argparse.BooleanOptionalAction,
@@ -152,6 +152,14 @@ def _add_camera_options(parser) -> None:
         help="camera renderer: gl = Drake's OpenGL engine (on DISPLAY or a private Xvfb), "
         "vtk = VTK through EGL (no display needed), auto = gl when possible, else vtk "
         "(default: as the scenario says, auto)",
+    )
+    parser.add_argument(
+        "--camera-max-rate",
+        type=float,
+        metavar="HZ",
+        help="for interactive runs: every camera renders at most at HZ instead of its own "
+        "rate (its detectors follow; the log and summary.json say so); 0 = the cameras' "
+        "own rates (default: as the scenario says, 0)",
     )
 
 
@@ -322,7 +330,7 @@ def _apply_run_options(scenario, args) -> None:
 
 
 def _apply_camera_options(scenario, args) -> None:
-    """--camera, --camera-view, --save-frames, --save-rate, --renderer."""
+    """--camera, --camera-view, --save-frames, --save-rate, --renderer, --camera-max-rate."""
     if args.camera is not None:
         scenario.camera.enabled = args.camera
     if args.camera_view:
@@ -335,6 +343,9 @@ def _apply_camera_options(scenario, args) -> None:
         note_option(scenario, ("camera.save_rate",), f"--save-rate {args.save_rate}")
     if args.renderer is not None:
         scenario.camera.renderer = args.renderer
+    if args.camera_max_rate is not None:
+        scenario.camera.max_rate = args.camera_max_rate
+        note_option(scenario, ("camera.max_rate",), f"--camera-max-rate {args.camera_max_rate}")
 
 
 def _report(result, args, started: float) -> None:

@@ -126,6 +126,9 @@ class RunResult:
     robots: dict[str, Any] | None = None
     # Runtime inputs dropped (not finite, out of range, malformed), by topic.
     rejected_messages: dict[str, int] = field(default_factory=dict)
+    # Settings for interactive runs that were on (e.g. camera.max_rate), by key: the
+    # figures are not the scenario's own. Absent from summary.json when none was.
+    interactive: dict[str, Any] = field(default_factory=dict)
     # Their step tables, by robot name (not in summary.json: robots has them).
     robot_steps: dict[str, list[StepResult]] = field(default_factory=dict)
 
@@ -151,6 +154,7 @@ class RunResult:
             "perception": self.perception,
             "rejected_messages": self.rejected_messages,
             **({"robots": self.robots} if self.robots is not None else {}),
+            **({"interactive": self.interactive} if self.interactive else {}),
         }
 
     def headline(self) -> str:
@@ -700,6 +704,8 @@ def _result(scenario, world, simulator, table, tracker, log_dir, name: str = "")
         or ", ".join(vision_driven)
         or ", ".join(dds_topics),
     )
+    if scenario.camera.max_rate > 0:
+        result.interactive["camera.max_rate"] = scenario.camera.max_rate
     if isinstance(table, StepTable):
         result.steps = table.results(sim_time)
     elif isinstance(table, TrackingError):

@@ -45,6 +45,30 @@ _log = logging.getLogger("armando_drake.vision")
 FRAME_DELAY = 1e-4
 
 
+class LastFrame:
+    """The result a detector computed from its last frame, with a copy of that frame.
+
+    A detector's result is a function of its image alone, so a frame equal to the last
+    one, pixel for pixel (a camera on a still scene), gives the same result without
+    OpenCV running again: :meth:`get` returns it (None for a new frame), :meth:`put`
+    keeps a frame's result. ``hits`` counts the frames answered from here.
+    """
+
+    def __init__(self):
+        self._frame: np.ndarray | None = None
+        self._result: Any = None
+        self.hits = 0
+
+    def get(self, frame: np.ndarray) -> Any:
+        if self._frame is None or not np.array_equal(frame, self._frame):
+            return None
+        self.hits += 1
+        return self._result
+
+    def put(self, frame: np.ndarray, result: Any) -> None:
+        self._frame, self._result = np.array(frame, copy=True), result
+
+
 class DetectorError(ValueError):
     """A detector that cannot be built; the message names the key and the bad value."""
 
@@ -96,12 +120,6 @@ def intrinsic_matrix(camera) -> np.ndarray:
     """K (3 x 3) [px] of an added camera's colour renderer, as Drake renders it."""
     intrinsics = camera.sensor.default_color_render_camera().core().intrinsics()
     return np.asarray(intrinsics.intrinsic_matrix(), dtype=float)
-
-
-def _bgr(image: ImageRgba8U) -> np.ndarray:
-    import cv2
-
-    return cv2.cvtColor(np.asarray(image.data), cv2.COLOR_RGBA2BGR)
 
 
 def _rgba_image(bgr: np.ndarray) -> ImageRgba8U:
@@ -179,6 +197,7 @@ class BlobDetector(LeafSystem):
         self.frames = 0  # frames processed (a statistic, not state)
         self.detections = 0  # frames with at least one keypoint
         self.seconds = 0.0  # [s] wall-clock time spent in OpenCV
+        self.last_frame = LastFrame()  # the last frame's keypoints, for a frame the same
         self.history: list[BlobDetection] = []  # every frame's keypoints (keypoints.csv)
         self._input = self.DeclareAbstractInputPort(
             "color_image", AbstractValue.Make(ImageRgba8U(width, height))
@@ -217,22 +236,30 @@ class BlobDetector(LeafSystem):
         import cv2
 
         start = time.perf_counter()
-        bgr = _bgr(self._input.Eval(context))
-        keypoints = self.detect(bgr)
-        annotated = cv2.drawKeypoints(
-            bgr,
-            [cv2.KeyPoint(k.u, k.v, k.diameter) for k in keypoints],
-            None,
-            (0, 0, 255),
-            cv2.DRAW_MATCHES_FLAGS_DRAW_RICH_KEYPOINTS,
-        )
+        frame = np.asarray(self._input.Eval(context).data)
+        known = self.last_frame.get(frame)
+        if known is None:
+            bgr = cv2.cvtColor(frame, cv2.COLOR_RGBA2BGR)
+            keypoints = self.detect(bgr)
+            annotated = _rgba_image(
+                cv2.drawKeypoints(
+                    bgr,
+                    [cv2.KeyPoint(k.u, k.v, k.diameter) for k in keypoints],
+                    None,
+                    (0, 0, 255),
+                    cv2.DRAW_MATCHES_FLAGS_DRAW_RICH_KEYPOINTS,
+                )
+            )
+            self.last_frame.put(frame, (keypoints, annotated))
+        else:
+            keypoints, annotated = known
         self.seconds += time.perf_counter() - start
         self.frames += 1
         self.detections += bool(keypoints)
         detection = BlobDetection(stamp=context.get_time(), keypoints=keypoints)
         self.history.append(detection)
         state.get_mutable_abstract_state(self._keypoints).set_value(detection)
-        state.get_mutable_abstract_state(self._annotated).set_value(_rgba_image(annotated))
+        state.get_mutable_abstract_state(self._annotated).set_value(annotated)
         if self._target is not None and keypoints:
             target = self._target
             largest = max(keypoints, key=lambda k: k.diameter)
@@ -333,6 +360,7 @@ class ArucoDetector(LeafSystem):
         # run's vision.csv (a statistic kept beside the state, as the counts are).
         self.history: list[tuple[float, tuple[float, float, float]]] = []
         self.seconds = 0.0  # [s] wall-clock time in OpenCV
+        self.last_frame = LastFrame()  # the last frame's marker pose, for a frame the same
         self._input = self.DeclareAbstractInputPort(
             "color_image", AbstractValue.Make(ImageRgba8U(width, height))
         )
@@ -414,19 +442,26 @@ class ArucoDetector(LeafSystem):
         import cv2
 
         start = time.perf_counter()
-        bgr = _bgr(self._input.Eval(context))
-        X_CM, corners = self.estimate(bgr)
-        annotated = bgr.copy()
-        if corners:
-            cv2.aruco.drawDetectedMarkers(annotated, corners)
-        if X_CM is not None:
-            rvec, _ = cv2.Rodrigues(X_CM.rotation().matrix())
-            cv2.drawFrameAxes(
-                annotated, self._K, np.zeros(5), rvec, X_CM.translation(), self._side / 2
-            )
+        frame = np.asarray(self._input.Eval(context).data)
+        known = self.last_frame.get(frame)
+        if known is None:
+            bgr = cv2.cvtColor(frame, cv2.COLOR_RGBA2BGR)
+            X_CM, corners = self.estimate(bgr)
+            annotated = bgr.copy()
+            if corners:
+                cv2.aruco.drawDetectedMarkers(annotated, corners)
+            if X_CM is not None:
+                rvec, _ = cv2.Rodrigues(X_CM.rotation().matrix())
+                cv2.drawFrameAxes(
+                    annotated, self._K, np.zeros(5), rvec, X_CM.translation(), self._side / 2
+                )
+            annotated = _rgba_image(annotated)
+            self.last_frame.put(frame, (X_CM, annotated))
+        else:
+            X_CM, annotated = known
         self.seconds += time.perf_counter() - start
         self.frames += 1
-        state.get_mutable_abstract_state(self._annotated).set_value(_rgba_image(annotated))
+        state.get_mutable_abstract_state(self._annotated).set_value(annotated)
         if X_CM is None:
             return EventStatus.Succeeded()
         self.detections += 1

@@ -116,6 +116,7 @@ SCENARIO_CASES = [
         ["camera.save_rate=-1.0", "--set 'camera: {save_rate: -1}'"],
     ),
     ("save-rate-option", ["--save-rate", "-1"], ["--save-rate -1.0"]),
+    ("camera-max-rate-option", ["--camera-max-rate", "-1"], ["--camera-max-rate -1.0"]),
     ("realtime-rate-nan", ["--realtime-rate", "nan"], ["--realtime-rate nan"]),
     (
         "integration-scheme",

@@ -235,3 +235,31 @@ def test_an_unknown_step_is_refused_by_its_tag():
         yaml_load_typed(data="steps: [!MedianFilter {size: 3}]", defaults=PerceptionConfig())
     with pytest.raises(PerceptionError, match=r"^steps\[0\]: str is not a perception step"):
         PointCloudPipeline(["median"])
+
+
+def test_the_system_reuses_its_result_for_a_cloud_equal_to_the_last_one():
+    from pydrake.systems.analysis import Simulator
+
+    from armando_drake.perception.systems import PointCloudPerception
+
+    rng = np.random.default_rng(RNG_SEED)
+    centres = np.array([[0.2, 0.0, 0.03], [0.4, 0.2, 0.05]])
+    points = blobs(rng, centres, [300, 200])
+    points[0] = np.nan  # out of range, as a depth image gives: equal to itself here
+    step = Clustering(tolerance=0.025, min_points=50, max_points=2000)
+    system = PointCloudPerception(steps=[step], rate=10.0)
+    simulator = Simulator(system)
+    context = simulator.get_mutable_context()
+    system.GetInputPort("point_cloud").FixValue(context, make_cloud(points))
+    simulator.AdvanceTo(0.25)  # runs at 0, 0.1, 0.2
+    result = system.GetOutputPort("result").Eval(context)
+    assert system.reuses == 2 and result.time == pytest.approx(0.2)
+    fresh = PointCloudPipeline([step]).run(make_cloud(points))
+    assert [c.count for c in result.clusters] == [c.count for c in fresh.clusters] == [299, 200]
+    for reused, computed in zip(result.clusters, fresh.clusters, strict=True):
+        np.testing.assert_array_equal(reused.centroid, computed.centroid)
+    points[1] += 1e-6  # another cloud: run again
+    system.GetInputPort("point_cloud").FixValue(context, make_cloud(points))
+    simulator.AdvanceTo(0.35)
+    assert system.reuses == 2
+    assert system.GetOutputPort("result").Eval(context).time == pytest.approx(0.3)

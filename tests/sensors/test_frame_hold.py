@@ -16,6 +16,8 @@ from armando_drake.description.camera_sensors import parse_camera_sensors
 from armando_drake.sensors.camera import AddCameraSensors
 from armando_drake.sensors.frame_hold import FrameHold, FrameReader
 from armando_drake.sensors.image_view import AddFrameSaver
+from armando_drake.tools.xdisplay import DisplayError, ensure_display
+from tests.conftest import skip_or_fail
 
 # A 30 Hz, 64 x 48 camera looking along the world's +x, and a ball falling through its view.
 CAMERA = """<?xml version="1.0"?>
@@ -54,20 +56,26 @@ class Reader(LeafSystem):
         self.reads.append((context.get_time(), self._input.Eval(context).data.copy()))
 
 
-def camera_world(*, readers=(), saver=None):
-    """The camera and the falling ball; ``readers``: (rate, offset) of Reader systems on
-    its colour image, each told to the camera. Returns (diagram, camera, readers, a
-    zero-order hold of every frame that a reader at the same times reads)."""
+def camera_world(*, readers=(), saver=None, still=False, renderer="vtk"):
+    """The camera and the falling ball (``still``: the ball welded in view); ``readers``:
+    (rate, offset) of Reader systems on its colour image, each told to the camera.
+    Returns (diagram, camera, readers, a zero-order hold of every frame that a reader at
+    the same times reads)."""
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=0.001)
     (eye,) = Parser(plant).AddModelsFromString(CAMERA, "urdf")
     Parser(plant).AddModelsFromString(BALL, "urdf")
     X_WL = RigidTransform(RollPitchYaw(0, 0, 0), [0, 0, 0.5])
     plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("camera_link"), X_WL)
+    if still:
+        X_WBall = RigidTransform([1.5, 0, 0.6])
+        plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("ball"), X_WBall)
     plant.Finalize()
-    plant.SetDefaultFloatingBaseBodyPose(plant.GetBodyByName("ball"), RigidTransform([1.5, 0, 0.9]))
+    if not still:
+        ball = plant.GetBodyByName("ball")
+        plant.SetDefaultFloatingBaseBodyPose(ball, RigidTransform([1.5, 0, 0.9]))
     (info,) = parse_camera_sensors(ET.fromstring(CAMERA), "inline.urdf")
-    camera = AddCameraSensors(builder, plant, scene_graph, eye, [info])["camera"]
+    camera = AddCameraSensors(builder, plant, scene_graph, eye, [info], renderer=renderer)["camera"]
     every = builder.AddSystem(FrameHold(ImageRgba8U(64, 48), frame_rate=30.0))
     builder.Connect(camera.sensor.GetOutputPort("color_image"), every.get_input_port())
     added, references = [], []
@@ -104,6 +112,67 @@ def test_a_10_hz_reader_of_a_30_hz_camera_costs_10_renders_a_second_and_sees_the
         np.testing.assert_array_equal(image, held)  # the frame of t = k / 30, held
     first, last = reader.reads[0][1], reader.reads[-1][1]
     assert np.any(first != last)  # the ball fell: the frames differ
+
+
+def test_a_camera_on_a_still_scene_renders_once_and_holds_that_frame_again():
+    diagram, camera, (reader,), (reference,) = camera_world(readers=[(30.0, 1e-4)], still=True)
+    Simulator(diagram).AdvanceTo(0.99)
+    assert camera.hold.samples == 30
+    assert camera.hold.reuses == 29  # the scene's poses never changed: one render
+    assert len(reader.reads) == len(reference.reads) == 30
+    for (_, image), (_, rendered) in zip(reader.reads, reference.reads, strict=True):
+        np.testing.assert_array_equal(image, rendered)  # each frame rendered, the same
+    assert np.any(reader.reads[0][1] != reader.reads[0][1][0, 0])  # the ball is in view
+
+
+def test_an_opengl_camera_on_a_still_scene_renders_once_too():
+    try:
+        ensure_display()
+    except DisplayError as error:
+        skip_or_fail(f"Drake's OpenGL renderer needs an X display or Xvfb: {error}")
+    diagram, camera, (reader,), (reference,) = camera_world(
+        readers=[(30.0, 1e-4)], still=True, renderer="gl"
+    )
+    Simulator(diagram).AdvanceTo(0.99)
+    assert camera.hold.samples == 30 and camera.hold.reuses == 29
+    for (_, image), (_, rendered) in zip(reader.reads, reference.reads, strict=True):
+        np.testing.assert_array_equal(image, rendered)
+
+
+def test_a_moving_scene_is_rendered_at_every_frame_read():
+    diagram, camera, _, _ = camera_world(readers=[(30.0, 1e-4)])
+    Simulator(diagram).AdvanceTo(0.99)
+    assert camera.hold.samples == 30 and camera.hold.reuses == 0
+
+
+def test_a_frame_held_again_gets_noise_of_its_own_as_a_rendered_one_would():
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=0.001)
+    (eye,) = Parser(plant).AddModelsFromString(CAMERA, "urdf")
+    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("camera_link"))
+    plant.Finalize()
+    (info,) = parse_camera_sensors(ET.fromstring(CAMERA), "inline.urdf")
+    camera = AddCameraSensors(builder, plant, scene_graph, eye, [info])["camera"]
+    color = camera.sensor.GetOutputPort("color_image")
+    holds = []
+    for watch in (True, False):
+        hold = builder.AddSystem(
+            FrameHold(ImageRgba8U(64, 48), frame_rate=30.0, stddev=0.05, seed=3, watch_scene=watch)
+        )
+        builder.Connect(color, hold.get_input_port(0))
+        if watch:
+            poses = builder.GetSubsystemByName("camera_scene_poses").get_output_port()
+            builder.Connect(poses, hold.GetInputPort("scene_poses"))
+        reader = builder.AddSystem(Reader(30.0, 1e-4))
+        builder.Connect(hold.get_output_port(), reader.get_input_port())
+        holds.append((hold, reader))
+    Simulator(builder.Build()).AdvanceTo(0.2)
+    (watched, watched_reads), (every, every_reads) = holds
+    assert watched.reuses == 5 and every.reuses == 0
+    frames = [image for _, image in watched_reads.reads]
+    assert np.any(frames[0] != frames[1])  # fresh noise on each frame
+    for (_, image), (_, rendered) in zip(watched_reads.reads, every_reads.reads, strict=True):
+        np.testing.assert_array_equal(image, rendered)
 
 
 def test_readers_at_several_rates_get_the_union_of_their_frames():

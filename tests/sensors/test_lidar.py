@@ -18,6 +18,8 @@ from armando_drake.description.packages import find_packages
 from armando_drake.description.urdf import parse_sensor_blocks
 from armando_drake.sensors import lidar  # noqa: F401  (registers the lidar types)
 from armando_drake.sensors.camera import AddCameraSensors
+from armando_drake.sensors.camera_scene import CAMERA_SCENE
+from armando_drake.sensors.lidar import LIDAR_RENDERER
 from armando_drake.sensors.objects import AddSceneObjects, Box, SceneObject
 from armando_drake.sensors.registry import AddSensors
 from armando_drake.tools.xdisplay import DisplayError, ensure_display
@@ -119,6 +121,19 @@ def test_wall_scan_matches_the_ray_cast(tmp_path):
     # Within the range resolution (1 cm); interpolated inverse depth is exact on a plane.
     assert error.max() < 1e-3, f"worst beam {np.argmax(error)}: {error.max():.4f} m"
     assert np.all(np.isposinf(scan.ranges[~hit])), "beyond range_max and behind: inf"
+
+
+def test_a_vtk_lidar_renders_from_the_cameras_scene_graph_not_the_worlds(tmp_path):
+    """VTK on the world's scene graph would get the poses at every plant step: the lidar
+    renders from the mirror, whose poses are read only when it scans."""
+    diagram, _ = _scanner(tmp_path)
+    world = diagram.GetSubsystemByName("scene_graph")
+    mirror = diagram.GetSubsystemByName(CAMERA_SCENE)
+    assert mirror.HasRenderer(LIDAR_RENDERER) and not world.HasRenderer(LIDAR_RENDERER)
+    (scanner,) = [s for s in diagram.GetSystems() if isinstance(s, lidar.LidarScanner)]
+    query = scanner.get_query_input_port().get_index()
+    (source, _) = diagram.connection_map()[(scanner, query)]
+    assert source is mirror
 
 
 def test_beside_a_camera_on_drakes_opengl_engine(tmp_path):

@@ -94,3 +94,27 @@ def test_live_view_during_a_run_shows_the_camera_image(chromium):
     assert [width, height] == [640, 480]
     assert colours > 20, "the live image is (nearly) one colour"
     assert blue > 5000, "the blue disc is not in the live image"
+
+
+def test_camera_max_rate_caps_the_cameras_for_interactive_runs_and_says_so(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    def run(*extra):
+        out = tmp_path / ("capped" if extra else "own")
+        command = [sys.executable, "-m", "armando_drake.world", "--scenario", "vision_blob"]
+        command += ["--no-meshcat", "--realtime-rate", "0", "--renderer", "vtk"]
+        command += ["--duration", "0.5", "--output", str(out), *extra]
+        done = subprocess.run(command, capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stderr
+        return json.loads((out / "summary.json").read_text()), done.stdout + done.stderr
+
+    own, log = run()
+    assert "interactive" not in own and "interactive setting" not in log  # off by default
+    assert own["vision"]["frames"] == 15  # the scenario's 30 Hz
+    capped, log = run("--camera-max-rate", "10")
+    assert capped["interactive"] == {"camera.max_rate": 10.0}
+    assert "camera.max_rate=10 (an interactive setting)" in log
+    assert "renders at 10 Hz instead of its 30 Hz" in log
+    assert capped["vision"]["frames"] == 5  # the detector follows its camera

@@ -116,3 +116,34 @@ def test_shortcut_follows_other_thresholds_and_repeatability():
             assert len(found) == len(expected)
             if expected:
                 assert np.abs(np.array(found) - np.array(expected)).max() <= 0.01
+
+
+def test_a_frame_equal_to_the_last_one_reuses_its_keypoints_and_annotated_image():
+    from pydrake.systems.sensors import ImageRgba8U
+
+    detector = BlobDetector(width=64, height=48, frame_rate=30.0, min_area=10.0)
+    image = ImageRgba8U(64, 48)
+    image.mutable_data[:] = 255
+    cv2.circle(image.mutable_data, (30, 20), 8, (0, 0, 0, 255), -1)
+    simulator = Simulator(detector)
+    context = simulator.get_mutable_context()
+    detector.get_input_port(0).FixValue(context, image)
+    simulator.AdvanceTo(0.1)  # frames at 1e-4, 1/30 + 1e-4, 2/30 + 1e-4
+    assert detector.frames == 3 and detector.last_frame.hits == 2
+    (first,) = detector.history[0].keypoints
+    grey = cv2.cvtColor(image.data, cv2.COLOR_RGBA2GRAY)
+    assert first == detector.detect(grey)[0]
+    assert all(d.keypoints == (first,) for d in detector.history)
+    assert [d.stamp for d in detector.history] == pytest.approx(
+        [1e-4, 1 / 30 + 1e-4, 2 / 30 + 1e-4]
+    )
+    moved = ImageRgba8U(64, 48)
+    moved.mutable_data[:] = 255
+    cv2.circle(moved.mutable_data, (20, 25), 8, (0, 0, 0, 255), -1)
+    detector.get_input_port(0).FixValue(context, moved)
+    simulator.AdvanceTo(0.11)  # a new frame: detected anew
+    assert detector.frames == 4 and detector.last_frame.hits == 2
+    (second,) = detector.history[-1].keypoints
+    assert (second.u, second.v) == pytest.approx((20.0, 25.0), abs=0.5)
+    annotated = detector.GetOutputPort("annotated_image").Eval(context).data
+    assert np.any(annotated != moved.data)  # the keypoint drawn
