@@ -51,6 +51,7 @@ from armando_drake.perception.pipeline import (
     finite,
     make_cloud,
 )
+from armando_drake.tools.memo import LastResult
 
 _log = logging.getLogger("armando_drake.perception")
 
@@ -117,19 +118,6 @@ def _cloud_key(cloud: PointCloud, viewpoint) -> list[np.ndarray]:
     return key
 
 
-def _same_key(key: list[np.ndarray], other: list[np.ndarray]) -> bool:
-    """Whether two keys are equal bit for bit (NaNs included)."""
-    return len(key) == len(other) and all(
-        a.shape == b.shape and a.dtype == b.dtype and np.array_equal(_bits(a), _bits(b))
-        for a, b in zip(key, other, strict=True)
-    )
-
-
-def _bits(array: np.ndarray) -> np.ndarray:
-    """The array's elements as unsigned integers of the same size (a view, no copy)."""
-    return array.view(np.dtype(f"u{array.itemsize}"))
-
-
 class PointCloudPerception(LeafSystem):
     """Runs a :class:`~armando_drake.perception.pipeline.PointCloudPipeline` at its own rate.
 
@@ -159,8 +147,7 @@ class PointCloudPerception(LeafSystem):
         self._pipeline.load_libraries()
         # The last cloud's key and result: a frame whose cloud is the same, bit for bit,
         # reuses it (a camera on a still scene); ``reuses`` counts those frames.
-        self._last: tuple[list[np.ndarray], PerceptionResult] | None = None
-        self.reuses = 0
+        self._last = LastResult()
         self._rate = rate
         self._frame = frame
         self._cloud = self.DeclareAbstractInputPort("point_cloud", AbstractValue.Make(PointCloud()))
@@ -178,6 +165,11 @@ class PointCloudPerception(LeafSystem):
         )
 
     @property
+    def reuses(self) -> int:
+        """The frames answered with the last result (the same cloud, bit for bit)."""
+        return self._last.hits
+
+    @property
     def pipeline(self) -> PointCloudPipeline:
         return self._pipeline
 
@@ -188,16 +180,16 @@ class PointCloudPerception(LeafSystem):
         )
         frame_time = math.floor(context.get_time() * self._rate + 1e-6) / self._rate
         key = _cloud_key(source, viewpoint)
-        if self._last is not None and _same_key(key, self._last[0]):
+        last = self._last.get(*key)
+        if last is not None:
             # The same cloud from the same viewpoint: the steps (seeded) find the same.
-            self.reuses += 1
-            result = dataclasses.replace(self._last[1], time=float(frame_time))
+            result = dataclasses.replace(last, time=float(frame_time))
         else:
             cloud = PointCloud(source)  # the stages keep it: a copy
             result = self._pipeline.run(
                 cloud, viewpoint=viewpoint, time=frame_time, frame=self._frame
             )
-            self._last = ([np.array(a, copy=True) for a in key], result)
+            self._last.put(result, *key)
         state.get_mutable_abstract_state(self._state).set_value(result)
 
     def _CalcFiltered(self, context: Context, output) -> None:

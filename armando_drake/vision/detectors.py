@@ -37,36 +37,13 @@ from pydrake.systems.sensors import ImageRgba8U
 
 from armando_drake.messages.types import MarkerPose, Publication, PublicationValue
 from armando_drake.sensors.marker import MarkerError, aruco_dictionary, dictionary_size
+from armando_drake.tools.memo import LastResult
 from armando_drake.vision.blobs import LevelBlobDetector
 
 _log = logging.getLogger("armando_drake.vision")
 
 # The detectors run this long after each frame is held [s], so they see that frame.
 FRAME_DELAY = 1e-4
-
-
-class LastFrame:
-    """The result a detector computed from its last frame, with a copy of that frame.
-
-    A detector's result is a function of its image alone, so a frame equal to the last
-    one, pixel for pixel (a camera on a still scene), gives the same result without
-    OpenCV running again: :meth:`get` returns it (None for a new frame), :meth:`put`
-    keeps a frame's result. ``hits`` counts the frames answered from here.
-    """
-
-    def __init__(self):
-        self._frame: np.ndarray | None = None
-        self._result: Any = None
-        self.hits = 0
-
-    def get(self, frame: np.ndarray) -> Any:
-        if self._frame is None or not np.array_equal(frame, self._frame):
-            return None
-        self.hits += 1
-        return self._result
-
-    def put(self, frame: np.ndarray, result: Any) -> None:
-        self._frame, self._result = np.array(frame, copy=True), result
 
 
 class DetectorError(ValueError):
@@ -197,7 +174,7 @@ class BlobDetector(LeafSystem):
         self.frames = 0  # frames processed (a statistic, not state)
         self.detections = 0  # frames with at least one keypoint
         self.seconds = 0.0  # [s] wall-clock time spent in OpenCV
-        self.last_frame = LastFrame()  # the last frame's keypoints, for a frame the same
+        self.last_frame = LastResult()  # the last frame's keypoints, for a frame the same
         self.history: list[BlobDetection] = []  # every frame's keypoints (keypoints.csv)
         self._input = self.DeclareAbstractInputPort(
             "color_image", AbstractValue.Make(ImageRgba8U(width, height))
@@ -250,7 +227,7 @@ class BlobDetector(LeafSystem):
                     cv2.DRAW_MATCHES_FLAGS_DRAW_RICH_KEYPOINTS,
                 )
             )
-            self.last_frame.put(frame, (keypoints, annotated))
+            self.last_frame.put((keypoints, annotated), frame)
         else:
             keypoints, annotated = known
         self.seconds += time.perf_counter() - start
@@ -360,7 +337,7 @@ class ArucoDetector(LeafSystem):
         # run's vision.csv (a statistic kept beside the state, as the counts are).
         self.history: list[tuple[float, tuple[float, float, float]]] = []
         self.seconds = 0.0  # [s] wall-clock time in OpenCV
-        self.last_frame = LastFrame()  # the last frame's marker pose, for a frame the same
+        self.last_frame = LastResult()  # the last frame's marker pose, for a frame the same
         self._input = self.DeclareAbstractInputPort(
             "color_image", AbstractValue.Make(ImageRgba8U(width, height))
         )
@@ -456,7 +433,7 @@ class ArucoDetector(LeafSystem):
                     annotated, self._K, np.zeros(5), rvec, X_CM.translation(), self._side / 2
                 )
             annotated = _rgba_image(annotated)
-            self.last_frame.put(frame, (X_CM, annotated))
+            self.last_frame.put((X_CM, annotated), frame)
         else:
             X_CM, annotated = known
         self.seconds += time.perf_counter() - start
