@@ -2,7 +2,12 @@
 
 from pathlib import Path
 
+from armando_drake.sensors.antialiasing import install as _install_shaders
 from armando_drake.tools.version import package_version
+
+# Before any shader is compiled: VTK cameras' antialiasing pass off unless a scenario
+# asks for it (armando_drake.sensors.antialiasing).
+_install_shaders()
 
 # The version of pyproject.toml (armando_drake.tools.version), as the package metadata has it.
 __version__ = package_version()

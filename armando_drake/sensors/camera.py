@@ -173,6 +173,20 @@ class AddedCamera:
     color_image: OutputPort  # ImageRgba8U, held at the camera rate (noise applied)
     depth_image: OutputPort | None  # ImageDepth32F [m], rendered when read; None if off
     hold: FrameHold | None = None  # what holds color_image (None: not held)
+    # Whether its colour frames are antialiased (VTK's FXAA pass: sensors.antialiasing).
+    antialiased: bool = False
+
+    def summary(self) -> dict:
+        """What ``summary.json``'s ``cameras`` says of it: its renderer, antialiasing,
+        size and rate."""
+        gl = isinstance(self.config.renderer_class, RenderEngineGlParams)
+        return {
+            "renderer": "RenderEngineGl" if gl else "RenderEngineVtk",
+            "antialiasing": "FXAA" if self.antialiased else "none",
+            "width": self.info.width,
+            "height": self.info.height,
+            "rate": self.info.frame_rate,
+        }
 
     def read_color(
         self, rate: float, offset: float = 0.0, active: Callable[[], bool] | None = None

@@ -14,6 +14,7 @@ from pydrake.systems.framework import DiagramBuilder
 from armando_drake.description.camera_sensors import sensor_origin
 from armando_drake.description.loader import LoadedRobot
 from armando_drake.messages.publications import PublicationRegistry, register
+from armando_drake.sensors.antialiasing import use_vtk_antialiasing
 from armando_drake.sensors.camera import (
     AddCameraSensors,
     AddedCamera,
@@ -115,6 +116,9 @@ def AddCameras(
         sensors += [_on_robot(c.sensor_info(source), plant, robots) for c in extra]
         sensors = [capped(info, settings.max_rate) for info in sensors]
         renderer = choose_renderer(settings.renderer)
+        antialiased = renderer == "vtk" and use_vtk_antialiasing(settings.antialiasing)
+        if settings.antialiasing and renderer == "gl":
+            _log.warning("camera.antialiasing: OpenGL cameras render without antialiasing")
         cameras = AddCameraSensors(
             builder,
             plant,
@@ -131,7 +135,13 @@ def AddCameras(
         named = source and text.startswith(f"{source}: cameras")
         raise ScenarioError(text if named else f"{where}{text}") from None
     for name, camera in cameras.items():
-        _log.info("camera %s, rendered by %s", describe(camera.info), ENGINES[renderer])
+        camera.antialiased = antialiased
+        _log.info(
+            "camera %s, rendered by %s%s",
+            describe(camera.info),
+            ENGINES[renderer],
+            " with FXAA" if antialiased else "",
+        )
         register(publications, *camera_topics(name, camera))
     # A Meshcat kept only to record a replay (recording_only) has no viewer to go with.
     watched = meshcat is not None and not getattr(meshcat, "recording_only", False)

@@ -33,3 +33,9 @@ class CameraSettings:
     # default. What the detectors see then differs from the scenario's, so the run's log
     # warns and summary.json's "interactive" says it (the CLI's --camera-max-rate).
     max_rate: float = param(0.0, unit="Hz", ge=0)
+    # Whether VTK cameras antialias their colour frames with VTK's FXAA pass, as Drake's
+    # RenderEngineVtk does. Off by default: the pass costs about 43 ms of CPU per 640 x
+    # 480 frame on a machine without a GPU, and OpenGL cameras have no antialiasing, so
+    # both renderers give the same hard edges (armando_drake/sensors/antialiasing.py).
+    # summary.json's "cameras" says which was used.
+    antialiasing: bool = False

@@ -126,6 +126,9 @@ class RunResult:
     robots: dict[str, Any] | None = None
     # Runtime inputs dropped (not finite, out of range, malformed), by topic.
     rejected_messages: dict[str, int] = field(default_factory=dict)
+    # The cameras, by name: renderer, antialiasing, size, rate (AddedCamera.summary).
+    # Absent from summary.json when the world has none.
+    cameras: dict[str, Any] = field(default_factory=dict)
     # Settings for interactive runs that were on (e.g. camera.max_rate), by key: the
     # figures are not the scenario's own. Absent from summary.json when none was.
     interactive: dict[str, Any] = field(default_factory=dict)
@@ -154,6 +157,7 @@ class RunResult:
             "perception": self.perception,
             "rejected_messages": self.rejected_messages,
             **({"robots": self.robots} if self.robots is not None else {}),
+            **({"cameras": self.cameras} if self.cameras else {}),
             **({"interactive": self.interactive} if self.interactive else {}),
         }
 
@@ -706,6 +710,8 @@ def _result(scenario, world, simulator, table, tracker, log_dir, name: str = "")
     )
     if scenario.camera.max_rate > 0:
         result.interactive["camera.max_rate"] = scenario.camera.max_rate
+    for robot in world.robots.values():
+        result.cameras |= {name: camera.summary() for name, camera in robot.cameras.items()}
     if isinstance(table, StepTable):
         result.steps = table.results(sim_time)
     elif isinstance(table, TrackingError):

@@ -113,6 +113,13 @@ def test_camera_max_rate_caps_the_cameras_for_interactive_runs_and_says_so(tmp_p
     own, log = run()
     assert "interactive" not in own and "interactive setting" not in log  # off by default
     assert own["vision"]["frames"] == 15  # the scenario's 30 Hz
+    camera = {"renderer": "RenderEngineVtk", "width": 640, "height": 480, "rate": 30.0}
+    assert own["cameras"] == {"top_camera": camera | {"antialiasing": "none"}}
+    # VTK's FXAA pass on request: said in the summary and the log, the same detections.
+    smooth, log = run("--set", "camera: {antialiasing: true}")
+    assert smooth["cameras"] == {"top_camera": camera | {"antialiasing": "FXAA"}}
+    assert "rendered by RenderEngineVtk with FXAA" in log
+    assert smooth["vision"]["detections"] == own["vision"]["detections"] == 15
     capped, log = run("--camera-max-rate", "10")
     assert capped["interactive"] == {"camera.max_rate": 10.0}
     assert "camera.max_rate=10 (an interactive setting)" in log
