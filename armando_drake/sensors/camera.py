@@ -73,16 +73,18 @@ scenario's ``camera.renderer``, ``auto`` by default). ``RenderEngineGl``
 that :mod:`armando_drake.tools.xdisplay` starts for the process. On our 2-core
 CPU-only machines it renders the 640 x 480 scene of ``diagrams/camera.yaml``
 at about 95 frames/s, colour or colour + depth. ``RenderEngineVtk`` renders
-headless through EGL with no display at all, at about 37 frames/s colour
-(it antialiases every frame), which at 30 Hz leaves the world just short of
-real time; ``auto`` falls back to it, saying so, when no display can be had.
+headless through EGL with no display at all; ``auto`` falls back to it,
+saying so, when no display can be had.
 VTK cameras render from a scene graph of their own
 (:mod:`~armando_drake.sensors.camera_scene`, the same images): a VTK engine on the
-world's scene graph would cost at every plant step, rendering or not. A colour frame
-costs VTK a full-screen antialiasing pass (FXAA, about 45 ms of CPU at 640 x 480
-whatever the scene), so a camera whose scene has not moved since its last frame
-holds that frame again instead of rendering it (the same poses give the same pixels;
-OpenGL cameras watch the poses of the world's scene graph they render from).
+world's scene graph would cost at every plant step, rendering or not. Drake's VTK
+engine antialiases every colour frame with VTK's FXAA pass, about 43 ms of CPU at
+640 x 480 whatever the scene; unless the scenario asks for it
+(``camera.antialiasing``), the pass copies the frame as rendered instead
+(:mod:`~armando_drake.sensors.antialiasing`), so VTK's frames have OpenGL's hard
+edges and cost about a fifth. A camera whose scene has not moved since its last
+frame holds that frame again instead of rendering it (the same poses give the same
+pixels; OpenGL cameras watch the poses of the world's scene graph they render from).
 
 Noise
 -----

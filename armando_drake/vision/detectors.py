@@ -360,13 +360,11 @@ class ArucoDetector(LeafSystem):
         corners, ids, _ = self._coarse.detectMarkers(grey)
         if ids is None:
             return None, corners
-        refined, refined_ids, _ = self._detector.detectMarkers(grey)
-        refined_ids = [] if refined_ids is None else np.asarray(refined_ids).reshape(-1)
         for k, marker_id in enumerate(np.asarray(ids).reshape(-1)):
             if int(marker_id) != self._marker_id:
                 continue
             image_points = np.asarray(corners[k], dtype=float).reshape(4, 2)
-            image_points = self._refine(image_points, refined, refined_ids)
+            image_points = self._refine(grey, image_points)
             rvec, tvec = self._solve(image_points)
             if rvec is None:
                 return None, corners
@@ -398,14 +396,24 @@ class ArucoDetector(LeafSystem):
         )
         return rvec, tvec
 
-    def _refine(self, coarse: np.ndarray, refined, refined_ids) -> np.ndarray:
-        """The refined corners of the marker at ``coarse`` (4 x 2 [px]), in the coarse
-        corners' order; ``coarse`` itself when the refined detection missed it."""
+    def _refine(self, grey: np.ndarray, coarse: np.ndarray) -> np.ndarray:
+        """The refined corners of the marker at ``coarse`` (4 x 2 [px]) in ``grey``, in
+        the coarse corners' order; ``coarse`` itself when the refined detection missed
+        it. The refined detection runs on the marker's box with a margin of half its
+        size: the part of the image its corners are refined from, at a fraction of the
+        cost of the whole frame."""
+        height, width = grey.shape
+        low, high = coarse.min(axis=0), coarse.max(axis=0)
+        margin = 0.5 * float((high - low).max()) + 8.0  # [px]
+        x0, y0 = (max(int(v - margin), 0) for v in low)
+        x1, y1 = min(int(high[0] + margin) + 1, width), min(int(high[1] + margin) + 1, height)
+        refined, refined_ids, _ = self._detector.detectMarkers(grey[y0:y1, x0:x1])
+        refined_ids = [] if refined_ids is None else np.asarray(refined_ids).reshape(-1)
         best, best_distance = coarse, np.inf
         for k, marker_id in enumerate(refined_ids):
             if int(marker_id) != self._marker_id:
                 continue
-            points = np.asarray(refined[k], dtype=float).reshape(4, 2)
+            points = np.asarray(refined[k], dtype=float).reshape(4, 2) + (x0, y0)
             for shift in range(4):
                 rolled = np.roll(points, shift, axis=0)
                 distance = float(np.abs(rolled - coarse).max())
