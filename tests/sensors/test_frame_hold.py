@@ -261,3 +261,37 @@ def test_vtk_cameras_on_their_own_scene_graph_render_the_same_images():
     np.testing.assert_array_equal(color, color_world)
     np.testing.assert_array_equal(depth, depth_world)
     assert X_WB.IsExactlyEqualTo(X_WB_world)
+
+
+@pytest.mark.parametrize("mean, stddev", [(0.0, 1.785), (2.55, 5.1), (0.0, 0.3)])
+def test_the_noise_table_draws_each_level_as_rounded_gaussian_noise_would(mean, stddev):
+    from statistics import NormalDist
+
+    from armando_drake.sensors.frame_hold import NOISE_BINS, noise_levels
+
+    levels = noise_levels(mean, stddev)  # [0..255 units]: Gazebo's 0.007 is 1.785
+    values, counts = np.unique(levels, return_counts=True)
+    assert values.min() < mean < values.max()
+    normal = NormalDist(mean, stddev)
+    # the outermost levels hold the tails
+    for value, count in zip(values[1:-1], counts[1:-1], strict=True):
+        exact = normal.cdf(value + 0.5) - normal.cdf(value - 0.5)
+        assert abs(count / NOISE_BINS - exact) <= 1 / NOISE_BINS, value
+
+
+def test_colour_noise_on_a_frame_has_the_mean_and_deviation_asked_and_keeps_alpha():
+    from armando_drake.sensors.frame_hold import add_color_noise, noise_levels
+
+    grey = np.full((400, 400, 4), 128, dtype=np.uint8)
+    grey[..., 3] = 200
+    grey[:10, :, :3] = 0  # clamped at 0: never below
+    rng = np.random.default_rng(7)
+    noisy = add_color_noise(grey, rng, noise_levels(2.55, 5.1)).astype(float)
+    middle = noisy[10:, :, :3] - 128
+    assert middle.mean() == pytest.approx(2.55, abs=0.03)
+    # rounding adds 1/12 of a level squared to the variance
+    assert middle.std() == pytest.approx(np.sqrt(5.1**2 + 1 / 12), rel=0.01)
+    assert noisy[:10, :, :3].min() == 0
+    assert (noisy[..., 3] == 200).all()
+    again = add_color_noise(grey, rng, noise_levels(2.55, 5.1))
+    assert (again != noisy).any()  # a draw of its own
