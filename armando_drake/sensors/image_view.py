@@ -50,6 +50,9 @@ _logger = logging.getLogger(__name__)
 
 # Publish this fraction of a period after the camera samples (see module doc).
 PUBLISH_OFFSET_FRACTION = 1e-3
+# zlib level of every PNG written or served: 1, the fastest. An 800 x 800 noisy colour
+# frame: 107 ms and 880 KiB at level 1, 523 ms and 750 KiB at Pillow's default 6.
+PNG_LEVEL = 1
 # Depth PNG files store millimetres in 16 bits; 0 = no reading.
 DEPTH_PNG_SCALE = 1000.0  # [units per m]
 
@@ -57,7 +60,9 @@ DEPTH_PNG_SCALE = 1000.0  # [units per m]
 def color_png(rgba: np.ndarray) -> bytes:
     """PNG bytes of an RGBA8 image (alpha dropped)."""
     buffer = io.BytesIO()
-    Image.fromarray(np.ascontiguousarray(rgba[:, :, :3])).save(buffer, format="PNG")
+    Image.fromarray(np.ascontiguousarray(rgba[:, :, :3])).save(
+        buffer, format="PNG", compress_level=PNG_LEVEL
+    )
     return buffer.getvalue()
 
 
@@ -71,7 +76,7 @@ def depth_preview_png(depth: np.ndarray) -> bytes:
         span = max(far - near, 1e-6)
         grey[valid] = np.rint(255.0 - 200.0 * (depth[valid] - near) / span).astype(np.uint8)
     buffer = io.BytesIO()
-    Image.fromarray(grey).save(buffer, format="PNG")
+    Image.fromarray(grey).save(buffer, format="PNG", compress_level=PNG_LEVEL)
     return buffer.getvalue()
 
 
@@ -465,13 +470,17 @@ class FrameSaver(_FrameConsumer):
             return
         index = int(round(context.get_time() / self._period))
         stem = self._directory / f"{self._camera_name}_{index:06d}"
-        Image.fromarray(np.ascontiguousarray(color.data[:, :, :3])).save(f"{stem}.png")
+        Image.fromarray(np.ascontiguousarray(color.data[:, :, :3])).save(
+            f"{stem}.png", compress_level=PNG_LEVEL
+        )
         if self._depth is not None:
             depth = self._depth.Eval(context).data[:, :, 0]
             if self._depth_format == "npy":
                 np.save(f"{stem}_depth.npy", np.asarray(depth, dtype=np.float32))
             else:
-                Image.fromarray(depth_millimetres(depth)).save(f"{stem}_depth.png")
+                Image.fromarray(depth_millimetres(depth)).save(
+                    f"{stem}_depth.png", compress_level=PNG_LEVEL
+                )
 
 
 def AddImageView(
