@@ -22,12 +22,15 @@ between the replacement and VTK's own filter for the engines that render their f
 colour frame after the call (a world sets it while it is built, before any frame). A
 user's own ``MESA_SHADER_READ_PATH`` is left alone, and VTK's FXAA runs then. Other GL
 drivers than Mesa ignore the variable (and run the filter, cheaply, on a GPU), as does a
-VTK other than Drake 1.51's (the hash would differ; ``tests/sensors/test_antialiasing.py``
-checks that the file takes effect).
+VTK other than Drake 1.51's (the hash would differ). So whether the pass runs is not
+taken on trust: a 16 x 16 probe frame (:func:`vtk_frames_antialiased`) says it, the log
+warns when FXAA runs although it was asked off, and ``summary.json``'s ``cameras`` says
+what ran.
 """
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
 from pathlib import Path
@@ -57,15 +60,59 @@ def ours() -> bool:
 
 def use_vtk_antialiasing(on: bool) -> bool:
     """VTK's FXAA pass on (``on``) or off for the VTK engines whose first colour frame is
-    rendered after this call; returns whether FXAA runs for them. A user's own
-    ``MESA_SHADER_READ_PATH`` is kept (and FXAA then runs)."""
+    rendered after this call; returns whether FXAA runs for them, as a probe frame shows
+    (:func:`vtk_frames_antialiased`) when it was asked off. A user's own
+    ``MESA_SHADER_READ_PATH`` is kept."""
     install()
-    if not ours():
-        _log.info(
-            "%s=%s is set: VTK cameras antialias their frames (FXAA) as Drake does",
-            READ_PATH,
-            os.environ.get(READ_PATH),
+    if ours():
+        os.environ[READ_PATH] = _NO_REPLACEMENT if on else str(SHADER_DIR)
+        if on:
+            return True  # nothing is replaced: VTK's own pass runs
+    fxaa = vtk_frames_antialiased()
+    if fxaa and not on:
+        _log.warning(
+            "VTK cameras antialias their frames (FXAA) although camera.antialiasing is false: %s",
+            f"{READ_PATH}={os.environ.get(READ_PATH)} is the user's"
+            if not ours()
+            else "Mesa did not take the replacement shader (a GL shader was compiled in "
+            "this process before armando_drake was imported, or Drake's VTK is not the "
+            "one of Drake 1.51)",
         )
-        return True
-    os.environ[READ_PATH] = _NO_REPLACEMENT if on else str(SHADER_DIR)
-    return on
+    return fxaa
+
+
+def vtk_frames_antialiased() -> bool:
+    """Whether a VTK colour frame rendered now is antialiased (FXAA): a 16 x 16 probe
+    frame of a square turned 0.3 rad has colours between the square's and the
+    background's only if it is. About 0.1 s, once per value of ``MESA_SHADER_READ_PATH``."""
+    return _probe(os.environ.get(READ_PATH))
+
+
+@functools.cache
+def _probe(read_path: str | None) -> bool:
+    import numpy as np
+    from pydrake.geometry import (
+        Box,
+        ClippingRange,
+        ColorRenderCamera,
+        GeometryId,
+        MakeRenderEngineVtk,
+        PerceptionProperties,
+        RenderCameraCore,
+        RenderEngineVtkParams,
+        Rgba,
+    )
+    from pydrake.math import RigidTransform, RollPitchYaw
+    from pydrake.systems.sensors import CameraInfo, ImageRgba8U
+
+    engine = MakeRenderEngineVtk(RenderEngineVtkParams())
+    black = PerceptionProperties()
+    black.AddProperty("phong", "diffuse", Rgba(0, 0, 0, 1))
+    X_WB = RigidTransform(RollPitchYaw(0, 0, 0.3), [0, 0, 0])
+    engine.RegisterVisual(GeometryId.get_new_id(), Box(1, 1, 1), black, X_WB, False)
+    info = CameraInfo(16, 16, np.pi / 2)
+    core = RenderCameraCore("probe", info, ClippingRange(0.1, 10), RigidTransform())
+    engine.UpdateViewpoint(RigidTransform(RollPitchYaw(np.pi, 0, 0), [0.5, 0.5, 2.0]))
+    image = ImageRgba8U(16, 16)
+    engine.RenderColorImage(ColorRenderCamera(core, False), image)
+    return len(np.unique(image.data[..., :3].reshape(-1, 3), axis=0)) > 2

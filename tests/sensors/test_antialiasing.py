@@ -91,6 +91,39 @@ def test_vtk_frames_have_hard_edges_by_default_and_fxaa_on_request(tmp_path):
     assert not (differ & ~near_edge).any()
 
 
+SHADER_FIRST = """
+import numpy as np
+from pydrake.geometry import MakeRenderEngineVtk, RenderEngineVtkParams, RenderCameraCore
+from pydrake.geometry import ClippingRange, ColorRenderCamera
+from pydrake.math import RigidTransform
+from pydrake.systems.sensors import CameraInfo, ImageRgba8U
+
+engine = MakeRenderEngineVtk(RenderEngineVtkParams())  # a frame before the package
+core = RenderCameraCore("vtk", CameraInfo(8, 8, 1.0), ClippingRange(0.1, 1), RigidTransform())
+engine.RenderColorImage(ColorRenderCamera(core, False), ImageRgba8U(8, 8))
+import armando_drake
+from armando_drake.sensors.antialiasing import use_vtk_antialiasing
+print(use_vtk_antialiasing(False))
+"""
+
+
+def test_fxaa_that_runs_although_asked_off_is_found_and_said():
+    # Mesa decides at a process's first shader: one compiled before the package was
+    # imported leaves VTK's pass in place, which the probe frame finds.
+    environment = {key: value for key, value in os.environ.items() if key != READ_PATH}
+    done = subprocess.run(
+        [sys.executable, "-c", SHADER_FIRST],
+        env=environment,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split()[-1] == "True"
+    assert "antialias their frames (FXAA) although camera.antialiasing is false" in done.stderr
+    assert "before armando_drake was imported" in done.stderr
+
+
 def test_a_users_own_shader_folder_is_kept_and_vtk_antialiases(tmp_path):
     own = tmp_path / "shaders"
     own.mkdir()
