@@ -130,7 +130,13 @@ from armando_drake.description.camera_sensors import (
     CameraSensorInfo,
     sensor_origin,
 )
-from armando_drake.sensors.camera_scene import CameraScene, CameraSceneOf, WorldPosesOf
+from armando_drake.sensors.camera_scene import (
+    AddCameraScene,
+    CameraScene,
+    CameraSceneOf,
+    WorldPosesOf,
+    enclosing,
+)
 from armando_drake.sensors.frame_hold import FrameHold
 from armando_drake.tools.xdisplay import DisplayError, ensure_display
 
@@ -335,6 +341,33 @@ def _apply_camera(
     return builder.GetMutableSubsystemByName(f"rgbd_sensor_{info.name}")
 
 
+def _scene_without_enclosing(
+    builder: DiagramBuilder,
+    plant: MultibodyPlant,
+    scene_graph: SceneGraph,
+    info: CameraSensorInfo,
+    instance: ModelInstanceIndex,
+) -> CameraScene | None:
+    """A mirror of its own for a VTK camera inside convex visuals of its link (which VTK
+    would draw from inside, where Gazebo and Drake's OpenGL engine cull their back faces
+    and see through them), without those visuals; None for a camera inside none."""
+    if not plant.HasBodyNamed(info.link, instance):
+        return None  # _add_scene_camera says so
+    frame = plant.GetBodyFrameIdOrThrow(plant.GetBodyByName(info.link, instance).index())
+    hidden = enclosing(scene_graph, frame, info.X_LS().translation())
+    if not hidden:
+        return None
+    names = ", ".join(repr(scene_graph.model_inspector().GetName(g)) for g in hidden)
+    _logger.info(
+        "camera %s sits inside the visual %s of %s: left out of its images, as Gazebo, "
+        "which culls back faces, leaves it out",
+        info.name,
+        names,
+        info.link,
+    )
+    return AddCameraScene(builder, scene_graph, hidden=hidden, suffix=f"_{info.name}")
+
+
 def _add_scene_camera(
     builder: DiagramBuilder,
     plant: MultibodyPlant,
@@ -449,9 +482,11 @@ def AddCameraSensors(
             background=background,
         )
         if renderer == "vtk" and own_scene:
-            scene = scene or CameraSceneOf(builder, scene_graph)
-            sensor = _add_scene_camera(builder, plant, scene, config, info, instance)
-            poses = scene.poses  # every pose of the scene it renders
+            renders = _scene_without_enclosing(builder, plant, scene_graph, info, instance)
+            if renders is None:  # the cameras' shared mirror
+                scene = renders = scene or CameraSceneOf(builder, scene_graph)
+            sensor = _add_scene_camera(builder, plant, renders, config, info, instance)
+            poses = renders.poses  # every pose of the scene it renders
         else:
             sensor = _apply_camera(builder, plant, scene_graph, config, info, no_lcm)
             poses = WorldPosesOf(builder, scene_graph)

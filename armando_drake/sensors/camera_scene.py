@@ -14,21 +14,36 @@ Its frames' poses come from a :class:`MirroredPoses` system that reads the world
 ``QueryObject`` only when the second scene graph needs them, i.e. when a camera
 renders (or a reader asks a camera's pose). Build it after the last geometry is
 registered (after ``plant.Finalize()`` and the scene objects).
+
+A camera inside a closed convex visual (the box of its own ``camera_link``, with the
+sensor at the link's origin, as many descriptions have it) sees only the back faces of
+that visual, which Gazebo's renderer and Drake's OpenGL engine cull: they see through it.
+VTK draws back faces. Such a camera renders from a mirror of its own that leaves out the
+visuals enclosing it (:func:`enclosing`), so it sees what Gazebo's camera sees.
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Collection
 from dataclasses import dataclass
 
+import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.geometry import (
+    Box,
+    Capsule,
+    Cylinder,
+    Ellipsoid,
     FrameId,
     FramePoseVector,
     GeometryFrame,
+    GeometryId,
     GeometryInstance,
     QueryObject,
     Role,
     SceneGraph,
+    Sphere,
 )
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 
@@ -83,16 +98,28 @@ def _instance(inspector, geometry) -> GeometryInstance:
     return instance
 
 
-def AddCameraScene(builder: DiagramBuilder, scene_graph: SceneGraph) -> CameraScene:
+def AddCameraScene(
+    builder: DiagramBuilder,
+    scene_graph: SceneGraph,
+    *,
+    hidden: Collection[GeometryId] = (),
+    suffix: str = "",
+) -> CameraScene:
     """The cameras' scene graph: the perception geometry of ``scene_graph`` mirrored, its
-    poses read from ``scene_graph``'s query port when needed (see the module)."""
+    poses read from ``scene_graph``'s query port when needed (see the module); without
+    the geometries ``hidden`` (a camera's own mirror, its systems' names ending in
+    ``suffix``)."""
     inspector = scene_graph.model_inspector()
-    mirror = builder.AddNamedSystem(CAMERA_SCENE, SceneGraph())
+    mirror = builder.AddNamedSystem(CAMERA_SCENE + suffix, SceneGraph())
     source = mirror.RegisterSource("world_mirror")
     world = inspector.world_frame_id()
     frames: dict[FrameId, FrameId] = {}
     for frame in inspector.GetAllFrameIds():
-        geometries = inspector.GetGeometries(frame, Role.kPerception)
+        geometries = [
+            geometry
+            for geometry in inspector.GetGeometries(frame, Role.kPerception)
+            if geometry not in hidden
+        ]
         if frame == world:
             for geometry in geometries:
                 mirror.RegisterAnchoredGeometry(source, _instance(inspector, geometry))
@@ -103,7 +130,7 @@ def AddCameraScene(builder: DiagramBuilder, scene_graph: SceneGraph) -> CameraSc
         )
         for geometry in geometries:
             mirror.RegisterGeometry(source, frames[frame], _instance(inspector, geometry))
-    poses = builder.AddNamedSystem(CAMERA_SCENE_POSES, MirroredPoses(list(frames.items())))
+    poses = builder.AddNamedSystem(CAMERA_SCENE_POSES + suffix, MirroredPoses(list(frames.items())))
     builder.Connect(scene_graph.get_query_output_port(), poses.get_input_port())
     builder.Connect(poses.get_output_port(), mirror.get_source_pose_port(source))
     poses.scene = CameraScene(scene_graph=mirror, frames=frames, poses=poses)
@@ -130,3 +157,33 @@ def CameraSceneOf(builder: DiagramBuilder, scene_graph: SceneGraph) -> CameraSce
     if builder.HasSubsystemNamed(CAMERA_SCENE_POSES):
         return builder.GetSubsystemByName(CAMERA_SCENE_POSES).scene
     return AddCameraScene(builder, scene_graph)
+
+
+def _inside(shape, p_G: np.ndarray) -> bool:
+    """Whether the point ``p_G`` (in the shape's frame) is strictly inside ``shape``; False
+    for shapes other than Drake's convex primitives (meshes may be open or concave)."""
+    x, y, z = (abs(float(value)) for value in p_G)
+    if isinstance(shape, Box):
+        return x < shape.width() / 2 and y < shape.depth() / 2 and z < shape.height() / 2
+    if isinstance(shape, Sphere):
+        return math.sqrt(x * x + y * y + z * z) < shape.radius()
+    if isinstance(shape, Cylinder):
+        return math.hypot(x, y) < shape.radius() and z < shape.length() / 2
+    if isinstance(shape, Capsule):
+        return math.hypot(x, y, max(z - shape.length() / 2, 0.0)) < shape.radius()
+    if isinstance(shape, Ellipsoid):
+        return (x / shape.a()) ** 2 + (y / shape.b()) ** 2 + (z / shape.c()) ** 2 < 1.0
+    return False
+
+
+def enclosing(scene_graph: SceneGraph, frame: FrameId, p_F) -> list[GeometryId]:
+    """The perception geometries on ``frame`` of ``scene_graph`` whose closed convex
+    shape (box, sphere, cylinder, capsule, ellipsoid) holds the point ``p_F`` [m, in the
+    frame] strictly inside: a camera there sees only their back faces."""
+    inspector = scene_graph.model_inspector()
+    p_F = np.asarray(p_F, dtype=float)
+    return [
+        geometry
+        for geometry in inspector.GetGeometries(frame, Role.kPerception)
+        if _inside(inspector.GetShape(geometry), inspector.GetPoseInFrame(geometry).inverse() @ p_F)
+    ]

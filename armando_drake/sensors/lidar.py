@@ -242,7 +242,7 @@ class LidarScanner(LeafSystem):
 
 def _scene_graph(builder: DiagramBuilder) -> SceneGraph:
     for system in builder.GetSystems():
-        if isinstance(system, SceneGraph) and system.get_name() != CAMERA_SCENE:
+        if isinstance(system, SceneGraph) and not system.get_name().startswith(CAMERA_SCENE):
             return system
     raise ScenarioError("a lidar needs a SceneGraph in the diagram (AddMultibodyPlant)")
 

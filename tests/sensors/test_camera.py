@@ -240,6 +240,51 @@ def test_blue_disc_in_view_gives_blue_pixels_in_the_expected_region(renderer):
     assert depth[info.height // 2, info.width // 2] == pytest.approx(near_face, abs=0.01)
 
 
+def test_a_camera_inside_its_links_box_sees_through_it_as_gazebo_does(renderer):
+    """rrbot's camera (gazebo_ros_demos) sits at the centre of its 5 cm camera_link box
+    with its near plane at 2 cm: Gazebo and OpenGL cull the box's back faces."""
+    boxed = camera_urdf(NEAR="0.02").replace('size="0.02 0.04 0.02"', 'size="0.05 0.05 0.05"')
+    (info,) = parse_camera_sensors(ET.fromstring(boxed))
+    centre_S = np.array([1.0, 0.1, 0.05])
+    info, color, depth = render(boxed, [plate_in_front(info, centre_S)], renderer=renderer)
+    u, v = project(info, centre_S - [0.01, 0, 0])
+    mask = red(color)
+    side_px = 0.1 * info.focal_length / 0.99
+    assert mask.sum() == pytest.approx(side_px**2, rel=0.12)  # the plate, not the box
+    u_seen, v_seen = mask_centroid(mask)
+    assert abs(u_seen - u) < 3 and abs(v_seen - v) < 3
+    assert depth[int(v), int(u)] == pytest.approx(0.99, abs=0.01)
+    assert np.isinf(depth[2, 2])  # nothing at 2.5 cm: the box is not drawn
+
+
+@pytest.mark.parametrize(
+    "shape, inside, outside",
+    [
+        (("Box", 0.2, 0.4, 0.6), [0.09, -0.19, 0.29], [0.11, 0, 0]),
+        (("Sphere", 0.1), [0.05, 0.05, 0.05], [0.06, 0.06, 0.06]),
+        (("Cylinder", 0.1, 0.4), [0.07, -0.07, 0.19], [0.0, 0.0, 0.21]),
+        (("Capsule", 0.1, 0.4), [0.0, 0.05, 0.28], [0.0, 0.08, 0.28]),
+        (("Ellipsoid", 0.1, 0.2, 0.3), [0.0, 0.19, 0.0], [0.09, 0.0, 0.15]),
+    ],
+    ids=lambda value: value[0] if isinstance(value, tuple) else None,
+)
+def test_the_visuals_enclosing_a_point_are_the_convex_ones_holding_it(shape, inside, outside):
+    import pydrake.geometry as geometry
+
+    from armando_drake.sensors.camera_scene import enclosing
+
+    scene_graph = geometry.SceneGraph()
+    source = scene_graph.RegisterSource("test")
+    frame = scene_graph.RegisterFrame(source, geometry.GeometryFrame("link"))
+    X_FG = RigidTransform(RollPitchYaw(0.3, -0.2, 0.5), [0.5, -0.2, 0.1])
+    kind, *sizes = shape
+    instance = geometry.GeometryInstance(X_FG, getattr(geometry, kind)(*sizes), "visual")
+    instance.set_perception_properties(geometry.PerceptionProperties())
+    visual = scene_graph.RegisterGeometry(source, frame, instance)
+    assert enclosing(scene_graph, frame, X_FG @ np.array(inside)) == [visual]
+    assert enclosing(scene_graph, frame, X_FG @ np.array(outside)) == []
+
+
 def test_camera_block_loaded_through_load_robot(tmp_path):
     path = tmp_path / "eye.urdf"
     path.write_text(camera_urdf(TYPE="rgbd_camera", RATE="15"))
