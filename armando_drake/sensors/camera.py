@@ -354,7 +354,7 @@ def _scene_without_enclosing(
     if not plant.HasBodyNamed(info.link, instance):
         return None  # _add_scene_camera says so
     frame = plant.GetBodyFrameIdOrThrow(plant.GetBodyByName(info.link, instance).index())
-    hidden = enclosing(scene_graph, frame, info.X_LS().translation())
+    hidden = enclosing(scene_graph, frame, info.X_LS().translation(), info.near)
     if not hidden:
         return None
     names = ", ".join(repr(scene_graph.model_inspector().GetName(g)) for g in hidden)

@@ -159,6 +159,19 @@ def CameraSceneOf(builder: DiagramBuilder, scene_graph: SceneGraph) -> CameraSce
     return AddCameraScene(builder, scene_graph)
 
 
+def _half_extents(shape) -> np.ndarray:
+    """Half the sides of the box around a convex primitive, in its frame."""
+    if isinstance(shape, Box):
+        return np.array([shape.width(), shape.depth(), shape.height()]) / 2
+    if isinstance(shape, Sphere):
+        return np.full(3, shape.radius())
+    if isinstance(shape, Cylinder):
+        return np.array([shape.radius(), shape.radius(), shape.length() / 2])
+    if isinstance(shape, Capsule):
+        return np.array([shape.radius(), shape.radius(), shape.length() / 2 + shape.radius()])
+    return np.array([shape.a(), shape.b(), shape.c()])  # Ellipsoid
+
+
 def _inside(shape, p_G: np.ndarray) -> bool:
     """Whether the point ``p_G`` (in the shape's frame) is strictly inside ``shape``; False
     for shapes other than Drake's convex primitives (meshes may be open or concave)."""
@@ -176,14 +189,23 @@ def _inside(shape, p_G: np.ndarray) -> bool:
     return False
 
 
-def enclosing(scene_graph: SceneGraph, frame: FrameId, p_F) -> list[GeometryId]:
+def enclosing(
+    scene_graph: SceneGraph, frame: FrameId, p_F, beyond: float = 0.0
+) -> list[GeometryId]:
     """The perception geometries on ``frame`` of ``scene_graph`` whose closed convex
     shape (box, sphere, cylinder, capsule, ellipsoid) holds the point ``p_F`` [m, in the
-    frame] strictly inside: a camera there sees only their back faces."""
+    frame] strictly inside: a camera there sees only their back faces. With ``beyond``
+    (a camera's near clipping distance [m]) only those that reach farther than that from
+    the point: the near plane hides the others."""
     inspector = scene_graph.model_inspector()
     p_F = np.asarray(p_F, dtype=float)
-    return [
-        geometry
-        for geometry in inspector.GetGeometries(frame, Role.kPerception)
-        if _inside(inspector.GetShape(geometry), inspector.GetPoseInFrame(geometry).inverse() @ p_F)
-    ]
+    corners = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
+    found = []
+    for geometry in inspector.GetGeometries(frame, Role.kPerception):
+        shape = inspector.GetShape(geometry)
+        p_G = inspector.GetPoseInFrame(geometry).inverse() @ p_F
+        if not _inside(shape, p_G):
+            continue
+        if np.linalg.norm(corners * _half_extents(shape) - p_G, axis=1).max() > beyond:
+            found.append(geometry)
+    return found

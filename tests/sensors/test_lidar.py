@@ -66,10 +66,15 @@ WALL_HALF_WIDTH = 5.0  # [m]
 
 
 def _scanner(
-    tmp_path, noise: str = "", base_xyz=(0.0, 0.0, 0.0), yaw: float = 0.0, gl_camera=False
+    tmp_path,
+    noise: str = "",
+    base_xyz=(0.0, 0.0, 0.0),
+    yaw: float = 0.0,
+    gl_camera=False,
+    urdf: str = SCANNER_URDF,
 ):
     path = tmp_path / "scanner.urdf"
-    path.write_text(SCANNER_URDF.replace("NOISE", noise))
+    path.write_text(urdf.replace("NOISE", noise))
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.001)
     robot = load_robot(plant, path, X_WB=RigidTransform(RollPitchYaw(0, 0, yaw), base_xyz))
@@ -134,6 +139,22 @@ def test_a_vtk_lidar_renders_from_the_cameras_scene_graph_not_the_worlds(tmp_pat
     query = scanner.get_query_input_port().get_index()
     (source, _) = diagram.connection_map()[(scanner, query)]
     assert source is mirror
+
+
+def test_a_housing_beyond_range_min_around_the_lidar_is_seen_through(tmp_path):
+    """A housing of 15 cm radius around a lidar whose range_min is 10 cm: Gazebo culls
+    its back faces and scans the wall; VTK, which draws them, scans from a mirror without
+    it (its own: the other sensors still see the housing)."""
+    housing = SCANNER_URDF.replace('radius="0.04"', 'radius="0.15"')
+    diagram, port = _scanner(tmp_path, urdf=housing)
+    assert diagram.HasSubsystemNamed(f"{CAMERA_SCENE}_front_lidar")
+    context = diagram.CreateDefaultContext()
+    Simulator(diagram, context).AdvanceTo(0.0)
+    scan = port.Eval(context).message
+    truth = _truth(scan.angles())
+    hit = np.isfinite(truth)
+    assert np.abs(scan.ranges[hit] - truth[hit]).max() < 1e-3
+    assert np.all(np.isposinf(scan.ranges[~hit]))  # not the housing at 0.15 m
 
 
 def test_beside_a_camera_on_drakes_opengl_engine(tmp_path):
