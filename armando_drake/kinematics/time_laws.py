@@ -15,6 +15,7 @@ with zero derivatives.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,27 +48,33 @@ class TimeLaw:
     def pieces(self) -> list[tuple[float, np.ndarray]]:
         raise NotImplementedError
 
+    @functools.cached_property
+    def _table(self) -> tuple[np.ndarray, list[tuple[float, np.ndarray, np.ndarray, np.ndarray]]]:
+        """The pieces' start times, and per piece (start, coefficients of s, s', s''):
+        computed once (a controller evaluates the law at every tick)."""
+        polyder = np.polynomial.polynomial.polyder
+        pieces = self.pieces()
+        starts = np.array([start for start, _ in pieces])
+        return starts, [(start, c, polyder(c), polyder(polyder(c))) for start, c in pieces]
+
     def __call__(self, t) -> TimeLawSample:
         """s, s', s'' at time(s) ``t`` [s] (scalar or array), clamped outside [0, T]."""
+        polyval = np.polynomial.polynomial.polyval
         t = np.asarray(t, dtype=float)
         s = np.zeros_like(t)
         s_dot = np.zeros_like(t)
         s_ddot = np.zeros_like(t)
-        pieces = self.pieces()
-        starts = np.array([start for start, _ in pieces])
+        starts, table = self._table
         inside = (t >= 0.0) & (t <= self.duration)
-        index = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(pieces) - 1)
-        for i, (start, coefficients) in enumerate(pieces):
+        index = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(table) - 1)
+        for i, (start, coefficients, first, second) in enumerate(table):
             mask = inside & (index == i)
             if not np.any(mask):
                 continue
             tau = t[mask] - start
-            s[mask] = np.polynomial.polynomial.polyval(tau, coefficients)
-            first = np.polynomial.polynomial.polyder(coefficients)
-            s_dot[mask] = np.polynomial.polynomial.polyval(tau, first)
-            s_ddot[mask] = np.polynomial.polynomial.polyval(
-                tau, np.polynomial.polynomial.polyder(first)
-            )
+            s[mask] = polyval(tau, coefficients)
+            s_dot[mask] = polyval(tau, first)
+            s_ddot[mask] = polyval(tau, second)
         s[t > self.duration] = 1.0
         return TimeLawSample(s=s, s_dot=s_dot, s_ddot=s_ddot)
 
