@@ -2,7 +2,7 @@
 
 from pathlib import Path
 
-from armando_drake.sensors.antialiasing import install as _install_shaders
+from armando_drake.tools.mesa import install as _install_shaders
 from armando_drake.tools.version import package_version
 
 # Before any shader is compiled: VTK cameras' antialiasing pass off unless a scenario

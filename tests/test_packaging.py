@@ -71,11 +71,20 @@ def notebook_scenarios() -> set[str]:
 def runtime_files() -> list[str]:
     """Every file the package reads at run time, by its name in the wheel: each file of the
     data folders the package resolves (``armando_drake.DATA_DIRS``), which holds the
-    scenarios the notebooks load and the model files the scenarios name."""
+    scenarios the notebooks load and the model files the scenarios name; and every file
+    of the package that is not Python (the replacement shader of ``tools/shaders/``)."""
+    package = REPO / "armando_drake"
     return sorted(
-        f"armando_drake/{path.relative_to(REPO).as_posix()}"
-        for folder in DATA_DIRS
-        for path in _files_under(REPO / folder)
+        [
+            f"armando_drake/{path.relative_to(REPO).as_posix()}"
+            for folder in DATA_DIRS
+            for path in _files_under(REPO / folder)
+        ]
+        + [
+            path.relative_to(REPO).as_posix()
+            for path in _files_under(package)
+            if path.suffix not in (".py", ".pyc")
+        ]
     )
 
 

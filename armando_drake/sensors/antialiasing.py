@@ -9,23 +9,25 @@ antialiasing at all.
 
 Mesa reads a replacement for any shader it compiles from the folder named by
 ``MESA_SHADER_READ_PATH``, by the hash of the shader's source (Mesa's "shader
-replacement", a documented environment variable). :data:`SHADER_DIR` holds one file: a
-replacement for that FXAA fragment shader that copies its input, the frame as rendered.
+replacement", a documented environment variable). ``armando_drake/tools/shaders/``
+(:mod:`armando_drake.tools.mesa`) holds one file: a replacement for that FXAA fragment
+shader that copies its input, the frame as rendered.
 With it a VTK colour frame costs about a fifth as much, and is the frame without the
 antialiasing: the same pixels wherever FXAA leaves a pixel alone (every pixel off an
 edge), the edges hard as OpenGL draws them.
 
 Mesa reads the variable at every shader compile, but for good once it finds it unset, so
-it must be set before the process's first shader: :func:`install` sets it when the
-package is imported (unless the user set it). :func:`use_vtk_antialiasing` switches
-between the replacement and VTK's own filter for the engines that render their first
-colour frame after the call (a world sets it while it is built, before any frame). A
-user's own ``MESA_SHADER_READ_PATH`` is left alone, and VTK's FXAA runs then. Other GL
-drivers than Mesa ignore the variable (and run the filter, cheaply, on a GPU), as does a
-VTK other than Drake 1.51's (the hash would differ). So whether the pass runs is not
-taken on trust: a 16 x 16 probe frame (:func:`vtk_frames_antialiased`) says it, the log
-warns when FXAA runs although it was asked off, and ``summary.json``'s ``cameras`` says
-what ran.
+it must be set before the process's first shader:
+:func:`armando_drake.tools.mesa.install` sets it when the package is imported (unless
+the user set it). :func:`use_vtk_antialiasing` switches between the replacement and
+VTK's own filter for the engines that render their first colour frame after the call (a
+world sets it while it is built, before any frame). A user's own
+``MESA_SHADER_READ_PATH`` is left alone, and VTK's FXAA runs then. Other GL drivers than
+Mesa ignore the variable (and run the filter, cheaply, on a GPU), as does a VTK other
+than Drake 1.51's (the hash would differ). So whether the pass runs is not taken on
+trust: a 16 x 16 probe frame (:func:`vtk_frames_antialiased`) says it, the log warns
+when FXAA runs although it was asked off, and ``summary.json``'s ``cameras`` says what
+ran.
 """
 
 from __future__ import annotations
@@ -33,23 +35,14 @@ from __future__ import annotations
 import functools
 import logging
 import os
-from pathlib import Path
+
+from armando_drake.tools.mesa import READ_PATH, SHADER_DIR, install
 
 _log = logging.getLogger("armando_drake.world")
 
-# Mesa's shader-replacement folder variable.
-READ_PATH = "MESA_SHADER_READ_PATH"
-# The folder of replacement shaders: VTK's FXAA fragment shader, as a copy of its input.
-SHADER_DIR = Path(__file__).resolve().parent / "mesa_shaders"
 # A value of READ_PATH that replaces nothing (an empty folder name: Mesa keeps looking,
 # finds no file, and compiles the shader as given).
 _NO_REPLACEMENT = ""
-
-
-def install() -> None:
-    """Points Mesa at :data:`SHADER_DIR` unless ``MESA_SHADER_READ_PATH`` is set already
-    (the package does this when it is imported, before any shader is compiled)."""
-    os.environ.setdefault(READ_PATH, str(SHADER_DIR))
 
 
 def ours() -> bool:

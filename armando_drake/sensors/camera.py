@@ -329,12 +329,13 @@ def _apply_camera(
     scene_graph: SceneGraph,
     config: CameraConfig,
     info: CameraSensorInfo,
-    lcm: DrakeLcm,
 ) -> RgbdSensor:
-    """Adds the camera of ``config`` with Drake's ``ApplyCameraConfig``; returns its sensor."""
+    """Adds the camera of ``config`` with Drake's ``ApplyCameraConfig`` (its LCM publishing
+    off); returns its sensor."""
+    no_lcm = DrakeLcm("memq://null")  # ApplyCameraConfig's opt-out of LCM publishing
     try:
         ApplyCameraConfig(
-            config=config, builder=builder, plant=plant, scene_graph=scene_graph, lcm=lcm
+            config=config, builder=builder, plant=plant, scene_graph=scene_graph, lcm=no_lcm
         )
     except RuntimeError as error:
         raise CameraError(f"{sensor_origin(info.source, info.sensor_name)}: {error}") from None
@@ -466,7 +467,6 @@ def AddCameraSensors(
     """
     if not hold and any(info.noise is not None and info.noise.stddev > 0 for info in sensors):
         _logger.warning("hold=False: camera noise is applied at the camera rate anyway")
-    no_lcm = DrakeLcm("memq://null")  # ApplyCameraConfig's opt-out of LCM publishing
     scene = None  # the VTK cameras' own scene graph, made for the first one
     added: dict[str, AddedCamera] = {}
     for info in sensors:
@@ -488,14 +488,13 @@ def AddCameraSensors(
             sensor = _add_scene_camera(builder, plant, renders, config, info, instance)
             poses = renders.poses  # every pose of the scene it renders
         else:
-            sensor = _apply_camera(builder, plant, scene_graph, config, info, no_lcm)
+            sensor = _apply_camera(builder, plant, scene_graph, config, info)
             poses = WorldPosesOf(builder, scene_graph)
         color, frame_hold = _color_output(
             builder, sensor, info, hold=hold, noise_seed=noise_seed, poses=poses
         )
-        # Depth is not held: it is rendered when a consumer reads it (the frame
-        # saver, a page showing it, a test), so a camera whose depth nobody reads
-        # costs only its colour render.
+        # Depth is not held: rendered when a consumer reads it (the frame saver, a page
+        # showing it, a test), so a camera whose depth nobody reads costs its colour only.
         depth = sensor.GetOutputPort("depth_image_32f") if enable_depth else None
         if export:
             builder.ExportOutput(color, f"{info.name}.color_image")

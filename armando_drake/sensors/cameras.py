@@ -75,6 +75,17 @@ def capped(info, max_rate: float):
     return dc.replace(info, update_rate=float(max_rate))
 
 
+def _renderer(settings: CameraSettings) -> tuple[str, bool]:
+    """(the renderer of ``settings``, whether its colour frames are antialiased): VTK's
+    FXAA pass as ``settings.antialiasing`` asks (sensors.antialiasing); OpenGL has none."""
+    renderer = choose_renderer(settings.renderer)
+    if renderer == "vtk":
+        return renderer, use_vtk_antialiasing(settings.antialiasing)
+    if settings.antialiasing:
+        _log.warning("camera.antialiasing: OpenGL cameras render without antialiasing")
+    return renderer, False
+
+
 def AddCameras(
     builder: DiagramBuilder,
     settings: CameraSettings,
@@ -115,10 +126,7 @@ def AddCameras(
     try:
         sensors += [_on_robot(c.sensor_info(source), plant, robots) for c in extra]
         sensors = [capped(info, settings.max_rate) for info in sensors]
-        renderer = choose_renderer(settings.renderer)
-        antialiased = renderer == "vtk" and use_vtk_antialiasing(settings.antialiasing)
-        if settings.antialiasing and renderer == "gl":
-            _log.warning("camera.antialiasing: OpenGL cameras render without antialiasing")
+        renderer, antialiased = _renderer(settings)
         cameras = AddCameraSensors(
             builder,
             plant,
@@ -134,14 +142,10 @@ def AddCameras(
         text = str(error)
         named = source and text.startswith(f"{source}: cameras")
         raise ScenarioError(text if named else f"{where}{text}") from None
+    engine = ENGINES[renderer] + (" with FXAA" if antialiased else "")
     for name, camera in cameras.items():
         camera.antialiased = antialiased
-        _log.info(
-            "camera %s, rendered by %s%s",
-            describe(camera.info),
-            ENGINES[renderer],
-            " with FXAA" if antialiased else "",
-        )
+        _log.info("camera %s, rendered by %s", describe(camera.info), engine)
         register(publications, *camera_topics(name, camera))
     # A Meshcat kept only to record a replay (recording_only) has no viewer to go with.
     watched = meshcat is not None and not getattr(meshcat, "recording_only", False)
