@@ -93,18 +93,26 @@ class CameraArmModel(ArmModel):
         return np.concatenate([bias.rotational(), bias.translational()])
 
 
+def _cross(a, b) -> np.ndarray:
+    """``a x b`` of two 3-vectors: numpy's cross product without its axis handling (the
+    same products and differences, a tenth of the cost at 1 kHz)."""
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
+
+
 def look_at_rotation(axis: np.ndarray, direction: np.ndarray) -> np.ndarray:
     """theta u [rad]: the smallest rotation taking the unit ``axis`` onto the unit
     ``direction`` (zero when they agree; about any normal when they are opposite)."""
-    cross = np.cross(axis, direction)
+    cross = _cross(axis, direction)
     sine, cosine = float(np.linalg.norm(cross)), float(axis @ direction)
     angle = math.atan2(sine, cosine)
     if sine < 1e-12:
         if cosine > 0:
             return np.zeros(3)
-        normal = np.cross(axis, [1.0, 0.0, 0.0])
+        normal = _cross(axis, [1.0, 0.0, 0.0])
         if np.linalg.norm(normal) < 1e-6:
-            normal = np.cross(axis, [0.0, 1.0, 0.0])
+            normal = _cross(axis, [0.0, 1.0, 0.0])
         return math.pi * normal / np.linalg.norm(normal)
     return angle * cross / sine
 
@@ -274,7 +282,7 @@ class _DynamicLookAt(_InverseDynamicsController):
         d = offset / distance
         e_o = look_at_rotation(X_WC.rotation().matrix()[:, 2], d)
         d_dot = -(v_d - d * (d @ v_d)) / distance
-        return e_o, np.cross(d, d_dot)
+        return e_o, _cross(d, d_dot)
 
     def _torque(self, motion: _Motion, q, v, now) -> tuple[np.ndarray, _Motion, float]:
         """The torques (controller order), the motion after this tick and the camera's
