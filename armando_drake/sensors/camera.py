@@ -131,11 +131,10 @@ from armando_drake.description.camera_sensors import (
     sensor_origin,
 )
 from armando_drake.sensors.camera_scene import (
-    AddCameraScene,
     CameraScene,
     CameraSceneOf,
+    SceneFor,
     WorldPosesOf,
-    enclosing,
 )
 from armando_drake.sensors.frame_hold import FrameHold
 from armando_drake.tools.xdisplay import DisplayError, ensure_display
@@ -342,31 +341,20 @@ def _apply_camera(
     return builder.GetMutableSubsystemByName(f"rgbd_sensor_{info.name}")
 
 
-def _scene_without_enclosing(
+def _scene_of(
     builder: DiagramBuilder,
     plant: MultibodyPlant,
     scene_graph: SceneGraph,
     info: CameraSensorInfo,
     instance: ModelInstanceIndex,
-) -> CameraScene | None:
-    """A mirror of its own for a VTK camera inside convex visuals of its link (which VTK
-    would draw from inside, where Gazebo and Drake's OpenGL engine cull their back faces
-    and see through them), without those visuals; None for a camera inside none."""
-    if not plant.HasBodyNamed(info.link, instance):
-        return None  # _add_scene_camera says so
+) -> CameraScene:
+    """The mirror a VTK camera renders from (:func:`~.camera_scene.SceneFor`: its own
+    when it sits inside convex visuals of its link)."""
+    if not plant.HasBodyNamed(info.link, instance):  # _add_scene_camera says so
+        return CameraSceneOf(builder, scene_graph)
     frame = plant.GetBodyFrameIdOrThrow(plant.GetBodyByName(info.link, instance).index())
-    hidden = enclosing(scene_graph, frame, info.X_LS().translation(), info.near)
-    if not hidden:
-        return None
-    names = ", ".join(repr(scene_graph.model_inspector().GetName(g)) for g in hidden)
-    _logger.info(
-        "camera %s sits inside the visual %s of %s: left out of its images, as Gazebo, "
-        "which culls back faces, leaves it out",
-        info.name,
-        names,
-        info.link,
-    )
-    return AddCameraScene(builder, scene_graph, hidden=hidden, suffix=f"_{info.name}")
+    p_F = info.X_LS().translation()
+    return SceneFor(builder, scene_graph, frame, p_F, info.near, ("camera", info.name))
 
 
 def _add_scene_camera(
@@ -467,7 +455,6 @@ def AddCameraSensors(
     """
     if not hold and any(info.noise is not None and info.noise.stddev > 0 for info in sensors):
         _logger.warning("hold=False: camera noise is applied at the camera rate anyway")
-    scene = None  # the VTK cameras' own scene graph, made for the first one
     added: dict[str, AddedCamera] = {}
     for info in sensors:
         instance = _instance_of(info, model_instance, instances or {})
@@ -482,9 +469,7 @@ def AddCameraSensors(
             background=background,
         )
         if renderer == "vtk" and own_scene:
-            renders = _scene_without_enclosing(builder, plant, scene_graph, info, instance)
-            if renders is None:  # the cameras' shared mirror
-                scene = renders = scene or CameraSceneOf(builder, scene_graph)
+            renders = _scene_of(builder, plant, scene_graph, info, instance)
             sensor = _add_scene_camera(builder, plant, renders, config, info, instance)
             poses = renders.poses  # every pose of the scene it renders
         else:

@@ -24,6 +24,7 @@ visuals enclosing it (:func:`enclosing`), so it sees what Gazebo's camera sees.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Collection
 from dataclasses import dataclass
@@ -46,6 +47,8 @@ from pydrake.geometry import (
     Sphere,
 )
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
+
+_log = logging.getLogger("armando_drake.world")
 
 CAMERA_SCENE = "camera_scene_graph"  # the name of the cameras' SceneGraph in the diagram
 CAMERA_SCENE_POSES = "camera_scene_poses"  # the name of its MirroredPoses
@@ -209,3 +212,29 @@ def enclosing(
         if np.linalg.norm(corners * _half_extents(shape) - p_G, axis=1).max() > beyond:
             found.append(geometry)
     return found
+
+
+def SceneFor(
+    builder: DiagramBuilder,
+    scene_graph: SceneGraph,
+    frame: FrameId,
+    p_F,
+    near: float,
+    sensor: tuple[str, str],
+) -> CameraScene:
+    """The mirror a VTK sensor at ``p_F`` on ``frame`` (its near clipping distance
+    ``near`` [m]) renders from: the shared one (:func:`CameraSceneOf`), or, for a sensor
+    inside convex visuals that reach past its near plane, a mirror of its own without
+    them, named after ``sensor`` (its kind and name: ``("camera", NAME)``) and logged."""
+    hidden = enclosing(scene_graph, frame, p_F, near)
+    if not hidden:
+        return CameraSceneOf(builder, scene_graph)
+    inspector = scene_graph.model_inspector()
+    _log.info(
+        "%s sits inside the visual %s of %s: left out of what it sees, as Gazebo, which "
+        "culls back faces, leaves it out",
+        " ".join(sensor),
+        ", ".join(repr(inspector.GetName(geometry)) for geometry in hidden),
+        inspector.GetName(frame),
+    )
+    return AddCameraScene(builder, scene_graph, hidden=hidden, suffix=f"_{sensor[1]}")

@@ -65,12 +65,7 @@ from armando_drake.messages.definitions import laser_scan_message
 from armando_drake.messages.publications import Topic
 from armando_drake.messages.scans import LaserScan
 from armando_drake.messages.types import Publication, PublicationValue
-from armando_drake.sensors.camera_scene import (
-    CAMERA_SCENE,
-    AddCameraScene,
-    CameraSceneOf,
-    enclosing,
-)
+from armando_drake.sensors.camera_scene import CAMERA_SCENE, SceneFor
 from armando_drake.sensors.image_view import PUBLISH_OFFSET_FRACTION
 from armando_drake.sensors.registry import register_sensor
 from armando_drake.tools.errors import ScenarioError
@@ -281,19 +276,8 @@ def AddLidar(
         # scene graph (the same geometry, its poses read only when a scan renders); a
         # lidar inside a convex visual (its housing) gets a mirror without that visual,
         # which VTK would draw from inside where Gazebo culls its back faces.
-        hidden = enclosing(scene_graph, frame, info.X_LS.translation(), info.range_min)
-        if hidden:
-            names = ", ".join(repr(scene_graph.model_inspector().GetName(g)) for g in hidden)
-            _log.info(
-                "lidar %s sits inside the visual %s of %s, beyond its range_min: left out "
-                "of its scans, as Gazebo, which culls back faces, leaves it out",
-                info.name,
-                names,
-                info.link,
-            )
-            scene = AddCameraScene(builder, scene_graph, hidden=hidden, suffix=f"_{info.name}")
-        else:
-            scene = CameraSceneOf(builder, scene_graph)
+        p_F = info.X_LS.translation()
+        scene = SceneFor(builder, scene_graph, frame, p_F, info.range_min, ("lidar", info.name))
         renders, render_frame = scene.scene_graph, scene.frame(frame)
     if not renders.HasRenderer(LIDAR_RENDERER):
         renders.AddRenderer(LIDAR_RENDERER, _engine(scene_graph))
