@@ -138,3 +138,20 @@ def test_the_scenario_setting_reads_as_a_boolean(value):
 
     scenario = load_scenario("camera", f"camera: {{antialiasing: {str(value).lower()}}}")
     assert scenario.camera.antialiasing is value
+
+
+def test_opengl_cameras_have_no_antialiasing_to_keep_and_say_so(caplog):
+    from conftest import skip_or_fail
+
+    from armando_drake.sensors.cameras import _renderer
+    from armando_drake.sensors.config import CameraSettings
+    from armando_drake.tools.xdisplay import DisplayError, ensure_display
+
+    try:
+        ensure_display()
+    except DisplayError as error:
+        skip_or_fail(f"no X display for RenderEngineGl: {error}")
+    assert _renderer(CameraSettings(renderer="gl")) == ("gl", False)
+    assert "antialiasing" not in caplog.text
+    assert _renderer(CameraSettings(renderer="gl", antialiasing=True)) == ("gl", False)
+    assert "camera.antialiasing: OpenGL cameras render without antialiasing" in caplog.text
