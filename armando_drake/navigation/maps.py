@@ -231,10 +231,8 @@ def occupancy_from_image(
 
 def load_map(path: str | Path) -> OccupancyMap:
     """A map_server map: the YAML's parameters and its image as an :class:`OccupancyMap`."""
-    if not str(path):
-        raise MapError("map YAML: the file name is empty, can't load")
+    params = load_map_yaml(path)  # refuses an empty name
     path = Path(expand_user_home(str(path)))
-    params = load_map_yaml(path)
     gray, alpha = _read_image(params["image"], path)
     data = occupancy_from_image(
         gray,
